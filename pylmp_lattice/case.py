@@ -1,0 +1,292 @@
+"""The case: a typed, validated description of one simulation, loadable from TOML.
+
+All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
+A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table];
+`case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import MISSING, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError
+from .forcelaw import ForceLaw, LinearSpring, PowerLaw, SampledLaw
+from .piston import PROFILES, Impactor
+
+FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw)}
+FAR_ENDS = ("fixed", "long")
+# Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
+# of the front decays over a few particles, so 20 keep the held end unperturbed.
+LONG_LATTICE_MARGIN = 20
+
+
+@dataclass(frozen=True)
+class Chain:
+    """N magnets on a line; particle 1 is the impactor, particle N is held at rest.
+
+    far_end = "fixed": the paper's experiment, N given. far_end = "long": N is chosen so that
+    the front cannot reach the held end during the run (see `long_lattice_particles`), so no
+    reflected wave exists; the run checks this afterwards.
+    """
+
+    mass: float | tuple[float, ...]  # g, one value or one per particle
+    r0: float | tuple[float, ...]  # mm, initial separation, one value or one per gap
+    particles: int | None = None
+    far_end: str = "fixed"
+
+    def __post_init__(self):
+        if self.far_end not in FAR_ENDS:
+            raise ConfigError("chain.far_end", f"got {self.far_end!r}; choose one of {', '.join(FAR_ENDS)}")
+        if self.particles is None and self.far_end == "fixed":
+            raise ConfigError("chain.particles", "missing; required when far_end = 'fixed'")
+        if self.particles is not None and not (isinstance(self.particles, int) and self.particles >= 3):
+            raise ConfigError("chain.particles", f"got {self.particles!r}; expected an integer >= 3")
+        for name, unit, values in (("mass", "g", self.mass), ("r0", "mm", self.r0)):
+            arr = np.atleast_1d(np.asarray(values, float))
+            if not np.all(np.isfinite(arr) & (arr > 0)):
+                raise ConfigError(f"chain.{name}", f"got {_show(values)} {unit}; expected > 0")
+        n = self.particles
+        if n is not None:
+            for name, expected in (("mass", n), ("r0", n - 1)):
+                values = getattr(self, name)
+                if not np.isscalar(values) and len(values) != expected:
+                    raise ConfigError(f"chain.{name}", f"got {len(values)} values; expected 1 or {expected}")
+        elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
+            raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
+
+    def masses(self) -> np.ndarray:
+        """Mass of each particle, g, shape (N,)."""
+        return np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+
+    def gaps(self) -> np.ndarray:
+        """Initial separations, mm, shape (N-1,)."""
+        return np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+
+    def positions(self) -> np.ndarray:
+        """Initial positions x_n, mm, with x_1 = 0."""
+        return np.concatenate([[0.0], np.cumsum(self.gaps())])
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    duration: float  # ms
+    dt: float = 0.01  # ms
+    output_interval: float = 0.1  # ms between dump frames
+    check_interval: float = 0.1  # ms between checks for touching magnets
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
+        for name in ("output_interval", "check_interval", "duration"):
+            _steps(name, getattr(self, name), self.dt)
+
+    def steps(self, name: str = "duration") -> int:
+        """An interval of this run in time steps (validated to be a whole number)."""
+        return _steps(name, getattr(self, name), self.dt)
+
+
+@dataclass(frozen=True)
+class TableSettings:
+    """The tabulated potential: `points` samples of F and U over [r_min, r_max] (mm).
+
+    r_min defaults to contact (r = 0) or the first sample of a sampled law; r_max to 3 times
+    the largest initial gap. A separation outside this range stops the run with an error.
+    """
+
+    points: int = 10000
+    r_max: float | None = None  # mm
+
+    def __post_init__(self):
+        if not (isinstance(self.points, int) and 100 <= self.points <= 10**7):
+            raise ConfigError("table.points", f"got {self.points!r}; expected an integer in [100, 1e7]")
+        if self.r_max is not None and not self.r_max > 0:
+            raise ConfigError("table.r_max", f"got {self.r_max} mm; expected > 0")
+
+
+@dataclass(frozen=True)
+class Case:
+    chain: Chain
+    force: ForceLaw
+    impactor: Impactor
+    run: RunSettings
+    table: TableSettings = TableSettings()
+    name: str = "case"
+
+    def __post_init__(self):
+        if self.chain.particles is None:
+            n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
+            object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
+        lo, hi = self.table_range()
+        if not hi > lo:
+            raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
+        if self.force.domain()[0] > min(self.chain.gaps()) or self.force.domain()[1] < hi:
+            d = self.force.domain()
+            raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
+        dt_max = self.stability_limit()
+        if self.run.dt >= dt_max:
+            raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+
+    def table_range(self) -> tuple[float, float]:
+        """Separations covered by the potential table, mm."""
+        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.r0))
+        return self.force.domain()[0], r_max
+
+    def stability_limit(self) -> float:
+        """Largest stable velocity-Verlet time step, ms.
+
+        The highest normal-mode frequency of a chain with springs of stiffness <= k_max and
+        masses >= m_min is below 2 sqrt(k_max/m_min); Verlet is stable for omega dt < 2, so
+        dt < sqrt(m_min/k_max). k_max is the largest stiffness over the table's range
+        (for the paper's law at contact, r = 0: 0.4535 ms). sqrt(g / (N/mm)) is exactly 1 ms.
+        """
+        lo, hi = self.table_range()
+        r = np.linspace(lo, hi, 20001)
+        k_max = float(np.max(self.force.stiffness(r)))
+        return math.sqrt(float(np.min(self.chain.masses())) / k_max)
+
+
+def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, duration: float) -> int:
+    """N for a long lattice: the front must not reach the held end within `duration`.
+
+    The front speed is bounded by V_bound = V0 + 2 V_peak (V0 the linear wave speed at r0,
+    V_peak the impactor's peak velocity): behind the front particles move at up to 2 V_I
+    (the paper's saturated first peak), and the front outruns linear waves by at most that.
+    For the paper's case V_bound = 5.6 m/s against the measured 3.92 m/s. Runs check the
+    bound afterwards: the last free particle must have stayed at rest.
+    """
+    r0, m = float(chain.r0), float(chain.mass)
+    v0 = r0 * math.sqrt(float(force.stiffness(r0)) / m)  # mm/ms = m/s
+    v_bound = v0 + 2 * impactor.peak_velocity()
+    return math.ceil(v_bound * duration / r0) + LONG_LATTICE_MARGIN
+
+
+# ----------------------------------------------------------------------------- TOML boundary
+
+def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
+    """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError as err:
+        raise ConfigError("case", f"file not found: {path}") from err
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError("case", f"{path} is not valid TOML ({err})") from err
+    for item in overrides:
+        apply_override(data, item)
+    return case_from_dict(data, base_dir=path.parent)
+
+
+def apply_override(data: dict, item: str) -> None:
+    """Set data[section][key] from 'section.key=value'; the value is parsed as TOML."""
+    key, sep, text = item.partition("=")
+    parts = key.strip().split(".")
+    if not sep or len(parts) != 2 or not all(parts):
+        raise ConfigError("--set", f"got {item!r}; expected SECTION.KEY=VALUE, e.g. impactor.velocity=1.5")
+    try:
+        value = tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text.strip()  # a bare word, e.g. far_end=long
+    data.setdefault(parts[0], {})[parts[1]] = value
+
+
+def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
+    data = dict(data)
+    name = data.pop("name", "case")
+    sections = {"chain", "force", "impactor", "run", "table"}
+    for key in data:
+        if key not in sections:
+            raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
+    for key in ("chain", "force", "impactor", "run"):
+        if key not in data:
+            raise ConfigError(key, "missing section")
+
+    force = dict(data["force"])
+    law = force.pop("law", "power")
+    if law not in FORCE_LAWS:
+        raise ConfigError("force.law", f"got {law!r}; choose one of {', '.join(FORCE_LAWS)}")
+    if law == "sampled" and "file" in force:
+        force["r"], force["F"] = _read_samples(base_dir / force.pop("file"))
+    impactor = dict(data["impactor"])
+    profile = impactor.pop("profile", "constant")
+    if profile not in PROFILES:
+        raise ConfigError("impactor.profile", f"got {profile!r}; choose one of {', '.join(PROFILES)}")
+
+    return Case(
+        chain=_build(Chain, "chain", data["chain"]),
+        force=_build(FORCE_LAWS[law], "force", force),
+        impactor=_build(PROFILES[profile], "impactor", impactor),
+        run=_build(RunSettings, "run", data["run"]),
+        table=_build(TableSettings, "table", data.get("table", {})),
+        name=str(name),
+    )
+
+
+def case_to_dict(case: Case) -> dict:
+    """The case as a TOML-ready dict, the inverse of `case_from_dict` (N resolved)."""
+    out = {"name": case.name}
+    for section, obj, tag in (
+        ("chain", case.chain, None),
+        ("force", case.force, ("law", case.force.law)),
+        ("impactor", case.impactor, ("profile", case.impactor.profile)),
+        ("run", case.run, None),
+        ("table", case.table, None),
+    ):
+        d = {tag[0]: tag[1]} if tag else {}
+        for f in fields(obj):
+            value = getattr(obj, f.name)
+            if f.init and value is not None:
+                d[f.name] = list(value) if isinstance(value, tuple) else value
+        out[section] = d
+    return out
+
+
+def _build(cls, section: str, values: dict):
+    """Construct a case dataclass from a TOML table, naming the field on any error."""
+    known = {f.name: f for f in fields(cls) if f.init}
+    converted = {}
+    for key, value in values.items():
+        if key not in known:
+            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join(known)}")
+        if isinstance(value, bool) or (isinstance(value, str) and "str" not in known[key].type):
+            raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
+        converted[key] = tuple(value) if isinstance(value, list) else value
+    missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
+    if missing:
+        raise ConfigError(f"{section}.{missing[0]}", "missing")
+    try:
+        return cls(**converted)
+    except (TypeError, ValueError) as err:
+        if isinstance(err, ConfigError):
+            raise
+        raise ConfigError(section, f"invalid values ({err})") from err
+
+
+def _read_samples(path: Path):
+    try:
+        table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+    except FileNotFoundError as err:
+        raise ConfigError("force.file", f"file not found: {path}") from err
+    except ValueError as err:
+        raise ConfigError("force.file", f"{path}: expected two numeric columns r [mm], F [N] ({err})") from err
+    if table.shape[1] != 2:
+        raise ConfigError("force.file", f"{path}: got {table.shape[1]} columns; expected 2 (r [mm], F [N])")
+    return tuple(table[:, 0]), tuple(table[:, 1])
+
+
+def _steps(name: str, interval: float, dt: float) -> int:
+    n = round(interval / dt)
+    if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
+        raise ConfigError(f"run.{name}", f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
+    return n
+
+
+def _show(values) -> str:
+    arr = np.atleast_1d(np.asarray(values, float))
+    return str(values) if arr.size == 1 else f"{arr.min()}..{arr.max()} (min..max)"

@@ -1,0 +1,150 @@
+"""The LAMMPS input deck of a case: pure functions from a `Case` to file texts.
+
+`render(case)` returns {file name: text}: the deck `in.lattice`, the data file `chain.data`
+and the potential table `force.table`. Written into one folder, `lmp -in in.lattice` runs it.
+Engine units are LAMMPS `units si`; every user value passes through `units.to_engine` here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .case import Case
+from .piston import Constant, Ramp, SinePulse
+from .table import KEYWORD, bond_table
+from .units import to_engine
+
+DECK = "in.lattice"
+DATA = "chain.data"
+TABLE = "force.table"
+DUMP = "traj.dump"
+LOG = "log.lammps"
+# Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
+CONTACT_MARK = "CONTACT:"
+
+
+def render(case: Case) -> dict[str, str]:
+    lo, hi = case.table_range()
+    return {
+        DECK: deck_text(case),
+        DATA: data_text(case),
+        TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0))),
+    }
+
+
+def data_text(case: Case) -> str:
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)."""
+    x = to_engine(case.chain.positions(), "length")
+    masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    n = len(x)
+    # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
+    half = to_engine(case.table_range()[1], "length")
+    lines = [
+        f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
+        "",
+        f"{n} atoms",
+        f"{n - 1} bonds",
+        f"{len(masses)} atom types",
+        "1 bond types",
+        "",
+        f"{x[0] - half:.17g} {x[-1] + half:.17g} xlo xhi",
+        f"{-half:.17g} {half:.17g} ylo yhi",
+        f"{-half:.17g} {half:.17g} zlo zhi",
+        "",
+        "Masses",
+        "",
+        *(f"{i + 1} {to_engine(m, 'mass'):.17g}" for i, m in enumerate(masses)),
+        "",
+        "Atoms # bond",
+        "",
+        *(f"{i + 1} 1 {t + 1} {xi:.17g} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
+        "",
+        "Bonds",
+        "",
+        *(f"{i + 1} 1 {i + 1} {i + 2}" for i in range(n - 1)),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def deck_text(case: Case) -> str:
+    run, n = case.run, case.chain.particles
+    lo, hi = case.table_range()
+    hi_si = to_engine(hi, "length")
+    n_steps = run.steps()
+    thermo_every = max(1, n_steps // 20)
+    return f"""\
+# pylmp_lattice deck for case '{case.name}'
+# Run it in this folder with:  lmp -in {DECK}
+# Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
+
+# ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
+units           si
+dimension       3
+boundary        s f f
+atom_style      bond
+atom_modify     map array sort 0 0.0
+read_data       {DATA}
+# Bonds act between consecutive magnets only, at every separation; no pair style, so no
+# other interaction exists. Ghosts must reach across the longest bond on several ranks.
+comm_modify     cutoff {1.05 * hi_si:.17g}
+
+# ---- 2. Force law {case.force!r}
+# Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
+bond_style      table spline {case.table.points}
+bond_coeff      1 {TABLE} {KEYWORD}
+
+# ---- 3. Boundary conditions: particle 1 is the impactor, particle {n} is held at rest
+group           impactor id 1
+group           held id {n}
+group           free subtract all impactor held
+fix             integrate free nve
+fix             hold held setforce 0.0 0.0 0.0
+{_piston_lines(case)}
+# y and z stay exactly zero: all atoms start on the x axis at rest in y, z, and every force
+# (bond, piston) is along x.
+
+# ---- 4. Guard: stop when two magnets touch or pass (signed gap x_(i+1) - x_i <= 0)
+compute         bond_dx all bond/local dx
+compute         bond_ids all property/local batom1 batom2
+compute         closest all reduce max c_bond_dx c_bond_ids[1] c_bond_ids[2] replace 2 1 replace 3 1 inputs local
+variable        min_gap equal -c_closest[1]
+fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
+
+# ---- 5. Output: trajectory of every magnet, thermo with energies
+timestep        {to_engine(run.dt, 'time'):.17g}
+thermo_style    custom step time ke ebond etotal v_min_gap
+thermo_modify   norm no flush yes
+thermo          {thermo_every}
+dump            traj all custom {run.steps('output_interval')} {DUMP} id type mass x y z vx vy vz fx fy fz
+dump_modify     traj sort id time yes format float %.12g
+
+# ---- 6. Run {run.duration:g} ms
+run             {n_steps}
+if "${{min_gap}} <= 0.0" then &
+  "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
+"""
+
+
+def _piston_lines(case: Case) -> str:
+    """`fix move` for the impactor: position and velocity set together every step."""
+    imp = case.impactor
+    v = to_engine(imp.velocity, "velocity")
+    if isinstance(imp, Constant):
+        return f"fix             piston impactor move linear {v:.17g} 0.0 0.0 units box"
+    if isinstance(imp, Ramp):
+        name, value = "T_r", to_engine(imp.ramp_time, "time")
+        dx = "v_V_I*((time<v_T_r)*time^2/(2*v_T_r)+(time>=v_T_r)*(time-v_T_r/2))"
+        vx = "v_V_I*((time<v_T_r)*time/v_T_r+(time>=v_T_r))"
+    elif isinstance(imp, SinePulse):
+        name, value = "T_s", to_engine(imp.duration, "time")
+        dx = "v_V_I*v_T_s/PI*(1-cos(PI*min(time,v_T_s)/v_T_s))"
+        vx = "v_V_I*(time<v_T_s)*sin(PI*time/v_T_s)"
+    else:
+        raise TypeError(f"no deck for impactor {imp!r}")
+    return (
+        f"variable        V_I equal {v:.17g}\n"
+        f"variable        {name} equal {value:.17g}\n"
+        f"variable        piston_dx equal \"{dx}\"\n"
+        f"variable        piston_vx equal \"{vx}\"\n"
+        "fix             piston impactor move variable v_piston_dx NULL NULL v_piston_vx NULL NULL"
+    )

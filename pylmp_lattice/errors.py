@@ -1,0 +1,40 @@
+"""The package's exceptions: one for bad input, one for a failed engine run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class LatticeError(Exception):
+    """Base of every error this package raises on purpose."""
+
+
+class ConfigError(LatticeError, ValueError):
+    """A case field is missing, unknown or out of range; the message names the field."""
+
+    def __init__(self, field: str, message: str):
+        self.field = field
+        super().__init__(f"{field}: {message}")
+
+
+class RunError(LatticeError):
+    """LAMMPS stopped with an error; carries its ERROR line, exit code and run folder."""
+
+    def __init__(self, message: str, folder: Path | None = None, exit_code: int | None = None):
+        self.folder = folder
+        self.exit_code = exit_code
+        where = f" (files kept in {folder})" if folder else ""
+        super().__init__(f"{message}{where}")
+
+
+class ContactError(RunError):
+    """Two magnets touched or passed through each other: the model is no longer physical."""
+
+    def __init__(self, pair: tuple[int, int], time_ms: float, gap_mm: float, folder: Path | None = None):
+        self.pair = pair
+        self.time_ms = time_ms
+        self.gap_mm = gap_mm
+        super().__init__(
+            f"magnets {pair[0]} and {pair[1]} touched (gap {gap_mm:.4g} mm) at t = {time_ms:.4f} ms",
+            folder,
+        )

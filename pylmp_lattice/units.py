@@ -1,0 +1,43 @@
+"""Units: the user's (the paper's) units and the engine's, converted here and nowhere else.
+
+User units are mm, g, ms, with forces in N and velocities in m/s. They form a consistent
+system (1 g mm/ms^2 = 1 N, 1 mm/ms = 1 m/s), so energies are in mJ = N mm. Accelerations are
+reported in m/s^2. LAMMPS runs with `units si` (m, kg, s, N, J).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Size of one user unit in SI (engine) units, per quantity.
+TO_SI = {
+    "length": 1e-3,  # mm -> m
+    "mass": 1e-3,  # g -> kg
+    "time": 1e-3,  # ms -> s
+    "velocity": 1.0,  # m/s
+    "acceleration": 1.0,  # m/s^2
+    "force": 1.0,  # N
+    "energy": 1e-3,  # mJ = N mm -> J
+    "stiffness": 1e3,  # N/mm -> N/m
+}
+
+USER_UNITS = {
+    "length": "mm",
+    "mass": "g",
+    "time": "ms",
+    "velocity": "m/s",
+    "acceleration": "m/s^2",
+    "force": "N",
+    "energy": "mJ",
+    "stiffness": "N/mm",
+}
+
+
+def to_engine(value, quantity: str):
+    """User units -> LAMMPS `units si`."""
+    return np.multiply(value, TO_SI[quantity]) if not np.isscalar(value) else value * TO_SI[quantity]
+
+
+def from_engine(value, quantity: str):
+    """LAMMPS `units si` -> user units."""
+    return np.divide(value, TO_SI[quantity]) if not np.isscalar(value) else value / TO_SI[quantity]
