@@ -77,9 +77,11 @@ class RunSettings:
     duration: float  # ms
     dt: float = 0.01  # ms
     output_interval: float = 0.1  # ms between dump frames
-    check_interval: float = 0.1  # ms between checks for touching magnets
+    check_interval: float | None = None  # ms between checks for touching magnets; default output_interval
 
     def __post_init__(self):
+        if self.check_interval is None:
+            object.__setattr__(self, "check_interval", self.output_interval)
         for f in fields(self):
             value = getattr(self, f.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):

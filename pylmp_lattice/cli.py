@@ -1,0 +1,111 @@
+"""Command line: `pylmp-lattice run|deck|info`. Errors are one line on stderr, never a traceback."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+from .errors import ConfigError, LatticeError
+
+EXIT_RUN_ERROR = 1
+EXIT_BAD_INPUT = 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    try:
+        return args.func(args)
+    except ConfigError as err:
+        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except LatticeError as err:
+        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        return EXIT_RUN_ERROR
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
+    sub = p.add_subparsers(required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="write the deck, run it, post-process, print a summary")
+    _case_args(run)
+    run.add_argument("--runner", choices=("embedded", "lmp"), default="embedded",
+                     help="LAMMPS Python module in-process (default) or the lmp executable")
+    run.add_argument("--np", type=int, default=1, help="MPI ranks (lmp runner only)")
+    run.add_argument("--quiet", action="store_true", help="hide LAMMPS's progress output")
+    run.set_defaults(func=_run)
+
+    deck = sub.add_parser("deck", help="write a deck that runs with `lmp -in in.lattice`")
+    _case_args(deck)
+    deck.set_defaults(func=_deck)
+
+    info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
+    info.set_defaults(func=_info)
+    return p
+
+
+def _case_args(p):
+    p.add_argument("case", type=Path, help="case file (TOML, user units mm, g, ms, N, m/s)")
+    p.add_argument("-o", "--output", type=Path, help="run folder (default: runs/<case name>)")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override a case field, e.g. --set impactor.velocity=1.5 (repeatable)")
+
+
+def _load(args):
+    from .case import load_case
+
+    case = load_case(args.case, args.set)
+    return case, args.output or Path("runs") / case.name
+
+
+def _run(args) -> int:
+    from .simulation import simulate
+    from .summary import summarize
+
+    case, folder = _load(args)
+    if args.np > 1 and args.runner != "lmp":
+        raise ConfigError("--np", f"got {args.np}; several ranks need --runner lmp")
+    print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
+    start = time.perf_counter()
+    traj = simulate(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
+    summary = summarize(case, traj)
+    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps")}
+    summary["wall_time_s"] = round(time.perf_counter() - start, 2)
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _deck(args) -> int:
+    from .runner import write_run_folder
+
+    case, folder = _load(args)
+    write_run_folder(case, folder)
+    print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
+    return 0
+
+
+def _info(args) -> int:
+    from .engine import new_lammps
+
+    lmp = new_lammps(["-screen", "none", "-log", "none"])
+    print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
+    print("packages: " + " ".join(lmp.installed_packages))
+    lmp.close()
+    try:
+        from .plugin import plugin_file, plugin_styles
+
+        print(f"plugin: {plugin_file()} loads, styles: {', '.join(plugin_styles())}")
+    except (ImportError, LatticeError, OSError) as err:
+        print(f"plugin: not available ({err})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

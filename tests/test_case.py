@@ -1,0 +1,107 @@
+"""Case description: validation messages, TOML round trip, overrides, long-lattice size."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pylmp_lattice.case import case_from_dict, case_to_dict, load_case
+from pylmp_lattice.errors import ConfigError
+
+from conftest import make_case
+
+INPUTS = Path(__file__).parent.parent / "inputs"
+
+
+@pytest.mark.parametrize(
+    "section, values, field, expected",
+    [
+        ("chain", {"mass": -1.0}, "chain.mass", "expected > 0"),
+        ("chain", {"r0": 0.0}, "chain.r0", "expected > 0"),
+        ("chain", {"r0": [12.0, 12.0]}, "chain.r0", "expected 1 or 29"),
+        ("chain", {"colour": "red"}, "chain.colour", "unknown key"),
+        ("chain", {"far_end": "open"}, "chain.far_end", "choose one of fixed, long"),
+        ("force", {"q": 0.5}, "force.q", "expected > 1"),
+        ("force", {"law": "morse"}, "force.law", "choose one of"),
+        ("impactor", {"velocity": -2.0}, "impactor.velocity", "got -2.0 m/s; expected > 0"),
+        ("impactor", {"velocity": "fast"}, "impactor.velocity", "expected a number"),
+        ("run", {"dt": 0.5, "output_interval": 1.0}, "run.dt", "stability limit"),
+        ("run", {"output_interval": 0.015}, "run.output_interval", "whole multiple of run.dt"),
+    ],
+)
+def test_bad_input_names_the_field(section, values, field, expected):
+    with pytest.raises(ConfigError) as info:
+        make_case(**{section: values})
+    assert info.value.field == field
+    assert expected in str(info.value)
+
+
+def test_stability_limit_of_the_paper_law():
+    # dt < sqrt(m / k_max), k_max = q K / b^(q+1) at contact: sqrt(1.084 / 5.2718) ms
+    k_max = 3 * 413.8 / 3.917**4
+    assert make_case().stability_limit() == pytest.approx(math.sqrt(1.084 / k_max), rel=1e-9)
+    assert make_case().stability_limit() == pytest.approx(0.4534, abs=1e-4)
+
+
+def test_toml_round_trip_and_override(tmp_path):
+    import tomli_w
+
+    case = make_case(chain={"mass": [1.0] * 29 + [2.0]})
+    path = tmp_path / "c.toml"
+    path.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    assert load_case(path) == case
+    faster = load_case(path, ["impactor.velocity=1.5", "run.duration=20"])
+    assert faster.impactor.velocity == 1.5 and faster.run.duration == 20
+
+
+def test_long_lattice_is_sized_from_the_front_speed_bound():
+    case = load_case(INPUTS / "paper_long_lattice.toml")
+    v0 = 12.0 * math.sqrt(3 * 413.8 / 15.917**4 / 1.084)
+    expected = math.ceil((v0 + 2 * 2.0) * case.run.duration / 12.0) + 20
+    assert case.chain.particles == expected
+
+
+def test_missing_file_is_a_config_error(tmp_path):
+    with pytest.raises(ConfigError, match="file not found"):
+        load_case(tmp_path / "nope.toml")
+
+
+def test_sampled_law_from_csv(tmp_path):
+    csv = tmp_path / "force.csv"
+    csv.write_text("# r [mm], F [N]\n" + "\n".join(f"{r},{413.8 / (r + 3.917) ** 3}" for r in range(0, 40)))
+    case = case_from_dict({
+        "chain": {"particles": 5, "mass": 1.084, "r0": 12.0},
+        "force": {"law": "sampled", "file": "force.csv"},
+        "impactor": {"velocity": 1.0},
+        "run": {"duration": 1.0},
+        "table": {"r_max": 39.0},
+    }, base_dir=tmp_path)
+    assert case.force.force(12.0) == pytest.approx(413.8 / 15.917**3, rel=1e-4)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--set", "chain.mass=-1"], "chain.mass: got -1 g; expected > 0"),
+        (["--set", "run.dt=0.5", "--set", "run.output_interval=1.0"], "run.dt: got 0.5 ms; expected < 0.4534 ms"),
+        (["--set", "chain.nonsense=1"], "chain.nonsense: unknown key"),
+    ],
+)
+def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, message):
+    done = subprocess.run(
+        [sys.executable, "-m", "pylmp_lattice.cli", "deck", str(INPUTS / "paper_experiment.toml"), "-o", str(tmp_path), *args],
+        capture_output=True, text=True,
+    )
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and message in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_cli_missing_case_file(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "deck", str(tmp_path / "x.toml")],
+                          capture_output=True, text=True)
+    assert done.returncode == 2 and "file not found" in done.stderr and "Traceback" not in done.stderr

@@ -1,0 +1,41 @@
+"""The potential table: LAMMPS's interpolated force and energy against the exact law."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import deck
+from pylmp_lattice.engine import new_lammps
+from pylmp_lattice.forcelaw import PowerLaw
+from pylmp_lattice.runner import write_run_folder
+
+from conftest import make_case
+
+
+@pytest.mark.lammps
+def test_lammps_reads_back_the_law_within_1e_6(tmp_path, monkeypatch):
+    case = make_case(particles=5)
+    folder = write_run_folder(case, tmp_path)
+    lo, hi = case.table_range()
+    setup = deck.deck_text(case).split("# ---- 3.")[0]  # the deck's system and force law
+    monkeypatch.chdir(folder)
+    lmp = new_lammps(["-screen", "none", "-log", "none"])
+    lmp.commands_string(setup)
+    # 99991 points: mostly between the table's nodes, where interpolation error is largest
+    n = 99991
+    lmp.command(f"bond_write 1 {n} {lo * 1e-3 + 1e-9} {hi * 1e-3} readback.txt CHECK")
+    lmp.close()
+    data = np.loadtxt(folder / "readback.txt", skiprows=5)
+    r_mm, e_mJ, f_N = data[:, 1] * 1e3, data[:, 2] * 1e3, data[:, 3]
+    law = PowerLaw()
+    assert np.max(np.abs(f_N / law.force(r_mm) - 1)) < 1e-6
+    # energy consistent with the force: U differences, relative to U
+    assert np.max(np.abs(e_mJ / law.energy(r_mm) - 1)) < 1e-6
+
+
+def test_table_is_consistent_f_equals_minus_du_dr():
+    law = PowerLaw()
+    r = np.linspace(0, 36, 100001)
+    f_numeric = -np.gradient(law.energy(r), r)
+    assert np.max(np.abs(f_numeric[1:-1] / law.force(r[1:-1]) - 1)) < 1e-6
