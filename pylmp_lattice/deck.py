@@ -130,14 +130,18 @@ def _piston_lines(case: Case) -> str:
     imp = case.impactor
     v = to_engine(imp.velocity, "velocity")
     if isinstance(imp, Constant):
-        return f"fix             piston impactor move linear {v:.17g} 0.0 0.0 units box"
+        # the dump's first frame shows the impactor already moving, as the drive says
+        return (
+            f"velocity        impactor set {v:.17g} 0.0 0.0 units box\n"
+            f"fix             piston impactor move linear {v:.17g} 0.0 0.0 units box"
+        )
     if isinstance(imp, Ramp):
         name, value = "T_r", to_engine(imp.ramp_time, "time")
         dx = "v_V_I*((time<v_T_r)*time^2/(2*v_T_r)+(time>=v_T_r)*(time-v_T_r/2))"
         vx = "v_V_I*((time<v_T_r)*time/v_T_r+(time>=v_T_r))"
     elif isinstance(imp, SinePulse):
         name, value = "T_s", to_engine(imp.duration, "time")
-        dx = "v_V_I*v_T_s/PI*(1-cos(PI*min(time,v_T_s)/v_T_s))"
+        dx = "v_V_I*v_T_s/PI*((time<v_T_s)*(1-cos(PI*time/v_T_s))+(time>=v_T_s)*2)"
         vx = "v_V_I*(time<v_T_s)*sin(PI*time/v_T_s)"
     else:
         raise TypeError(f"no deck for impactor {imp!r}")

@@ -1,0 +1,217 @@
+"""Reading what LAMMPS wrote: the `dump traj` trajectory and the thermo log.
+
+Every run writes its trajectory as
+
+    dump traj all custom EVERY traj.dump id type mass x y z vx vy vz fx fy fz
+    dump_modify traj sort id time yes format float %.12g
+
+so each frame is 11 header lines (ITEM: TIME, ITEM: TIMESTEP, ITEM: NUMBER OF ATOMS, ITEM: BOX
+BOUNDS + 3 lines, ITEM: ATOMS) followed by one line per atom in id (chain) order. Readers return
+the file's numbers in LAMMPS `units si`; `trajectory_from_dump` converts them to user units.
+
+Two readers give the same arrays:
+- "fast": reads the file once and parses the atom lines in one `numpy.loadtxt` call.
+- "mdanalysis": MDAnalysis's LAMMPSDUMP reader, the reference. It cannot parse the ITEM: TIME
+  lines (it assumes 9 header lines per frame), so it reads a copy without them and the times come
+  from those lines. Its `positions`, `velocities` and `forces` are float32, and positions are
+  shifted by the box origin, which it does not expose (shrink-wrapped boxes move it every frame),
+  so they cannot be turned back into the file's numbers. It reads no units here (units None) but
+  sets time = step * 1 ps. We therefore take id, mass, x, vx and fx through its
+  `additional_columns`, which it parses as float64 from the file's text, unshifted and unconverted.
+"""
+
+from __future__ import annotations
+
+import logging
+import tempfile
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LatticeError
+from .trajectory import Trajectory
+from .units import from_engine
+
+logger = logging.getLogger(__name__)
+
+DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"
+READERS = ("fast", "mdanalysis")
+_ATOMS_HEADER = f"ITEM: ATOMS {DUMP_COLUMNS}"
+_HEADER_LINES = 11
+
+
+class DumpFormatError(LatticeError, ValueError):
+    """A dump or log file is not in the layout this module reads; the message names the file."""
+
+
+@dataclass(frozen=True)
+class DumpFrames:
+    """A `dump traj` file as arrays in LAMMPS `units si`, atoms in id (chain) order.
+
+    time (n_frames,)    s
+    step (n_frames,)    timestep number
+    id   (N,)           atom ids
+    mass (N,)           kg
+    x, v, f (n_frames, N)  position m, velocity m/s, force N (x components)
+    """
+
+    time: np.ndarray
+    step: np.ndarray
+    id: np.ndarray
+    mass: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.time)
+
+
+def read_dump(path: str | Path, reader: str = "fast") -> DumpFrames:
+    """Read a `dump traj` file; a truncated last frame (a stopped run) is dropped with a warning."""
+    if reader not in READERS:
+        raise ValueError(f"reader: got {reader!r}; expected one of {', '.join(map(repr, READERS))}")
+    path = Path(path)
+    lines, n_atoms, n_frames = _split_frames(path)
+    per_frame = n_atoms + _HEADER_LINES
+    time = np.array([float(lines[k * per_frame + 1]) for k in range(n_frames)])
+    parse = _parse_fast if reader == "fast" else _parse_mdanalysis
+    return DumpFrames(time, *parse(path, lines, n_atoms, n_frames))
+
+
+def trajectory_from_dump(frames: DumpFrames) -> Trajectory:
+    """The trajectory in user units: u from the first frame's positions, a = f / mass."""
+    x0 = frames.x[0]
+    return Trajectory(
+        t=from_engine(frames.time, "time"),
+        x0=from_engine(x0, "length"),
+        u=from_engine(frames.x - x0, "length"),
+        v=from_engine(frames.v, "velocity"),
+        a=from_engine(frames.f / frames.mass, "acceleration"),
+    )
+
+
+def _split_frames(path: Path) -> tuple[list[str], int, int]:
+    """The file's lines, atoms per frame and number of complete frames, every header checked."""
+    try:
+        text = path.read_text(encoding="ascii")
+    except FileNotFoundError as err:
+        raise FileNotFoundError(f"{path}: dump file not found") from err
+    lines = text.split("\n")
+    # The last element is "" after a final newline, or a line cut short: never a complete line.
+    n_lines = len(lines) - 1
+    if n_lines < _HEADER_LINES:
+        raise DumpFormatError(f"{path}: no complete frame; expected {_HEADER_LINES} header lines")
+    if lines[0] != "ITEM: TIME" or lines[2] != "ITEM: TIMESTEP":
+        raise DumpFormatError(
+            f"{path}: got first lines {lines[0]!r}, {lines[2]!r}; expected 'ITEM: TIME', "
+            "'ITEM: TIMESTEP' (dump_modify time yes)"
+        )
+    if lines[10] != _ATOMS_HEADER:
+        raise DumpFormatError(f"{path}: got {lines[10]!r}; expected {_ATOMS_HEADER!r}")
+    n_atoms = int(lines[5])
+    per_frame = n_atoms + _HEADER_LINES
+    n_frames = n_lines // per_frame
+    if n_frames == 0:
+        raise DumpFormatError(f"{path}: no complete frame of {n_atoms} atoms")
+    for k in range(n_frames):
+        head = lines[k * per_frame : k * per_frame + _HEADER_LINES]
+        if head[0] != "ITEM: TIME" or head[5] != lines[5] or head[10] != _ATOMS_HEADER:
+            raise DumpFormatError(
+                f"{path}: frame {k} does not start at line {k * per_frame + 1}; "
+                f"expected frames of {n_atoms} atoms with header {_ATOMS_HEADER!r}"
+            )
+    if n_lines > n_frames * per_frame or lines[-1]:
+        logger.warning("%s: dropped a truncated last frame (kept %d frames)", path, n_frames)
+    return lines, n_atoms, n_frames
+
+
+def _parse_fast(path: Path, lines: list[str], n_atoms: int, n_frames: int):
+    per_frame = n_atoms + _HEADER_LINES
+    starts = range(0, n_frames * per_frame, per_frame)
+    atom_lines = [line for s in starts for line in lines[s + _HEADER_LINES : s + per_frame]]
+    try:
+        # Only the columns that vary are parsed for every frame: most of the time is float parsing.
+        first = np.loadtxt(atom_lines[:n_atoms], usecols=(0, 2), ndmin=2)
+        xvf = np.loadtxt(atom_lines, usecols=(3, 6, 9), ndmin=2)
+    except ValueError as err:
+        raise DumpFormatError(f"{path}: {err}") from err
+    x, v, f = xvf.T.reshape(3, n_frames, n_atoms)
+    step = np.array([int(lines[s + 3]) for s in starts])
+    return step, first[:, 0].astype(np.int64), first[:, 1], x, v, f
+
+
+def _parse_mdanalysis(path: Path, lines: list[str], n_atoms: int, n_frames: int):
+    from MDAnalysis.coordinates.LAMMPS import DumpReader
+
+    per_frame = n_atoms + _HEADER_LINES
+    step = np.empty(n_frames, dtype=np.int64)
+    x, v, f = (np.empty((n_frames, n_atoms)) for _ in range(3))
+    with tempfile.TemporaryDirectory() as tmp:
+        # A copy without the two ITEM: TIME lines per frame, and without a truncated last frame.
+        copy = Path(tmp) / path.name
+        with copy.open("w", encoding="ascii") as out:
+            for s in range(0, n_frames * per_frame, per_frame):
+                out.write("\n".join(lines[s + 2 : s + per_frame]) + "\n")
+        with warnings.catch_warnings():
+            # It warns that it sets dt = 1 ps; we do not use its times.
+            warnings.filterwarnings("ignore", message="Reader has no dt information")
+            with DumpReader(str(copy), additional_columns=["id", "mass", "x", "vx", "fx"]) as reader:
+                for i, ts in enumerate(reader):
+                    step[i] = ts.data["step"]
+                    x[i], v[i], f[i] = ts.data["x"], ts.data["vx"], ts.data["fx"]
+                ts = reader[0]
+                ids, mass = ts.data["id"].astype(np.int64), ts.data["mass"].copy()
+    return step, ids, mass, x, v, f
+
+
+@dataclass(frozen=True)
+class ThermoLog:
+    """Thermo output of a LAMMPS log: one dict of columns per run, and the ERROR lines."""
+
+    runs: list[dict[str, np.ndarray]]
+    errors: list[str]
+
+
+def read_log(path: str | Path) -> ThermoLog:
+    """Thermo columns of every run in a log (thermo_style line output), including a run cut
+    short by an ERROR, whose rows up to the error are kept.
+
+    `lammps.formats.LogFile` is not used: it only keeps a run once its "Loop time" line is seen,
+    so it loses the rows of the run that failed, which are the ones needed to see why.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except FileNotFoundError as err:
+        raise FileNotFoundError(f"{path}: log file not found") from err
+    runs, errors = [], []
+    keys, rows = None, []
+    for line in text.splitlines():
+        if line.startswith("ERROR"):
+            errors.append(line.strip())
+        elif line.split()[:1] == ["Step"]:
+            keys, rows = line.split(), []
+        elif keys is not None:
+            if line.startswith("Loop time of"):
+                runs.append(_columns(keys, rows))
+                keys = None
+                continue
+            fields = line.split()
+            try:  # other lines inside a run (warnings) are skipped; nan and inf are kept
+                values = [float(x) for x in fields]
+            except ValueError:
+                continue
+            if len(values) == len(keys):
+                rows.append(values)
+    if keys is not None:
+        runs.append(_columns(keys, rows))
+    return ThermoLog(runs, errors)
+
+
+def _columns(keys: list[str], rows: list[list[float]]) -> dict[str, np.ndarray]:
+    table = np.array(rows, dtype=float).reshape(len(rows), len(keys))
+    return {key: table[:, i] for i, key in enumerate(keys)}

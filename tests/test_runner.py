@@ -1,0 +1,72 @@
+"""Running decks: contact detection, failures that keep their files, lmp vs embedded."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.dump import read_dump
+from pylmp_lattice.errors import ContactError, RunError
+from pylmp_lattice.runner import run_embedded, run_executable, write_run_folder
+from pylmp_lattice.simulation import simulate
+
+from conftest import make_case
+
+pytestmark = pytest.mark.lammps
+INPUTS = Path(__file__).parent.parent / "inputs"
+
+
+def test_paper_chain_driven_into_its_fixed_end_stops_on_contact(tmp_path):
+    """21 magnets, constant 2 m/s into the fixed end: two magnets meet before ~0.08-0.1 s."""
+    case = make_case(particles=21, velocity=2.0, duration=200.0)
+    with pytest.raises(ContactError) as info:
+        simulate(case, tmp_path)
+    err = info.value
+    assert 60.0 < err.time_ms < 100.0
+    assert err.pair[1] == err.pair[0] + 1 and 1 <= err.pair[0] < 21
+    assert err.gap_mm <= 0 and str(tmp_path) in str(err)
+    # what was written up to the stop stays readable: frames up to the contact time
+    frames = read_dump(tmp_path / "traj.dump")
+    assert frames.time[-1] * 1e3 == pytest.approx(err.time_ms, abs=0.1 + 1e-9)
+    log_lines = (tmp_path / "log.lammps").read_text().splitlines()
+    assert sum(line.startswith("CONTACT: magnets") for line in log_lines) == 1
+
+
+def test_cli_reports_contact_in_one_line(tmp_path):
+    import tomli_w
+
+    from pylmp_lattice.case import case_to_dict
+
+    case_file = tmp_path / "into_the_wall.toml"
+    case_file.write_bytes(tomli_w.dumps(case_to_dict(make_case(particles=21, velocity=2.0, duration=200.0))).encode())
+    done = subprocess.run(
+        [sys.executable, "-m", "pylmp_lattice.cli", "run", str(case_file), "-o", str(tmp_path / "run"), "--quiet"],
+        capture_output=True, text=True,
+    )
+    assert done.returncode == 1
+    errors = [line for line in done.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and "magnets 19 and 20 touched" in errors[0] and "t = 68.6" in errors[0]
+    assert "Traceback" not in done.stderr and (tmp_path / "run" / "traj.dump").exists()
+
+
+def test_deck_runs_unchanged_with_lmp_and_matches_embedded(tmp_path):
+    case = make_case(particles=30, velocity=2.0, duration=40.0)
+    a = run_embedded(write_run_folder(case, tmp_path / "embedded"))
+    b = run_executable(write_run_folder(case, tmp_path / "lmp"))
+    fa, fb = read_dump(a / "traj.dump"), read_dump(b / "traj.dump")
+    assert fa.x.shape == fb.x.shape == (401, 30)
+    assert np.array_equal(fa.x, fb.x) and np.array_equal(fa.v, fb.v)
+
+
+def test_lammps_error_is_reported_with_its_error_line(tmp_path):
+    # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 opens
+    case = make_case(particles=10, velocity=2.0, duration=60.0, table={"r_max": 13.0},
+                     impactor={"profile": "sine", "duration": 5.0})
+    folder = write_run_folder(case, tmp_path)
+    with pytest.raises(RunError, match="Bond length > table outer cutoff") as info:
+        run_embedded(folder)
+    assert info.value.folder == folder.resolve()
