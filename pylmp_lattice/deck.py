@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .case import Case
+from .dump import DUMP_COLUMNS
 from .piston import Constant, Ramp, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -115,7 +116,7 @@ timestep        {to_engine(run.dt, 'time'):.17g}
 thermo_style    custom step time ke ebond etotal v_min_gap
 thermo_modify   norm no flush yes
 thermo          {thermo_every}
-dump            traj all custom {run.steps('output_interval')} {DUMP} id type mass x y z vx vy vz fx fy fz
+dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
 dump_modify     traj sort id time yes format float %.12g
 
 # ---- 6. Run {run.duration:g} ms

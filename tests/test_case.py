@@ -94,7 +94,7 @@ def test_sampled_law_from_csv(tmp_path):
 def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, message):
     done = subprocess.run(
         [sys.executable, "-m", "pylmp_lattice.cli", "deck", str(INPUTS / "paper_experiment.toml"), "-o", str(tmp_path), *args],
-        capture_output=True, text=True,
+        capture_output=True, text=True, cwd=tmp_path,
     )
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and message in done.stderr
@@ -103,5 +103,5 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, args, message):
 
 def test_cli_missing_case_file(tmp_path):
     done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "deck", str(tmp_path / "x.toml")],
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 2 and "file not found" in done.stderr and "Traceback" not in done.stderr

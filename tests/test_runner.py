@@ -45,7 +45,7 @@ def test_cli_reports_contact_in_one_line(tmp_path):
     case_file.write_bytes(tomli_w.dumps(case_to_dict(make_case(particles=21, velocity=2.0, duration=200.0))).encode())
     done = subprocess.run(
         [sys.executable, "-m", "pylmp_lattice.cli", "run", str(case_file), "-o", str(tmp_path / "run"), "--quiet"],
-        capture_output=True, text=True,
+        capture_output=True, text=True, cwd=tmp_path,
     )
     assert done.returncode == 1
     errors = [line for line in done.stderr.splitlines() if "error" in line]

@@ -1,0 +1,56 @@
+"""The short summary of a run: the paper's headline shock measures, with units in the keys."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from . import measures
+from .case import Case
+from .trajectory import Trajectory
+
+log = logging.getLogger(__name__)
+# A long lattice is valid while the last free particle stays (nearly) at rest.
+QUIET_FRACTION = 1e-3
+
+
+def summarize(case: Case, traj: Trajectory) -> dict:
+    """Linear wave speed and frequency, shock velocity plateau, first peaks (user units)."""
+    chain, vi = case.chain, case.impactor.peak_velocity()
+    r0 = float(np.mean(chain.gaps()))
+    k0 = float(case.force.stiffness(r0))
+    m = float(np.mean(chain.masses()))
+    t_front = measures.arrival_times(traj.t, traj.v, vi)
+    vp = measures.propagation_velocity(t_front, chain.gaps())
+    speed = measures.trailing_plateau(vp)
+    peaks = measures.first_peaks(traj.t, traj.v, traj.a, vi)
+    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])  # particle 0 is the drive
+    out = {
+        "case": case.name,
+        "particles": chain.particles,
+        "impactor_peak_velocity_m_per_s": vi,
+        "linear_wave_speed_V0_m_per_s": round(measures.linear_wave_speed(k0, m, r0), 6),
+        "linear_frequency_f0_Hz": round(measures.linear_frequency(k0, m), 4),
+        "particles_reached_by_front": int(np.sum(np.isfinite(t_front))),
+        "shock_velocity_plateau_m_per_s": _plateau(speed),
+        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),
+        "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
+    }
+    if chain.far_end == "long":
+        last = float(np.max(np.abs(traj.v[:, -2])))
+        out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
+        if not out["far_end_quiet"]:
+            log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
+                        chain.particles - 1, last)
+    return out
+
+
+def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
+    """A plateau as JSON: particle numbers 1-based, as in the paper."""
+    return {
+        "mean": round(p.mean, 5),
+        "std": round(p.std, 5),
+        "relative_drift": round(p.drift, 5),
+        "particles": [p.start + offset + 1, p.stop + offset],
+    }

@@ -1,0 +1,325 @@
+"""Shock measures on synthetic histories with known answers and on the exact harmonic chain."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.integrate import quad, solve_ivp
+from scipy.optimize import brentq, minimize_scalar
+from scipy.special import ai_zeros, airy, jn_zeros, jv
+
+from pylmp_lattice import measures
+from pylmp_lattice.measures import (
+    arrival_times,
+    first_peaks,
+    linear_frequency,
+    linear_wave_speed,
+    oscillations,
+    propagation_velocity,
+    steady_oscillation,
+    trailing_plateau,
+)
+
+# The paper's magnet law F = K/(r+b)^q and lattice (main text).
+K, B, Q, MASS, R0 = 413.8, 3.917, 3, 1.084, 12.0  # N mm^3, mm, -, g, mm
+
+
+def smooth_step(x):
+    return 0.5 * (1.0 + np.tanh(x))
+
+
+# ---------------------------------------------------------------------------------------------
+# Linear chain constants
+# ---------------------------------------------------------------------------------------------
+
+
+def test_linear_wave_speed_and_frequency_of_the_paper_law():
+    force = lambda r: K / (r + B) ** Q  # noqa: E731
+    h = 1e-4
+    k = -(force(R0 + h) - force(R0 - h)) / (2 * h)  # N/mm, by central difference
+    assert_allclose(k, Q * K / (R0 + B) ** (Q + 1), rtol=1e-7)
+
+    v0 = linear_wave_speed(k, MASS, R0)
+    assert 1.60 <= v0 <= 1.62  # paper: 1.62 m/s
+    # Same number through SI: r0 [m] sqrt(k [N/m] / m [kg]).
+    assert_allclose(v0, 12e-3 * np.sqrt(k * 1e3 / 1.084e-3), rtol=1e-12)
+    # f0 = (1/pi) sqrt(k/m) = V0 / (pi r0), r0 in m for Hz.
+    assert_allclose(linear_frequency(k, MASS), v0 / (np.pi * 12e-3), rtol=1e-12)
+
+
+def test_linear_constants_reject_non_positive_input():
+    with pytest.raises(ValueError, match="mass: got 0; expected > 0"):
+        linear_wave_speed(0.02, 0, 12.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Front arrival and propagation velocity
+# ---------------------------------------------------------------------------------------------
+
+
+def test_smooth_step_front_travels_at_its_speed():
+    # v_n(t) = V_I s((t - t_n)/w), t_n = 0.37 + n r0/c: V_I/2 is reached exactly at t_n.
+    vi, c, w, n = 2.0, 3.92, 2.0, 30
+    t = np.arange(0.0, 120.0, 0.0937)
+    t_n = 0.37 + np.arange(n) * R0 / c
+    v = vi * smooth_step((t[:, None] - t_n) / w)
+
+    # Linear interpolation of tanh about its inflection point is accurate to O((dt/w)^3).
+    assert_allclose(arrival_times(t, v, vi), t_n, atol=1e-5)
+    # Where s = 0.01 the step is nearly exp(2x): interpolation is off by ~ dt^2 / (4 w) = 1e-3 ms.
+    # (Particles 0 and 1 are already moving at t = 0.)
+    start = first_peaks(t, v, np.gradient(v, t, axis=0), vi).start_time
+    assert_allclose(start[2:], t_n[2:] + w * np.arctanh(2 * 0.01 - 1), atol=2e-3)
+    assert_allclose(propagation_velocity(arrival_times(t, v, vi), R0), c, rtol=1e-5)
+
+
+def test_propagation_velocity_uses_each_gap():
+    gaps = np.array([10.0, 12.0, 14.0, 9.0])
+    arrival = np.concatenate(([0.0], np.cumsum(gaps) / 3.5))
+    assert_allclose(propagation_velocity(arrival, gaps), 3.5, rtol=1e-12)
+
+
+def test_particles_never_reached_give_nan():
+    t = np.linspace(0.0, 10.0, 101)
+    v = np.zeros((101, 4))
+    v[:, 0] = 1.0
+    v[:, 1] = np.clip(t - 2.0, 0.0, 1.5)  # reaches 0.5 at t = 2.5, peaks at 1.5 but never falls
+    arrival = arrival_times(t, v, 1.0)
+    assert_allclose(arrival[:2], [0.0, 2.5])
+    assert np.isnan(arrival[2:]).all()
+    vp = propagation_velocity(arrival, 12.0)
+    assert_allclose(vp[0], 12.0 / 2.5)
+    assert np.isnan(vp[1:]).all()
+
+    peaks = first_peaks(t, v, np.gradient(v, t, axis=0), 1.0)
+    assert np.isnan(peaks.peak_velocity).all()  # no peak is confirmed by a later drop
+    assert np.isnan(peaks.start_time[2:]).all()
+    assert oscillations(t, v[:, 3], 1.0).max_time.size == 0
+    assert steady_oscillation(t, v[:, 3], 1.0).n_periods == 0
+    assert np.isnan(steady_oscillation(t, v[:, 3], 1.0).frequency)
+
+
+def test_shape_errors_say_what_was_got_and_expected():
+    t = np.linspace(0.0, 1.0, 5)
+    with pytest.raises(ValueError, match=r"v: got shape \(4, 3\); expected \(5, N\)"):
+        arrival_times(t, np.zeros((4, 3)), 1.0)
+    with pytest.raises(ValueError, match=r"a: got shape \(5, 2\); expected \(5, 3\)"):
+        first_peaks(t, np.zeros((5, 3)), np.zeros((5, 2)), 1.0)
+    with pytest.raises(ValueError, match=r"v: got shape \(5, 3\); expected \(5,\)"):
+        oscillations(t, np.zeros((5, 3)), 1.0)
+    with pytest.raises(ValueError, match=r"spacing: got shape \(3,\); expected \(\) or \(4,\)"):
+        propagation_velocity(np.arange(5.0), np.ones(3))
+    with pytest.raises(ValueError, match="t: got non-increasing times"):
+        arrival_times(t[::-1], np.zeros((5, 3)), 1.0)
+
+
+def test_trailing_plateau_of_a_converging_series():
+    n = np.arange(200, dtype=float)
+    values = 3.9 * (1.0 - np.exp(-n / 10.0))
+    values[150:] = np.nan  # the front stopped at particle 150
+    plateau = trailing_plateau(values)
+    assert (plateau.start, plateau.stop) == (112, 150)  # last ceil(150/4) = 38 finite values
+    assert_allclose(plateau.mean, 3.9, rtol=1e-4)
+    assert plateau.converged(rtol=1e-4)
+
+    early = trailing_plateau(values[:20])  # still rising: drift ~ +10 % across the window
+    assert early.drift > 0.05 and not early.converged()
+    assert np.isnan(trailing_plateau([1.0, np.nan]).mean)
+
+
+# ---------------------------------------------------------------------------------------------
+# First peaks
+# ---------------------------------------------------------------------------------------------
+
+
+def parabolic_pulses(t, t_peak, vi, height, width):
+    """v = V_I height (1 - ((t - t_peak)/width)^2) on |t - t_peak| < width, else 0; a in m/s^2."""
+    s = (t[:, None] - t_peak) / width
+    cap = np.abs(s) < 1
+    v = np.where(cap, vi * height * (1 - s**2), 0.0)
+    a = np.where(cap, -2 * vi * height * s / width, 0.0) * 1e3  # (m/s)/ms -> m/s^2
+    return v, a
+
+
+def test_first_peak_of_parabolic_pulses_to_sub_sample_accuracy():
+    vi, height, width, dt = 2.0, 1.6, 5.0, 0.3
+    t = np.arange(0.0, 60.0, dt)
+    t_peak = np.array([10.13, 17.71, 25.05, 33.333])  # off the sample grid
+    v, a = parabolic_pulses(t, t_peak, vi, height, width)
+    peaks = first_peaks(t, v, a, vi)
+
+    # The parabola through three samples on the cap is the cap itself.
+    assert_allclose(peaks.peak_time, t_peak, atol=1e-9)
+    assert_allclose(peaks.peak_velocity, height * vi, rtol=1e-12)
+    # Start of motion where v = 0.01 V_I, t_peak - width sqrt(1 - 0.01/height); interpolating
+    # across the kink at the foot of the cap can only be wrong by less than one sample.
+    assert_allclose(peaks.rise_time, width * np.sqrt(1 - 0.01 / height), atol=dt)
+    # a falls linearly from 2 height V_I / width at the foot: the largest sample is the first in
+    # motion, less than dt past the foot, and is not refined (a jumps at the foot).
+    a_foot = 2 * height * vi / width * 1e3
+    assert np.all(peaks.peak_acceleration <= a_foot)
+    assert np.all(peaks.peak_acceleration >= a_foot * (1 - dt / width))
+
+
+def test_first_peak_ignores_sampling_noise():
+    vi, height, width = 2.0, 1.6, 5.0
+    t = np.arange(0.0, 40.0, 0.025)
+    v, a = parabolic_pulses(t, np.array([20.0]), vi, height, width)
+    v = v + np.random.default_rng(1).uniform(-0.01, 0.01, v.shape) * vi
+
+    peak = first_peaks(t, v, a, vi)  # default prominence 0.05 V_I
+    assert abs(peak.peak_time[0] - 20.0) < 0.1 * width
+    assert abs(peak.peak_velocity[0] - height * vi) < 0.02 * vi
+    naive = first_peaks(t, v, a, vi, prominence=1e-9)  # any wiggle counts: stops on the rise
+    assert naive.peak_time[0] < 20.0 - 0.3 * width
+
+
+def test_first_peaks_same_in_column_blocks(monkeypatch):
+    vi, t = 2.0, np.arange(0.0, 60.0, 0.3)
+    v, a = parabolic_pulses(t, np.linspace(8.0, 40.0, 7), vi, 1.6, 5.0)
+    whole = first_peaks(t, v, a, vi)
+    monkeypatch.setattr(measures, "_BLOCK_ELEMENTS", 2 * len(t))  # blocks of two particles
+    blocked = first_peaks(t, v, a, vi)
+    for name in ("start_time", "peak_time", "peak_velocity", "peak_acceleration"):
+        assert_allclose(getattr(blocked, name), getattr(whole, name), rtol=0, atol=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Oscillations
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("amplitude", [1.0, 0.4])
+def test_sine_gives_its_frequency_amplitude_and_energy_ratio(amplitude):
+    # v = V_I (1 + A sin(2 pi f t)): eta = A^2 / 2, i.e. 0.5 for A = 1; ~24.7 samples/period.
+    vi, f = 2.0, 37.0  # m/s, Hz
+    t = np.arange(0.0, 400.0, 1.093)
+    v = vi * (1 + amplitude * np.sin(2 * np.pi * f * t * 1e-3))
+
+    osc = oscillations(t, v, vi)
+    # Parabolic refinement of a sine crest: times to 0.005 ms (dt = 1.093 ms), values to 5e-4.
+    assert_allclose(osc.max_time, (np.arange(osc.max_time.size) + 0.25) * 1e3 / f, atol=5e-3)
+    assert_allclose(osc.frequency, f, rtol=5e-4)
+    assert_allclose(osc.max_velocity, vi * (1 + amplitude), rtol=5e-4)
+    assert_allclose(osc.min_velocity, vi * (1 - amplitude), atol=5e-4 * vi)
+
+    steady = steady_oscillation(t, v, vi)
+    assert steady.n_periods == 3
+    assert_allclose(steady.frequency, f, rtol=1e-5)
+    assert_allclose(steady.energy_ratio, amplitude**2 / 2, rtol=1e-4)
+    assert_allclose(steady.amplitude, amplitude * vi, rtol=2e-4)
+    assert steady.period_spread < 5e-4
+
+
+# ---------------------------------------------------------------------------------------------
+# The semi-infinite harmonic chain driven at constant velocity
+# ---------------------------------------------------------------------------------------------
+#
+# m u_n'' = k (u_{n+1} - 2 u_n + u_{n-1}) for n >= 1, u_0 = V_I t, all at rest at t = 0.
+# The velocities obey the same equation with v_0 = V_I. For w_n = V_I - v_n (w_0 = 0, w_n(0) =
+# V_I) extend oddly, w_{-n} = -w_n, and use the infinite chain's propagator J_{2n}(2 omega t)
+# (J_{2n}'' = (J_{2n-2} - 2 J_{2n} + J_{2n+2})/4, J_{2n}(0) = delta_n0), with omega = sqrt(k/m)
+# and sum_m J_{2m} = 1 over all integers m. This gives
+#     v_n(t) = V_I [J_{2n}(x) + 2 sum_{m > n} J_{2m}(x)],  x = 2 omega t,
+#     a_n(t) = V_I omega [J_{2n-1}(x) + J_{2n+1}(x)] = 2 n V_I J_{2n}(x) / t.
+# So the first velocity peak of particle n >= 1 is at the first zero of J_{2n}: x = j_{2n,1}.
+
+SPRING, CHAIN_MASS, VI, N_CHAIN = 0.02, 1.0, 1.0, 200  # N/mm, g, m/s, particles
+OMEGA = np.sqrt(SPRING / CHAIN_MASS)  # 1/ms
+T_END = 140 / OMEGA  # the front reaches particle ~140 of 200: no reflection
+T_CHAIN = np.linspace(0.0, T_END, 2801)  # 0.05 / omega per frame, ~140 frames per site
+
+
+def harmonic_chain(t):
+    """Exact v (m/s) and a (m/s^2) of particles 0..N_CHAIN-1, shape (len(t), N_CHAIN)."""
+    x = 2 * OMEGA * t[:, None]
+    m_max = N_CHAIN + 20
+    assert jv(2 * m_max, x.max()) < 1e-30  # the truncated tail is negligible
+    bessel = jv(2 * np.arange(m_max + 1), x)
+    tail = np.cumsum(bessel[:, ::-1], axis=1)[:, ::-1]  # tail[:, j] = sum_{m >= j} J_2m
+    n = np.arange(N_CHAIN)
+    v = VI * (bessel[:, n] + 2 * tail[:, n + 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where(t[:, None] > 0, 2 * n * VI * bessel[:, n] / t[:, None], 0.0) * 1e3
+    return v, a
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return harmonic_chain(T_CHAIN)
+
+
+def test_harmonic_chain_solution_matches_direct_integration(chain):
+    v_exact, a_exact = chain
+    k_over_m = SPRING / CHAIN_MASS  # 1/ms^2
+
+    def rhs(t, y):
+        u = np.concatenate(([VI * t], y[: N_CHAIN - 1], [y[N_CHAIN - 2]]))  # driven end, free end
+        return np.concatenate((y[N_CHAIN - 1 :], k_over_m * (u[2:] - 2 * u[1:-1] + u[:-2])))
+
+    sol = solve_ivp(rhs, (0, T_END), np.zeros(2 * (N_CHAIN - 1)), "DOP853", T_CHAIN, rtol=1e-10, atol=1e-12)
+    assert sol.success
+    assert_allclose(sol.y[N_CHAIN - 1 :].T, v_exact[:, 1:], rtol=0, atol=1e-7 * VI)
+    a_direct = np.array([rhs(t, y)[N_CHAIN - 1 :] for t, y in zip(sol.t, sol.y.T)]) * 1e3
+    assert_allclose(a_direct[1:], a_exact[1:, 1:], rtol=0, atol=1e-7 * np.abs(a_exact).max())
+
+
+def test_harmonic_chain_front_speed_tends_to_v0(chain):
+    v, _ = chain
+    v0 = linear_wave_speed(SPRING, CHAIN_MASS, R0)
+    vp = propagation_velocity(arrival_times(T_CHAIN, v, VI), R0)
+    n = np.arange(vp.size)
+
+    # Near the front v_n ~ V_I int_{z}^inf Ai, z = (2/x)^(1/3) (2n - x), so V_I/2 arrives at
+    # x = 2n - z* n^(1/3) with int_{z*}^inf Ai = 1/2, and V_P/V0 = 1 - (|z*|/6) n^(-2/3) + ...
+    z_star = brentq(lambda z: quad(lambda s: airy(s)[0], z, np.inf)[0] - 0.5, -2.0, 0.0)
+    deficit = 1 - vp / v0
+    assert np.all(deficit[5:135] > 0) and np.all(np.diff(deficit[5:135]) < 0)
+    assert_allclose(deficit[50:135] * n[50:135] ** (2 / 3), -z_star / 6, atol=2e-3)  # 0.0683
+
+    plateau = trailing_plateau(vp)
+    assert 130 <= plateau.stop <= 145  # the front reached ~140 particles
+    assert_allclose(plateau.mean, v0, rtol=4e-3)  # the n^(-2/3) deficit is 0.3 % there
+    assert plateau.converged(rtol=1e-3)
+
+
+def test_harmonic_chain_first_peaks(chain):
+    v, a = chain
+    peaks = first_peaks(T_CHAIN, v, a, VI)
+    n = np.arange(1, 131)
+
+    t_peak = np.array([jn_zeros(2 * i, 1)[0] for i in n]) / (2 * OMEGA)
+    dt = T_CHAIN[1] - T_CHAIN[0]
+    assert_allclose(peaks.peak_time[n], t_peak, atol=0.02 * dt)  # sub-sample
+    v_at_peak = np.array([harmonic_chain(np.array([tp]))[0][0, i] for i, tp in zip(n, t_peak)])
+    assert_allclose(peaks.peak_velocity[n], v_at_peak, rtol=1e-5)
+    # Largest a_n = 2 n V_I J_2n(2 omega t) / t before the peak: on a fine grid, then polished.
+    a_max = []
+    for i, tp in zip(n, t_peak):
+        s = np.linspace(tp / 1000, tp, 1000)
+        s_best = s[np.argmax(jv(2 * i, 2 * OMEGA * s) / s)]
+        a_of = lambda s, i=i: 2e3 * i * VI * jv(2 * i, 2 * OMEGA * s) / s  # noqa: E731
+        bracket = (s_best - tp / 999, s_best + tp / 999)
+        a_max.append(a_of(minimize_scalar(lambda s: -a_of(s), bounds=bracket, method="bounded").x))
+    assert_allclose(peaks.peak_acceleration[n], a_max, rtol=1e-5)
+
+    # Paper Fig. S5(c): the first peak velocity grows with n, towards the Airy limit
+    # V_I int_{a1}^inf Ai (a1 the first zero of Ai), and the first peak acceleration falls.
+    assert np.all(np.diff(peaks.peak_velocity[n]) > 0)
+    limit = VI * quad(lambda s: airy(s)[0], ai_zeros(1)[0][0], np.inf)[0]  # 1.2744
+    assert limit * 0.99 < peaks.peak_velocity[130] < limit
+    assert np.all(np.diff(peaks.peak_acceleration[n]) < 0)
+
+
+def test_harmonic_chain_oscillations_decay_towards_f0(chain):
+    v, a = chain
+    osc = oscillations(T_CHAIN, v[:, 10], VI)
+    # The first maximum is the first peak.
+    peak = first_peaks(T_CHAIN, v[:, 10:11], a[:, 10:11], VI)
+    assert_allclose(osc.max_time[0], peak.peak_time[0], rtol=1e-12)
+    # Paper Fig. S5(d,e): amplitude and period fall with time; the frequency rises towards the
+    # band edge f0 = (1/pi) sqrt(k/m) and stays below it.
+    assert osc.max_time.size >= 5
+    assert np.all(np.diff(osc.max_velocity) < 0) and np.all(np.diff(osc.min_velocity) > 0)
+    f0 = linear_frequency(SPRING, CHAIN_MASS)
+    assert np.all(np.diff(osc.frequency) > 0)
+    assert 0.9 * f0 < osc.frequency[-1] < f0
