@@ -65,6 +65,7 @@ def _load(args):
 
 
 def _run(args) -> int:
+    from .plots import shock_figure
     from .simulation import simulate
     from .summary import summarize
 
@@ -75,7 +76,11 @@ def _run(args) -> int:
     start = time.perf_counter()
     traj = simulate(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
     summary = summarize(case, traj)
-    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps")}
+    figure = folder / "shock.png"
+    shock_figure(traj, case.impactor.peak_velocity(), case.chain.gaps(),
+                 summary["linear_wave_speed_V0_m_per_s"]).savefig(figure, dpi=120)
+    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps"),
+                        "figure": str(figure)}
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
     (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps(summary, indent=2))

@@ -1,0 +1,81 @@
+"""Figures of a run, in the layout of the paper's Fig. 3: functions of arrays, Axes returned.
+
+matplotlib is imported lazily and with the non-interactive Agg backend, so plotting works on
+machines without a screen.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import measures
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def velocity_profiles(t, v, particles, ax=None):
+    """Fig. 3(a): v_n(t) of the chosen particles (0-based indices), m/s against ms."""
+    ax = ax or _pyplot().gca()
+    for n in particles:
+        ax.plot(t, v[:, n], lw=0.8, label=f"n = {n + 1}")
+    ax.set(xlabel="t (ms)", ylabel="v (m/s)")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def propagation_velocity(vp, v0=None, ax=None):
+    """Fig. 3(b): shock propagation velocity V_P over each gap against the particle number."""
+    ax = ax or _pyplot().gca()
+    n = np.arange(1, len(vp) + 1)
+    ax.plot(n, vp, ".", ms=3, label="$V_P$")
+    if v0 is not None:
+        ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
+    ax.set(xlabel="particle n", ylabel="propagation velocity (m/s)")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def first_peaks(peaks: measures.FirstPeaks, ax=None):
+    """Fig. 3(c): first peak velocity (left axis) and acceleration (right axis) against n."""
+    ax = ax or _pyplot().gca()
+    n = np.arange(1, len(peaks.peak_velocity) + 1)
+    ax.plot(n, peaks.peak_velocity, ".", ms=3, color="C0")
+    ax.set(xlabel="particle n", ylabel="first peak velocity (m/s)")
+    right = ax.twinx()
+    right.plot(n, peaks.peak_acceleration, ".", ms=3, color="C3")
+    right.set_ylabel("first peak acceleration (m/s$^2$)", color="C3")
+    return ax
+
+
+def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
+    """Fig. 3(d): velocity maxima and minima behind the front against time."""
+    ax = ax or _pyplot().gca()
+    for k, n in enumerate(particles):
+        osc = measures.oscillations(t, v[:, n], drive_velocity)
+        ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n + 1}")
+        ax.plot(osc.min_time, osc.min_velocity, "v", ms=3, color=f"C{k}")
+    ax.set(xlabel="t (ms)", ylabel="peak velocity (m/s)")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def shock_figure(traj, drive_velocity: float, spacing, v0: float | None = None):
+    """The four panels of Fig. 3(a-d) for a trajectory; returns the Figure."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
+    arrival = measures.arrival_times(traj.t, traj.v, drive_velocity)
+    reached = np.flatnonzero(np.isfinite(arrival))
+    last = int(reached[-1]) if reached.size else 0
+    chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
+    velocity_profiles(traj.t, traj.v, chosen, axes[0, 0])
+    propagation_velocity(measures.propagation_velocity(arrival, spacing), v0, axes[0, 1])
+    first_peaks(measures.first_peaks(traj.t, traj.v, traj.a, drive_velocity), axes[1, 0])
+    oscillation_peaks(traj.t, traj.v, chosen, drive_velocity, axes[1, 1])
+    return fig

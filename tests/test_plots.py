@@ -1,0 +1,25 @@
+"""Figures: the panels show the measures' numbers (synthetic front, no engine)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import measures
+from pylmp_lattice.plots import shock_figure
+from pylmp_lattice.trajectory import Trajectory
+
+
+def test_shock_figure_plots_the_measured_propagation_velocity():
+    t = np.linspace(0, 100, 2001)
+    n = np.arange(40)
+    c = 3.0  # m/s = mm/ms, gap 12 mm
+    behind = t[:, None] - n * 12.0 / c  # time since the front passed particle n
+    v = 2.0 * (1 + np.tanh(behind / 0.5)) / 2 * (1 + 0.3 * np.sin(behind))
+    traj = Trajectory(t=t, x0=12.0 * n, u=np.zeros_like(v), v=v, a=np.gradient(v, t, axis=0) * 1e3)
+    fig = shock_figure(traj, 2.0, 12.0, v0=1.6)
+    assert len(fig.axes) == 5  # four panels and the acceleration axis
+    line = fig.axes[1].lines[0]
+    expected = measures.propagation_velocity(measures.arrival_times(t, v, 2.0), 12.0)
+    np.testing.assert_allclose(line.get_ydata(), expected)
+    assert np.nanmedian(line.get_ydata()) == pytest.approx(c, rel=1e-3)
