@@ -1,7 +1,8 @@
 """The case: a typed, validated description of one simulation, loadable from TOML.
 
 All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
-A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table];
+A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table] and
+[friction] (absent: no friction);
 `case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
 """
 
@@ -113,12 +114,32 @@ class TableSettings:
 
 
 @dataclass(frozen=True)
+class Friction:
+    """Coulomb friction of the magnets on the rod (paper Eq. S1, Sec. S3).
+
+    Limit on magnet n: f_n = mu (m g + p (F_(n-1) + F_n)), opposing its motion; a magnet at
+    rest sticks while its net force is below f_n. Applied by `fix lattice/friction` (plugin).
+    """
+
+    mu: float = 0.285
+    p: float = 0.012
+    g: float = 9.81  # m/s^2
+
+    def __post_init__(self):
+        for name, unit in (("mu", ""), ("p", ""), ("g", " m/s^2")):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ConfigError(f"friction.{name}", f"got {value!r}{unit}; expected >= 0")
+
+
+@dataclass(frozen=True)
 class Case:
     chain: Chain
     force: ForceLaw
     impactor: Impactor
     run: RunSettings
     table: TableSettings = TableSettings()
+    friction: Friction | None = None  # None: frictionless
     name: str = "case"
 
     def __post_init__(self):
@@ -131,6 +152,9 @@ class Case:
         if self.force.domain()[0] > min(self.chain.gaps()) or self.force.domain()[1] < hi:
             d = self.force.domain()
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
+        if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
+            raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
+                              f"{self.impactor.duration()} ms (impactor.after = 'stop')")
         dt_max = self.stability_limit()
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
@@ -201,7 +225,7 @@ def apply_override(data: dict, item: str) -> None:
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     data = dict(data)
     name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table"}
+    sections = {"chain", "force", "impactor", "run", "table", "friction"}
     for key in data:
         if key not in sections:
             raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
@@ -214,11 +238,14 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     if law not in FORCE_LAWS:
         raise ConfigError("force.law", f"got {law!r}; choose one of {', '.join(FORCE_LAWS)}")
     if law == "sampled" and "file" in force:
-        force["r"], force["F"] = _read_samples(base_dir / force.pop("file"))
+        force["r"], force["F"] = _read_columns(base_dir / force.pop("file"), "force.file", "r [mm], F [N]")
     impactor = dict(data["impactor"])
     profile = impactor.pop("profile", "constant")
     if profile not in PROFILES:
         raise ConfigError("impactor.profile", f"got {profile!r}; choose one of {', '.join(PROFILES)}")
+    if profile == "measured" and "file" in impactor:
+        impactor["t"], impactor["values"] = _read_columns(base_dir / impactor.pop("file"), "impactor.file",
+                                                          "t [ms], u [mm] or v [m/s]")
 
     return Case(
         chain=_build(Chain, "chain", data["chain"]),
@@ -226,6 +253,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         impactor=_build(PROFILES[profile], "impactor", impactor),
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
+        friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
         name=str(name),
     )
 
@@ -239,7 +267,10 @@ def case_to_dict(case: Case) -> dict:
         ("impactor", case.impactor, ("profile", case.impactor.profile)),
         ("run", case.run, None),
         ("table", case.table, None),
+        ("friction", case.friction, None),
     ):
+        if obj is None:
+            continue
         d = {tag[0]: tag[1]} if tag else {}
         for f in fields(obj):
             value = getattr(obj, f.name)
@@ -270,15 +301,16 @@ def _build(cls, section: str, values: dict):
         raise ConfigError(section, f"invalid values ({err})") from err
 
 
-def _read_samples(path: Path):
+def _read_columns(path: Path, field: str, columns: str):
+    """Two numeric columns of a CSV file ('#' comments) as two tuples."""
     try:
         table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
     except FileNotFoundError as err:
-        raise ConfigError("force.file", f"file not found: {path}") from err
+        raise ConfigError(field, f"file not found: {path}") from err
     except ValueError as err:
-        raise ConfigError("force.file", f"{path}: expected two numeric columns r [mm], F [N] ({err})") from err
+        raise ConfigError(field, f"{path}: expected two numeric columns {columns} ({err})") from err
     if table.shape[1] != 2:
-        raise ConfigError("force.file", f"{path}: got {table.shape[1]} columns; expected 2 (r [mm], F [N])")
+        raise ConfigError(field, f"{path}: got {table.shape[1]} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 

