@@ -187,6 +187,8 @@ def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, du
     For the paper's case V_bound = 5.6 m/s against the measured 3.92 m/s. Runs check the
     bound afterwards: the last free particle must have stayed at rest.
     """
+    if not impactor.peak_velocity() > 0:
+        raise ConfigError("chain.far_end", "a long lattice needs a moving impactor; use far_end = 'fixed'")
     r0, m = float(chain.r0), float(chain.mass)
     v0 = r0 * math.sqrt(float(force.stiffness(r0)) / m)  # mm/ms = m/s
     v_bound = v0 + 2 * impactor.peak_velocity()

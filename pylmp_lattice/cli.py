@@ -76,11 +76,12 @@ def _run(args) -> int:
     start = time.perf_counter()
     traj = simulate(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
     summary = summarize(case, traj)
-    figure = folder / "shock.png"
-    shock_figure(traj, case.impactor.peak_velocity(), case.chain.gaps(),
-                 summary["linear_wave_speed_V0_m_per_s"]).savefig(figure, dpi=120)
-    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps"),
-                        "figure": str(figure)}
+    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps")}
+    if case.impactor.peak_velocity() > 0:
+        figure = folder / "shock.png"
+        shock_figure(traj, case.impactor.peak_velocity(), case.chain.gaps(),
+                     summary["linear_wave_speed_V0_m_per_s"]).savefig(figure, dpi=120)
+        summary["files"]["figure"] = str(figure)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
     (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps(summary, indent=2))

@@ -11,7 +11,7 @@ import numpy as np
 
 from .case import Case
 from .dump import DUMP_COLUMNS
-from .piston import Constant, Measured, Ramp, SinePulse
+from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
 
@@ -155,6 +155,8 @@ def _friction_lines(case: Case) -> str:
 def _piston_lines(case: Case) -> str:
     """`fix move` for the impactor: position and velocity set together every step."""
     imp = case.impactor
+    if isinstance(imp, Rest):
+        return "fix             piston impactor setforce 0.0 0.0 0.0  # held at rest, like the far end"
     if isinstance(imp, Measured):
         return (
             "# measured motion, cubic-spline interpolated by the plugin's fix\n"

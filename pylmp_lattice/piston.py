@@ -41,6 +41,21 @@ class Constant:
 
 
 @dataclass(frozen=True)
+class Rest:
+    """The first magnet held at rest, like the last (the friction calibration rig, Fig. S4b)."""
+
+    profile = "rest"
+
+    def velocity_at(self, t):
+        return np.zeros_like(np.asarray(t, float))
+
+    displacement_at = acceleration_at = velocity_at
+
+    def peak_velocity(self) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
 class Ramp:
     """Linear ramp from rest to V_I over T_r, then constant (paper Fig. S7a)."""
 
@@ -157,8 +172,8 @@ class Measured:
         return float(np.max(self.velocity_at(np.linspace(0.0, self.duration(), 20001))))
 
 
-Impactor = Constant | Ramp | SinePulse | Measured
-PROFILES = {cls.profile: cls for cls in (Constant, Ramp, SinePulse, Measured)}
+Impactor = Constant | Rest | Ramp | SinePulse | Measured
+PROFILES = {cls.profile: cls for cls in (Constant, Rest, Ramp, SinePulse, Measured)}
 
 
 def _check_velocity(v: float):

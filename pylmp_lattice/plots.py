@@ -11,7 +11,7 @@ import numpy as np
 from . import measures
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -22,7 +22,7 @@ def _pyplot():
 
 def velocity_profiles(t, v, particles, ax=None):
     """Fig. 3(a): v_n(t) of the chosen particles (0-based indices), m/s against ms."""
-    ax = ax or _pyplot().gca()
+    ax = ax or pyplot().gca()
     for n in particles:
         ax.plot(t, v[:, n], lw=0.8, label=f"n = {n + 1}")
     ax.set(xlabel="t (ms)", ylabel="v (m/s)")
@@ -32,7 +32,7 @@ def velocity_profiles(t, v, particles, ax=None):
 
 def propagation_velocity(vp, v0=None, ax=None):
     """Fig. 3(b): shock propagation velocity V_P over each gap against the particle number."""
-    ax = ax or _pyplot().gca()
+    ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
     ax.plot(n, vp, ".", ms=3, label="$V_P$")
     if v0 is not None:
@@ -44,7 +44,7 @@ def propagation_velocity(vp, v0=None, ax=None):
 
 def first_peaks(peaks: measures.FirstPeaks, ax=None):
     """Fig. 3(c): first peak velocity (left axis) and acceleration (right axis) against n."""
-    ax = ax or _pyplot().gca()
+    ax = ax or pyplot().gca()
     n = np.arange(1, len(peaks.peak_velocity) + 1)
     ax.plot(n, peaks.peak_velocity, ".", ms=3, color="C0")
     ax.set(xlabel="particle n", ylabel="first peak velocity (m/s)")
@@ -56,7 +56,7 @@ def first_peaks(peaks: measures.FirstPeaks, ax=None):
 
 def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
     """Fig. 3(d): velocity maxima and minima behind the front against time."""
-    ax = ax or _pyplot().gca()
+    ax = ax or pyplot().gca()
     for k, n in enumerate(particles):
         osc = measures.oscillations(t, v[:, n], drive_velocity)
         ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n + 1}")
@@ -68,7 +68,7 @@ def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
 
 def shock_figure(traj, drive_velocity: float, spacing, v0: float | None = None):
     """The four panels of Fig. 3(a-d) for a trajectory; returns the Figure."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
     arrival = measures.arrival_times(traj.t, traj.v, drive_velocity)
     reached = np.flatnonzero(np.isfinite(arrival))

@@ -21,17 +21,21 @@ def summarize(case: Case, traj: Trajectory) -> dict:
     r0 = float(np.mean(chain.gaps()))
     k0 = float(case.force.stiffness(r0))
     m = float(np.mean(chain.masses()))
-    t_front = measures.arrival_times(traj.t, traj.v, vi)
-    vp = measures.propagation_velocity(t_front, chain.gaps())
-    speed = measures.trailing_plateau(vp)
-    peaks = measures.first_peaks(traj.t, traj.v, traj.a, vi)
-    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])  # particle 0 is the drive
     out = {
         "case": case.name,
         "particles": chain.particles,
         "impactor_peak_velocity_m_per_s": vi,
         "linear_wave_speed_V0_m_per_s": round(measures.linear_wave_speed(k0, m, r0), 6),
         "linear_frequency_f0_Hz": round(measures.linear_frequency(k0, m), 4),
+    }
+    if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
+        return out
+    t_front = measures.arrival_times(traj.t, traj.v, vi)
+    vp = measures.propagation_velocity(t_front, chain.gaps())
+    speed = measures.trailing_plateau(vp)
+    peaks = measures.first_peaks(traj.t, traj.v, traj.a, vi)
+    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])  # particle 0 is the drive
+    out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(t_front))),
         "shock_velocity_plateau_m_per_s": _plateau(speed),
         "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),

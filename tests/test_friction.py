@@ -15,6 +15,7 @@ from pylmp_lattice.case import load_case
 from pylmp_lattice.dump import read_log
 from pylmp_lattice.simulation import simulate
 
+from conftest import make_case
 from reference import integrate_chain_friction, power_force
 
 pytestmark = pytest.mark.lammps
@@ -80,3 +81,20 @@ def test_friction_makes_the_propagation_velocity_rise_then_decay(tmp_path):
     assert peak[0.0] > peak[0.1] > peak[0.285] > peak[0.5]
     decay = {mu: 1 - final[mu] / peak[mu] for mu in (0.1, 0.285, 0.5)}
     assert decay[0.1] < decay[0.285] < decay[0.5]
+
+
+def test_calibration_rig_through_the_case_layer(tmp_path):
+    """Fig. S4 rig from a case (impactor at rest, gaps 1.8 and 28.3 mm): the potential energy
+    lost equals LAMMPS's friction tally, and the magnet ends at rest inside the stick band."""
+    case = make_case(particles=3, duration=2000.0, dt=0.002, chain={"r0": [1.8, 28.3]},
+                     impactor={"profile": "rest"}, friction={"mu": 0.285, "p": 0.012},
+                     table={"r_max": 30.1, "points": 100000})
+    traj = simulate(case, tmp_path)
+    energy = case.force.energy(traj.gaps()).sum(axis=1)
+    dissipated = read_log(tmp_path / "log.lammps").runs[-1]["f_friction"][-1] * 1e3
+    assert dissipated == pytest.approx(energy[0] - energy[-1], rel=1e-6)
+    assert np.all(traj.v[-1000:, 1] == 0.0)  # the last 100 ms exactly at rest
+    left, right = traj.gaps()[-1]
+    net = case.force.force(left) - case.force.force(right)
+    limit = 0.285 * (1.084 * 9.81e-3 + 0.012 * (case.force.force(left) + case.force.force(right)))
+    assert abs(net) <= limit
