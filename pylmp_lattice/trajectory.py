@@ -31,10 +31,6 @@ class Trajectory:
             if shape != (n_frames, n):
                 raise ValueError(f"Trajectory.{name}: got shape {shape}; expected {(n_frames, n)}")
 
-    @property
-    def n_particles(self) -> int:
-        return len(self.x0)
-
     def gaps(self) -> np.ndarray:
         """Separations r_n = x_{n+1} - x_n, mm, shape (n_frames, N-1)."""
         return np.diff(self.x0 + self.u, axis=1)

@@ -21,17 +21,6 @@ TO_SI = {
     "stiffness": 1e3,  # N/mm -> N/m
 }
 
-USER_UNITS = {
-    "length": "mm",
-    "mass": "g",
-    "time": "ms",
-    "velocity": "m/s",
-    "acceleration": "m/s^2",
-    "force": "N",
-    "energy": "mJ",
-    "stiffness": "N/mm",
-}
-
 
 def to_engine(value, quantity: str):
     """User units -> LAMMPS `units si`."""
