@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 
+from pylmp_lattice.case import case_to_dict, load_case
 from pylmp_lattice.dump import read_dump
 from pylmp_lattice.errors import ContactError, RunError
 from pylmp_lattice.runner import run_embedded, run_executable, write_run_folder
@@ -37,10 +39,6 @@ def test_paper_chain_driven_into_its_fixed_end_stops_on_contact(tmp_path):
 
 
 def test_cli_reports_contact_in_one_line(tmp_path):
-    import tomli_w
-
-    from pylmp_lattice.case import case_to_dict
-
     case_file = tmp_path / "into_the_wall.toml"
     case_file.write_bytes(tomli_w.dumps(case_to_dict(make_case(particles=21, velocity=2.0, duration=200.0))).encode())
     done = subprocess.run(
@@ -70,3 +68,22 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
     with pytest.raises(RunError, match="Bond length > table outer cutoff") as info:
         run_embedded(folder)
     assert info.value.folder == folder.resolve()
+
+
+def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):
+    """The package's deck (friction on) on 1 and 2 ranks: identical dumps (paper experiment)."""
+    case = load_case(INPUTS / "paper_experiment.toml")
+    one = read_dump(run_executable(write_run_folder(case, tmp_path / "np1")) / "traj.dump")
+    two = read_dump(run_executable(write_run_folder(case, tmp_path / "np2"), nprocs=2) / "traj.dump")
+    assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
+    assert np.array_equal(one.x, two.x) and np.array_equal(one.v, two.v)
+
+
+def test_motion_stays_on_the_x_axis(tmp_path):
+    """y, z, vy, vz, fy, fz are exactly zero in every frame of a strong-shock run."""
+    simulate(make_case(particles=30, velocity=2.0, duration=60.0), tmp_path)
+    rows = [line.split() for line in (tmp_path / "traj.dump").read_text().splitlines()
+            if len(line.split()) == 12]
+    columns = np.array(rows, dtype=float)  # id type mass x y z vx vy vz fx fy fz
+    assert len(columns) == 601 * 30
+    assert np.all(columns[:, [4, 5, 7, 8, 10, 11]] == 0.0)
