@@ -38,6 +38,8 @@ def summarize(case: Case, traj: Trajectory) -> dict:
     out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(t_front))),
         "shock_velocity_plateau_m_per_s": _plateau(speed),
+        # with friction V_P peaks early and decays (Fig. S6): where and how high
+        "shock_velocity_max_m_per_s": _maximum(vp),
         "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
@@ -48,6 +50,13 @@ def summarize(case: Case, traj: Trajectory) -> dict:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
                         chain.particles - 1, last)
     return out
+
+
+def _maximum(vp: np.ndarray) -> dict | None:
+    """Largest V_P and the gap (1-based, gap n between magnets n and n+1) where it occurs."""
+    if not np.any(np.isfinite(vp)):
+        return None
+    return {"value": round(float(np.nanmax(vp)), 5), "gap": int(np.nanargmax(vp)) + 1}
 
 
 def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
