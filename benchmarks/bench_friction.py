@@ -5,8 +5,11 @@ pushed at 2 m/s by fix move, magnet N held, the rest integrated by fix nve. Two 
 "impact" starts from rest (the paper's set-up: most magnets wait ahead of the wave, and
 the fix skips unloaded magnets at rest), "all moving" gives every magnet a random
 velocity (sd 0.5 m/s) first, the worst case, where every magnet needs its friction limit
-every step. Paired runs differ only in the friction fix. Times are LAMMPS's "Loop time"
-(setup excluded), best of --repeat runs each, interleaved so that noise hits both alike.
+every step. Each case runs without friction and with the fix in its two ways of getting
+the neighbour forces: "law bond" (the bond table's single(), the default) and "law power"
+(the analytic law). The runs differ only in the friction fix. Times are LAMMPS's
+"Loop time" (setup excluded), best of --repeat runs each, interleaved so that noise hits
+all alike; ratios are to the frictionless run.
 
     python benchmarks/bench_friction.py [--atoms 10000] [--steps 2000] [--repeat 3]
 """
@@ -46,8 +49,16 @@ def write_inputs(folder: Path, atoms: int) -> None:
     (folder / "chain.data").write_text("\n".join(lines) + "\n")
 
 
-def deck(atoms: int, steps: int, friction: bool, moving: bool) -> str:
-    fric = "fix fric mobile lattice/friction 0.285 0.012 9.81" if friction else ""
+# the fix line of each run, by name; None: no friction
+FRICTION = {
+    "none": None,
+    "law bond": "fix fric mobile lattice/friction 0.285 0.012 9.81 law bond 1",
+    "law power": f"fix fric mobile lattice/friction 0.285 0.012 9.81 law power {K!r} {B!r} {Q!r}",
+}
+
+
+def deck(atoms: int, steps: int, friction: str | None, moving: bool) -> str:
+    fric = friction or ""
     kick = "variable vr atom normal(0,0.5,4321)\nvelocity mobile set v_vr NULL NULL units box" if moving else ""
     return f"""units si
 atom_style bond
@@ -90,17 +101,23 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    print(f"{'case':>10} {'N':>7} {'steps':>6} {'no friction [s]':>16} {'friction [s]':>13} {'ratio':>6}")
+    print(
+        f"{'case':>10} {'N':>7} {'steps':>6} {'no friction [s]':>16} "
+        f"{'law bond [s]':>13} {'ratio':>6} {'law power [s]':>14} {'ratio':>6}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         write_inputs(folder, args.atoms)
         for case, moving in (("impact", False), ("all moving", True)):
-            times = {False: [], True: []}
+            times = {name: [] for name in FRICTION}
             for _ in range(args.repeat):
-                for friction in (False, True):
-                    times[friction].append(loop_time(folder, deck(args.atoms, args.steps, friction, moving)))
-            plain, fric = min(times[False]), min(times[True])
-            print(f"{case:>10} {args.atoms:>7} {args.steps:>6} {plain:>16.3f} {fric:>13.3f} {fric / plain:>6.2f}")
+                for name, fix in FRICTION.items():
+                    times[name].append(loop_time(folder, deck(args.atoms, args.steps, fix, moving)))
+            plain, bond, power = (min(times[name]) for name in FRICTION)
+            print(
+                f"{case:>10} {args.atoms:>7} {args.steps:>6} {plain:>16.3f} "
+                f"{bond:>13.3f} {bond / plain:>6.2f} {power:>14.3f} {power / plain:>6.2f}"
+            )
     print(f"(best of {args.repeat} runs each)")
 
 if __name__ == "__main__":

@@ -3,17 +3,25 @@
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
-   fix ID group-ID lattice/friction mu p g keyword value ...
+   fix ID group-ID lattice/friction mu p g keyword args ...
 
    mu = Coulomb friction coefficient (unitless)
    p  = share of the neighbour repulsion that presses on the rod (unitless)
    g  = gravitational acceleration (force/mass units, 9.81 in units si)
-   zero or more keyword/value pairs may be appended
-     bond value = bond type whose force law gives the neighbour forces (default 1)
+   zero or more keyword/args pairs may be appended
+     law args = bond [btype] or power K b q or linear k r_free
+       bond [btype] = the force law of bond type btype (default 1), through the bond style
+       power K b q = F(r) = K / (r + b)^q
+         K = force*distance^q units, b = distance units, q = exponent (unitless)
+       linear k r_free = F(r) = k (r_free - r)
+         k = force/distance units, r_free = distance units
+     bond value = btype: the same as law bond btype (the syntax before law existed)
 
 Examples
    fix fric mobile lattice/friction 0.285 0.012 9.81
-   fix fric mobile lattice/friction 0.285 0.012 9.81 bond 1
+   fix fric mobile lattice/friction 0.285 0.012 9.81 law bond 2
+   fix fric mobile lattice/friction 0.285 0.012 9.81 law power 4.138e-7 3.917e-3 3
+   fix fric mobile lattice/friction 0.285 0.0 9.81 law linear 1000.0 0.012
    fix_modify fric energy yes
 
 Description
@@ -21,10 +29,19 @@ Description
        L_n = mu * (m g + p (F_{n-1} + F_n))
    that opposes its motion (Eq. 1 and Supplement S3 of the paper). F_{n-1} and F_n are
    the repulsive forces from its chain neighbours, the atoms with IDs tag-1 and tag+1,
-   at their current separations, computed with the bond style's own single() so the
-   friction uses exactly the (tabulated) force law of the bonds. An end atom (ID 1 or
-   ID N) has only one neighbour and uses only that force. Atom IDs must run 1..N in
-   chain order. The normal force is clipped at zero should the bonds ever attract.
+   at their current separations r. An end atom (ID 1 or ID N) has only one neighbour
+   and uses only that force. Atom IDs must run 1..N in chain order. The normal force is
+   clipped at zero should the bonds ever attract.
+
+   The law keyword says how F(r) is evaluated. With law bond (the default) it is the
+   bond style's own single() for bond type btype, so the friction sees exactly the
+   forces of the bonds; this is the choice for a law known only as samples. With law
+   power or law linear the fix evaluates the analytic law itself, which is several
+   times cheaper than a table lookup; the bonds keep their own representation of it.
+   If the bonds are a bond_style table spline of the same law (as pylmp_lattice writes
+   them), the two differ by the table's interpolation error, < 1e-6 relative with
+   10000 points, which changes L_n by less than that. A power law with an integer
+   q <= 8 is computed with multiplications, any other q with pow().
 
    Stick and slip. Velocity Verlet with fix nve applies the force found at step n as
    one kick of length dt taking the velocity from v(n-1/2) to v(n+1/2) (the setup
@@ -48,13 +65,25 @@ Description
    printed at the step where an atom sticks: it is 0 rather than the O(dt) value it
    may have had part way through the kick; it does not feed back into the trajectory.
 
-   Cost: one evaluation of the bond law per moving atom and step (each bond's force is
-   cached and shared by its two atoms, and reused while its length is unchanged); an
-   atom at rest with exactly zero force is skipped, as it sticks whatever the limit.
+   Cost: one evaluation of F per step for each atom that moves or is loaded. Skipped:
+   an atom at rest with exactly zero force, which sticks whatever the limit, and with
+   law power (F > 0) an atom at rest with |f| <= mu m g, which sticks whatever F adds.
+   A bond's force is shared by its two atoms when they come one after the other in
+   memory, as in a chain read in ID order and sorted along x. Measured with N = 10^4
+   (benchmarks/bench_friction.py), relative to the frictionless run: all atoms moving,
+   1.4x with law power and 2.0x with law bond on a bond_style table spline; an impact
+   into a chain at rest, 1.1x with law power and 1.3x with law bond (at rest ahead of
+   the wave, round-off leaves nonzero net forces).
 
    Define this fix after any other fix that changes the forces on its atoms, and use
    it only on atoms integrated by fix nve: it reads the total force f, and for a
    sticking atom it also zeroes v.
+
+   Without periodic boundaries the results do not depend on the number of MPI ranks:
+   every rank computes the force of a bond from the same two positions in the same
+   order, so 1 and several ranks give the same trajectory bit for bit; only the global
+   scalar is summed in another order. (Across a periodic boundary a ghost's shifted
+   coordinates can change the last bit of a separation.)
 
 Output
    Global scalar: cumulative friction work (energy units, extensive), i.e. the energy
@@ -66,9 +95,9 @@ Output
    No restart information is written; the count restarts at zero.
 
 Restrictions
-   Needs a bond style (bonds between consecutive IDs) and an atom map (atom_style
-   bond has one). On several MPI ranks each atom's neighbours must be owned or ghost
-   atoms: set comm_modify cutoff longer than the longest bond. Not for rRESPA.
+   Needs bonds between consecutive IDs, a bond style for law bond, and an atom map
+   (atom_style bond has one). On several MPI ranks each atom's neighbours must be owned
+   or ghost atoms: set comm_modify cutoff longer than the longest bond. Not for rRESPA.
 ------------------------------------------------------------------------- */
 
 #include "fix_lattice_friction.h"
@@ -78,7 +107,6 @@ Restrictions
 #include "domain.h"
 #include "error.h"
 #include "force.h"
-#include "memory.h"
 #include "update.h"
 
 #include <cmath>
@@ -88,8 +116,8 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), work_done(0.0), work_pending(0.0), fright(nullptr), rsq_right(nullptr),
-    nmax(0), periodic(false)
+    Fix(lmp, narg, arg), law(BOND), btype(1), K(0.0), b(0.0), q(0.0), qint(0), k(0.0),
+    r_free(0.0), work_done(0.0), work_pending(0.0), periodic(false)
 {
   if (narg < 6) utils::missing_cmd_args(FLERR, "fix lattice/friction", error);
   mu = utils::numeric(FLERR, arg[3], false, lmp);
@@ -99,25 +127,51 @@ FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
   if (p < 0.0) error->all(FLERR, "Fix lattice/friction: p = {} must be >= 0", p);
   if (g < 0.0) error->all(FLERR, "Fix lattice/friction: g = {} must be >= 0", g);
 
-  btype = 1;
-  for (int iarg = 6; iarg < narg; iarg += 2) {
-    if (strcmp(arg[iarg], "bond") == 0) {
+  for (int iarg = 6; iarg < narg;) {
+    if (strcmp(arg[iarg], "bond") == 0) {    // the syntax from before the law keyword
       if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction bond", error);
+      law = BOND;
       btype = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+      continue;
+    }
+    if (strcmp(arg[iarg], "law") != 0)
+      error->all(FLERR, "Fix lattice/friction: unknown keyword '{}'; expected 'law'", arg[iarg]);
+    if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law", error);
+    const char *style = arg[iarg + 1];
+    if (strcmp(style, "bond") == 0) {
+      law = BOND;
+      btype = 1;
+      iarg += 2;
+      if (iarg < narg && utils::is_integer(arg[iarg]))
+        btype = utils::inumeric(FLERR, arg[iarg++], false, lmp);
+    } else if (strcmp(style, "power") == 0) {
+      if (iarg + 4 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law power", error);
+      law = POWER;
+      K = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      b = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+      q = utils::numeric(FLERR, arg[iarg + 4], false, lmp);
+      if (K <= 0.0 || b < 0.0 || q <= 0.0)
+        error->all(FLERR, "Fix lattice/friction: law power needs K > 0, b >= 0, q > 0");
+      qint = (q == std::floor(q) && q <= 8.0) ? static_cast<int>(q) : 0;
+      iarg += 5;
+    } else if (strcmp(style, "linear") == 0) {
+      if (iarg + 3 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law linear", error);
+      law = LINEAR;
+      k = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      r_free = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+      if (k <= 0.0 || r_free <= 0.0)
+        error->all(FLERR, "Fix lattice/friction: law linear needs k > 0, r_free > 0");
+      iarg += 4;
     } else
-      error->all(FLERR, "Fix lattice/friction: unknown keyword '{}'; expected 'bond'", arg[iarg]);
+      error->all(FLERR, "Fix lattice/friction: unknown law '{}'; expected bond, power or linear",
+                 style);
   }
 
   scalar_flag = 1;
   global_freq = 1;
   extscalar = 1;
   energy_global_flag = 1;
-}
-
-FixLatticeFriction::~FixLatticeFriction()
-{
-  memory->destroy(fright);
-  memory->destroy(rsq_right);
 }
 
 int FixLatticeFriction::setmask()
@@ -127,16 +181,16 @@ int FixLatticeFriction::setmask()
 
 void FixLatticeFriction::init()
 {
-  if (!force->bond) error->all(FLERR, "Fix lattice/friction needs a bond style");
-  if (btype < 1 || btype > atom->nbondtypes)
-    error->all(FLERR, "Fix lattice/friction: bond type {} out of range 1..{}", btype,
-               atom->nbondtypes);
+  if (law == BOND) {
+    if (!force->bond) error->all(FLERR, "Fix lattice/friction law bond needs a bond style");
+    if (btype < 1 || btype > atom->nbondtypes)
+      error->all(FLERR, "Fix lattice/friction: bond type {} out of range 1..{}", btype,
+                 atom->nbondtypes);
+  }
   if (atom->map_style == Atom::MAP_NONE)
     error->all(FLERR, "Fix lattice/friction needs an atom map (atom_modify map array)");
   if (utils::strmatch(update->integrate_style, "^respa"))
     error->all(FLERR, "Fix lattice/friction does not support run_style respa");
-  // bond coefficients may have changed since the last run
-  for (int i = 0; i < nmax; i++) rsq_right[i] = -1.0;
 }
 
 void FixLatticeFriction::setup(int /*vflag*/)
@@ -174,26 +228,35 @@ void FixLatticeFriction::missing_neighbour(int i, tagint tag)
              tag, atom->tag[i]);
 }
 
-/* repulsive (positive) force of the bond from atom a to its right neighbour b.
-   Slot a of fright caches it with the squared separation it was computed at, and is
-   reused while that separation is unchanged to the bit: atoms at rest next to atoms at
-   rest cost no evaluation. Slots change owner when atoms migrate or ghosts are rebuilt;
-   a reused value is still exact because single() depends only on the bond type and rsq. */
+/* repulsive (positive) force between atom i and its right neighbour j. It depends on
+   x[i] - x[j] alone, in this order, so every rank gets the same bits for the same bond. */
 
-inline double FixLatticeFriction::bond_force(int a, int b)
+inline double FixLatticeFriction::bond_force(int i, int j)
 {
   double **x = atom->x;
-  const double dx = x[a][0] - x[b][0];
-  const double dy = x[a][1] - x[b][1];
-  const double dz = x[a][2] - x[b][2];
+  const double dx = x[i][0] - x[j][0];
+  const double dy = x[i][1] - x[j][1];
+  const double dz = x[i][2] - x[j][2];
   const double rsq = dx * dx + dy * dy + dz * dz;
-  if (rsq != rsq_right[a]) {
-    double fbond;    // force / r
-    force->bond->single(btype, rsq, a, b, fbond);
-    rsq_right[a] = rsq;
-    fright[a] = fbond * sqrt(rsq);
-  }
-  return fright[a];
+  if (law == BOND) return bond_style_force(i, j, rsq);
+  // on the chain's axis r = |dx| (the same bits as sqrt(rsq)), saving the sqrt
+  const double r = (dy == 0.0 && dz == 0.0) ? fabs(dx) : sqrt(rsq);
+  if (law == LINEAR) return k * (r_free - r);
+  const double s = r + b;
+  if (qint == 0) return K * pow(s, -q);
+  double sq = s;    // s^q by multiplication: several times cheaper than pow
+  for (int n = 1; n < qint; n++) sq *= s;
+  return K / sq;
+}
+
+/* law bond, kept out of bond_force: with the single() call in it, GCC did not inline
+   bond_force, and the analytic laws paid a function call per atom (~10% of the fix). */
+
+double FixLatticeFriction::bond_style_force(int i, int j, double rsq)
+{
+  double fbond;    // force / r
+  force->bond->single(btype, rsq, i, j, fbond);
+  return fbond * sqrt(rsq);
 }
 
 /* friction for a velocity kick of length `kick`, starting from the current v */
@@ -208,29 +271,50 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
   int *mask = atom->mask;
   tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
+  const int nall = nlocal + atom->nghost;
   const bigint natoms = atom->natoms;
-
-  if (atom->nmax > nmax) {
-    memory->grow(fright, atom->nmax, "lattice/friction:fright");
-    memory->grow(rsq_right, atom->nmax, "lattice/friction:rsq_right");
-    for (int i = nmax; i < atom->nmax; i++) rsq_right[i] = -1.0;
-    nmax = atom->nmax;
-  }
   periodic = domain->xperiodic || domain->yperiodic || domain->zperiodic;
 
-  double work_now = 0.0, work_next = 0.0;
+  // atoms are mostly stored in chain order: the right neighbour is then the next atom in
+  // memory (no map lookup), and the force right of the previous atom is the force left of
+  // this one (each bond evaluated once)
+  tagint prev_tag = -1;
+  double prev_fright = 0.0;
+
+  double work_now = 0.0, work_next = 0.0, sum_fv = 0.0, sum_fh = 0.0;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double fx = f[i][0];
     const double v0 = v[i][0];
     if (v0 == 0.0 && fx == 0.0) continue;    // stays at rest whatever the limit: no work
 
-    const double fleft = (tag[i] > 1) ? bond_force(neighbour(i, tag[i] - 1), i) : 0.0;
-    const double fright_i = (tag[i] < natoms) ? bond_force(i, neighbour(i, tag[i] + 1)) : 0.0;
+    // law power (F > 0): at rest and held by its weight alone, it sticks whatever the
+    // neighbour forces add to the limit (also in rounding), so they are not needed; this
+    // is the stuck branch below. m is not kept for later: that slowed law bond by 4%.
+    if (v0 == 0.0 && law == POWER) {
+      const double weight = (rmass ? rmass[i] : mass[type[i]]) * g;
+      if (fabs(fx) <= mu * weight) {
+        v[i][0] = 0.0;
+        f[i][0] = 0.0;
+        continue;
+      }
+    }
+
+    const tagint t = tag[i];
+    double fleft = 0.0, fright = 0.0;
+    if (t == prev_tag + 1) fleft = prev_fright;
+    else if (t > 1) fleft = bond_force(neighbour(i, t - 1), i);
+    if (t < natoms) {
+      const int j = (!periodic && i + 1 < nall && tag[i + 1] == t + 1) ? i + 1 : neighbour(i, t + 1);
+      fright = bond_force(i, j);
+    }
+    prev_tag = t;
+    prev_fright = fright;
+
     const double m = rmass ? rmass[i] : mass[type[i]];
-    const double normal = m * g + p * (fleft + fright_i);
+    const double normal = m * g + p * (fleft + fright);
     const double limit = normal > 0.0 ? mu * normal : 0.0;
-    const double k = kick / m;
+    const double dvdf = kick / m;
 
     // ftot: the constant force over the kick that reproduces the exact Coulomb solution
     double ftot = 0.0;
@@ -241,11 +325,11 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     } else {
       const double s = copysign(1.0, v0);
       ftot = fx - s * limit;
-      const double v1 = v0 + k * ftot;
+      const double v1 = v0 + dvdf * ftot;
       if (s * v1 <= 0.0) {    // the velocity reaches zero within the kick
         if (fabs(fx) <= limit) stuck = true;
         // moves off the other way for the rest of the kick, a time m v1 / ftot
-        else ftot = (v1 * (fx + s * limit) / ftot - v0) / k;
+        else ftot = (v1 * (fx + s * limit) / ftot - v0) / dvdf;
       }
     }
 
@@ -256,20 +340,24 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
       f[i][0] = 0.0;
       continue;
     }
-    // friction work over the kick, split at the full step where v = (v0 + v1) / 2
+    // friction work over the kick, split at the full step: v goes v0, v0 + h, v0 + 2h, so
+    // the halves are -ffric kick/4 (2 v0 + h) and -ffric kick/4 (2 v0 + 3 h), summed below
     const double ffric = ftot - fx;
-    const double v1 = v0 + k * ftot;
-    const double vmid = 0.5 * (v0 + v1);
-    if (setup_kick) work_next -= ffric * kick * vmid;
-    else {
-      work_now -= ffric * 0.25 * kick * (v0 + vmid);
-      work_next -= ffric * 0.25 * kick * (vmid + v1);
-    }
+    const double h = 0.5 * dvdf * ftot;
+    sum_fv += ffric * v0;
+    sum_fh += ffric * h;
     f[i][0] = ftot;
   }
 
-  // the setup kick replaces the second half-kick planned at the end of the last run
-  if (!setup_kick) work_done += work_pending;
+  if (setup_kick) {
+    // the half kick from v(0): all of its work, -ffric kick (v0 + h), lies after the full
+    // step, and it replaces the second half-kick planned at the end of the last run
+    work_next -= kick * (sum_fv + sum_fh);
+  } else {
+    work_now -= 0.25 * kick * (2.0 * sum_fv + sum_fh);
+    work_next -= 0.25 * kick * (2.0 * sum_fv + 3.0 * sum_fh);
+    work_done += work_pending;
+  }
   work_done += work_now;
   work_pending = work_next;
 }

@@ -10,7 +10,6 @@ namespace LAMMPS_NS {
 class FixLatticeFriction : public Fix {
  public:
   FixLatticeFriction(class LAMMPS *, int, char **);
-  ~FixLatticeFriction() override;
   int setmask() override;
   void init() override;
   void setup(int) override;
@@ -19,18 +18,20 @@ class FixLatticeFriction : public Fix {
 
  private:
   double mu, p, g;
-  int btype;               // bond type whose force law gives the neighbour forces
-  double work_done;        // this rank's friction work up to the current step (J)
-  double work_pending;     // work of the current kick's second half, due at the next step
-  double *fright;          // per atom slot: repulsive force from the right neighbour
-  double *rsq_right;       // per atom slot: squared separation fright was computed at
-  int nmax;
-  bool periodic;           // any periodic dimension: pick the closest image of neighbours
+  enum { BOND, POWER, LINEAR } law;    // force law of the neighbour forces
+  int btype;                           // law bond: bond type whose single() gives F
+  double K, b, q;                      // law power: F = K / (r + b)^q
+  int qint;                            // q if it is an integer 1..8, else 0
+  double k, r_free;                    // law linear: F = k (r_free - r)
+  double work_done;                    // this rank's friction work up to the current step (J)
+  double work_pending;                 // work of the current kick's second half, due at the next step
+  bool periodic;                       // any periodic dimension: pick the closest image of neighbours
 
   void apply_friction(double kick, bool setup_kick);
   int neighbour(int, tagint);
   [[noreturn]] void missing_neighbour(int, tagint);
   double bond_force(int, int);
+  double bond_style_force(int, int, double);
 };
 
 }    // namespace LAMMPS_NS
