@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import LatticeError
+from .errors import DumpFormatError
 from .trajectory import Trajectory
 from .units import from_engine
 
@@ -40,10 +40,6 @@ DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"
 READERS = ("fast", "mdanalysis")
 _ATOMS_HEADER = f"ITEM: ATOMS {DUMP_COLUMNS}"
 _HEADER_LINES = 11
-
-
-class DumpFormatError(LatticeError, ValueError):
-    """A dump or log file is not in the layout this module reads; the message names the file."""
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,10 @@ class ConfigError(LatticeError, ValueError):
         super().__init__(f"{field}: {message}")
 
 
+class DumpFormatError(LatticeError, ValueError):
+    """A dump or log file is not in the layout `dump` reads; the message names the file."""
+
+
 class RunError(LatticeError):
     """LAMMPS stopped with an error; carries its ERROR line, exit code and run folder."""
 
