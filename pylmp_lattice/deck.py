@@ -26,6 +26,11 @@ PISTON = "piston.txt"
 CONTACT_MARK = "CONTACT:"
 
 
+def _num(x) -> str:
+    """A float as the shortest text that reads back to the same double."""
+    return repr(float(x))
+
+
 def render(case: Case) -> dict[str, str]:
     lo, hi = case.table_range()
     files = {
@@ -43,7 +48,7 @@ def piston_text(imp: Measured) -> str:
     t = to_engine(np.asarray(imp.t, float) - imp.t[0], "time")
     y = to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
     unit = "m" if imp.column == "u" else "m/s"
-    return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{a:.17g} {b:.17g}\n" for a, b in zip(t, y))
+    return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
 
 def data_text(case: Case) -> str:
@@ -61,17 +66,17 @@ def data_text(case: Case) -> str:
         f"{len(masses)} atom types",
         "1 bond types",
         "",
-        f"{x[0] - half:.17g} {x[-1] + half:.17g} xlo xhi",
-        f"{-half:.17g} {half:.17g} ylo yhi",
-        f"{-half:.17g} {half:.17g} zlo zhi",
+        f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
+        f"{_num(-half)} {_num(half)} ylo yhi",
+        f"{_num(-half)} {_num(half)} zlo zhi",
         "",
         "Masses",
         "",
-        *(f"{i + 1} {to_engine(m, 'mass'):.17g}" for i, m in enumerate(masses)),
+        *(f"{i + 1} {_num(to_engine(m, 'mass'))}" for i, m in enumerate(masses)),
         "",
         "Atoms # bond",
         "",
-        *(f"{i + 1} 1 {t + 1} {xi:.17g} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
+        *(f"{i + 1} 1 {t + 1} {_num(xi)} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
         "",
         "Bonds",
         "",
@@ -100,7 +105,7 @@ atom_modify     map array sort 0 0.0
 read_data       {DATA}
 # Bonds act between consecutive magnets only, at every separation; no pair style, so no
 # other interaction exists. Ghosts must reach across the longest bond on several ranks.
-comm_modify     cutoff {1.05 * hi_si:.17g}
+comm_modify     cutoff {_num(1.05 * hi_si)}
 
 # ---- 2. Force law {case.force!r}
 # Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
@@ -116,7 +121,7 @@ fix             hold held setforce 0.0 0.0 0.0
 {_piston_lines(case)}
 {_friction_lines(case)}
 # y and z stay exactly zero: all atoms start on the x axis at rest in y, z, and every force
-# (bond, piston) is along x.
+# (bonds, piston, friction) is along x.
 
 # ---- 4. Guard: stop when two magnets touch or pass (signed gap x_(i+1) - x_i <= 0)
 compute         bond_dx all bond/local dx
@@ -126,7 +131,7 @@ variable        min_gap equal -c_closest[1]
 fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
 
 # ---- 5. Output: trajectory of every magnet, thermo with energies
-timestep        {to_engine(run.dt, 'time'):.17g}
+timestep        {_num(to_engine(run.dt, 'time'))}
 thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
 thermo_modify   norm no flush yes
 thermo          {thermo_every}
@@ -156,17 +161,17 @@ def _friction_lines(case: Case) -> str:
     )
     if isinstance(law, PowerLaw):
         K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
-        source, spec = exact, f"law power {K:.17g} {to_engine(law.b, 'length'):.17g} {law.q:.17g}"
+        source, spec = exact, f"law power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
     elif isinstance(law, LinearSpring):
         k, r_free = to_engine(law.k, "stiffness"), to_engine(law.r_free, "length")
-        source, spec = exact, f"law linear {k:.17g} {r_free:.17g}"
+        source, spec = exact, f"law linear {_num(k)} {_num(r_free)}"
     else:
         source, spec = "# F from the bond table, as the bonds: a sampled law has no other form.\n", "law bond 1"
     return (
         "# Coulomb friction f_n = mu (m g + p (F_(n-1) + F_n)), stick-slip; its scalar is the\n"
         "# energy it has dissipated (J). Defined last: it reads the total force on each magnet.\n"
         f"{source}"
-        f"fix             friction free lattice/friction {fr.mu:.17g} {fr.p:.17g} {g:.17g} {spec}"
+        f"fix             friction free lattice/friction {_num(fr.mu)} {_num(fr.p)} {_num(g)} {spec}"
     )
 
 
@@ -184,8 +189,8 @@ def _piston_lines(case: Case) -> str:
     if isinstance(imp, Constant):
         # the dump's first frame shows the impactor already moving, as the drive says
         return (
-            f"velocity        impactor set {v:.17g} 0.0 0.0 units box\n"
-            f"fix             piston impactor move linear {v:.17g} 0.0 0.0 units box"
+            f"velocity        impactor set {_num(v)} 0.0 0.0 units box\n"
+            f"fix             piston impactor move linear {_num(v)} 0.0 0.0 units box"
         )
     if isinstance(imp, Ramp):
         name, value = "T_r", to_engine(imp.ramp_time, "time")
@@ -198,8 +203,8 @@ def _piston_lines(case: Case) -> str:
     else:
         raise TypeError(f"no deck for impactor {imp!r}")
     return (
-        f"variable        V_I equal {v:.17g}\n"
-        f"variable        {name} equal {value:.17g}\n"
+        f"variable        V_I equal {_num(v)}\n"
+        f"variable        {name} equal {_num(value)}\n"
         f"variable        piston_dx equal \"{dx}\"\n"
         f"variable        piston_vx equal \"{vx}\"\n"
         "fix             piston impactor move variable v_piston_dx NULL NULL v_piston_vx NULL NULL"
