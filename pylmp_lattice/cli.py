@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as err:
         print(f"pylmp-lattice: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except LatticeError as err:
+    except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {err}", file=sys.stderr)
         return EXIT_RUN_ERROR
 
