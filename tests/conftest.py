@@ -19,7 +19,7 @@ def make_case(particles=30, velocity=2.0, duration=50.0, dt=0.01, output=0.1, **
         "run": {"duration": duration, "dt": dt, "output_interval": output},
     }
     for name, values in sections.items():
-        if name == "impactor":  # a new profile replaces the default drive
+        if name in ("impactor", "force"):  # a new profile or law replaces the default
             data[name] = dict(values)
         else:
             data.setdefault(name, {}).update(values)
