@@ -60,7 +60,7 @@ def test_energy_balance_with_friction(experiment):
     impactor_ke = 0.5 * case.chain.masses()[0] * traj.v[rows, 0] ** 2
     balance = (thermo["TotEng"] + thermo["f_friction"]) * 1e3 - impactor_ke - work[rows]
     scale = work[-1]
-    assert np.max(np.abs(balance - balance[0])) < 1e-4 * scale
+    assert np.max(np.abs(balance - balance[0])) < 2e-5 * scale  # measured 5.5e-6
 
 
 def test_friction_makes_the_propagation_velocity_rise_then_decay(tmp_path):
