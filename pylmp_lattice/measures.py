@@ -224,6 +224,21 @@ def _first_peaks_block(t, v, a, start_level, front_level, drop):
     )
 
 
+@dataclass(frozen=True)
+class Front:
+    """The per-particle front measures of one run, computed once (see `front`)."""
+
+    arrival: np.ndarray  # (N,) ms, `arrival_times`
+    propagation_velocity: np.ndarray  # (N-1,) m/s, `propagation_velocity`
+    peaks: FirstPeaks  # `first_peaks`
+
+
+def front(t, v, a, drive_velocity: float, spacing) -> Front:
+    """Arrival times, propagation velocity and first peaks with their default definitions."""
+    arrival = arrival_times(t, v, drive_velocity)
+    return Front(arrival, propagation_velocity(arrival, spacing), first_peaks(t, v, a, drive_velocity))
+
+
 # ---------------------------------------------------------------------------------------------
 # Oscillations behind the front
 # ---------------------------------------------------------------------------------------------

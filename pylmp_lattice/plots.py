@@ -66,16 +66,15 @@ def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
     return ax
 
 
-def shock_figure(traj, drive_velocity: float, spacing, v0: float | None = None):
-    """The four panels of Fig. 3(a-d) for a trajectory; returns the Figure."""
+def shock_figure(traj, drive_velocity: float, front: measures.Front, v0: float | None = None):
+    """The four panels of Fig. 3(a-d) for a trajectory and its front measures; returns the Figure."""
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
-    arrival = measures.arrival_times(traj.t, traj.v, drive_velocity)
-    reached = np.flatnonzero(np.isfinite(arrival))
+    reached = np.flatnonzero(np.isfinite(front.arrival))
     last = int(reached[-1]) if reached.size else 0
     chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
     velocity_profiles(traj.t, traj.v, chosen, axes[0, 0])
-    propagation_velocity(measures.propagation_velocity(arrival, spacing), v0, axes[0, 1])
-    first_peaks(measures.first_peaks(traj.t, traj.v, traj.a, drive_velocity), axes[1, 0])
+    propagation_velocity(front.propagation_velocity, v0, axes[0, 1])
+    first_peaks(front.peaks, axes[1, 0])
     oscillation_peaks(traj.t, traj.v, chosen, drive_velocity, axes[1, 1])
     return fig

@@ -15,8 +15,10 @@ log = logging.getLogger(__name__)
 QUIET_FRACTION = 1e-3
 
 
-def summarize(case: Case, traj: Trajectory) -> dict:
-    """Linear wave speed and frequency, shock velocity plateau, first peaks (user units)."""
+def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None) -> dict:
+    """Linear wave speed and frequency, shock velocity plateau, first peaks (user units).
+
+    `front`: the run's `measures.front`, if already computed (it is the costly part)."""
     chain, vi = case.chain, case.impactor.peak_velocity()
     r0 = float(np.mean(chain.gaps()))
     k0 = float(case.force.stiffness(r0))
@@ -30,13 +32,12 @@ def summarize(case: Case, traj: Trajectory) -> dict:
     }
     if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
         return out
-    t_front = measures.arrival_times(traj.t, traj.v, vi)
-    vp = measures.propagation_velocity(t_front, chain.gaps())
+    front = front or measures.front(traj.t, traj.v, traj.a, vi, chain.gaps())
+    vp = front.propagation_velocity
     speed = measures.trailing_plateau(vp)
-    peaks = measures.first_peaks(traj.t, traj.v, traj.a, vi)
-    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])  # particle 0 is the drive
+    first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
     out |= {
-        "particles_reached_by_front": int(np.sum(np.isfinite(t_front))),
+        "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
         "shock_velocity_plateau_m_per_s": _plateau(speed),
         # with friction V_P peaks early and decays (Fig. S6): where and how high
         "shock_velocity_max_m_per_s": _maximum(vp),
