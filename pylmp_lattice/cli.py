@@ -6,7 +6,6 @@ import argparse
 import json
 import logging
 import sys
-import time
 from pathlib import Path
 
 from .errors import ConfigError, LatticeError
@@ -65,27 +64,13 @@ def _load(args):
 
 
 def _run(args) -> int:
-    from .measures import front
-    from .plots import shock_figure
-    from .simulation import simulate
-    from .summary import summarize
+    from .simulation import run_case
 
     case, folder = _load(args)
     if args.np > 1 and args.runner != "lmp":
         raise ConfigError("--np", f"got {args.np}; several ranks need --runner lmp")
     print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
-    start = time.perf_counter()
-    traj = simulate(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
-    vi = case.impactor.peak_velocity()
-    measured = front(traj.t, traj.v, traj.a, vi, case.chain.gaps()) if vi > 0 else None
-    summary = summarize(case, traj, measured)
-    summary["files"] = {"folder": str(folder), "dump": str(folder / "traj.dump"), "log": str(folder / "log.lammps")}
-    if measured is not None:
-        figure = folder / "shock.png"
-        shock_figure(traj, vi, measured, summary["linear_wave_speed_V0_m_per_s"]).savefig(figure, dpi=120)
-        summary["files"]["figure"] = str(figure)
-    summary["wall_time_s"] = round(time.perf_counter() - start, 2)
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    summary = run_case(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
     print(json.dumps(summary, indent=2))
     return 0
 

@@ -1,7 +1,13 @@
-"""One call from a case to its trajectory: write the run folder, run LAMMPS, read the dump."""
+"""One call from a case to its results: write the run folder, run LAMMPS, read, measure.
+
+`simulate` returns the trajectory; `run_case` is the whole job of `pylmp-lattice run`
+(simulate, front measures, summary.json and the run's figure), for one run or a sweep member.
+"""
 
 from __future__ import annotations
 
+import json
+import time
 from pathlib import Path
 
 from .case import Case
@@ -38,3 +44,30 @@ def load_trajectory(case: Case, folder: str | Path) -> Trajectory:
     traj = trajectory_from_dump(read_dump(Path(folder) / DUMP))
     traj.a[:, 0] = case.impactor.acceleration_at(traj.t)
     return traj
+
+
+SUMMARY = "summary.json"
+FIGURE = "shock.png"
+
+
+def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+             figure: bool = True) -> dict:
+    """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary."""
+    from .measures import front
+    from .summary import summarize
+
+    folder = Path(folder)
+    start = time.perf_counter()
+    traj = simulate(case, folder, runner=runner, nprocs=nprocs, echo=echo)
+    vi = case.impactor.peak_velocity()
+    measured = front(traj.t, traj.v, traj.a, vi, case.chain.gaps()) if vi > 0 else None
+    summary = summarize(case, traj, measured)
+    summary["files"] = {"folder": str(folder), "dump": str(folder / DUMP), "log": str(folder / "log.lammps")}
+    if figure and measured is not None:
+        from .plots import shock_figure
+
+        shock_figure(traj, vi, measured, summary["linear_wave_speed_V0_m_per_s"]).savefig(folder / FIGURE, dpi=120)
+        summary["files"]["figure"] = str(folder / FIGURE)
+    summary["wall_time_s"] = round(time.perf_counter() - start, 2)
+    (folder / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
