@@ -116,7 +116,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
             todo.append(m)
     table = write_table(root, [rows[i] for i in sorted(rows)])
     bar = _Progress(len(members), rows, progress)
-    with _executor(workers, scheduler) as (executor, slots):
+    with _executor(workers, scheduler, sweep.runner) as (executor, slots):
         bar.slots = slots
         futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
         bar.show(running=len(futures))
@@ -163,16 +163,23 @@ def _lost(root: Path, m: Member, err: BaseException) -> dict:
 
 
 @contextlib.contextmanager
-def _executor(workers: int | None, scheduler: str | None):
-    """(executor, number of worker slots): a local process pool, or a Dask cluster's executor."""
+def _executor(workers: int | None, scheduler: str | None, runner: str):
+    """(executor, number of worker slots): a local process pool, or a Dask cluster's executor.
+
+    The embedded runner changes the worker's working directory while LAMMPS runs, so it
+    needs one member at a time per process: pool processes are, Dask workers must be."""
     from ..errors import ConfigError
 
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
     if scheduler is None:
         workers = workers or os.cpu_count() or 1
-        # spawn: workers start clean (no copied locks or threads of the coordinator)
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        # forkserver: workers are forked from a clean server process (never from a coordinator
+        # that may hold threads or an initialised MPI), which imports the package once and
+        # stays up for later sweeps of the same Python session.
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
+        with ProcessPoolExecutor(workers, mp_context=context) as pool:
             yield pool, workers
         return
     if workers is not None:
@@ -184,8 +191,12 @@ def _executor(workers: int | None, scheduler: str | None):
     except (OSError, TimeoutError) as err:
         raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err})") from err
     try:
+        threads = client.nthreads()
+        if runner == "embedded" and any(n > 1 for n in threads.values()):
+            raise ConfigError("runner", "the embedded runner needs Dask workers with one thread each "
+                              "(dask worker --nthreads 1); or set runner = \"lmp\" in the sweep file")
         executor: Executor = client.get_executor(pure=False)
-        yield executor, max(1, sum(client.nthreads().values()))
+        yield executor, max(1, sum(threads.values()))
     finally:
         client.close()
 

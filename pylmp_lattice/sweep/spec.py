@@ -6,7 +6,7 @@ A sweep file (TOML) holds
     replicas = 1              # runs per parameter point (random chains only)
     seed = 0                  # the sweep seed; member i gets a seed derived from (seed, i)
     keep = "all"              # or "measures": delete each member's trajectory once measured
-    runner = "lmp"            # or "embedded" (LAMMPS in the worker process)
+    runner = "embedded"       # LAMMPS in the worker process; or "lmp" (the executable)
     [set]                     # fixed overrides of the base case
     "impactor.velocity" = 1.5
     [grid]                    # the product of these lists
@@ -48,7 +48,7 @@ log = logging.getLogger(__name__)
 
 KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner")
 KEEP = ("all", "measures")
-RUNNERS = ("lmp", "embedded")
+RUNNERS = ("embedded", "lmp")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
 
 
@@ -82,7 +82,7 @@ class Sweep:
     replicas: int = 1
     seed: int = 0
     keep: str = "all"
-    runner: str = "lmp"
+    runner: str = "embedded"
     base_dir: Path = Path(".")  # where files named by the base case (force.file, ...) are
 
     def __post_init__(self):

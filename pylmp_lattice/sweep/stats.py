@@ -43,7 +43,8 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
 
         ax = plt.figure().add_subplot()
     data = stats.sort_values(x)
-    ax.errorbar(data[x], data[f"{measure}.mean"], yerr=data[f"{measure}.sem"], fmt=kwargs.pop("fmt", "o-"),
+    mean, sem = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem"))
+    ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=kwargs.pop("fmt", "o-"),
                 capsize=kwargs.pop("capsize", 3), **kwargs)
     ax.set_xlabel(x)
     ax.set_ylabel(measure)
