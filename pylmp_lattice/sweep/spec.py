@@ -34,14 +34,13 @@ import hashlib
 import itertools
 import json
 import logging
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_to_dict
+from ..case import Case, case_from_dict, case_to_dict, read_toml
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -177,12 +176,7 @@ class Sweep:
 def load_sweep(path: str | Path) -> Sweep:
     """Read a sweep file (TOML); every error names the field (ConfigError)."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise ConfigError("sweep", f"file not found: {path}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError("sweep", f"{path} is not valid TOML ({err})") from err
+    data = read_toml(path, "sweep")
     for key in data:
         if key not in KEYS:
             raise ConfigError(key, f"unknown key; expected one of {', '.join(KEYS)}")
@@ -219,12 +213,7 @@ def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
     if isinstance(base, dict):
         return copy.deepcopy(base), Path(base_dir)
     path = Path(base)
-    try:
-        return tomllib.loads(path.read_text()), path.parent
-    except FileNotFoundError as err:
-        raise ConfigError("base", f"file not found: {path}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError("base", f"{path} is not valid TOML ({err})") from err
+    return read_toml(path, "base"), path.parent
 
 
 def _flatten(table: dict, name: str, prefix: str = "") -> dict:
