@@ -10,10 +10,11 @@
    overhead = (sweep wall - loop wall) / members: process pool, status and provenance writes,
    and rewriting results.csv/.parquet after every member.
 
-Sweeps of each kind run in one session, interleaved (1, 2, 1, 2, ...) so that load from other
-users hits both alike; best of --repeat.
+Everything runs in one session after a warm-up (the pool's fork server started, the engine and
+scipy loaded once), the ways being compared interleaved (1, 2, 1, 2, ...) so that load from
+other users hits them alike; best of --repeat.
 
-    python benchmarks/bench_sweep.py [--members 6] [--duration 200] [--small 20] [--repeat 2]
+    python benchmarks/bench_sweep.py [--members 6] [--duration 100] [--small 20] [--repeat 2]
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pylmp_lattice.case import case_from_dict, load_case
+from pylmp_lattice.case import load_case
 from pylmp_lattice.simulation import run_case
 from pylmp_lattice.sweep import Sweep, run_sweep
 
@@ -46,10 +47,15 @@ def timed_sweep(sweep: Sweep, workers: int) -> tuple[float, float]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--members", type=int, default=6)
-    p.add_argument("--duration", type=float, default=200.0, help="ms, long-lattice members")
+    p.add_argument("--duration", type=float, default=100.0, help="ms, long-lattice members")
     p.add_argument("--small", type=int, default=20, help="members of the 21-magnet overhead sweep")
     p.add_argument("--repeat", type=int, default=2)
     args = p.parse_args()
+
+    small = load_case(INPUTS / "paper_experiment.toml")
+    with tempfile.TemporaryDirectory() as tmp:  # warm-up
+        run_case(small, Path(tmp) / "warm", figure=False)
+        timed_sweep(Sweep(base=small), 2)
 
     base = load_case(INPUTS / "paper_long_lattice.toml", [f"run.duration={args.duration}"])
     velocities = [float(v) for v in np.linspace(1.0, 2.0, args.members)]
@@ -62,7 +68,6 @@ def main() -> None:
             walls[workers].append(wall)
             member[workers].append(per)
 
-    small = load_case(INPUTS / "paper_experiment.toml")
     small_v = [float(v) for v in np.linspace(1.5, 2.8, args.small)]
     small_sweep = Sweep(base=small, grid={"impactor.velocity": small_v})
     loop, swept = [], []

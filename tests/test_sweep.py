@@ -15,7 +15,6 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.simulation import load_trajectory
 from pylmp_lattice.sweep import Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep
 from pylmp_lattice.sweep.store import STATUS
@@ -89,13 +88,14 @@ chain.thermal_velocity = 0.01
 
 
 def test_sections_as_tables_and_identical_members_run_once(tmp_path):
-    sweep = Sweep(base=tmp_path.joinpath("base.toml") if write_sweep(tmp_path, "") else None,
+    write_sweep(tmp_path, "")
+    sweep = Sweep(base=tmp_path / "base.toml",
                   grid={"force": [{"law": "linear", "k": 0.5, "r_free": 30.0},
                                   {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}],
                         "impactor.velocity": [1.0, 1.0]})
-    members = sweep.members()
-    assert [m.case.force.law for m in members] == ["linear", "power"]
-    assert members[1].params["force"]["q"] == 3.0
+    members = sweep.members()  # 4 combinations, 2 distinct cases
+    assert [(m.index, m.case.force.law) for m in members] == [(0, "linear"), (2, "power")]
+    assert members[1].params == {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}, "impactor.velocity": 1.0}
 
 
 def test_sweep_from_python_accepts_a_case(case_factory):
