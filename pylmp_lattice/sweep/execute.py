@@ -13,7 +13,9 @@ import logging
 import multiprocessing
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -120,15 +122,22 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         bar.slots = slots
         futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
         bar.show(running=len(futures))
-        for done, future in enumerate(as_completed(futures), start=1):
-            m = futures[future]
-            try:
-                result = future.result()
-            except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
-                result = _lost(root, m, err)
-            rows[m.index] = _row(root, m, result["record"], result["summary"])
-            table = write_table(root, [rows[i] for i in sorted(rows)])
-            bar.advance(running=len(futures) - done)
+        try:
+            for done, future in enumerate(as_completed(futures), start=1):
+                m = futures[future]
+                try:
+                    result = future.result()
+                except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
+                    result = _lost(root, m, err)
+                rows[m.index] = _row(root, m, result["record"], result["summary"])
+                table = write_table(root, [rows[i] for i in sorted(rows)])
+                bar.advance(running=len(futures) - done)
+        except KeyboardInterrupt:
+            # queued members never start; running ones finish and are recorded on disk
+            for future in futures:
+                future.cancel()
+            bar.close()
+            raise
     bar.close()
     return table
 
@@ -179,7 +188,9 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         # stays up for later sweeps of the same Python session.
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
-        with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        _start_forkserver()
+        with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
+                                 initargs=(os.getpid(),)) as pool:
             yield pool, workers
         return
     if workers is not None:
@@ -199,6 +210,39 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         yield executor, max(1, sum(threads.values()))
     finally:
         client.close()
+
+
+def _start_forkserver() -> None:
+    """Start the fork server with Ctrl-C ignored (inherited): it and its workers are left to the
+    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        return  # signal handlers can only be set from the main thread
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _pool_worker_init(coordinator: int) -> None:
+    """A pool worker: Ctrl-C is for the coordinator, and the worker ends when the sweep does.
+
+    Without this watch, the workers of a coordinator killed with SIGKILL would wait for work
+    forever (and keep the fork server alive).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            try:
+                os.kill(coordinator, 0)
+            except ProcessLookupError:
+                os._exit(1)  # the member in hand stays "running" on disk and is re-run on resume
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 class _Progress:
