@@ -152,9 +152,11 @@ def test_replica_stats_mean_and_standard_error():
     rows = [{"id": f"{v}-{r}", "impactor.velocity": v, "replica": r, "chain.seed": 100 + r, "status": "done",
              "error": None, "folder": "x", "wall_time_s": 1.0, "V": v + rng.normal()} for v in (1.0, 2.0) for r in range(5)]
     rows.append(rows[0] | {"id": "f", "status": "failed", "V": 1e9})  # failed members do not count
+    rows.append(rows[0] | {"id": "i", "V": np.inf})  # nor infinite values (counted apart)
     table = pd.DataFrame(rows)
     stats = replica_stats(table)
-    assert list(stats["n"]) == [5, 5]
+    assert list(stats["n"]) == [6, 5] and list(stats["V.count"]) == [5, 5]
+    assert np.isfinite(stats["V.mean"]).all()
     values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
     row = stats[stats["impactor.velocity"] == 2.0].iloc[0]
     assert row["V.mean"] == pytest.approx(np.mean(values), rel=1e-12)
@@ -266,3 +268,10 @@ def test_thermal_replicas_reproduce_differ_and_have_the_requested_rms(tmp_path):
     stats = replica_stats(first)
     assert stats["n"].tolist() == [replicas]
     assert stats["shock_velocity_max_m_per_s.value.sem"][0] > 0
+
+
+def test_example_sweep_file_is_valid():
+    members = load_sweep(Path(__file__).parent.parent / "inputs" / "sweep_thermal_experiment.toml").members()
+    assert len(members) == 12 and all(m.case is not None for m in members)
+    assert {m.case.chain.particles for m in members} == {21}
+    assert len({m.case.chain.seed for m in members}) == 12

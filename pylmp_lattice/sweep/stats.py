@@ -12,8 +12,10 @@ REPLICA_COLUMNS = ("replica", "chain.seed")
 
 def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.DataFrame:
     """Per parameter point (the swept columns without replica and seed), over its done members:
-    `n`, and for each measure `<measure>.mean` and `<measure>.sem` (standard error of the mean,
-    std with ddof=1 over sqrt(n); NaN for a single replica).
+    `n`, and for each measure `<measure>.mean`, `<measure>.sem` (standard error of the mean,
+    std with ddof=1 over sqrt(count); NaN for a single value) and `<measure>.count`, the number
+    of finite values used (a measure can be missing or infinite in some members, e.g. V_P
+    where two arrivals coincide).
 
     measures: numeric columns to summarise (default: every numeric measure column).
     """
@@ -29,9 +31,11 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
         row = dict(zip(point, key if isinstance(key, tuple) else (key,)))
         row["n"] = len(group)
         for name in measures:
-            values = group[name].astype(float).dropna()
+            values = group[name].to_numpy(float)
+            values = values[np.isfinite(values)]
             row[f"{name}.mean"] = values.mean() if len(values) else np.nan
             row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
+            row[f"{name}.count"] = len(values)
         rows.append(row)
     return pd.DataFrame(rows)
 
