@@ -12,6 +12,7 @@ import contextlib
 import logging
 import multiprocessing
 import os
+import resource
 import shutil
 import signal
 import sys
@@ -56,7 +57,7 @@ def run_member(task: Task) -> dict:
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), _cpu_time()
     record = {"id": task.id, "index": task.index, "params": task.params, "status": RUNNING, "error": None,
               "started": now(), "provenance": provenance()}
     write_status(folder, record)
@@ -68,9 +69,16 @@ def run_member(task: Task) -> dict:
         record["status"] = DONE
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         record |= {"status": FAILED, "error": one_line(err)}
-    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3)}
+    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
+               "cpu_time_s": round(_cpu_time() - cpu, 3)}
     write_status(folder, record)
     return {"record": record, "summary": summary}
+
+
+def _cpu_time() -> float:
+    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def one_line(err: BaseException) -> str:
