@@ -103,6 +103,9 @@ def test_sweep_from_python_accepts_a_case(case_factory):
     members = Sweep(base=case, grid={"impactor.velocity": [1.0, 2.0]}).members()
     assert [m.case.impactor.velocity for m in members] == [1.0, 2.0]
     assert members[0].case.chain == case.chain
+    long = case_factory(particles=None, duration=100.0, chain={"far_end": "long"})
+    slow, fast = (m.case for m in Sweep(base=long, grid={"impactor.velocity": [1.0, 3.0]}).members())
+    assert slow.chain.particles < fast.chain.particles  # a long lattice is sized per member
 
 
 @pytest.mark.parametrize(
@@ -275,3 +278,16 @@ def test_example_sweep_file_is_valid():
     assert len(members) == 12 and all(m.case is not None for m in members)
     assert {m.case.chain.particles for m in members} == {21}
     assert len({m.case.chain.seed for m in members}) == 12
+
+
+def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
+    import fcntl
+
+    path = write_sweep(tmp_path, SIX)
+    out = tmp_path / "out"
+    out.mkdir()
+    with open(out / "sweep.lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+    assert "-o: another sweep is running in" in capsys.readouterr().err
+    assert not list((out / "members").iterdir())

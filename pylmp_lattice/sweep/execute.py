@@ -9,7 +9,8 @@ members that are done, collects the rest as they finish, and rewrites the table 
 from __future__ import annotations
 
 import contextlib
-import logging
+import fcntl
+import json
 import multiprocessing
 import os
 import resource
@@ -29,7 +30,7 @@ from .spec import Member, Sweep
 from .store import DONE, FAILED, RUNNING, MEMBERS, member_folder, now, provenance, read_status, write_status
 from .table import member_row, write_table
 
-log = logging.getLogger(__name__)
+LOCK = "sweep.lock"
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,11 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     root = Path(root)
     members = sweep.members()
     (root / MEMBERS).mkdir(parents=True, exist_ok=True)
+    with _lock(root):
+        return _run(sweep, root, members, workers, scheduler, retry_failed, progress)
+
+
+def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, retry_failed, progress) -> pd.DataFrame:
     rows: dict[int, dict] = {}
     todo: list[Member] = []
     for m in members:
@@ -115,13 +121,13 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         record = read_status(folder)
         finished = record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED)
         if finished and (record["status"] == DONE or not retry_failed):
-            rows[m.index] = _row(root, m, record, _summary(folder) if record["status"] == DONE else None)
+            rows[m.index] = _row(m, record, _summary(folder) if record["status"] == DONE else None)
         elif m.case is None:  # invalid parameters: failed without running
             folder.mkdir(parents=True, exist_ok=True)
             record = {"id": m.id, "index": m.index, "params": m.params, "status": FAILED, "error": m.error,
                       "started": now(), "ended": now(), "wall_time_s": 0.0, "provenance": provenance()}
             write_status(folder, record)
-            rows[m.index] = _row(root, m, record, None)
+            rows[m.index] = _row(m, record, None)
         else:
             todo.append(m)
     table = write_table(root, [rows[i] for i in sorted(rows)])
@@ -137,7 +143,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                     result = future.result()
                 except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
                     result = _lost(root, m, err)
-                rows[m.index] = _row(root, m, result["record"], result["summary"])
+                rows[m.index] = _row(m, result["record"], result["summary"])
                 table = write_table(root, [rows[i] for i in sorted(rows)])
                 bar.advance(running=len(futures) - done)
         except KeyboardInterrupt:
@@ -150,17 +156,28 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     return table
 
 
+@contextlib.contextmanager
+def _lock(root: Path):
+    """One coordinator per sweep folder (the kernel drops the lock if the coordinator dies)."""
+    from ..errors import ConfigError
+
+    with open(root / LOCK, "a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
+        yield
+
+
 def _task(root: Path, m: Member, sweep: Sweep) -> Task:
     return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner, sweep.keep)
 
 
-def _row(root: Path, m: Member, record: dict, summary: dict | None) -> dict:
+def _row(m: Member, record: dict, summary: dict | None) -> dict:
     return member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary)
 
 
 def _summary(folder: Path) -> dict | None:
-    import json
-
     from ..simulation import SUMMARY
 
     try:

@@ -114,10 +114,6 @@ class Sweep:
         if self.runner not in RUNNERS:
             raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
 
-    def swept_keys(self) -> list[str]:
-        """The dotted keys that vary between members, in member order."""
-        return list(self.grid) + list(self.zip)
-
     def members(self) -> list[Member]:
         """All members, numbered in sweep order; invalid parameter sets give failed members.
 
@@ -209,7 +205,10 @@ def _hash(data: dict) -> str:
 
 def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
     if isinstance(base, Case):
-        return case_to_dict(base), Path(base_dir)
+        data = case_to_dict(base)
+        if base.chain.far_end == "long":  # N is chosen again for each member's drive and duration
+            del data["chain"]["particles"]
+        return data, Path(base_dir)
     if isinstance(base, dict):
         return copy.deepcopy(base), Path(base_dir)
     path = Path(base)
