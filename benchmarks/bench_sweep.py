@@ -112,7 +112,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     best = {w: min(runs[w]) for w in runs}  # the run with the shortest wall time
     for w in (1, 2):
-        wall, member_wall, cpu = best[w]
+        wall, member_wall, cpu, _ = best[w]
         print(f"| {w} | {wall:.2f} | {args.members / wall:.3f} | {member_wall / wall:.2f} | {cpu / wall:.2f} | "
               f"{best[1][0] / wall:.2f}x |")
     print("members running at once = sum of member wall times / sweep wall time; "
