@@ -100,7 +100,7 @@ def main() -> None:
 
     small_v = [float(v) for v in np.linspace(1.5, 2.8, args.small)]
     small_sweep = Sweep(base=small, grid={"impactor.velocity": small_v})
-    wall, _, _, run_case_wall = min(timed_sweep(small_sweep, 1) for _ in range(args.repeat))
+    small_wall, _, _, run_case_wall = min(timed_sweep(small_sweep, 1) for _ in range(args.repeat))
 
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end "
           "(shared with other users: ratios only)")
@@ -117,7 +117,7 @@ def main() -> None:
               f"{best[1][0] / wall:.2f}x |")
     print("members running at once = sum of member wall times / sweep wall time; "
           "cores used = CPU time of all members / sweep wall time")
-    per_sweep, per_run = wall / args.small, run_case_wall / args.small
+    per_sweep, per_run = small_wall / args.small, run_case_wall / args.small
     print(f"\n2. overhead per member: {args.small} members of the 21-magnet experiment "
           f"({small.run.steps()} steps, friction), 1 worker (best of {args.repeat})")
     print("| per member | wall (s) |")
