@@ -27,6 +27,11 @@ from scipy.signal import find_peaks
 from .units import TO_SI
 
 _HZ_PER_INV_MS = 1.0 / TO_SI["time"]  # 1/ms -> Hz
+# Default levels, as fractions of V_I: the start of motion, the front, and the drop that confirms
+# a peak. The engine's on-the-fly record (fix lattice/front, see `deck`) uses the same ones.
+START_FRACTION = 0.01
+FRONT_FRACTION = 0.5
+PROMINENCE = 0.05
 _BLOCK_ELEMENTS = 1 << 22  # first_peaks works on column blocks of about this many samples
 
 
@@ -60,7 +65,7 @@ def linear_frequency(stiffness: float, mass: float) -> float:
 # ---------------------------------------------------------------------------------------------
 
 
-def arrival_times(t, v, drive_velocity: float, fraction: float = 0.5) -> np.ndarray:
+def arrival_times(t, v, drive_velocity: float, fraction: float = FRONT_FRACTION) -> np.ndarray:
     """Front arrival time of each particle, ms, shape (N,).
 
     The first time v_n(t) reaches fraction * V_I, linearly interpolated between the last sample
@@ -165,9 +170,9 @@ def first_peaks(
     v,
     a,
     drive_velocity: float,
-    start_fraction: float = 0.01,
-    front_fraction: float = 0.5,
-    prominence: float = 0.05,
+    start_fraction: float = START_FRACTION,
+    front_fraction: float = FRONT_FRACTION,
+    prominence: float = PROMINENCE,
 ) -> FirstPeaks:
     """First velocity peak, first peak acceleration and start of motion of every particle.
 
@@ -268,7 +273,7 @@ class Oscillations:
 
 
 def oscillations(
-    t, v, drive_velocity: float, front_fraction: float = 0.5, prominence: float = 0.05
+    t, v, drive_velocity: float, front_fraction: float = FRONT_FRACTION, prominence: float = PROMINENCE
 ) -> Oscillations:
     """Local maxima and minima of one particle's velocity v(t), shape (n_frames,), behind the front.
 
@@ -314,8 +319,8 @@ def steady_oscillation(
     v,
     drive_velocity: float,
     n_periods: int = 3,
-    front_fraction: float = 0.5,
-    prominence: float = 0.05,
+    front_fraction: float = FRONT_FRACTION,
+    prominence: float = PROMINENCE,
 ) -> SteadyOscillation:
     """Stabilized oscillation frequency f and energy ratio eta of one particle, v shape (n_frames,).
 
