@@ -21,7 +21,7 @@ DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
 DUMP = "traj.dump"  # output.format = "text"
-TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned into traj.h5 after the run
+TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned into traj.h5md after the run
 FINE_BIN = "fine.bin"
 FRONT_BIN = "front.bin"  # the front record of fix lattice/front, written at the end of the run
 BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v and f along x
@@ -164,7 +164,7 @@ def _output_lines(case: Case) -> str:
         lines += [f"dump            traj all custom {every} {DUMP} {DUMP_COLUMNS}",
                   "dump_modify     traj sort id time yes format float %.12g"]
     elif out.format == "h5md":
-        # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5.
+        # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5md.
         lines += [f"dump            traj all custom {every} {TRAJ_BIN} {BIN_COLUMNS}",
                   "dump_modify     traj sort id time yes"]
     if out.fine and out.format != "none":

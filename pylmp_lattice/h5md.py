@@ -1,21 +1,24 @@
 """A run's trajectory as an H5MD file (HDF5 in the layout of nongnu.org/h5md, version 1.1).
 
 The deck writes binary LAMMPS dumps (`bindump`); `convert_run` turns them, block by block,
-into `traj.h5` in user units, and `read_group` reads it back, whole or a few particles:
+into `traj.h5md`, and `read_group` reads it back in user units, whole or a few particles:
 
     h5md/                         version [1, 1]; author; creator pylmp_lattice <version>
-    particles/chain/              every magnet, every run.output_interval
+    particles/trajectory/         every magnet, every run.output_interval
         box                       dimension 3, boundary none none none
         id (N,)                   magnet numbers (1 is the impactor)
-        mass (N,)                 g
-        position/value (F, N, 3)  mm; position/step (F,); position/time (F,) ms
-        velocity/value (F, N, 3)  m/s (= mm/ms); step and time are position's
+        mass (N,)                 kg
+        position/value (F, N, 3)  nm; position/step (F,); position/time (F,) s
+        velocity/value (F, N, 3)  m/s; step and time are position's
         force/value (F, N, 3)     N: the total force, friction included
-    particles/fine/               the same for the output.fine magnets, every output.fine_interval
+    particles/trajectory_fine/    the same for the output.fine magnets, every output.fine_interval
     parameters/pylmp_lattice      attribute case: the case as TOML text
 
-y and z are kept as zeros so that readers of 3D trajectories (MDAnalysis's H5MDReader; open
-it with convert_units=False, since it knows no mm) take the file as it is. The datasets are
+Units are the engine's SI ones, lengths in nm (`units.H5MD_UNITS`), each named in its dataset's
+`unit` attribute. y and z are kept as zeros, so that readers of 3D trajectories take the file as
+it is: `MDAnalysis.Universe("traj.h5md")` opens it and converts to its own units (it reads
+only units it knows, hence nm; it infers the atoms from the group "trajectory" and reads the
+first group by name, hence the names). The datasets are
 chunked by blocks of frames and particles and gzip-compressed with byte shuffling
 (output.compression), which every HDF5 build reads; a few particles read back without
 decompressing the others.
@@ -35,16 +38,16 @@ from .bindump import open_dump
 from .case import Case, case_to_dict
 from .deck import FINE_BIN, TRAJ_BIN
 from .trajectory import Trajectory
-from .units import from_engine, to_engine
+from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
 
-FILE = "traj.h5"
-UNITS = {"position": "mm", "velocity": "m s-1", "force": "N", "time": "ms", "mass": "g"}
+FILE = "traj.h5md"
+GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
 _CHUNK_FRAMES, _CHUNK_PARTICLES = 256, 128
 
 
 def convert_run(case: Case, folder: Path) -> Path | None:
-    """Write `folder`/traj.h5 from the run's binary dumps, then remove them; None if there are
+    """Write `folder`/traj.h5md from the run's binary dumps, then remove them; None if there are
     none with a complete frame. The file appears only once complete, so a failure on the way
     leaves the dumps as they were."""
     import h5py
@@ -64,7 +67,7 @@ def convert_run(case: Case, folder: Path) -> Path | None:
     with h5py.File(partial, "w") as h5:
         _write_header(h5, tomli_w.dumps(case_to_dict(case)))
         for group, (dump, group_masses) in groups.items():
-            _write_group(h5.require_group("particles").create_group(group), dump, group_masses,
+            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, group_masses,
                          case.output.compression)
     os.replace(partial, target)
     for dump, _ in groups.values():
@@ -78,22 +81,13 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
     import h5py
 
     with h5py.File(path, "r") as h5:
-        g = h5["particles"][group]
+        g = h5["particles"][GROUPS[group]]
         cols = slice(None) if particles is None else list(particles)
-        x, v, f = (g[name]["value"][:, cols, 0] for name in ("position", "velocity", "force"))
-        t = g["position"]["time"][:]
-        m = g["mass"][cols]
-    return Trajectory(t=t, x0=x[0].copy(), u=x - x[0], v=v,
-                      a=from_engine(to_engine(f, "force") / to_engine(m, "mass"), "acceleration"))
-
-
-def group_ids(path: str | Path, group: str) -> np.ndarray | None:
-    """Magnet numbers of a group (1-based), or None if the file has no such group."""
-    import h5py
-
-    with h5py.File(path, "r") as h5:
-        particles = h5["particles"]
-        return particles[group]["id"][:] if group in particles else None
+        x, v, f = (g[name]["value"][:, cols, 0] for name, _, _ in _FIELDS)
+        t, m = g["position"]["time"][:], g["mass"][cols]
+    x = from_h5md(x, "length")
+    return Trajectory(t=from_h5md(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_h5md(v, "velocity"),
+                      a=from_h5md(f / m, "acceleration"))
 
 
 def _write_header(h5, case_toml: str) -> None:
@@ -111,8 +105,8 @@ def _write_header(h5, case_toml: str) -> None:
 def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
     """Stream the dump's frames into a particle group, converting to user units."""
     n = dump.atoms
-    g["mass"] = masses
-    g["mass"].attrs["unit"] = UNITS["mass"]
+    g["mass"] = to_h5md(to_engine(masses, "mass"), "mass")
+    g["mass"].attrs["unit"] = H5MD_UNITS["mass"][0]
     box = g.create_group("box")
     box.attrs["dimension"] = 3
     box.attrs["boundary"] = np.array([b"none"] * 3)
@@ -122,20 +116,20 @@ def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
                                       chunks=chunks, **filters) for name, _, _ in _FIELDS}
     step = g.create_dataset("position/step", shape=(0,), maxshape=(None,), dtype="i8", chunks=(4096,))
     time = g.create_dataset("position/time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
-    time.attrs["unit"] = UNITS["time"]
+    time.attrs["unit"] = H5MD_UNITS["time"][0]
     for name, _, _ in _FIELDS[1:]:  # H5MD lets elements share step and time (hard links)
         g[f"{name}/step"], g[f"{name}/time"] = step, time
-    for name, _, _ in _FIELDS:
-        values[name].attrs["unit"] = UNITS[name]
+    for name, _, quantity in _FIELDS:
+        values[name].attrs["unit"] = H5MD_UNITS[quantity][0]
     done = 0
     for block in dump.blocks():
         k = len(block.step)
         for ds in (*values.values(), step, time):
             ds.resize(done + k, axis=0)
-        step[done:], time[done:] = block.step, from_engine(block.time, "time")
+        step[done:], time[done:] = block.step, to_h5md(block.time, "time")
         frame = np.zeros((k, n, 3))
         for name, column, quantity in _FIELDS:
-            frame[:, :, 0] = from_engine(block.data[:, :, dump.column(column)], quantity)
+            frame[:, :, 0] = to_h5md(block.data[:, :, dump.column(column)], quantity)
             values[name][done:] = frame
         if done == 0:
             g["id"] = block.data[0, :, dump.column("id")].astype(np.int64)

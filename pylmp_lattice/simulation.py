@@ -34,7 +34,7 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
     """Write `case` into `folder` and run it there; return the folder.
 
     runner = "embedded" uses the LAMMPS Python module in this process; "lmp" the executable
-    (with mpiexec for nprocs > 1). The trajectory becomes traj.h5 also when the run fails or
+    (with mpiexec for nprocs > 1). The trajectory becomes traj.h5md also when the run fails or
     stops early, so the folder keeps every frame written before the stop.
     """
     if runner not in RUNNERS:
@@ -57,7 +57,7 @@ def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
 
 
 def load_trajectory(case: Case, folder: str | Path, group: str = "chain", particles=None) -> Trajectory:
-    """The trajectory in a run folder: traj.h5 (binary dumps of a deck run by hand are converted
+    """The trajectory in a run folder: traj.h5md (binary dumps of a deck run by hand are converted
     first) or the text dump.
 
     group: "chain" (every magnet) or "fine" (the output.fine magnets at output.fine_interval).

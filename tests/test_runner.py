@@ -49,7 +49,7 @@ def test_cli_reports_contact_in_one_line(tmp_path):
     assert done.returncode == 1
     errors = [line for line in done.stderr.splitlines() if "error" in line]
     assert len(errors) == 1 and "magnets 19 and 20 touched" in errors[0] and "t = 68.6" in errors[0]
-    assert "Traceback" not in done.stderr and (tmp_path / "run" / "traj.h5").exists()
+    assert "Traceback" not in done.stderr and (tmp_path / "run" / "traj.h5md").exists()
 
 
 def test_deck_runs_unchanged_with_lmp_and_matches_embedded(tmp_path):
