@@ -12,7 +12,7 @@ import numpy as np
 from .case import Case
 from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
-from .measures import FRONT_FRACTION, PROMINENCE, START_FRACTION
+from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -25,7 +25,7 @@ TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned int
 FINE_BIN = "fine.bin"
 FRONT_BIN = "front.bin"  # the front record of fix lattice/front, written at the end of the run
 BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v and f along x
-FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 7))
+FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 8))
 LOG = "log.lammps"
 PISTON = "piston.txt"
 # Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
@@ -179,7 +179,8 @@ def _output_lines(case: Case) -> str:
         levels = (START_FRACTION * vi, FRONT_FRACTION * vi, PROMINENCE * vi)
         lines += ["# Front arrival and first peak of every magnet, from every step (plugin fix; the",
                   "# definitions of measures.py, levels as fractions of V_I); written after the run.",
-                  "fix             front all lattice/front start {} front {} drop {}".format(*map(_num, levels))]
+                  "fix             front all lattice/front start {} front {} drop {} pulse_drop {}".format(
+                      *map(_num, levels), _num(PULSE_DROP))]
     return "\n".join(lines) if lines else "# no per-frame output (output.format = 'none')"
 
 

@@ -22,7 +22,7 @@ from .units import from_engine
 
 # fix lattice/front's columns, in the order of deck.FRONT_COLUMNS, and their quantities
 _COLUMNS = (("start_time", "time"), ("arrival", "time"), ("peak_time", "time"), ("peak_velocity", "velocity"),
-            ("peak_acceleration", "acceleration"), ("max_speed", "velocity"))
+            ("peak_acceleration", "acceleration"), ("max_speed", "velocity"), ("pulse_arrival", "time"))
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,10 @@ def has_front_record(folder: str | Path) -> bool:
     return (Path(folder) / FRONT_BIN).is_file()
 
 
-def read_front_record(case: Case, folder: str | Path) -> FrontRecord:
+def read_front_record(case: Case, folder: str | Path, arrival_method: str = "level") -> FrontRecord:
+    """The record; arrival by `arrival_method`, "level" or "velocity_peak" (see measures.arrival)."""
+    if arrival_method not in ("level", "velocity_peak"):
+        raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     frame = open_dump(Path(folder) / FRONT_BIN).read()
     record = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(_COLUMNS)}
     end = float(from_engine(frame.time[-1], "time"))
@@ -49,6 +52,7 @@ def read_front_record(case: Case, folder: str | Path) -> FrontRecord:
     drive = measures.first_peaks(t, v, a, vi)
     peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
                                   for f in fields(measures.FirstPeaks)))
-    arrival = np.concatenate([measures.arrival_times(t, v, vi), record["arrival"][1:]])
-    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks)
+    column = "arrival" if arrival_method == "level" else "pulse_arrival"
+    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method), record[column][1:]])
+    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method)
     return FrontRecord(front, record["max_speed"], end)

@@ -86,12 +86,18 @@ def measure_run(case: Case, folder: str | Path) -> tuple[measures.Front | None, 
     """The run's front measures and each magnet's largest |v| (m/s): from the engine's record
     when the run has one, else from the whole trajectory. (None, None) without a drive."""
     if has_front_record(folder):
-        record = read_front_record(case, folder)
+        record = read_front_record(case, folder, arrival_method(case))
         return record.front, record.max_speed
     traj = load_trajectory(case, folder)
     vi = case.impactor.peak_velocity()
-    front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps()) if vi > 0 else None
+    front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), arrival_method(case)) if vi > 0 else None
     return front, np.max(np.abs(traj.v), axis=0)
+
+
+def arrival_method(case: Case) -> str:
+    """A pulse's arrival is its first velocity peak (far from the impactor it may never reach
+    V_I/2); any other drive's is the crossing of V_I/2."""
+    return measures.default_arrival_method(pulse=case.impactor.profile == "sine")
 
 
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,

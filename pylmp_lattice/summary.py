@@ -61,10 +61,12 @@ def _maximum(vp: np.ndarray) -> dict | None:
 
 
 def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
-    """A plateau as JSON: particle numbers 1-based, as in the paper."""
+    """A plateau as JSON: particle numbers 1-based, as in the paper. A drifting series (e.g. V_P
+    decaying by friction) is reported with converged = false: its mean is not a plateau."""
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
+        "converged": p.converged(),
         "particles": [p.start + offset + 1, p.stop + offset],
     }

@@ -32,16 +32,21 @@ def test_bad_output_settings_name_the_field(section, message):
         make_case(output=section)
 
 
+PULSE = {"profile": "sine", "velocity": 2.0, "duration": 10.0}
+
+
 @lammps
-@pytest.mark.parametrize("friction", [None, FRICTION], ids=["frictionless", "friction"])
-def test_front_record_equals_the_array_measures_of_every_step(tmp_path, friction):
+@pytest.mark.parametrize("sections, method", [
+    ({}, "level"), ({"friction": FRICTION}, "level"), ({"impactor": PULSE}, "velocity_peak"),
+    ({"impactor": PULSE, "friction": FRICTION}, "velocity_peak"),
+], ids=["constant", "constant-friction", "pulse", "pulse-friction"])
+def test_front_record_equals_the_array_measures_of_every_step(tmp_path, sections, method):
     """Sampled at every step, the engine's record and measures.front see the same numbers."""
-    sections = {"friction": friction} if friction else {}
     case = make_case(particles=40, duration=40.0, interval=0.01, **sections)
     traj = simulate(case, tmp_path)
-    arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps())
-    record = read_front_record(case, tmp_path).front
-    assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 10
+    arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps(), method)
+    record = read_front_record(case, tmp_path, method).front
+    assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 8 and np.sum(np.isfinite(record.arrival)) >= 8
     for a, b in ((arrays.arrival, record.arrival), *zip(_peak_fields(arrays), _peak_fields(record))):
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
         np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-12)

@@ -3,15 +3,16 @@
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
-   fix ID group-ID lattice/front start S front L drop D
+   fix ID group-ID lattice/front start S front L drop D pulse_drop R
 
    S, L, D = velocity levels (velocity units, m/s in units si), 0 < S <= L, D > 0
+   R = relative fall that confirms a pulse's maximum, 0 < R < 1
 
 Example
-   fix front all lattice/front start 0.02 front 1.0 drop 0.1
+   fix front all lattice/front start 0.02 front 1.0 drop 0.1 pulse_drop 0.1
    ...
    run 60000
-   write_dump all custom front.bin id f_front[1] f_front[2] f_front[3] f_front[4] f_front[5] f_front[6] modify sort id
+   write_dump all custom front.bin id f_front[*] modify sort id time yes
 
 Description
    Every time step (and once in the setup of the first run) the fix samples each atom's
@@ -24,6 +25,7 @@ Description
      4 first peak velocity
      5 first peak acceleration
      6 largest |v| so far
+     7 pulse arrival: time of the first maximum of v from the start of motion
    They are the array measures of pylmp_lattice/measures.py (arrival_times, first_peaks)
    applied to the record of every step, with the same definitions:
    - a crossing time is interpolated linearly between the last sample below the level and
@@ -32,7 +34,10 @@ Description
      by D below the running maximum; its time and value are the vertex of the parabola
      through it and its two neighbouring samples (where these are concave);
    - the first peak acceleration is the largest a from the first sample at or above S up
-     to the peak's sample, refined by the same parabola when it lies strictly inside.
+     to the peak's sample, refined by the same parabola when it lies strictly inside;
+   - the pulse arrival (measures.arrival_times, method "velocity_peak") is found like the
+     first peak, but searched from the first sample at or above S and confirmed by a fall of
+     R times the maximum.
    Ties go to the earliest sample, as numpy's argmax does. Atoms outside the group keep
    NaN. The records move with their atoms between MPI ranks.
 
@@ -55,20 +60,39 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 namespace {
-// Columns of a record. The first NOUT are the fix's output; the rest is running state:
-// the previous sample, the candidate peak of v with its neighbours (M: before, P: after),
-// the running maximum of a since the start sample (ARUN_*) and its value when the current
-// candidate peak was set (ASNAP_*, the window that ends at the peak).
+// Columns of a record. The first NOUT are the fix's output; the rest is running state: the
+// previous sample, and blocks that follow a running maximum with its neighbouring samples
+// (value, time, value before, its time, value after, its time): the candidate first peak of v
+// (BEST_*), the candidate pulse maximum of v (PULSE_*), the running maximum of a since the
+// start sample (ARUN_*) and its value when the candidate first peak was set (ASNAP_*, the
+// window that ends at the peak).
 enum {
-  T_START, T_ARRIVAL, T_PEAK, V_PEAK, A_PEAK, V_ABS_MAX, NOUT,
-  V_PREV = NOUT, A_PREV, TS_START, DONE,
+  T_START, T_ARRIVAL, T_PEAK, V_PEAK, A_PEAK, V_ABS_MAX, T_PULSE, NOUT,
+  V_PREV = NOUT, A_PREV, TS_START, DONE, PULSE_DONE,
   BEST_V, BEST_T, BEST_VM, BEST_TM, BEST_VP, BEST_TP,
+  PULSE_V, PULSE_T, PULSE_VM, PULSE_TM, PULSE_VP, PULSE_TP,
   ARUN_A, ARUN_T, ARUN_AM, ARUN_TM, ARUN_AP, ARUN_TP,
   ASNAP_A, ASNAP_T, ASNAP_AM, ASNAP_TM, ASNAP_AP, ASNAP_TP,
   NCOL
 };
-constexpr int MAXIMUM = 6;    // columns in a (value, time, before, time, after, time) block
+constexpr int MAXIMUM = 6;    // columns in a maximum block
 const double NaN = std::numeric_limits<double>::quiet_NaN();
+
+// A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
+void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
+{
+  const double row[MAXIMUM] = {y, t, y_prev, t_prev, NaN, NaN};
+  std::memcpy(m, row, sizeof(row));
+}
+
+// The sample after a maximum is its right neighbour.
+void fill_right(double *m, double y, double t, double t_prev)
+{
+  if (m[1] == t_prev && std::isnan(m[4])) {
+    m[4] = y;
+    m[5] = t;
+  }
+}
 
 // First time v reaches level, between samples (t0, v0) below it and (t1, v1).
 double crossing(double level, double t0, double v0, double t1, double v1)
@@ -95,10 +119,10 @@ void refine(const double *m, double &t_out, double &y_out)
 FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), rec(nullptr), rows(0), t_prev(0.0), step_prev(-1)
 {
-  if (narg != 9) utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D", error);
-  const char *keys[3] = {"start", "front", "drop"};
-  double *values[3] = {&start_level, &front_level, &drop};
-  for (int k = 0; k < 3; k++) {
+  if (narg != 11) utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R", error);
+  const char *keys[4] = {"start", "front", "drop", "pulse_drop"};
+  double *values[4] = {&start_level, &front_level, &drop, &pulse_drop};
+  for (int k = 0; k < 4; k++) {
     if (strcmp(arg[3 + 2 * k], keys[k]) != 0)
       error->all(FLERR, "Fix lattice/front: expected '{}', got '{}'", keys[k], arg[3 + 2 * k]);
     *values[k] = utils::numeric(FLERR, arg[4 + 2 * k], false, lmp);
@@ -107,6 +131,8 @@ FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
     error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", start_level,
                front_level);
   if (!(drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", drop);
+  if (!(pulse_drop > 0.0 && pulse_drop < 1.0))
+    error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", pulse_drop);
 
   peratom_flag = 1;
   size_peratom_cols = NOUT;
@@ -153,15 +179,9 @@ void FixLatticeFront::sample()
     const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
     if (!(std::fabs(vi) <= r[V_ABS_MAX])) r[V_ABS_MAX] = std::fabs(vi);    // NaN at first
 
-    // the sample after a maximum is its right neighbour
-    if (r[DONE] != 1.0 && r[BEST_T] == t_prev && std::isnan(r[BEST_VP])) {
-      r[BEST_VP] = vi;
-      r[BEST_TP] = t;
-    }
-    if (r[ARUN_T] == t_prev && std::isnan(r[ARUN_AP])) {
-      r[ARUN_AP] = ai;
-      r[ARUN_TP] = t;
-    }
+    fill_right(&r[BEST_V], vi, t, t_prev);
+    fill_right(&r[PULSE_V], vi, t, t_prev);
+    fill_right(&r[ARUN_A], ai, t, t_prev);
 
     if (std::isnan(r[T_START]) && vi >= start_level) {
       r[T_START] = first ? t : crossing(start_level, t_prev, r[V_PREV], t, vi);
@@ -173,16 +193,25 @@ void FixLatticeFront::sample()
       arrived_now = true;
     }
 
-    if (r[DONE] != 1.0 && !std::isnan(r[TS_START]) && (std::isnan(r[ARUN_A]) || ai > r[ARUN_A])) {
-      const double row[MAXIMUM] = {ai, t, t == r[TS_START] ? NaN : r[A_PREV], t_prev, NaN, NaN};
-      std::memcpy(&r[ARUN_A], row, sizeof(row));
+    const bool started_now = t == r[TS_START];
+    const double v_before = first ? NaN : r[V_PREV];
+    if (r[DONE] != 1.0 && !std::isnan(r[TS_START]) && (started_now || ai > r[ARUN_A]))
+      set_maximum(&r[ARUN_A], ai, t, started_now ? NaN : r[A_PREV], t_prev);
+
+    if (r[PULSE_DONE] != 1.0 && !std::isnan(r[TS_START])) {
+      if (started_now || vi > r[PULSE_V]) {
+        set_maximum(&r[PULSE_V], vi, t, v_before, t_prev);
+      } else if (vi <= r[PULSE_V] - pulse_drop * std::fabs(r[PULSE_V])) {
+        r[PULSE_DONE] = 1.0;
+        double v_max;
+        refine(&r[PULSE_V], r[T_PULSE], v_max);
+      }
     }
 
     if (r[DONE] != 1.0 && !std::isnan(r[T_ARRIVAL])) {
       if (arrived_now || vi > r[BEST_V]) {
-        const double row[MAXIMUM] = {vi, t, first ? NaN : r[V_PREV], t_prev, NaN, NaN};
-        std::memcpy(&r[BEST_V], row, sizeof(row));
-        std::memcpy(&r[ASNAP_A], &r[ARUN_A], sizeof(row));
+        set_maximum(&r[BEST_V], vi, t, v_before, t_prev);
+        std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
       } else if (vi <= r[BEST_V] - drop) {
         r[DONE] = 1.0;
         refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);

@@ -23,6 +23,7 @@ class FixLatticeFront : public Fix {
 
  private:
   double start_level, front_level, drop;    // velocity levels (velocity units)
+  double pulse_drop;                         // relative fall that confirms a pulse's maximum
   double **rec;                              // per-atom record: outputs, then running state
   int rows;                                  // rows of rec allocated
   double t_prev;                             // time of the previous sample
