@@ -149,7 +149,7 @@ def _read_frame(f, path: Path, data: bool = True) -> _Frame | None:
             raise DumpFormatError(f"{path}: triclinic boxes are not supported")
         take("<i4", 6), take("<f8", 6)  # boundary flags, box bounds
         ncol, unit_len = (int(x) for x in take("<i4", 2))
-        take("S1", unit_len) if unit_len else None
+        f.read(unit_len)  # the unit style, written with `dump_modify units yes`
         if take("u1")[0] != 1:
             raise DumpFormatError(f"{path}: frames carry no time; expected `dump_modify ... time yes`")
         time = float(take("<f8")[0])

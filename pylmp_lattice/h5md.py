@@ -19,8 +19,8 @@ Units are the engine's SI ones, lengths in nm (`units.H5MD_UNITS`), each named i
 it is: `MDAnalysis.Universe("traj.h5md")` opens it and converts to its own units (it reads
 only units it knows, hence nm; it infers the atoms from the group "trajectory" and reads the
 first group by name, hence the names). The datasets are
-chunked by blocks of frames and particles and gzip-compressed with byte shuffling
-(output.compression), which every HDF5 build reads; a few particles read back without
+chunked by blocks of frames and particles, one component a chunk, and gzip-compressed with byte
+shuffling (output.compression), which every HDF5 build reads; a few particles read back without
 decompressing the others.
 """
 
@@ -111,7 +111,9 @@ def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
     box.attrs["dimension"] = 3
     box.attrs["boundary"] = np.array([b"none"] * 3)
     filters = {"compression": "gzip", "compression_opts": compression, "shuffle": True} if compression else {}
-    chunks = (_CHUNK_FRAMES, min(n, _CHUNK_PARTICLES), 3)
+    # One component a chunk: y and z are never written, so HDF5 stores no chunk for them and
+    # reads its fill value, 0, without compressing or storing anything.
+    chunks = (_CHUNK_FRAMES, min(n, _CHUNK_PARTICLES), 1)
     values = {name: g.create_dataset(f"{name}/value", shape=(0, n, 3), maxshape=(None, n, 3), dtype="f8",
                                       chunks=chunks, **filters) for name, _, _ in _FIELDS}
     step = g.create_dataset("position/step", shape=(0,), maxshape=(None,), dtype="i8", chunks=(4096,))
@@ -127,10 +129,8 @@ def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
         for ds in (*values.values(), step, time):
             ds.resize(done + k, axis=0)
         step[done:], time[done:] = block.step, to_h5md(block.time, "time")
-        frame = np.zeros((k, n, 3))
         for name, column, quantity in _FIELDS:
-            frame[:, :, 0] = to_h5md(block.data[:, :, dump.column(column)], quantity)
-            values[name][done:] = frame
+            values[name][done:, :, 0] = to_h5md(block.data[:, :, dump.column(column)], quantity)
         if done == 0:
             g["id"] = block.data[0, :, dump.column("id")].astype(np.int64)
         done += k
