@@ -19,9 +19,9 @@ Units are the engine's SI ones, lengths in nm (`units.H5MD_UNITS`), each named i
 it is: `MDAnalysis.Universe("traj.h5md")` opens it and converts to its own units (it reads
 only units it knows, hence nm; it infers the atoms from the group "trajectory" and reads the
 first group by name, hence the names). The datasets are
-chunked by blocks of frames and particles, one component a chunk, and gzip-compressed with byte
-shuffling (output.compression), which every HDF5 build reads; a few particles read back without
-decompressing the others.
+chunked by blocks of frames and particles, one component a chunk, and compressed with byte
+shuffling (output.compression: lzf, h5py's fast filter, by default; gzip for readers that use the
+HDF5 library without h5py); a few particles read back without decompressing the others.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
 FILE = "traj.h5md"
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
-_CHUNK_FRAMES, _CHUNK_PARTICLES = 256, 128
+_CHUNK_FRAMES, _CHUNK_PARTICLES = 1024, 32  # 256 kB chunks
 
 
 def convert_run(case: Case, folder: Path) -> Path | None:
@@ -102,7 +102,7 @@ def _write_header(h5, case_toml: str) -> None:
     h5.create_group("parameters/pylmp_lattice").attrs["case"] = case_toml
 
 
-def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
+def _write_group(g, dump, masses: np.ndarray, compression: str) -> None:
     """Stream the dump's frames into a particle group, converting to user units."""
     n = dump.atoms
     g["mass"] = to_h5md(to_engine(masses, "mass"), "mass")
@@ -110,7 +110,7 @@ def _write_group(g, dump, masses: np.ndarray, compression: int) -> None:
     box = g.create_group("box")
     box.attrs["dimension"] = 3
     box.attrs["boundary"] = np.array([b"none"] * 3)
-    filters = {"compression": "gzip", "compression_opts": compression, "shuffle": True} if compression else {}
+    filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
     # One component a chunk: y and z are never written, so HDF5 stores no chunk for them and
     # reads its fill value, 0, without compressing or storing anything.
     chunks = (_CHUNK_FRAMES, min(n, _CHUNK_PARTICLES), 1)

@@ -75,7 +75,9 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
     front: the run's front measures for panels (b) and (c)."""
     plt = pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
+    # fixed margins: a constrained layout would cost more than drawing the panels
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), gridspec_kw={"left": 0.07, "right": 0.93, "bottom": 0.07,
+                                                                  "top": 0.97, "wspace": 0.4, "hspace": 0.22})
     if profiles is None:
         for ax in (axes[0, 0], axes[1, 1]):
             ax.text(0.5, 0.5, "no trajectory written\n(output.format = 'none')", ha="center", va="center",
