@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import find_peaks
 
 from ._common import (
     FRONT_FRACTION, HZ_PER_INV_MS, NAN, PROMINENCE, check_history, first_crossing,
@@ -57,6 +56,8 @@ def oscillations(
     t, v = check_history(t, v, single=True)
     require_positive(drive_velocity=drive_velocity, front_fraction=front_fraction, prominence=prominence)
     i_front = first_crossing(t, v[:, None], front_fraction * drive_velocity)[0][0]
+    from scipy.signal import find_peaks  # here: scipy.signal takes longer to import than most runs take to measure
+
     extrema = []
     for sign in (1.0, -1.0):
         i = find_peaks(sign * v, prominence=prominence * drive_velocity)[0]
