@@ -1,8 +1,8 @@
 """The case: a typed, validated description of one simulation, loadable from TOML.
 
 All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
-A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table] and
-[friction] (absent: no friction);
+A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table],
+[friction] (absent: no friction) and [second_neighbour] (absent: nearest neighbours only);
 `case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
 """
 
@@ -133,6 +133,38 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class SecondNeighbour:
+    """Interaction between magnets n and n+2 (paper Sec. S2: about 5 % of the nearest one, and
+    attractive, since the magnets alternate in polarity): F2(d) = sign * law.force(d), with d =
+    x_(n+2) - x_n the separation of the pair in mm (the sum of the two gaps between them),
+    positive F2 repelling. law: any nearest-neighbour law form (`[second_neighbour] law = ...`
+    with its parameters); sign: -1 attractive, +1 repulsive.
+    """
+
+    law: ForceLaw
+    sign: float = -1.0
+
+    def __post_init__(self):
+        if self.sign not in (-1, 1):
+            raise ConfigError("second_neighbour.sign", f"got {self.sign!r}; expected -1 (attractive) or 1 (repulsive)")
+
+    def force(self, d):
+        """F2(d), N (positive repels)."""
+        return self.sign * self.law.force(d)
+
+    def energy(self, d):
+        """U2(d), mJ, with F2 = -dU2/dd."""
+        return self.sign * self.law.energy(d)
+
+    def stiffness(self, d):
+        """-dF2/dd, N/mm (negative for an attraction that weakens with distance)."""
+        return self.sign * self.law.stiffness(d)
+
+    def __repr__(self):
+        return f"SecondNeighbour({'attractive' if self.sign < 0 else 'repulsive'} {self.law!r})"
+
+
+@dataclass(frozen=True)
 class Case:
     chain: Chain
     force: ForceLaw
@@ -140,6 +172,7 @@ class Case:
     run: RunSettings
     table: TableSettings = TableSettings()
     friction: Friction | None = None  # None: frictionless
+    second_neighbour: SecondNeighbour | None = None  # None: nearest neighbours only
     name: str = "case"
 
     def __post_init__(self):
@@ -147,6 +180,10 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
         lo, hi = self.table_range()
+        if self.second_neighbour is not None and self.second_neighbour.law.domain()[0] > 2 * lo:
+            d = self.second_neighbour.law.domain()
+            raise ConfigError("second_neighbour", f"the law's range [{d[0]}, {d[1]}] mm must start at or below "
+                              f"{2 * lo} mm, twice the nearest table's start")
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
         if self.force.domain()[0] > min(self.chain.gaps()) or self.force.domain()[1] < hi:
@@ -164,6 +201,21 @@ class Case:
         r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.r0))
         return self.force.domain()[0], r_max
 
+    def second_table_range(self) -> tuple[float, float]:
+        """Separations d = x_(n+2) - x_n covered by the second-neighbour table, mm: twice the
+        nearest table's range (both gaps within it)."""
+        lo, hi = self.table_range()
+        return 2 * lo, 2 * hi
+
+    def held(self) -> list[int]:
+        """0-based indices of the magnets held at the far end: the last one; for a long lattice
+        with second neighbours the last two, so that every free magnet starts in balance (a
+        magnet next to a single held one would feel its second neighbour on one side only)."""
+        n = self.chain.particles
+        if self.second_neighbour is not None and self.chain.far_end == "long":
+            return [n - 2, n - 1]
+        return [n - 1]
+
     def stability_limit(self) -> float:
         """Largest stable velocity-Verlet time step, ms.
 
@@ -171,10 +223,14 @@ class Case:
         masses >= m_min is below 2 sqrt(k_max/m_min); Verlet is stable for omega dt < 2, so
         dt < sqrt(m_min/k_max). k_max is the largest stiffness over the table's range
         (for the paper's law at contact, r = 0: 0.4535 ms). sqrt(g / (N/mm)) is exactly 1 ms.
+        With second neighbours of stiffness |k2| <= k2_max (Gershgorin: omega^2 <= 4 (k_max +
+        k2_max)/m), k_max + k2_max takes the place of k_max.
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
         k_max = float(np.max(self.force.stiffness(r)))
+        if self.second_neighbour is not None:
+            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
         return math.sqrt(float(np.min(self.chain.masses())) / k_max)
 
 
@@ -227,7 +283,7 @@ def apply_override(data: dict, item: str) -> None:
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     data = dict(data)
     name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table", "friction"}
+    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour"}
     for key in data:
         if key not in sections:
             raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
@@ -256,6 +312,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
+        second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=str(name),
     )
 
@@ -273,12 +330,31 @@ def case_to_dict(case: Case) -> dict:
     ):
         if obj is None:
             continue
-        d = {tag[0]: tag[1]} if tag else {}
-        for f in fields(obj):
-            value = getattr(obj, f.name)
-            if f.init and value is not None:
-                d[f.name] = list(value) if isinstance(value, tuple) else value
-        out[section] = d
+        out[section] = ({tag[0]: tag[1]} if tag else {}) | _fields(obj)
+    if case.second_neighbour is not None:
+        sn = case.second_neighbour
+        out["second_neighbour"] = {"law": sn.law.law, **_fields(sn.law), "sign": sn.sign}
+    return out
+
+
+def _second_neighbour(values: dict) -> SecondNeighbour:
+    values = dict(values)
+    law, sign = values.pop("law", "power"), values.pop("sign", -1.0)
+    if law not in FORCE_LAWS or law == "sampled":
+        allowed = [k for k in FORCE_LAWS if k != "sampled"]
+        raise ConfigError("second_neighbour.law", f"got {law!r}; choose one of {', '.join(allowed)}")
+    if isinstance(sign, bool) or not isinstance(sign, (int, float)):
+        raise ConfigError("second_neighbour.sign", f"got {sign!r}; expected -1 (attractive) or 1 (repulsive)")
+    return SecondNeighbour(_build(FORCE_LAWS[law], "second_neighbour", values), float(sign))
+
+
+def _fields(obj) -> dict:
+    """A case dataclass's given fields as TOML values (tuples as lists)."""
+    out = {}
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if f.init and value is not None:
+            out[f.name] = list(value) if isinstance(value, tuple) else value
     return out
 
 
