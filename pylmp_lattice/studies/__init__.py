@@ -23,6 +23,9 @@ log = logging.getLogger(__name__)
 
 # name -> title; the module pylmp_lattice.studies.<name> runs it.
 STUDIES: dict[str, str] = {
+    "fig1": "Fig. 1(b, c): the 21-magnet experiment with a smooth synthetic impact; rise times",
+    "fig2": "Fig. 2: force and stiffness against separation, the power-law fit, magnets 2 and 8",
+    "fig3": "Fig. 3(a-e): the long lattice at V_I = 2 m/s without friction, and the transition zone",
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
 }
 
