@@ -27,6 +27,7 @@ STUDIES: dict[str, str] = {
     "fig2": "Fig. 2: force and stiffness against separation, the power-law fit, magnets 2 and 8",
     "fig3": "Fig. 3(a-e): the long lattice at V_I = 2 m/s without friction, and the transition zone",
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
+    "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",
 }
 
 

@@ -32,12 +32,15 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 200.0 if quick else 600.0
     case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
     traj = simulate(case, out / NAME / case.name)
+    result = analyse(NAME, traj, case, VI, duration, quick)
+    result.numbers["paper"] = PAPER
+    return result
+
+
+def analyse(name, traj, case, vi, duration, quick, zone=True) -> StudyResult:
+    """Fig. 3's measures and figure for a constant-drive run (also the linear lattice's, S5);
+    `zone`: measure the transition zone (settling into particle 10's steady oscillation)."""
     v0, f0 = linear_constants(case)
-    return analyse(NAME, traj, case, VI, v0, f0, duration, quick)
-
-
-def analyse(name, traj, case, vi, v0, f0, duration, quick):
-    """Fig. 3's measures and figure for a constant-drive run (also used by the linear lattice)."""
     t, v, a = traj.t, traj.v, traj.a
     gaps = case.chain.gaps()
     front = measures.front(t, v, a, vi, gaps)
@@ -54,12 +57,13 @@ def analyse(name, traj, case, vi, v0, f0, duration, quick):
 
     # transition zone: settled = within 0.1 V_I of particle 10's steady maxima and minima
     ref = steady[9]
-    zone = None
-    if ref.measured:
+    if zone and ref.measured:
         onset = measures.steady_onset_times(t, v[:, :reached], vi, (ref.max_velocity, ref.min_velocity))
         # up to 0.9 T: a particle settling later cannot show the extrema that confirm it
         times = np.arange(0.1 * duration, 0.9 * duration + 1e-9, duration / 20)
         zone = measures.transition_zone(times, front.arrival[:reached], onset)
+    else:
+        zone = None
 
     numbers = {
         "V_I_m_per_s": vi,
@@ -80,7 +84,6 @@ def analyse(name, traj, case, vi, v0, f0, duration, quick):
         "steady_oscillation": {f"n={n + 1}": s.to_dict() | {"f_over_f0": s.frequency / f0} for n, s in steady.items()},
         "transition_zone": zone,
         "transition_zone_growth_particles_per_ms": _growth(zone),
-        "paper": PAPER,
     }
     tables = {
         "particles": {
