@@ -28,6 +28,7 @@ STUDIES: dict[str, str] = {
     "fig3": "Fig. 3(a-e): the long lattice at V_I = 2 m/s without friction, and the transition zone",
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
     "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",
+    "s9": "Fig. S9: phase portraits of magnet 10 for V_I = 0.01, 0.1, 1, 2 m/s",
 }
 
 
