@@ -30,6 +30,8 @@ STUDIES: dict[str, str] = {
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
     "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",
     "s9": "Fig. S9: phase portraits of magnet 10 for V_I = 0.01, 0.1, 1, 2 m/s",
+    "movies": "Movies S1 and S2: the experiment's magnets, and the long lattice's growing transition zone",
+    "all": "every study above, into one folder",
 }
 
 

@@ -5,7 +5,7 @@ Per V_I: the steady oscillation of magnet 10 in the last fifth of the run (NaN w
 when it has decayed: the magnet then moves with the impactor, Fig. S9(a, b)), the extent of the
 orbit there, and the transition cycles: velocity maxima of magnet 10 between the front and its
 settling into that final state (within 0.1 V_I of its final maxima and minima; of V_I itself
-when the oscillation decays). Full: 600 ms; quick: 250 ms.
+when the oscillation decays). Full: 600 ms; quick: 200 ms.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ PARTICLE = 9  # 0-based: magnet 10, and the gap to magnet 11
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
-    duration = 250.0 if quick else 600.0
+    duration = 200.0 if quick else 600.0
     window = (0.8 * duration, duration)
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 8), layout="constrained")
