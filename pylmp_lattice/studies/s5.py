@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import measures
+from ..exact import harmonic_piston_velocity
 from ..simulation import simulate
 from .common import MASS, PAPER_FORCE, R0, paper_case
 from .fig3 import analyse
@@ -49,7 +50,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     span = 2.2e3 / result.numbers["f0_Hz"]  # ms: two periods at f0, the band edge, and a margin
     edges = np.arange(t0 + 0.2 * (duration - t0), duration, span)
     windows = list(zip(edges, edges[1:]))
-    exact_v = exact_velocity(traj.t, PARTICLE, np.sqrt(k / MASS), VI)
+    exact_v = harmonic_piston_velocity(PARTICLE, traj.t, VI, np.sqrt(k / MASS))[:, 0]
     eta, eta_exact = (np.array([measures.steady_oscillation(traj.t, vv, VI, w, prominence=DECAY_PROMINENCE).energy_ratio
                                 for w in windows]) for vv in (traj.v[:, PARTICLE], exact_v))
     mid = 0.5 * (edges[1:] + edges[:-1])
@@ -67,17 +68,3 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     result.tables["decay"] = {"window_mid_ms": mid, "eta": eta, "eta_exact": eta_exact}
     return result
 
-
-def exact_velocity(t, n: int, omega: float, vi: float):
-    """Velocity (m/s) of particle n of the semi-infinite harmonic chain driven at v_0 = V_I from
-    rest: v_n = V_I [J_2n(x) + 2 sum_{m>n} J_2m(x)], x = 2 omega t (omega in 1/ms, t in ms)."""
-    from scipy.special import jv
-
-    x = 2 * omega * np.asarray(t, float)
-    m = np.arange(n + 1, n + 1 + int(x.max()) + 60)  # J_2m(x) < 1e-20 beyond 2m > x + 100
-    return vi * (jv(2 * n, x) + 2 * jv(2 * m[None, :], x[:, None]).sum(axis=1))
-
-
-def _finite(result):
-    a = np.asarray(result.tables["particles"]["first_peak_acceleration_m_per_s2"], float)[1:]
-    return a[np.isfinite(a)]
