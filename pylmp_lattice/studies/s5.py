@@ -68,3 +68,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     result.tables["decay"] = {"window_mid_ms": mid, "eta": eta, "eta_exact": eta_exact}
     return result
 
+
+
+def _finite(result):
+    """The first peak accelerations of particles 2 .. N that have one."""
+    a = np.asarray(result.tables["particles"]["first_peak_acceleration_m_per_s2"], float)[1:]
+    return a[np.isfinite(a)]
