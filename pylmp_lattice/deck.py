@@ -58,9 +58,15 @@ def piston_text(imp: Measured) -> str:
 
 def data_text(case: Case) -> str:
     """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
-    of type 1 and, with second neighbours, bonds i-(i+2) of type 2."""
+    of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
+
+    Positions and masses include the chain's disorder and defect; a chain with thermal motion
+    gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
+    magnet, and LAMMPS keeps some per-type-pair tables: fine up to a few thousand magnets."""
     x = to_engine(case.chain.positions(), "length")
     masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    v = to_engine(case.chain.velocities(), "velocity")
+    velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
     pairs = [(i, i + 1, 1) for i in range(n - 1)]
     if case.second_neighbour is not None:
@@ -90,6 +96,7 @@ def data_text(case: Case) -> str:
         "Bonds",
         "",
         *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs)),
+        *velocities,
     ]
     return "\n".join(lines) + "\n"
 
