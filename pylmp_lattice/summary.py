@@ -45,11 +45,11 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
     if chain.far_end == "long" and max_speed is not None:
-        last = float(max_speed[-2])
+        last = float(max_speed[min(case.held()) - 1])  # the last free magnet
         out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
         if not out["far_end_quiet"]:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
-                        chain.particles - 1, last)
+                        last_free + 1, last)
     return out
 
 
