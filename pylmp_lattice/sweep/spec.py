@@ -5,7 +5,8 @@ A sweep file (TOML) holds
     base = "case.toml"        # path relative to the sweep file
     replicas = 1              # runs per parameter point (random chains only)
     seed = 0                  # the sweep seed; member i gets a seed derived from (seed, i)
-    keep = "all"              # or "measures": delete each member's trajectory once measured
+    keep = "all"              # or "measures": no per-frame output (output.format = "none"), the
+                              # front measures from the engine's record
     runner = "embedded"       # LAMMPS in the worker process; or "lmp" (the executable)
     [set]                     # fixed overrides of the base case
     "impactor.velocity" = 1.5
