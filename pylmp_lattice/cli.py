@@ -103,9 +103,10 @@ def _deck(args) -> int:
 
 def _sweep(args) -> int:
     try:
-        from .sweep import load_sweep, run_sweep
+        from .sweep import load_sweep, run_sweep, write_replica_stats
 
-        table = run_sweep(load_sweep(args.sweep), args.output, workers=args.workers, scheduler=args.scheduler,
+        sweep = load_sweep(args.sweep)
+        table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
                           retry_failed=args.retry_failed, progress=not args.quiet)
     except KeyboardInterrupt:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
@@ -114,6 +115,9 @@ def _sweep(args) -> int:
     failed = int((table["status"] == "failed").sum())
     print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
           file=sys.stderr)
+    if sweep.replicas > 1:
+        write_replica_stats(args.output, table)
+        print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
     return EXIT_RUN_ERROR if failed else 0
 
 

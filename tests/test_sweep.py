@@ -16,7 +16,8 @@ import pytest
 
 from pylmp_lattice.cli import main
 from pylmp_lattice.simulation import load_trajectory
-from pylmp_lattice.sweep import Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep
+from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
+                                 write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS
 
 BASE = """\
@@ -150,7 +151,7 @@ def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_pat
 
 # ----------------------------------------------------------------------------- statistics
 
-def test_replica_stats_mean_and_standard_error():
+def test_replica_stats_mean_and_standard_error(tmp_path):
     rng = np.random.default_rng(0)
     rows = [{"id": f"{v}-{r}", "impactor.velocity": v, "replica": r, "chain.seed": 100 + r, "status": "done",
              "error": None, "folder": "x", "wall_time_s": 1.0, "V": v + rng.normal()} for v in (1.0, 2.0) for r in range(5)]
@@ -167,6 +168,9 @@ def test_replica_stats_mean_and_standard_error():
     ax = plot_replica_stats(stats, "impactor.velocity", "V")
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
+    write_replica_stats(tmp_path, table)
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
+    assert (tmp_path / "replica_stats.png").stat().st_size > 0
 
 
 # ----------------------------------------------------------------------------- running
