@@ -115,6 +115,8 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('base = "base.toml"\nreplica = 3\n', "replica: unknown key; expected one of base"),
         ('base = "base.toml"\n[grid]\n"impactor.velocty" = [1.0]\n', "grid.impactor.velocty: unknown key; expected one of velocity"),
         ('base = "base.toml"\n[set]\n"colour.hue" = 1\n', "set.colour.hue: unknown section"),
+        ('base = "base.toml"\n[grid]\n"force.law" = ["linear"]\n',
+         "grid.force.law: makes the base case's force.K an unknown key; sweep the whole section instead"),
         ('base = "base.toml"\n[grid]\n"impactor.velocity" = []\n', "grid.impactor.velocity: empty list"),
         ('base = "base.toml"\n[grid]\n"impactor.velocity" = 1.0\n', "grid.impactor.velocity: got 1.0; expected a list"),
         ('base = "base.toml"\n[zip]\n"impactor.velocity" = [1.0, 2.0, 3.0]\n"run.duration" = [10.0, 20.0]\n',
