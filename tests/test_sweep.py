@@ -298,3 +298,19 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
         assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
     assert "-o: another sweep is running in" in capsys.readouterr().err
     assert not list((out / "members").iterdir())
+
+
+def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypatch):
+    from pylmp_lattice.sweep import store
+
+    target = tmp_path / STATUS
+    store.atomic_write(target, '{"status": "running"}')
+
+    def killed(src, dst):
+        raise KeyboardInterrupt  # the process stops between writing the new file and the rename
+
+    monkeypatch.setattr(store.os, "replace", killed)
+    with pytest.raises(KeyboardInterrupt):
+        store.atomic_write(target, '{"status": "done"}')
+    assert target.read_text() == '{"status": "running"}'
+    assert [p.name for p in tmp_path.iterdir()] == [STATUS]  # no temporary file left behind
