@@ -24,6 +24,7 @@ log = logging.getLogger(__name__)
 # name -> title; the module pylmp_lattice.studies.<name> runs it.
 STUDIES: dict[str, str] = {
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
+    "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
 }
 
 
