@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import MISSING, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ from .piston import PROFILES, Impactor
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
+DISORDER = ("normal", "uniform")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
 LONG_LATTICE_MARGIN = 20
@@ -33,12 +34,29 @@ class Chain:
     far_end = "fixed": the paper's experiment, N given. far_end = "long": N is chosen so that
     the front cannot reach the held end during the run (see `long_lattice_particles`), so no
     reflected wave exists; the run checks this afterwards.
+
+    Ensembles (all off when absent; each needs `seed`, which makes every draw reproducible):
+    - thermal_velocity: RMS initial velocity of the free magnets (2..N-1), m/s: Gaussian, zero
+      net momentum, scaled so that the expected mean of v^2 is thermal_velocity^2;
+    - mass_disorder, r0_disorder: relative standard deviation of each mass / gap about its
+      nominal value, drawn from `disorder` = "normal" (default) or "uniform";
+    - defect_index (1-based magnet n) with defect_mass (g) for magnet n and/or defect_r0 (mm)
+      for gap n (between magnets n and n+1): one magnet or gap of another value, applied after
+      the disorder.
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
     r0: float | tuple[float, ...]  # mm, initial separation, one value or one per gap
     particles: int | None = None
     far_end: str = "fixed"
+    thermal_velocity: float | None = None  # m/s, RMS
+    mass_disorder: float | None = None  # relative standard deviation
+    r0_disorder: float | None = None  # relative standard deviation
+    disorder: str | None = None  # distribution of the disorder: "normal" (default) or "uniform"
+    defect_index: int | None = None  # 1-based magnet number
+    defect_mass: float | None = None  # g
+    defect_r0: float | None = None  # mm
+    seed: int | None = None
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
@@ -59,14 +77,100 @@ class Chain:
                     raise ConfigError(f"chain.{name}", f"got {len(values)} values; expected 1 or {expected}")
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
+        self._check_ensemble()
+
+    def _check_ensemble(self):
+        for name, unit in (("thermal_velocity", " m/s"), ("mass_disorder", ""), ("r0_disorder", "")):
+            value = getattr(self, name)
+            if value is not None and not (_is_number(value) and math.isfinite(value) and value >= 0):
+                raise ConfigError(f"chain.{name}", f"got {value!r}{unit}; expected >= 0")
+        if self.disorder is not None and self.disorder not in DISORDER:
+            raise ConfigError("chain.disorder", f"got {self.disorder!r}; choose one of {', '.join(DISORDER)}")
+        if self.disorder == "uniform":
+            for name in ("mass_disorder", "r0_disorder"):
+                if (getattr(self, name) or 0) >= 1 / math.sqrt(3):
+                    raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; expected < 0.5774 "
+                                      "(uniform disorder of relative std w spans 1 +- sqrt(3) w)")
+        if self.seed is not None and not (isinstance(self.seed, int) and not isinstance(self.seed, bool)
+                                          and 0 <= self.seed < 2**63):
+            raise ConfigError("chain.seed", f"got {self.seed!r}; expected an integer >= 0")
+        if self.random() and self.seed is None:
+            raise ConfigError("chain.seed", "missing; required when thermal_velocity, mass_disorder or r0_disorder is set")
+        for name, unit in (("defect_mass", "g"), ("defect_r0", "mm")):
+            value = getattr(self, name)
+            if value is not None and not (_is_number(value) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"chain.{name}", f"got {value!r} {unit}; expected > 0")
+            if value is not None and self.defect_index is None:
+                raise ConfigError("chain.defect_index", f"missing; required with chain.{name}")
+        if self.defect_index is not None and self.defect_mass is None and self.defect_r0 is None:
+            raise ConfigError("chain.defect_index", "given without chain.defect_mass or chain.defect_r0")
+        n = self.particles
+        if n is None:  # checked again once the case has chosen N
+            return
+        if self.defect_index is not None:
+            top = n - 1 if self.defect_r0 is not None else n
+            if not (isinstance(self.defect_index, int) and not isinstance(self.defect_index, bool)
+                    and 1 <= self.defect_index <= top):
+                raise ConfigError("chain.defect_index", f"got {self.defect_index!r}; expected an integer in [1, {top}]")
+        if self.thermal_velocity and n < 4:
+            raise ConfigError("chain.thermal_velocity", f"needs at least 2 free magnets; got particles = {n}")
+        for name, values in (("mass_disorder", self.masses()), ("r0_disorder", self.gaps())):
+            if not np.all(values > 0):
+                raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; a draw gave a value <= 0, "
+                                  "expected a smaller disorder or disorder = 'uniform'")
+
+    def random(self) -> bool:
+        """Whether the chain has random fields (thermal velocities or disorder)."""
+        return bool(self.thermal_velocity or self.mass_disorder or self.r0_disorder)
+
+    def _streams(self) -> list[np.random.Generator]:
+        # Independent streams for masses, gaps and velocities: turning one on does not change
+        # the draws of the others.
+        return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed or 0).spawn(3)]
+
+    def _perturbed(self, nominal: np.ndarray, width: float | None, rng: np.random.Generator) -> np.ndarray:
+        if not width:
+            return nominal
+        if self.disorder == "uniform":
+            noise = rng.uniform(-math.sqrt(3), math.sqrt(3), nominal.shape)
+        else:
+            noise = rng.standard_normal(nominal.shape)
+        return nominal * (1 + width * noise)
 
     def masses(self) -> np.ndarray:
-        """Mass of each particle, g, shape (N,)."""
-        return np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+        """Mass of each particle, g, shape (N,), with disorder and defect."""
+        nominal = np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+        m = self._perturbed(nominal, self.mass_disorder, self._streams()[0])
+        if self.defect_mass is not None:
+            m[self.defect_index - 1] = self.defect_mass
+        return m
 
     def gaps(self) -> np.ndarray:
-        """Initial separations, mm, shape (N-1,)."""
-        return np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+        """Initial separations, mm, shape (N-1,), with disorder and defect."""
+        nominal = np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+        r = self._perturbed(nominal, self.r0_disorder, self._streams()[1])
+        if self.defect_r0 is not None:
+            r[self.defect_index - 1] = self.defect_r0
+        return r
+
+    def velocities(self) -> np.ndarray:
+        """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
+
+        Free magnets get v = c sigma z (z standard normal) minus the mass-weighted mean, so the
+        net momentum is zero. Removing the mean takes a known fraction of the expected v^2;
+        c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
+        so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
+        """
+        v = np.zeros(self.particles)
+        if not self.thermal_velocity:
+            return v
+        m = self.masses()[1:-1]
+        n, total = len(m), float(np.sum(m))
+        c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))
+        z = self._streams()[2].standard_normal(n)
+        free = c * self.thermal_velocity * z
+        v[1:-1] = free - np.sum(m * free) / total
+        return v
 
     def positions(self) -> np.ndarray:
         """Initial positions x_n, mm, with x_1 = 0."""
@@ -151,7 +255,7 @@ class Case:
     def __post_init__(self):
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
-            object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
+            object.__setattr__(self, "chain", replace(self.chain, particles=n))
         lo, hi = self.table_range()
         d = self.force.domain()
         if not hi > lo:
@@ -175,7 +279,7 @@ class Case:
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
         r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
-        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.r0))
+        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.gaps()))
         return r_min, r_max
 
     def stability_limit(self) -> float:
@@ -335,6 +439,10 @@ def _steps(name: str, interval: float, dt: float) -> int:
     if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
         raise ConfigError(f"run.{name}", f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
     return n
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _show(values) -> str:

@@ -52,9 +52,15 @@ def piston_text(imp: Measured) -> str:
 
 
 def data_text(case: Case) -> str:
-    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)."""
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1).
+
+    Positions and masses include the chain's disorder and defect; a chain with thermal motion
+    gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
+    magnet, and LAMMPS keeps some per-type-pair tables: fine up to a few thousand magnets."""
     x = to_engine(case.chain.positions(), "length")
     masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    v = to_engine(case.chain.velocities(), "velocity")
+    velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
@@ -81,6 +87,7 @@ def data_text(case: Case) -> str:
         "Bonds",
         "",
         *(f"{i + 1} 1 {i + 1} {i + 2}" for i in range(n - 1)),
+        *velocities,
     ]
     return "\n".join(lines) + "\n"
 
