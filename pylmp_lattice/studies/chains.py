@@ -5,17 +5,23 @@ the dimensionless lattices (m = A = B = 1; m = epsilon = sigma = 1), since mm, g
 consistent set: time is then in ms and velocity in m/s. The Morse chain has alpha r_e = 6, the
 value with the Lennard-Jones curvature at the minimum (2 alpha^2 D = 72 epsilon / r_m^2).
 
-The sweep layer (issue 8) had not landed on main when these studies were written, so
-multi-run studies are a plain loop over `simulation.run_case`, one folder per run.
+Multi-run studies run through the sweep layer (`run_cases`): resumable, in parallel, one
+member folder per case under the study's folder.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
-from ..case import Case, case_from_dict
-from ..simulation import load_trajectory, run_case
+from ..case import Case, case_from_dict, case_to_dict
+from ..errors import LatticeError
+from ..simulation import SUMMARY, load_trajectory
+from ..sweep import Sweep, member_id, run_sweep
+from ..sweep.store import DONE, member_folder
 from ..trajectory import Trajectory
+
+SECTIONS = ("chain", "force", "impactor", "run", "table", "friction")
 
 MAGNET = {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}
 MAGNET_MASS, MAGNET_R0 = 1.084, 12.0  # g, mm
@@ -47,7 +53,19 @@ def chain_case(chain: str, name: str, impactor: dict, duration: float, particles
     })
 
 
-def run_chain(case: Case, out: Path) -> tuple[dict, Trajectory]:
-    """Run `case` in out/<case.name> (`run_case`: summary.json beside the run); its summary and trajectory."""
-    folder = Path(out) / case.name
-    return run_case(case, folder, figure=False), load_trajectory(case, folder)
+def run_cases(cases: list[Case], root: Path, workers: int | None = None) -> list[tuple[dict, Trajectory]]:
+    """Run `cases` as one sweep in `root` (resumable: done members are not run again); each
+    case's summary and trajectory, in order. The cases differ in whole sections, which the
+    sweep zips; a failed member stops the study with its one-line error."""
+    dicts = [case_to_dict(c) for c in cases]
+    sections = [s for s in SECTIONS if any(s in d for d in dicts)]
+    sweep = Sweep(base=dicts[0], zip={s: [d[s] for d in dicts] for s in sections} if len(cases) > 1 else {})
+    table = run_sweep(sweep, root, workers=workers, progress=False)
+    failed = table[table["status"] != DONE]
+    if len(failed):
+        raise LatticeError(f"study run failed: {failed['error'].iloc[0]} (in {Path(root) / failed['folder'].iloc[0]})")
+    out = []
+    for case in cases:
+        folder = member_folder(root, member_id(case))
+        out.append((json.loads((folder / SUMMARY).read_text()), load_trajectory(case, folder)))
+    return out

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..exact import harmonic_overshoot_limit, harmonic_piston_velocity
 from ..plots import pyplot
-from .chains import MAGNET_MASS, MAGNET_R0, MAGNET_STIFFNESS, chain_case, run_chain
+from .chains import MAGNET_MASS, MAGNET_R0, MAGNET_STIFFNESS, chain_case, run_cases
 from .output import StudyResult
 
 NAME = "harmonic"
@@ -50,10 +50,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
     rows = []
-    for u_p in velocities:
-        case = chain_case("harmonic", f"harmonic_up{u_p:g}", {"velocity": u_p}, duration, particles=PARTICLES,
-                          output=0.5)
-        summary, traj = run_chain(case, out / NAME)
+    cases = [chain_case("harmonic", f"harmonic_up{u_p:g}", {"velocity": u_p}, duration, particles=PARTICLES,
+                        output=0.5) for u_p in velocities]
+    for u_p, (summary, traj) in zip(velocities, run_cases(cases, out / NAME)):
         n = np.arange(PARTICLES - 30)  # far from the held end's reflection
         exact = harmonic_piston_velocity(n, traj.t, u_p, omega)
         err = np.abs(traj.v[:, n] - exact) / u_p

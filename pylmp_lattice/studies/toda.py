@@ -18,7 +18,7 @@ import numpy as np
 
 from ..exact import toda_lead_soliton, toda_piston_wake, toda_soliton, toda_soliton_speed
 from ..plots import pyplot
-from .chains import CHAINS, chain_case, run_chain
+from .chains import CHAINS, chain_case, run_cases
 from .output import StudyResult
 
 NAME = "toda"
@@ -86,16 +86,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 100.0 if quick else 200.0
     folder = out / NAME
     solitons = []
-    for kappa in kappas:
-        case = soliton_case(kappa, dt=0.005 if kappa >= 2 else 0.01)
-        _, traj = run_chain(case, folder)
+    cases = [soliton_case(kappa, dt=0.005 if kappa >= 2 else 0.01) for kappa in kappas]
+    for kappa, case, (_, traj) in zip(kappas, cases, run_cases(cases, folder / "solitons")):
         measured = soliton_speed(traj.t, traj.gaps())
         solitons.append({"kappa": kappa, "dt_ms": case.run.dt, "speed_sites_per_ms": measured,
                          "exact_sinh_k_over_k": float(toda_soliton_speed(kappa)),
                          "relative_error": measured / float(toda_soliton_speed(kappa)) - 1})
     pistons = []
-    for u_p in speeds:
-        _, traj = run_chain(piston_case(u_p, duration), folder)
+    for u_p, (_, traj) in zip(speeds, run_cases([piston_case(u_p, duration) for u_p in speeds], folder / "pistons")):
         t, r = traj.t, traj.gaps() - A_GAP
         late = t > duration - 10
         kappa, lead = toda_lead_soliton(u_p)
