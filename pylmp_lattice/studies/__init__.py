@@ -26,6 +26,7 @@ STUDIES: dict[str, str] = {
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
     "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
     "toda": "The Toda lattice: soliton speed, and the piston problem's wake, period two and lead soliton",
+    "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
 }
 
 
