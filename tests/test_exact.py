@@ -108,7 +108,7 @@ def test_harmonic_chain_matches_the_bessel_solution(tmp_path):
 @pytest.mark.lammps
 @pytest.mark.parametrize("kappa, dt", [(0.5, 0.01), (1.0, 0.01), (1.5, 0.01), (2.0, 0.005)])
 def test_toda_soliton_speed(tmp_path, kappa, dt):
-    """An exact soliton entering an 80-particle Toda chain through particle 0 (a measured
+    """An exact soliton entering a Toda chain through particle 0 (a measured
     impactor on the exact solution); the time centroids of exp(-r_n) - 1 at gaps 10-40 (exactly
     kappa (n - n0) / sinh(kappa) for the exact soliton). Speed within 1e-4 of sinh(kappa)/kappa:
     measured 5.4e-9, 6.9e-7 and ~2.6e-5 at dt = 0.01 ms; kappa = 2 gives ~8.5e-5 at 0.01 ms and

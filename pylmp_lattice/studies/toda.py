@@ -1,6 +1,6 @@
 """The Toda lattice (m = A = B = 1: g, N, 1/mm, so time in ms): one soliton and the piston.
 
-Soliton: an exact soliton enters an 80-particle chain through particle 0, which follows the
+Soliton: an exact soliton enters a chain through particle 0, which follows the
 exact solution (a measured impactor), and crosses gaps 10-40; its speed, from the time
 centroids of exp(-r_n) - 1 (for the exact soliton exactly kappa (n - n0) / sinh kappa), against
 sinh(kappa)/kappa for kappa = 0.25 ... 2.5 (dt = 0.005 ms from kappa = 2).
@@ -29,11 +29,13 @@ SOLITON_GAPS = (10, 40)  # the gaps where the soliton's speed is measured
 STAGGER_GAPS = 6  # the gaps next to the piston where period two is looked for
 
 
-def soliton_case(kappa: float, dt: float = 0.01, output: float = 0.05, particles: int = 80):
+def soliton_case(kappa: float, dt: float = 0.01, output: float = 0.05):
     """An exact soliton entering the chain through particle 0 (its centre 10/kappa sites behind
     it at t = 0, so the chain starts at rest to ~1e-8); the run ends once the pulse has passed
-    gap SOLITON_GAPS[1] (15 / sinh(kappa) later)."""
+    gap SOLITON_GAPS[1] (15 / sinh(kappa) later, when its centre is 15/kappa sites beyond), and
+    the held end is far enough that its reflection stays 15/kappa sites away from that gap."""
     n0, beta = -10.0 / kappa, np.sinh(kappa)
+    particles = int(SOLITON_GAPS[1] + 30.0 / kappa) + 10
     duration = np.ceil((kappa * (SOLITON_GAPS[1] - n0) + 15) / beta / output) * output
     t = np.arange(0.0, duration + dt / 2, dt)
     x, _, _ = toda_soliton([0], t, kappa, n0)
@@ -65,14 +67,15 @@ def staggered_amplitude(t, r, t_end: float, gaps: int = STAGGER_GAPS) -> float:
     return float(np.max(np.abs(np.diff(r[sel, :gaps], axis=1))))
 
 
-def front(t, r, skip: int = 20):
+def front(t, r, skip: int = 20, settle: float = 5.0):
     """Front speed (sites per unit time) and height (exp(-r) - 1) of the leading pulse: the
     time of the largest exp(-r) - 1 at each gap beyond `skip` (refined by a parabola through
-    three frames), fitted over the later half of the gaps it has passed; height: the mean
-    peak over its last five gaps."""
+    three frames), fitted over the later half of the gaps it has passed `settle` time units
+    before the run's end; height: the mean peak over the last five of those gaps."""
     w = np.expm1(-r)
     peak = np.argmax(w, axis=0)
-    n = np.flatnonzero((np.arange(r.shape[1]) > skip) & (peak > 0) & (peak < len(t) - 1))
+    passed = peak < np.searchsorted(t, t[-1] - settle)
+    n = np.flatnonzero((np.arange(r.shape[1]) > skip) & (peak > 0) & passed)
     i = peak[n]
     y0, y1, y2 = w[i - 1, n], w[i, n], w[i + 1, n]
     tp = t[i] + (t[1] - t[0]) * 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
