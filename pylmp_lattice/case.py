@@ -1,8 +1,9 @@
 """The case: a typed, validated description of one simulation, loadable from TOML.
 
 All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
-A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table] and
-[friction] (absent: no friction);
+A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table],
+[friction] (absent: no friction), [second_neighbour] (absent: nearest neighbours only) and
+[output] (absent: the defaults of `OutputSettings`);
 `case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
 """
 
@@ -22,6 +23,8 @@ from .piston import PROFILES, Impactor
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
+OUTPUT_FORMATS = ("h5md", "text", "none")
+COMPRESSIONS = ("lzf", "gzip", "none")
 DISORDER = ("normal", "uniform")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
@@ -193,11 +196,11 @@ class RunSettings:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
         for name in ("output_interval", "check_interval", "duration"):
-            _steps(name, getattr(self, name), self.dt)
+            _steps(f"run.{name}", getattr(self, name), self.dt)
 
     def steps(self, name: str = "duration") -> int:
         """An interval of this run in time steps (validated to be a whole number)."""
-        return _steps(name, getattr(self, name), self.dt)
+        return _steps(f"run.{name}", getattr(self, name), self.dt)
 
 
 @dataclass(frozen=True)
@@ -244,6 +247,75 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class OutputSettings:
+    """What a run writes besides its log (see the README's "Output" section for the costs).
+
+    format: "h5md" (default; HDF5 in the H5MD layout, x, v and f of every magnet every
+    run.output_interval), "text" (LAMMPS's text dump, for reading by eye or old tools) or
+    "none" (no per-frame output).
+    fine: magnet numbers (1-based) also written every fine_interval ms (default run.dt), for
+    profiles at high time resolution (Fig. 2(b-d), 3(a)); in the H5MD file as group "fine".
+    front: record every magnet's front arrival and first peak at every step in the engine
+    (fix lattice/front), so a run has its front measures with any format, even "none".
+    compression: of the H5MD datasets, with byte shuffling: "lzf" (fast; read through h5py, as
+    MDAnalysis does), "gzip" (slower, smaller, read by every HDF5 library) or "none".
+    """
+
+    format: str = "h5md"
+    fine: tuple[int, ...] = ()
+    fine_interval: float | None = None  # ms
+    front: bool = True
+    compression: str = "lzf"
+
+    def __post_init__(self):
+        if self.format not in OUTPUT_FORMATS:
+            raise ConfigError("output.format", f"got {self.format!r}; choose one of {', '.join(OUTPUT_FORMATS)}")
+        if not all(isinstance(n, int) and not isinstance(n, bool) for n in self.fine):
+            raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected a list of magnet numbers")
+        if len(set(self.fine)) != len(self.fine):
+            raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected distinct magnet numbers")
+        if self.fine_interval is not None and not (_is_number(self.fine_interval) and math.isfinite(self.fine_interval)
+                                                    and self.fine_interval > 0):
+            raise ConfigError("output.fine_interval", f"got {self.fine_interval!r} ms; expected > 0")
+        if self.compression not in COMPRESSIONS:
+            raise ConfigError("output.compression", f"got {self.compression!r}; choose one of {', '.join(COMPRESSIONS)}")
+        if not isinstance(self.front, bool):
+            raise ConfigError("output.front", f"got {self.front!r}; expected true or false")
+
+
+@dataclass(frozen=True)
+class SecondNeighbour:
+    """Interaction between magnets n and n+2 (paper Sec. S2: about 5 % of the nearest one, and
+    attractive, since the magnets alternate in polarity): F2(d) = sign * law.force(d), with d =
+    x_(n+2) - x_n the separation of the pair in mm (the sum of the two gaps between them),
+    positive F2 repelling. law: any nearest-neighbour law form (`[second_neighbour] law = ...`
+    with its parameters); sign: -1 attractive, +1 repulsive.
+    """
+
+    law: ForceLaw
+    sign: float = -1.0
+
+    def __post_init__(self):
+        if self.sign not in (-1, 1):
+            raise ConfigError("second_neighbour.sign", f"got {self.sign!r}; expected -1 (attractive) or 1 (repulsive)")
+
+    def force(self, d):
+        """F2(d), N (positive repels)."""
+        return self.sign * self.law.force(d)
+
+    def energy(self, d):
+        """U2(d), mJ, with F2 = -dU2/dd."""
+        return self.sign * self.law.energy(d)
+
+    def stiffness(self, d):
+        """-dF2/dd, N/mm (negative for an attraction that weakens with distance)."""
+        return self.sign * self.law.stiffness(d)
+
+    def __repr__(self):
+        return f"SecondNeighbour({'attractive' if self.sign < 0 else 'repulsive'} {self.law!r})"
+
+
+@dataclass(frozen=True)
 class Case:
     chain: Chain
     force: ForceLaw
@@ -251,6 +323,8 @@ class Case:
     run: RunSettings
     table: TableSettings = TableSettings()
     friction: Friction | None = None  # None: frictionless
+    output: OutputSettings = OutputSettings()
+    second_neighbour: SecondNeighbour | None = None  # None: nearest neighbours only
     name: str = "case"
 
     def __post_init__(self):
@@ -258,6 +332,8 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
         lo, hi = self.table_range()
+        if self.second_neighbour is not None:
+            self._check_second_neighbour()
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
@@ -273,15 +349,49 @@ class Case:
         if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
             raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
                               f"{self.impactor.duration()} ms (impactor.after = 'stop')")
+        n = self.chain.particles
+        if any(not 1 <= k <= n for k in self.output.fine):
+            raise ConfigError("output.fine", f"got {list(self.output.fine)}; expected magnet numbers in [1, {n}]")
+        if self.output.fine:
+            _steps("output.fine_interval", self.fine_interval(), self.run.dt)
         dt_max = self.stability_limit()
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+
+    def fine_interval(self) -> float:
+        """Interval of the fine output, ms (default: every time step)."""
+        return self.output.fine_interval if self.output.fine_interval is not None else self.run.dt
 
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
         r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
         r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.gaps()))
         return r_min, r_max
+
+    def _check_second_neighbour(self):
+        lo2, hi2 = self.second_table_range()
+        law = self.second_neighbour.law
+        d = law.domain()
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            finite = np.all(np.isfinite([f(np.array([lo2, hi2])) for f in (law.force, law.energy, law.stiffness)]))
+        if lo2 < d[0] or hi2 > d[1] or not finite:
+            raise ConfigError("second_neighbour", f"the law must be finite on [{lo2}, {hi2}] mm (twice the nearest "
+                              f"table's range); its range is [{d[0]}, {d[1]}] mm")
+
+    def second_table_range(self) -> tuple[float, float]:
+        """Separations d = x_(n+2) - x_n covered by the second-neighbour table, mm: twice the
+        nearest table's range (both gaps within it)."""
+        lo, hi = self.table_range()
+        return 2 * lo, 2 * hi
+
+    def held(self) -> list[int]:
+        """0-based indices of the magnets held at the far end: the last one; for a long lattice
+        with second neighbours the last two, so that every free magnet starts in balance (a
+        magnet next to a single held one would feel its second neighbour on one side only)."""
+        n = self.chain.particles
+        if self.second_neighbour is not None and self.chain.far_end == "long":
+            return [n - 2, n - 1]
+        return [n - 1]
 
     def stability_limit(self) -> float:
         """Largest stable velocity-Verlet time step, ms.
@@ -290,10 +400,14 @@ class Case:
         masses >= m_min is below 2 sqrt(k_max/m_min); Verlet is stable for omega dt < 2, so
         dt < sqrt(m_min/k_max). k_max is the largest stiffness over the table's range
         (for the paper's law at contact, r = 0: 0.4535 ms). sqrt(g / (N/mm)) is exactly 1 ms.
+        With second neighbours of stiffness |k2| <= k2_max (Gershgorin: omega^2 <= 4 (k_max +
+        k2_max)/m), k_max + k2_max takes the place of k_max.
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
         k_max = float(np.max(self.force.stiffness(r)))
+        if self.second_neighbour is not None:
+            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
         return math.sqrt(float(np.min(self.chain.masses())) / k_max)
 
 
@@ -349,7 +463,7 @@ def apply_override(data: dict, item: str) -> None:
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     data = dict(data)
     name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table", "friction"}
+    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour", "output"}
     for key in data:
         if key not in sections:
             raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
@@ -378,6 +492,8 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
+        output=_build(OutputSettings, "output", data.get("output", {})),
+        second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=str(name),
     )
 
@@ -392,15 +508,35 @@ def case_to_dict(case: Case) -> dict:
         ("run", case.run, None),
         ("table", case.table, None),
         ("friction", case.friction, None),
+        ("output", case.output, None),
     ):
         if obj is None:
             continue
-        d = {tag[0]: tag[1]} if tag else {}
-        for f in fields(obj):
-            value = getattr(obj, f.name)
-            if f.init and value is not None:
-                d[f.name] = list(value) if isinstance(value, tuple) else value
-        out[section] = d
+        out[section] = ({tag[0]: tag[1]} if tag else {}) | _fields(obj)
+    if case.second_neighbour is not None:
+        sn = case.second_neighbour
+        out["second_neighbour"] = {"law": sn.law.law, **_fields(sn.law), "sign": sn.sign}
+    return out
+
+
+def _second_neighbour(values: dict) -> SecondNeighbour:
+    values = dict(values)
+    law, sign = values.pop("law", "power"), values.pop("sign", -1.0)
+    if law not in FORCE_LAWS or law == "sampled":
+        allowed = [k for k in FORCE_LAWS if k != "sampled"]
+        raise ConfigError("second_neighbour.law", f"got {law!r}; choose one of {', '.join(allowed)}")
+    if isinstance(sign, bool) or not isinstance(sign, (int, float)):
+        raise ConfigError("second_neighbour.sign", f"got {sign!r}; expected -1 (attractive) or 1 (repulsive)")
+    return SecondNeighbour(_build(FORCE_LAWS[law], "second_neighbour", values), float(sign))
+
+
+def _fields(obj) -> dict:
+    """A case dataclass's given fields as TOML values (tuples as lists)."""
+    out = {}
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if f.init and value is not None:
+            out[f.name] = list(value) if isinstance(value, tuple) else value
     return out
 
 
@@ -411,7 +547,8 @@ def _build(cls, section: str, values: dict):
     for key, value in values.items():
         if key not in known:
             raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join(known)}")
-        if isinstance(value, bool) or (isinstance(value, str) and "str" not in known[key].type):
+        expected = known[key].type
+        if (isinstance(value, bool) and "bool" not in expected) or (isinstance(value, str) and "str" not in expected):
             raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
@@ -438,10 +575,10 @@ def _read_columns(path: Path, field: str, columns: str):
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 
-def _steps(name: str, interval: float, dt: float) -> int:
+def _steps(field: str, interval: float, dt: float) -> int:
     n = round(interval / dt)
     if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
-        raise ConfigError(f"run.{name}", f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
+        raise ConfigError(field, f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
     return n
 
 

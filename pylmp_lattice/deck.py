@@ -12,6 +12,7 @@ import numpy as np
 from .case import Case
 from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
+from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -19,7 +20,13 @@ from .units import to_engine
 DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
-DUMP = "traj.dump"
+SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
+DUMP = "traj.dump"  # output.format = "text"
+TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned into traj.h5md after the run
+FINE_BIN = "fine.bin"
+FRONT_BIN = "front.bin"  # the front record of fix lattice/front, written at the end of the run
+BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v and f along x
+FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 8))
 LOG = "log.lammps"
 PISTON = "piston.txt"
 # Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
@@ -40,6 +47,10 @@ def render(case: Case) -> dict[str, str]:
     }
     if isinstance(case.impactor, Measured):
         files[PISTON] = piston_text(case.impactor)
+    if case.second_neighbour is not None:
+        lo2, hi2 = case.second_table_range()
+        files[SECOND_TABLE] = bond_table(case.second_neighbour, lo2, hi2, case.table.points,
+                                         2 * float(np.mean(case.chain.r0)))
     return files
 
 
@@ -52,7 +63,8 @@ def piston_text(imp: Measured) -> str:
 
 
 def data_text(case: Case) -> str:
-    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1).
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
+    of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
 
     Positions and masses include the chain's disorder and defect; a chain with thermal motion
     gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
@@ -62,15 +74,18 @@ def data_text(case: Case) -> str:
     v = to_engine(case.chain.velocities(), "velocity")
     velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
+    pairs = [(i, i + 1, 1) for i in range(n - 1)]
+    if case.second_neighbour is not None:
+        pairs += [(i, i + 2, 2) for i in range(n - 2)]
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
     lines = [
         f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
         "",
         f"{n} atoms",
-        f"{n - 1} bonds",
+        f"{len(pairs)} bonds",
         f"{len(masses)} atom types",
-        "1 bond types",
+        f"{pairs[-1][2]} bond types",
         "",
         f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
         f"{_num(-half)} {_num(half)} ylo yhi",
@@ -86,7 +101,7 @@ def data_text(case: Case) -> str:
         "",
         "Bonds",
         "",
-        *(f"{i + 1} 1 {i + 1} {i + 2}" for i in range(n - 1)),
+        *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs)),
         *velocities,
     ]
     return "\n".join(lines) + "\n"
@@ -95,8 +110,10 @@ def data_text(case: Case) -> str:
 def deck_text(case: Case) -> str:
     run, n = case.run, case.chain.particles
     lo, hi = case.table_range()
-    hi_si = to_engine(hi, "length")
+    longest = case.second_table_range()[1] if case.second_neighbour else hi
+    hi_si = to_engine(longest, "length")
     n_steps = run.steps()
+    held = " ".join(str(i + 1) for i in case.held())
     thermo_every = max(1, n_steps // 20)
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
@@ -110,18 +127,20 @@ boundary        s f f
 atom_style      bond
 atom_modify     map array sort 0 0.0
 read_data       {DATA}
-# Bonds act between consecutive magnets only, at every separation; no pair style, so no
-# other interaction exists. Ghosts must reach across the longest bond on several ranks.
+# Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
+# separation; no pair style, so no other interaction exists. Ghosts must reach across the
+# longest bond on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
 
 # ---- 2. Force law {case.force!r}
 # Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
 bond_style      table spline {case.table.points}
 bond_coeff      1 {TABLE} {KEYWORD}
+{_second_neighbour_lines(case)}
 
-# ---- 3. Boundary conditions: particle 1 is the impactor, particle {n} is held at rest
+# ---- 3. Boundary conditions: particle 1 is the impactor, particle(s) {held} held at rest
 group           impactor id 1
-group           held id {n}
+group           held id {held}
 group           free subtract all impactor held
 fix             integrate free nve
 fix             hold held setforce 0.0 0.0 0.0
@@ -137,19 +156,70 @@ compute         closest all reduce max c_bond_dx c_bond_ids[1] c_bond_ids[2] rep
 variable        min_gap equal -c_closest[1]
 fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
 
-# ---- 5. Output: trajectory of every magnet, thermo with energies
+# ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
 thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
 thermo_modify   norm no flush yes
 thermo          {thermo_every}
-dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
-dump_modify     traj sort id time yes format float %.12g
+{_output_lines(case)}
 
 # ---- 6. Run {run.duration:g} ms
 run             {n_steps}
 if "${{min_gap}} <= 0.0" then &
   "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
-"""
+{_front_dump_line(case)}"""
+
+
+def records_front(case: Case) -> bool:
+    """Whether the deck records front measures on the fly: asked for, and a drive to scale them."""
+    return case.output.front and case.impactor.peak_velocity() > 0
+
+
+def _output_lines(case: Case) -> str:
+    """Dumps (all magnets; chosen ones at a fine interval) and the on-the-fly front record."""
+    out, run = case.output, case.run
+    every = run.steps("output_interval")
+    lines = []
+    if out.format == "text":
+        lines += [f"dump            traj all custom {every} {DUMP} {DUMP_COLUMNS}",
+                  "dump_modify     traj sort id time yes format float %.12g"]
+    elif out.format == "h5md":
+        # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5md.
+        lines += [f"dump            traj all custom {every} {TRAJ_BIN} {BIN_COLUMNS}",
+                  "dump_modify     traj sort id time yes"]
+    if out.fine and out.format != "none":
+        fine_every = round(case.fine_interval() / run.dt)  # a whole number: Case checks it
+        name = DUMP.replace("traj", "fine") if out.format == "text" else FINE_BIN
+        columns = DUMP_COLUMNS if out.format == "text" else BIN_COLUMNS
+        lines += [f"group           fine id {' '.join(map(str, out.fine))}",
+                  f"dump            fine fine custom {fine_every} {name} {columns}",
+                  "dump_modify     fine sort id time yes" + (" format float %.12g" if out.format == "text" else "")]
+    if records_front(case):
+        vi = to_engine(case.impactor.peak_velocity(), "velocity")
+        levels = (START_FRACTION * vi, FRONT_FRACTION * vi, PROMINENCE * vi)
+        lines += ["# Front arrival and first peak of every magnet, from every step (plugin fix; the",
+                  "# definitions of measures.py, levels as fractions of V_I); written after the run.",
+                  "fix             front all lattice/front start {} front {} drop {} pulse_drop {}".format(
+                      *map(_num, levels), _num(PULSE_DROP))]
+    return "\n".join(lines) if lines else "# no per-frame output (output.format = 'none')"
+
+
+def _front_dump_line(case: Case) -> str:
+    if not records_front(case):
+        return ""
+    return f"write_dump      all custom {FRONT_BIN} {FRONT_COLUMNS} modify sort id time yes\n"
+
+
+def _second_neighbour_lines(case: Case) -> str:
+    sn = case.second_neighbour
+    if sn is None:
+        return "# nearest neighbours only"
+    lo2, hi2 = case.second_table_range()
+    return (
+        f"# Second neighbours {sn!r}: bonds i-(i+2) of type 2, d = x_(i+2) - x_i\n"
+        f"# tabulated on [{lo2:g}, {hi2:g}] mm.\n"
+        f"bond_coeff      2 {SECOND_TABLE} {KEYWORD}"
+    )
 
 
 def _friction_lines(case: Case) -> str:
