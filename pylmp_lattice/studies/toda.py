@@ -71,11 +71,13 @@ def front(t, r, skip: int = 20, settle: float = 5.0):
     """Front speed (sites per unit time) and height (exp(-r) - 1) of the leading pulse: the
     time of the largest exp(-r) - 1 at each gap beyond `skip` (refined by a parabola through
     three frames), fitted over the later half of the gaps it has passed `settle` time units
-    before the run's end; height: the mean peak over the last five of those gaps."""
+    before the run's end (and reached: a peak above 5 % of the largest); height: the mean peak
+    over the last five of those gaps."""
     w = np.expm1(-r)
     peak = np.argmax(w, axis=0)
     passed = peak < np.searchsorted(t, t[-1] - settle)
-    n = np.flatnonzero((np.arange(r.shape[1]) > skip) & (peak > 0) & passed)
+    reached = w.max(axis=0) > 0.05 * w.max()  # not round-off ahead of the front
+    n = np.flatnonzero((np.arange(r.shape[1]) > skip) & (peak > 0) & passed & reached)
     i = peak[n]
     y0, y1, y2 = w[i - 1, n], w[i, n], w[i + 1, n]
     tp = t[i] + (t[1] - t[0]) * 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
