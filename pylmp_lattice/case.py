@@ -436,15 +436,20 @@ def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, du
 def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
     """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values)."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise ConfigError("case", f"file not found: {path}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError("case", f"{path} is not valid TOML ({err})") from err
+    data = read_toml(path, "case")
     for item in overrides:
         apply_override(data, item)
     return case_from_dict(data, base_dir=path.parent)
+
+
+def read_toml(path: Path, field: str) -> dict:
+    """A TOML file as a dict; a missing or malformed file is a ConfigError naming `field`."""
+    try:
+        return tomllib.loads(Path(path).read_text())
+    except FileNotFoundError as err:
+        raise ConfigError(field, f"file not found: {path}") from err
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(field, f"{path} is not valid TOML ({err})") from err
 
 
 def apply_override(data: dict, item: str) -> None:
