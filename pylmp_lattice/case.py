@@ -8,12 +8,14 @@ A TOML case has the sections [chain], [force], [impactor], [run] and optionally 
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 
 from .errors import ConfigError
 from .forcelaw import ForceLaw, LinearSpring, PowerLaw, SampledLaw
@@ -147,8 +149,10 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
         lo, hi = self.table_range()
-        if not hi > lo:
-            raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
+        widest = float(np.max(self.chain.gaps()))
+        if not hi > widest:
+            raise ConfigError("table.r_max", f"got {hi:g} mm; expected > {widest:g} mm, the widest initial gap "
+                                             "(the table must cover every separation of the run)")
         if self.force.domain()[0] > min(self.chain.gaps()) or self.force.domain()[1] < hi:
             d = self.force.domain()
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
@@ -239,20 +243,22 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     law = force.pop("law", "power")
     if law not in FORCE_LAWS:
         raise ConfigError("force.law", f"got {law!r}; choose one of {', '.join(FORCE_LAWS)}")
+    force_keys = ("file",) if law == "sampled" else ()
     if law == "sampled" and "file" in force:
         force["r"], force["F"] = _read_columns(base_dir / force.pop("file"), "force.file", "r [mm], F [N]")
     impactor = dict(data["impactor"])
     profile = impactor.pop("profile", "constant")
     if profile not in PROFILES:
         raise ConfigError("impactor.profile", f"got {profile!r}; choose one of {', '.join(PROFILES)}")
+    impactor_keys = ("file",) if profile == "measured" else ()
     if profile == "measured" and "file" in impactor:
         impactor["t"], impactor["values"] = _read_columns(base_dir / impactor.pop("file"), "impactor.file",
                                                           "t [ms], u [mm] or v [m/s]")
 
     return Case(
         chain=_build(Chain, "chain", data["chain"]),
-        force=_build(FORCE_LAWS[law], "force", force),
-        impactor=_build(PROFILES[profile], "impactor", impactor),
+        force=_build(FORCE_LAWS[law], "force", force, force_keys),
+        impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
@@ -282,13 +288,15 @@ def case_to_dict(case: Case) -> dict:
     return out
 
 
-def _build(cls, section: str, values: dict):
-    """Construct a case dataclass from a TOML table, naming the field on any error."""
+def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
+    """Construct a case dataclass from a TOML table, naming the field on any error.
+
+    other_keys: keys the TOML section also accepts that were consumed before (e.g. `file`)."""
     known = {f.name: f for f in fields(cls) if f.init}
     converted = {}
     for key, value in values.items():
         if key not in known:
-            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join(known)}")
+            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join([*other_keys, *known])}")
         if isinstance(value, bool) or (isinstance(value, str) and "str" not in known[key].type):
             raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
         converted[key] = tuple(value) if isinstance(value, list) else value
@@ -314,6 +322,11 @@ def _read_columns(path: Path, field: str, columns: str):
     if table.shape[1] != 2:
         raise ConfigError(field, f"{path}: got {table.shape[1]} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
+
+
+def case_hash(case: Case) -> str:
+    """8 hex digits identifying the resolved case (its TOML form), e.g. for a run folder's name."""
+    return hashlib.sha256(tomli_w.dumps(case_to_dict(case)).encode()).hexdigest()[:8]
 
 
 def _steps(name: str, interval: float, dt: float) -> int:

@@ -1,37 +1,53 @@
 """One call from a case to its results: write the run folder, run LAMMPS, read, measure.
 
 `simulate` returns the trajectory; `run_case` is the whole job of `pylmp-lattice run`
-(simulate, front measures, summary.json and the run's figure), for one run or a sweep member.
+(simulate, front measures, summary.json and the run's figure), for one run or a sweep member;
+`read_run` opens a run folder again.
+
+Before anything is written, `preflight.check` refuses a run too large for this machine (and,
+without `yes`, one estimated to take over an hour). A folder that holds a run is never
+replaced without `overwrite`. SIGINT/SIGTERM stop the engine cleanly (`errors.Interrupted`).
 """
 
 from __future__ import annotations
 
-import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
-from .case import Case
-from .deck import DUMP
-from .dump import read_dump, trajectory_from_dump
-from .runner import run_embedded, run_executable, write_run_folder
+from . import preflight
+from .case import Case, load_case
+from .deck import DUMP, LOG
+from .dump import read_dump, read_log, trajectory_from_dump
+from .errors import ConfigError
+from .progress import progress_bar
+from .runner import CASE_FILE, run_embedded, run_executable, write_run_folder
 from .trajectory import Trajectory
+from .units import from_engine
 
 RUNNERS = ("embedded", "lmp")
 
 
-def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False) -> Trajectory:
+def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+             overwrite: bool = False, progress: bool = False, yes: bool = False) -> Trajectory:
     """Run `case` in `folder` and return its trajectory in user units.
 
     runner = "embedded" uses the LAMMPS Python module in this process; "lmp" the executable
-    (with mpiexec for nprocs > 1). On failure the folder keeps everything written so far.
+    (with mpiexec for nprocs > 1). `progress` draws a bar on stderr (terminals only); `echo`
+    shows LAMMPS's screen output on stderr. On failure or interrupt the folder keeps everything
+    written so far.
     """
     if runner not in RUNNERS:
         raise ValueError(f"runner: got {runner!r}; choose one of {', '.join(RUNNERS)}")
-    folder = write_run_folder(case, folder)
-    if runner == "embedded":
-        run_embedded(folder, echo=echo)
-    else:
-        run_executable(folder, nprocs=nprocs, echo=echo)
+    preflight.check(case, folder, nprocs, yes=yes)
+    if nprocs > 1 and runner != "lmp":
+        raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
+    folder = write_run_folder(case, folder, overwrite=overwrite)
+    with progress_bar(case, progress) as on_step:
+        if runner == "embedded":
+            run_embedded(folder, echo=echo, on_step=on_step)
+        else:
+            run_executable(folder, nprocs=nprocs, echo=echo, on_step=on_step)
     return load_trajectory(case, folder)
 
 
@@ -46,28 +62,80 @@ def load_trajectory(case: Case, folder: str | Path) -> Trajectory:
     return traj
 
 
+def friction_work(folder: str | Path) -> float:
+    """Energy the friction has dissipated by the end of the run, mJ (the fix's scalar in the log)."""
+    return float(from_engine(read_log(Path(folder) / LOG).runs[-1]["f_friction"][-1], "energy"))
+
+
+def measure(case: Case, traj: Trajectory):
+    """The front measures (`measures.front`: arrival times, V_P per gap, first peaks) of a run."""
+    from .measures import front
+
+    return front(traj.t, traj.v, traj.a, case.impactor.peak_velocity(), case.chain.gaps())
+
+
+def run_figure(case: Case, traj: Trajectory, measured):
+    """The run's Fig. 3-style figure (matplotlib Figure) with its front measures `measured`."""
+    from .plots import shock_figure
+    from .summary import linear_chain
+
+    vi = case.impactor.peak_velocity()
+    title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+    return shock_figure(traj, vi, measured, linear_chain(case)[0], title=title)
+
+
 SUMMARY = "summary.json"
 FIGURE = "shock.png"
 
 
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
-             figure: bool = True) -> dict:
-    """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary."""
-    from .measures import front
-    from .summary import summarize
+             figure: bool = True, overwrite: bool = False, progress: bool = False, yes: bool = False) -> dict:
+    """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary.
+
+    summary.json is written last: a folder with it holds a finished run.
+    """
+    from .summary import summarize, to_json
 
     folder = Path(folder)
     start = time.perf_counter()
-    traj = simulate(case, folder, runner=runner, nprocs=nprocs, echo=echo)
-    vi = case.impactor.peak_velocity()
-    measured = front(traj.t, traj.v, traj.a, vi, case.chain.gaps()) if vi > 0 else None
+    traj = simulate(case, folder, runner=runner, nprocs=nprocs, echo=echo, overwrite=overwrite,
+                    progress=progress, yes=yes)
+    measured = measure(case, traj) if case.impactor.peak_velocity() > 0 else None
     summary = summarize(case, traj, measured)
-    summary["files"] = {"folder": str(folder), "dump": str(folder / DUMP), "log": str(folder / "log.lammps")}
+    if case.friction is not None:
+        summary["friction_dissipated_energy_mJ"] = round(friction_work(folder), 6)
+    summary["files"] = {"folder": str(folder), "dump": str(folder / DUMP), "log": str(folder / LOG)}
     if figure and measured is not None:
-        from .plots import shock_figure
-
-        shock_figure(traj, vi, measured, summary["linear_wave_speed_V0_m_per_s"]).savefig(folder / FIGURE, dpi=120)
+        run_figure(case, traj, measured).savefig(folder / FIGURE, dpi=120)
         summary["files"]["figure"] = str(folder / FIGURE)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
-    (folder / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+    (folder / SUMMARY).write_text(to_json(summary) + "\n")
     return summary
+
+
+@dataclass(frozen=True)
+class Run:
+    """A run folder read back: its case, trajectory (user units) and summary (None if unfinished)."""
+
+    folder: Path
+    case: Case
+    trajectory: Trajectory
+    summary: dict | None
+
+    def front(self):
+        """The front measures of this run (`measure`)."""
+        return measure(self.case, self.trajectory)
+
+    def figure(self):
+        """The run's Fig. 3-style figure (`run_figure`)."""
+        return run_figure(self.case, self.trajectory, self.front())
+
+
+def read_run(folder: str | Path) -> Run:
+    """Open a run folder written by `run_case` or `simulate` (also an interrupted one)."""
+    import json
+
+    folder = Path(folder)
+    case = load_case(folder / CASE_FILE)
+    summary = json.loads((folder / SUMMARY).read_text()) if (folder / SUMMARY).exists() else None
+    return Run(folder, case, load_trajectory(case, folder), summary)

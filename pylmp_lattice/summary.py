@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 
 import numpy as np
 
@@ -20,15 +22,13 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
 
     `front`: the run's `measures.front`, if already computed (it is the costly part)."""
     chain, vi = case.chain, case.impactor.peak_velocity()
-    r0 = float(np.mean(chain.gaps()))
-    k0 = float(case.force.stiffness(r0))
-    m = float(np.mean(chain.masses()))
+    v0, f0 = linear_chain(case)
     out = {
         "case": case.name,
         "particles": chain.particles,
         "impactor_peak_velocity_m_per_s": vi,
-        "linear_wave_speed_V0_m_per_s": round(measures.linear_wave_speed(k0, m, r0), 6),
-        "linear_frequency_f0_Hz": round(measures.linear_frequency(k0, m), 4),
+        "linear_wave_speed_V0_m_per_s": round(v0, 6),
+        "linear_frequency_f0_Hz": round(f0, 4),
     }
     if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
         return out
@@ -38,10 +38,10 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
     out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
-        "shock_velocity_plateau_m_per_s": _plateau(speed),
+        "shock_velocity_plateau_m_per_s": _plateau(speed, "gaps"),
         # with friction V_P peaks early and decays (Fig. S6): where and how high
         "shock_velocity_max_m_per_s": _maximum(vp),
-        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),
+        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, "particles", offset=1),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
     if chain.far_end == "long":
@@ -53,6 +53,29 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
     return out
 
 
+def linear_chain(case: Case) -> tuple[float, float]:
+    """Linear wave speed V0 (m/s) and frequency f0 (Hz) at the mean gap and mass."""
+    r0 = float(np.mean(case.chain.gaps()))
+    k0 = float(case.force.stiffness(r0))
+    m = float(np.mean(case.chain.masses()))
+    return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
+
+
+def to_json(summary: dict) -> str:
+    """Strict JSON (RFC 8259): a value that is not finite (an undefined measure) becomes null."""
+    return json.dumps(_finite(summary), indent=2, allow_nan=False)
+
+
+def _finite(value):
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def _maximum(vp: np.ndarray) -> dict | None:
     """Largest V_P and the gap (1-based, gap n between magnets n and n+1) where it occurs."""
     if not np.any(np.isfinite(vp)):
@@ -60,11 +83,17 @@ def _maximum(vp: np.ndarray) -> dict | None:
     return {"value": round(float(np.nanmax(vp)), 5), "gap": int(np.nanargmax(vp)) + 1}
 
 
-def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
-    """A plateau as JSON: particle numbers 1-based, as in the paper."""
+def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
+    """A plateau as JSON, over "gaps" or "particles" numbered 1-based as in the paper (gap n lies
+    between magnets n and n+1). trend: "steady" when converged (drift within 1 %), else
+    "decaying" or "growing"; null, like the numbers, when the series has too few values."""
+    defined = bool(np.isfinite(p.mean))
+    trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
-        "particles": [p.start + offset + 1, p.stop + offset],
+        "converged": defined and p.converged(),
+        "trend": trend,
+        over: [p.start + offset + 1, p.stop + offset] if defined else None,
     }
