@@ -24,7 +24,7 @@ _API = {
     "load_trajectory": "simulation", "Trajectory": "trajectory",
     "estimate": "preflight",
     "to_atoms": "ase_io", "write_trajectory": "ase_io", "case_from_atoms": "ase_io",
-    "measures": None, "plots": None,
+    "measures": None, "plots": None, "errors": None,
 }
 _RENAMED = {"run": "run_case"}
 __all__ = [*_API, "__version__"]

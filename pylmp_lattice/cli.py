@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
         logging.addLevelName(level, logging.getLevelName(level).lower())
     logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")
     # SIGTERM outside an engine run ends the command like Ctrl-C does (runs stop the engine themselves).
-    signal.signal(signal.SIGTERM, _raise_interrupted)
+    previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
         return args.func(args)
     except ConfigError as err:
@@ -42,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {err}", file=sys.stderr)
         return EXIT_RUN_ERROR
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _raise_interrupted(signum, frame):
