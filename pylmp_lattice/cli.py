@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|export|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|export|study|info`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -85,6 +85,13 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
     export.set_defaults(func=_export)
 
+    study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
+    study.add_argument("name", choices=_study_names(), metavar="NAME",
+                       help="one of: " + ", ".join(_study_names()))
+    study.add_argument("-o", "--output", type=Path, default=Path("runs/studies"), help="output folder (default: runs/studies)")
+    study.add_argument("--quick", action="store_true", help="a small version (fewer, shorter runs)")
+    study.set_defaults(func=_study)
+
     info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
     info.set_defaults(func=_info)
     return p
@@ -129,9 +136,9 @@ def _run(args) -> int:
             raise
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
         raise Interrupted(signum, folder=folder if folder.exists() else None) from None
-    from .summary import to_json
+    from .serialize import dumps
 
-    print(to_json(summary))
+    print(dumps(summary))
     return 0
 
 
@@ -175,6 +182,20 @@ def _export(args) -> int:
     run = read_run(args.folder)
     path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
     print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
+    return 0
+
+
+def _study_names() -> list[str]:
+    from .studies import STUDIES
+
+    return list(STUDIES)
+
+
+def _study(args) -> int:
+    from .studies import run_study
+
+    result = run_study(args.name, args.output, quick=args.quick)
+    print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 
 

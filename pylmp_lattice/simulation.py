@@ -67,13 +67,6 @@ def friction_work(folder: str | Path) -> float:
     return float(from_engine(read_log(Path(folder) / LOG).runs[-1]["f_friction"][-1], "energy"))
 
 
-def measure(case: Case, traj: Trajectory):
-    """The front measures (`measures.front`: arrival times, V_P per gap, first peaks) of a run."""
-    from .measures import front
-
-    return front(traj.t, traj.v, traj.a, case.impactor.peak_velocity(), case.chain.gaps())
-
-
 def run_figure(case: Case, traj: Trajectory, measured):
     """The run's Fig. 3-style figure (matplotlib Figure) with its front measures `measured`."""
     from .plots import shock_figure
@@ -94,13 +87,14 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
 
     summary.json is written last: a folder with it holds a finished run.
     """
-    from .summary import summarize, to_json
+    from .serialize import dumps
+    from .summary import front_measures, summarize
 
     folder = Path(folder)
     start = time.perf_counter()
     traj = simulate(case, folder, runner=runner, nprocs=nprocs, echo=echo, overwrite=overwrite,
                     progress=progress, yes=yes)
-    measured = measure(case, traj) if case.impactor.peak_velocity() > 0 else None
+    measured = front_measures(case, traj) if case.impactor.peak_velocity() > 0 else None
     summary = summarize(case, traj, measured)
     if case.friction is not None:
         summary["friction_dissipated_energy_mJ"] = round(friction_work(folder), 6)
@@ -109,7 +103,7 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
         run_figure(case, traj, measured).savefig(folder / FIGURE, dpi=120)
         summary["files"]["figure"] = str(folder / FIGURE)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
-    (folder / SUMMARY).write_text(to_json(summary) + "\n")
+    (folder / SUMMARY).write_text(dumps(summary) + "\n")
     return summary
 
 
@@ -123,8 +117,10 @@ class Run:
     summary: dict | None
 
     def front(self):
-        """The front measures of this run (`measure`)."""
-        return measure(self.case, self.trajectory)
+        """The front measures of this run (`summary.front_measures`: arrival, V_P per gap, first peaks)."""
+        from .summary import front_measures
+
+        return front_measures(self.case, self.trajectory)
 
     def figure(self):
         """The run's Fig. 3-style figure (`run_figure`)."""

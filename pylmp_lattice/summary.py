@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import logging
-import math
 
 import numpy as np
 
@@ -32,7 +30,7 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
     }
     if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
         return out
-    front = front or measures.front(traj.t, traj.v, traj.a, vi, chain.gaps())
+    front = front or front_measures(case, traj)
     vp = front.propagation_velocity
     speed = measures.trailing_plateau(vp)
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
@@ -61,19 +59,11 @@ def linear_chain(case: Case) -> tuple[float, float]:
     return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
 
 
-def to_json(summary: dict) -> str:
-    """Strict JSON (RFC 8259): a value that is not finite (an undefined measure) becomes null."""
-    return json.dumps(_finite(summary), indent=2, allow_nan=False)
-
-
-def _finite(value):
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+def front_measures(case: Case, traj: Trajectory) -> measures.Front:
+    """The run's front measures; a pulse's arrival is its first velocity peak (it may never
+    reach V_I/2 far from the impactor), any other drive's the crossing of V_I/2."""
+    method = measures.default_arrival_method(pulse=case.impactor.profile == "sine")
+    return measures.front(traj.t, traj.v, traj.a, case.impactor.peak_velocity(), case.chain.gaps(), method)
 
 
 def _maximum(vp: np.ndarray) -> dict | None:
@@ -86,7 +76,8 @@ def _maximum(vp: np.ndarray) -> dict | None:
 def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
     """A plateau as JSON, over "gaps" or "particles" numbered 1-based as in the paper (gap n lies
     between magnets n and n+1). trend: "steady" when converged (drift within 1 %), else
-    "decaying" or "growing"; null, like the numbers, when the series has too few values."""
+    "decaying" (e.g. V_P with friction) or "growing": a drifting mean is not a plateau. Null, like
+    the numbers, when the series has too few values."""
     defined = bool(np.isfinite(p.mean))
     trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
     return {

@@ -71,8 +71,8 @@ def test_run_too_large_for_the_disk_is_refused_before_lammps_starts(tmp_path):
     assert done.returncode == 2
     assert done.stdout == "" and "Traceback" not in done.stderr
     line, = done.stderr.splitlines()
-    # 10^7 magnets x 6001 frames x 50.5 bytes = 3.03 PB
-    assert "too large for this machine" in line and "output 3.03 PB" in line and "free on disk" in line
+    # 10^7 magnets x 6001 frames x 64 bytes = 3.84 TB
+    assert "too large for this machine" in line and "output 3.84 TB" in line and "free on disk" in line
     assert not (tmp_path / "runs").exists()
 
 
@@ -141,7 +141,7 @@ def test_dry_run_prints_the_estimate_and_runs_nothing(tmp_path, capsys):
     assert main(["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(tmp_path / "r"), "--dry-run"]) == 0
     est = json.loads(capsys.readouterr().out)
     assert est["particles"] == 301 and est["steps"] == 60000 and est["frames"] == 6001
-    assert est["output_bytes"] == pytest.approx(301 * 6001 * 50.5, rel=1e-6) and est["refused"] is None
+    assert est["output_bytes"] == pytest.approx(301 * 6001 * 64, rel=1e-6) and est["refused"] is None
     assert not (tmp_path / "r").exists()
 
 

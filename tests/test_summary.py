@@ -9,7 +9,8 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.simulation import read_run, run_case
-from pylmp_lattice.summary import _plateau, to_json
+from pylmp_lattice.serialize import dumps
+from pylmp_lattice.summary import _plateau
 
 from conftest import make_case
 
@@ -43,8 +44,8 @@ def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
     assert (g["converged"], g["trend"]) == (False, "growing")
 
 
-def test_to_json_writes_null_for_values_that_are_not_finite():
-    text = to_json({"a": float("nan"), "b": [1.0, float("inf")], "c": {"d": -float("inf")}, "e": 2})
+def test_summary_writer_writes_null_for_values_that_are_not_finite():
+    text = dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": {"d": -float("inf")}, "e": 2})
     assert _strict(text) == {"a": None, "b": [1.0, None], "c": {"d": None}, "e": 2}
 
 
