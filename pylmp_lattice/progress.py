@@ -20,13 +20,16 @@ def progress_bar(case: Case, enabled: bool = True):
         yield None
         return
     total = case.run.steps()
-    with tqdm(total=total, desc=case.name, unit="step", file=sys.stderr, disable=None, leave=False,
-              bar_format="{desc}: t = {postfix} |{bar}| {n_fmt}/{total_fmt} steps [{elapsed}<{remaining}]",
-              postfix=f"0/{case.run.duration:g} ms") as bar:
+
+    def label(step: int) -> str:
+        return f"{case.name}: t = {step * case.run.dt:.6g}/{case.run.duration:g} ms"
+
+    with tqdm(total=total, desc=label(0), unit="step", file=sys.stderr, disable=None, leave=False,
+              bar_format="{desc} |{bar}| {n_fmt}/{total_fmt} steps [{elapsed}<{remaining}]") as bar:
 
         def on_step(step: int) -> None:
             step = min(int(step), total)
-            bar.postfix = f"{step * case.run.dt:.6g}/{case.run.duration:g} ms"
+            bar.set_description_str(label(step), refresh=False)
             bar.update(step - bar.n)
 
         yield on_step

@@ -100,6 +100,9 @@ def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int]
                         on_step(lmp.extract_global("ntimestep"))
             step, dt = lmp.extract_global("ntimestep"), lmp.extract_global("dt")
         finally:
+            if worker.is_alive():  # an error in this thread: stop LAMMPS before closing it
+                lmp.force_timeout()
+                worker.join()
             lmp.close()  # flushes and closes the log and the dump
     if failure:
         text = str(failure[0])
