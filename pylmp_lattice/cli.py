@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|export|study|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -84,6 +84,15 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("-o", "--output", type=Path, required=True, help="file ending in .extxyz or .traj")
     export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
     export.set_defaults(func=_export)
+
+    sweep = sub.add_parser("sweep", help="run every member of a sweep file (resumable); write DIR/results.csv")
+    sweep.add_argument("sweep", type=Path, help="sweep file (TOML: base, [set], [grid], [zip], replicas, seed, keep)")
+    sweep.add_argument("-o", "--output", type=Path, required=True, help="sweep folder DIR")
+    sweep.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
+    sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.set_defaults(func=_sweep)
 
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
     study.add_argument("name", choices=_study_names(), metavar="NAME",
@@ -183,6 +192,18 @@ def _export(args) -> int:
     path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
     print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
+
+
+def _sweep(args) -> int:
+    from .sweep import load_sweep, run_sweep
+
+    sweep = load_sweep(args.sweep)
+    table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
+                      retry_failed=args.retry_failed, progress=not args.quiet)
+    failed = int((table["status"] == "failed").sum())
+    print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
+          file=sys.stderr)
+    return EXIT_RUN_ERROR if failed else 0
 
 
 def _study_names() -> list[str]:

@@ -45,9 +45,8 @@ CASE_FILE = "case.toml"
 def write_run_folder(case: Case, folder: str | Path, overwrite: bool = False) -> Path:
     """Write the deck, its input files and the case (case.toml) into `folder`.
 
-    A folder that already holds files is refused unless `overwrite`; then it must be a run folder
-    (it has case.toml), and everything of the earlier run is removed first, so no stale
-    summary or figure stays beside the new run's files.
+    A folder that already holds a run is refused unless `overwrite`; then the whole earlier run
+    folder is removed first, so no stale summary or figure stays beside the new run's files.
     """
     folder = Path(folder)
     if check_folder(folder, overwrite):
@@ -60,12 +59,10 @@ def write_run_folder(case: Case, folder: str | Path, overwrite: bool = False) ->
 
 
 def check_folder(folder: str | Path, overwrite: bool = False) -> bool:
-    """Whether `folder` holds an earlier run to remove; ConfigError if it may not be used."""
-    folder = Path(folder)
-    if not (folder.is_dir() and any(folder.iterdir())):
+    """Whether `folder` holds an earlier run (it has case.toml) to remove before this one;
+    ConfigError if it does and `overwrite` is not set. Other files are not a run's: they stay."""
+    if not (Path(folder) / CASE_FILE).exists():
         return False
-    if not (folder / CASE_FILE).exists():
-        raise ConfigError("output", f"{folder} holds files that are not a run; choose an empty or new folder")
     if not overwrite:
         raise ConfigError("output", f"{folder} already holds a run; pass --overwrite (overwrite=True) to "
                                     "replace it, or choose another --name or -o")

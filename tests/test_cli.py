@@ -120,13 +120,13 @@ def test_different_overrides_keep_both_runs_and_a_finished_run_is_not_overwritte
     assert json.loads((tmp_path / "runs/my_run/summary.json").read_text())["case"] == "my_run"
 
 
-def test_a_folder_that_is_not_a_run_is_never_overwritten(tmp_path, capsys):
+def test_files_that_are_not_a_runs_stay(tmp_path, capsys):
+    """A folder without case.toml holds no run: the deck is written beside the files there."""
     case = write_case(tmp_path / "c.toml", make_case(particles=12, duration=10.0))
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "notes.txt").write_text("keep")
-    assert main(["deck", str(case), "-o", str(tmp_path / "mine"), "--overwrite"]) == 2
-    assert "not a run" in capsys.readouterr().err
-    assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
+    assert main(["deck", str(case), "-o", str(tmp_path / "mine")]) == 0
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep" and (tmp_path / "mine" / "case.toml").exists()
 
 
 @pytest.mark.parametrize("np_, message", [("0", "--np: got 0; expected an integer >= 1"),

@@ -47,7 +47,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     for r1, ax in zip(separations, axes.T.flat):
         case = rig_case(r1, duration)
         folder = out / NAME / case.name
-        traj = simulate(case, folder, overwrite=True)  # the study's own member runs, redone with it
+        traj = simulate(case, folder, overwrite=True)
         x = traj.x0[1] + traj.u[:, 1]  # mm from the left magnet
         turning = np.flatnonzero(np.diff(np.sign(traj.v[:, 1])) != 0)
         # mechanical energy, mJ (g (m/s)^2 = mJ): the magnet may still move at the end of a short run
