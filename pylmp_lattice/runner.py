@@ -164,6 +164,8 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
                 time.sleep(POLL)
                 if on_step:
                     on_step(_last_thermo(folder)[0])
+        if proc.returncode != 0:  # what is left of a killed or failed lmp (the wrapper's child, ranks)
+            _signal_group(proc, signal.SIGKILL)
         out.seek(0)
         output = out.read()
     if stopped:

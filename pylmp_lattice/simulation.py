@@ -100,7 +100,11 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
         summary["friction_dissipated_energy_mJ"] = round(friction_work(folder), 6)
     summary["files"] = {"folder": str(folder), "dump": str(folder / DUMP), "log": str(folder / LOG)}
     if figure and measured is not None:
-        run_figure(case, traj, measured).savefig(folder / FIGURE, dpi=120)
+        from .plots import pyplot
+
+        fig = run_figure(case, traj, measured)
+        fig.savefig(folder / FIGURE, dpi=120)
+        pyplot().close(fig)  # a long session (API, sweeps) must not keep every figure
         summary["files"]["figure"] = str(folder / FIGURE)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
     (folder / SUMMARY).write_text(dumps(summary) + "\n")

@@ -80,7 +80,8 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
 
 
 def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
-    """SIGKILL from outside (e.g. the OOM killer): one message naming the signal, files kept."""
+    """SIGKILL from outside (e.g. the OOM killer) to lmp's process group (the `lmp` wrapper and
+    the engine it starts): one message naming the signal, files kept."""
     started = []
 
     class Recorded(subprocess.Popen):
@@ -91,7 +92,7 @@ def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
     def killer():
         while not started or not (tmp_path / "traj.dump").exists():
             time.sleep(0.05)
-        os.kill(started[0].pid, signal.SIGKILL)
+        os.killpg(started[0].pid, signal.SIGKILL)
 
     monkeypatch.setattr(runner.subprocess, "Popen", Recorded)
     folder = write_run_folder(load_case(INPUTS / "paper_long_lattice.toml"), tmp_path)
