@@ -5,7 +5,8 @@ The estimates are linear models calibrated on this project's 2-core machine with
 (301 magnets, 60 000 steps) at two output intervals (6001 and 601 frames), a 200 000-magnet
 chain and a 40-magnet chain in which every magnet moves (see README, "A run you can trust").
 They lean high, and are meant to catch runs that are off by orders of magnitude, not to
-predict to the second.
+predict to the second. `output_bytes` is the one place that knows what each output format
+costs on disk.
 """
 
 from __future__ import annotations
@@ -23,20 +24,28 @@ from .summary import linear_chain
 
 log = logging.getLogger(__name__)
 
-# The text dump (`dump custom ... %.12g`, 12 columns), headers included: 63.5 bytes per atom and
-# frame when every magnet moves (40 magnets struck at 2 m/s); a chain mostly at rest writes less
-# ("0" for each still value; the main case 50.5), so this is an upper estimate.
-DUMP_BYTES_PER_ATOM_FRAME = 64.0
+# Bytes on disk per atom and frame, at the peak of a run, by output.format:
+# - text: LAMMPS's text dump (12 columns, %.12g), headers included: 63.5 when every magnet moves
+#   (40 magnets struck at 2 m/s), less for a chain mostly at rest ("0" for each still value;
+#   the main case 50.5);
+# - h5md: the binary dump (id x vx fx, 4 doubles) plus, while it is converted, the H5MD file
+#   (x, v, f, 3 doubles before compression; the main case compresses to 8.4).
+DISK_BYTES_PER_ATOM_FRAME = {"text": 64.0, "h5md": 32.0 + 24.0, "none": 0.0}
 # LAMMPS's per-rank memory for a bonded chain ("Per MPI rank memory": 61 MB at 2e5 atoms), rounded up.
 ENGINE_BYTES_PER_ATOM = 400
-# Reading the text dump back holds the text, its lines and the arrays: 3.1 bytes per dump byte.
+# Reading a text dump back (the figure reads it) holds the text, its lines and the arrays:
+# 3.1 bytes per dump byte. H5MD is converted in blocks and read by columns: BLOCK_BYTES.
 READ_BYTES_PER_DUMP_BYTE = 3.1
+BLOCK_BYTES = 64e6
+# Without the engine's front record the whole trajectory is read to measure: t, u, v, a.
+TRAJECTORY_BYTES_PER_ATOM_FRAME = 4 * 8.0
 # Python, numpy, LAMMPS and matplotlib loaded: 151 MB.
 BASE_MEMORY_BYTES = 151e6
-# Engine: 5.3e-8 s per atom-step; each dumped atom-frame costs 2.1e-6 s to write and 1.2e-6 s
-# to read back and measure; plus 1.2 s of start-up, measures and figure.
-SECONDS_PER_ATOM_STEP = 5.3e-8
-SECONDS_PER_ATOM_FRAME = 3.3e-6
+# Engine 1.3e-7 s per atom-step (the front record included; under load); each written
+# atom-frame costs 3.3e-6 s as text (writing, reading back) and 5e-7 s as H5MD (conversion);
+# plus 1.2 s of start-up, measures and figure.
+SECONDS_PER_ATOM_STEP = 1.3e-7
+SECONDS_PER_ATOM_FRAME = {"text": 3.3e-6, "h5md": 5e-7, "none": 0.0}
 BASE_SECONDS = 1.2
 # Runs estimated to take longer need an explicit yes.
 LONG_RUN_SECONDS = 3600.0
@@ -58,22 +67,33 @@ class Estimate:
                 f"time {_duration(self.seconds)}")
 
 
+def atom_frames(case: Case) -> int:
+    """Atom-frames the run writes: every magnet each output_interval, the fine ones each fine_interval."""
+    if case.output.format == "none":
+        return 0
+    fine = len(case.output.fine) * (case.run.steps() // round(case.fine_interval() / case.run.dt) + 1)
+    return case.chain.particles * frames(case) + fine
+
+
 def output_bytes(case: Case) -> float:
-    """Bytes of trajectory output the case's output settings produce (the one place that knows the format)."""
-    return DUMP_BYTES_PER_ATOM_FRAME * case.chain.particles * frames(case)
+    """Peak bytes on disk of the run's per-frame output."""
+    return DISK_BYTES_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
 
 
 def frames(case: Case) -> int:
-    """Trajectory frames written, the first (t = 0) included."""
-    return case.run.steps() // case.run.steps("output_interval") + 1
+    """Frames of the whole chain written, the first (t = 0) included; 0 without output."""
+    return 0 if case.output.format == "none" else case.run.steps() // case.run.steps("output_interval") + 1
 
 
 def estimate(case: Case, nprocs: int = 1) -> Estimate:
-    n, steps = case.chain.particles, case.run.steps()
+    n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     out = output_bytes(case)
-    memory = BASE_MEMORY_BYTES + ENGINE_BYTES_PER_ATOM * n + READ_BYTES_PER_DUMP_BYTE * out
+    memory = BASE_MEMORY_BYTES + ENGINE_BYTES_PER_ATOM * n
+    memory += READ_BYTES_PER_DUMP_BYTE * out if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
+    if not case.output.front:
+        memory += TRAJECTORY_BYTES_PER_ATOM_FRAME * atom_frames(case)
     seconds = BASE_SECONDS + SECONDS_PER_ATOM_STEP * n * steps / max(1, min(nprocs, os.cpu_count() or 1))
-    seconds += SECONDS_PER_ATOM_FRAME * n * frames(case)
+    seconds += SECONDS_PER_ATOM_FRAME[fmt] * atom_frames(case)
     return Estimate(frames(case), out, memory, seconds)
 
 

@@ -41,7 +41,7 @@ def test_signal_stops_the_main_case_cleanly(tmp_path, signum, runner):
                                    "--runner", runner], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(3.0)
     deadline = time.monotonic() + 60
-    while not (folder / "traj.dump").exists() and time.monotonic() < deadline:
+    while not (folder / "traj.bin").exists() and time.monotonic() < deadline:
         time.sleep(0.1)
     time.sleep(0.5)
     sent = time.monotonic()
@@ -71,8 +71,8 @@ def test_run_too_large_for_the_disk_is_refused_before_lammps_starts(tmp_path):
     assert done.returncode == 2
     assert done.stdout == "" and "Traceback" not in done.stderr
     line, = done.stderr.splitlines()
-    # 10^7 magnets x 6001 frames x 64 bytes = 3.84 TB
-    assert "too large for this machine" in line and "output 3.84 TB" in line and "free on disk" in line
+    # 10^7 magnets x 6001 frames x 56 bytes (binary dump and H5MD) = 3.36 TB
+    assert "too large for this machine" in line and "output 3.36 TB" in line and "free on disk" in line
     assert not (tmp_path / "runs").exists()
 
 
@@ -141,7 +141,7 @@ def test_dry_run_prints_the_estimate_and_runs_nothing(tmp_path, capsys):
     assert main(["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(tmp_path / "r"), "--dry-run"]) == 0
     est = json.loads(capsys.readouterr().out)
     assert est["particles"] == 301 and est["steps"] == 60000 and est["frames"] == 6001
-    assert est["output_bytes"] == pytest.approx(301 * 6001 * 64, rel=1e-6) and est["refused"] is None
+    assert est["output_bytes"] == pytest.approx(301 * 6001 * 56, rel=1e-6) and est["refused"] is None
     assert not (tmp_path / "r").exists()
 
 

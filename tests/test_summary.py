@@ -53,7 +53,7 @@ def test_summary_writer_writes_null_for_values_that_are_not_finite():
 def test_friction_dissipated_energy_is_in_the_summary(tmp_path):
     """The calibration rig (Fig. S4: left magnet held, right one pushed off from 1.8 mm): the
     energy friction took is the potential plus kinetic energy lost, from the trajectory."""
-    case = make_case(particles=3, duration=200.0, dt=0.002, output=1.0, chain={"r0": [1.8, 28.3]},
+    case = make_case(particles=3, duration=200.0, dt=0.002, interval=1.0, chain={"r0": [1.8, 28.3]},
                      impactor={"profile": "rest"}, friction={"mu": 0.285, "p": 0.012},
                      table={"r_max": 30.1, "points": 100000})
     summary = run_case(case, tmp_path / "rig")
