@@ -314,3 +314,32 @@ def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypat
         store.atomic_write(target, '{"status": "done"}')
     assert target.read_text() == '{"status": "running"}'
     assert [p.name for p in tmp_path.iterdir()] == [STATUS]  # no temporary file left behind
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_ctrl_c_stops_the_sweep_and_leaves_running_members_unfinished_not_failed(tmp_path):
+    path = write_sweep(tmp_path, SIX, particles=12, duration=50.0, output=0.1)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.PIPE, text=True)
+
+    def statuses():
+        found = []
+        for status in (out / "members").glob(f"*/{STATUS}"):
+            try:
+                found.append(json.loads(status.read_text())["status"])
+            except (OSError, json.JSONDecodeError):
+                pass
+        return found
+
+    deadline = time.time() + 120
+    while not ("done" in statuses() and "running" in statuses()) and time.time() < deadline:
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C does: to the whole foreground group
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130
+    assert err.strip().splitlines()[-1].startswith("pylmp-lattice: interrupted; finished members are kept in")
+    assert "failed" not in statuses() and len(statuses()) < 6
+    assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
+    assert set(load_results(out)["status"]) == {"done"}
