@@ -26,6 +26,7 @@ STUDIES: dict[str, str] = {
     "fig1": "Fig. 1(b, c): the 21-magnet experiment with a smooth synthetic impact; rise times",
     "fig2": "Fig. 2: force and stiffness against separation, the power-law fit, magnets 2 and 8",
     "fig3": "Fig. 3(a-e): the long lattice at V_I = 2 m/s without friction, and the transition zone",
+    "fig4": "Fig. 4(a-d): V_P, f/f0, eta against V_I; V*, V*/V0 and V* against q (sweeps)",
     "s3": "Fig. S3 / Sec. S2: second-neighbour interaction (attractive, 5 %) and its effect on V_P and first peaks",
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
     "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",

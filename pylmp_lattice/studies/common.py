@@ -1,11 +1,18 @@
-"""What the studies share: the paper's chain as a case, its linear constants, small plot helpers."""
+"""What the studies share: the paper's chain as a case, its linear constants, sweeps of runs."""
 
 from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from .. import measures
 from ..case import Case, case_from_dict
+from ..simulation import SUMMARY, load_trajectory
+from ..sweep import Member, Sweep, run_sweep
+from ..sweep.store import member_folder
 
 # The paper's lattice (main text): m, r0 and the magnet law F = K/(r+b)^q.
 MASS, R0 = 1.084, 12.0  # g, mm
@@ -44,3 +51,39 @@ def particles_reached(arrival) -> int:
 def pick(candidates, limit: int) -> list[int]:
     """The 0-based particle indices among `candidates` below `limit`."""
     return [n for n in candidates if n < limit]
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    """One member of a study's sweep: its case and parameters, status ("done" or "failed"), the
+    one-line error of a failed run, its folder, and the run summary (None if failed)."""
+
+    member: Member
+    status: str
+    error: str | None
+    folder: Path
+    summary: dict | None
+
+    @property
+    def done(self) -> bool:
+        return self.status == "done"
+
+    def trajectory(self):
+        """The member's trajectory, read through `simulation.load_trajectory`."""
+        return load_trajectory(self.member.case, self.folder)
+
+
+def sweep_runs(base: Case, root: Path, workers: int | None = None, **spec) -> list[SweepRun]:
+    """Run a sweep of `base` (spec: set / grid / zip as in `sweep.Sweep`) in `root` through the
+    sweep layer (parallel, resumable: members already done are not run again); its members in
+    sweep order."""
+    sweep = Sweep(base=base, **spec)
+    table = run_sweep(sweep, root, workers=workers, progress=False).set_index("id")
+    runs = []
+    for m in sweep.members():
+        row = table.loc[m.id]
+        folder = member_folder(root, m.id)
+        summary = json.loads((folder / SUMMARY).read_text()) if row["status"] == "done" else None
+        error = row["error"] if isinstance(row["error"], str) else None
+        runs.append(SweepRun(m, row["status"], error, folder, summary))
+    return runs
