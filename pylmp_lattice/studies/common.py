@@ -20,10 +20,17 @@ PAPER_FORCE = {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}
 MAGNET_LENGTH = 6.35  # mm, one magnet particle (two ring magnets), paper Sec. 1
 
 
-def paper_case(name: str, impactor: dict, duration: float, far_end: str = "long", particles: int | None = None,
-               dt: float = 0.01, output_interval: float = 0.1, **sections) -> Case:
+def paper_case(name: str, impactor: dict, duration: float, **options) -> Case:
     """The paper's chain (m = 1.084 g, r0 = 12 mm, the magnet law) with an impactor profile and
-    run length (ms); `sections` add or replace case sections (force, friction, ...)."""
+    run length (ms); options as for `paper_dict`."""
+    return case_from_dict(paper_dict(name, impactor, duration, **options))
+
+
+def paper_dict(name: str, impactor: dict, duration: float, far_end: str = "long", particles: int | None = None,
+               dt: float = 0.01, output_interval: float = 0.1, **sections) -> dict:
+    """`paper_case` as a case dict. As a sweep's base it leaves a long lattice's N unresolved, so
+    each member gets the N its own V_I, law and run length need; `sections` add or replace case
+    sections (force, friction, ...)."""
     data = {
         "name": name,
         "chain": {"mass": MASS, "r0": R0, "far_end": far_end} | ({"particles": particles} if particles else {}),
@@ -32,7 +39,7 @@ def paper_case(name: str, impactor: dict, duration: float, far_end: str = "long"
         "run": {"duration": duration, "dt": dt, "output_interval": output_interval},
     }
     data.update(sections)
-    return case_from_dict(data)
+    return data
 
 
 def linear_constants(case: Case) -> tuple[float, float]:
@@ -73,8 +80,8 @@ class SweepRun:
         return load_trajectory(self.member.case, self.folder)
 
 
-def sweep_runs(base: Case, root: Path, workers: int | None = None, **spec) -> list[SweepRun]:
-    """Run a sweep of `base` (spec: set / grid / zip as in `sweep.Sweep`) in `root` through the
+def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> list[SweepRun]:
+    """Run a sweep of `base` (a case dict, `paper_dict`; spec: set / grid / zip as in `sweep.Sweep`) in `root` through the
     sweep layer (parallel, resumable: members already done are not run again); its members in
     sweep order."""
     sweep = Sweep(base=base, **spec)

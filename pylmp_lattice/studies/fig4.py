@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import measures
+from ..case import case_from_dict
 from ..plots import pyplot
-from .common import PAPER_FORCE, R0, linear_constants, paper_case, sweep_runs
+from .common import PAPER_FORCE, R0, linear_constants, paper_case, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "fig4"
@@ -46,8 +47,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         duration = 300.0
         qs, fractions, q_periods = [2.5, 3.0, 4.0, 5.0], list(np.geomspace(0.02, 1.5, 12)), 12.0
 
-    base = paper_case("fig4", {"profile": "constant", "velocity": 1.0}, duration)
-    v0, f0 = linear_constants(base)
+    base = paper_dict("fig4", {"profile": "constant", "velocity": 1.0}, duration)
+    v0, f0 = linear_constants(case_from_dict(base))
     runs = sweep_runs(base, root / "velocity", grid={"impactor.velocity": [float(v) for v in velocities]})
     limit = _contact_bracket(runs)
     if not quick and limit["largest_without_contact_m_per_s"] is not None and limit["smallest_with_contact_m_per_s"]:
@@ -69,7 +70,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     points = [(c, q, _law(q, c)) for c in conventions for q in qs]
     # and the run lasts q_periods linear periods 1/f0 of its law (with K, b fixed, f0 falls 12x
     # from q = 2.5 to 5)
-    q_base = paper_case("fig4_q", {"profile": "constant", "velocity": 1.0}, 100.0)
+    q_base = paper_dict("fig4_q", {"profile": "constant", "velocity": 1.0}, 100.0)
     scale = {(c, q): _linear_constants(force) for c, q, force in points}
     length = {key: float(np.round(q_periods * 1e3 / f0, 1)) for key, (_, f0) in scale.items()}
     pairs = [(force, float(np.round(x * scale[(c, q)][0], 5)), length[(c, q)]) for c, q, force in points for x in fractions]

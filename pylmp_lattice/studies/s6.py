@@ -16,7 +16,7 @@ import numpy as np
 from .. import measures
 from ..plots import pyplot
 from ..summary import front_measures
-from .common import paper_case, sweep_runs
+from .common import paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s6"
@@ -25,7 +25,7 @@ VI = 2.0
 
 def run(out: Path, quick: bool = False) -> StudyResult:
     mus, duration = ([0.0, 0.1, 0.285], 150.0) if quick else ([0.0, 0.02, 0.05, 0.1, 0.2, 0.285], 300.0)
-    base = paper_case("s6", {"profile": "constant", "velocity": VI}, duration,
+    base = paper_dict("s6", {"profile": "constant", "velocity": VI}, duration,
                       friction={"mu": 0.285, "p": 0.012, "g": 9.81})
     runs = sweep_runs(base, out / NAME, grid={"friction.mu": mus})
     plt = pyplot()

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import measures
+from ..case import case_from_dict
 from ..plots import pyplot
-from .common import linear_constants, paper_case, sweep_runs
+from .common import linear_constants, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s7"
@@ -24,8 +25,8 @@ PARTICLE = 9  # 0-based: magnet 10
 
 def run(out: Path, quick: bool = False) -> StudyResult:
     ramps, duration = ([1.0, 10.0], 200.0) if quick else ([1.0, 5.0, 10.0, 25.0, 50.0, 100.0], 400.0)
-    base = paper_case("s7", {"profile": "ramp", "velocity": VI, "ramp_time": 1.0}, duration)
-    _, f0 = linear_constants(base)
+    base = paper_dict("s7", {"profile": "ramp", "velocity": VI, "ramp_time": 1.0}, duration)
+    _, f0 = linear_constants(case_from_dict(base))
     runs = sweep_runs(base, out / NAME, grid={"impactor.ramp_time": ramps})
     plt = pyplot()
     fig, ax = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")

@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import measures
+from ..case import case_from_dict
 from ..plots import pyplot
 from ..summary import front_measures
-from .common import linear_constants, paper_case, sweep_runs
+from .common import linear_constants, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s8"
@@ -28,13 +29,14 @@ SHOWN_TS = 100.0  # ms, the paper's Fig. S8(c, d)
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
-    base = paper_case("s8", {"profile": "sine", "velocity": VI, "duration": 10.0}, 250.0 if quick else 400.0)
-    v0, f0 = linear_constants(base)
+    duration = 250.0 if quick else 400.0
+    base = paper_dict("s8", {"profile": "sine", "velocity": VI, "duration": 10.0}, duration)
+    v0, f0 = linear_constants(case_from_dict(base))
     t0 = 1e3 / f0  # ms
     ratios = [0.1, 1.0, 10.0] if quick else list(np.geomspace(0.1, 10.0, 9))
     durations = sorted({float(np.round(x * t0, 3)) for x in ratios} | ({SHOWN_TS} if not quick else set()))
     runs = sweep_runs(base, out / NAME, grid={"impactor.duration": durations})
-    steady_drive = paper_case("s8_constant", {"profile": "constant", "velocity": VI}, base.run.duration)
+    steady_drive = paper_dict("s8_constant", {"profile": "constant", "velocity": VI}, duration)
     constant = sweep_runs(steady_drive, out / NAME / "constant", grid={"impactor.velocity": [VI]})[0]
     v_const = constant.summary["shock_velocity_plateau_m_per_s"]["mean"] if constant.done else float("nan")
     plt = pyplot()
@@ -67,7 +69,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     ax[0].axhline(v_const, color="C3", ls="--", label=f"constant $V_I$: {v_const:.3f} m/s")
     ax[0].set(title="(b) steady propagation velocity", xlabel="$T_s/T_0$", ylabel="$V_P$ (m/s)")
     ax[0].legend(fontsize="small")
-    numbers = {"V_I_peak_m_per_s": VI, "duration_ms": base.run.duration, "V0_m_per_s": v0, "T0_ms": t0,
+    numbers = {"V_I_peak_m_per_s": VI, "duration_ms": duration, "V0_m_per_s": v0, "T0_ms": t0,
                "V_P_constant_drive_m_per_s": v_const, "runs": rows, "shown": shown,
                "V_P_shortest_over_V0": y[0] / v0 if y.size else None,
                "V_P_longest_over_constant_drive": y[-1] / v_const if y.size else None}
