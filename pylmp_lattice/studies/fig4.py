@@ -67,15 +67,22 @@ def run(out: Path, quick: bool = False) -> StudyResult:
 
     # (d): one sweep over (law, V_I) pairs; V_I as fractions of each law's V0
     conventions = ("fixed K, b", "fixed F(r0), dF/dr(r0)")
+    f0_paper = f0
     points = [(c, q, _law(q, c)) for c in conventions for q in qs]
     # and the run lasts q_periods linear periods 1/f0 of its law (with K, b fixed, f0 falls 12x
     # from q = 2.5 to 5)
     q_base = paper_dict("fig4_q", {"profile": "constant", "velocity": 1.0}, 100.0)
     scale = {(c, q): _linear_constants(force) for c, q, force in points}
-    length = {key: float(np.round(q_periods * 1e3 / f0, 1)) for key, (_, f0) in scale.items()}
-    pairs = [(force, float(np.round(x * scale[(c, q)][0], 5)), length[(c, q)]) for c, q, force in points for x in fractions]
-    q_runs = sweep_runs(q_base, root / "q", zip={"force": [p[0] for p in pairs], "impactor.velocity": [p[1] for p in pairs],
-                                                  "run.duration": [p[2] for p in pairs]})
+    # dt and the output interval scale with the period too (the paper's law: 0.01 and 0.1 ms
+    # for 23.5 ms), so every law gets the same resolution; dt stays far below Verlet's limit
+    slow = {key: max(1.0, float(np.round(f0_paper / f0))) for key, (_, f0) in scale.items()}
+    length = {key: float(np.round(q_periods * 1e3 / f0 / (0.1 * slow[key])) * 0.1 * slow[key])
+              for key, (_, f0) in scale.items()}
+    pairs = [(force, float(np.round(x * scale[(c, q)][0], 5)), length[(c, q)], slow[(c, q)])
+             for c, q, force in points for x in fractions]
+    q_runs = sweep_runs(q_base, root / "q", zip={
+        "force": [p[0] for p in pairs], "impactor.velocity": [p[1] for p in pairs], "run.duration": [p[2] for p in pairs],
+        "run.dt": [0.01 * p[3] for p in pairs], "run.output_interval": [0.1 * p[3] for p in pairs]})
     by_q = {c: {} for c in conventions}
     for c, q, force in points:
         mine = [r for r in q_runs if r.member.params["force"] == force]
