@@ -75,6 +75,12 @@ class SweepRun:
     def done(self) -> bool:
         return self.status == "done"
 
+    def row(self, label: str, key: str) -> dict:
+        """The start of the member's row in a study: its swept value `key` as `label`, its
+        status and error."""
+        return {label: self.member.params[key], "status": self.status, "error": self.error}
+
+
     def trajectory(self):
         """The member's trajectory, read through `simulation.load_trajectory`."""
         return load_trajectory(self.member.case, self.folder)
@@ -94,3 +100,12 @@ def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> li
         error = row["error"] if isinstance(row["error"], str) else None
         runs.append(SweepRun(m, row["status"], error, folder, summary))
     return runs
+
+
+def done_runs(runs: list[SweepRun], rows: list, label: str, key: str):
+    """Append every member's row (`SweepRun.row`) to `rows`; yield (run, row) of those done, for
+    the study to add its measures to the row."""
+    for r in runs:
+        rows.append(row := r.row(label, key))
+        if r.done:
+            yield r, row

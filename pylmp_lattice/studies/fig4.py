@@ -130,10 +130,10 @@ def _law(q: float, convention: str) -> dict:
 
 
 def _measure(run, ends) -> dict:
-    vi = run.member.params["impactor.velocity"]
-    row = {"V_I_m_per_s": vi, "status": run.status, "error": run.error}
+    row = run.row("V_I_m_per_s", "impactor.velocity")
     if not run.done:
         return row
+    vi = row["V_I_m_per_s"]
     traj = run.trajectory()
     plateau = run.summary["shock_velocity_plateau_m_per_s"]
     f0 = run.summary["linear_frequency_f0_Hz"]

@@ -16,7 +16,7 @@ import numpy as np
 from .. import measures
 from ..plots import pyplot
 from ..summary import front_measures
-from .common import paper_dict, sweep_runs
+from .common import done_runs, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s6"
@@ -31,17 +31,12 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     rows, table = [], {}
-    for r in runs:
-        mu = r.member.params["friction.mu"]
-        if not r.done:
-            rows.append({"mu": mu, "status": r.status, "error": r.error})
-            continue
+    for r, row in done_runs(runs, rows, "mu", "friction.mu"):
+        mu = row["mu"]
         vp = front_measures(r.member.case, r.trajectory()).propagation_velocity
-        tail = measures.trailing_plateau(vp)
         best = int(np.nanargmax(vp))
-        rows.append({"mu": mu, "status": r.status, "V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1,
-                     "V_P_last_quarter": tail, "V_P_last_m_per_s": vp[np.isfinite(vp)][-1],
-                     "gaps_crossed": int(np.sum(np.isfinite(vp)))})
+        row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
+                "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}
         table[f"V_P_mu_{mu:g}_m_per_s"] = vp
         ax.plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$\\mu$ = {mu:g}")
     ax.set(xlabel="gap n", ylabel="$V_P$ (m/s)", title=f"$V_I$ = {VI:g} m/s, p = 0.012")

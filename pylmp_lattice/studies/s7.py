@@ -15,7 +15,7 @@ import numpy as np
 from .. import measures
 from ..case import case_from_dict
 from ..plots import pyplot
-from .common import linear_constants, paper_dict, sweep_runs
+from .common import done_runs, linear_constants, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s7"
@@ -31,17 +31,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     plt = pyplot()
     fig, ax = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")
     rows = []
-    for r in runs:
-        tr = r.member.params["impactor.ramp_time"]
-        if not r.done:
-            rows.append({"T_r_ms": tr, "status": r.status, "error": r.error})
-            continue
+    for r, row in done_runs(runs, rows, "T_r_ms", "impactor.ramp_time"):
+        tr = row["T_r_ms"]
         traj = r.trajectory()
         front = measures.front(traj.t, traj.v, traj.a, VI, r.member.case.chain.gaps())
         vp = front.propagation_velocity
         steady = measures.steady_oscillation(traj.t, traj.v[:, PARTICLE], VI, (0.8 * duration, duration))
-        rows.append({"T_r_ms": tr, "status": r.status, "V_P_plateau": measures.trailing_plateau(vp),
-                     "steady_oscillation": steady, "f_over_f0": steady.frequency / f0})
+        row |= {"V_P_plateau": measures.trailing_plateau(vp), "steady_oscillation": steady,
+                "f_over_f0": steady.frequency / f0}
         ax[0].plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$T_r$ = {tr:g} ms")
     done = [row for row in rows if row["status"] == "done"]
     x = [row["T_r_ms"] for row in done]

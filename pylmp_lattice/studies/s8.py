@@ -19,7 +19,7 @@ from .. import measures
 from ..case import case_from_dict
 from ..plots import pyplot
 from ..summary import front_measures
-from .common import linear_constants, paper_dict, sweep_runs
+from .common import done_runs, linear_constants, paper_dict, sweep_runs
 from .output import StudyResult
 
 NAME = "s8"
@@ -42,16 +42,12 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     plt = pyplot()
     fig, ax = plt.subplots(1, 3, figsize=(14, 4.2), layout="constrained")
     rows, shown = [], None
-    for r in runs:
-        ts = r.member.params["impactor.duration"]
-        if not r.done:
-            rows.append({"T_s_ms": ts, "status": r.status, "error": r.error})
-            continue
+    for r, row in done_runs(runs, rows, "T_s_ms", "impactor.duration"):
+        ts = row["T_s_ms"]
         traj = r.trajectory()
         front = front_measures(r.member.case, traj)
-        rows.append({"T_s_ms": ts, "T_s_over_T0": ts / t0, "status": r.status,
-                     "V_P_plateau": measures.trailing_plateau(front.propagation_velocity),
-                     "gaps_crossed": int(np.sum(np.isfinite(front.propagation_velocity)))})
+        row |= {"T_s_over_T0": ts / t0, "V_P_plateau": measures.trailing_plateau(front.propagation_velocity),
+                "gaps_crossed": int(np.sum(np.isfinite(front.propagation_velocity)))}
         if ts == (SHOWN_TS if not quick else durations[-1]):
             osc = measures.oscillations(traj.t, traj.v[:, PARTICLE], VI)
             ax[1].plot(osc.max_time, osc.max_velocity, "^", ms=3, label="maxima")
