@@ -80,7 +80,6 @@ class SweepRun:
         status and error."""
         return {label: self.member.params[key], "status": self.status, "error": self.error}
 
-
     def trajectory(self):
         """The member's trajectory, read through `simulation.load_trajectory`."""
         return load_trajectory(self.member.case, self.folder)
