@@ -222,14 +222,16 @@ def test_fig4_quick_against_impactor_velocity(quick):
     assert d["contact_limit"]["largest_without_contact_m_per_s"] == 3.0
     assert "touched" in d["contact_limit"]["first_contact"]
     # (c) eta grows with V_I in the strong regime, and V* lies below V0 (paper: V*/V0 ~ 0.5;
-    # our knees give 0.17-0.36 in this short run, see docs/reproduction.md)
+    # our knees give 0.17-0.36 in this 150 ms run, 0.43-0.79 in the full 300 ms study)
     eta = {r["V_I_m_per_s"]: r["eta"] for r in done}
     assert eta[1.0] < eta[2.0] < eta[3.0]
     for method, ratio in d["V_star_over_V0"].items():
         assert 0.1 < ratio < 1.0, method
-    # (d) a stiffer law (larger q, F and dF/dr at r0 fixed) reaches the strong regime at a lower V_I
-    fk = d["V_star_against_q"]["fixed F(r0), dF/dr(r0)"]
-    assert fk["4"]["V_star"]["V_star_m_per_s"] < fk["2.5"]["V_star"]["V_star_m_per_s"]
+    # (d) with K and b fixed, a stiffer law (larger q) reaches the strong regime at a lower V_I
+    # (quick: 0.76 -> 0.19 m/s from q = 2.5 to 4; full: 1.70 -> 0.18); with F and dF/dr at r0
+    # fixed the full study finds the opposite trend, so only the first is asserted
+    kb = d["V_star_against_q"]["fixed K, b"]
+    assert kb["4"]["V_star"]["V_star_m_per_s"] < 0.5 * kb["2.5"]["V_star"]["V_star_m_per_s"]
 
 
 @pytest.mark.lammps
