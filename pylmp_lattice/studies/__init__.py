@@ -2,7 +2,8 @@
 
 `pylmp-lattice study NAME [-o DIR] [--quick]` runs a study and writes, through the one writer
 `write_study`: DIR/NAME.json (its numbers, units in the keys, strict JSON), DIR/NAME_<table>.csv
-for each table, DIR/NAME.png and DIR/NAME.pdf. A study's own run folders go under DIR/NAME/.
+for each table, DIR/NAME.png and DIR/NAME.pdf. A study's own run folders go under DIR/NAME/;
+running the study again redoes them (`simulate(..., overwrite=True)`), as it rewrites its files.
 `--quick` runs a small version (fewer or shorter runs) for tests and a first look.
 
 To add a study: write `studies/<name>.py` with `run(out: Path, quick: bool) -> StudyResult`
@@ -35,6 +36,9 @@ STUDIES: dict[str, str] = {
     "s8": "Fig. S8: a half-sine pulse, sweep over T_s from well below to well above T0",
     "s9": "Fig. S9: phase portraits of magnet 10 for V_I = 0.01, 0.1, 1, 2 m/s",
     "movies": "Movies S1 and S2: the experiment's magnets, and the long lattice's growing transition zone",
+    "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
+    "toda": "The Toda lattice: soliton speed, and the piston problem's wake, period two and lead soliton",
+    "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
     "all": "every study above, into one folder",
 }
 
