@@ -187,9 +187,12 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     row = stats[stats["impactor.velocity"] == 2.0].iloc[0]
     assert row["V.mean"] == pytest.approx(np.mean(values), rel=1e-12)
     assert row["V.sem"] == pytest.approx(np.std(values, ddof=1) / np.sqrt(5), rel=1e-12)
+    import matplotlib.pyplot as plt
+
     ax = plot_replica_stats(stats, "impactor.velocity", "V")
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
+    plt.close(ax.figure)
     write_replica_stats(tmp_path, table)
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
     assert (tmp_path / "replica_stats.png").stat().st_size > 0
