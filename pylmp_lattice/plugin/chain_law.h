@@ -1,0 +1,112 @@
+/* Nearest-neighbour force laws of fix lattice/chain: the one place where laws are defined.
+   Part of pylmp_lattice, GPL-2.0.
+
+   A law gives the repulsive force F(r) > 0 and the potential U(r) (F = -dU/dr) of the
+   separation r. To add an analytic law: a Kind, its parameters in parse(), its F in
+   force<Kind>() and its U in energy(), and one case in dispatch(). Any other law reaches the
+   fix as its table (law table FILE KEYWORD, the file pylmp_lattice writes for bond_style
+   table), interpolated by the clamped cubic spline that bond_style table spline uses, so
+   both engines see the same function. */
+
+#ifndef PYLMP_LATTICE_CHAIN_LAW_H
+#define PYLMP_LATTICE_CHAIN_LAW_H
+
+#include "pointers.h"
+
+#include <cmath>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+/* Clamped cubic spline on a uniform grid of n points from x0 with spacing dx. */
+struct UniformSpline {
+  double x0 = 0.0, dx = 1.0, inv_dx = 1.0, c6 = 0.0;
+  int n = 0;
+  std::vector<double> yd2;    // y[i], d2y[i] interleaved: one cache line per evaluation
+
+  void fit(double first, double step, const std::vector<double> &y, double slope_lo,
+           double slope_hi);
+  double operator()(double x) const
+  {
+    double u = (x - x0) * inv_dx;
+    int i = static_cast<int>(u);
+    i = i < 0 ? 0 : (i > n - 2 ? n - 2 : i);
+    const double B = u - i, A = 1.0 - B;
+    const double *p = &yd2[2 * i];
+    return A * p[0] + B * p[2] + ((A * A * A - A) * p[1] + (B * B * B - B) * p[3]) * c6;
+  }
+};
+
+struct ChainLaw {
+  enum Kind { POWER_INT, POWER, LINEAR, TABLE };
+  Kind kind = POWER;
+  double K = 0.0, b = 0.0, q = 0.0;    // power: F = K / (r + b)^q
+  int qint = 0;                        // q as an integer 1..8 (POWER_INT)
+  double k = 0.0, r_free = 0.0;        // linear: F = k (r_free - r)
+  UniformSpline tf, tu;                // table: F and U
+  double table_lo = 0.0, table_hi = 0.0;
+
+  /* parse "power K b q" | "linear k r_free" | "table FILE KEYWORD" at arg[iarg]; returns
+     the index after the law's arguments */
+  int parse(class LAMMPS *lmp, int narg, char **arg, int iarg);
+
+  template <Kind KIND> double force(double r) const
+  {
+    if constexpr (KIND == POWER_INT) {
+      const double s = r + b;
+      double sq = s;    // s^q by multiplication: several times cheaper than pow
+      for (int m = 1; m < qint; m++) sq *= s;
+      return K / sq;
+    } else if constexpr (KIND == POWER) {
+      return K * std::pow(r + b, -q);
+    } else if constexpr (KIND == LINEAR) {
+      return k * (r_free - r);
+    } else {
+      return tf(r);
+    }
+  }
+
+  double force_at(double r) const
+  {
+    double value = 0.0;
+    dispatch([&](auto kind) { value = force<decltype(kind)::value>(r); });
+    return value;
+  }
+
+  double energy(double r) const
+  {
+    switch (kind) {
+      case POWER_INT:
+      case POWER:
+        return K / ((q - 1.0) * std::pow(r + b, q - 1.0));
+      case LINEAR:
+        return 0.5 * k * (r_free - r) * (r_free - r);
+      default:
+        return tu(r);
+    }
+  }
+
+  /* call f(std::integral_constant<Kind, kind>) so loops are compiled once per law */
+  template <class F> void dispatch(F &&f) const
+  {
+    switch (kind) {
+      case POWER_INT:
+        return f(std::integral_constant<Kind, POWER_INT>{});
+      case POWER:
+        return f(std::integral_constant<Kind, POWER>{});
+      case LINEAR:
+        return f(std::integral_constant<Kind, LINEAR>{});
+      case TABLE:
+        return f(std::integral_constant<Kind, TABLE>{});
+    }
+  }
+
+ private:
+  void read_table(class LAMMPS *lmp, const std::string &file, const std::string &keyword);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,513 @@
+/* ----------------------------------------------------------------------
+   fix lattice/chain: the whole time step of 1D nearest-neighbour chains
+   Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
+
+Why a fix
+   A bond style would still leave LAMMPS's per-bond machinery (bond lists rebuilt at every
+   reneighbouring, one bond at a time through its table, energy/virial tallies) and the
+   separate passes of fix nve, fix move, fix setforce and the friction fix. A run style would
+   replace Verlet, but the wheel ships no integrate.h/verlet.h, so its ABI would have to be
+   restated by hand, and every other fix and output would depend on our copy of Verlet. A
+   fix under the stock Verlet keeps all of LAMMPS (dumps, thermo, computes, other fixes, MPI
+   exchange) and can still do the chain's work in two passes over memory per step:
+     initial_integrate: v += dt/2m f, x += dt v for the free atoms; impactors placed;
+     post_force: every bond force once from the law, friction, f written, and (when no
+       other fix uses the forces after this one) the second half kick in the same pass.
+   With no pair style and no bonds LAMMPS builds no neighbour lists; what it still does per
+   step is force_clear (a memset of f) and, on several ranks, the ghost positions' forward
+   communication. The deck reneighbours only every 100 steps (`neigh_modify every 100
+   check no`: exchange and borders, which is all this fix needs) and sets `newton off`
+   (no reverse communication of forces).
+
+Syntax
+   fix ID all lattice/chain law args impactor args keyword args ...
+
+   law args = power K b q | linear k r_free | table file keyword
+     power: F(r) = K / (r + b)^q (integer q <= 8 by multiplications, else pow)
+     linear: F(r) = k (r_free - r)
+     table: section `keyword` of a bond_style table file (N n FP lo hi; rows i r U F on a
+       uniform grid), interpolated by its clamped cubic spline, as bond_style table spline
+   impactor args = constant V | ramp V T | sine V T | rest |
+                   measured file path column u|v after hold|stop
+     constant: u = V t; ramp: v rises linearly to V over T, then constant;
+     sine: v = V sin(pi t / T) for t < T, then at rest; rest: held in place;
+     measured: the spline of a series, exactly as fix lattice/piston (see its header)
+   keywords:
+     length n = atoms per chain (default: all atoms, one chain)
+     range lo hi = separations allowed (distance units); beyond them the run stops with
+       an error (default 0 and infinity; pylmp_lattice passes the table's range)
+     friction mu p g = Coulomb friction on the free atoms, as fix lattice/friction
+
+Description
+   Atom IDs name the chains: chain c (c = 0, 1, ...) holds IDs c n + 1 .. c n + n in order
+   along x. Its first atom is the impactor, moved along x by the prescribed motion from
+   where it was when the fix was defined (time zero then); its last is held (not moved,
+   its force set to zero). The other atoms are free: atom k feels F(r_{k-1}) - F(r_k),
+   r_k = x_{k+1} - x_k, and the friction, and is integrated by velocity Verlet, with the
+   same operations in the same order as fix nve, so the results equal the stock styles'
+   to their table's interpolation error (a table law: to round-off). Separate chains
+   (replicas) do not interact; their atoms may sit anywhere in y and z (only x is used).
+   At the end of each step x, v, f hold what they hold on the stock path: f of a free
+   atom is its total force along x, friction included; of an impactor the chain's push
+   on it; of a held atom zero.
+
+   Friction: the limit L = mu (m g + p (F_{k-1} + F_k)) and the exact stick-slip kick of
+   fix lattice/friction (coulomb.h), with the same accounting of the work.
+
+   Contacts: every separation is checked at every step, in the force pass. If one is
+   <= 0 the fix prints, on the step it happens,
+       CONTACT: magnets I and J gap G m at t = T s
+   for the most closed pair (IDs I, J; G the signed gap), and stops the run after that
+   step (like fix halt). A separation outside `range` stops the run with an error.
+
+   Parallel: atoms are owned by the rank of their subdomain and the neighbours of the
+   ends of a rank's runs are ghosts, which needs comm_modify cutoff at least the longest
+   separation (the range check guarantees it when the cutoff exceeds `range` hi). Every
+   bond's force is computed from the same two x in the same order on every rank, so 1 and
+   several ranks give bit-identical trajectories (thermo sums differ in their last bits).
+
+Output
+   Global scalar: potential energy of all bonds (energy units; with fix_modify energy
+   yes it is part of pe and etotal). Global vector: [1] friction work done so far
+   (extensive), [2] the smallest separation (intensive).
+
+Restrictions
+   Group all, no periodic x, an atom map, per-type masses, units with ftm2v, not rRESPA.
+   Other fixes may add forces; the integration of the chain atoms must be this fix's.
+------------------------------------------------------------------------- */
+
+#include "fix_lattice_chain.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "coulomb.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "modify.h"
+#include "timer.h"
+#include "update.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), length(0), nchains(0), range_lo(0.0),
+    range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
+    g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), drive_u(0.0),
+    drive_ud(0.0), work_done(0.0), work_pending(0.0), energy_step(-1), pe_cached(0.0),
+    gap_cached(0.0), contact_step(-1)
+{
+  if (igroup != 0) error->all(FLERR, "Fix lattice/chain must be defined for group all");
+  bool have_law = false, have_impactor = false;
+  for (int iarg = 3; iarg < narg;) {
+    const std::string key = arg[iarg];
+    if (key == "law") {
+      iarg = law.parse(lmp, narg, arg, iarg + 1);
+      have_law = true;
+    } else if (key == "impactor") {
+      if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain impactor", error);
+      const std::string kind = arg[iarg + 1];
+      const int nargs = kind == "constant" ? 1 : (kind == "ramp" || kind == "sine") ? 2 : kind == "measured" ? 6 : 0;
+      if (iarg + 1 + nargs >= narg)
+        utils::missing_cmd_args(FLERR, "fix lattice/chain impactor " + kind, error);
+      if (kind == "constant" || kind == "ramp" || kind == "sine") {
+        profile = kind == "constant" ? CONSTANT : kind == "ramp" ? RAMP : SINE;
+        drive_v = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+        if (nargs == 2) drive_t = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+        if (nargs == 2 && drive_t <= 0.0)
+          error->all(FLERR, "Fix lattice/chain: impactor {} needs a time > 0", kind);
+      } else if (kind == "rest") {
+        profile = REST;
+      } else if (kind == "measured") {
+        if (strcmp(arg[iarg + 2], "file") || strcmp(arg[iarg + 4], "column") || strcmp(arg[iarg + 6], "after"))
+          error->all(FLERR, "Fix lattice/chain: expected impactor measured file PATH column u|v after hold|stop");
+        const std::string column = arg[iarg + 5], after = arg[iarg + 7];
+        if ((column != "u" && column != "v") || (after != "hold" && after != "stop"))
+          error->all(FLERR, "Fix lattice/chain: impactor measured column u|v after hold|stop");
+        profile = MEASURED;
+        measured.load(arg[iarg + 3], column == "v", after == "hold", error, "Fix lattice/chain");
+      } else
+        error->all(FLERR, "Fix lattice/chain: unknown impactor '{}'; expected constant, ramp, sine, rest or measured", kind);
+      iarg += 2 + nargs;
+      have_impactor = true;
+    } else if (key == "length") {
+      if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain length", error);
+      length = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+    } else if (key == "range") {
+      if (iarg + 2 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain range", error);
+      range_lo = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      range_hi = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      if (range_lo < 0.0 || range_hi <= range_lo)
+        error->all(FLERR, "Fix lattice/chain: range needs 0 <= lo < hi");
+      iarg += 3;
+    } else if (key == "friction") {
+      if (iarg + 3 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain friction", error);
+      friction = true;
+      mu = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      p = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      g = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+      if (mu < 0.0 || p < 0.0 || g < 0.0)
+        error->all(FLERR, "Fix lattice/chain: friction needs mu, p, g >= 0");
+      iarg += 4;
+    } else
+      error->all(FLERR, "Fix lattice/chain: unknown keyword '{}'", key);
+  }
+  if (!have_law || !have_impactor)
+    error->all(FLERR, "Fix lattice/chain: both 'law' and 'impactor' are required");
+  if (length == 0) length = atom->natoms;
+  if (length < 3 || atom->natoms % length)
+    error->all(FLERR, "Fix lattice/chain: length {} must be >= 3 and divide the {} atoms", length,
+               atom->natoms);
+  nchains = atom->natoms / length;
+
+  // each chain's impactor position now: its owner contributes it, every rank keeps all
+  time_origin = update->ntimestep;
+  std::vector<double> mine(nchains, 0.0);
+  x0.assign(nchains, 0.0);
+  for (int i = 0; i < atom->nlocal; i++)
+    if ((atom->tag[i] - 1) % length == 0) mine[(atom->tag[i] - 1) / length] = atom->x[i][0];
+  MPI_Allreduce(mine.data(), x0.data(), nchains, MPI_DOUBLE, MPI_SUM, world);
+
+  scalar_flag = vector_flag = 1;
+  size_vector = 2;
+  global_freq = 1;
+  extscalar = 1;
+  extvector = -1;
+  extlist = new int[2]{1, 0};
+  energy_global_flag = 1;
+  time_integrate = 1;
+}
+
+FixLatticeChain::~FixLatticeChain()
+{
+  delete[] extlist;
+}
+
+int FixLatticeChain::setmask()
+{
+  return INITIAL_INTEGRATE | POST_FORCE | FINAL_INTEGRATE | PRE_NEIGHBOR | POST_RUN;
+}
+
+void FixLatticeChain::init()
+{
+  if (utils::strmatch(update->integrate_style, "^respa"))
+    error->all(FLERR, "Fix lattice/chain does not support run_style respa");
+  if (atom->map_style == Atom::MAP_NONE)
+    error->all(FLERR, "Fix lattice/chain needs an atom map (atom_modify map array)");
+  if (atom->rmass || !atom->mass) error->all(FLERR, "Fix lattice/chain needs per-type masses");
+  if (domain->xperiodic) error->all(FLERR, "Fix lattice/chain needs a non-periodic x boundary");
+
+  const int ntypes = atom->ntypes;
+  dtfm.assign(ntypes + 1, 0.0);
+  mass_of.assign(ntypes + 1, 0.0);
+  weight.assign(ntypes + 1, 0.0);
+  const double dtf = 0.5 * update->dt * force->ftm2v;
+  for (int t = 1; t <= ntypes; t++) {
+    mass_of[t] = atom->mass[t];
+    dtfm[t] = dtf / atom->mass[t];
+    weight[t] = atom->mass[t] * g;
+  }
+
+  // the second half kick may join the force pass only if no other fix reads or changes
+  // the forces after this one or integrates
+  fused = true;
+  for (int j = 0, me = -1; j < modify->nfix; j++) {
+    if (modify->fix[j] == this) {
+      me = j;
+      continue;
+    }
+    if (modify->fmask[j] & FINAL_INTEGRATE) fused = false;
+    if ((modify->fmask[j] & POST_FORCE) && me >= 0) fused = false;
+  }
+}
+
+/* the layout of this rank's atoms; neighbours must be owned or ghosts */
+
+void FixLatticeChain::build_lists()
+{
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  auto neighbour = [&](int i, tagint t) {
+    const int j = atom->map(t);
+    if (j < 0)
+      error->one(FLERR,
+                 "Fix lattice/chain: atom {} (neighbour of atom {}) is not on this rank; set "
+                 "comm_modify cutoff longer than the longest separation",
+                 t, tag[i]);
+    return j;
+  };
+  runs.clear();
+  impactors.clear();
+  held.clear();
+  for (int i = 0; i < nlocal; i++) {
+    const tagint t = tag[i];
+    const bigint k = (t - 1) % length;
+    const int c = (t - 1) / length;
+    if (k == 0) {
+      impactors.push_back({i, neighbour(i, t + 1), c});
+    } else if (k == length - 1) {
+      held.push_back({i, neighbour(i, t - 1), c});
+    } else if (!runs.empty() && runs.back().last == i - 1 && tag[i - 1] == t - 1) {
+      runs.back().last = i;
+    } else {
+      runs.push_back({i, i, -1, -1});
+    }
+  }
+  for (Run &run : runs) {
+    run.left = neighbour(run.first, tag[run.first] - 1);
+    run.right = neighbour(run.last, tag[run.last] + 1);
+  }
+}
+
+void FixLatticeChain::setup_pre_neighbor()
+{
+  build_lists();
+}
+
+void FixLatticeChain::pre_neighbor()
+{
+  build_lists();
+}
+
+/* the prescribed displacement and velocity at `step` */
+
+void FixLatticeChain::drive(bigint step)
+{
+  const double t = (step - time_origin) * update->dt;
+  const double V = drive_v, T = drive_t;
+  switch (profile) {
+    case CONSTANT:
+      drive_u = V * t;
+      drive_ud = V;
+      break;
+    case RAMP:
+      drive_u = t < T ? V * t * t / (2.0 * T) : V * (t - 0.5 * T);
+      drive_ud = t < T ? V * t / T : V;
+      break;
+    case SINE:
+      drive_u = t < T ? V * T / M_PI * (1.0 - cos(M_PI * t / T)) : 2.0 * V * T / M_PI;
+      drive_ud = t < T ? V * sin(M_PI * t / T) : 0.0;
+      break;
+    case REST:
+      drive_u = drive_ud = 0.0;
+      break;
+    case MEASURED:
+      // a run meant to end on the last sample may overshoot it by round-off
+      measured.at(t, 1.0e-6 * update->dt, drive_u, drive_ud);
+      break;
+  }
+}
+
+void FixLatticeChain::place_impactors(bool set_x)
+{
+  double **x = atom->x;
+  double **v = atom->v;
+  for (const End &e : impactors) {
+    if (set_x) x[e.i][0] = x0[e.chain] + drive_u;
+    v[e.i][0] = drive_ud;
+  }
+}
+
+void FixLatticeChain::setup(int /*vflag*/)
+{
+  energy_step = -1;
+  drive(update->ntimestep);
+  place_impactors(false);
+  forces(0.5 * update->dt, true, false);
+}
+
+void FixLatticeChain::initial_integrate(int /*vflag*/)
+{
+  double *x = atom->x[0];
+  double *v = atom->v[0];
+  const double *f = atom->f[0];
+  const int *type = atom->type;
+  const double *dtfm_of = dtfm.data();
+  const double dtv = update->dt;
+  for (const Run &run : runs)
+    for (int i = run.first; i <= run.last; i++) {
+      v[3 * i] += dtfm_of[type[i]] * f[3 * i];
+      x[3 * i] += dtv * v[3 * i];
+    }
+  drive(update->ntimestep);
+  place_impactors(true);
+}
+
+void FixLatticeChain::post_force(int /*vflag*/)
+{
+  forces(update->dt, false, fused);
+}
+
+void FixLatticeChain::final_integrate()
+{
+  if (!fused) {
+    double *v = atom->v[0];
+    const double *f = atom->f[0];
+    const int *type = atom->type;
+    for (const Run &run : runs)
+      for (int i = run.first; i <= run.last; i++) v[3 * i] += dtfm[type[i]] * f[3 * i];
+  }
+  place_impactors(false);    // the prescribed velocity, whatever other fixes did
+}
+
+void FixLatticeChain::post_run()
+{
+  if (contact_step >= 0) timer->reset_timeout();
+}
+
+/* all forces of the step; `kick` is the length of the velocity kick they will make (for
+   the friction), kick_v applies its second half here */
+
+void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
+{
+  int bad = 0;
+  law.dispatch([&](auto kind) {
+    constexpr int KIND = decltype(kind)::value;
+    if (friction) run_forces<KIND, true>(kick, setup_kick, kick_v, bad);
+    else run_forces<KIND, false>(kick, setup_kick, kick_v, bad);
+  });
+  double **x = atom->x;
+  double **f = atom->f;
+  for (const End &e : impactors) f[e.i][0] = -law.force_at(x[e.other][0] - x[e.i][0]);
+  for (const End &e : held) f[e.i][0] = 0.0;
+  check_gaps(bad);
+}
+
+template <int KIND, bool FRICTION>
+void FixLatticeChain::run_forces(double kick, bool setup_kick, bool kick_v, int &bad)
+{
+  constexpr auto K = static_cast<ChainLaw::Kind>(KIND);
+  const double *x = atom->x[0];
+  double *v = atom->v[0];
+  double *f = atom->f[0];
+  const int *type = atom->type;
+  const double *dtfm_of = dtfm.data();
+  // r is bad when r <= 0 (contact) or outside the range: one compare each way
+  const double lo = range_lo > 0.0 ? std::nextafter(range_lo, 0.0) : 0.0, hi = range_hi;
+  int flag = 0;
+  CoulombWork work;
+  for (const Run &run : runs) {
+    const double r_left = x[3 * run.first] - x[3 * run.left];
+    flag |= !(r_left > lo) | (r_left > hi);
+    double F_left = law.force<K>(r_left);
+    for (int i = run.first; i <= run.last; i++) {
+      const int j = i < run.last ? i + 1 : run.right;
+      const double r = x[3 * j] - x[3 * i];
+      flag |= !(r > lo) | (r > hi);
+      const double F_right = law.force<K>(r);
+      const double fx = F_left - F_right;
+      double ftot = fx;
+      if constexpr (FRICTION) {
+        const int t = type[i];
+        const double m = mass_of[t];
+        const double normal = weight[t] + p * (F_left + F_right);
+        const double limit = normal > 0.0 ? mu * normal : 0.0;
+        const double dvdf = kick / m;
+        const double v0 = v[3 * i];
+        bool stuck;
+        ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
+        if (stuck) work.stuck(v0, m, kick, fx), v[3 * i] = 0.0;
+        else work.slip(v0, fx, ftot, dvdf);
+      }
+      F_left = F_right;
+      f[3 * i] = ftot;
+      if (kick_v) v[3 * i] += dtfm_of[type[i]] * ftot;
+    }
+  }
+  if (FRICTION) work.settle(kick, setup_kick, work_done, work_pending);
+  bad |= flag;
+}
+
+/* every separation of this rank's bonds (each bond once, by its left atom): the potential
+   energy, and the smallest and largest separation with the ID of their left atom */
+
+void FixLatticeChain::bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max,
+                                tagint &tag_max)
+{
+  double **x = atom->x;
+  const tagint *tag = atom->tag;
+  pe = 0.0;
+  gap_min = std::numeric_limits<double>::infinity();
+  gap_max = -gap_min;
+  tag_min = tag_max = 0;
+  auto bond = [&](int i, int j) {
+    const double r = x[j][0] - x[i][0];
+    pe += law.energy(r);
+    if (r < gap_min) gap_min = r, tag_min = tag[i];
+    if (r > gap_max) gap_max = r, tag_max = tag[i];
+  };
+  for (const Run &run : runs)
+    for (int i = run.first; i <= run.last; i++) bond(i, i < run.last ? i + 1 : run.right);
+  for (const End &e : impactors) bond(e.i, e.other);
+}
+
+/* a bad separation seen on any rank: report a contact and stop, or stop with an error */
+
+void FixLatticeChain::check_gaps(int bad)
+{
+  int any = 0;
+  MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, world);
+  if (!any) return;
+  double pe;
+  struct {
+    double value;
+    int tag;
+  } lo_in, lo_out, hi_in, hi_out;
+  tagint tmin, tmax;
+  bond_scan(pe, lo_in.value, tmin, hi_in.value, tmax);
+  lo_in.tag = tmin;
+  hi_in.tag = tmax;
+  MPI_Allreduce(&lo_in, &lo_out, 1, MPI_DOUBLE_INT, MPI_MINLOC, world);
+  MPI_Allreduce(&hi_in, &hi_out, 1, MPI_DOUBLE_INT, MPI_MAXLOC, world);
+  const double t = update->atime + (update->ntimestep - update->atimestep) * update->dt;
+  if (lo_out.value <= 0.0) {
+    if (comm->me == 0)
+      utils::logmesg(lmp, "CONTACT: magnets {} and {} gap {:.8g} m at t = {:.10g} s\n", lo_out.tag,
+                     lo_out.tag + 1, lo_out.value, t);
+    contact_step = update->ntimestep;
+    timer->force_timeout();
+    return;
+  }
+  const bool low = lo_out.value < range_lo;
+  const int i = low ? lo_out.tag : hi_out.tag;
+  error->all(FLERR,
+             "Fix lattice/chain: magnets {} and {} are {} m apart at t = {} s, outside the "
+             "table range [{}, {}] m; extend [table] r_max",
+             i, i + 1, low ? lo_out.value : hi_out.value, t, range_lo, range_hi);
+}
+
+/* potential energy and smallest separation of the current step, computed once */
+
+void FixLatticeChain::energies()
+{
+  if (energy_step == update->ntimestep) return;
+  double pe, gmin, gmax;
+  tagint tmin, tmax;
+  bond_scan(pe, gmin, tmin, gmax, tmax);
+  MPI_Allreduce(&pe, &pe_cached, 1, MPI_DOUBLE, MPI_SUM, world);
+  MPI_Allreduce(&gmin, &gap_cached, 1, MPI_DOUBLE, MPI_MIN, world);
+  energy_step = update->ntimestep;
+}
+
+double FixLatticeChain::compute_scalar()
+{
+  energies();
+  return pe_cached;
+}
+
+double FixLatticeChain::compute_vector(int n)
+{
+  if (n == 0) {
+    double all;
+    MPI_Allreduce(&work_done, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+    return all;
+  }
+  energies();
+  return gap_cached;
+}
