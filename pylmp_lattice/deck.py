@@ -87,15 +87,35 @@ def data_text(case: Case) -> str:
 
 def deck_text(case: Case) -> str:
     run, n = case.run, case.chain.particles
-    lo, hi = case.table_range()
-    hi_si = to_engine(hi, "length")
     n_steps = run.steps()
     thermo_every = max(1, n_steps // 20)
+    chain = run.engine == "chain"
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
 # Run it in this folder with:  lmp -in {DECK}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
+{_chain_sections(case) if chain else _stock_sections(case)}
+
+# ---- 5. Output: trajectory of every magnet, thermo with energies
+timestep        {_num(to_engine(run.dt, 'time'))}
+{_thermo_style(case)}
+thermo_modify   norm no flush yes
+thermo          {thermo_every}
+dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
+dump_modify     traj sort id time yes format float %.12g
+
+# ---- 6. Run {run.duration:g} ms
+run             {n_steps}
+{"" if chain else _stock_contact_print()}"""
+
+
+def _stock_sections(case: Case) -> str:
+    """Sections 1-4 of the stock engine: bonds with a table, fix nve, fix move, the guard."""
+    run, n = case.run, case.chain.particles
+    lo, hi = case.table_range()
+    hi_si = to_engine(hi, "length")
+    return f"""\
 # ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
 units           si
 dimension       3
@@ -128,21 +148,101 @@ compute         bond_dx all bond/local dx
 compute         bond_ids all property/local batom1 batom2
 compute         closest all reduce max c_bond_dx c_bond_ids[1] c_bond_ids[2] replace 2 1 replace 3 1 inputs local
 variable        min_gap equal -c_closest[1]
-fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
+fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft"""
 
-# ---- 5. Output: trajectory of every magnet, thermo with energies
-timestep        {_num(to_engine(run.dt, 'time'))}
-thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
-thermo_modify   norm no flush yes
-thermo          {thermo_every}
-dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
-dump_modify     traj sort id time yes format float %.12g
 
-# ---- 6. Run {run.duration:g} ms
-run             {n_steps}
+def _stock_contact_print() -> str:
+    return f"""\
 if "${{min_gap}} <= 0.0" then &
   "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
 """
+
+
+def _thermo_style(case: Case) -> str:
+    if case.run.engine == "stock":
+        return f"thermo_style    custom step time ke ebond etotal v_min_gap{' f_friction' if case.friction else ''}"
+    # the chain fix's energy and friction work under the stock deck's column names
+    friction = " f_chain[1]" if case.friction else ""
+    return (
+        f"thermo_style    custom step time ke f_chain etotal v_min_gap{friction}\n"
+        f"thermo_modify   colname f_chain E_bond{' colname f_chain[1] f_friction' if case.friction else ''}"
+    )
+
+
+def _chain_sections(case: Case, replicas: int = 1) -> str:
+    """Sections 1-4 of the chain engine: one fix lattice/chain does the whole time step.
+
+    `replicas` > 1: the data file holds that many chains of N magnets, IDs in blocks of N."""
+    n = case.chain.particles
+    lo, hi = case.table_range()
+    lo_si, hi_si = to_engine(lo, "length"), to_engine(hi, "length")
+    law = _law_args(case.force)
+    source = (f"# F from the exact {case.force.law} law" if law else
+              "# F from the table's clamped cubic spline, as bond_style table spline reads it")
+    chains = f" length {n}" if replicas > 1 else ""
+    each = " of each chain" if replicas > 1 else ""
+    with_friction = ", Coulomb friction (exact stick-slip)" if case.friction else ""
+    fr = case.friction
+    friction = (f" &\n                friction {_num(fr.mu)} {_num(fr.p)} {_num(to_engine(fr.g, 'acceleration'))}"
+                if fr else "")
+    return f"""\
+# ---- 1. The chain{"s: " + str(replicas) + " chains of" if replicas > 1 else ":"} {n} magnets on the x axis
+units           si
+dimension       3
+boundary        s f f
+atom_style      bond
+atom_modify     map array sort 0 0.0
+# domains along x only; no reverse communication of forces (every force is set by its owner)
+processors      * 1 1
+newton          off
+read_data       {DATA}
+# Ghosts must reach across the longest separation on several ranks.
+comm_modify     cutoff {_num(1.05 * hi_si)}
+# fix lattice/chain finds neighbours by atom ID: the data file's bonds are not needed (the
+# two warnings about them come before they are deleted), and without bonds or a pair style
+# LAMMPS builds no neighbour lists; it only redistributes atoms among ranks every 100 steps.
+delete_bonds    all multi remove special
+neigh_modify    every 100 delay 0 check no
+
+# ---- 2-4. Force law {case.force!r}, impactor, held end{with_friction}, contact guard
+# One plugin fix does the whole step: nearest-neighbour forces, velocity Verlet, the
+# impactor's prescribed motion (particle 1{each}), the held far end (particle {n}){with_friction}.
+# It checks every gap at every step: a contact prints '{CONTACT_MARK} magnets I and J ...' and
+# stops the run; a gap outside [{lo:g}, {hi:g}] mm stops it with an error. Its scalar is the
+# potential energy (part of pe through fix_modify energy yes).
+{source}
+fix             chain all lattice/chain law {law or f"table {TABLE} {KEYWORD}"} &
+                impactor {_impactor_args(case.impactor)} &
+                range {_num(lo_si)} {_num(hi_si)}{chains}{friction}
+fix_modify      chain energy yes
+variable        min_gap equal f_chain[2]"""
+
+
+def _law_args(law) -> str | None:
+    """The law in the plugin's analytic form (fix lattice/chain, fix lattice/friction), SI;
+    None for a law it only knows as a table. New analytic laws of the plugin go here."""
+    if isinstance(law, PowerLaw):
+        K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
+        return f"power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
+    if isinstance(law, LinearSpring):
+        return f"linear {_num(to_engine(law.k, 'stiffness'))} {_num(to_engine(law.r_free, 'length'))}"
+    return None
+
+
+def _impactor_args(imp) -> str:
+    """The impactor's motion for fix lattice/chain (SI)."""
+    if isinstance(imp, Rest):
+        return "rest"
+    if isinstance(imp, Measured):
+        return f"measured file {PISTON} column {imp.column} after {imp.after}"
+    v = _num(to_engine(imp.velocity, "velocity"))
+    if isinstance(imp, Constant):
+        return f"constant {v}"
+    if isinstance(imp, Ramp):
+        return f"ramp {v} {_num(to_engine(imp.ramp_time, 'time'))}"
+    if isinstance(imp, SinePulse):
+        return f"sine {v} {_num(to_engine(imp.duration, 'time'))}"
+    raise TypeError(f"no deck for impactor {imp!r}")
 
 
 def _friction_lines(case: Case) -> str:
@@ -159,12 +259,9 @@ def _friction_lines(case: Case) -> str:
         f"# F from the exact {law.law} law; the bonds' table differs from it by its interpolation\n"
         "# error (< 1e-6 relative with the default 10000 points).\n"
     )
-    if isinstance(law, PowerLaw):
-        K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
-        source, spec = exact, f"law power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
-    elif isinstance(law, LinearSpring):
-        k, r_free = to_engine(law.k, "stiffness"), to_engine(law.r_free, "length")
-        source, spec = exact, f"law linear {_num(k)} {_num(r_free)}"
+    analytic = _law_args(law)
+    if analytic:
+        source, spec = exact, f"law {analytic}"
     else:
         source, spec = "# F from the bond table, as the bonds: a sampled law has no other form.\n", "law bond 1"
     return (

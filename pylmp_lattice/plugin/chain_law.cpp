@@ -55,7 +55,7 @@ int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg)
     if (K <= 0.0 || b < 0.0 || q <= 1.0)
       error->all(FLERR, "Fix lattice/chain: law power needs K > 0, b >= 0, q > 1");
     qint = (q == std::floor(q) && q <= 8.0) ? static_cast<int>(q) : 0;
-    kind = qint ? POWER_INT : POWER;
+    kind = POWER;
     return iarg + 4;
   }
   if (style == "linear") {
@@ -121,8 +121,6 @@ void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::strin
   for (int i = 1; i < n; i++)
     if (std::fabs(r[i] - (r[0] + i * step)) > 1.0e-9 * std::fabs(r[n - 1]))
       error->all(FLERR, "Fix lattice/chain: {} must sample r on a uniform grid", file);
-  table_lo = r[0];
-  table_hi = r[n - 1];
   tf.fit(r[0], step, f, fp_lo, fp_hi);
   tu.fit(r[0], step, u, -f[0], -f[n - 1]);
 }

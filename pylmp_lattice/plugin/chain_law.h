@@ -2,8 +2,8 @@
    Part of pylmp_lattice, GPL-2.0.
 
    A law gives the repulsive force F(r) > 0 and the potential U(r) (F = -dU/dr) of the
-   separation r. To add an analytic law: a Kind, its parameters in parse(), its F in
-   force<Kind>() and its U in energy(), and one case in dispatch(). Any other law reaches the
+   separation r. To add an analytic law: a value type with its F in ChainLaws, a Kind, its
+   parameters in parse(), its U in energy(), and one case in dispatch(). Any other law reaches the
    fix as its table (law table FILE KEYWORD, the file pylmp_lattice writes for bond_style
    table), interpolated by the clamped cubic spline that bond_style table spline uses, so
    both engines see the same function. */
@@ -39,67 +39,85 @@ struct UniformSpline {
   }
 };
 
+/* The laws as small value types: the force loop gets a copy, so its coefficients live in
+   registers and the loop over bonds vectorises. */
+namespace ChainLaws {
+  template <int Q> struct PowerInt {    // K / (r + b)^Q by multiplications: several times cheaper than pow
+    double K, b;
+    double operator()(double r) const
+    {
+      const double s = r + b;
+      double sq = s;
+      for (int m = 1; m < Q; m++) sq *= s;
+      return K / sq;
+    }
+  };
+  struct Power {
+    double K, b, q;
+    double operator()(double r) const { return K * std::pow(r + b, -q); }
+  };
+  struct Linear {
+    double k, r_free;
+    double operator()(double r) const { return k * (r_free - r); }
+  };
+  struct Table {
+    const UniformSpline *spline;
+    double operator()(double r) const { return (*spline)(r); }
+  };
+}    // namespace ChainLaws
+
 struct ChainLaw {
-  enum Kind { POWER_INT, POWER, LINEAR, TABLE };
+  enum Kind { POWER, LINEAR, TABLE };
   Kind kind = POWER;
   double K = 0.0, b = 0.0, q = 0.0;    // power: F = K / (r + b)^q
-  int qint = 0;                        // q as an integer 1..8 (POWER_INT)
+  int qint = 0;                        // q if it is an integer 1..8
   double k = 0.0, r_free = 0.0;        // linear: F = k (r_free - r)
   UniformSpline tf, tu;                // table: F and U
-  double table_lo = 0.0, table_hi = 0.0;
 
   /* parse "power K b q" | "linear k r_free" | "table FILE KEYWORD" at arg[iarg]; returns
      the index after the law's arguments */
   int parse(class LAMMPS *lmp, int narg, char **arg, int iarg);
 
-  template <Kind KIND> double force(double r) const
+  /* call f(law) with the law as one of the value types above */
+  template <class F> void dispatch(F &&f) const
   {
-    if constexpr (KIND == POWER_INT) {
-      const double s = r + b;
-      double sq = s;    // s^q by multiplication: several times cheaper than pow
-      for (int m = 1; m < qint; m++) sq *= s;
-      return K / sq;
-    } else if constexpr (KIND == POWER) {
-      return K * std::pow(r + b, -q);
-    } else if constexpr (KIND == LINEAR) {
-      return k * (r_free - r);
-    } else {
-      return tf(r);
+    using namespace ChainLaws;
+    switch (kind) {
+      case POWER:
+        switch (qint) {
+          case 1: return f(PowerInt<1>{K, b});
+          case 2: return f(PowerInt<2>{K, b});
+          case 3: return f(PowerInt<3>{K, b});
+          case 4: return f(PowerInt<4>{K, b});
+          case 5: return f(PowerInt<5>{K, b});
+          case 6: return f(PowerInt<6>{K, b});
+          case 7: return f(PowerInt<7>{K, b});
+          case 8: return f(PowerInt<8>{K, b});
+          default: return f(Power{K, b, q});
+        }
+      case LINEAR:
+        return f(Linear{k, r_free});
+      case TABLE:
+        return f(Table{&tf});
     }
   }
 
-  double force_at(double r) const
+  double force(double r) const
   {
     double value = 0.0;
-    dispatch([&](auto kind) { value = force<decltype(kind)::value>(r); });
+    dispatch([&](auto law) { value = law(r); });
     return value;
   }
 
   double energy(double r) const
   {
     switch (kind) {
-      case POWER_INT:
       case POWER:
         return K / ((q - 1.0) * std::pow(r + b, q - 1.0));
       case LINEAR:
         return 0.5 * k * (r_free - r) * (r_free - r);
       default:
         return tu(r);
-    }
-  }
-
-  /* call f(std::integral_constant<Kind, kind>) so loops are compiled once per law */
-  template <class F> void dispatch(F &&f) const
-  {
-    switch (kind) {
-      case POWER_INT:
-        return f(std::integral_constant<Kind, POWER_INT>{});
-      case POWER:
-        return f(std::integral_constant<Kind, POWER>{});
-      case LINEAR:
-        return f(std::integral_constant<Kind, LINEAR>{});
-      case TABLE:
-        return f(std::integral_constant<Kind, TABLE>{});
     }
   }
 

@@ -88,6 +88,7 @@ Restrictions
 #include "timer.h"
 #include "update.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -259,10 +260,13 @@ void FixLatticeChain::build_lists()
       runs.push_back({i, i, -1, -1});
     }
   }
+  size_t longest = 0;
   for (Run &run : runs) {
     run.left = neighbour(run.first, tag[run.first] - 1);
     run.right = neighbour(run.last, tag[run.last] + 1);
+    longest = std::max<size_t>(longest, run.last - run.first + 1);
   }
+  bond_force.resize(longest + 1);
 }
 
 void FixLatticeChain::setup_pre_neighbor()
@@ -324,17 +328,27 @@ void FixLatticeChain::setup(int /*vflag*/)
 
 void FixLatticeChain::initial_integrate(int /*vflag*/)
 {
-  double *x = atom->x[0];
-  double *v = atom->v[0];
-  const double *f = atom->f[0];
-  const int *type = atom->type;
-  const double *dtfm_of = dtfm.data();
+  // restrict: stores to x and v cannot change the fix's members, so nothing is reloaded
+  double *__restrict x = atom->x[0];
+  double *__restrict v = atom->v[0];
+  const double *__restrict f = atom->f[0];
+  const int *__restrict type = atom->type;
+  const double *__restrict dtfm_of = dtfm.data();
   const double dtv = update->dt;
-  for (const Run &run : runs)
-    for (int i = run.first; i <= run.last; i++) {
-      v[3 * i] += dtfm_of[type[i]] * f[3 * i];
-      x[3 * i] += dtv * v[3 * i];
-    }
+  if (atom->ntypes == 1) {
+    const double h = dtfm_of[1];
+    for (const Run &run : runs)
+      for (int i = run.first; i <= run.last; i++) {
+        v[3 * i] += h * f[3 * i];
+        x[3 * i] += dtv * v[3 * i];
+      }
+  } else {
+    for (const Run &run : runs)
+      for (int i = run.first; i <= run.last; i++) {
+        v[3 * i] += dtfm_of[type[i]] * f[3 * i];
+        x[3 * i] += dtv * v[3 * i];
+      }
+  }
   drive(update->ntimestep);
   place_impactors(true);
 }
@@ -347,9 +361,9 @@ void FixLatticeChain::post_force(int /*vflag*/)
 void FixLatticeChain::final_integrate()
 {
   if (!fused) {
-    double *v = atom->v[0];
-    const double *f = atom->f[0];
-    const int *type = atom->type;
+    double *__restrict v = atom->v[0];
+    const double *__restrict f = atom->f[0];
+    const int *__restrict type = atom->type;
     for (const Run &run : runs)
       for (int i = run.first; i <= run.last; i++) v[3 * i] += dtfm[type[i]] * f[3 * i];
   }
@@ -367,61 +381,82 @@ void FixLatticeChain::post_run()
 void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
 {
   int bad = 0;
-  law.dispatch([&](auto kind) {
-    constexpr int KIND = decltype(kind)::value;
-    if (friction) run_forces<KIND, true>(kick, setup_kick, kick_v, bad);
-    else run_forces<KIND, false>(kick, setup_kick, kick_v, bad);
+  law.dispatch([&](auto F) {
+    if (friction) {
+      if (kick_v) run_forces<true, true>(F, kick, setup_kick, bad);
+      else run_forces<true, false>(F, kick, setup_kick, bad);
+    } else {
+      if (kick_v) run_forces<false, true>(F, kick, setup_kick, bad);
+      else run_forces<false, false>(F, kick, setup_kick, bad);
+    }
   });
   double **x = atom->x;
   double **f = atom->f;
-  for (const End &e : impactors) f[e.i][0] = -law.force_at(x[e.other][0] - x[e.i][0]);
+  for (const End &e : impactors) f[e.i][0] = -law.force(x[e.other][0] - x[e.i][0]);
   for (const End &e : held) f[e.i][0] = 0.0;
   check_gaps(bad);
 }
 
-template <int KIND, bool FRICTION>
-void FixLatticeChain::run_forces(double kick, bool setup_kick, bool kick_v, int &bad)
+template <bool FRICTION, bool KICK, class Law>
+void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, int &bad)
 {
-  constexpr auto K = static_cast<ChainLaw::Kind>(KIND);
-  const double *x = atom->x[0];
-  double *v = atom->v[0];
-  double *f = atom->f[0];
-  const int *type = atom->type;
-  const double *dtfm_of = dtfm.data();
-  // r is bad when r <= 0 (contact) or outside the range: one compare each way
-  const double lo = range_lo > 0.0 ? std::nextafter(range_lo, 0.0) : 0.0, hi = range_hi;
-  int flag = 0;
+  // restrict: stores to v, f and the bond forces cannot change the law's coefficients
+  const double *__restrict x = atom->x[0];
+  double *__restrict v = atom->v[0];
+  double *__restrict f = atom->f[0];
+  double *__restrict F = bond_force.data();
+  const int *__restrict type = atom->type;
+  const double *__restrict dtfm_of = dtfm.data();
+  const double half_kick = dtfm_of[1];
+  const bool one_type = atom->ntypes == 1;
+  // the smallest and largest separation and a NaN probe, as vectorised reductions
+  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
   CoulombWork work;
   for (const Run &run : runs) {
-    const double r_left = x[3 * run.first] - x[3 * run.left];
-    flag |= !(r_left > lo) | (r_left > hi);
-    double F_left = law.force<K>(r_left);
-    for (int i = run.first; i <= run.last; i++) {
-      const int j = i < run.last ? i + 1 : run.right;
-      const double r = x[3 * j] - x[3 * i];
-      flag |= !(r > lo) | (r > hi);
-      const double F_right = law.force<K>(r);
-      const double fx = F_left - F_right;
-      double ftot = fx;
-      if constexpr (FRICTION) {
-        const int t = type[i];
+    // the run's separations, then their forces (F[k] left of atom first + k)
+    const int first = run.first, len = run.last - first + 1;
+    const double *__restrict xr = x + 3 * first;
+    F[0] = xr[0] - x[3 * run.left];
+    for (int k = 1; k < len; k++) F[k] = xr[3 * k] - xr[3 * k - 3];
+    F[len] = x[3 * run.right] - xr[3 * len - 3];
+#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
+    for (int k = 0; k <= len; k++) {
+      const double r = F[k];
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      F[k] = law(r);
+    }
+
+    double *__restrict fr = f + 3 * first;
+    double *__restrict vr = v + 3 * first;
+    if constexpr (!FRICTION) {
+      for (int k = 0; k < len; k++) {
+        const double fx = F[k] - F[k + 1];
+        fr[3 * k] = fx;
+        if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[type[first + k]]) * fx;
+      }
+    } else {
+      for (int k = 0; k < len; k++) {
+        const int t = type[first + k];
+        const double fx = F[k] - F[k + 1];
         const double m = mass_of[t];
-        const double normal = weight[t] + p * (F_left + F_right);
+        const double normal = weight[t] + p * (F[k] + F[k + 1]);
         const double limit = normal > 0.0 ? mu * normal : 0.0;
         const double dvdf = kick / m;
-        const double v0 = v[3 * i];
+        const double v0 = vr[3 * k];
         bool stuck;
-        ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
-        if (stuck) work.stuck(v0, m, kick, fx), v[3 * i] = 0.0;
+        const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
+        if (stuck) work.stuck(v0, m, kick, fx), vr[3 * k] = 0.0;
         else work.slip(v0, fx, ftot, dvdf);
+        fr[3 * k] = ftot;
+        if (KICK) vr[3 * k] += dtfm_of[t] * ftot;
       }
-      F_left = F_right;
-      f[3 * i] = ftot;
-      if (kick_v) v[3 * i] += dtfm_of[type[i]] * ftot;
     }
   }
   if (FRICTION) work.settle(kick, setup_kick, work_done, work_pending);
-  bad |= flag;
+  // r <= 0 is a contact
+  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
 }
 
 /* every separation of this rank's bonds (each bond once, by its left atom): the potential

@@ -55,6 +55,7 @@ class FixLatticeChain : public Fix {
     int i, other, chain;    // impactor: its right neighbour; held end: its left neighbour
   };
   std::vector<End> impactors, held;
+  std::vector<double> bond_force;    // scratch: the forces of one run's bonds
   double drive_u, drive_ud;      // the drive's displacement and velocity at the current step
 
   double work_done, work_pending;    // friction work (see coulomb.h)
@@ -66,7 +67,7 @@ class FixLatticeChain : public Fix {
   void drive(bigint step);
   void place_impactors(bool set_x);
   void forces(double kick, bool setup_kick, bool kick_v);
-  template <int KIND, bool FRICTION> void run_forces(double kick, bool setup_kick, bool kick_v, int &bad);
+  template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   void check_gaps(int bad);
   void bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max, tagint &tag_max);
   void energies();
