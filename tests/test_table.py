@@ -15,7 +15,7 @@ from conftest import make_case
 
 @pytest.mark.lammps
 def test_lammps_reads_back_the_law_within_1e_6(tmp_path, monkeypatch):
-    case = make_case(particles=5)
+    case = make_case(particles=5, run={"engine": "stock"})  # the engine with bonds
     folder = write_run_folder(case, tmp_path)
     lo, hi = case.table_range()
     setup = deck.deck_text(case).split("# ---- 3.")[0]  # the deck's system and force law
