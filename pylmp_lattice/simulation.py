@@ -71,3 +71,29 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
     (folder / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
     return summary
+
+
+def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nprocs: int = 1,
+                      echo: bool = False) -> list[Trajectory]:
+    """Run equal-length chains batched in one LAMMPS instance (see deck.render_replicas);
+    return one trajectory per case, each the same as its own `simulate` run's."""
+    from .runner import write_replicas_folder
+
+    folder = write_replicas_folder(cases, folder)
+    if runner == "embedded":
+        run_embedded(folder, echo=echo)
+    else:
+        run_executable(folder, nprocs=nprocs, echo=echo)
+    return split_replicas(cases, load_trajectory(cases[0], folder))
+
+
+def split_replicas(cases, batched: Trajectory) -> list[Trajectory]:
+    """The trajectories of the replicas in a batched run (replica r: particles r N .. r N + N - 1)."""
+    n = cases[0].chain.particles
+    out = []
+    for r, case in enumerate(cases):
+        part = slice(r * n, (r + 1) * n)
+        a = batched.a[:, part].copy()
+        a[:, 0] = case.impactor.acceleration_at(batched.t)
+        out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], a))
+    return out

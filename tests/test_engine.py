@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from pylmp_lattice.case import case_from_dict, case_to_dict
+from pylmp_lattice.deck import render_replicas
 from pylmp_lattice.dump import read_dump
 from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.runner import run_executable, write_run_folder
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.simulation import simulate, simulate_replicas
 
 from conftest import make_case
 
@@ -122,3 +123,26 @@ def test_engine_field_is_validated_and_round_trips():
     data["run"]["engine"] = "fast"
     with pytest.raises(ConfigError, match=r"run.engine: got 'fast'; choose one of chain, stock"):
         case_from_dict(data)
+
+
+@pytest.mark.lammps
+def test_batched_replicas_equal_their_single_runs(tmp_path):
+    """Four 21-magnet chains with different masses, with friction, in one LAMMPS instance:
+    each replica's trajectory is bit for bit its own run's (same x values, y offsets only)."""
+    cases = [make_case(particles=21, duration=30.0, output=0.5, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
+             for r in range(4)]
+    batched = simulate_replicas(cases, tmp_path / "batched")
+    assert "length 21" in (tmp_path / "batched" / "in.lattice").read_text()
+    for r, case in enumerate(cases):
+        single = simulate(case, tmp_path / f"single{r}")
+        assert np.max(np.abs(single.v)) > 1.0
+        for name in ("x0", "u", "v", "a"):
+            assert np.array_equal(getattr(batched[r], name), getattr(single, name)), (r, name)
+    assert not np.array_equal(batched[0].v, batched[3].v)
+
+
+def test_replicas_may_differ_only_in_their_chain():
+    with pytest.raises(ConfigError, match="replica 1 differs from replica 0 outside"):
+        render_replicas([make_case(), make_case(velocity=1.0)])
+    with pytest.raises(ConfigError, match="batched replicas need 'chain'"):
+        render_replicas([make_case(run={"engine": "stock"})])

@@ -260,13 +260,21 @@ void FixLatticeChain::build_lists()
       runs.push_back({i, i, -1, -1});
     }
   }
-  size_t longest = 0;
-  for (Run &run : runs) {
-    run.left = neighbour(run.first, tag[run.first] - 1);
-    run.right = neighbour(run.last, tag[run.last] + 1);
-    longest = std::max<size_t>(longest, run.last - run.first + 1);
+  // runs of at most BLOCK atoms, so that their bond forces stay in the L1 cache between
+  // the loop that computes them and the loop that uses them (one bond per block boundary
+  // is computed twice, from the same two positions)
+  constexpr int BLOCK = 512;
+  std::vector<Run> blocks;
+  for (const Run &run : runs) {
+    const int left = neighbour(run.first, tag[run.first] - 1);
+    const int right = neighbour(run.last, tag[run.last] + 1);
+    for (int first = run.first; first <= run.last; first += BLOCK) {
+      const int last = std::min(first + BLOCK - 1, run.last);
+      blocks.push_back({first, last, first == run.first ? left : first - 1, last == run.last ? right : last + 1});
+    }
   }
-  bond_force.resize(longest + 1);
+  runs.swap(blocks);
+  bond_force.resize(BLOCK + 1);
 }
 
 void FixLatticeChain::setup_pre_neighbor()

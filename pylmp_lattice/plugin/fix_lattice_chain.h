@@ -44,9 +44,9 @@ class FixLatticeChain : public Fix {
   std::vector<double> dtfm, mass_of, weight;
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
 
-  // local layout, rebuilt at every reneighbouring: runs of free atoms that follow each
-  // other in memory with consecutive IDs, with the local/ghost index of the atom left of
-  // the first and right of the last; the chain ends held apart
+  // local layout, rebuilt at every reneighbouring: runs of up to 512 free atoms that follow
+  // each other in memory with consecutive IDs, with the local/ghost index of the atom left
+  // of the first and right of the last; the chain ends held apart
   struct Run {
     int first, last, left, right;
   };
