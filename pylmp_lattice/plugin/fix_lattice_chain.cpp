@@ -99,7 +99,7 @@ using namespace FixConst;
 FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), length(0), nchains(0), range_lo(0.0),
     range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
-    g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), drive_u(0.0),
+    g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), lazy_allowed(false), in_order(false), lazy(false), drive_u(0.0),
     drive_ud(0.0), work_done(0.0), work_pending(0.0), energy_step(-1), pe_cached(0.0),
     gap_cached(0.0), contact_step(-1)
 {
@@ -218,6 +218,7 @@ void FixLatticeChain::init()
   // the second half kick may join the force pass only if no other fix reads or changes
   // the forces after this one or integrates
   fused = true;
+  bool nothing_between = true;
   for (int j = 0, me = -1; j < modify->nfix; j++) {
     if (modify->fix[j] == this) {
       me = j;
@@ -225,7 +226,14 @@ void FixLatticeChain::init()
     }
     if (modify->fmask[j] & FINAL_INTEGRATE) fused = false;
     if ((modify->fmask[j] & POST_FORCE) && me >= 0) fused = false;
+    if (modify->fmask[j] & (POST_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR | PRE_FORCE | PRE_REVERSE))
+      nothing_between = false;
   }
+  // on one rank the drift may wait for the force pass (one pass over memory fewer): then
+  // nothing between the two may look at x (no pair or kspace style, no fix hooks there), no
+  // ghosts need it, and the atoms keep their places (no sorting)
+  lazy_allowed = fused && nothing_between && comm->nprocs == 1 && !force->pair && !force->kspace &&
+      atom->sortfreq == 0;
 }
 
 /* the layout of this rank's atoms; neighbours must be owned or ghosts */
@@ -263,7 +271,7 @@ void FixLatticeChain::build_lists()
   // runs of at most BLOCK atoms, so that their bond forces stay in the L1 cache between
   // the loop that computes them and the loop that uses them (one bond per block boundary
   // is computed twice, from the same two positions)
-  constexpr int BLOCK = 512;
+  constexpr int BLOCK = 256;
   std::vector<Run> blocks;
   for (const Run &run : runs) {
     const int left = neighbour(run.first, tag[run.first] - 1);
@@ -275,6 +283,20 @@ void FixLatticeChain::build_lists()
   }
   runs.swap(blocks);
   bond_force.resize(BLOCK + 1);
+  positions.resize(2 * (BLOCK + 2));
+
+  // the lazy drift moves block k + 1 before the forces of block k: a free neighbour of a
+  // block must be the end of the block before or the start of the block after it
+  auto is_free = [&](int j) {
+    const bigint k = (tag[j] - 1) % length;
+    return k != 0 && k != length - 1;
+  };
+  in_order = true;
+  for (size_t k = 0; k < runs.size(); k++) {
+    if (is_free(runs[k].left) && (k == 0 || runs[k].left != runs[k - 1].last)) in_order = false;
+    if (is_free(runs[k].right) && (k + 1 == runs.size() || runs[k].right != runs[k + 1].first)) in_order = false;
+  }
+  f_last.resize(atom->nmax);
 }
 
 void FixLatticeChain::setup_pre_neighbor()
@@ -331,7 +353,13 @@ void FixLatticeChain::setup(int /*vflag*/)
   energy_step = -1;
   drive(update->ntimestep);
   place_impactors(false);
+  lazy = false;
   forces(0.5 * update->dt, true, false);
+  // decided once per run: on one rank the atoms keep their order between reneighbourings
+  lazy = lazy_allowed && in_order;
+  if (lazy)
+    for (const Run &run : runs)
+      for (int i = run.first; i <= run.last; i++) f_last[i] = atom->f[i][0];
 }
 
 void FixLatticeChain::initial_integrate(int /*vflag*/)
@@ -343,7 +371,9 @@ void FixLatticeChain::initial_integrate(int /*vflag*/)
   const int *__restrict type = atom->type;
   const double *__restrict dtfm_of = dtfm.data();
   const double dtv = update->dt;
-  if (atom->ntypes == 1) {
+  if (lazy) {
+    // the free atoms move in post_force, from the forces kept in f_last (force_clear zeroes f)
+  } else if (atom->ntypes == 1) {
     const double h = dtfm_of[1];
     for (const Run &run : runs)
       for (int i = run.first; i <= run.last; i++) {
@@ -363,7 +393,7 @@ void FixLatticeChain::initial_integrate(int /*vflag*/)
 
 void FixLatticeChain::post_force(int /*vflag*/)
 {
-  forces(update->dt, false, fused);
+  forces(update->dt, false, fused || lazy);
 }
 
 void FixLatticeChain::final_integrate()
@@ -391,11 +421,13 @@ void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
   int bad = 0;
   law.dispatch([&](auto F) {
     if (friction) {
-      if (kick_v) run_forces<true, true>(F, kick, setup_kick, bad);
-      else run_forces<true, false>(F, kick, setup_kick, bad);
+      if (lazy) run_forces<true, LAZY>(F, kick, setup_kick, bad);
+      else if (kick_v) run_forces<true, KICK>(F, kick, setup_kick, bad);
+      else run_forces<true, NO_KICK>(F, kick, setup_kick, bad);
     } else {
-      if (kick_v) run_forces<false, true>(F, kick, setup_kick, bad);
-      else run_forces<false, false>(F, kick, setup_kick, bad);
+      if (lazy) run_forces<false, LAZY>(F, kick, setup_kick, bad);
+      else if (kick_v) run_forces<false, KICK>(F, kick, setup_kick, bad);
+      else run_forces<false, NO_KICK>(F, kick, setup_kick, bad);
     }
   });
   double **x = atom->x;
@@ -405,31 +437,51 @@ void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
   check_gaps(bad);
 }
 
-template <bool FRICTION, bool KICK, class Law>
+template <bool FRICTION, int MODE, class Law>
 void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, int &bad)
 {
+  constexpr bool KICKS = MODE != NO_KICK;
   // restrict: stores to v, f and the bond forces cannot change the law's coefficients
-  const double *__restrict x = atom->x[0];
+  double *__restrict x = atom->x[0];
   double *__restrict v = atom->v[0];
   double *__restrict f = atom->f[0];
   double *__restrict F = bond_force.data();
+
   const int *__restrict type = atom->type;
   const double *__restrict dtfm_of = dtfm.data();
   const double half_kick = dtfm_of[1];
   const bool one_type = atom->ntypes == 1;
+  double *__restrict f_kept = f_last.data();
+  const double dtv = update->dt;
+  // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
+  // right neighbour; two of them, for the block whose forces are due and the next one
+  double *__restrict X[2] = {positions.data(), positions.data() + positions.size() / 2};
+  // LAZY: velocity Verlet's first half kick and drift, with last step's forces, one block
+  // ahead of the forces (so both neighbours of a block have moved when its forces are due)
+  auto drift = [&](const Run &run, double *__restrict Xb) {
+    for (int i = run.first; i <= run.last; i++) {
+      v[3 * i] += (one_type ? half_kick : dtfm_of[type[i]]) * f_kept[i];
+      x[3 * i] += dtv * v[3 * i];
+      Xb[1 + i - run.first] = x[3 * i];
+    }
+  };
   // the smallest and largest separation and a NaN probe, as vectorised reductions
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
   CoulombWork work;
-  for (const Run &run : runs) {
-    // the run's separations, then their forces (F[k] left of atom first + k)
+  if (MODE == LAZY && !runs.empty()) drift(runs[0], X[0]);
+  for (size_t b = 0; b < runs.size(); b++) {
+    const Run &run = runs[b];
+    double *__restrict Xb = X[b % 2];
     const int first = run.first, len = run.last - first + 1;
-    const double *__restrict xr = x + 3 * first;
-    F[0] = xr[0] - x[3 * run.left];
-    for (int k = 1; k < len; k++) F[k] = xr[3 * k] - xr[3 * k - 3];
-    F[len] = x[3 * run.right] - xr[3 * len - 3];
+    if (MODE == LAZY && b + 1 < runs.size()) drift(runs[b + 1], X[(b + 1) % 2]);
+    if (MODE != LAZY)
+      for (int k = 0; k < len; k++) Xb[1 + k] = x[3 * (first + k)];
+    Xb[0] = x[3 * run.left];
+    Xb[len + 1] = x[3 * run.right];
+    // the bond forces, F[k] left of atom first + k
 #pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
     for (int k = 0; k <= len; k++) {
-      const double r = F[k];
+      const double r = Xb[k + 1] - Xb[k];
       r_min = r < r_min ? r : r_min;
       r_max = r > r_max ? r : r_max;
       r_sum += r;
@@ -442,7 +494,8 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
       for (int k = 0; k < len; k++) {
         const double fx = F[k] - F[k + 1];
         fr[3 * k] = fx;
-        if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[type[first + k]]) * fx;
+        if (KICKS) vr[3 * k] += (one_type ? half_kick : dtfm_of[type[first + k]]) * fx;
+        if (MODE == LAZY) f_kept[first + k] = fx;
       }
     } else {
       for (int k = 0; k < len; k++) {
@@ -458,7 +511,8 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
         if (stuck) work.stuck(v0, m, kick, fx), vr[3 * k] = 0.0;
         else work.slip(v0, fx, ftot, dvdf);
         fr[3 * k] = ftot;
-        if (KICK) vr[3 * k] += dtfm_of[t] * ftot;
+        if (KICKS) vr[3 * k] += dtfm_of[t] * ftot;
+        if (MODE == LAZY) f_kept[first + k] = ftot;
       }
     }
   }

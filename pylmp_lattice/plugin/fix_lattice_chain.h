@@ -43,6 +43,9 @@ class FixLatticeChain : public Fix {
   // per-type constants, set in init(): half-kick dt/(2m), m, m g
   std::vector<double> dtfm, mass_of, weight;
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
+  bool lazy_allowed, in_order;   // one rank, nothing between the passes, blocks in chain order
+  bool lazy;                     // this run: the drift waits for post_force (see init())
+  std::vector<double> f_last;    // lazy: each atom's force of the last step, by local index
 
   // local layout, rebuilt at every reneighbouring: runs of up to 512 free atoms that follow
   // each other in memory with consecutive IDs, with the local/ghost index of the atom left
@@ -56,6 +59,7 @@ class FixLatticeChain : public Fix {
   };
   std::vector<End> impactors, held;
   std::vector<double> bond_force;    // scratch: the forces of one run's bonds
+  std::vector<double> positions;     // scratch: two runs' positions (see run_forces)
   double drive_u, drive_ud;      // the drive's displacement and velocity at the current step
 
   double work_done, work_pending;    // friction work (see coulomb.h)
@@ -67,7 +71,10 @@ class FixLatticeChain : public Fix {
   void drive(bigint step);
   void place_impactors(bool set_x);
   void forces(double kick, bool setup_kick, bool kick_v);
-  template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
+  // the force pass: NO_KICK (setup, or the kick left to final_integrate), KICK (the second
+  // half kick too), LAZY (also the first half kick and drift, one block ahead)
+  enum { NO_KICK, KICK, LAZY };
+  template <bool FRICTION, int MODE, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   void check_gaps(int bad);
   void bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max, tagint &tag_max);
   void energies();
