@@ -24,6 +24,7 @@ from .units import to_engine
 DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
+SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
 DUMP = "traj.dump"
 LOG = "log.lammps"
 PISTON = "piston.txt"
@@ -45,6 +46,10 @@ def render(case: Case) -> dict[str, str]:
     }
     if isinstance(case.impactor, Measured):
         files[PISTON] = piston_text(case.impactor)
+    if case.second_neighbour is not None:
+        lo2, hi2 = case.second_table_range()
+        files[SECOND_TABLE] = bond_table(case.second_neighbour, lo2, hi2, case.table.points,
+                                         2 * float(np.mean(case.chain.r0)))
     return files
 
 
@@ -67,8 +72,8 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
     """
     first = cases[0]
     for r, case in enumerate(cases):
-        if case.run.engine != "chain":
-            raise ConfigError("run.engine", f"replica {r}: got {case.run.engine!r}; batched replicas need 'chain'")
+        if not uses_chain_engine(case):
+            raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
         if dataclasses.replace(case, chain=first.chain, name=first.name) != first:
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
@@ -143,19 +148,29 @@ def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
 
 
 def data_text(case: Case) -> str:
-    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)."""
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
+    of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
+
+    Positions and masses include the chain's disorder and defect; a chain with thermal motion
+    gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
+    magnet, and LAMMPS keeps some per-type-pair tables: fine up to a few thousand magnets."""
     x = to_engine(case.chain.positions(), "length")
     masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    v = to_engine(case.chain.velocities(), "velocity")
+    velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
+    pairs = [(i, i + 1, 1) for i in range(n - 1)]
+    if case.second_neighbour is not None:
+        pairs += [(i, i + 2, 2) for i in range(n - 2)]
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
     lines = [
         f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
         "",
         f"{n} atoms",
-        f"{n - 1} bonds",
+        f"{len(pairs)} bonds",
         f"{len(masses)} atom types",
-        "1 bond types",
+        f"{pairs[-1][2]} bond types",
         "",
         f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
         f"{_num(-half)} {_num(half)} ylo yhi",
@@ -171,17 +186,18 @@ def data_text(case: Case) -> str:
         "",
         "Bonds",
         "",
-        *(f"{i + 1} 1 {i + 1} {i + 2}" for i in range(n - 1)),
+        *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs)),
+        *velocities,
     ]
     return "\n".join(lines) + "\n"
 
 
 def deck_text(case: Case, replicas: int = 1) -> str:
     """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
-    run, n = case.run, case.chain.particles
+    run = case.run
     n_steps = run.steps()
     thermo_every = max(1, n_steps // 20)
-    chain = run.engine == "chain"
+    chain = uses_chain_engine(case)
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
 # Run it in this folder with:  lmp -in {DECK}
@@ -202,11 +218,18 @@ run             {n_steps}
 {"" if chain else _stock_contact_print()}"""
 
 
+def uses_chain_engine(case: Case) -> bool:
+    """`run.engine = "chain"`, unless second neighbours need the stock path's second bonds."""
+    return case.run.engine == "chain" and case.second_neighbour is None
+
+
 def _stock_sections(case: Case) -> str:
     """Sections 1-4 of the stock engine: bonds with a table, fix nve, fix move, the guard."""
     run, n = case.run, case.chain.particles
     lo, hi = case.table_range()
-    hi_si = to_engine(hi, "length")
+    longest = case.second_table_range()[1] if case.second_neighbour else hi
+    hi_si = to_engine(longest, "length")
+    held = " ".join(str(i + 1) for i in case.held())
     return f"""\
 # ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
 units           si
@@ -215,18 +238,20 @@ boundary        s f f
 atom_style      bond
 atom_modify     map array sort 0 0.0
 read_data       {DATA}
-# Bonds act between consecutive magnets only, at every separation; no pair style, so no
-# other interaction exists. Ghosts must reach across the longest bond on several ranks.
+# Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
+# separation; no pair style, so no other interaction exists. Ghosts must reach across the
+# longest bond on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
 
 # ---- 2. Force law {case.force!r}
 # Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
 bond_style      table spline {case.table.points}
 bond_coeff      1 {TABLE} {KEYWORD}
+{_second_neighbour_lines(case)}
 
-# ---- 3. Boundary conditions: particle 1 is the impactor, particle {n} is held at rest
+# ---- 3. Boundary conditions: particle 1 is the impactor, particle(s) {held} held at rest
 group           impactor id 1
-group           held id {n}
+group           held id {held}
 group           free subtract all impactor held
 fix             integrate free nve
 fix             hold held setforce 0.0 0.0 0.0
@@ -251,7 +276,7 @@ if "${{min_gap}} <= 0.0" then &
 
 
 def _thermo_style(case: Case) -> str:
-    if case.run.engine == "stock":
+    if not uses_chain_engine(case):
         return f"thermo_style    custom step time ke ebond etotal v_min_gap{' f_friction' if case.friction else ''}"
     # the chain fix's energy and friction work under the stock deck's column names
     friction = " f_chain[1]" if case.friction else ""
@@ -337,11 +362,24 @@ def _impactor_args(imp) -> str:
     raise TypeError(f"no deck for impactor {imp!r}")
 
 
+def _second_neighbour_lines(case: Case) -> str:
+    sn = case.second_neighbour
+    if sn is None:
+        return "# nearest neighbours only"
+    lo2, hi2 = case.second_table_range()
+    return (
+        f"# Second neighbours {sn!r}: bonds i-(i+2) of type 2, d = x_(i+2) - x_i\n"
+        f"# tabulated on [{lo2:g}, {hi2:g}] mm.\n"
+        f"bond_coeff      2 {SECOND_TABLE} {KEYWORD}"
+    )
+
+
 def _friction_lines(case: Case) -> str:
     """Coulomb friction on the free magnets (plugin fix; LAMMPS loads it from LAMMPS_PLUGIN_PATH).
 
-    The fix takes F from the analytic law where there is one: exact, and several times
-    cheaper than the bond table; a sampled law has only the table (`law bond`)."""
+    The fix takes F from the analytic law where it has one (power, linear): exact, and
+    several times cheaper than the bond table; any other law (sampled, Toda, Lennard-Jones,
+    Morse, FPUT) is read from the bond table itself (`law bond`), which every law has."""
     fr = case.friction
     if fr is None:
         return "# no friction"
@@ -355,7 +393,7 @@ def _friction_lines(case: Case) -> str:
     if analytic:
         source, spec = exact, f"law {analytic}"
     else:
-        source, spec = "# F from the bond table, as the bonds: a sampled law has no other form.\n", "law bond 1"
+        source, spec = f"# F from the bond table, as the bonds (the fix has no analytic {law.law} law).\n", "law bond 1"
     return (
         "# Coulomb friction f_n = mu (m g + p (F_(n-1) + F_n)), stick-slip; its scalar is the\n"
         "# energy it has dissipated (J). Defined last: it reads the total force on each magnet.\n"

@@ -144,5 +144,5 @@ def test_batched_replicas_equal_their_single_runs(tmp_path):
 def test_replicas_may_differ_only_in_their_chain():
     with pytest.raises(ConfigError, match="replica 1 differs from replica 0 outside"):
         render_replicas([make_case(), make_case(velocity=1.0)])
-    with pytest.raises(ConfigError, match="batched replicas need 'chain'"):
+    with pytest.raises(ConfigError, match="batched replicas need the chain engine"):
         render_replicas([make_case(run={"engine": "stock"})])
