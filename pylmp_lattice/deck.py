@@ -218,6 +218,16 @@ run             {n_steps}
 {"" if chain else _stock_contact_print()}"""
 
 
+# Both engines: atoms with bonds (as the data file has them) on the x axis of a 3D box, kept
+# in the order they were read (the map finds chain neighbours by ID).
+_SYSTEM = """\
+units           si
+dimension       3
+boundary        s f f
+atom_style      bond
+atom_modify     map array sort 0 0.0"""
+
+
 def uses_chain_engine(case: Case) -> bool:
     """`run.engine = "chain"`, unless second neighbours need the stock path's second bonds."""
     return case.run.engine == "chain" and case.second_neighbour is None
@@ -232,11 +242,7 @@ def _stock_sections(case: Case) -> str:
     held = " ".join(str(i + 1) for i in case.held())
     return f"""\
 # ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
-units           si
-dimension       3
-boundary        s f f
-atom_style      bond
-atom_modify     map array sort 0 0.0
+{_SYSTEM}
 read_data       {DATA}
 # Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
 # separation; no pair style, so no other interaction exists. Ghosts must reach across the
@@ -304,11 +310,7 @@ def _chain_sections(case: Case, replicas: int = 1) -> str:
                 if fr else "")
     return f"""\
 # ---- 1. The chain{"s: " + str(replicas) + " chains of" if replicas > 1 else ":"} {n} magnets on the x axis
-units           si
-dimension       3
-boundary        s f f
-atom_style      bond
-atom_modify     map array sort 0 0.0
+{_SYSTEM}
 # domains along x only; no reverse communication of forces (every force is set by its owner)
 processors      * 1 1
 newton          off
