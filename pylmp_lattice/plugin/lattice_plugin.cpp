@@ -1,10 +1,12 @@
-/* Plugin loader: registers the pylmp_lattice fix styles (lattice/friction, lattice/piston, lattice/chain) with LAMMPS on `plugin load`
+/* Plugin loader: registers the pylmp_lattice fix styles (lattice/friction, lattice/piston, lattice/chain,
+   lattice/front) with LAMMPS on `plugin load`
    (or on auto-loading from LAMMPS_PLUGIN_PATH). */
 
 #include "lammpsplugin_abi.h"
 
 #include "fix_lattice_chain.h"
 #include "fix_lattice_friction.h"
+#include "fix_lattice_front.h"
 #include "fix_lattice_piston.h"
 
 using namespace LAMMPS_NS;
@@ -22,6 +24,11 @@ static void *friction_creator(void *lmp, int narg, char **arg)
 static void *chain_creator(void *lmp, int narg, char **arg)
 {
   return new FixLatticeChain(static_cast<LAMMPS *>(lmp), narg, arg);
+}
+
+static void *front_creator(void *lmp, int narg, char **arg)
+{
+  return new FixLatticeFront(static_cast<LAMMPS *>(lmp), narg, arg);
 }
 
 static void *piston_creator(void *lmp, int narg, char **arg)
@@ -51,5 +58,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "lattice/chain";
   plugin.info = "Chain-specialised time step of 1D nearest-neighbour chains (pylmp_lattice)";
   plugin.creator.v2 = &chain_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "lattice/front";
+  plugin.info = "Front arrival and first peak of each atom, recorded every step (pylmp_lattice)";
+  plugin.creator.v2 = &front_creator;
   (*register_plugin)(&plugin, lmp);
 }
