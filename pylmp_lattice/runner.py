@@ -246,7 +246,8 @@ def _error_line(text: str) -> str | None:
     """LAMMPS's first ERROR line in `text` in user units, without its source location; None if none."""
     for line in text.splitlines():
         if "ERROR" in line:
-            line = re.sub(r"\s*\(src/[^)]*\)", "", line.strip())
+            # LAMMPS's "(src/...)" and a plugin's "(/path/to/fix.cpp:123)"
+            line = re.sub(r"\s*\((?:src/[^)]*|[^()]*\.(?:cpp|h):\d+)\)", "", line.strip())
             # engine lengths (m) -> mm, e.g. "Bond length > table outer cutoff: type 1 length 0.0130"
             return re.sub(r"\blength (-?[\d.]+(?:[eE][-+]?\d+)?)",
                           lambda m: f"length {from_engine(float(m.group(1)), 'length'):.6g} mm", line)

@@ -573,10 +573,11 @@ void FixLatticeChain::check_gaps(int bad)
   }
   const bool low = lo_out.value < range_lo;
   const int i = low ? lo_out.tag : hi_out.tag;
+  // worded like bond_style table's error, whose length the runner turns into mm
   error->all(FLERR,
-             "Fix lattice/chain: magnets {} and {} are {} m apart at t = {} s, outside the "
-             "table range [{}, {}] m; extend [table] r_max",
-             i, i + 1, low ? lo_out.value : hi_out.value, t, range_lo, range_hi);
+             "Fix lattice/chain: magnets {} and {} outside the table range [{}, {}] m at t = {} s "
+             "(extend [table] r_max): type 1 length {}",
+             i, i + 1, range_lo, range_hi, t, low ? lo_out.value : hi_out.value);
 }
 
 /* potential energy and smallest separation of the current step, computed once */
