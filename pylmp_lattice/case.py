@@ -336,6 +336,10 @@ class Case:
         lo, hi = self.table_range()
         if self.second_neighbour is not None:
             self._check_second_neighbour()
+            # the chain engine's fix handles nearest neighbours only (a run.engine field, where
+            # there is one, must then name the stock path)
+            if getattr(self.run, "engine", "stock") != "stock":
+                raise ConfigError("run.engine", f"got {self.run.engine!r}; second neighbours need run.engine = 'stock'")
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
