@@ -153,22 +153,10 @@ def test_second_neighbour_section_round_trips_and_validates():
 
 
 def test_second_neighbours_need_the_stock_engine():
-    """A run whose engine is not the stock deck path (the chain engine's fix handles nearest
-    neighbours only) is refused for a case with second neighbours, naming run.engine."""
-    import dataclasses
-
-    from pylmp_lattice.case import Case, RunSettings
-
-    @dataclasses.dataclass(frozen=True)
-    class ChainRun(RunSettings):  # a run with an engine choice, as the chain engine adds
-        engine: str = "chain"
-
-        def __post_init__(self):  # RunSettings checks numbers; engine is a name
-            pass
-
+    """The chain engine's fix handles nearest neighbours only: a case with second neighbours
+    runs on the stock deck path by default, and asking for the chain engine is refused."""
     second = {"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}
-    case = make_case(second_neighbour=second)
-    parts = {f.name: getattr(case, f.name) for f in dataclasses.fields(Case)}
+    assert make_case(second_neighbour=second).run.engine == "stock"
+    assert make_case().run.engine == "chain"
     with pytest.raises(ConfigError, match="run.engine: got 'chain'; second neighbours need run.engine = 'stock'"):
-        Case(**(parts | {"run": ChainRun(duration=50.0)}))
-    assert Case(**(parts | {"run": ChainRun(duration=50.0, engine="stock")})).second_neighbour is not None
+        make_case(second_neighbour=second, run={"engine": "chain"})

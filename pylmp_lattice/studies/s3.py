@@ -16,13 +16,12 @@ Full: 400 ms; quick: 150 ms.
 
 from __future__ import annotations
 
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
 from .. import measures
-from ..case import RunSettings, SecondNeighbour, case_from_dict, case_to_dict
+from ..case import SecondNeighbour, case_from_dict, case_to_dict
 from ..forcelaw import PowerLaw
 from ..plots import pyplot
 from ..simulation import simulate
@@ -82,8 +81,6 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     strong, weak = {}, {}
     for label, sign in VARIANTS.items():
         extra = {} if sign is None else {"second_neighbour": second_neighbour_section(sign)}
-        if sign is not None and "engine" in {f.name for f in fields(RunSettings)}:
-            extra["run"] = {"engine": "stock"}  # second neighbours run on the stock deck path only
         tag = label.split()[0]
         for vi, store in ((STRONG, strong), (WEAK, weak)):
             case = relaxed(paper_case(f"s3_{tag}_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration, **extra))
