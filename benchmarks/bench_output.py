@@ -3,10 +3,10 @@
 Table 1: `pylmp-lattice run inputs/paper_long_lattice.toml` end to end (wall time of the whole
 command, as a user waits for it), with this package and with an older one installed in another
 environment (--before: its Python), run alternately, best of --repeat; and the summary numbers of
-both. Table 2: one run of the same case through the package's layers, timed stage by stage:
-the engine's compute (LAMMPS's loop time without its Output section), LAMMPS writing the binary
-frames (Output), turning them into H5MD, and reading the whole trajectory back; and the file
-sizes, against the text dump of the older run.
+both. Table 2: the same case run once on each engine (chain, the default, and stock), timed
+stage by stage: the engine's compute (LAMMPS's loop time without its Output section), LAMMPS
+writing the binary frames (Output); then those frames turned into H5MD with each compression,
+and the whole trajectory read back; with the file sizes against the text dump of the older run.
 
     git worktree add /tmp/before 884f0d8 && python3 -m venv /tmp/before/.venv \\
         && /tmp/before/.venv/bin/pip install /tmp/before
@@ -18,13 +18,14 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from pylmp_lattice.case import load_case
+from pylmp_lattice.case import COMPRESSIONS, load_case
 from pylmp_lattice.h5md import convert_run
 from pylmp_lattice.runner import run_embedded, write_run_folder
 from pylmp_lattice.simulation import load_trajectory
@@ -43,22 +44,29 @@ def end_to_end(python: str, folder: Path) -> tuple[float, dict]:
     return time.perf_counter() - start, json.loads((folder / "summary.json").read_text())
 
 
-def stages(folder: Path) -> dict:
-    """One run of the main case, timed layer by layer (seconds), and its file sizes (bytes)."""
-    case = load_case(CASE)
+def engine_run(folder: Path, engine: str) -> tuple[float, float]:
+    """One run of the main case on `engine`, without conversion: (compute, LAMMPS output) in s."""
+    case = load_case(CASE, [f'run.engine="{engine}"'])
     run_embedded(write_run_folder(case, folder))
     log = (folder / "log.lammps").read_text()
     loop = float(re.search(r"Loop time of (\S+)", log).group(1))
     output = float(re.search(r"^Output\s*\|\s*(\S+)", log, re.MULTILINE).group(1))
-    binary = (folder / "traj.bin").stat().st_size
+    return loop - output, output
+
+
+def conversion(folder: Path, compression: str) -> dict:
+    """The run's binary frames turned into H5MD with `compression`, and read back (s, bytes)."""
+    case = load_case(CASE, [f'output.compression="{compression}"'])
+    target = folder.parent / f"{folder.name}-{compression}"
+    target.mkdir()
+    shutil.copy(folder / "traj.bin", target / "traj.bin")
     start = time.perf_counter()
-    convert_run(case, folder)
+    convert_run(case, target)
     convert = time.perf_counter() - start
     start = time.perf_counter()
-    traj = load_trajectory(case, folder)
-    read = time.perf_counter() - start
-    return {"compute": loop - output, "lammps_output": output, "convert": convert, "read": read,
-            "frames": len(traj.t), "binary_bytes": binary, "h5md_bytes": (folder / "traj.h5md").stat().st_size}
+    frames = len(load_trajectory(case, target).t)
+    return {"convert": convert, "read": time.perf_counter() - start, "frames": frames,
+            "bytes": (target / "traj.h5md").stat().st_size}
 
 
 def main() -> None:
@@ -77,7 +85,9 @@ def main() -> None:
                     times[label + "_summary"] = summary
                     times[label + "_folder"] = tmp / f"{label}{k}"
         text_bytes = (times["before_folder"] / "traj.dump").stat().st_size
-        s = stages(tmp / "stages")
+        engines = {engine: engine_run(tmp / engine, engine) for engine in ("chain", "stock")}
+        binary = (tmp / "chain" / "traj.bin").stat().st_size
+        outputs = {c: conversion(tmp / "chain", c) for c in COMPRESSIONS}
 
     before, after = min(times["before"]), min(times["after"])
     print(f"Main job end to end ({CASE.name}), best of {args.repeat}, seconds")
@@ -88,16 +98,20 @@ def main() -> None:
         b, a = times["before_summary"][key], times["after_summary"][key]
         b, a = (b[sub], a[sub]) if sub else (b, a)
         print(f"| {key}{'.' + sub if sub else ''} | {b} | {a} | {abs(a - b) / abs(b):.1e} |")
-    io = s["lammps_output"] + s["convert"] + s["read"]
-    print(f"\nOutput against the engine, one run ({s['frames']} frames of 301 magnets), seconds")
-    print("| engine compute | LAMMPS writes binary | to H5MD | read back | write + read | (write + read) / compute |")
-    print("|---|---|---|---|---|---|")
-    print(f"| {s['compute']:.2f} | {s['lammps_output']:.2f} | {s['convert']:.2f} | {s['read']:.2f} | {io:.2f} "
-          f"| {io / s['compute']:.2f} |")
-    print("\nTrajectory size, MB")
-    print(f"| text dump (before) | binary frames | H5MD | H5MD / text |\n|---|---|---|---|\n"
-          f"| {text_bytes / 1e6:.1f} | {s['binary_bytes'] / 1e6:.1f} | {s['h5md_bytes'] / 1e6:.1f} "
-          f"| {s['h5md_bytes'] / text_bytes:.3f} |")
+    print("\nEngine, one run, seconds")
+    print("| engine | compute | LAMMPS writes binary frames |\n|---|---|---|")
+    for engine, (compute, output) in engines.items():
+        print(f"| {engine} | {compute:.2f} | {output:.2f} |")
+    write = engines["chain"][1]
+    print(f"\nOutput ({outputs['lzf']['frames']} frames of 301 magnets): write (LAMMPS's binary frames + H5MD) and "
+          f"read, seconds; size against the text dump ({text_bytes / 1e6:.1f} MB) and binary frames "
+          f"({binary / 1e6:.1f} MB)")
+    print("| compression | to H5MD | read back | write + read | / chain compute | / stock compute | MB | / text |")
+    print("|---|---|---|---|---|---|---|---|")
+    for c, o in outputs.items():
+        io = write + o["convert"] + o["read"]
+        print(f"| {c} | {o['convert']:.2f} | {o['read']:.2f} | {io:.2f} | {io / engines['chain'][0]:.2f} "
+              f"| {io / engines['stock'][0]:.2f} | {o['bytes'] / 1e6:.1f} | {o['bytes'] / text_bytes:.3f} |")
 
 
 if __name__ == "__main__":
