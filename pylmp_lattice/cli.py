@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|info`. Errors are one line on stderr, never a traceback."""
+"""Command line: `pylmp-lattice run|deck|study|info`. Errors are one line on stderr, never a traceback."""
 
 from __future__ import annotations
 
@@ -44,6 +44,13 @@ def _parser() -> argparse.ArgumentParser:
     _case_args(deck)
     deck.set_defaults(func=_deck)
 
+    study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
+    study.add_argument("name", choices=_study_names(), metavar="NAME",
+                       help="one of: " + ", ".join(_study_names()))
+    study.add_argument("-o", "--output", type=Path, default=Path("runs/studies"), help="output folder (default: runs/studies)")
+    study.add_argument("--quick", action="store_true", help="a small version (fewer, shorter runs)")
+    study.set_defaults(func=_study)
+
     info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
     info.set_defaults(func=_info)
     return p
@@ -81,6 +88,20 @@ def _deck(args) -> int:
     case, folder = _load(args)
     write_run_folder(case, folder)
     print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
+    return 0
+
+
+def _study_names() -> list[str]:
+    from .studies import STUDIES
+
+    return list(STUDIES)
+
+
+def _study(args) -> int:
+    from .studies import run_study
+
+    result = run_study(args.name, args.output, quick=args.quick)
+    print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 
 

@@ -1,0 +1,47 @@
+"""Strict JSON for results: NaN and infinities become null, numpy values plain Python.
+
+Results objects (measures, studies) go through `jsonable`; `dumps` refuses anything that would
+not be strict JSON (`allow_nan=False`), so a NaN can never reach a file as the token `NaN`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import PurePath
+
+import numpy as np
+
+
+def jsonable(obj):
+    """A structure of dicts, lists, str, int, float, bool and None equal to `obj`.
+
+    Dataclasses become dicts of their fields, numpy arrays lists, non-finite floats None.
+    An object with a `to_dict()` method is converted through it.
+    """
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, PurePath):
+        return str(obj)
+    if hasattr(obj, "to_dict"):
+        return jsonable(obj.to_dict())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [jsonable(v) for v in obj]
+    raise TypeError(f"cannot write {type(obj).__name__} as JSON")
+
+
+def dumps(obj, indent: int | None = 2) -> str:
+    """Strict JSON text of `obj` (see `jsonable`)."""
+    return json.dumps(jsonable(obj), indent=indent, allow_nan=False)

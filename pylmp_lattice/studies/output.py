@@ -1,0 +1,86 @@
+"""The one writer of study outputs: NAME.json, NAME_<table>.csv, NAME.png and NAME.pdf."""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..serialize import dumps
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class StudyResult:
+    """What a study found.
+
+    name     the study's name (the files' stem)
+    numbers  its numbers as a JSON-able dict, units in the keys (`vp_m_per_s`, `t_ms`);
+             NaN is written as null
+    tables   table name -> columns (column name with unit -> 1D sequence, all the same length)
+    figure   a matplotlib Figure, written as PNG and PDF (None: no figure)
+    quick    whether this was the small version
+    """
+
+    name: str
+    numbers: dict[str, Any]
+    tables: dict[str, dict[str, Any]] = field(default_factory=dict)
+    figure: Any = None
+    quick: bool = False
+
+    def to_dict(self) -> dict:
+        return {"study": self.name, "quick": self.quick, **self.numbers}
+
+
+def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
+    """Write a study's files into `out`; returns {kind: path}.
+
+    Each file is written beside its final name and then renamed over it, so an interrupted
+    write never leaves half a file, and a replaced file is reported in the log."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = {}
+    for key, columns in result.tables.items():
+        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c))
+    if result.figure is not None:
+        for ext in ("png", "pdf"):
+            files[ext] = _replace(out / f"{result.name}.{ext}", lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e))
+    data = result.to_dict() | {"files": {k: p.name for k, p in files.items()}}
+    files["json"] = _replace(out / f"{result.name}.json", lambda p: p.write_text(dumps(data) + "\n"))
+    return files
+
+
+def _replace(path: Path, write) -> Path:
+    tmp = path.with_name(f".{path.name}.partial")
+    write(tmp)
+    if path.exists():
+        log.info("replacing %s", path)
+    os.replace(tmp, path)
+    return path
+
+
+def _write_csv(path: Path, columns: dict[str, Any]) -> None:
+    """Columns as CSV; non-finite numbers as empty cells (what pandas reads as NaN)."""
+    names = list(columns)
+    values = [np.asarray(columns[n]).ravel() for n in names]
+    lengths = {len(v) for v in values}
+    if len(lengths) > 1:
+        raise ValueError(f"table {path.name}: columns of different lengths {sorted(lengths)}")
+    with open(path, "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(names)
+        for row in zip(*values):
+            writer.writerow([_cell(x) for x in row])
+
+
+def _cell(x):
+    if isinstance(x, (float, np.floating)):
+        return repr(float(x)) if math.isfinite(x) else ""
+    return x.item() if isinstance(x, np.generic) else x
