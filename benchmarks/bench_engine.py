@@ -14,8 +14,8 @@ magnet 1 pushed at a constant 2 m/s, magnet N held, dt = 0.01 ms. Ways of integr
   magnets);
 - "scipy DOP853": solve_ivp on the same equations, at the loosest tolerance (rtol = atol, a
   power of 10, in mm and m/s) whose final-velocity error is no larger than velocity Verlet's at
-  dt = 0.01 ms, both measured against DOP853 at 1e-13, on N = 21 over that size's run (chosen
-  at the start of every run and printed). It runs only up to --scipy-max-n magnets and
+  dt = 0.01 ms, both measured against DOP853 at 1e-13 on the same run (chosen for every size
+  before timing it; both errors are printed). It runs only up to --scipy-max-n magnets and
   --scipy-max-steps steps' worth of time (marked in the table); its atom-steps are N times the
   number of dt = 0.01 ms steps in the time it integrated.
 Each size runs each way --repeat times, interleaved (these machines are shared and noisy); the
