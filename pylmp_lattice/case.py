@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError
-from .forcelaw import ForceLaw, LinearSpring, PowerLaw, SampledLaw
+from .forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
 from .piston import PROFILES, Impactor
 
-FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw)}
+FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
@@ -99,18 +99,24 @@ class RunSettings:
 class TableSettings:
     """The tabulated potential: `points` samples of F and U over [r_min, r_max] (mm).
 
-    r_min defaults to contact (r = 0) or the first sample of a sampled law; r_max to 3 times
-    the largest initial gap. A separation outside this range stops the run with an error.
+    r_min defaults to the start of the law's domain: contact (r = 0), or the first sample of
+    a sampled law. A law that diverges at contact (Lennard-Jones) needs r_min > 0, and a law
+    that stiffens fast under compression (Toda with B a >> 1) may want one: the stiffest
+    spring in the table sets the stability limit of the time step. r_max defaults to 3 times
+    the largest initial gap. A separation outside [r_min, r_max] stops the run with an error.
     """
 
     points: int = 10000
     r_max: float | None = None  # mm
+    r_min: float | None = None  # mm
 
     def __post_init__(self):
         if not (isinstance(self.points, int) and 100 <= self.points <= 10**7):
             raise ConfigError("table.points", f"got {self.points!r}; expected an integer in [100, 1e7]")
-        if self.r_max is not None and not self.r_max > 0:
-            raise ConfigError("table.r_max", f"got {self.r_max} mm; expected > 0")
+        for name in ("r_min", "r_max"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"table.{name}", f"got {value} mm; expected >= 0")
 
 
 @dataclass(frozen=True)
@@ -147,10 +153,17 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
         lo, hi = self.table_range()
+        d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
-        if self.force.domain()[0] > min(self.chain.gaps()) or self.force.domain()[1] < hi:
-            d = self.force.domain()
+        if lo < d[0] or lo > min(self.chain.gaps()):
+            raise ConfigError("table.r_min", f"got {lo} mm; expected in [{d[0]}, {min(self.chain.gaps())}] mm "
+                              f"(the law's range starts at {d[0]} mm; the smallest gap)")
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            ends = [f(np.array([lo, hi])) for f in (self.force.force, self.force.energy, self.force.stiffness)]
+        if not np.all(np.isfinite(ends)):
+            raise ConfigError("table.r_min", f"got {lo} mm; the {self.force.law} law is not finite there; expected > {lo} mm")
+        if d[1] < hi or max(self.chain.gaps()) > hi:
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
         if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
             raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
@@ -161,8 +174,9 @@ class Case:
 
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
+        r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
         r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.r0))
-        return self.force.domain()[0], r_max
+        return r_min, r_max
 
     def stability_limit(self) -> float:
         """Largest stable velocity-Verlet time step, ms.

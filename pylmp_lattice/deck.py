@@ -148,8 +148,9 @@ if "${{min_gap}} <= 0.0" then &
 def _friction_lines(case: Case) -> str:
     """Coulomb friction on the free magnets (plugin fix; LAMMPS loads it from LAMMPS_PLUGIN_PATH).
 
-    The fix takes F from the analytic law where there is one: exact, and several times
-    cheaper than the bond table; a sampled law has only the table (`law bond`)."""
+    The fix takes F from the analytic law where it has one (power, linear): exact, and
+    several times cheaper than the bond table; any other law (sampled, Toda, Lennard-Jones,
+    Morse, FPUT) is read from the bond table itself (`law bond`), which every law has."""
     fr = case.friction
     if fr is None:
         return "# no friction"
@@ -166,7 +167,7 @@ def _friction_lines(case: Case) -> str:
         k, r_free = to_engine(law.k, "stiffness"), to_engine(law.r_free, "length")
         source, spec = exact, f"law linear {_num(k)} {_num(r_free)}"
     else:
-        source, spec = "# F from the bond table, as the bonds: a sampled law has no other form.\n", "law bond 1"
+        source, spec = f"# F from the bond table, as the bonds (the fix has no analytic {law.law} law).\n", "law bond 1"
     return (
         "# Coulomb friction f_n = mu (m g + p (F_(n-1) + F_n)), stick-slip; its scalar is the\n"
         "# energy it has dissipated (J). Defined last: it reads the total force on each magnet.\n"

@@ -116,7 +116,159 @@ class SampledLaw:
         return self.r[0], self.r[-1]
 
 
-ForceLaw = PowerLaw | LinearSpring | SampledLaw
+@dataclass(frozen=True)
+class Toda:
+    """The Toda law F = A (exp(-B (r - a)) - 1), zero at r = a (Toda 1967).
+
+    U = (A/B) (exp(-B (r - a)) - 1) + A (r - a), zero and minimal at r = a. With m = A = B = 1
+    (g, N, 1/mm: time in ms) it is the dimensionless Toda lattice, r - a its relative
+    displacement. F stays finite at contact, but the stiffness A B exp(-B (r - a)) grows fast
+    below a, so for B a >> 1 start the table nearer a (`table.r_min`).
+    """
+
+    A: float  # N
+    B: float  # 1/mm
+    a: float  # mm, the separation where F = 0
+
+    law = "toda"
+
+    def __post_init__(self):
+        _positive("force.A", self.A, "N")
+        _positive("force.B", self.B, "1/mm")
+        _positive("force.a", self.a, "mm")
+
+    def force(self, r):
+        return self.A * np.expm1(-self.B * (np.asarray(r, float) - self.a))
+
+    def energy(self, r):
+        x = np.asarray(r, float) - self.a
+        return self.A / self.B * np.expm1(-self.B * x) + self.A * x
+
+    def stiffness(self, r):
+        return self.A * self.B * np.exp(-self.B * (np.asarray(r, float) - self.a))
+
+    def domain(self) -> tuple[float, float]:
+        return 0.0, np.inf
+
+
+@dataclass(frozen=True)
+class LennardJones:
+    """The Lennard-Jones law between nearest neighbours, U = 4 epsilon ((sigma/r)^12 - (sigma/r)^6).
+
+    F = (24 epsilon / r) (2 (sigma/r)^12 - (sigma/r)^6), zero at r = 2^(1/6) sigma; U -> 0 far
+    apart. F diverges at contact, so a case must start its table at some r > 0
+    (`table.r_min`), which also sets the stiffest spring and so the stability limit.
+    """
+
+    epsilon: float  # mJ, depth of the well
+    sigma: float  # mm, where U = 0
+
+    law = "lj"
+
+    def __post_init__(self):
+        _positive("force.epsilon", self.epsilon, "mJ")
+        _positive("force.sigma", self.sigma, "mm")
+
+    def _s6(self, r):
+        return (self.sigma / np.asarray(r, float)) ** 6
+
+    def force(self, r):
+        s6 = self._s6(r)
+        return 24 * self.epsilon / np.asarray(r, float) * (2 * s6**2 - s6)
+
+    def energy(self, r):
+        s6 = self._s6(r)
+        return 4 * self.epsilon * (s6**2 - s6)
+
+    def stiffness(self, r):
+        s6 = self._s6(r)
+        return 24 * self.epsilon / np.asarray(r, float) ** 2 * (26 * s6**2 - 7 * s6)
+
+    def domain(self) -> tuple[float, float]:
+        """Open at r = 0, where F diverges."""
+        return 0.0, np.inf
+
+
+@dataclass(frozen=True)
+class Morse:
+    """The Morse law U = D (exp(-2 alpha (r - r_e)) - 2 exp(-alpha (r - r_e))), as LAMMPS's morse.
+
+    F = 2 alpha D (exp(-2 alpha (r - r_e)) - exp(-alpha (r - r_e))), zero at r = r_e, where
+    U = -D; U -> 0 far apart.
+    """
+
+    D: float  # mJ, depth of the well
+    alpha: float  # 1/mm
+    r_e: float  # mm, the separation where F = 0
+
+    law = "morse"
+
+    def __post_init__(self):
+        _positive("force.D", self.D, "mJ")
+        _positive("force.alpha", self.alpha, "1/mm")
+        _positive("force.r_e", self.r_e, "mm")
+
+    def _e(self, r):
+        return np.exp(-self.alpha * (np.asarray(r, float) - self.r_e))
+
+    def force(self, r):
+        e = self._e(r)
+        return 2 * self.alpha * self.D * (e**2 - e)
+
+    def energy(self, r):
+        e = self._e(r)
+        return self.D * (e**2 - 2 * e)
+
+    def stiffness(self, r):
+        e = self._e(r)
+        return 2 * self.alpha**2 * self.D * (2 * e**2 - e)
+
+    def domain(self) -> tuple[float, float]:
+        return 0.0, np.inf
+
+
+@dataclass(frozen=True)
+class FPUT:
+    """The Fermi-Pasta-Ulam-Tsingou law: U = k x^2/2 + alpha x^3/3 + beta x^4/4, x = r - a the stretch.
+
+    F = -(k x + alpha x^2 + beta x^3) (repulsive when compressed, x < 0), stiffness
+    k + 2 alpha x + 3 beta x^2. With alpha = beta = 0 it is the linear spring (r_free = a).
+    alpha > 0 softens compression (as in FPUT's alpha chain); the stiffness turns negative
+    at large compression when alpha^2 > 3 k beta, which the table range must avoid.
+    """
+
+    k: float  # N/mm
+    a: float  # mm, rest separation
+    alpha: float = 0.0  # N/mm^2
+    beta: float = 0.0  # N/mm^3
+
+    law = "fput"
+
+    def __post_init__(self):
+        _positive("force.k", self.k, "N/mm")
+        _positive("force.a", self.a, "mm")
+        for name, unit in (("alpha", "N/mm^2"), ("beta", "N/mm^3")):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value)):
+                raise ConfigError(f"force.{name}", f"got {value!r} {unit}; expected a finite number")
+
+    def force(self, r):
+        x = np.asarray(r, float) - self.a
+        return -(self.k * x + self.alpha * x**2 + self.beta * x**3)
+
+    def energy(self, r):
+        x = np.asarray(r, float) - self.a
+        return self.k * x**2 / 2 + self.alpha * x**3 / 3 + self.beta * x**4 / 4
+
+    def stiffness(self, r):
+        x = np.asarray(r, float) - self.a
+        return self.k + 2 * self.alpha * x + 3 * self.beta * x**2
+
+    def domain(self) -> tuple[float, float]:
+        return 0.0, np.inf
+
+
+ForceLaw = PowerLaw | LinearSpring | SampledLaw | Toda | LennardJones | Morse | FPUT
 
 
 @dataclass(frozen=True)

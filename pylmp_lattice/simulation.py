@@ -53,14 +53,13 @@ FIGURE = "shock.png"
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
              figure: bool = True) -> dict:
     """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary."""
-    from .measures import front
-    from .summary import summarize
+    from .summary import front_measures, summarize
 
     folder = Path(folder)
     start = time.perf_counter()
     traj = simulate(case, folder, runner=runner, nprocs=nprocs, echo=echo)
     vi = case.impactor.peak_velocity()
-    measured = front(traj.t, traj.v, traj.a, vi, case.chain.gaps()) if vi > 0 else None
+    measured = front_measures(case, traj) if vi > 0 else None
     summary = summarize(case, traj, measured)
     summary["files"] = {"folder": str(folder), "dump": str(folder / DUMP), "log": str(folder / "log.lammps")}
     if figure and measured is not None:

@@ -32,7 +32,7 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
     }
     if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
         return out
-    front = front or measures.front(traj.t, traj.v, traj.a, vi, chain.gaps())
+    front = front or front_measures(case, traj)
     vp = front.propagation_velocity
     speed = measures.trailing_plateau(vp)
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
@@ -53,6 +53,13 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
     return out
 
 
+def front_measures(case: Case, traj: Trajectory) -> measures.Front:
+    """The run's front measures; a pulse's arrival is its first velocity peak (it may never
+    reach V_I/2 far from the impactor), any other drive's the crossing of V_I/2."""
+    method = measures.default_arrival_method(pulse=case.impactor.profile == "sine")
+    return measures.front(traj.t, traj.v, traj.a, case.impactor.peak_velocity(), case.chain.gaps(), method)
+
+
 def _maximum(vp: np.ndarray) -> dict | None:
     """Largest V_P and the gap (1-based, gap n between magnets n and n+1) where it occurs."""
     if not np.any(np.isfinite(vp)):
@@ -61,10 +68,12 @@ def _maximum(vp: np.ndarray) -> dict | None:
 
 
 def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
-    """A plateau as JSON: particle numbers 1-based, as in the paper."""
+    """A plateau as JSON: particle numbers 1-based, as in the paper. A drifting series (e.g. V_P
+    decaying by friction) is reported with converged = false: its mean is not a plateau."""
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
+        "converged": p.converged(),
         "particles": [p.start + offset + 1, p.stop + offset],
     }

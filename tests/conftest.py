@@ -8,6 +8,22 @@ from pylmp_lattice.case import case_from_dict
 
 PAPER_FORCE = {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}
 
+# One chain per further law (m = 1 g; spacing r0 at the force's zero, except FPUT), with the
+# table range each needs; every one takes the default dt = 0.01 ms (limits 0.08-0.09 ms).
+OTHER_LAWS = {
+    "toda": ({"law": "toda", "A": 1.0, "B": 1.0, "a": 10.0}, 10.0, {"r_min": 5.0}),
+    "lj": ({"law": "lj", "epsilon": 1.0, "sigma": 10.0}, 2 ** (1 / 6) * 10.0, {"r_min": 8.0}),
+    "morse": ({"law": "morse", "D": 1.0, "alpha": 0.5, "r_e": 10.0}, 10.0, {"r_min": 5.0}),
+    "fput": ({"law": "fput", "k": 1.0, "a": 10.0, "alpha": 0.25, "beta": 0.1}, 10.0, {}),
+}
+
+
+def make_law_case(law: str, particles=20, velocity=0.5, duration=10.0, **sections):
+    """A chain of unit masses with one of OTHER_LAWS, driven at `velocity` (m/s)."""
+    force, r0, table = OTHER_LAWS[law]
+    return make_case(particles=particles, velocity=velocity, duration=duration, force=force,
+                     chain={"mass": 1.0, "r0": r0}, table=table, **sections)
+
 
 def make_case(particles=30, velocity=2.0, duration=50.0, dt=0.01, output=0.1, **sections):
     """A paper-like chain (m = 1.084 g, r0 = 12 mm, power law, fixed far end)."""

@@ -12,7 +12,7 @@ import pytest
 from pylmp_lattice.case import case_from_dict, case_to_dict, load_case
 from pylmp_lattice.errors import ConfigError
 
-from conftest import make_case
+from conftest import OTHER_LAWS, make_case, make_law_case
 
 INPUTS = Path(__file__).parent.parent / "inputs"
 
@@ -26,7 +26,10 @@ INPUTS = Path(__file__).parent.parent / "inputs"
         ("chain", {"colour": "red"}, "chain.colour", "unknown key"),
         ("chain", {"far_end": "open"}, "chain.far_end", "choose one of fixed, long"),
         ("force", {"q": 0.5}, "force.q", "expected > 1"),
-        ("force", {"law": "morse"}, "force.law", "choose one of"),
+        ("force", {"law": "buckingham"}, "force.law", "choose one of"),
+        ("force", {"law": "lj", "epsilon": 1.0, "sigma": 10.0}, "table.r_min", "not finite there"),
+        ("table", {"r_min": 13.0}, "table.r_min", "expected in [0.0, 12.0] mm"),
+        ("table", {"r_min": -1.0}, "table.r_min", "expected >= 0"),
         ("impactor", {"velocity": -2.0}, "impactor.velocity", "got -2.0 m/s; expected > 0"),
         ("impactor", {"velocity": "fast"}, "impactor.velocity", "expected a number"),
         ("run", {"dt": 0.5, "output_interval": 1.0}, "run.dt", "stability limit"),
@@ -56,6 +59,18 @@ def test_toml_round_trip_and_override(tmp_path):
     assert load_case(path) == case
     faster = load_case(path, ["impactor.velocity=1.5", "run.duration=20"])
     assert faster.impactor.velocity == 1.5 and faster.run.duration == 20
+
+
+
+@pytest.mark.parametrize("law", OTHER_LAWS)
+def test_other_laws_round_trip_through_toml(tmp_path, law):
+    import tomli_w
+
+    case = make_law_case(law)
+    path = tmp_path / "c.toml"
+    path.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    assert f'law = "{law}"' in path.read_text()
+    assert load_case(path) == case
 
 
 def test_long_lattice_is_sized_from_the_front_speed_bound():

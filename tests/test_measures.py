@@ -1,5 +1,8 @@
 """Shock measures on synthetic histories with known answers and on the exact harmonic chain."""
 
+import importlib
+import json
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -8,8 +11,16 @@ from scipy.optimize import brentq, minimize_scalar
 from scipy.special import ai_zeros, airy, jn_zeros, jv
 
 from pylmp_lattice import measures
+from pylmp_lattice.serialize import dumps
 from pylmp_lattice.measures import (
     arrival_times,
+    centred_propagation_velocity,
+    critical_velocities,
+    critical_velocity,
+    fit_propagation_velocity,
+    phase_portrait,
+    steady_onset_times,
+    transition_zone,
     first_peaks,
     linear_frequency,
     linear_wave_speed,
@@ -94,8 +105,9 @@ def test_particles_never_reached_give_nan():
     assert np.isnan(peaks.peak_velocity).all()  # no peak is confirmed by a later drop
     assert np.isnan(peaks.start_time[2:]).all()
     assert oscillations(t, v[:, 3], 1.0).max_time.size == 0
-    assert steady_oscillation(t, v[:, 3], 1.0).n_periods == 0
-    assert np.isnan(steady_oscillation(t, v[:, 3], 1.0).frequency)
+    never = steady_oscillation(t, v[:, 3], 1.0, window=(0.0, 10.0))
+    assert never.n_periods == 0 and np.isnan(never.frequency)
+    assert "had not arrived" in never.reason
 
 
 def test_shape_errors_say_what_was_got_and_expected():
@@ -177,7 +189,7 @@ def test_first_peaks_same_in_column_blocks(monkeypatch):
     vi, t = 2.0, np.arange(0.0, 60.0, 0.3)
     v, a = parabolic_pulses(t, np.linspace(8.0, 40.0, 7), vi, 1.6, 5.0)
     whole = first_peaks(t, v, a, vi)
-    monkeypatch.setattr(measures, "_BLOCK_ELEMENTS", 2 * len(t))  # blocks of two particles
+    monkeypatch.setattr(importlib.import_module("pylmp_lattice.measures.peaks"), "_BLOCK_ELEMENTS", 2 * len(t))  # blocks of two particles
     blocked = first_peaks(t, v, a, vi)
     for name in ("start_time", "peak_time", "peak_velocity", "peak_acceleration"):
         assert_allclose(getattr(blocked, name), getattr(whole, name), rtol=0, atol=0)
@@ -202,8 +214,9 @@ def test_sine_gives_its_frequency_amplitude_and_energy_ratio(amplitude):
     assert_allclose(osc.max_velocity, vi * (1 + amplitude), rtol=5e-4)
     assert_allclose(osc.min_velocity, vi * (1 - amplitude), atol=5e-4 * vi)
 
-    steady = steady_oscillation(t, v, vi)
-    assert steady.n_periods == 3
+    # Maxima at (k + 1/4)/f = 27.03 k + 6.76 ms: k = 10..14 lie in the window, 4 whole periods.
+    steady = steady_oscillation(t, v, vi, window=(260.0, 400.0))
+    assert steady.n_periods == 4 and steady.measured
     assert_allclose(steady.frequency, f, rtol=1e-5)
     assert_allclose(steady.energy_ratio, amplitude**2 / 2, rtol=1e-4)
     assert_allclose(steady.amplitude, amplitude * vi, rtol=2e-4)
@@ -323,3 +336,172 @@ def test_harmonic_chain_oscillations_decay_towards_f0(chain):
     f0 = linear_frequency(SPRING, CHAIN_MASS)
     assert np.all(np.diff(osc.frequency) > 0)
     assert 0.9 * f0 < osc.frequency[-1] < f0
+
+
+# ---------------------------------------------------------------------------------------------
+# Arrival definitions, V_P per gap / centred / fitted (synthetic fronts with known answers)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_steps_at_known_times_give_the_known_propagation_velocity():
+    # v_n jumps from 0 to V_I at sample k_n: V_I/2 is crossed half a sample earlier for every n.
+    dt, c, vi = 0.01, 3.92, 2.0  # ms, m/s, m/s
+    t = np.arange(0.0, 100.0, dt)
+    k = np.round(np.arange(25) * R0 / c / dt).astype(int) + 1
+    v = vi * (np.arange(t.size)[:, None] >= k)
+    arrival = arrival_times(t, v, vi)
+    assert_allclose(arrival, t[k] - dt / 2, atol=1e-12)
+    # rounding the steps to the grid moves each by <= dt/2: V_P = r0/(t_{n+1}-t_n) to dt/(r0/c)
+    assert_allclose(propagation_velocity(arrival, R0), c, rtol=dt * c / R0)
+    assert_allclose(centred_propagation_velocity(arrival, R0)[1:-1], c, rtol=dt * c / (2 * R0))
+    fit = fit_propagation_velocity(arrival, np.arange(25) * R0)
+    assert abs(fit.velocity - c) < 3 * fit.velocity_stderr + 1e-6 and fit.n_points == 25
+
+
+def test_centred_velocity_is_exact_for_a_quadratic_front():
+    # t(x) = x/c0 + beta x^2: the centred difference of t over x is exact, dt/dx = 1/c0 + 2 beta x;
+    # the per-gap value belongs to the gap's middle.
+    c0, beta = 4.0, 2e-4
+    x = np.arange(40) * R0
+    arrival = x / c0 + beta * x**2
+    centred = centred_propagation_velocity(arrival, R0)
+    assert np.isnan(centred[[0, -1]]).all()
+    assert_allclose(centred[1:-1], 1 / (1 / c0 + 2 * beta * x[1:-1]), rtol=1e-12)
+    mid = 0.5 * (x[1:] + x[:-1])
+    assert_allclose(propagation_velocity(arrival, R0), 1 / (1 / c0 + 2 * beta * mid), rtol=1e-12)
+    # a straight line through an accelerating front leaves residuals; a window keeps it local
+    whole, local = fit_propagation_velocity(arrival, x), fit_propagation_velocity(arrival, x, 30, 33)
+    assert whole.residual_rms > 100 * local.residual_rms
+    assert_allclose(local.velocity, 1 / (1 / c0 + 2 * beta * x[31]), rtol=1e-12)
+
+
+def test_short_pulse_arrival_by_first_velocity_and_acceleration_peak():
+    # A Gaussian pulse v = h_n V_I exp(-((t - t_n)/w)^2) that weakens to 0.3 V_I: it never
+    # reaches V_I/2 far out, but its maximum (t_n) and its steepest rise (t_n - w/sqrt 2) do.
+    vi, w, dt = 2.0, 3.0, 0.05
+    t = np.arange(0.0, 120.0, dt)
+    t_n = 10.0 + np.arange(12) * R0 / 2.5
+    height = np.linspace(0.9, 0.3, 12)
+    s = (t[:, None] - t_n) / w
+    v = vi * height * np.exp(-(s**2))
+    a = -2 * s / w * v * 1e3  # m/s^2
+    level = arrival_times(t, v, vi)
+    assert np.isfinite(level[:4]).all() and np.isnan(level[-4:]).all()
+    peak = arrival_times(t, v, vi, method="velocity_peak")
+    assert_allclose(peak, t_n, atol=1e-4)  # the parabola through three samples of a Gaussian cap
+    steep = arrival_times(t, v, vi, method="acceleration_peak", a=a)
+    assert_allclose(steep, t_n - w / np.sqrt(2), atol=2e-3)
+    assert_allclose(propagation_velocity(peak, R0), 2.5, rtol=1e-4)
+    assert measures.default_arrival_method(pulse=True) == "velocity_peak"
+    assert measures.default_arrival_method(pulse=False) == "level"
+    with pytest.raises(ValueError, match="needs the accelerations"):
+        arrival_times(t, v, vi, method="acceleration_peak")
+    with pytest.raises(ValueError, match="choose one of level, velocity_peak, acceleration_peak"):
+        arrival_times(t, v, vi, method="half")
+
+
+def test_decaying_series_is_not_a_plateau():
+    # V_P falling by friction: 3.9 exp(-n/300) changes by -74/300 of its level across the last
+    # quarter of 300 gaps (the line's slope and the mean both taken mid-window, to ~0.3 %).
+    n = np.arange(300.0)
+    decay = trailing_plateau(3.9 * np.exp(-n / 300))
+    assert not decay.converged()
+    assert_allclose(decay.drift, -74 / 300, rtol=0.01)
+    data = json.loads(dumps(decay))
+    assert data["converged"] is False and data["relative_drift"] < -0.07
+    assert json.loads(dumps(trailing_plateau([1.0, np.nan])))["mean"] is None  # null, never NaN
+
+
+# ---------------------------------------------------------------------------------------------
+# Steady oscillation in a window: decayed signals give NaN and say why
+# ---------------------------------------------------------------------------------------------
+
+
+def test_decayed_oscillation_gives_nan_and_a_reason():
+    vi, f = 2.0, 37.0
+    t = np.arange(0.0, 400.0, 0.1)
+    v = vi * (1 + np.exp(-t / 20.0) * np.sin(2 * np.pi * f * t * 1e-3))
+    early = steady_oscillation(t, v, vi, window=(0.0, 100.0))
+    assert early.measured and early.n_periods >= 2
+    late = steady_oscillation(t, v, vi, window=(300.0, 400.0))
+    assert np.isnan(late.frequency) and np.isnan(late.energy_ratio) and late.n_periods == 0
+    assert "no oscillation left in [300, 399.9] ms" in late.reason
+    assert json.loads(dumps(late))["energy_ratio_eta"] is None
+    short = steady_oscillation(t, v, vi, window=(10.0, 30.0))  # less than one period (27 ms)
+    assert "at least two are needed" in short.reason
+    with pytest.raises(ValueError, match="to overlap the record"):
+        steady_oscillation(t, v, vi, window=(400.0, 500.0))
+
+
+def test_extrema_sequence_of_a_chirp_gives_its_frequency_against_time():
+    # v = V_I (1 + 0.5 sin(phi)), phi = 2 pi (f1 t + g t^2 / 2): frequency f1 + g t rising.
+    vi, f1, g = 1.0, 20.0, 0.1  # Hz, Hz/ms
+    t = np.arange(0.0, 300.0, 0.05)
+    v = vi * (1 + 0.5 * np.sin(2 * np.pi * (f1 * t + g * t**2 / 2) * 1e-3))
+    osc = oscillations(t, v, vi)
+    assert osc.max_time.size >= 10
+    # the period between maxima averages the frequency over it: the midpoint value to O(g T)^2
+    assert_allclose(osc.frequency, f1 + g * osc.frequency_time, rtol=2e-3)
+    assert np.all(osc.min_time[1:] > osc.max_time[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# V* from eta(V_I)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_critical_velocity_of_a_broken_line():
+    # eta = 0.02 V below V* = 0.8 m/s and 0.02 V + 0.5 (V - 0.8) above it.
+    vi = np.linspace(0.05, 2.0, 40)
+    eta = 0.02 * vi + 0.5 * np.maximum(vi - 0.8, 0)
+    assert_allclose(critical_velocity(vi, eta, "two_line").value, 0.8, atol=0.005)
+    # tangent of the steep branch crosses eta = 0 at 0.8 - 0.016/0.52
+    assert_allclose(critical_velocity(vi, eta, "tangent").value, 0.8 - 0.016 / 0.52, rtol=1e-9)
+    # eta = 0.1 at V = 0.8 + (0.1 - 0.016)/0.52
+    assert_allclose(critical_velocity(vi, eta, "threshold", level=0.1).value, 0.8 + 0.084 / 0.52, rtol=1e-9)
+    assert_allclose(critical_velocity(vi, eta, "kneedle").value, 0.8, atol=0.01)
+    flat = critical_velocity(vi, np.full_like(vi, 0.01), "threshold")
+    assert np.isnan(flat.value) and "stays below" in flat.reason
+    assert set(critical_velocities(vi, eta)) == {"threshold", "tangent", "two_line", "kneedle"}
+
+
+# ---------------------------------------------------------------------------------------------
+# Transition zone and phase portrait
+# ---------------------------------------------------------------------------------------------
+
+
+def test_transition_zone_grows_as_constructed():
+    # Particle n >= 1: front at t_n = 3 n ms; for D_n = 4 n ms it oscillates with amplitude
+    # 0.8 V_I (disordered), then steadily with 0.3 V_I about V_I. Onset: the first extremum
+    # after t_n + D_n; the steady index at time T is the largest n with 7 n + (<1 period) <= T.
+    vi, f, nmax = 1.0, 200.0, 25  # Hz: period 5 ms
+    t = np.arange(0.0, 200.0, 0.01)
+    n = np.arange(nmax)
+    t_n, d_n = 3.0 * n, 4.0 * n
+    s = t[:, None] - t_n
+    amp = np.where(s < d_n, 0.8, 0.3)
+    v = np.where(s > 0, vi * (1 - np.cos(2 * np.pi * f * s * 1e-3) * amp), 0.0)
+    onset = steady_onset_times(t, v, vi, reference=(1.3 * vi, 0.7 * vi), tolerance=0.05)
+    settled = np.isfinite(onset)
+    assert settled[1:20].all()
+    after = onset[1:20] - (t_n + d_n)[1:20]
+    assert np.all((after >= 0) & (after <= 2.5 + 0.01))  # the next extremum: within half a period
+    arrival = arrival_times(t, v, vi, fraction=0.01)
+    zone = transition_zone([31.0, 61.0, 100.0, 140.0], arrival, onset)
+    assert_allclose(zone.front_index, [10, 20, 24, 24])  # floor(T / 3), capped by the 25 particles
+    assert_allclose(zone.steady_index, [4, 8, 14, 19], atol=1)  # about floor(T / 7)
+    assert zone.width[1] > zone.width[0] + 3  # T (1/3 - 1/7): 5.7 and 11.4
+    assert json.loads(dumps(zone))["width_particles"][0] == pytest.approx(zone.width[0])
+
+
+def test_phase_portrait_of_an_ellipse():
+    t = np.linspace(0.0, 10.0, 1001)
+    w = 2.0  # 1/ms
+    x = np.column_stack([np.zeros_like(t), 12.0 + 0.5 * np.sin(w * t), np.full_like(t, 24.0)])
+    v = np.column_stack([np.zeros_like(t), 0.5 * w * np.cos(w * t), np.zeros_like(t)])
+    portrait = phase_portrait(t, x, v, particle=1)
+    assert_allclose((portrait.gap - 12.0) ** 2 / 0.25 + portrait.velocity**2 / 1.0, 1.0, rtol=1e-12)
+    ranges = portrait.ranges((0.0, 10.0))
+    assert_allclose([ranges["gap_min_mm"], ranges["gap_max_mm"]], [11.5, 12.5], atol=1e-4)
+    with pytest.raises(ValueError, match="it needs a next one"):
+        phase_portrait(t, x, v, particle=2)

@@ -10,12 +10,11 @@ from pylmp_lattice.engine import new_lammps
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.runner import write_run_folder
 
-from conftest import make_case
+from conftest import OTHER_LAWS, make_case, make_law_case
 
 
-@pytest.mark.lammps
-def test_lammps_reads_back_the_law_within_1e_6(tmp_path, monkeypatch):
-    case = make_case(particles=5)
+def _read_back(case, tmp_path, monkeypatch):
+    """LAMMPS's own F and U from the case's table (bond_write), r in mm, U in mJ, F in N."""
     folder = write_run_folder(case, tmp_path)
     lo, hi = case.table_range()
     setup = deck.deck_text(case).split("# ---- 3.")[0]  # the deck's system and force law
@@ -27,11 +26,29 @@ def test_lammps_reads_back_the_law_within_1e_6(tmp_path, monkeypatch):
     lmp.command(f"bond_write 1 {n} {lo * 1e-3 + 1e-9} {hi * 1e-3} readback.txt CHECK")
     lmp.close()
     data = np.loadtxt(folder / "readback.txt", skiprows=5)
-    r_mm, e_mJ, f_N = data[:, 1] * 1e3, data[:, 2] * 1e3, data[:, 3]
+    return data[:, 1] * 1e3, data[:, 2] * 1e3, data[:, 3]
+
+
+@pytest.mark.lammps
+def test_lammps_reads_back_the_law_within_1e_6(tmp_path, monkeypatch):
+    r_mm, e_mJ, f_N = _read_back(make_case(particles=5), tmp_path, monkeypatch)
     law = PowerLaw()
     assert np.max(np.abs(f_N / law.force(r_mm) - 1)) < 1e-6
     # energy consistent with the force: U differences, relative to U
     assert np.max(np.abs(e_mJ / law.energy(r_mm) - 1)) < 1e-6
+
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("law", OTHER_LAWS)
+def test_lammps_reads_back_the_other_laws(tmp_path, monkeypatch, law):
+    """Toda, LJ, Morse and FPUT through the same table: F and U within 1e-6 of their largest
+    value on the table's range (they cross zero, so not relative pointwise)."""
+    case = make_law_case(law, particles=5)
+    r_mm, e_mJ, f_N = _read_back(case, tmp_path, monkeypatch)
+    f, e = case.force.force(r_mm), case.force.energy(r_mm)
+    assert np.max(np.abs(f_N - f)) < 1e-6 * np.max(np.abs(f))
+    assert np.max(np.abs(e_mJ - e)) < 1e-6 * np.max(np.abs(e))
 
 
 def test_table_is_consistent_f_equals_minus_du_dr():

@@ -1,0 +1,47 @@
+"""Shock measures on particle histories: pure functions of arrays, no I/O and no LAMMPS.
+
+Conventions (user units, see `units`): time t in ms, particle velocity v in m/s (= mm/ms),
+acceleration a in m/s^2, lengths in mm, mass in g, stiffness in N/mm, frequency in Hz.
+A history has shape (n_frames, N): particles in chain order, particle 0 the impactor. The
+shock runs towards increasing index and drives particles with positive velocities; the drive
+(impactor) velocity V_I > 0 sets the scale of every threshold, given as a fraction of V_I.
+A measure that does not exist for a particle (the front never reached it, no confirmed peak)
+is NaN, not an exception; arrays of the wrong shape raise ValueError. Results objects are
+dataclasses that `serialize.dumps` writes as strict JSON (NaN as null).
+
+One module per concept: `linear` (V0, f0), `arrival` (front arrival), `propagation` (V_P and
+its plateau), `peaks` (first peaks, rise time), `oscillation` (extrema, frequency, steady
+oscillation), `critical` (V*), `transition` (transition zone), `phase` (phase portrait), and
+`front` (the run's per-particle measures at once). Typical use on a `Trajectory` `tr`:
+
+    t_front = arrival_times(tr.t, tr.v, vi)
+    vp = propagation_velocity(t_front, np.diff(tr.x0))
+    speed = trailing_plateau(vp)             # speed.mean, speed.drift, speed.converged()
+    peaks = first_peaks(tr.t, tr.v, tr.a, vi)
+    steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
+"""
+
+from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
+from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
+from .front import Front, front
+from .linear import linear_frequency, linear_wave_speed
+from .oscillation import Oscillations, SteadyOscillation, oscillations, steady_oscillation
+from .peaks import FirstPeaks, first_peaks
+from .phase import PhasePortrait, phase_portrait
+from .propagation import (
+    FrontFit,
+    Plateau,
+    centred_propagation_velocity,
+    fit_propagation_velocity,
+    propagation_velocity,
+    trailing_plateau,
+)
+from .transition import TransitionZone, steady_onset_times, transition_zone
+
+__all__ = [
+    "ARRIVAL_METHODS", "KNEE_METHODS", "CriticalVelocity", "FirstPeaks", "Front", "FrontFit", "Oscillations",
+    "PhasePortrait", "Plateau", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
+    "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",
+    "front", "linear_frequency", "linear_wave_speed", "oscillations", "phase_portrait", "propagation_velocity",
+    "steady_oscillation", "steady_onset_times", "trailing_plateau", "transition_zone",
+]

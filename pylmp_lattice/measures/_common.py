@@ -1,0 +1,80 @@
+"""Helpers shared by the measures: input checks, level crossings, first maxima, refinement."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..units import TO_SI
+
+HZ_PER_INV_MS = 1.0 / TO_SI["time"]  # 1/ms -> Hz
+NAN = float("nan")
+
+
+def check_history(t, v, single=False):
+    """t as (n_frames,) strictly increasing; v as (n_frames, N), or (n_frames,) if single."""
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(v, dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ValueError(f"t: got shape {t.shape}; expected (n_frames,) with n_frames >= 2")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError("t: got non-increasing times; expected strictly increasing")
+    if v.shape[:1] != (t.size,) or v.ndim != (1 if single else 2):
+        expected = f"({t.size},)" if single else f"({t.size}, N)"
+        raise ValueError(f"v: got shape {v.shape}; expected {expected}, with n_frames = len(t) first")
+    return t, v
+
+
+def require_positive(**values):
+    for name, value in values.items():
+        if not value > 0:
+            raise ValueError(f"{name}: got {value}; expected > 0")
+
+
+def first_crossing(t, v, level):
+    """Per column of v: index of the first sample with v >= level (len(t) if none) and the
+    crossing time, linearly interpolated from the previous sample (NaN if none)."""
+    above = v >= level
+    cols = np.arange(v.shape[1])
+    i = np.argmax(above, axis=0)
+    reached = above[i, cols]
+    before = np.maximum(i - 1, 0)
+    v0, v1 = v[before, cols], v[i, cols]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # v0 < level <= v1 where i > 0, so the division is safe where it is used.
+        time = t[before] + (level - v0) / (v1 - v0) * (t[i] - t[before])
+    time = np.where(i == 0, t[0], time)
+    return np.where(reached, i, len(t)), np.where(reached, time, np.nan)
+
+
+def first_confirmed_maximum(y, i_from, drop, relative=False):
+    """Per column of y (n_frames, N): the first maximum at or after sample i_from[col] that is
+    confirmed by a later fall of `drop` below it (absolute, or `drop` times the maximum if
+    `relative`) before y exceeds it. Returns (index, confirmed): the index of the largest sample
+    between i_from and the confirming fall, and whether a fall was found."""
+    rows = np.arange(y.shape[0])[:, None]
+    behind = np.where(rows >= i_from, y, -np.inf)
+    running_max = np.maximum.accumulate(behind, axis=0)  # -inf before i_from
+    fall = drop * np.abs(running_max) if relative else drop
+    dropped = (y <= running_max - fall) & np.isfinite(running_max)
+    confirmed = dropped.any(axis=0)
+    i_drop = np.argmax(dropped, axis=0)
+    return np.argmax(np.where(rows < i_drop, behind, -np.inf), axis=0), confirmed
+
+
+def refine_maxima(t, y, i, cols):
+    """Time and value of the maximum of y[:, cols] near sample i (arrays broadcast together):
+    the vertex of the parabola through samples i-1, i, i+1 (the sample itself at either end of
+    the record, or where the three samples are not concave)."""
+    last = len(t) - 1
+    i_prev, i_next = np.clip(i - 1, 0, last), np.clip(i + 1, 0, last)
+    h1, h2 = t[i] - t[i_prev], t[i_next] - t[i]
+    y0, y1, y2 = y[i_prev, cols], y[i, cols], y[i_next, cols]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # y = y1 + b s + c s^2 with s = time - t[i], through the three samples.
+        c = ((y0 - y1) / h1 + (y2 - y1) / h2) / (h1 + h2)
+        b = (y2 - y1) / h2 - c * h2
+        refine = (i > 0) & (i < last) & (c < 0)
+        return (
+            np.where(refine, t[i] - b / (2 * c), t[i]),
+            np.where(refine, y1 - b * b / (4 * c), y1),
+        )

@@ -1,0 +1,27 @@
+"""The linear chain's constants: wave speed V0 and oscillation frequency f0."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._common import HZ_PER_INV_MS, require_positive
+
+
+def linear_wave_speed(stiffness: float, mass: float, spacing: float) -> float:
+    """Speed of small-amplitude waves, V0 = r0 sqrt(k/m), in m/s.
+
+    stiffness: k = -dF/dr at r = r0, N/mm; mass: m, g; spacing: r0, mm.
+    In user units N/mm per g is 1/ms^2 (= 1e6 1/s^2), so r0 sqrt(k/m) is in mm/ms = m/s.
+    """
+    require_positive(stiffness=stiffness, mass=mass, spacing=spacing)
+    return spacing * np.sqrt(stiffness / mass)
+
+
+def linear_frequency(stiffness: float, mass: float) -> float:
+    """Linear oscillation frequency f0 = (1/pi) sqrt(k/m), in Hz.
+
+    The top of the harmonic chain's band, omega_max = 2 sqrt(k/m), as a frequency; units as
+    in `linear_wave_speed` (sqrt(k/m) in 1/ms, converted to Hz).
+    """
+    require_positive(stiffness=stiffness, mass=mass)
+    return np.sqrt(stiffness / mass) / np.pi * HZ_PER_INV_MS

@@ -1,0 +1,98 @@
+"""First peaks: the first velocity maximum behind the front, the largest acceleration on the
+way to it, and the rise time (paper Figs. 1(c), 3(c))."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+
+_BLOCK_ELEMENTS = 1 << 22  # first_peaks works on column blocks of about this many samples
+
+
+@dataclass(frozen=True)
+class FirstPeaks:
+    """First velocity peak of each particle, arrays of shape (N,) (see `first_peaks`).
+
+    start_time: start of motion, ms; peak_time, peak_velocity: the first velocity peak, ms and
+    m/s; peak_acceleration: largest acceleration from the start of motion to that peak, m/s^2.
+    NaN where the particle never moved or no first peak was confirmed.
+    """
+
+    start_time: np.ndarray
+    peak_time: np.ndarray
+    peak_velocity: np.ndarray
+    peak_acceleration: np.ndarray
+
+    @property
+    def rise_time(self) -> np.ndarray:
+        """Duration from the start of motion to the first velocity peak, ms."""
+        return self.peak_time - self.start_time
+
+    def to_dict(self) -> dict:
+        return {"start_time_ms": self.start_time, "peak_time_ms": self.peak_time,
+                "peak_velocity_m_per_s": self.peak_velocity, "peak_acceleration_m_per_s2": self.peak_acceleration,
+                "rise_time_ms": self.rise_time}
+
+
+def first_peaks(
+    t,
+    v,
+    a,
+    drive_velocity: float,
+    start_fraction: float = 0.01,
+    front_fraction: float = 0.5,
+    prominence: float = 0.05,
+) -> FirstPeaks:
+    """First velocity peak, first peak acceleration and start of motion of every particle.
+
+    - Start of motion: first time v_n reaches start_fraction * V_I (interpolated, as in
+      `arrival_times`).
+    - First peak: the first local maximum of v_n at or after the front (the first sample with
+      v_n >= front_fraction * V_I) after which v_n falls by at least prominence * V_I before
+      exceeding it, i.e. the first maximum behind the front with prominence >= prominence * V_I
+      in the sense of scipy.signal.find_peaks; this ignores wiggles from sampling noise. Its time
+      and value are the vertex of the parabola through the discrete maximum and its two
+      neighbours. NaN if no such peak is confirmed within the record.
+    - First peak acceleration: max of a_n over the samples from the start of motion to the
+      discrete first peak, refined by the same parabola when the largest sample has both
+      neighbours inside that window.
+    - Rise time (`FirstPeaks.rise_time`): peak time minus start of motion, the paper's "duration
+      from zero velocity to first peak velocity" (Fig. 1(c)); zero velocity is taken as
+      start_fraction * V_I so that a numerically tiny precursor does not count.
+    """
+    t, v = check_history(t, v)
+    a = np.asarray(a, dtype=float)
+    if a.shape != v.shape:
+        raise ValueError(f"a: got shape {a.shape}; expected {v.shape}, the shape of v")
+    require_positive(drive_velocity=drive_velocity, start_fraction=start_fraction, prominence=prominence)
+    if not start_fraction <= front_fraction:
+        raise ValueError(f"front_fraction: got {front_fraction}; expected >= start_fraction = {start_fraction}")
+    levels = (start_fraction * drive_velocity, front_fraction * drive_velocity, prominence * drive_velocity)
+    width = max(1, _BLOCK_ELEMENTS // len(t))  # bounds the temporaries for long chains
+    blocks = [
+        _first_peaks_block(t, v[:, j : j + width], a[:, j : j + width], *levels)
+        for j in range(0, v.shape[1], width)
+    ]
+    return FirstPeaks(*(np.concatenate(column) for column in zip(*blocks)))
+
+
+def _first_peaks_block(t, v, a, start_level, front_level, drop):
+    rows = np.arange(len(t))[:, None]
+    i_start, t_start = first_crossing(t, v, start_level)
+    i_front, _ = first_crossing(t, v, front_level)
+    i_peak, confirmed = first_confirmed_maximum(v, i_front, drop)
+    cols = np.arange(v.shape[1])
+    t_peak, v_peak = refine_maxima(t, v, i_peak, cols)
+    i_acc = np.argmax(np.where((rows >= i_start) & (rows <= i_peak), a, -np.inf), axis=0)
+    # Refine only a maximum inside the window, where both neighbours belong to the rise.
+    inside = (i_acc > i_start) & (i_acc < i_peak)
+    a_peak = np.where(inside, refine_maxima(t, a, i_acc, cols)[1], a[i_acc, cols])
+    return (
+        t_start,
+        np.where(confirmed, t_peak, np.nan),
+        np.where(confirmed, v_peak, np.nan),
+        np.where(confirmed, a_peak, np.nan),
+    )

@@ -1,0 +1,145 @@
+"""Propagation velocity of the front V_P: per gap, centred per particle, fitted over a window,
+and its plateau (or drift, for a series that does not settle).
+
+Arrival times in ms and positions/gaps in mm give velocities in mm/ms = m/s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from ._common import NAN
+
+
+def propagation_velocity(arrival, spacing) -> np.ndarray:
+    """Shock propagation velocity over each gap, m/s, shape (N-1,).
+
+    V_P[n] = r0_n / (t_arrival[n+1] - t_arrival[n]) with r0_n the initial gap between particles
+    n and n+1 in mm (a scalar or an array of shape (N-1,)), arrival times in ms. NaN where either
+    particle was never reached; inf where both arrived at once (e.g. both moving at t[0]).
+    """
+    arrival = _arrival(arrival)
+    spacing = np.asarray(spacing, dtype=float)
+    if spacing.ndim != 0 and spacing.shape != (arrival.size - 1,):
+        raise ValueError(f"spacing: got shape {spacing.shape}; expected () or ({arrival.size - 1},)")
+    with np.errstate(divide="ignore"):
+        return spacing / np.diff(arrival)
+
+
+def centred_propagation_velocity(arrival, spacing) -> np.ndarray:
+    """V_P at each particle from its two neighbours, m/s, shape (N,):
+
+        V_P[n] = (r0_{n-1} + r0_n) / (t_{n+1} - t_{n-1})   (= 2 r0 / (t_{n+1} - t_{n-1}))
+
+    second-order accurate where the per-gap value is first order; NaN at both ends and where
+    a neighbour was never reached. spacing: initial gaps, mm, scalar or shape (N-1,).
+    """
+    arrival = _arrival(arrival)
+    gaps = np.broadcast_to(np.asarray(spacing, dtype=float), (arrival.size - 1,))
+    out = np.full(arrival.size, NAN)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[1:-1] = (gaps[:-1] + gaps[1:]) / (arrival[2:] - arrival[:-2])
+    return out
+
+
+@dataclass(frozen=True)
+class FrontFit:
+    """A straight line through the arrival times t_n against the initial positions x_n of
+    particles start..stop-1 (see `fit_propagation_velocity`).
+
+    velocity: V_P = 1/slope, m/s; velocity_stderr: its standard error from the fit, m/s;
+    residual_rms: rms of t_n about the line, ms (large for a front that accelerates);
+    start, stop: the particles used; n_points: how many had an arrival time.
+    """
+
+    velocity: float
+    velocity_stderr: float
+    residual_rms: float
+    start: int
+    stop: int
+    n_points: int
+
+
+def fit_propagation_velocity(arrival, positions, start: int = 0, stop: int | None = None) -> FrontFit:
+    """V_P fitted over a window of particles: least squares t_n = t_0 + x_n / V_P over the
+    particles start..stop-1 that have an arrival (ms), x_n their initial positions (mm)."""
+    arrival = _arrival(arrival)
+    positions = np.asarray(positions, dtype=float)
+    if positions.shape != arrival.shape:
+        raise ValueError(f"positions: got shape {positions.shape}; expected {arrival.shape}")
+    stop = arrival.size if stop is None else stop
+    t, x = arrival[start:stop], positions[start:stop]
+    keep = np.isfinite(t)
+    if keep.sum() < 3:
+        return FrontFit(NAN, NAN, NAN, start, stop, int(keep.sum()))
+    line = stats.linregress(x[keep], t[keep])
+    residual = t[keep] - (line.intercept + line.slope * x[keep])
+    return FrontFit(
+        velocity=float(1.0 / line.slope),
+        velocity_stderr=float(line.stderr / line.slope**2),
+        residual_rms=float(np.sqrt(np.mean(residual**2))),
+        start=start,
+        stop=stop,
+        n_points=int(keep.sum()),
+    )
+
+
+@dataclass(frozen=True)
+class Plateau:
+    """Level of a per-particle series over its trailing window (see `trailing_plateau`).
+
+    mean, std: of the finite values in the window; drift: the relative change across the window
+    of the least-squares line through them, slope * (stop - 1 - start) / mean; values[start:stop]
+    is the window. All NaN (and start == stop) when there are too few finite values.
+    A series whose drift exceeds the tolerance is not a plateau: `converged()` is False, and
+    `to_dict` reports it with `converged: false` beside its drift.
+    """
+
+    mean: float
+    std: float
+    drift: float
+    start: int
+    stop: int
+
+    def converged(self, rtol: float = 0.01) -> bool:
+        """True if the series changes by at most rtol (relative) across the window."""
+        return bool(abs(self.drift) <= rtol)
+
+    def to_dict(self, rtol: float = 0.01) -> dict:
+        return {"mean": self.mean, "std": self.std, "relative_drift": self.drift, "start": self.start,
+                "stop": self.stop, "converged": self.converged(rtol), "converged_rtol": rtol}
+
+
+def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3) -> Plateau:
+    """Plateau of a per-particle series (e.g. V_P) over the last particles that have a value.
+
+    The window is the last ceil(fraction * n_finite) finite entries (at least min_points), where
+    n_finite counts finite entries: for V_P, the last quarter of the gaps the front crossed.
+    """
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 1:
+        raise ValueError(f"values: got shape {values.shape}; expected (N,)")
+    if not 0 < fraction <= 1:
+        raise ValueError(f"fraction: got {fraction}; expected in (0, 1]")
+    if min_points < 2:
+        raise ValueError(f"min_points: got {min_points}; expected >= 2 (a line is fitted)")
+    finite = np.flatnonzero(np.isfinite(values))
+    count = max(int(np.ceil(fraction * finite.size)), min_points)
+    if finite.size < count:
+        return Plateau(NAN, NAN, NAN, values.size, values.size)
+    index = finite[-count:]
+    window = values[index]
+    mean = float(window.mean())
+    slope = np.polyfit(index, window, 1)[0]
+    drift = float(slope * (index[-1] - index[0]) / mean)
+    return Plateau(mean, float(window.std()), drift, int(index[0]), int(index[-1]) + 1)
+
+
+def _arrival(arrival):
+    arrival = np.asarray(arrival, dtype=float)
+    if arrival.ndim != 1 or arrival.size < 2:
+        raise ValueError(f"arrival: got shape {arrival.shape}; expected (N,) with N >= 2")
+    return arrival
