@@ -1,8 +1,8 @@
 """The case: a typed, validated description of one simulation, loadable from TOML.
 
 All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
-A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table] and
-[friction] (absent: no friction);
+A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table],
+[friction] (absent: no friction) and [second_neighbour] (absent: nearest neighbours only);
 `case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import MISSING, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ from .piston import PROFILES, Impactor
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
+DISORDER = ("normal", "uniform")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
 LONG_LATTICE_MARGIN = 20
@@ -33,12 +34,29 @@ class Chain:
     far_end = "fixed": the paper's experiment, N given. far_end = "long": N is chosen so that
     the front cannot reach the held end during the run (see `long_lattice_particles`), so no
     reflected wave exists; the run checks this afterwards.
+
+    Ensembles (all off when absent; each needs `seed`, which makes every draw reproducible):
+    - thermal_velocity: RMS initial velocity of the free magnets (2..N-1), m/s: Gaussian, zero
+      net momentum, scaled so that the expected mean of v^2 is thermal_velocity^2;
+    - mass_disorder, r0_disorder: relative standard deviation of each mass / gap about its
+      nominal value, drawn from `disorder` = "normal" (default) or "uniform";
+    - defect_index (1-based magnet n) with defect_mass (g) for magnet n and/or defect_r0 (mm)
+      for gap n (between magnets n and n+1): one magnet or gap of another value, applied after
+      the disorder.
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
     r0: float | tuple[float, ...]  # mm, initial separation, one value or one per gap
     particles: int | None = None
     far_end: str = "fixed"
+    thermal_velocity: float | None = None  # m/s, RMS
+    mass_disorder: float | None = None  # relative standard deviation
+    r0_disorder: float | None = None  # relative standard deviation
+    disorder: str | None = None  # distribution of the disorder: "normal" (default) or "uniform"
+    defect_index: int | None = None  # 1-based magnet number
+    defect_mass: float | None = None  # g
+    defect_r0: float | None = None  # mm
+    seed: int | None = None
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
@@ -59,14 +77,100 @@ class Chain:
                     raise ConfigError(f"chain.{name}", f"got {len(values)} values; expected 1 or {expected}")
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
+        self._check_ensemble()
+
+    def _check_ensemble(self):
+        for name, unit in (("thermal_velocity", " m/s"), ("mass_disorder", ""), ("r0_disorder", "")):
+            value = getattr(self, name)
+            if value is not None and not (_is_number(value) and math.isfinite(value) and value >= 0):
+                raise ConfigError(f"chain.{name}", f"got {value!r}{unit}; expected >= 0")
+        if self.disorder is not None and self.disorder not in DISORDER:
+            raise ConfigError("chain.disorder", f"got {self.disorder!r}; choose one of {', '.join(DISORDER)}")
+        if self.disorder == "uniform":
+            for name in ("mass_disorder", "r0_disorder"):
+                if (getattr(self, name) or 0) >= 1 / math.sqrt(3):
+                    raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; expected < 0.5774 "
+                                      "(uniform disorder of relative std w spans 1 +- sqrt(3) w)")
+        if self.seed is not None and not (isinstance(self.seed, int) and not isinstance(self.seed, bool)
+                                          and 0 <= self.seed < 2**63):
+            raise ConfigError("chain.seed", f"got {self.seed!r}; expected an integer >= 0")
+        if self.random() and self.seed is None:
+            raise ConfigError("chain.seed", "missing; required when thermal_velocity, mass_disorder or r0_disorder is set")
+        for name, unit in (("defect_mass", "g"), ("defect_r0", "mm")):
+            value = getattr(self, name)
+            if value is not None and not (_is_number(value) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"chain.{name}", f"got {value!r} {unit}; expected > 0")
+            if value is not None and self.defect_index is None:
+                raise ConfigError("chain.defect_index", f"missing; required with chain.{name}")
+        if self.defect_index is not None and self.defect_mass is None and self.defect_r0 is None:
+            raise ConfigError("chain.defect_index", "given without chain.defect_mass or chain.defect_r0")
+        n = self.particles
+        if n is None:  # checked again once the case has chosen N
+            return
+        if self.defect_index is not None:
+            top = n - 1 if self.defect_r0 is not None else n
+            if not (isinstance(self.defect_index, int) and not isinstance(self.defect_index, bool)
+                    and 1 <= self.defect_index <= top):
+                raise ConfigError("chain.defect_index", f"got {self.defect_index!r}; expected an integer in [1, {top}]")
+        if self.thermal_velocity and n < 4:
+            raise ConfigError("chain.thermal_velocity", f"needs at least 2 free magnets; got particles = {n}")
+        for name, values in (("mass_disorder", self.masses()), ("r0_disorder", self.gaps())):
+            if not np.all(values > 0):
+                raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; a draw gave a value <= 0, "
+                                  "expected a smaller disorder or disorder = 'uniform'")
+
+    def random(self) -> bool:
+        """Whether the chain has random fields (thermal velocities or disorder)."""
+        return bool(self.thermal_velocity or self.mass_disorder or self.r0_disorder)
+
+    def _streams(self) -> list[np.random.Generator]:
+        # Independent streams for masses, gaps and velocities: turning one on does not change
+        # the draws of the others.
+        return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed or 0).spawn(3)]
+
+    def _perturbed(self, nominal: np.ndarray, width: float | None, rng: np.random.Generator) -> np.ndarray:
+        if not width:
+            return nominal
+        if self.disorder == "uniform":
+            noise = rng.uniform(-math.sqrt(3), math.sqrt(3), nominal.shape)
+        else:
+            noise = rng.standard_normal(nominal.shape)
+        return nominal * (1 + width * noise)
 
     def masses(self) -> np.ndarray:
-        """Mass of each particle, g, shape (N,)."""
-        return np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+        """Mass of each particle, g, shape (N,), with disorder and defect."""
+        nominal = np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+        m = self._perturbed(nominal, self.mass_disorder, self._streams()[0])
+        if self.defect_mass is not None:
+            m[self.defect_index - 1] = self.defect_mass
+        return m
 
     def gaps(self) -> np.ndarray:
-        """Initial separations, mm, shape (N-1,)."""
-        return np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+        """Initial separations, mm, shape (N-1,), with disorder and defect."""
+        nominal = np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+        r = self._perturbed(nominal, self.r0_disorder, self._streams()[1])
+        if self.defect_r0 is not None:
+            r[self.defect_index - 1] = self.defect_r0
+        return r
+
+    def velocities(self) -> np.ndarray:
+        """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
+
+        Free magnets get v = c sigma z (z standard normal) minus the mass-weighted mean, so the
+        net momentum is zero. Removing the mean takes a known fraction of the expected v^2;
+        c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
+        so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
+        """
+        v = np.zeros(self.particles)
+        if not self.thermal_velocity:
+            return v
+        m = self.masses()[1:-1]
+        n, total = len(m), float(np.sum(m))
+        c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))
+        z = self._streams()[2].standard_normal(n)
+        free = c * self.thermal_velocity * z
+        v[1:-1] = free - np.sum(m * free) / total
+        return v
 
     def positions(self) -> np.ndarray:
         """Initial positions x_n, mm, with x_1 = 0."""
@@ -139,6 +243,38 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class SecondNeighbour:
+    """Interaction between magnets n and n+2 (paper Sec. S2: about 5 % of the nearest one, and
+    attractive, since the magnets alternate in polarity): F2(d) = sign * law.force(d), with d =
+    x_(n+2) - x_n the separation of the pair in mm (the sum of the two gaps between them),
+    positive F2 repelling. law: any nearest-neighbour law form (`[second_neighbour] law = ...`
+    with its parameters); sign: -1 attractive, +1 repulsive.
+    """
+
+    law: ForceLaw
+    sign: float = -1.0
+
+    def __post_init__(self):
+        if self.sign not in (-1, 1):
+            raise ConfigError("second_neighbour.sign", f"got {self.sign!r}; expected -1 (attractive) or 1 (repulsive)")
+
+    def force(self, d):
+        """F2(d), N (positive repels)."""
+        return self.sign * self.law.force(d)
+
+    def energy(self, d):
+        """U2(d), mJ, with F2 = -dU2/dd."""
+        return self.sign * self.law.energy(d)
+
+    def stiffness(self, d):
+        """-dF2/dd, N/mm (negative for an attraction that weakens with distance)."""
+        return self.sign * self.law.stiffness(d)
+
+    def __repr__(self):
+        return f"SecondNeighbour({'attractive' if self.sign < 0 else 'repulsive'} {self.law!r})"
+
+
+@dataclass(frozen=True)
 class Case:
     chain: Chain
     force: ForceLaw
@@ -146,13 +282,16 @@ class Case:
     run: RunSettings
     table: TableSettings = TableSettings()
     friction: Friction | None = None  # None: frictionless
+    second_neighbour: SecondNeighbour | None = None  # None: nearest neighbours only
     name: str = "case"
 
     def __post_init__(self):
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
-            object.__setattr__(self, "chain", Chain(self.chain.mass, self.chain.r0, n, self.chain.far_end))
+            object.__setattr__(self, "chain", replace(self.chain, particles=n))
         lo, hi = self.table_range()
+        if self.second_neighbour is not None:
+            self._check_second_neighbour()
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
@@ -175,8 +314,33 @@ class Case:
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
         r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
-        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.r0))
+        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.gaps()))
         return r_min, r_max
+
+    def _check_second_neighbour(self):
+        lo2, hi2 = self.second_table_range()
+        law = self.second_neighbour.law
+        d = law.domain()
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            finite = np.all(np.isfinite([f(np.array([lo2, hi2])) for f in (law.force, law.energy, law.stiffness)]))
+        if lo2 < d[0] or hi2 > d[1] or not finite:
+            raise ConfigError("second_neighbour", f"the law must be finite on [{lo2}, {hi2}] mm (twice the nearest "
+                              f"table's range); its range is [{d[0]}, {d[1]}] mm")
+
+    def second_table_range(self) -> tuple[float, float]:
+        """Separations d = x_(n+2) - x_n covered by the second-neighbour table, mm: twice the
+        nearest table's range (both gaps within it)."""
+        lo, hi = self.table_range()
+        return 2 * lo, 2 * hi
+
+    def held(self) -> list[int]:
+        """0-based indices of the magnets held at the far end: the last one; for a long lattice
+        with second neighbours the last two, so that every free magnet starts in balance (a
+        magnet next to a single held one would feel its second neighbour on one side only)."""
+        n = self.chain.particles
+        if self.second_neighbour is not None and self.chain.far_end == "long":
+            return [n - 2, n - 1]
+        return [n - 1]
 
     def stability_limit(self) -> float:
         """Largest stable velocity-Verlet time step, ms.
@@ -185,10 +349,14 @@ class Case:
         masses >= m_min is below 2 sqrt(k_max/m_min); Verlet is stable for omega dt < 2, so
         dt < sqrt(m_min/k_max). k_max is the largest stiffness over the table's range
         (for the paper's law at contact, r = 0: 0.4535 ms). sqrt(g / (N/mm)) is exactly 1 ms.
+        With second neighbours of stiffness |k2| <= k2_max (Gershgorin: omega^2 <= 4 (k_max +
+        k2_max)/m), k_max + k2_max takes the place of k_max.
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
         k_max = float(np.max(self.force.stiffness(r)))
+        if self.second_neighbour is not None:
+            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
         return math.sqrt(float(np.min(self.chain.masses())) / k_max)
 
 
@@ -241,7 +409,7 @@ def apply_override(data: dict, item: str) -> None:
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     data = dict(data)
     name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table", "friction"}
+    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour"}
     for key in data:
         if key not in sections:
             raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
@@ -270,6 +438,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
+        second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=str(name),
     )
 
@@ -287,12 +456,31 @@ def case_to_dict(case: Case) -> dict:
     ):
         if obj is None:
             continue
-        d = {tag[0]: tag[1]} if tag else {}
-        for f in fields(obj):
-            value = getattr(obj, f.name)
-            if f.init and value is not None:
-                d[f.name] = list(value) if isinstance(value, tuple) else value
-        out[section] = d
+        out[section] = ({tag[0]: tag[1]} if tag else {}) | _fields(obj)
+    if case.second_neighbour is not None:
+        sn = case.second_neighbour
+        out["second_neighbour"] = {"law": sn.law.law, **_fields(sn.law), "sign": sn.sign}
+    return out
+
+
+def _second_neighbour(values: dict) -> SecondNeighbour:
+    values = dict(values)
+    law, sign = values.pop("law", "power"), values.pop("sign", -1.0)
+    if law not in FORCE_LAWS or law == "sampled":
+        allowed = [k for k in FORCE_LAWS if k != "sampled"]
+        raise ConfigError("second_neighbour.law", f"got {law!r}; choose one of {', '.join(allowed)}")
+    if isinstance(sign, bool) or not isinstance(sign, (int, float)):
+        raise ConfigError("second_neighbour.sign", f"got {sign!r}; expected -1 (attractive) or 1 (repulsive)")
+    return SecondNeighbour(_build(FORCE_LAWS[law], "second_neighbour", values), float(sign))
+
+
+def _fields(obj) -> dict:
+    """A case dataclass's given fields as TOML values (tuples as lists)."""
+    out = {}
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if f.init and value is not None:
+            out[f.name] = list(value) if isinstance(value, tuple) else value
     return out
 
 
@@ -335,6 +523,10 @@ def _steps(name: str, interval: float, dt: float) -> int:
     if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
         raise ConfigError(f"run.{name}", f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
     return n
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _show(values) -> str:

@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|study|info`. Errors are one line on stderr, never a traceback."""
+"""Command line: `pylmp-lattice run|deck|sweep|study|info`. Errors are one line on stderr, never a traceback."""
 
 from __future__ import annotations
 
@@ -43,6 +43,15 @@ def _parser() -> argparse.ArgumentParser:
     deck = sub.add_parser("deck", help="write a deck that runs with `lmp -in in.lattice`")
     _case_args(deck)
     deck.set_defaults(func=_deck)
+
+    sweep = sub.add_parser("sweep", help="run every member of a sweep file (resumable); write DIR/results.csv")
+    sweep.add_argument("sweep", type=Path, help="sweep file (TOML: base, [set], [grid], [zip], replicas, seed, keep)")
+    sweep.add_argument("-o", "--output", type=Path, required=True, help="sweep folder DIR")
+    sweep.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
+    sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.set_defaults(func=_sweep)
 
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
     study.add_argument("name", choices=_study_names(), metavar="NAME",
@@ -89,6 +98,18 @@ def _deck(args) -> int:
     write_run_folder(case, folder)
     print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
     return 0
+
+
+def _sweep(args) -> int:
+    from .sweep import load_sweep, run_sweep
+
+    sweep = load_sweep(args.sweep)
+    table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
+                      retry_failed=args.retry_failed, progress=not args.quiet)
+    failed = int((table["status"] == "failed").sum())
+    print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
+          file=sys.stderr)
+    return EXIT_RUN_ERROR if failed else 0
 
 
 def _study_names() -> list[str]:

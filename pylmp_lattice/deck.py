@@ -19,6 +19,7 @@ from .units import to_engine
 DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
+SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
 DUMP = "traj.dump"
 LOG = "log.lammps"
 PISTON = "piston.txt"
@@ -40,6 +41,10 @@ def render(case: Case) -> dict[str, str]:
     }
     if isinstance(case.impactor, Measured):
         files[PISTON] = piston_text(case.impactor)
+    if case.second_neighbour is not None:
+        lo2, hi2 = case.second_table_range()
+        files[SECOND_TABLE] = bond_table(case.second_neighbour, lo2, hi2, case.table.points,
+                                         2 * float(np.mean(case.chain.r0)))
     return files
 
 
@@ -52,19 +57,29 @@ def piston_text(imp: Measured) -> str:
 
 
 def data_text(case: Case) -> str:
-    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)."""
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
+    of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
+
+    Positions and masses include the chain's disorder and defect; a chain with thermal motion
+    gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
+    magnet, and LAMMPS keeps some per-type-pair tables: fine up to a few thousand magnets."""
     x = to_engine(case.chain.positions(), "length")
     masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    v = to_engine(case.chain.velocities(), "velocity")
+    velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
+    pairs = [(i, i + 1, 1) for i in range(n - 1)]
+    if case.second_neighbour is not None:
+        pairs += [(i, i + 2, 2) for i in range(n - 2)]
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
     lines = [
         f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
         "",
         f"{n} atoms",
-        f"{n - 1} bonds",
+        f"{len(pairs)} bonds",
         f"{len(masses)} atom types",
-        "1 bond types",
+        f"{pairs[-1][2]} bond types",
         "",
         f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
         f"{_num(-half)} {_num(half)} ylo yhi",
@@ -80,7 +95,8 @@ def data_text(case: Case) -> str:
         "",
         "Bonds",
         "",
-        *(f"{i + 1} 1 {i + 1} {i + 2}" for i in range(n - 1)),
+        *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs)),
+        *velocities,
     ]
     return "\n".join(lines) + "\n"
 
@@ -88,8 +104,10 @@ def data_text(case: Case) -> str:
 def deck_text(case: Case) -> str:
     run, n = case.run, case.chain.particles
     lo, hi = case.table_range()
-    hi_si = to_engine(hi, "length")
+    longest = case.second_table_range()[1] if case.second_neighbour else hi
+    hi_si = to_engine(longest, "length")
     n_steps = run.steps()
+    held = " ".join(str(i + 1) for i in case.held())
     thermo_every = max(1, n_steps // 20)
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
@@ -103,18 +121,20 @@ boundary        s f f
 atom_style      bond
 atom_modify     map array sort 0 0.0
 read_data       {DATA}
-# Bonds act between consecutive magnets only, at every separation; no pair style, so no
-# other interaction exists. Ghosts must reach across the longest bond on several ranks.
+# Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
+# separation; no pair style, so no other interaction exists. Ghosts must reach across the
+# longest bond on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
 
 # ---- 2. Force law {case.force!r}
 # Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
 bond_style      table spline {case.table.points}
 bond_coeff      1 {TABLE} {KEYWORD}
+{_second_neighbour_lines(case)}
 
-# ---- 3. Boundary conditions: particle 1 is the impactor, particle {n} is held at rest
+# ---- 3. Boundary conditions: particle 1 is the impactor, particle(s) {held} held at rest
 group           impactor id 1
-group           held id {n}
+group           held id {held}
 group           free subtract all impactor held
 fix             integrate free nve
 fix             hold held setforce 0.0 0.0 0.0
@@ -143,6 +163,18 @@ run             {n_steps}
 if "${{min_gap}} <= 0.0" then &
   "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
 """
+
+
+def _second_neighbour_lines(case: Case) -> str:
+    sn = case.second_neighbour
+    if sn is None:
+        return "# nearest neighbours only"
+    lo2, hi2 = case.second_table_range()
+    return (
+        f"# Second neighbours {sn!r}: bonds i-(i+2) of type 2, d = x_(i+2) - x_i\n"
+        f"# tabulated on [{lo2:g}, {hi2:g}] mm.\n"
+        f"bond_coeff      2 {SECOND_TABLE} {KEYWORD}"
+    )
 
 
 def _friction_lines(case: Case) -> str:

@@ -45,11 +45,12 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
     if chain.far_end == "long":
-        last = float(np.max(np.abs(traj.v[:, -2])))
+        last_free = min(case.held()) - 1
+        last = float(np.max(np.abs(traj.v[:, last_free])))
         out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
         if not out["far_end_quiet"]:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
-                        chain.particles - 1, last)
+                        last_free + 1, last)
     return out
 
 

@@ -19,11 +19,12 @@ def power_force(K=413.8, b=3.917, q=3.0):
     return lambda r: K / (r + b) ** q
 
 
-def integrate_chain(force, mass, r0, n, drive_x, drive_v, t_out, rtol=1e-12, atol=1e-12):
+def integrate_chain(force, mass, r0, n, drive_x, drive_v, t_out, rtol=1e-12, atol=1e-12, force2=None):
     """Velocities (m/s) of all n particles at times t_out (ms).
 
     force(r) in N for r in mm; drive_x(t), drive_v(t): impactor displacement (mm) and
-    velocity (m/s). Particle 0 is driven, particle n-1 fixed.
+    velocity (m/s). Particle 0 is driven, particle n-1 fixed. force2(d): optional force (N,
+    positive repelling) between particles i and i+2, d = x_{i+2} - x_i in mm.
     """
     x0 = r0 * np.arange(n, dtype=float)
     free = slice(1, n - 1)
@@ -33,7 +34,12 @@ def integrate_chain(force, mass, r0, n, drive_x, drive_v, t_out, rtol=1e-12, ato
         x[0] += drive_x(t)
         x[free] = y[: n - 2]
         f = force(np.diff(x))  # f[i] between particles i and i+1
-        return np.concatenate([y[n - 2 :], (f[:-1] - f[1:]) / mass])
+        a = f[:-1] - f[1:]  # on particles 1 .. n-2
+        if force2 is not None:
+            f2 = force2(x[2:] - x[:-2])  # f2[i] between particles i and i+2
+            a[1:] += f2[:-1]  # pushed by i-2 (particles 2 .. n-2)
+            a[:-1] -= f2[1:]  # pushed back by i+2 (particles 1 .. n-3)
+        return np.concatenate([y[n - 2 :], a / mass])
 
     y0 = np.concatenate([x0[free], np.zeros(n - 2)])
     sol = solve_ivp(rhs, (0.0, t_out[-1]), y0, method="DOP853", t_eval=t_out, rtol=rtol, atol=atol)

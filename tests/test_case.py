@@ -120,3 +120,19 @@ def test_cli_missing_case_file(tmp_path):
     done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "deck", str(tmp_path / "x.toml")],
                           capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 2 and "file not found" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_second_neighbour_section_round_trips_and_validates():
+    data = case_to_dict(make_case(second_neighbour={"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}))
+    case = case_from_dict(data)
+    assert case.second_neighbour.sign == -1 and case.second_neighbour.law.K == 206.2
+    assert case_to_dict(case) == data
+    assert case.second_neighbour.force(24.0) < 0  # attractive
+    data["second_neighbour"]["sign"] = 0.5
+    with pytest.raises(ConfigError, match="second_neighbour.sign: got 0.5"):
+        case_from_dict(data)
+    data["second_neighbour"] |= {"sign": -1, "law": "sampled"}
+    with pytest.raises(ConfigError, match="second_neighbour.law"):
+        case_from_dict(data)
+    long = make_case(chain={"particles": None, "far_end": "long"}, second_neighbour={"law": "power", "sign": 1})
+    assert long.held() == [long.chain.particles - 2, long.chain.particles - 1]

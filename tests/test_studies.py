@@ -69,3 +69,140 @@ def test_s4_quick(tmp_path):
         assert 0 < row["final_position_mm"] < row["r1_mm"] and row["half_cycles"] >= 1
         assert math.isfinite(row["friction_work_mJ"]) and row["friction_work_mJ"] > 0
     assert (tmp_path / "s4.png").stat().st_size > 0 and (tmp_path / "s4_rig.csv").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# Small versions of the studies against the paper's numbers (tolerances stated per test)
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """Run a study's quick version once per module; returns its JSON."""
+    out = tmp_path_factory.mktemp("studies")
+    done = {}
+
+    def get(name):
+        if name not in done:
+            run_study(name, out, quick=True)
+            done[name] = json.loads((out / f"{name}.json").read_text())
+        return done[name]
+
+    get.out = out
+    return get
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_fig3_quick_reproduces_the_long_lattice(quick):
+    d = quick("fig3")
+    # V0 from the paper's rounded K, b, q: 1.603 m/s against the quoted 1.62 (1.1 %)
+    assert d["V0_m_per_s"] == pytest.approx(1.62, rel=0.015)
+    # V_P after 200 ms (front at particle ~64): 3.897 m/s, still rising by ~0.02 m/s to the
+    # 600 ms run's 3.913; against the paper's 3.92 we allow 0.03 m/s (0.8 %)
+    vp = d["V_P_plateau_m_per_s"]
+    assert vp["converged"] and vp["mean"] == pytest.approx(3.92, abs=0.03)
+    assert d["V_P_fitted_over_plateau_window"]["velocity"] == pytest.approx(vp["mean"], rel=1e-3)
+    # the first peak grows along the chain through the paper's 3.87 m/s and saturates near
+    # 2 V_I (1.974 V_I here, 1.987 V_I at 600 ms): within 0.03 V_I of 2
+    assert d["first_peak_max_m_per_s"] >= 3.87
+    assert 5 <= d["first_particle_with_first_peak_at_least_3.87_m_per_s"] <= 40
+    assert d["first_peak_plateau_over_V_I"] == pytest.approx(2.0, abs=0.03)
+    # behind the front a steady, strong oscillation about V_I: its mean is V_I (the momentum
+    # the piston puts in stays with the particles; 1e-3 relative), eta well above zero
+    for key in ("n=5", "n=10"):
+        s = d["steady_oscillation"][key]
+        assert s["reason"] is None and s["mean_velocity_m_per_s"] == pytest.approx(2.0, rel=1e-3)
+        assert s["energy_ratio_eta"] > 0.2 and s["f_over_f0"] > 1
+    # the transition zone grows (paper: "expands indefinitely")
+    assert d["transition_zone_growth_particles_per_ms"] > 0.05
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_fig1_quick_rise_times_fall_along_the_chain(quick):
+    d = quick("fig1")
+    rise = d["rise_time_ms"]
+    # magnet 1 is the stand-in pulse itself: 23.9 ms to its peak, less the 0.15 ms it takes to
+    # reach 0.01 V_I (the start of motion), to 0.01 ms
+    assert rise["n=1"] == pytest.approx(23.9 - 47.8 / np.pi * np.arcsin(0.01), abs=0.01)
+    # steepening: the paper's 23.9 -> 4.9 ms (ratio 0.21) for n = 1 -> 6; the stand-in pulse
+    # gives 4.49 ms (0.19); we require the ratio below 0.25 and a fall at every step to n = 6
+    assert all(rise[f"n={n}"] > rise[f"n={n + 1}"] for n in range(1, 6))
+    assert rise["n=6"] < 0.25 * rise["n=1"]
+
+
+@pytest.mark.lammps
+def test_fig2_fit_recovers_the_law(quick):
+    fit = quick("fig2")["fit_relative_error"]
+    # 60 samples with 2 % noise: measured errors 1.1 % (K), 1.0 % (b), 0.03 % (q)
+    assert abs(fit["q"]) < 0.01 and abs(fit["K"]) < 0.03 and abs(fit["b"]) < 0.03
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_s5_quick_linear_lattice_matches_the_exact_chain(quick):
+    d = quick("s5")
+    # against the exact semi-infinite chain (Bessel functions): velocities to 1e-5 V_I
+    # (measured 6e-7), eta in each window to 1e-4 relative (measured 2e-6)
+    assert d["max_velocity_error_vs_exact_over_V_I"] < 1e-5
+    assert d["decay_eta_relative_difference_max"] < 1e-4
+    eta = d["decay_eta"]
+    assert len(eta) >= 2 and all(a > b for a, b in zip(eta, eta[1:]))  # decaying
+    # V_P approaches V0 from below: deficit ~0.068 n^(-2/3) (Airy front), 0.7 % at n ~ 25
+    vp = d["V_P_plateau_m_per_s"]["mean"]
+    assert 0.985 * d["V0_m_per_s"] < vp < d["V0_m_per_s"]
+    # the oscillation decays completely: nothing above 0.05 V_I is left by the last window
+    late = d["steady_oscillation"]["n=5"]
+    assert late["energy_ratio_eta"] is None and "no oscillation left" in late["reason"]
+    assert d["first_peak_acceleration_falls_with_n"]  # paper Fig. S5(c), opposite to Fig. 3(c)
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_s3_quick_second_neighbours(quick):
+    d = quick("s3")
+    weak = d["V_I_0.01_m_per_s"]
+    # linear theory of the front speed with second neighbours: V0'/V0 = sqrt((k1 + 4 k2)/k1)
+    # = 0.9524; measured 0.9536 (the front's n^(-2/3) deficit differs slightly), tolerance 0.3 %
+    assert weak["V_P_ratio_attractive_over_nearest"] == pytest.approx(weak["V0_ratio_linear_theory"], rel=3e-3)
+    strong = d["V_I_2_m_per_s"]
+    # an attraction slows the shock and lowers the first peaks (by 4.5 % and 5.9 %); a repulsion
+    # of the same size does the opposite
+    assert strong["attractive 5 %"]["V_P_change_vs_nearest_only"] < -0.02
+    assert strong["attractive 5 %"]["first_peak_change_vs_nearest_only"] < -0.02
+    assert strong["repulsive 5 %"]["V_P_change_vs_nearest_only"] > 0.02
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_s9_quick_phase_portraits(quick):
+    runs = {r["V_I_m_per_s"]: r for r in quick("s9")["runs"]}
+    # strong drive: a finite steady oscillation about V_I (Fig. S9(d)); weak drive: the magnet
+    # ends moving with the impactor, the oscillation below 1 % of V_I^2 in eta (Fig. S9(b))
+    assert runs[2.0]["steady_oscillation"]["energy_ratio_eta"] > 0.2
+    assert (runs[0.1]["steady_oscillation"]["energy_ratio_eta"] or 0.0) < 0.01
+    orbit = runs[2.0]["orbit_in_window"]
+    assert orbit["velocity_min_m_per_s"] < 2.0 < orbit["velocity_max_m_per_s"]
+    assert 0 < orbit["gap_min_mm"] < orbit["gap_max_mm"] < 12.0  # compressed, never touching
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_movies_quick(quick):
+    from matplotlib import animation
+
+    d = quick("movies")
+    assert d["format"] == ("mp4" if animation.writers.is_available("ffmpeg") else "gif")
+    for name in d["movie_files"].values():
+        assert (quick.out / name).stat().st_size > 1000
+
+
+@pytest.mark.lammps
+def test_all_runs_every_study(tmp_path, monkeypatch):
+    import pylmp_lattice.studies as studies
+
+    monkeypatch.setattr(studies, "STUDIES", {"fig2": studies.STUDIES["fig2"], "all": studies.STUDIES["all"]})
+    run_study("all", tmp_path, quick=True)
+    data = json.loads((tmp_path / "all.json").read_text())
+    assert list(data["wall_time_s"]) == ["fig2"] and (tmp_path / "fig2.json").exists()

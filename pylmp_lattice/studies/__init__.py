@@ -23,7 +23,15 @@ log = logging.getLogger(__name__)
 
 # name -> title; the module pylmp_lattice.studies.<name> runs it.
 STUDIES: dict[str, str] = {
+    "fig1": "Fig. 1(b, c): the 21-magnet experiment with a smooth synthetic impact; rise times",
+    "fig2": "Fig. 2: force and stiffness against separation, the power-law fit, magnets 2 and 8",
+    "fig3": "Fig. 3(a-e): the long lattice at V_I = 2 m/s without friction, and the transition zone",
+    "s3": "Fig. S3 / Sec. S2: second-neighbour interaction (attractive, 5 %) and its effect on V_P and first peaks",
     "s4": "Fig. S4: the friction calibration rig (one magnet between two fixed magnets)",
+    "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",
+    "s9": "Fig. S9: phase portraits of magnet 10 for V_I = 0.01, 0.1, 1, 2 m/s",
+    "movies": "Movies S1 and S2: the experiment's magnets, and the long lattice's growing transition zone",
+    "all": "every study above, into one folder",
 }
 
 

@@ -1,0 +1,160 @@
+"""Fig. 3 (a-e): the long lattice without friction, constant V_I = 2 m/s.
+
+(a) a typical velocity profile; (b) propagation velocity V_P along the chain (per gap and
+centred); (c) first peak velocity and acceleration; (d) velocity maxima and minima against
+time for several particles; (e) the oscillation frequency from them; and (f, ours) the width of
+the disordered transition zone against time. Numbers: V0, the V_P plateau and whether it has
+converged, where the first peak reaches the paper's 3.87 m/s, the saturated first peak / V_I,
+the steady oscillation (f/f0, eta, amplitude) of particles behind the front, and the
+transition zone's growth. Full: 600 ms (the front reaches particle ~200); quick: 200 ms.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .. import measures
+from ..plots import pyplot
+from ..simulation import simulate
+from .common import linear_constants, paper_case, particles_reached, pick
+from .output import StudyResult
+
+NAME = "fig3"
+VI = 2.0  # m/s
+PAPER = {"V0_m_per_s": 1.62, "V_P_m_per_s": 3.92, "first_peak_m_per_s": 3.87, "saturated_first_peak_over_V_I": 2.0}
+TRACKED = (1, 4, 9, 24, 49, 99, 149)  # 0-based: particles n = 2, 5, 10, 25, 50, 100, 150
+STEADY = (4, 9, 19)  # 0-based: particles n = 5, 10, 20, well behind the front at the end
+
+
+def run(out: Path, quick: bool = False) -> StudyResult:
+    duration = 200.0 if quick else 600.0
+    case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
+    traj = simulate(case, out / NAME / case.name)
+    result = analyse(NAME, traj, case, VI, duration, quick)
+    result.numbers["paper"] = PAPER
+    return result
+
+
+def analyse(name, traj, case, vi, duration, quick, zone=True) -> StudyResult:
+    """Fig. 3's measures and figure for a constant-drive run (also the linear lattice's, S5);
+    `zone`: measure the transition zone (settling into particle 10's steady oscillation)."""
+    v0, f0 = linear_constants(case)
+    t, v, a = traj.t, traj.v, traj.a
+    gaps = case.chain.gaps()
+    front = measures.front(t, v, a, vi, gaps)
+    reached = particles_reached(front.arrival)
+    centred = measures.centred_propagation_velocity(front.arrival, gaps)
+    plateau = measures.trailing_plateau(front.propagation_velocity)
+    fit = measures.fit_propagation_velocity(front.arrival, case.chain.positions(), plateau.start, plateau.stop + 1)
+    peaks = front.peaks
+    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])
+    window = (0.8 * duration, duration)
+    steady = {n: measures.steady_oscillation(t, v[:, n], vi, window) for n in STEADY}
+    tracked = pick(TRACKED, reached)
+    osc = {n: measures.oscillations(t, v[:, n], vi) for n in tracked}
+
+    # transition zone: settled = within 0.1 V_I of particle 10's steady maxima and minima
+    ref = steady[9]
+    if zone and ref.measured:
+        onset = measures.steady_onset_times(t, v[:, :reached], vi, (ref.max_velocity, ref.min_velocity))
+        # up to 0.9 T: a particle settling later cannot show the extrema that confirm it
+        times = np.arange(0.1 * duration, 0.9 * duration + 1e-9, duration / 20)
+        zone = measures.transition_zone(times, front.arrival[:reached], onset)
+    else:
+        zone = None
+
+    numbers = {
+        "V_I_m_per_s": vi,
+        "duration_ms": duration,
+        "particles": case.chain.particles,
+        "particles_reached": reached,
+        "V0_m_per_s": v0,
+        "f0_Hz": f0,
+        "V_P_plateau_m_per_s": plateau,
+        "V_P_fitted_over_plateau_window": fit,
+        "V_P_max_m_per_s": float(np.nanmax(front.propagation_velocity[np.isfinite(front.propagation_velocity)])),
+        "first_peak_max_m_per_s": float(np.nanmax(peaks.peak_velocity[1:])),
+        "first_peak_plateau_m_per_s": first_peak,
+        "first_peak_plateau_over_V_I": first_peak.mean / vi,
+        "first_particle_with_first_peak_at_least_3.87_m_per_s": _first_at_least(peaks.peak_velocity, 3.87),
+        "first_peak_acceleration_max_m_per_s2": float(np.nanmax(peaks.peak_acceleration[1:])),
+        "steady_oscillation_window_ms": list(window),
+        "steady_oscillation": {f"n={n + 1}": s.to_dict() | {"f_over_f0": s.frequency / f0} for n, s in steady.items()},
+        "transition_zone": zone,
+        "transition_zone_growth_particles_per_ms": _growth(zone),
+    }
+    tables = {
+        "particles": {
+            "n": np.arange(1, v.shape[1] + 1),
+            "arrival_ms": front.arrival,
+            "V_P_gap_n_to_n+1_m_per_s": np.append(front.propagation_velocity, np.nan),
+            "V_P_centred_m_per_s": centred,
+            "first_peak_velocity_m_per_s": peaks.peak_velocity,
+            "first_peak_acceleration_m_per_s2": peaks.peak_acceleration,
+            "rise_time_ms": peaks.rise_time,
+        },
+        "extrema": _extrema_table(osc),
+    }
+    if zone is not None:
+        tables["transition_zone"] = {"time_ms": zone.time, "front_index": zone.front_index,
+                                     "steady_index": zone.steady_index, "width_particles": zone.width}
+    fig = figure(traj, vi, v0, f0, front, centred, osc, zone, reached)
+    return StudyResult(name, numbers, tables=tables, figure=fig, quick=quick)
+
+
+def figure(traj, vi, v0, f0, front, centred, osc, zone, reached):
+    plt = pyplot()
+    fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
+    typical = min(49, reached - 1)
+    ax[0, 0].plot(traj.t, traj.v[:, typical], lw=0.7)
+    ax[0, 0].axhline(vi, color="k", ls=":", lw=0.8)
+    ax[0, 0].set(title=f"(a) particle n = {typical + 1}", xlabel="t (ms)", ylabel="v (m/s)")
+    n = np.arange(1, len(front.arrival) + 1)
+    ax[0, 1].plot(n[:-1] + 0.5, front.propagation_velocity, ".", ms=3, label="per gap")
+    ax[0, 1].plot(n, centred, "-", lw=0.8, label="centred")
+    ax[0, 1].axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
+    ax[0, 1].set(title="(b) propagation velocity", xlabel="particle n", ylabel="$V_P$ (m/s)", xlim=(0, reached + 1))
+    ax[0, 1].legend(fontsize="small")
+    ax[1, 0].plot(n, front.peaks.peak_velocity, ".", ms=3, color="C0")
+    ax[1, 0].set(title="(c) first peaks", xlabel="particle n", ylabel="first peak velocity (m/s)", xlim=(0, reached + 1))
+    right = ax[1, 0].twinx()
+    right.plot(n, front.peaks.peak_acceleration, ".", ms=3, color="C3")
+    right.set_ylabel("first peak acceleration (m/s$^2$)", color="C3")
+    for k, (p, o) in enumerate(osc.items()):
+        ax[0, 2].plot(o.max_time, o.max_velocity, "^", ms=2.5, color=f"C{k}", label=f"n = {p + 1}")
+        ax[0, 2].plot(o.min_time, o.min_velocity, "v", ms=2.5, color=f"C{k}")
+        ax[1, 1].plot(o.frequency_time, o.frequency / f0, ".-", ms=2.5, lw=0.6, color=f"C{k}", label=f"n = {p + 1}")
+    ax[0, 2].set(title="(d) velocity maxima and minima", xlabel="t (ms)", ylabel="peak velocity (m/s)")
+    ax[0, 2].legend(fontsize="x-small", ncol=2)
+    ax[1, 1].set(title="(e) oscillation frequency", xlabel="t (ms)", ylabel="$f/f_0$")
+    if zone is not None:
+        ax[1, 2].plot(zone.time, zone.front_index + 1, label="front")
+        ax[1, 2].plot(zone.time, zone.steady_index + 1, label="settled (steady oscillation)")
+        ax[1, 2].plot(zone.time, zone.width, label="transition zone width")
+        ax[1, 2].legend(fontsize="small")
+    ax[1, 2].set(title="(f) transition zone", xlabel="t (ms)", ylabel="particle index / width")
+    return fig
+
+
+def _first_at_least(values, level):
+    hit = np.flatnonzero(values[1:] >= level)
+    return int(hit[0]) + 2 if hit.size else None  # 1-based particle number
+
+
+def _growth(zone):
+    """Least-squares slope of the transition zone's width against time, particles/ms."""
+    if zone is None:
+        return None
+    ok = np.isfinite(zone.width)
+    return float(np.polyfit(zone.time[ok], zone.width[ok], 1)[0]) if ok.sum() >= 3 else None
+
+
+def _extrema_table(osc):
+    rows = [(p + 1, kind, tt, vv) for p, o in osc.items()
+            for kind, ts, vs in (("max", o.max_time, o.max_velocity), ("min", o.min_time, o.min_velocity))
+            for tt, vv in zip(ts, vs)]
+    rows.sort(key=lambda r: (r[0], r[2]))
+    return {"n": [r[0] for r in rows], "kind": [r[1] for r in rows], "time_ms": [r[2] for r in rows],
+            "velocity_m_per_s": [r[3] for r in rows]}

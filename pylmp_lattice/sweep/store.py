@@ -1,0 +1,112 @@
+"""A sweep on disk: DIR/members/<id>/ per member, its status written last and atomically.
+
+A member folder holds the run's files (case.toml, deck, log, trajectory unless keep =
+"measures", summary.json) and `status.json`: status ("running", "done" or "failed"), the
+one-line error, the swept parameters, wall time and provenance (package version and git
+commit, LAMMPS version, plugin build, Python and numpy versions, host, start and end times).
+A member counts as done only when status.json says so, and status.json is replaced in one
+step (`atomic_write`) after everything else is written: a member killed half-way is re-run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import json
+import os
+import platform
+import socket
+import subprocess
+import tempfile
+from datetime import datetime, timezone
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+MEMBERS = "members"
+STATUS = "status.json"
+DONE, FAILED, RUNNING = "done", "failed", "running"
+
+
+def member_folder(root: str | Path, member_id: str) -> Path:
+    return Path(root) / MEMBERS / member_id
+
+
+def atomic_write(path: Path, data: bytes | str) -> None:
+    """Write a file so that readers see the old or the new content, never a part."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data.encode() if isinstance(data, str) else data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_status(folder: Path, record: dict) -> None:
+    atomic_write(Path(folder) / STATUS, json.dumps(record, indent=2) + "\n")
+
+
+def read_status(folder: Path) -> dict | None:
+    """The member's status record, or None if it never started (or its record is unreadable)."""
+    try:
+        return json.loads((Path(folder) / STATUS).read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+@cache
+def provenance() -> dict:
+    """Where and with what a member ran (computed once per worker process)."""
+    from .. import __version__
+
+    return {
+        "pylmp_lattice": __version__,
+        "git_commit": _git_commit(),
+        "lammps": _version("lammps"),
+        "plugin_build": _plugin_build(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "host": socket.gethostname(),
+    }
+
+
+def _version(dist: str) -> str | None:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _git_commit() -> str | None:
+    """The source tree's commit (with -dirty if modified), when the package runs from a checkout."""
+    source = Path(__file__).resolve().parents[2]
+    if not (source / ".git").exists():
+        return None
+    try:
+        done = subprocess.run(["git", "-C", str(source), "describe", "--always", "--dirty", "--abbrev=40"],
+                              capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return done.stdout.strip() or None if done.returncode == 0 else None
+
+
+def _plugin_build() -> str | None:
+    """The plugin library's file name and the start of its SHA-256: which build ran."""
+    from ..errors import RunError
+    from ..plugin import plugin_file
+
+    try:
+        path = plugin_file()
+    except RunError:
+        return None
+    return f"{path.name} sha256:{hashlib.sha256(path.read_bytes()).hexdigest()[:16]}"

@@ -1,0 +1,110 @@
+"""Random chains (case.Chain): thermal initial velocities, mass/spacing disorder, defects, seeds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.case import Chain, case_from_dict, case_to_dict
+from pylmp_lattice.deck import data_text
+from pylmp_lattice.errors import ConfigError
+
+from conftest import make_case
+
+
+def test_thermal_velocities_zero_momentum_and_seeded():
+    case = make_case(particles=12, chain={"thermal_velocity": 0.05, "mass_disorder": 0.1, "seed": 7})
+    v, m = case.chain.velocities(), case.chain.masses()
+    assert v[0] == 0 and v[-1] == 0  # the impactor and the held end are driven, not thermal
+    assert abs(np.sum(m * v)) < 1e-15 * np.sum(m * np.abs(v))
+    again = make_case(particles=12, chain={"thermal_velocity": 0.05, "mass_disorder": 0.1, "seed": 7})
+    np.testing.assert_array_equal(again.chain.velocities(), v)
+    other = make_case(particles=12, chain={"thermal_velocity": 0.05, "mass_disorder": 0.1, "seed": 8})
+    assert np.all(other.chain.velocities()[1:-1] != v[1:-1])
+
+
+@pytest.mark.parametrize("mass_disorder", [None, 0.3])
+def test_thermal_rms_matches_request_within_statistical_error(mass_disorder):
+    """E[mean v^2] = v_rms^2 after the momentum is removed, equal masses or not.
+
+    Over S seeds of n free magnets the estimate of mean v^2 has relative standard error
+    sqrt(2/(S (n-1))) (Gaussian: var(v^2) = 2 sigma^4; one degree of freedom goes to the
+    momentum): tolerance 4 of those, 6%. Without the rescaling the bias would be 1/(n-1) = 11%."""
+    v_rms, particles, seeds = 0.02, 12, 1000
+    free = particles - 2
+    fields = {"thermal_velocity": v_rms} | ({"mass_disorder": mass_disorder, "disorder": "uniform"} if mass_disorder else {})
+    ms = [np.mean(Chain(1.084, 12.0, particles, **fields, seed=s).velocities()[1:-1] ** 2) for s in range(seeds)]
+    rel = np.mean(ms) / v_rms**2 - 1
+    tol = 4 * math.sqrt(2 / (seeds * (free - 1)))
+    assert abs(rel) < tol, (rel, tol)
+
+
+@pytest.mark.parametrize("disorder", ["normal", "uniform"])
+def test_disorder_has_the_requested_relative_std(disorder):
+    w = 0.1
+    case = make_case(particles=2001, duration=1.0, chain={"mass_disorder": w, "r0_disorder": w / 2, "disorder": disorder, "seed": 3})
+    m, r = case.chain.masses() / 1.084 - 1, case.chain.gaps() / 12.0 - 1
+    # the std of 2000 draws is within ~1.6% (normal) of the true one; 5% tolerance
+    assert np.std(m) == pytest.approx(w, rel=0.05)
+    assert np.std(r) == pytest.approx(w / 2, rel=0.05)
+    if disorder == "uniform":
+        assert np.max(np.abs(m)) <= math.sqrt(3) * w
+    assert np.corrcoef(m[:-1], r)[0, 1] == pytest.approx(0, abs=0.1)  # independent streams
+
+
+def test_streams_are_independent_and_defects_sit_at_their_index():
+    base = {"thermal_velocity": 0.01, "seed": 5}
+    plain = make_case(particles=10, chain=base).chain
+    disordered = make_case(particles=10, chain=base | {"mass_disorder": 0.05}).chain
+    # adding mass disorder changes the masses, hence the momentum correction, not the draws:
+    # v differs only by the (small) mass-weighted mean subtracted
+    assert np.max(np.abs(plain.velocities() - disordered.velocities())) < 0.3 * 0.01
+    defect = make_case(particles=10, chain={"defect_index": 4, "defect_mass": 2.5, "defect_r0": 8.0}).chain
+    assert defect.masses()[3] == 2.5 and np.all(np.delete(defect.masses(), 3) == 1.084)
+    assert defect.gaps()[3] == 8.0 and np.all(np.delete(defect.gaps(), 3) == 12.0)
+    np.testing.assert_allclose(np.diff(defect.positions()), defect.gaps())
+
+
+def test_data_file_carries_disorder_and_velocities():
+    case = make_case(particles=6, chain={"thermal_velocity": 0.1, "r0_disorder": 0.05, "mass_disorder": 0.05, "seed": 1})
+    text = data_text(case)
+    atoms = text.split("Atoms # bond\n\n")[1].split("\n\n")[0].splitlines()
+    x = np.array([float(line.split()[3]) for line in atoms])
+    np.testing.assert_allclose(x * 1e3, case.chain.positions(), rtol=1e-15, atol=1e-12)
+    masses = dict(line.split() for line in text.split("Masses\n\n")[1].split("\n\n")[0].splitlines())
+    m = np.array([float(masses[line.split()[2]]) for line in atoms])
+    np.testing.assert_allclose(m * 1e3, case.chain.masses(), rtol=1e-15)
+    vel = text.split("Velocities\n\n")[1].strip().splitlines()
+    np.testing.assert_allclose([float(line.split()[1]) for line in vel], case.chain.velocities(), rtol=1e-15)
+    assert "Velocities" not in data_text(make_case(particles=6))
+
+
+def test_round_trip_through_case_to_dict():
+    case = make_case(particles=9, chain={"thermal_velocity": 0.01, "mass_disorder": 0.02, "disorder": "uniform",
+                                         "defect_index": 3, "defect_r0": 10.0, "seed": 11})
+    assert case_from_dict(case_to_dict(case)) == case
+    assert "seed" not in case_to_dict(make_case())["chain"]  # a plain chain writes no ensemble fields
+
+
+@pytest.mark.parametrize(
+    "values, field, expected",
+    [
+        ({"thermal_velocity": 0.1}, "chain.seed", "required when thermal_velocity"),
+        ({"thermal_velocity": -0.1, "seed": 1}, "chain.thermal_velocity", "expected >= 0"),
+        ({"mass_disorder": 0.1, "seed": -1}, "chain.seed", "expected an integer >= 0"),
+        ({"mass_disorder": 0.7, "disorder": "uniform", "seed": 1}, "chain.mass_disorder", "expected < 0.5774"),
+        ({"mass_disorder": 0.1, "disorder": "lognormal", "seed": 1}, "chain.disorder", "choose one of normal, uniform"),
+        ({"r0_disorder": 0.6, "seed": 2}, "chain.r0_disorder", "a draw gave a value <= 0"),
+        ({"defect_index": 31, "defect_mass": 2.0}, "chain.defect_index", "expected an integer in [1, 30]"),
+        ({"defect_index": 30, "defect_r0": 2.0}, "chain.defect_index", "expected an integer in [1, 29]"),
+        ({"defect_mass": 2.0}, "chain.defect_index", "missing; required with chain.defect_mass"),
+        ({"defect_index": 3}, "chain.defect_index", "without chain.defect_mass"),
+    ],
+)
+def test_bad_ensemble_fields_name_the_field(values, field, expected):
+    with pytest.raises(ConfigError) as info:
+        make_case(chain=values)
+    assert info.value.field == field
+    assert expected in str(info.value)

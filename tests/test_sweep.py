@@ -1,0 +1,268 @@
+"""Sweeps: the sweep file, member identity and seeds, the table, resume, failures, executors."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pylmp_lattice.cli import main
+from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.simulation import load_trajectory
+from pylmp_lattice.sweep import Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep
+from pylmp_lattice.sweep.store import STATUS
+
+BASE = """\
+name = "small"
+[chain]
+particles = {particles}
+mass = 1.084
+r0 = 12.0
+far_end = "fixed"
+[force]
+law = "power"
+K = 413.8
+b = 3.917
+q = 3.0
+[impactor]
+profile = "constant"
+velocity = 1.0
+[run]
+duration = {duration}
+dt = 0.01
+output_interval = {output}
+"""
+# Columns that legitimately differ between two runs of the same sweep.
+TIMING = ["wall_time_s"]
+
+
+def write_sweep(folder: Path, text: str, particles=8, duration=10.0, output=0.1) -> Path:
+    (folder / "base.toml").write_text(BASE.format(particles=particles, duration=duration, output=output))
+    (folder / "sweep.toml").write_text(text)
+    return folder / "sweep.toml"
+
+
+SIX = """\
+base = "base.toml"
+[grid]
+"impactor.velocity" = [0.5, 1.0, 1.5]
+"force.q" = [2.5, 3.0]
+"""
+
+
+# ----------------------------------------------------------------------------- the sweep file
+
+def test_members_are_the_grid_product_times_the_zip_with_replicas_innermost(tmp_path):
+    path = write_sweep(tmp_path, """\
+base = "base.toml"
+replicas = 2
+seed = 9
+[set]
+chain.thermal_velocity = 0.01
+[grid]
+"impactor.velocity" = [0.5, 1.0]
+[zip]
+"force.q" = [2.5, 3.0, 3.5]
+"run.duration" = [10.0, 20.0, 30.0]
+""")
+    members = load_sweep(path).members()
+    assert len(members) == 2 * 3 * 2
+    assert [m.index for m in members] == list(range(12))
+    first = members[0]
+    assert first.params == {"impactor.velocity": 0.5, "force.q": 2.5, "run.duration": 10.0, "replica": 0,
+                            "chain.seed": member_seed(9, 0)}
+    assert members[5].params["force.q"] == 3.5 and members[5].params["run.duration"] == 30.0  # zip pairs
+    assert members[5].case.run.duration == 30.0 and members[5].case.chain.thermal_velocity == 0.01
+    assert [m.case.chain.seed for m in members] == [member_seed(9, i) for i in range(12)]
+    assert len({m.id for m in members}) == 12
+    assert [m.id for m in load_sweep(path).members()] == [m.id for m in members]  # the id is the case
+    other_seed = Sweep(base=tmp_path / "base.toml", set={"chain.thermal_velocity": 0.01}, replicas=2, seed=10)
+    assert {m.id for m in other_seed.members()}.isdisjoint(m.id for m in members)
+
+
+def test_sections_as_tables_and_identical_members_run_once(tmp_path):
+    sweep = Sweep(base=tmp_path.joinpath("base.toml") if write_sweep(tmp_path, "") else None,
+                  grid={"force": [{"law": "linear", "k": 0.5, "r_free": 30.0},
+                                  {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}],
+                        "impactor.velocity": [1.0, 1.0]})
+    members = sweep.members()
+    assert [m.case.force.law for m in members] == ["linear", "power"]
+    assert members[1].params["force"]["q"] == 3.0
+
+
+def test_sweep_from_python_accepts_a_case(case_factory):
+    case = case_factory(particles=8, duration=10.0)
+    members = Sweep(base=case, grid={"impactor.velocity": [1.0, 2.0]}).members()
+    assert [m.case.impactor.velocity for m in members] == [1.0, 2.0]
+    assert members[0].case.chain == case.chain
+
+
+@pytest.mark.parametrize(
+    "text, field",
+    [
+        ('base = "base.toml"\nreplica = 3\n', "replica: unknown key; expected one of base"),
+        ('base = "base.toml"\n[grid]\n"impactor.velocty" = [1.0]\n', "grid.impactor.velocty: unknown key; expected one of velocity"),
+        ('base = "base.toml"\n[set]\n"colour.hue" = 1\n', "set.colour.hue: unknown section"),
+        ('base = "base.toml"\n[grid]\n"impactor.velocity" = []\n', "grid.impactor.velocity: empty list"),
+        ('base = "base.toml"\n[grid]\n"impactor.velocity" = 1.0\n', "grid.impactor.velocity: got 1.0; expected a list"),
+        ('base = "base.toml"\n[zip]\n"impactor.velocity" = [1.0, 2.0, 3.0]\n"run.duration" = [10.0, 20.0]\n',
+         "zip.run.duration: got 2 values; expected 3 like zip.impactor.velocity"),
+        ('base = "missing.toml"\n', "base: file not found"),
+        ('[grid]\n"impactor.velocity" = [1.0]\n', "base: missing"),
+        ('base = "base.toml"\nreplicas = 3\n', "replicas: got 3; no member has a random chain"),
+        ('base = "base.toml"\nkeep = "nothing"\n', "keep: got 'nothing'; choose one of all, measures"),
+    ],
+)
+def test_bad_sweep_file_is_one_line_naming_the_field_exit_2(tmp_path, capsys, text, field):
+    path = write_sweep(tmp_path, text)
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}"), err
+
+
+def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_path, capsys):
+    """Bad parameters fail their members without running (no engine needed); others go on."""
+    path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0, -2.0]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 1
+    table = load_results(out)
+    assert list(table["status"]) == ["failed", "failed"]
+    assert table["error"][0] == "impactor.velocity: got -1.0 m/s; expected > 0"
+    status = out / table["folder"][0] / STATUS
+    before = status.stat().st_mtime_ns
+    main(["sweep", str(path), "-o", str(out), "--quiet"])
+    assert status.stat().st_mtime_ns == before  # a failure is not retried by default
+    main(["sweep", str(path), "-o", str(out), "--quiet", "--retry-failed"])
+    assert status.stat().st_mtime_ns != before
+    assert pd.read_csv(out / "results.csv")["error"][1] == "impactor.velocity: got -2.0 m/s; expected > 0"
+
+
+# ----------------------------------------------------------------------------- statistics
+
+def test_replica_stats_mean_and_standard_error():
+    rng = np.random.default_rng(0)
+    rows = [{"id": f"{v}-{r}", "impactor.velocity": v, "replica": r, "chain.seed": 100 + r, "status": "done",
+             "error": None, "folder": "x", "wall_time_s": 1.0, "V": v + rng.normal()} for v in (1.0, 2.0) for r in range(5)]
+    rows.append(rows[0] | {"id": "f", "status": "failed", "V": 1e9})  # failed members do not count
+    table = pd.DataFrame(rows)
+    stats = replica_stats(table)
+    assert list(stats["n"]) == [5, 5]
+    values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
+    row = stats[stats["impactor.velocity"] == 2.0].iloc[0]
+    assert row["V.mean"] == pytest.approx(np.mean(values), rel=1e-12)
+    assert row["V.sem"] == pytest.approx(np.std(values, ddof=1) / np.sqrt(5), rel=1e-12)
+    ax = plot_replica_stats(stats, "impactor.velocity", "V")
+    bars = ax.containers[0]
+    np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
+
+
+# ----------------------------------------------------------------------------- running
+
+def _comparable(table: pd.DataFrame) -> pd.DataFrame:
+    return table.drop(columns=TIMING)
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_local_pool_and_dask_cluster_give_identical_tables(tmp_path):
+    from distributed import LocalCluster
+
+    sweep = load_sweep(write_sweep(tmp_path, SIX))
+    local = run_sweep(sweep, tmp_path / "local", workers=2, progress=False)
+    assert len(local) == 6 and set(local["status"]) == {"done"}
+    assert local["shock_velocity_max_m_per_s.value"].notna().all()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        dask = run_sweep(sweep, tmp_path / "dask", scheduler=cluster.scheduler_address, progress=False)
+    pd.testing.assert_frame_equal(_comparable(local), _comparable(dask))
+    pd.testing.assert_frame_equal(_comparable(load_results(tmp_path / "dask")), _comparable(dask))
+    csv = pd.read_csv(tmp_path / "local" / "results.csv")
+    assert list(csv.columns) == list(local.columns)
+    assert list(csv.columns[:7]) == ["id", "impactor.velocity", "force.q", "status", "error", "folder", "wall_time_s"]
+    record = json.loads((tmp_path / "dask" / dask["folder"][0] / STATUS).read_text())
+    assert record["status"] == "done" and record["provenance"]["lammps"] and record["started"] < record["ended"]
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_sigkill_then_rerun_resumes_without_rerunning_finished_members(tmp_path):
+    """The whole process group is killed, as a batch system's wall-time limit does."""
+    path = write_sweep(tmp_path, SIX, particles=12, duration=40.0, output=0.1)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.DEVNULL)
+
+    def done_folders():
+        found = []
+        for status in (out / "members").glob(f"*/{STATUS}"):
+            try:
+                if json.loads(status.read_text())["status"] == "done":
+                    found.append(status.parent)
+            except (OSError, json.JSONDecodeError):
+                pass
+        return found
+
+    deadline = time.time() + 120
+    while len(done_folders()) < 2 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    finished = done_folders()
+    assert 2 <= len(finished) < 6, "the kill must land mid-sweep"
+    before = {f: (f.stat().st_mtime_ns, f.read_bytes()) for d in finished for f in d.iterdir()}
+
+    assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
+    table = load_results(out)
+    assert len(table) == 6 and set(table["status"]) == {"done"}
+    after = {f: (f.stat().st_mtime_ns, f.read_bytes()) for d in finished for f in d.iterdir()}
+    assert after == before  # finished members were not run again: their files are untouched
+
+
+@pytest.mark.lammps
+def test_failing_member_is_recorded_and_the_others_finish(tmp_path):
+    """V_I = 30 m/s drives the impactor through the 8-magnet chain (84 mm) within 3 ms."""
+    path = write_sweep(tmp_path, 'base = "base.toml"\nkeep = "measures"\n[grid]\n"impactor.velocity" = [1.0, 30.0, 1.5]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "2", "--quiet"]) == 1
+    table = load_results(out)
+    assert list(table["status"]) == ["done", "failed", "done"]
+    assert table["error"][1].startswith("magnets ") and "touched" in table["error"][1] and "\n" not in table["error"][1]
+    assert table["error"].isna()[[0, 2]].all()
+    kept = sorted(p.name for p in (out / table["folder"][0]).iterdir())
+    assert "summary.json" in kept and "traj.dump" not in kept  # keep = "measures"
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_thermal_replicas_reproduce_differ_and_have_the_requested_rms(tmp_path):
+    """Frame 0 of each member's trajectory is what LAMMPS started from.
+
+    The mean of v^2 over R replicas of n free magnets has relative standard error
+    sqrt(2/(R (n-1))) (= 0.24 here); the test allows 3 of those."""
+    v_rms, replicas, particles = 0.05, 4, 12
+    text = f'base = "base.toml"\nreplicas = {replicas}\nseed = 1\n[set]\n"chain.thermal_velocity" = {v_rms}\n'
+    sweep = load_sweep(write_sweep(tmp_path, text, particles=particles))
+    first = run_sweep(sweep, tmp_path / "a", workers=2, progress=False)
+    again = run_sweep(sweep, tmp_path / "b", workers=2, progress=False)
+    pd.testing.assert_frame_equal(_comparable(first), _comparable(again))  # same seed: the same numbers
+    assert first["chain.seed"].nunique() == replicas
+    assert first["shock_velocity_max_m_per_s.value"].nunique() == replicas  # different seeds: different runs
+    v2 = []
+    for member in sweep.members():
+        traj = load_trajectory(member.case, tmp_path / "a" / "members" / member.id)
+        np.testing.assert_allclose(traj.v[0, 1:-1], member.case.chain.velocities()[1:-1], rtol=1e-9)
+        v2.append(np.mean(traj.v[0, 1:-1] ** 2))
+    tol = 3 * np.sqrt(2 / (replicas * (particles - 3)))
+    assert abs(np.mean(v2) / v_rms**2 - 1) < tol
+    stats = replica_stats(first)
+    assert stats["n"].tolist() == [replicas]
+    assert stats["shock_velocity_max_m_per_s.value.sem"][0] > 0
