@@ -2,7 +2,8 @@
 
 All values are in user units (mm, g, ms, N, m/s); `units` converts them for the engine.
 A TOML case has the sections [chain], [force], [impactor], [run] and optionally [table],
-[friction] (absent: no friction) and [second_neighbour] (absent: nearest neighbours only);
+[friction] (absent: no friction), [second_neighbour] (absent: nearest neighbours only) and
+[output] (absent: the defaults of `OutputSettings`);
 `case_to_dict` writes the same shape back, so a run folder's case.toml reloads unchanged.
 """
 
@@ -21,6 +22,8 @@ from .piston import PROFILES, Impactor
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
+OUTPUT_FORMATS = ("h5md", "text", "none")
+COMPRESSIONS = ("lzf", "gzip", "none")
 DISORDER = ("normal", "uniform")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
@@ -192,11 +195,11 @@ class RunSettings:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
         for name in ("output_interval", "check_interval", "duration"):
-            _steps(name, getattr(self, name), self.dt)
+            _steps(f"run.{name}", getattr(self, name), self.dt)
 
     def steps(self, name: str = "duration") -> int:
         """An interval of this run in time steps (validated to be a whole number)."""
-        return _steps(name, getattr(self, name), self.dt)
+        return _steps(f"run.{name}", getattr(self, name), self.dt)
 
 
 @dataclass(frozen=True)
@@ -243,6 +246,43 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class OutputSettings:
+    """What a run writes besides its log (see the README's "Output" section for the costs).
+
+    format: "h5md" (default; HDF5 in the H5MD layout, x, v and f of every magnet every
+    run.output_interval), "text" (LAMMPS's text dump, for reading by eye or old tools) or
+    "none" (no per-frame output).
+    fine: magnet numbers (1-based) also written every fine_interval ms (default run.dt), for
+    profiles at high time resolution (Fig. 2(b-d), 3(a)); in the H5MD file as group "fine".
+    front: record every magnet's front arrival and first peak at every step in the engine
+    (fix lattice/front), so a run has its front measures with any format, even "none".
+    compression: of the H5MD datasets, with byte shuffling: "lzf" (fast; read through h5py, as
+    MDAnalysis does), "gzip" (slower, smaller, read by every HDF5 library) or "none".
+    """
+
+    format: str = "h5md"
+    fine: tuple[int, ...] = ()
+    fine_interval: float | None = None  # ms
+    front: bool = True
+    compression: str = "lzf"
+
+    def __post_init__(self):
+        if self.format not in OUTPUT_FORMATS:
+            raise ConfigError("output.format", f"got {self.format!r}; choose one of {', '.join(OUTPUT_FORMATS)}")
+        if not all(isinstance(n, int) and not isinstance(n, bool) for n in self.fine):
+            raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected a list of magnet numbers")
+        if len(set(self.fine)) != len(self.fine):
+            raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected distinct magnet numbers")
+        if self.fine_interval is not None and not (_is_number(self.fine_interval) and math.isfinite(self.fine_interval)
+                                                    and self.fine_interval > 0):
+            raise ConfigError("output.fine_interval", f"got {self.fine_interval!r} ms; expected > 0")
+        if self.compression not in COMPRESSIONS:
+            raise ConfigError("output.compression", f"got {self.compression!r}; choose one of {', '.join(COMPRESSIONS)}")
+        if not isinstance(self.front, bool):
+            raise ConfigError("output.front", f"got {self.front!r}; expected true or false")
+
+
+@dataclass(frozen=True)
 class SecondNeighbour:
     """Interaction between magnets n and n+2 (paper Sec. S2: about 5 % of the nearest one, and
     attractive, since the magnets alternate in polarity): F2(d) = sign * law.force(d), with d =
@@ -282,6 +322,7 @@ class Case:
     run: RunSettings
     table: TableSettings = TableSettings()
     friction: Friction | None = None  # None: frictionless
+    output: OutputSettings = OutputSettings()
     second_neighbour: SecondNeighbour | None = None  # None: nearest neighbours only
     name: str = "case"
 
@@ -307,9 +348,18 @@ class Case:
         if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
             raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
                               f"{self.impactor.duration()} ms (impactor.after = 'stop')")
+        n = self.chain.particles
+        if any(not 1 <= k <= n for k in self.output.fine):
+            raise ConfigError("output.fine", f"got {list(self.output.fine)}; expected magnet numbers in [1, {n}]")
+        if self.output.fine:
+            _steps("output.fine_interval", self.fine_interval(), self.run.dt)
         dt_max = self.stability_limit()
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+
+    def fine_interval(self) -> float:
+        """Interval of the fine output, ms (default: every time step)."""
+        return self.output.fine_interval if self.output.fine_interval is not None else self.run.dt
 
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
@@ -409,7 +459,7 @@ def apply_override(data: dict, item: str) -> None:
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     data = dict(data)
     name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour"}
+    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour", "output"}
     for key in data:
         if key not in sections:
             raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
@@ -438,6 +488,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
+        output=_build(OutputSettings, "output", data.get("output", {})),
         second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=str(name),
     )
@@ -453,6 +504,7 @@ def case_to_dict(case: Case) -> dict:
         ("run", case.run, None),
         ("table", case.table, None),
         ("friction", case.friction, None),
+        ("output", case.output, None),
     ):
         if obj is None:
             continue
@@ -491,7 +543,8 @@ def _build(cls, section: str, values: dict):
     for key, value in values.items():
         if key not in known:
             raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join(known)}")
-        if isinstance(value, bool) or (isinstance(value, str) and "str" not in known[key].type):
+        expected = known[key].type
+        if (isinstance(value, bool) and "bool" not in expected) or (isinstance(value, str) and "str" not in expected):
             raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
@@ -518,10 +571,10 @@ def _read_columns(path: Path, field: str, columns: str):
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 
-def _steps(name: str, interval: float, dt: float) -> int:
+def _steps(field: str, interval: float, dt: float) -> int:
     n = round(interval / dt)
     if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
-        raise ConfigError(f"run.{name}", f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
+        raise ConfigError(field, f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
     return n
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from .case import Case
 from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
+from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -20,7 +21,12 @@ DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
 SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
-DUMP = "traj.dump"
+DUMP = "traj.dump"  # output.format = "text"
+TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned into traj.h5md after the run
+FINE_BIN = "fine.bin"
+FRONT_BIN = "front.bin"  # the front record of fix lattice/front, written at the end of the run
+BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v and f along x
+FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 8))
 LOG = "log.lammps"
 PISTON = "piston.txt"
 # Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
@@ -150,19 +156,58 @@ compute         closest all reduce max c_bond_dx c_bond_ids[1] c_bond_ids[2] rep
 variable        min_gap equal -c_closest[1]
 fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
 
-# ---- 5. Output: trajectory of every magnet, thermo with energies
+# ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
 thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
 thermo_modify   norm no flush yes
 thermo          {thermo_every}
-dump            traj all custom {run.steps('output_interval')} {DUMP} {DUMP_COLUMNS}
-dump_modify     traj sort id time yes format float %.12g
+{_output_lines(case)}
 
 # ---- 6. Run {run.duration:g} ms
 run             {n_steps}
 if "${{min_gap}} <= 0.0" then &
   "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
-"""
+{_front_dump_line(case)}"""
+
+
+def records_front(case: Case) -> bool:
+    """Whether the deck records front measures on the fly: asked for, and a drive to scale them."""
+    return case.output.front and case.impactor.peak_velocity() > 0
+
+
+def _output_lines(case: Case) -> str:
+    """Dumps (all magnets; chosen ones at a fine interval) and the on-the-fly front record."""
+    out, run = case.output, case.run
+    every = run.steps("output_interval")
+    lines = []
+    if out.format == "text":
+        lines += [f"dump            traj all custom {every} {DUMP} {DUMP_COLUMNS}",
+                  "dump_modify     traj sort id time yes format float %.12g"]
+    elif out.format == "h5md":
+        # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5md.
+        lines += [f"dump            traj all custom {every} {TRAJ_BIN} {BIN_COLUMNS}",
+                  "dump_modify     traj sort id time yes"]
+    if out.fine and out.format != "none":
+        fine_every = round(case.fine_interval() / run.dt)  # a whole number: Case checks it
+        name = DUMP.replace("traj", "fine") if out.format == "text" else FINE_BIN
+        columns = DUMP_COLUMNS if out.format == "text" else BIN_COLUMNS
+        lines += [f"group           fine id {' '.join(map(str, out.fine))}",
+                  f"dump            fine fine custom {fine_every} {name} {columns}",
+                  "dump_modify     fine sort id time yes" + (" format float %.12g" if out.format == "text" else "")]
+    if records_front(case):
+        vi = to_engine(case.impactor.peak_velocity(), "velocity")
+        levels = (START_FRACTION * vi, FRONT_FRACTION * vi, PROMINENCE * vi)
+        lines += ["# Front arrival and first peak of every magnet, from every step (plugin fix; the",
+                  "# definitions of measures.py, levels as fractions of V_I); written after the run.",
+                  "fix             front all lattice/front start {} front {} drop {} pulse_drop {}".format(
+                      *map(_num, levels), _num(PULSE_DROP))]
+    return "\n".join(lines) if lines else "# no per-frame output (output.format = 'none')"
+
+
+def _front_dump_line(case: Case) -> str:
+    if not records_front(case):
+        return ""
+    return f"write_dump      all custom {FRONT_BIN} {FRONT_COLUMNS} modify sort id time yes\n"
 
 
 def _second_neighbour_lines(case: Case) -> str:

@@ -1,6 +1,6 @@
-"""Reading what LAMMPS wrote: the `dump traj` trajectory and the thermo log.
+"""Reading what LAMMPS wrote: the text dump (output.format = "text") and the thermo log.
 
-Every run writes its trajectory as
+A run with text output writes its trajectory as
 
     dump traj all custom EVERY traj.dump id type mass x y z vx vy vz fx fy fz
     dump_modify traj sort id time yes format float %.12g

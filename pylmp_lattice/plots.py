@@ -21,10 +21,11 @@ def pyplot():
 
 
 def velocity_profiles(t, v, particles, ax=None):
-    """Fig. 3(a): v_n(t) of the chosen particles (0-based indices), m/s against ms."""
+    """Fig. 3(a): v_n(t) of the chosen particles (0-based numbers; column k of v is particle
+    particles[k]), m/s against ms."""
     ax = ax or pyplot().gca()
-    for n in particles:
-        ax.plot(t, v[:, n], lw=0.8, label=f"n = {n + 1}")
+    for k, n in enumerate(particles):
+        ax.plot(t, v[:, k], lw=0.8, label=f"n = {n + 1}")
     ax.set(xlabel="t (ms)", ylabel="v (m/s)")
     ax.legend(fontsize="small")
     return ax
@@ -55,10 +56,11 @@ def first_peaks(peaks: measures.FirstPeaks, ax=None):
 
 
 def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
-    """Fig. 3(d): velocity maxima and minima behind the front against time."""
+    """Fig. 3(d): velocity maxima and minima behind the front against time (columns of v as in
+    `velocity_profiles`)."""
     ax = ax or pyplot().gca()
     for k, n in enumerate(particles):
-        osc = measures.oscillations(t, v[:, n], drive_velocity)
+        osc = measures.oscillations(t, v[:, k], drive_velocity)
         ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n + 1}")
         ax.plot(osc.min_time, osc.min_velocity, "v", ms=3, color=f"C{k}")
     ax.set(xlabel="t (ms)", ylabel="peak velocity (m/s)")
@@ -66,15 +68,23 @@ def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
     return ax
 
 
-def shock_figure(traj, drive_velocity: float, front: measures.Front, v0: float | None = None):
-    """The four panels of Fig. 3(a-d) for a trajectory and its front measures; returns the Figure."""
+def shock_figure(profiles, particles, drive_velocity: float, front: measures.Front, v0: float | None = None):
+    """The four panels of Fig. 3(a-d); returns the Figure.
+
+    profiles: a Trajectory of the chosen particles (their 0-based numbers in `particles`) for
+    panels (a) and (d), or None for a run without a trajectory (those panels then say so);
+    front: the run's front measures for panels (b) and (c)."""
     plt = pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
-    reached = np.flatnonzero(np.isfinite(front.arrival))
-    last = int(reached[-1]) if reached.size else 0
-    chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
-    velocity_profiles(traj.t, traj.v, chosen, axes[0, 0])
+    # fixed margins: a constrained layout would cost more than drawing the panels
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), gridspec_kw={"left": 0.07, "right": 0.93, "bottom": 0.07,
+                                                                  "top": 0.97, "wspace": 0.4, "hspace": 0.22})
+    if profiles is None:
+        for ax in (axes[0, 0], axes[1, 1]):
+            ax.text(0.5, 0.5, "no trajectory written\n(output.format = 'none')", ha="center", va="center",
+                    transform=ax.transAxes)
+    else:
+        velocity_profiles(profiles.t, profiles.v, particles, axes[0, 0])
+        oscillation_peaks(profiles.t, profiles.v, particles, drive_velocity, axes[1, 1])
     propagation_velocity(front.propagation_velocity, v0, axes[0, 1])
     first_peaks(front.peaks, axes[1, 0])
-    oscillation_peaks(traj.t, traj.v, chosen, drive_velocity, axes[1, 1])
     return fig

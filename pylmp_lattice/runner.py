@@ -1,7 +1,7 @@
 """The one layer that talks to LAMMPS: write a run folder, run its deck, report failures.
 
 Two runners produce the same files in the folder (deck, data, table, case.toml, log.lammps,
-traj.dump): `run_embedded` (the LAMMPS Python module, in this process; the default) and
+traj.bin or traj.dump): `run_embedded` (the LAMMPS Python module, in this process; the default) and
 `run_executable` (the `lmp` program, optionally under `mpiexec`).
 """
 

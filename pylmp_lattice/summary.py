@@ -8,17 +8,18 @@ import numpy as np
 
 from . import measures
 from .case import Case
-from .trajectory import Trajectory
 
 log = logging.getLogger(__name__)
 # A long lattice is valid while the last free particle stays (nearly) at rest.
 QUIET_FRACTION = 1e-3
 
 
-def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None) -> dict:
+def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
     """Linear wave speed and frequency, shock velocity plateau, first peaks (user units).
 
-    `front`: the run's `measures.front`, if already computed (it is the costly part)."""
+    front: the run's front measures (`simulation.measure_run`); None without a drive.
+    max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
+    end stayed at rest."""
     chain, vi = case.chain, case.impactor.peak_velocity()
     r0 = float(np.mean(chain.gaps()))
     k0 = float(case.force.stiffness(r0))
@@ -30,9 +31,8 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
         "linear_wave_speed_V0_m_per_s": round(measures.linear_wave_speed(k0, m, r0), 6),
         "linear_frequency_f0_Hz": round(measures.linear_frequency(k0, m), 4),
     }
-    if vi == 0:  # no drive, no shock (e.g. the friction calibration rig)
+    if front is None:  # no drive, no shock (e.g. the friction calibration rig)
         return out
-    front = front or front_measures(case, traj)
     vp = front.propagation_velocity
     speed = measures.trailing_plateau(vp)
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
@@ -44,21 +44,13 @@ def summarize(case: Case, traj: Trajectory, front: measures.Front | None = None)
         "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
-    if chain.far_end == "long":
-        last_free = min(case.held()) - 1
-        last = float(np.max(np.abs(traj.v[:, last_free])))
+    if chain.far_end == "long" and max_speed is not None:
+        last = float(max_speed[min(case.held()) - 1])  # the last free magnet
         out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
         if not out["far_end_quiet"]:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
                         last_free + 1, last)
     return out
-
-
-def front_measures(case: Case, traj: Trajectory) -> measures.Front:
-    """The run's front measures; a pulse's arrival is its first velocity peak (it may never
-    reach V_I/2 far from the impactor), any other drive's the crossing of V_I/2."""
-    method = measures.default_arrival_method(pulse=case.impactor.profile == "sine")
-    return measures.front(traj.t, traj.v, traj.a, case.impactor.peak_velocity(), case.chain.gaps(), method)
 
 
 def _maximum(vp: np.ndarray) -> dict | None:

@@ -25,14 +25,14 @@ def make_law_case(law: str, particles=20, velocity=0.5, duration=10.0, **section
                      chain={"mass": 1.0, "r0": r0}, table=table, **sections)
 
 
-def make_case(particles=30, velocity=2.0, duration=50.0, dt=0.01, output=0.1, **sections):
+def make_case(particles=30, velocity=2.0, duration=50.0, dt=0.01, interval=0.1, **sections):
     """A paper-like chain (m = 1.084 g, r0 = 12 mm, power law, fixed far end)."""
     data = {
         "name": "test",
         "chain": {"particles": particles, "mass": 1.084, "r0": 12.0, "far_end": "fixed"},
         "force": dict(PAPER_FORCE),
         "impactor": {"profile": "constant", "velocity": velocity},
-        "run": {"duration": duration, "dt": dt, "output_interval": output},
+        "run": {"duration": duration, "dt": dt, "output_interval": interval},
     }
     for name, values in sections.items():
         if name in ("impactor", "force"):  # a new profile or law replaces the default

@@ -53,6 +53,6 @@ def test_measured_impactor_sampled_at_8_khz_matches_the_analytic_run(tmp_path, c
     t = np.arange(0.0, 100.0 + 1e-9, 0.125)
     values = pulse.displacement_at(t) if column == "u" else pulse.velocity_at(t)
     measured = {"profile": "measured", "t": list(t), "values": list(values), "column": column}
-    analytic = simulate(make_case(duration=80.0, dt=0.0125, output=0.125, impactor={"profile": "sine", "velocity": 2.0, "duration": 40.0}), tmp_path / "analytic")
-    played = simulate(make_case(duration=80.0, dt=0.0125, output=0.125, impactor=measured), tmp_path / "measured")
+    analytic = simulate(make_case(duration=80.0, dt=0.0125, interval=0.125, impactor={"profile": "sine", "velocity": 2.0, "duration": 40.0}), tmp_path / "analytic")
+    played = simulate(make_case(duration=80.0, dt=0.0125, interval=0.125, impactor=measured), tmp_path / "measured")
     assert np.max(np.abs(played.v - analytic.v)) < 2e-3 * 2.0

@@ -11,10 +11,10 @@ import pytest
 import tomli_w
 
 from pylmp_lattice.case import case_to_dict, load_case
-from pylmp_lattice.dump import read_dump
+from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ContactError, RunError
 from pylmp_lattice.runner import run_embedded, run_executable, write_run_folder
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.simulation import load_trajectory, simulate
 
 from conftest import make_case
 
@@ -32,8 +32,9 @@ def test_paper_chain_driven_into_its_fixed_end_stops_on_contact(tmp_path):
     assert err.pair[1] == err.pair[0] + 1 and 1 <= err.pair[0] < 21
     assert err.gap_mm <= 0 and str(tmp_path) in str(err)
     # what was written up to the stop stays readable: frames up to the contact time
-    frames = read_dump(tmp_path / "traj.dump")
-    assert frames.time[-1] * 1e3 == pytest.approx(err.time_ms, abs=0.1 + 1e-9)
+    traj = load_trajectory(case, tmp_path)
+    assert traj.t[-1] == pytest.approx(err.time_ms, abs=0.1 + 1e-9)
+    assert len(traj.t) == round(traj.t[-1] / 0.1) + 1
     log_lines = (tmp_path / "log.lammps").read_text().splitlines()
     assert sum(line.startswith("CONTACT: magnets") for line in log_lines) == 1
 
@@ -48,16 +49,16 @@ def test_cli_reports_contact_in_one_line(tmp_path):
     assert done.returncode == 1
     errors = [line for line in done.stderr.splitlines() if "error" in line]
     assert len(errors) == 1 and "magnets 19 and 20 touched" in errors[0] and "t = 68.6" in errors[0]
-    assert "Traceback" not in done.stderr and (tmp_path / "run" / "traj.dump").exists()
+    assert "Traceback" not in done.stderr and (tmp_path / "run" / "traj.h5md").exists()
 
 
 def test_deck_runs_unchanged_with_lmp_and_matches_embedded(tmp_path):
     case = make_case(particles=30, velocity=2.0, duration=40.0)
     a = run_embedded(write_run_folder(case, tmp_path / "embedded"))
     b = run_executable(write_run_folder(case, tmp_path / "lmp"))
-    fa, fb = read_dump(a / "traj.dump"), read_dump(b / "traj.dump")
-    assert fa.x.shape == fb.x.shape == (401, 30)
-    assert np.array_equal(fa.x, fb.x) and np.array_equal(fa.v, fb.v)
+    fa, fb = open_dump(a / "traj.bin").read(), open_dump(b / "traj.bin").read()
+    assert fa.data.shape == fb.data.shape == (401, 30, 4)
+    assert np.array_equal(fa.data, fb.data) and np.array_equal(fa.time, fb.time)
 
 
 def test_lammps_error_is_reported_with_its_error_line(tmp_path):
@@ -71,17 +72,20 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
 
 
 def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):
-    """The package's deck (friction on) on 1 and 2 ranks: identical dumps (paper experiment)."""
+    """The package's deck (friction on) on 1 and 2 ranks: identical dumps and front records
+    (paper experiment); two ranks write two chunks per binary frame."""
     case = load_case(INPUTS / "paper_experiment.toml")
-    one = read_dump(run_executable(write_run_folder(case, tmp_path / "np1")) / "traj.dump")
-    two = read_dump(run_executable(write_run_folder(case, tmp_path / "np2"), nprocs=2) / "traj.dump")
+    one, two = (run_executable(write_run_folder(case, tmp_path / f"np{n}"), nprocs=n) for n in (1, 2))
     assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
-    assert np.array_equal(one.x, two.x) and np.array_equal(one.v, two.v)
+    for name in ("traj.bin", "front.bin"):
+        a, b = open_dump(one / name), open_dump(two / name)
+        assert b.frame_dtype is None or name == "front.bin"  # several chunks: walked frame by frame
+        assert np.array_equal(a.read().data, b.read().data, equal_nan=True)
 
 
 def test_motion_stays_on_the_x_axis(tmp_path):
     """y, z, vy, vz, fy, fz are exactly zero in every frame of a strong-shock run."""
-    simulate(make_case(particles=30, velocity=2.0, duration=60.0), tmp_path)
+    simulate(make_case(particles=30, velocity=2.0, duration=60.0, output={"format": "text"}), tmp_path)
     rows = [line.split() for line in (tmp_path / "traj.dump").read_text().splitlines()
             if len(line.split()) == 12]
     columns = np.array(rows, dtype=float)  # id type mass x y z vx vy vz fx fy fz

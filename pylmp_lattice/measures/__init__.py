@@ -21,6 +21,7 @@ oscillation), `critical` (V*), `transition` (transition zone), `phase` (phase po
     steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
 """
 
+from ._common import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
 from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front
@@ -39,6 +40,7 @@ from .propagation import (
 from .transition import TransitionZone, steady_onset_times, transition_zone
 
 __all__ = [
+    "FRONT_FRACTION", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
     "ARRIVAL_METHODS", "KNEE_METHODS", "CriticalVelocity", "FirstPeaks", "Front", "FrontFit", "Oscillations",
     "PhasePortrait", "Plateau", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",

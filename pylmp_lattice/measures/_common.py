@@ -7,6 +7,13 @@ import numpy as np
 from ..units import TO_SI
 
 HZ_PER_INV_MS = 1.0 / TO_SI["time"]  # 1/ms -> Hz
+# Default levels, as fractions of V_I: the start of motion, the front, the fall that confirms a
+# first peak; and the relative fall that confirms a pulse's maximum. The engine's on-the-fly
+# record (fix lattice/front, written by `deck`) uses the same ones.
+START_FRACTION = 0.01
+FRONT_FRACTION = 0.5
+PROMINENCE = 0.05
+PULSE_DROP = 0.1
 NAN = float("nan")
 
 

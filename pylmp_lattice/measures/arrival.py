@@ -18,7 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from ._common import (
+    FRONT_FRACTION, PULSE_DROP, START_FRACTION, check_history, first_confirmed_maximum,
+    first_crossing, refine_maxima, require_positive,
+)
 
 ARRIVAL_METHODS = ("level", "velocity_peak", "acceleration_peak")
 
@@ -32,12 +35,12 @@ def arrival_times(
     t,
     v,
     drive_velocity: float,
-    fraction: float = 0.5,
+    fraction: float = FRONT_FRACTION,
     *,
     method: str = "level",
     a=None,
-    start_fraction: float = 0.01,
-    drop: float = 0.1,
+    start_fraction: float = START_FRACTION,
+    drop: float = PULSE_DROP,
 ) -> np.ndarray:
     """Front arrival time of each particle, ms, shape (N,); NaN where it never arrived.
 

@@ -7,9 +7,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import find_peaks
 
-from ._common import HZ_PER_INV_MS, NAN, check_history, first_crossing, refine_maxima, require_positive
+from ._common import (
+    FRONT_FRACTION, HZ_PER_INV_MS, NAN, PROMINENCE, check_history, first_crossing,
+    refine_maxima, require_positive,
+)
 
 
 @dataclass(frozen=True)
@@ -41,7 +43,7 @@ class Oscillations:
 
 
 def oscillations(
-    t, v, drive_velocity: float, front_fraction: float = 0.5, prominence: float = 0.05
+    t, v, drive_velocity: float, front_fraction: float = FRONT_FRACTION, prominence: float = PROMINENCE
 ) -> Oscillations:
     """Local maxima and minima of one particle's velocity v(t), shape (n_frames,), behind the front.
 
@@ -54,6 +56,8 @@ def oscillations(
     t, v = check_history(t, v, single=True)
     require_positive(drive_velocity=drive_velocity, front_fraction=front_fraction, prominence=prominence)
     i_front = first_crossing(t, v[:, None], front_fraction * drive_velocity)[0][0]
+    from scipy.signal import find_peaks  # here: scipy.signal takes longer to import than most runs take to measure
+
     extrema = []
     for sign in (1.0, -1.0):
         i = find_peaks(sign * v, prominence=prominence * drive_velocity)[0]
@@ -112,8 +116,8 @@ def steady_oscillation(
     v,
     drive_velocity: float,
     window: tuple[float, float],
-    front_fraction: float = 0.5,
-    prominence: float = 0.05,
+    front_fraction: float = FRONT_FRACTION,
+    prominence: float = PROMINENCE,
 ) -> SteadyOscillation:
     """Steady oscillation of one particle, v shape (n_frames,), in the time window (t_a, t_b), ms.
 

@@ -7,7 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from ._common import (
+    FRONT_FRACTION, PROMINENCE, START_FRACTION, check_history, first_confirmed_maximum,
+    first_crossing, refine_maxima, require_positive,
+)
 
 _BLOCK_ELEMENTS = 1 << 22  # first_peaks works on column blocks of about this many samples
 
@@ -42,9 +45,9 @@ def first_peaks(
     v,
     a,
     drive_velocity: float,
-    start_fraction: float = 0.01,
-    front_fraction: float = 0.5,
-    prominence: float = 0.05,
+    start_fraction: float = START_FRACTION,
+    front_fraction: float = FRONT_FRACTION,
+    prominence: float = PROMINENCE,
 ) -> FirstPeaks:
     """First velocity peak, first peak acceleration and start of motion of every particle.
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import NAN, check_history, require_positive
+from ._common import NAN, PROMINENCE, check_history, require_positive
 from .oscillation import oscillations
 
 
@@ -20,7 +20,7 @@ def steady_onset_times(
     reference: tuple[float, float],
     tolerance: float = 0.1,
     min_extrema: int = 4,
-    prominence: float = 0.05,
+    prominence: float = PROMINENCE,
 ) -> np.ndarray:
     """Time each particle settles into the steady oscillation, ms, shape (N,).
 

@@ -4,6 +4,7 @@
 #include "lammpsplugin_abi.h"
 
 #include "fix_lattice_friction.h"
+#include "fix_lattice_front.h"
 #include "fix_lattice_piston.h"
 
 using namespace LAMMPS_NS;
@@ -16,6 +17,11 @@ using namespace LAMMPS_NS;
 static void *friction_creator(void *lmp, int narg, char **arg)
 {
   return new FixLatticeFriction(static_cast<LAMMPS *>(lmp), narg, arg);
+}
+
+static void *front_creator(void *lmp, int narg, char **arg)
+{
+  return new FixLatticeFront(static_cast<LAMMPS *>(lmp), narg, arg);
 }
 
 static void *piston_creator(void *lmp, int narg, char **arg)
@@ -40,5 +46,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "lattice/piston";
   plugin.info = "Impactor driven by a measured u(t) or v(t) series (pylmp_lattice)";
   plugin.creator.v2 = &piston_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "lattice/front";
+  plugin.info = "Front arrival and first peak of each atom, recorded every step (pylmp_lattice)";
+  plugin.creator.v2 = &front_creator;
   (*register_plugin)(&plugin, lmp);
 }

@@ -39,7 +39,6 @@ class Task:
     params: dict
     case: Case
     runner: str
-    keep: str
 
 
 def run_member(task: Task) -> dict:
@@ -61,8 +60,6 @@ def run_member(task: Task) -> dict:
     summary = None
     try:
         summary = run_case(task.case, folder, runner=task.runner, figure=False)
-        if task.keep == "measures":
-            _drop_trajectory(folder, summary)
         record["status"] = DONE
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         record |= {"status": FAILED, "error": one_line(err)}
@@ -78,13 +75,6 @@ def one_line(err: BaseException) -> str:
     lines = str(err).strip().splitlines()
     text = lines[0] if lines else ""
     return text if isinstance(err, LatticeError) and text else f"{type(err).__name__}: {text}".rstrip(": ")
-
-
-def _drop_trajectory(folder: Path, summary: dict) -> None:
-    """keep = "measures": delete the per-frame output once the summary is written."""
-    dump = summary.get("files", {}).pop("dump", None)
-    if dump:
-        Path(dump).unlink(missing_ok=True)
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -134,7 +124,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
 
 
 def _task(root: Path, m: Member, sweep: Sweep) -> Task:
-    return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner, sweep.keep)
+    return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner)
 
 
 def _row(root: Path, m: Member, record: dict, summary: dict | None) -> dict:

@@ -132,6 +132,8 @@ class Sweep:
             point = {k: v for part in combo for k, v in part.items()}
             for replica in range(self.replicas):
                 data = copy.deepcopy(self.base)
+                if self.keep == "measures":  # no per-frame output: the engine records the front measures
+                    data.setdefault("output", {})["format"] = "none"
                 for key, value in self.set.items():
                     _assign(data, key, value)
                 for key, value in point.items():

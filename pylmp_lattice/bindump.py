@@ -1,0 +1,205 @@
+"""Reading LAMMPS binary dumps (`dump custom` into a *.bin file), in blocks of frames.
+
+The deck writes its frames this way (fwrite of full doubles, no text formatting) and
+`h5md.convert_run` turns them into the run's H5MD file. A frame, as LAMMPS 2025 writes it
+(dump custom, format revision 2; see LAMMPS's tools/binary2txt.cpp), is, little-endian:
+
+    int64 -10, char[10] "DUMPCUSTOM", int32 endian (1), int32 revision (2),
+    int64 step, int64 atoms, int32 triclinic, int32 boundary[6], float64 box[6],
+    int32 columns per atom, int32 length + unit-style text, uint8 time flag (+ float64 time),
+    int32 length + column names, int32 chunks, then per chunk: int32 n, float64[n].
+
+One rank writes one chunk per frame, and then every frame has the same size: the fast path
+reads blocks of frames as one numpy record array. Several ranks write several chunks of
+varying size; those frames are walked one by one. Values are in the deck's units (LAMMPS
+`units si`); a frame cut short by a stopped run is dropped with a warning.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import DumpFormatError
+
+logger = logging.getLogger(__name__)
+
+_MAGIC = b"DUMPCUSTOM"
+_REVISION = 2
+_BLOCK_BYTES = 1 << 25  # frames are read in blocks of about this size
+
+
+@dataclass(frozen=True)
+class Frames:
+    """A block of frames: step (k,), time (k,) s, data (k, atoms, columns) in id order."""
+
+    step: np.ndarray
+    time: np.ndarray
+    data: np.ndarray
+
+
+@dataclass(frozen=True)
+class BinaryDump:
+    """The layout of a binary dump file, from its first frame (see `open_dump`)."""
+
+    path: Path
+    columns: tuple[str, ...]
+    atoms: int
+    frames: int  # complete frames
+    frame_dtype: np.dtype | None  # every frame alike (one chunk): its record type, else None
+
+    def column(self, name: str) -> int:
+        try:
+            return self.columns.index(name)
+        except ValueError:
+            raise DumpFormatError(f"{self.path}: no column {name!r}; it has {' '.join(self.columns)}") from None
+
+    def blocks(self, start: int = 0, stop: int | None = None) -> Iterator[Frames]:
+        """Frames [start, stop) in blocks of about 32 MB."""
+        stop = self.frames if stop is None else min(stop, self.frames)
+        per_block = max(1, _BLOCK_BYTES // (8 * self.atoms * len(self.columns)))
+        if self.frame_dtype is None:
+            yield from _walk(self, start, stop, per_block)
+            return
+        for first in range(start, stop, per_block):
+            count = min(per_block, stop - first)
+            rec = np.fromfile(self.path, dtype=self.frame_dtype, count=count,
+                              offset=first * self.frame_dtype.itemsize)
+            _check_records(self, rec, first)
+            yield Frames(rec["step"].copy(), rec["time"].copy(), _by_id(self, rec["data"], first))
+
+    def read(self, start: int = 0, stop: int | None = None) -> Frames:
+        """Frames [start, stop) as one block."""
+        parts = list(self.blocks(start, stop))
+        if not parts:
+            return Frames(np.empty(0, np.int64), np.empty(0), np.empty((0, self.atoms, len(self.columns))))
+        return Frames(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("step", "time", "data")))
+
+
+def open_dump(path: str | Path) -> BinaryDump:
+    """The layout of a binary dump and its number of complete frames."""
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as f:
+            first = _read_frame(f, path, data=False)
+            if first is None:
+                raise DumpFormatError(f"{path}: no complete frame")
+            if first.chunks > 1:  # several ranks: count the frames one by one
+                frames = 1
+                while _read_frame(f, path, data=False) is not None:
+                    frames += 1
+                return BinaryDump(path, first.columns, first.atoms, frames, None)
+    except FileNotFoundError as err:
+        raise FileNotFoundError(f"{path}: dump file not found") from err
+    dtype = _frame_dtype(first)
+    frames = size // dtype.itemsize
+    if size % dtype.itemsize:
+        logger.warning("%s: dropped a truncated last frame (kept %d frames)", path, frames)
+    return BinaryDump(path, first.columns, first.atoms, frames, dtype)
+
+
+@dataclass(frozen=True)
+class _Frame:
+    columns: tuple[str, ...]
+    atoms: int
+    step: int
+    time: float
+    chunks: int
+    unit_len: int
+    names_len: int
+    values: np.ndarray | None  # (atoms, columns), when read
+
+
+def _frame_dtype(frame: _Frame) -> np.dtype:
+    """Record type of a one-chunk frame laid out like `frame`."""
+    return np.dtype([
+        ("magic_len", "<i8"), ("magic", "S10"), ("endian", "<i4"), ("revision", "<i4"),
+        ("step", "<i8"), ("atoms", "<i8"), ("triclinic", "<i4"), ("boundary", "<i4", 6),
+        ("box", "<f8", 6), ("ncol", "<i4"), ("unit_len", "<i4"), ("unit", f"S{frame.unit_len}"),
+        ("time_flag", "u1"), ("time", "<f8"), ("names_len", "<i4"), ("names", f"S{frame.names_len}"),
+        ("chunks", "<i4"), ("n", "<i4"), ("data", "<f8", (frame.atoms, len(frame.columns))),
+    ])
+
+
+def _read_frame(f, path: Path, data: bool = True) -> _Frame | None:
+    """The frame at the file position (its values if `data`), leaving the position after it;
+    None at the end of the file or at a frame cut short."""
+    start = f.tell()
+
+    def take(dtype, count=1):
+        size = np.dtype(dtype).itemsize * count
+        raw = f.read(size)
+        if len(raw) < size:
+            raise EOFError
+        return np.frombuffer(raw, dtype, count)
+
+    try:
+        if int(take("<i8")[0]) != -len(_MAGIC) or f.read(len(_MAGIC)) != _MAGIC:
+            raise DumpFormatError(f"{path}: not a LAMMPS dump custom binary file at byte {start}")
+        endian, revision = take("<i4", 2)
+        if endian != 1 or revision != _REVISION:
+            raise DumpFormatError(f"{path}: got endian {endian}, revision {revision}; expected 1, {_REVISION}")
+        step, atoms = (int(x) for x in take("<i8", 2))
+        if take("<i4")[0]:
+            raise DumpFormatError(f"{path}: triclinic boxes are not supported")
+        take("<i4", 6), take("<f8", 6)  # boundary flags, box bounds
+        ncol, unit_len = (int(x) for x in take("<i4", 2))
+        f.read(unit_len)  # the unit style, written with `dump_modify units yes`
+        if take("u1")[0] != 1:
+            raise DumpFormatError(f"{path}: frames carry no time; expected `dump_modify ... time yes`")
+        time = float(take("<f8")[0])
+        names_len = int(take("<i4")[0])
+        columns = tuple(take(f"S{names_len}")[0].decode("ascii").split())
+        chunks = int(take("<i4")[0])
+        parts, count = [], 0
+        for _ in range(chunks):
+            n = int(take("<i4")[0])
+            if data:
+                parts.append(take("<f8", n))
+            elif len(f.read(8 * n)) < 8 * n:
+                raise EOFError
+            count += n
+    except EOFError:
+        if f.tell() > start:
+            logger.warning("%s: dropped a truncated last frame at byte %d", path, start)
+        return None
+    if count != atoms * ncol or len(columns) != ncol:
+        raise DumpFormatError(f"{path}: frame at byte {start} holds {count} values; expected {atoms} x {ncol}")
+    values = np.concatenate(parts).reshape(atoms, ncol) if data else None
+    return _Frame(columns, atoms, step, time, chunks, unit_len, names_len, values)
+
+
+def _walk(dump: BinaryDump, start: int, stop: int, per_block: int) -> Iterator[Frames]:
+    """Frames of several chunks (runs on several ranks), parsed one by one."""
+    block = []
+    with dump.path.open("rb") as f:
+        for index in range(stop):
+            frame = _read_frame(f, dump.path, data=index >= start)
+            if index < start:
+                continue
+            block.append(frame)
+            if len(block) == per_block or index == stop - 1:
+                data = _by_id(dump, np.stack([b.values for b in block]), index + 1 - len(block))
+                yield Frames(np.array([b.step for b in block]), np.array([b.time for b in block]), data)
+                block = []
+
+
+def _check_records(dump: BinaryDump, rec: np.ndarray, first: int) -> None:
+    bad = (rec["magic"] != _MAGIC) | (rec["atoms"] != dump.atoms) | (rec["chunks"] != 1)
+    if np.any(bad):
+        k = first + int(np.argmax(bad))
+        raise DumpFormatError(f"{dump.path}: frame {k} differs in layout from frame 0")
+
+
+def _by_id(dump: BinaryDump, data: np.ndarray, first: int) -> np.ndarray:
+    """The frames' rows, checked to be in id order (LAMMPS writes them so with `sort id`)."""
+    ids = data[:, :, dump.column("id")]
+    if np.any(np.diff(ids, axis=1) <= 0):
+        raise DumpFormatError(f"{dump.path}: atoms not in id order in frames from {first}; "
+                              "expected `dump_modify ... sort id`")
+    return data

@@ -1,0 +1,58 @@
+"""The engine's on-the-fly front record (fix lattice/front, file front.bin) as measures results.
+
+The fix applies the definitions of `measures.arrival_times` and `measures.first_peaks` to every
+time step of every magnet, so a run has its front measures without any per-frame output. The
+impactor's motion is prescribed, not integrated (its force is the chain's push on the piston),
+so its measures come from its profile sampled at the same steps, as `load_trajectory` takes its
+acceleration from the profile.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from . import measures
+from .bindump import open_dump
+from .case import Case
+from .deck import FRONT_BIN
+from .units import from_engine
+
+# fix lattice/front's columns, in the order of deck.FRONT_COLUMNS, and their quantities
+_COLUMNS = (("start_time", "time"), ("arrival", "time"), ("peak_time", "time"), ("peak_velocity", "velocity"),
+            ("peak_acceleration", "acceleration"), ("max_speed", "velocity"), ("pulse_arrival", "time"))
+
+
+@dataclass(frozen=True)
+class FrontRecord:
+    """front: the run's `measures.Front`; max_speed (N,): largest |v| of each magnet, m/s;
+    end_time: when the record was written (the end of the run, or where it stopped), ms."""
+
+    front: measures.Front
+    max_speed: np.ndarray
+    end_time: float
+
+
+def has_front_record(folder: str | Path) -> bool:
+    return (Path(folder) / FRONT_BIN).is_file()
+
+
+def read_front_record(case: Case, folder: str | Path, arrival_method: str = "level") -> FrontRecord:
+    """The record; arrival by `arrival_method`, "level" or "velocity_peak" (see measures.arrival)."""
+    if arrival_method not in ("level", "velocity_peak"):
+        raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
+    frame = open_dump(Path(folder) / FRONT_BIN).read()
+    record = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(_COLUMNS)}
+    end = float(from_engine(frame.time[-1], "time"))
+    imp, vi = case.impactor, case.impactor.peak_velocity()
+    t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
+    v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]
+    drive = measures.first_peaks(t, v, a, vi)
+    peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
+                                  for f in fields(measures.FirstPeaks)))
+    column = "arrival" if arrival_method == "level" else "pulse_arrival"
+    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method), record[column][1:]])
+    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method)
+    return FrontRecord(front, record["max_speed"], end)

@@ -1,0 +1,136 @@
+"""A run's trajectory as an H5MD file (HDF5 in the layout of nongnu.org/h5md, version 1.1).
+
+The deck writes binary LAMMPS dumps (`bindump`); `convert_run` turns them, block by block,
+into `traj.h5md`, and `read_group` reads it back in user units, whole or a few particles:
+
+    h5md/                         version [1, 1]; author; creator pylmp_lattice <version>
+    particles/trajectory/         every magnet, every run.output_interval
+        box                       dimension 3, boundary none none none
+        id (N,)                   magnet numbers (1 is the impactor)
+        mass (N,)                 kg
+        position/value (F, N, 3)  nm; position/step (F,); position/time (F,) s
+        velocity/value (F, N, 3)  m/s; step and time are position's
+        force/value (F, N, 3)     N: the total force, friction included
+    particles/trajectory_fine/    the same for the output.fine magnets, every output.fine_interval
+    parameters/pylmp_lattice      attribute case: the case as TOML text
+
+Units are the engine's SI ones, lengths in nm (`units.H5MD_UNITS`), each named in its dataset's
+`unit` attribute. y and z are kept as zeros, so that readers of 3D trajectories take the file as
+it is: `MDAnalysis.Universe("traj.h5md")` opens it and converts to its own units (it reads
+only units it knows, hence nm; it infers the atoms from the group "trajectory" and reads the
+first group by name, hence the names). The datasets are
+chunked by blocks of frames and particles, one component a chunk, and compressed with byte
+shuffling (output.compression: lzf, h5py's fast filter, by default; gzip for readers that use the
+HDF5 library without h5py); a few particles read back without decompressing the others.
+"""
+
+from __future__ import annotations
+
+import getpass
+import os
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from .bindump import open_dump
+from .case import Case, case_to_dict
+from .deck import FINE_BIN, TRAJ_BIN
+from .trajectory import Trajectory
+from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
+
+FILE = "traj.h5md"
+GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
+_FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
+_CHUNK_FRAMES, _CHUNK_PARTICLES = 1024, 32  # 256 kB chunks
+
+
+def convert_run(case: Case, folder: Path) -> Path | None:
+    """Write `folder`/traj.h5md from the run's binary dumps, then remove them; None if there are
+    none with a complete frame. The file appears only once complete, so a failure on the way
+    leaves the dumps as they were."""
+    import h5py
+
+    folder = Path(folder)
+    masses = case.chain.masses()
+    groups = {}
+    for group, name, numbers in (("chain", TRAJ_BIN, None), ("fine", FINE_BIN, case.output.fine)):
+        path = folder / name
+        if path.exists() and path.stat().st_size > 0:
+            dump = open_dump(path)
+            if dump.frames:
+                groups[group] = (dump, masses if numbers is None else masses[np.sort(numbers) - 1])
+    if not groups:
+        return None
+    target, partial = folder / FILE, folder / (FILE + ".part")
+    with h5py.File(partial, "w") as h5:
+        _write_header(h5, tomli_w.dumps(case_to_dict(case)))
+        for group, (dump, group_masses) in groups.items():
+            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, group_masses,
+                         case.output.compression)
+    os.replace(partial, target)
+    for dump, _ in groups.values():
+        dump.path.unlink()
+    return target
+
+
+def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajectory:
+    """The trajectory of a group in user units; `particles` (0-based indices into the group,
+    increasing) reads only those columns."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        g = h5["particles"][GROUPS[group]]
+        cols = slice(None) if particles is None else list(particles)
+        x, v, f = (g[name]["value"][:, cols, 0] for name, _, _ in _FIELDS)
+        t, m = g["position"]["time"][:], g["mass"][cols]
+    x = from_h5md(x, "length")
+    return Trajectory(t=from_h5md(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_h5md(v, "velocity"),
+                      a=from_h5md(f / m, "acceleration"))
+
+
+def _write_header(h5, case_toml: str) -> None:
+    h5.create_group("h5md").attrs["version"] = np.array([1, 1])
+    h5["h5md"].create_group("author").attrs["name"] = getpass.getuser()
+    creator = h5["h5md"].create_group("creator")
+    creator.attrs["name"] = "pylmp_lattice"
+    try:
+        creator.attrs["version"] = version("pylmp_lattice")
+    except PackageNotFoundError:
+        creator.attrs["version"] = "unknown"
+    h5.create_group("parameters/pylmp_lattice").attrs["case"] = case_toml
+
+
+def _write_group(g, dump, masses: np.ndarray, compression: str) -> None:
+    """Stream the dump's frames into a particle group, converting to user units."""
+    n = dump.atoms
+    g["mass"] = to_h5md(to_engine(masses, "mass"), "mass")
+    g["mass"].attrs["unit"] = H5MD_UNITS["mass"][0]
+    box = g.create_group("box")
+    box.attrs["dimension"] = 3
+    box.attrs["boundary"] = np.array([b"none"] * 3)
+    filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
+    # One component a chunk: y and z are never written, so HDF5 stores no chunk for them and
+    # reads its fill value, 0, without compressing or storing anything.
+    chunks = (_CHUNK_FRAMES, min(n, _CHUNK_PARTICLES), 1)
+    values = {name: g.create_dataset(f"{name}/value", shape=(0, n, 3), maxshape=(None, n, 3), dtype="f8",
+                                      chunks=chunks, **filters) for name, _, _ in _FIELDS}
+    step = g.create_dataset("position/step", shape=(0,), maxshape=(None,), dtype="i8", chunks=(4096,))
+    time = g.create_dataset("position/time", shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+    time.attrs["unit"] = H5MD_UNITS["time"][0]
+    for name, _, _ in _FIELDS[1:]:  # H5MD lets elements share step and time (hard links)
+        g[f"{name}/step"], g[f"{name}/time"] = step, time
+    for name, _, quantity in _FIELDS:
+        values[name].attrs["unit"] = H5MD_UNITS[quantity][0]
+    done = 0
+    for block in dump.blocks():
+        k = len(block.step)
+        for ds in (*values.values(), step, time):
+            ds.resize(done + k, axis=0)
+        step[done:], time[done:] = block.step, to_h5md(block.time, "time")
+        for name, column, quantity in _FIELDS:
+            values[name][done:, :, 0] = to_h5md(block.data[:, :, dump.column(column)], quantity)
+        if done == 0:
+            g["id"] = block.data[0, :, dump.column("id")].astype(np.int64)
+        done += k

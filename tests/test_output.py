@@ -1,0 +1,153 @@
+"""Run output: H5MD trajectories, binary dumps, fine output, and the on-the-fly front record."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import measures
+from pylmp_lattice.bindump import open_dump
+from pylmp_lattice.errors import ConfigError, RunError
+from pylmp_lattice.front_record import read_front_record
+from pylmp_lattice.simulation import execute, load_trajectory, run_case, simulate
+
+from conftest import make_case
+
+FRICTION = {"mu": 0.285, "p": 0.012}
+lammps = pytest.mark.lammps
+
+
+@pytest.mark.parametrize("section, message", [
+    ({"format": "xyz"}, "output.format: got 'xyz'; choose one of h5md, text, none"),
+    ({"fine": [0, 5]}, r"output.fine: got \[0, 5\]; expected magnet numbers in \[1, 30\]"),
+    ({"fine": [5, 5]}, "expected distinct magnet numbers"),
+    ({"fine": [5], "fine_interval": 0.015}, "output.fine_interval: got 0.015 ms; expected a whole multiple"),
+    ({"compression": 1}, "output.compression: got 1; choose one of lzf, gzip, none"),
+    ({"front": 1}, "output.front: got 1; expected true or false"),
+])
+def test_bad_output_settings_name_the_field(section, message):
+    with pytest.raises(ConfigError, match=message):
+        make_case(output=section)
+
+
+PULSE = {"profile": "sine", "velocity": 2.0, "duration": 10.0}
+
+
+@lammps
+@pytest.mark.parametrize("sections, method", [
+    ({}, "level"), ({"friction": FRICTION}, "level"), ({"impactor": PULSE}, "velocity_peak"),
+    ({"impactor": PULSE, "friction": FRICTION}, "velocity_peak"),
+], ids=["constant", "constant-friction", "pulse", "pulse-friction"])
+def test_front_record_equals_the_array_measures_of_every_step(tmp_path, sections, method):
+    """Sampled at every step, the engine's record and measures.front see the same numbers."""
+    case = make_case(particles=40, duration=40.0, interval=0.01, **sections)
+    traj = simulate(case, tmp_path)
+    arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps(), method)
+    record = read_front_record(case, tmp_path, method).front
+    assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 8 and np.sum(np.isfinite(record.arrival)) >= 8
+    for a, b in ((arrays.arrival, record.arrival), *zip(_peak_fields(arrays), _peak_fields(record))):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+        np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-12)
+
+
+def _peak_fields(front):
+    p = front.peaks
+    return p.start_time, p.peak_time, p.peak_velocity, p.peak_acceleration
+
+
+@lammps
+def test_front_record_against_coarse_frames_within_the_interpolation_error(tmp_path):
+    """From frames 0.1 ms and 0.5 ms apart, the array measures interpolate linearly between
+    frames: their arrival times differ from the record's (every 0.01 ms step) by an error that
+    grows as the square of the frame interval (measured 1.4e-3 ms and 0.035 ms)."""
+    errors = {}
+    for interval in (0.1, 0.5):
+        case = make_case(particles=40, duration=40.0, interval=interval)
+        traj = simulate(case, tmp_path / str(interval))
+        arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps())
+        record = read_front_record(case, tmp_path / str(interval)).front
+        reached = np.isfinite(record.arrival)
+        errors[interval] = np.max(np.abs(arrays.arrival[reached] - record.arrival[reached]))
+        peak = np.isfinite(record.peaks.peak_velocity)
+        assert np.max(np.abs(arrays.peaks.peak_time[peak] - record.peaks.peak_time[peak])) < 0.1 * interval
+    assert errors[0.1] < 0.05 * 0.1
+    assert 10 < errors[0.5] / errors[0.1] < 40  # (0.5 / 0.1)^2 = 25
+
+
+@lammps
+def test_h5md_opens_in_mdanalysis_with_the_same_positions_and_velocities(tmp_path):
+    mda = pytest.importorskip("MDAnalysis")
+    case = make_case(particles=20, duration=20.0, interval=0.5)
+    traj = simulate(case, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no topology: MDAnalysis guesses and says so
+        u = mda.Universe(str(tmp_path / "traj.h5md"))  # converted to Angstrom, ps
+    assert len(u.trajectory) == len(traj.t) == 41 and len(u.atoms) == 20
+    angstrom_per_mm, angstrom_per_ps_per_m_per_s, ps_per_ms = 1e7, 1e-2, 1e9
+    for frame, ts in enumerate(u.trajectory):
+        # MDAnalysis keeps float32: 6e-8 relative of positions up to 230 mm
+        np.testing.assert_allclose(ts.positions[:, 0], (traj.x0 + traj.u[frame]) * angstrom_per_mm, rtol=1.2e-7)
+        np.testing.assert_allclose(ts.velocities[:, 0], traj.v[frame] * angstrom_per_ps_per_m_per_s,
+                                   rtol=1.2e-7, atol=1e-12)
+        assert np.all(ts.positions[:, 1:] == 0) and ts.time == pytest.approx(traj.t[frame] * ps_per_ms)
+
+
+@lammps
+def test_text_and_h5md_outputs_hold_the_same_trajectory(tmp_path):
+    h5 = simulate(make_case(particles=20, duration=20.0), tmp_path / "h5")
+    text = simulate(make_case(particles=20, duration=20.0, output={"format": "text"}), tmp_path / "text")
+    assert not (tmp_path / "h5" / "traj.bin").exists()  # converted, then removed
+    np.testing.assert_allclose(h5.t, text.t, rtol=1e-12)
+    # the text dump keeps 12 significant digits: of x (up to 0.25 m), 1e-10 mm
+    np.testing.assert_allclose(h5.u, text.u, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(h5.v, text.v, rtol=1e-11, atol=1e-15)
+    np.testing.assert_allclose(h5.a, text.a, rtol=1e-11, atol=1e-9)
+
+
+@lammps
+def test_fine_output_holds_chosen_magnets_every_step(tmp_path):
+    case = make_case(particles=20, duration=10.0, interval=0.5, output={"fine": [7, 2], "fine_interval": 0.02})
+    simulate(case, tmp_path)
+    coarse, fine = load_trajectory(case, tmp_path), load_trajectory(case, tmp_path, group="fine")
+    assert fine.v.shape == (501, 2) and np.allclose(np.diff(fine.t), 0.02)
+    common = np.flatnonzero(np.isin(np.round(fine.t, 9), np.round(coarse.t, 9)))
+    np.testing.assert_array_equal(fine.v[common], coarse.v[:, [1, 6]])  # columns in magnet order
+    np.testing.assert_array_equal(fine.a[common], coarse.a[:, [1, 6]])  # impactor's from its profile
+
+
+@lammps
+def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
+    # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 outgrows the table
+    case = make_case(particles=10, duration=60.0, table={"r_max": 13.0},
+                     impactor={"profile": "sine", "velocity": 2.0, "duration": 5.0})
+    with pytest.raises(RunError, match="Bond length > table outer cutoff"):
+        execute(case, tmp_path)
+    traj = load_trajectory(case, tmp_path)
+    assert 5.0 < traj.t[-1] < 60.0 and np.allclose(np.diff(traj.t), 0.1)
+    assert np.max(traj.gaps()[-1]) > 12.5  # a gap close to the table's end, 13 mm
+
+
+@lammps
+def test_truncated_binary_dump_keeps_its_complete_frames(tmp_path):
+    from pylmp_lattice.runner import run_embedded, write_run_folder
+
+    folder = run_embedded(write_run_folder(make_case(particles=10, duration=5.0), tmp_path))
+    path = folder / "traj.bin"
+    whole = open_dump(path).read()
+    path.write_bytes(path.read_bytes()[:-100])
+    cut = open_dump(path)
+    assert cut.frames == len(whole.step) - 1
+    np.testing.assert_array_equal(cut.read().data, whole.data[:-1])
+
+
+@lammps
+def test_run_without_trajectory_still_has_its_front_measures(tmp_path):
+    """output.format = "none": the summary comes from the engine's record alone."""
+    with_h5 = run_case(make_case(particles=40, duration=30.0), tmp_path / "h5", figure=False)
+    bare = run_case(make_case(particles=40, duration=30.0, output={"format": "none"}), tmp_path / "none")
+    assert sorted(p.name for p in (tmp_path / "none").iterdir() if p.suffix in (".h5", ".bin", ".dump")) == ["front.bin"]
+    assert "trajectory" not in bare["files"] and (tmp_path / "none" / "shock.png").exists()
+    for key in ("shock_velocity_plateau_m_per_s", "first_peak_velocity_plateau_m_per_s"):
+        assert bare[key] == with_h5[key]
