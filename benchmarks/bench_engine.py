@@ -71,19 +71,21 @@ def has_engine_field() -> bool:
     return "engine" in {f.name for f in fields(RunSettings)}
 
 
-def paper_case(n: int, steps: int, engine: str | None = None, velocity: float = V_I):
-    """The benchmark chain as a package case; engine None leaves `[run] engine` at its default."""
+def paper_case(n: int, steps: int, variant: dict | None = None):
+    """The benchmark chain as a package case, everything else at the package's defaults except
+    the per-step front record (`[output] front`, off: it is output); `variant` adds sections' fields."""
     duration = round(steps * DT, 10)
-    run = {"duration": duration, "dt": DT, "output_interval": duration}
-    if engine is not None:
-        run["engine"] = engine
-    return case_from_dict({
+    data = {
         "name": f"bench_{n}",
         "chain": {"mass": MASS, "r0": R0, "particles": n, "far_end": "fixed"},
         "force": {"law": "power", "K": K, "b": B, "q": Q},
-        "impactor": {"profile": "constant", "velocity": velocity},
-        "run": run,
-    })
+        "impactor": {"profile": "constant", "velocity": V_I},
+        "run": {"duration": duration, "dt": DT, "output_interval": duration},
+        "output": {"front": False},
+    }
+    for section, values in (variant or {}).items():
+        data[section] = data[section] | values
+    return case_from_dict(data)
 
 
 # ----------------------------------------------------------------------------- the ways
@@ -211,8 +213,10 @@ class Bench:
     def __init__(self, args, tmp: Path):
         self.args, self.tmp = args, tmp
         self.exe = build_c_loop(tmp)
-        # `[run] engine` left at its default, and the stock path where the package has one
-        self.engines = {"default": None} | ({"stock": "stock"} if has_engine_field() else {})
+        # `[run] engine` left at its default; the stock path where the package has one; the
+        # default with the package's per-step front record on, as a user's run has it
+        self.variants = {"default": {}} | ({"stock": {"run": {"engine": "stock"}}} if has_engine_field() else {})
+        self.variants["front"] = {"output": {"front": True}}
         self.default_engine = getattr(paper_case(21, 1).run, "engine", None)
         self.checked: dict[tuple[int, int], float] = {}  # (N, steps) -> max |v_default - v_C|
 
@@ -222,6 +226,8 @@ class Bench:
     def label(self, name: str) -> str:
         if name == "stock":
             return "LAMMPS stock (engine = stock)"
+        if name == "front":
+            return "LAMMPS default + output.front (as runs are)"
         if self.default_engine is None:
             return "LAMMPS default (stock; no [run] engine yet)"
         return f"LAMMPS default (engine = {self.default_engine})"
@@ -232,8 +238,8 @@ class Bench:
         rows = {"C": Row("C loop (gcc -O3)", steps), "numpy": Row("numpy velocity Verlet", steps)}
         ways = {"C": lambda: run_c_loop(self.exe, n, steps), "numpy": lambda: run_numpy(n, steps)}
         folders = {}
-        for name, engine in self.engines.items():
-            folders[name] = runner.write_run_folder(paper_case(n, steps, engine), self.tmp / f"{name}_{n}")
+        for name, variant in self.variants.items():
+            folders[name] = runner.write_run_folder(paper_case(n, steps, variant), self.tmp / f"{name}_{n}")
             rows[name] = Row(self.label(name), steps)
             ways[name] = lambda folder=folders[name]: run_lammps(folder)
         scipy = Row("scipy DOP853", min(steps, self.args.scipy_max_steps))
@@ -258,7 +264,7 @@ class Bench:
                 if key not in folders:
                     row.v = result
         for name, folder in folders.items():
-            rows[name].v = simulation.load_trajectory(paper_case(n, steps, self.engines[name]), folder).v[-1]
+            rows[name].v = simulation.load_trajectory(paper_case(n, steps, self.variants[name]), folder).v[-1]
         c = rows.pop("C")
         for row in rows.values():
             # a capped DOP853 run is compared with the C loop over the same time
@@ -296,13 +302,13 @@ def mpi_rows(bench: Bench) -> None:
     n = bench.args.mpi_n
     steps = bench.steps_for(n)
     case = paper_case(n, steps)
-    folder = runner.write_run_folder(case, bench.tmp / f"mpi_{n}")
-    best, v = {1: math.inf, 2: math.inf}, {}
-    for repeat in range(bench.args.repeat):
-        for ranks in best:
+    # a folder each: a run's trajectory file is made from its binary dump once, when first read
+    folders = {ranks: runner.write_run_folder(case, bench.tmp / f"mpi_{n}_{ranks}") for ranks in (1, 2)}
+    best = dict.fromkeys(folders, math.inf)
+    for _ in range(bench.args.repeat):
+        for ranks, folder in folders.items():
             best[ranks] = min(best[ranks], run_lammps(folder, nprocs=ranks)[0])
-            if repeat == bench.args.repeat - 1:
-                v[ranks] = simulation.load_trajectory(case, folder).v[-1]
+    v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
     print(f"\nMPI: {bench.label('default')}, N = {n}, {steps} steps, runner.run_executable(nprocs)")
     print(f"{'ranks':>6} {'best [s]':>9} {'atom-st/s':>10} {'speed-up':>9}")
     for ranks, seconds in best.items():
@@ -320,21 +326,21 @@ def replica_rows(bench: Bench) -> None:
     case = paper_case(n, steps)
     write_batched = getattr(runner, "write_replicas_folder", None)
 
-    def one_by_one():
+    def one_by_one(repeat):  # fresh folders, as an ensemble's members have
         for i in range(sample):
-            runner.run_embedded(runner.write_run_folder(case, bench.tmp / f"replica_{i}"))
+            runner.run_embedded(runner.write_run_folder(case, bench.tmp / f"replica_{repeat}_{i}"))
         return sample
 
-    def batched():
-        runner.run_embedded(write_batched([case] * count, bench.tmp / "replicas"))
+    def batched(repeat):
+        runner.run_embedded(write_batched([case] * count, bench.tmp / f"replicas_{repeat}"))
         return count
 
     ways = {"one": one_by_one} | ({"batched": batched} if write_batched else {})
     best = dict.fromkeys(ways, math.inf)
-    for _ in range(bench.args.repeat):
+    for repeat in range(bench.args.repeat):
         for key, way in ways.items():
             start = time.perf_counter()
-            members = way()
+            members = way(repeat)
             best[key] = min(best[key], (time.perf_counter() - start) / members)
     print(f"\nReplicas: {count} chains of {n} magnets, {steps} steps each; wall time with start-up")
     print(f"{'way':<56} {'s/replica':>10} {f's for {count}':>10} {'atom-st/s':>10} {'speed-up':>9}")
@@ -344,8 +350,8 @@ def replica_rows(bench: Bench) -> None:
         print(f"{labels[key]:<56} {seconds:>10.4g} {seconds * count:>10.4g} {n * steps / seconds:>10.3g} "
               f"{best['one'] / seconds:>9.1f}")
     if write_batched:
-        single = simulation.load_trajectory(case, bench.tmp / "replica_0").v[-1]
-        parts = simulation.split_replicas([case] * count, simulation.load_trajectory(case, bench.tmp / "replicas"))
+        single = simulation.load_trajectory(case, bench.tmp / "replica_0_0").v[-1]
+        parts = simulation.split_replicas([case] * count, simulation.load_trajectory(case, bench.tmp / "replicas_0"))
         together = np.array([part.v[-1] for part in parts])
         print(f"max |v(batched replica) - v(one instance)| = {np.max(np.abs(together - single)):.1e} m/s "
               "over all replicas (0: bit-identical)")
