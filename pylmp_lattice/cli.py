@@ -12,6 +12,7 @@ from .errors import ConfigError, LatticeError
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -101,14 +102,22 @@ def _deck(args) -> int:
 
 
 def _sweep(args) -> int:
-    from .sweep import load_sweep, run_sweep
+    try:
+        from .sweep import load_sweep, run_sweep, write_replica_stats
 
-    sweep = load_sweep(args.sweep)
-    table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
-                      retry_failed=args.retry_failed, progress=not args.quiet)
+        sweep = load_sweep(args.sweep)
+        table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
+                          retry_failed=args.retry_failed, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
+              "run the same command to resume", file=sys.stderr)
+        return EXIT_INTERRUPTED
     failed = int((table["status"] == "failed").sum())
     print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
           file=sys.stderr)
+    if sweep.replicas > 1:
+        write_replica_stats(args.output, table)
+        print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
     return EXIT_RUN_ERROR if failed else 0
 
 

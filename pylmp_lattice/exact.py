@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import expit, jv
+from scipy.special import ai_zeros, expit, itairy, jv
 
 
 # ----------------------------------------------------------------------------- harmonic chain
@@ -39,6 +39,17 @@ def harmonic_piston_velocity(n, t, u_p: float, omega: float):
     partial = j[:, :1] + 2 * np.cumsum(np.concatenate([np.zeros_like(x), j[:, 1:]], axis=1), axis=1)
     below = np.where(n > 0, partial[:, np.maximum(n - 1, 0)], 0.0)  # J_0 + 2 sum_{k=1}^{n-1} J_2k
     return u_p * np.where(n > 0, 1 - below - j[:, n], 1.0)
+
+
+def harmonic_overshoot_limit() -> float:
+    """The first peak of v_n / u_p far from the piston in the harmonic chain: 1.2740.
+
+    Near the front, with x = 2 w t, J_nu(x) ~ (2/x)^(1/3) Ai((2/x)^(1/3) (nu - x)), so the sum
+    of J_2k over k >= n becomes v_n / u_p -> integral_z^inf Ai(s) ds, z = (2/x)^(1/3) (2n - x):
+    a front of fixed shape that widens as t^(1/3). Its maximum, at the first zero a1 of Ai, is
+    1/3 + integral_0^|a1| Ai(-s) ds, the same for every u_p."""
+    a1 = float(ai_zeros(1)[0][0])
+    return 1.0 / 3.0 + float(itairy(-a1)[2])
 
 
 # ----------------------------------------------------------------------------- Toda lattice
@@ -160,16 +171,23 @@ def jump(law, r0: float, m: float, r1, F1=None) -> Jump:
       mass       u_p = (D / r0) delta,
       momentum   m (D / r0) u_p = dF          =>  D^2 = r0^2 dF / (m delta),  u_p^2 = dF delta / m,
       energy     the piston's work per particle F1 delta goes into the mean flow (m u_p^2 / 2),
-                 the mean state's potential U(r1) - U(r0), and the rest, e_wake
-                 = (F1 + F(r0)) delta / 2 - (U(r1) - U(r0)), the area between the Rayleigh line
-                 and the law, >= 0 for a law convex in r.
+                 the mean state's potential U(r1) - U(r0), and the rest, e_wake (`wake_energy`),
+                 which with the momentum relation is (F1 + F(r0)) delta / 2 - (U(r1) - U(r0)):
+                 the area between the Rayleigh line and the law, >= 0 for a law convex in r.
     Arrays broadcast.
     """
     r1 = np.asarray(r1, float)
-    F0 = law.force(r0)
     F1 = law.force(r1) if F1 is None else np.asarray(F1, float)
-    delta, dF = r0 - r1, F1 - F0
+    delta, dF = r0 - r1, F1 - law.force(r0)
     D = r0 * np.sqrt(dF / (m * delta))
     u_p = np.sqrt(dF * delta / m)
-    e_wake = 0.5 * (F1 + F0) * delta - (law.energy(r1) - law.energy(r0))
-    return Jump(D=D, u_p=u_p, e_wake=e_wake)
+    return Jump(D=D, u_p=u_p, e_wake=wake_energy(law, r0, m, u_p, r1, F1))
+
+
+def wake_energy(law, r0: float, m: float, u_p, r1, F1):
+    """Energy per particle (mJ) left behind a steady front beyond the mean flow and mean state:
+    the piston's work per particle F1 (r0 - r1) (mass conservation: each particle's share of
+    the piston's travel is its compression), minus m u_p^2 / 2, minus U(r1) - U(r0).
+    u_p in m/s, r0 and r1 in mm, F1 the mean force behind (N), m in g."""
+    r1 = np.asarray(r1, float)
+    return np.asarray(F1) * (r0 - r1) - 0.5 * m * np.asarray(u_p) ** 2 - (law.energy(r1) - law.energy(r0))

@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.simulation import load_trajectory
-from pylmp_lattice.sweep import Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep
+from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
+                                 write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS
 
 BASE = """\
@@ -89,13 +89,14 @@ chain.thermal_velocity = 0.01
 
 
 def test_sections_as_tables_and_identical_members_run_once(tmp_path):
-    sweep = Sweep(base=tmp_path.joinpath("base.toml") if write_sweep(tmp_path, "") else None,
+    write_sweep(tmp_path, "")
+    sweep = Sweep(base=tmp_path / "base.toml",
                   grid={"force": [{"law": "linear", "k": 0.5, "r_free": 30.0},
                                   {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}],
                         "impactor.velocity": [1.0, 1.0]})
-    members = sweep.members()
-    assert [m.case.force.law for m in members] == ["linear", "power"]
-    assert members[1].params["force"]["q"] == 3.0
+    members = sweep.members()  # 4 combinations, 2 distinct cases
+    assert [(m.index, m.case.force.law) for m in members] == [(0, "linear"), (2, "power")]
+    assert members[1].params == {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}, "impactor.velocity": 1.0}
 
 
 def test_sweep_from_python_accepts_a_case(case_factory):
@@ -103,6 +104,9 @@ def test_sweep_from_python_accepts_a_case(case_factory):
     members = Sweep(base=case, grid={"impactor.velocity": [1.0, 2.0]}).members()
     assert [m.case.impactor.velocity for m in members] == [1.0, 2.0]
     assert members[0].case.chain == case.chain
+    long = case_factory(particles=None, duration=100.0, chain={"far_end": "long"})
+    slow, fast = (m.case for m in Sweep(base=long, grid={"impactor.velocity": [1.0, 3.0]}).members())
+    assert slow.chain.particles < fast.chain.particles  # a long lattice is sized per member
 
 
 @pytest.mark.parametrize(
@@ -147,14 +151,16 @@ def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_pat
 
 # ----------------------------------------------------------------------------- statistics
 
-def test_replica_stats_mean_and_standard_error():
+def test_replica_stats_mean_and_standard_error(tmp_path):
     rng = np.random.default_rng(0)
     rows = [{"id": f"{v}-{r}", "impactor.velocity": v, "replica": r, "chain.seed": 100 + r, "status": "done",
              "error": None, "folder": "x", "wall_time_s": 1.0, "V": v + rng.normal()} for v in (1.0, 2.0) for r in range(5)]
     rows.append(rows[0] | {"id": "f", "status": "failed", "V": 1e9})  # failed members do not count
+    rows.append(rows[0] | {"id": "i", "V": np.inf})  # nor infinite values (counted apart)
     table = pd.DataFrame(rows)
     stats = replica_stats(table)
-    assert list(stats["n"]) == [5, 5]
+    assert list(stats["n"]) == [6, 5] and list(stats["V.count"]) == [5, 5]
+    assert np.isfinite(stats["V.mean"]).all()
     values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
     row = stats[stats["impactor.velocity"] == 2.0].iloc[0]
     assert row["V.mean"] == pytest.approx(np.mean(values), rel=1e-12)
@@ -162,6 +168,9 @@ def test_replica_stats_mean_and_standard_error():
     ax = plot_replica_stats(stats, "impactor.velocity", "V")
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
+    write_replica_stats(tmp_path, table)
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
+    assert (tmp_path / "replica_stats.png").stat().st_size > 0
 
 
 # ----------------------------------------------------------------------------- running
@@ -267,3 +276,23 @@ def test_thermal_replicas_reproduce_differ_and_have_the_requested_rms(tmp_path):
     stats = replica_stats(first)
     assert stats["n"].tolist() == [replicas]
     assert stats["shock_velocity_max_m_per_s.value.sem"][0] > 0
+
+
+def test_example_sweep_file_is_valid():
+    members = load_sweep(Path(__file__).parent.parent / "inputs" / "sweep_thermal_experiment.toml").members()
+    assert len(members) == 12 and all(m.case is not None for m in members)
+    assert {m.case.chain.particles for m in members} == {21}
+    assert len({m.case.chain.seed for m in members}) == 12
+
+
+def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
+    import fcntl
+
+    path = write_sweep(tmp_path, SIX)
+    out = tmp_path / "out"
+    out.mkdir()
+    with open(out / "sweep.lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+    assert "-o: another sweep is running in" in capsys.readouterr().err
+    assert not list((out / "members").iterdir())

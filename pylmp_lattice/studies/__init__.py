@@ -31,6 +31,9 @@ STUDIES: dict[str, str] = {
     "s5": "Fig. S5: the linear lattice (V_P -> V0, the oscillation decays completely)",
     "s9": "Fig. S9: phase portraits of magnet 10 for V_I = 0.01, 0.1, 1, 2 m/s",
     "movies": "Movies S1 and S2: the experiment's magnets, and the long lattice's growing transition zone",
+    "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
+    "toda": "The Toda lattice: soliton speed, and the piston problem's wake, period two and lead soliton",
+    "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
     "all": "every study above, into one folder",
 }
 

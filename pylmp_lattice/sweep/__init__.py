@@ -11,8 +11,8 @@
 
 from .execute import run_sweep
 from .spec import Member, Sweep, load_sweep, member_id, member_seed
-from .stats import plot_replica_stats, replica_stats
+from .stats import plot_replica_stats, replica_stats, write_replica_stats
 from .table import load_results
 
 __all__ = ["Member", "Sweep", "load_sweep", "member_id", "member_seed", "run_sweep", "load_results",
-           "replica_stats", "plot_replica_stats"]
+           "replica_stats", "plot_replica_stats", "write_replica_stats"]

@@ -9,11 +9,15 @@ members that are done, collects the rest as they finish, and rewrites the table 
 from __future__ import annotations
 
 import contextlib
-import logging
+import fcntl
+import json
 import multiprocessing
 import os
+import resource
 import shutil
+import signal
 import sys
+import threading
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -26,7 +30,7 @@ from .spec import Member, Sweep
 from .store import DONE, FAILED, RUNNING, MEMBERS, member_folder, now, provenance, read_status, write_status
 from .table import member_row, write_table
 
-log = logging.getLogger(__name__)
+LOCK = "sweep.lock"
 
 
 @dataclass(frozen=True)
@@ -53,7 +57,7 @@ def run_member(task: Task) -> dict:
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), _cpu_time()
     record = {"id": task.id, "index": task.index, "params": task.params, "status": RUNNING, "error": None,
               "started": now(), "provenance": provenance()}
     write_status(folder, record)
@@ -63,9 +67,16 @@ def run_member(task: Task) -> dict:
         record["status"] = DONE
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         record |= {"status": FAILED, "error": one_line(err)}
-    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3)}
+    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
+               "cpu_time_s": round(_cpu_time() - cpu, 3)}
     write_status(folder, record)
     return {"record": record, "summary": summary}
+
+
+def _cpu_time() -> float:
+    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def one_line(err: BaseException) -> str:
@@ -88,6 +99,11 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     root = Path(root)
     members = sweep.members()
     (root / MEMBERS).mkdir(parents=True, exist_ok=True)
+    with _lock(root):
+        return _run(sweep, root, members, workers, scheduler, retry_failed, progress)
+
+
+def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, retry_failed, progress) -> pd.DataFrame:
     rows: dict[int, dict] = {}
     todo: list[Member] = []
     for m in members:
@@ -95,13 +111,13 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         record = read_status(folder)
         finished = record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED)
         if finished and (record["status"] == DONE or not retry_failed):
-            rows[m.index] = _row(root, m, record, _summary(folder) if record["status"] == DONE else None)
+            rows[m.index] = _row(m, record, _summary(folder) if record["status"] == DONE else None)
         elif m.case is None:  # invalid parameters: failed without running
             folder.mkdir(parents=True, exist_ok=True)
             record = {"id": m.id, "index": m.index, "params": m.params, "status": FAILED, "error": m.error,
                       "started": now(), "ended": now(), "wall_time_s": 0.0, "provenance": provenance()}
             write_status(folder, record)
-            rows[m.index] = _row(root, m, record, None)
+            rows[m.index] = _row(m, record, None)
         else:
             todo.append(m)
     table = write_table(root, [rows[i] for i in sorted(rows)])
@@ -110,30 +126,48 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         bar.slots = slots
         futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
         bar.show(running=len(futures))
-        for done, future in enumerate(as_completed(futures), start=1):
-            m = futures[future]
-            try:
-                result = future.result()
-            except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
-                result = _lost(root, m, err)
-            rows[m.index] = _row(root, m, result["record"], result["summary"])
-            table = write_table(root, [rows[i] for i in sorted(rows)])
-            bar.advance(running=len(futures) - done)
+        try:
+            for done, future in enumerate(as_completed(futures), start=1):
+                m = futures[future]
+                try:
+                    result = future.result()
+                except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
+                    result = _lost(root, m, err)
+                rows[m.index] = _row(m, result["record"], result["summary"])
+                table = write_table(root, [rows[i] for i in sorted(rows)])
+                bar.advance(running=len(futures) - done)
+        except KeyboardInterrupt:
+            # queued members never start; running ones finish and are recorded on disk
+            for future in futures:
+                future.cancel()
+            bar.close()
+            raise
     bar.close()
     return table
+
+
+@contextlib.contextmanager
+def _lock(root: Path):
+    """One coordinator per sweep folder (the kernel drops the lock if the coordinator dies)."""
+    from ..errors import ConfigError
+
+    with open(root / LOCK, "a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
+        yield
 
 
 def _task(root: Path, m: Member, sweep: Sweep) -> Task:
     return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner)
 
 
-def _row(root: Path, m: Member, record: dict, summary: dict | None) -> dict:
+def _row(m: Member, record: dict, summary: dict | None) -> dict:
     return member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary)
 
 
 def _summary(folder: Path) -> dict | None:
-    import json
-
     from ..simulation import SUMMARY
 
     try:
@@ -169,7 +203,9 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         # stays up for later sweeps of the same Python session.
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
-        with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        _start_forkserver()
+        with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
+                                 initargs=(os.getpid(),)) as pool:
             yield pool, workers
         return
     if workers is not None:
@@ -189,6 +225,39 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         yield executor, max(1, sum(threads.values()))
     finally:
         client.close()
+
+
+def _start_forkserver() -> None:
+    """Start the fork server with Ctrl-C ignored (inherited): it and its workers are left to the
+    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        return  # signal handlers can only be set from the main thread
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _pool_worker_init(coordinator: int) -> None:
+    """A pool worker: Ctrl-C is for the coordinator, and the worker ends when the sweep does.
+
+    Without this watch, the workers of a coordinator killed with SIGKILL would wait for work
+    forever (and keep the fork server alive).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            try:
+                os.kill(coordinator, 0)
+            except ProcessLookupError:
+                os._exit(1)  # the member in hand stays "running" on disk and is re-run on resume
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 class _Progress:

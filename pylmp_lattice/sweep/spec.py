@@ -5,7 +5,8 @@ A sweep file (TOML) holds
     base = "case.toml"        # path relative to the sweep file
     replicas = 1              # runs per parameter point (random chains only)
     seed = 0                  # the sweep seed; member i gets a seed derived from (seed, i)
-    keep = "all"              # or "measures": delete each member's trajectory once measured
+    keep = "all"              # or "measures": no per-frame output (output.format = "none"), the
+                              # front measures from the engine's record
     runner = "embedded"       # LAMMPS in the worker process; or "lmp" (the executable)
     [set]                     # fixed overrides of the base case
     "impactor.velocity" = 1.5
@@ -34,14 +35,13 @@ import hashlib
 import itertools
 import json
 import logging
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_to_dict
+from ..case import Case, case_from_dict, case_to_dict, read_toml
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -115,10 +115,6 @@ class Sweep:
         if self.runner not in RUNNERS:
             raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
 
-    def swept_keys(self) -> list[str]:
-        """The dotted keys that vary between members, in member order."""
-        return list(self.grid) + list(self.zip)
-
     def members(self) -> list[Member]:
         """All members, numbered in sweep order; invalid parameter sets give failed members.
 
@@ -179,12 +175,7 @@ class Sweep:
 def load_sweep(path: str | Path) -> Sweep:
     """Read a sweep file (TOML); every error names the field (ConfigError)."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError as err:
-        raise ConfigError("sweep", f"file not found: {path}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError("sweep", f"{path} is not valid TOML ({err})") from err
+    data = read_toml(path, "sweep")
     for key in data:
         if key not in KEYS:
             raise ConfigError(key, f"unknown key; expected one of {', '.join(KEYS)}")
@@ -217,16 +208,14 @@ def _hash(data: dict) -> str:
 
 def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
     if isinstance(base, Case):
-        return case_to_dict(base), Path(base_dir)
+        data = case_to_dict(base)
+        if base.chain.far_end == "long":  # N is chosen again for each member's drive and duration
+            del data["chain"]["particles"]
+        return data, Path(base_dir)
     if isinstance(base, dict):
         return copy.deepcopy(base), Path(base_dir)
     path = Path(base)
-    try:
-        return tomllib.loads(path.read_text()), path.parent
-    except FileNotFoundError as err:
-        raise ConfigError("base", f"file not found: {path}") from err
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError("base", f"{path} is not valid TOML ({err})") from err
+    return read_toml(path, "base"), path.parent
 
 
 def _flatten(table: dict, name: str, prefix: str = "") -> dict:

@@ -2,7 +2,7 @@
 
 A member folder holds the run's files (case.toml, deck, log, trajectory unless keep =
 "measures", summary.json) and `status.json`: status ("running", "done" or "failed"), the
-one-line error, the swept parameters, wall time and provenance (package version and git
+one-line error, the swept parameters, wall and CPU time and provenance (package version and git
 commit, LAMMPS version, plugin build, Python and numpy versions, host, start and end times).
 A member counts as done only when status.json says so, and status.json is replaced in one
 step (`atomic_write`) after everything else is written: a member killed half-way is re-run.

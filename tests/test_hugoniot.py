@@ -1,0 +1,56 @@
+"""The mean state behind a shock (hugoniot.wake_state), and the magnet chain's weak-shock limit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.exact import weak_shock
+from pylmp_lattice.forcelaw import LinearSpring, PowerLaw
+from pylmp_lattice.hugoniot import wake_state
+from pylmp_lattice.simulation import load_trajectory, run_case
+from pylmp_lattice.studies.chains import MAGNET_MASS, MAGNET_R0, chain_case
+from pylmp_lattice.studies.hugoniot import measure
+
+
+def test_wake_state_of_a_synthetic_oscillation():
+    """Gaps r = 10 + 0.5 cos(w t) and v = 1 + 0.2 sin(w t) over whole periods, linear spring k = 2:
+    mean gap 10, mean velocity 1, kinetic m <dv^2>/2 = m 0.02/2, potential k <dr^2>/2 = 0.125;
+    for a linear law the mean force is the force of the mean gap."""
+    t = np.linspace(0.0, 100.0, 100000, endpoint=False)
+    w = 2 * np.pi / 10.0
+    gaps = np.tile((10.0 + 0.5 * np.cos(w * t))[:, None], (1, 5))
+    v = np.tile((1.0 + 0.2 * np.sin(w * t))[:, None], (1, 6))
+    law = LinearSpring(k=2.0, r_free=20.0)
+    s = wake_state(t, v, gaps, law, 3.0, (1, 4), (0.0, 100.0))
+    assert s.mean_gap == pytest.approx(10.0, abs=1e-6) and s.mean_velocity == pytest.approx(1.0, abs=1e-6)
+    assert s.kinetic == pytest.approx(3.0 * 0.02 / 2, rel=1e-4)
+    assert s.potential == pytest.approx(2.0 * 0.125 / 2, rel=1e-4)
+    assert s.mean_force == pytest.approx(law.force(10.0), rel=1e-9)
+    assert s.oscillation_energy == pytest.approx(s.kinetic + s.potential)
+    with pytest.raises(ValueError, match="gap_window"):
+        wake_state(t, v, gaps, law, 3.0, (3, 9), (0.0, 1.0))
+
+
+@pytest.mark.lammps
+def test_magnet_chain_weak_shock_limit(tmp_path):
+    """The magnet chain pushed at 0.1 and 0.5 m/s for 600 ms (c0 = 1.6029 m/s, s = 0.7539).
+    The mean state behind obeys the jump conditions: its Rankine-Hugoniot particle velocity is
+    u_p (measured 1.6e-4 and 8e-3 off) and its R-H speed lies on the weak-shock line c0 + s u_p
+    (4e-4, 8e-3). The front does not: at 0.1 m/s it is near the line (+0.2 %), at 0.5 m/s 7 %
+    above it and within 1 % of c0 + (4/3) s u_p (measured +0.5 %), the speed of the lead
+    soliton of a developed dispersive shock (KdV limit), which leaves the mean state behind."""
+    ws = weak_shock(PowerLaw(), MAGNET_R0, MAGNET_MASS)
+    assert ws.s == pytest.approx(0.753911, abs=1e-6) and ws.c0 == pytest.approx(1.602876, abs=1e-6)
+    rows = {}
+    for u_p in (0.1, 0.5):
+        case = chain_case("magnet", f"up{u_p}", {"velocity": u_p}, 600.0, output=0.5)
+        summary = run_case(case, tmp_path / case.name, figure=False)
+        rows[u_p] = measure("magnet", u_p, case, summary, load_trajectory(case, tmp_path / case.name))
+    for u_p, row in rows.items():
+        line = ws.c0 + ws.s * u_p
+        assert row["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(u_p, rel=1e-2)
+        assert row["rankine_hugoniot_D_m_per_s"] == pytest.approx(line, rel=1e-2)
+    assert rows[0.1]["U_s_m_per_s"] == pytest.approx(ws.c0 + ws.s * 0.1, rel=5e-3)
+    assert rows[0.5]["U_s_m_per_s"] > 1.05 * (ws.c0 + ws.s * 0.5)
+    assert rows[0.5]["U_s_m_per_s"] == pytest.approx(ws.c0 + 4 / 3 * ws.s * 0.5, rel=1e-2)
