@@ -90,21 +90,47 @@ def paper_case(n: int, steps: int, variant: dict | None = None):
 
 # ----------------------------------------------------------------------------- the ways
 
-def lammps_times(folder: Path) -> tuple[float, float]:
-    """(Loop time, its Output section), s, from the folder's log.lammps (averages over ranks)."""
+@dataclass
+class Took:
+    """One timed run. On this shared machine a process waits for a core for much of its wall
+    time, so CPU time is the steadier measure of the work; both are kept."""
+
+    wall: float  # s
+    cpu: float  # s
+    result: object  # final velocities (m/s); for LAMMPS the Output share of the Loop time
+
+
+class Stopwatch:
+    def __init__(self):
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+
+    def took(self, result) -> Took:
+        return Took(time.perf_counter() - self.wall, time.process_time() - self.cpu, result)
+
+
+def lammps_times(folder: Path) -> tuple[float, float, float]:
+    """(Loop time s, its Output section s, CPU use fraction), from the folder's log.lammps
+    (averages over ranks)."""
     text = (folder / "log.lammps").read_text()
     loop = re.search(r"^Loop time of (\S+) on", text, re.MULTILINE)
+    cpu = re.search(r"^(\S+)% CPU use with", text, re.MULTILINE)
     output = re.search(r"^Output\s*\|[^|]*\|\s*(\S+)\s*\|", text, re.MULTILINE)
-    if not (loop and output):
+    if not (loop and cpu and output):
         raise RuntimeError(f"{folder}/log.lammps: no Loop time or timing breakdown")
-    return float(loop.group(1)), float(output.group(1))
+    return float(loop.group(1)), float(output.group(1)), float(cpu.group(1)) / 100
 
 
-def run_lammps(folder: Path, nprocs: int = 1) -> tuple[float, float]:
-    """Run the folder's deck with `lmp`; (engine time = Loop - Output, Output share of Loop)."""
+# LAMMPS's CPU share comes from getrusage, which counts in scheduler ticks (4 ms here)
+MIN_LOOP_FOR_CPU = 0.2  # s
+
+
+def run_lammps(folder: Path, nprocs: int = 1) -> Took:
+    """Run the folder's deck with `lmp`: the engine's time (Loop - Output; its CPU time as the
+    Loop's CPU share of it, NaN for loops too short to tell) and the Output share of the Loop."""
     runner.run_executable(folder, nprocs=nprocs)
-    loop, output = lammps_times(folder)
-    return loop - output, output / loop
+    loop, output, cpu_share = lammps_times(folder)
+    cpu = (loop - output) * cpu_share if loop >= MIN_LOOP_FOR_CPU else math.nan
+    return Took(loop - output, cpu, output / loop)
 
 
 def build_c_loop(folder: Path) -> Path:
@@ -113,16 +139,17 @@ def build_c_loop(folder: Path) -> Path:
     return exe
 
 
-def run_c_loop(exe: Path, n: int, steps: int) -> tuple[float, np.ndarray]:
-    """(loop seconds, final velocities m/s) of the C loop, in SI units like the deck."""
+def run_c_loop(exe: Path, n: int, steps: int) -> Took:
+    """The C loop's own timing of its loop, and its final velocities (m/s); SI units like the deck."""
     out = exe.with_name(f"v_{n}.bin")
     args = [n, steps, to_engine(DT, "time"), K * to_engine(1.0, "length") ** 3, to_engine(B, "length"),
             to_engine(MASS, "mass"), to_engine(R0, "length"), V_I, out]
     done = subprocess.run([str(exe), *map(str, args)], capture_output=True, text=True, check=True)
-    return float(done.stdout), np.fromfile(out)
+    wall, cpu = map(float, done.stdout.split())
+    return Took(wall, cpu, np.fromfile(out))
 
 
-def run_numpy(n: int, steps: int) -> tuple[float, np.ndarray]:
+def run_numpy(n: int, steps: int) -> Took:
     """Velocity Verlet with whole-array numpy operations, user units (mm, ms, g, N; v in m/s).
 
     N/g is mm/ms^2, so a = F/m needs no factor. The same operations in the same order as
@@ -148,7 +175,7 @@ def run_numpy(n: int, steps: int) -> tuple[float, np.ndarray]:
         np.add(v_free, tmp, out=v_free)
 
     gap_forces()
-    start = time.perf_counter()
+    clock = Stopwatch()
     for step in range(1, steps + 1):
         kick()
         np.multiply(v_free, DT, out=tmp)
@@ -156,11 +183,11 @@ def run_numpy(n: int, steps: int) -> tuple[float, np.ndarray]:
         x[0] = V_I * (step * DT)
         gap_forces()
         kick()
-    return time.perf_counter() - start, v
+    return clock.took(v)
 
 
-def run_dop853(n: int, steps: int, tol: float) -> tuple[float, np.ndarray]:
-    """solve_ivp DOP853 over steps * dt, rtol = atol = tol; (seconds, final velocities m/s)."""
+def run_dop853(n: int, steps: int, tol: float) -> Took:
+    """solve_ivp DOP853 over steps * dt, rtol = atol = tol; its final velocities (m/s)."""
     held = (n - 1) * R0
     x = np.empty(n)
     x[-1] = held
@@ -171,12 +198,12 @@ def run_dop853(n: int, steps: int, tol: float) -> tuple[float, np.ndarray]:
         return np.concatenate([y[n - 2 :], (F[:-1] - F[1:]) / MASS])
 
     y0 = np.concatenate([R0 * np.arange(1, n - 1), np.zeros(n - 2)])
-    start = time.perf_counter()
+    clock = Stopwatch()
     sol = solve_ivp(rhs, (0.0, steps * DT), y0, method="DOP853", rtol=tol, atol=tol)
-    seconds = time.perf_counter() - start
+    took = clock.took(np.concatenate([[V_I], sol.y[n - 2 :, -1], [0.0]]))
     if not sol.success:
         raise RuntimeError(f"solve_ivp failed: {sol.message}")
-    return seconds, np.concatenate([[V_I], sol.y[n - 2 :, -1], [0.0]])
+    return took
 
 
 def choose_dop853_tolerance(exe: Path, n: int, steps: int) -> tuple[float, float, float]:
@@ -186,10 +213,10 @@ def choose_dop853_tolerance(exe: Path, n: int, steps: int) -> tuple[float, float
     on the run's length (a tolerance that matches Verlet over 43 ms is 40x worse over 100 ms),
     so every size is calibrated on its own run. Returns (tol, its error, Verlet's error), m/s.
     """
-    _, reference = run_dop853(n, steps, 1e-13)
-    verlet_error = float(np.max(np.abs(run_c_loop(exe, n, steps)[1] - reference)))
+    reference = run_dop853(n, steps, 1e-13).result
+    verlet_error = float(np.max(np.abs(run_c_loop(exe, n, steps).result - reference)))
     for k in range(3, 13):
-        error = float(np.max(np.abs(run_dop853(n, steps, 10.0**-k)[1] - reference)))
+        error = float(np.max(np.abs(run_dop853(n, steps, 10.0**-k).result - reference)))
         if error <= verlet_error:
             return 10.0**-k, error, verlet_error
     raise RuntimeError("no DOP853 tolerance down to 1e-12 is as accurate as velocity Verlet")
@@ -199,11 +226,12 @@ def choose_dop853_tolerance(exe: Path, n: int, steps: int) -> tuple[float, float
 
 @dataclass
 class Row:
-    """One way at one size: the best time of the repeats and the final velocities."""
+    """One way at one size: the best times of the repeats and the final velocities."""
 
     way: str
     steps: int  # dt steps integrated; 0: not run
-    seconds: float = math.inf  # s, best of the repeats
+    wall: float = math.inf  # s, best of the repeats
+    cpu: float = math.inf  # s, best of the repeats
     v: np.ndarray | None = None  # m/s, final velocities
     dv: float | None = None  # m/s, max |v - v_C| over the magnets (C loop over the same time)
     note: str = ""
@@ -255,20 +283,19 @@ class Bench:
             ways["scipy"] = lambda: run_dop853(n, scipy.steps, tol)
         for _ in range(self.args.repeat):
             for key, way in ways.items():
-                seconds, result = way()
-                row = rows[key]
-                if seconds < row.seconds:
-                    row.seconds = seconds
-                    if key in folders:  # result: the Output share of the Loop time
-                        row.note = f"output {result:.0%} of Loop excluded"
+                took, row = way(), rows[key]
+                if took.wall < row.wall and key in folders:  # result: the Output share of the Loop
+                    row.note = f"output {took.result:.0%} of Loop excluded"
+                row.wall = min(row.wall, took.wall)
+                row.cpu = row.cpu if math.isnan(took.cpu) else min(row.cpu, took.cpu)
                 if key not in folders:
-                    row.v = result
+                    row.v = took.result
         for name, folder in folders.items():
             rows[name].v = simulation.load_trajectory(paper_case(n, steps, self.variants[name]), folder).v[-1]
         c = rows.pop("C")
         for row in rows.values():
             # a capped DOP853 run is compared with the C loop over the same time
-            ref = c.v if row.steps == steps else run_c_loop(self.exe, n, row.steps)[1]
+            ref = c.v if row.steps == steps else run_c_loop(self.exe, n, row.steps).result
             row.dv = float(np.max(np.abs(row.v - ref)))
         self.checked[n, steps] = rows["default"].dv
         return [c, *rows.values()] + ([] if scipy.steps else [scipy])
@@ -279,22 +306,29 @@ class Bench:
             case = paper_case(n, steps)
             folder = runner.run_executable(runner.write_run_folder(case, self.tmp / "check"))
             v = simulation.load_trajectory(case, folder).v[-1]
-            self.checked[n, steps] = float(np.max(np.abs(v - run_c_loop(self.exe, n, steps)[1])))
+            self.checked[n, steps] = float(np.max(np.abs(v - run_c_loop(self.exe, n, steps).result)))
         return self.checked[n, steps]
 
 
-HEADER = f"{'N':>8} {'way':<44} {'steps':>6} {'best [s]':>9} {'atom-st/s':>10} {'x C':>7} {'|v-v_C|':>9}  note"
+HEADER = (f"{'N':>8} {'way':<44} {'steps':>6} {'wall [s]':>9} {'atom-st/s':>10} {'x C':>6} "
+          f"{'CPU [s]':>9} {'x C':>6} {'|v-v_C|':>8}  note")
 
 
 def print_size(n: int, rows: list[Row]) -> None:
-    c_rate = n * rows[0].steps / rows[0].seconds
+    """Throughput from wall and from CPU time, each as a ratio to the C loop's."""
+    c = rows[0]
     for row in rows:
         if not row.steps:
-            print(f"{n:>8} {row.way:<44} {'-':>6} {'-':>9} {'-':>10} {'-':>7} {'-':>9}  {row.note}")
+            print(f"{n:>8} {row.way:<44} {'-':>6} {'-':>9} {'-':>10} {'-':>6} {'-':>9} {'-':>6} {'-':>8}  {row.note}")
             continue
-        rate = n * row.steps / row.seconds
+        rate = n * row.steps / row.wall
+        x_wall = (c.wall / c.steps) / (row.wall / row.steps)
+        cpu, x_cpu = "-", "-"
+        if row.cpu < math.inf:
+            cpu, x_cpu = f"{row.cpu:.4g}", f"{(c.cpu / c.steps) / (row.cpu / row.steps):.3f}"
         dv = "-" if row.dv is None else f"{row.dv:.1e}"
-        print(f"{n:>8} {row.way:<44} {row.steps:>6} {row.seconds:>9.4g} {rate:>10.3g} {rate / c_rate:>7.3f} {dv:>9}  {row.note}")
+        print(f"{n:>8} {row.way:<44} {row.steps:>6} {row.wall:>9.4g} {rate:>10.3g} {x_wall:>6.3f} "
+              f"{cpu:>9} {x_cpu:>6} {dv:>8}  {row.note}")
 
 
 def mpi_rows(bench: Bench) -> None:
@@ -304,15 +338,17 @@ def mpi_rows(bench: Bench) -> None:
     case = paper_case(n, steps)
     # a folder each: a run's trajectory file is made from its binary dump once, when first read
     folders = {ranks: runner.write_run_folder(case, bench.tmp / f"mpi_{n}_{ranks}") for ranks in (1, 2)}
-    best = dict.fromkeys(folders, math.inf)
+    best, cpu_use = dict.fromkeys(folders, math.inf), {}
     for _ in range(bench.args.repeat):
         for ranks, folder in folders.items():
-            best[ranks] = min(best[ranks], run_lammps(folder, nprocs=ranks)[0])
+            took = run_lammps(folder, nprocs=ranks)
+            if took.wall < best[ranks]:
+                best[ranks], cpu_use[ranks] = took.wall, took.cpu / took.wall  # NaN: loop too short
     v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
-    print(f"\nMPI: {bench.label('default')}, N = {n}, {steps} steps, runner.run_executable(nprocs)")
-    print(f"{'ranks':>6} {'best [s]':>9} {'atom-st/s':>10} {'speed-up':>9}")
+    print(f"\nMPI: {bench.label('default')}, N = {n}, {steps} steps, runner.run_executable(nprocs); wall time")
+    print(f"{'ranks':>6} {'wall [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'CPU use per rank':>17}")
     for ranks, seconds in best.items():
-        print(f"{ranks:>6} {seconds:>9.4g} {n * steps / seconds:>10.3g} {best[1] / seconds:>9.2f}")
+        print(f"{ranks:>6} {seconds:>9.4g} {n * steps / seconds:>10.3g} {best[1] / seconds:>9.2f} {cpu_use[ranks]:>17.0%}")
     print(f"max |v(2 ranks) - v(1 rank)| = {np.max(np.abs(v[2] - v[1])):.1e} m/s (0: bit-identical)")
 
 
@@ -336,19 +372,20 @@ def replica_rows(bench: Bench) -> None:
         return count
 
     ways = {"one": one_by_one} | ({"batched": batched} if write_batched else {})
-    best = dict.fromkeys(ways, math.inf)
+    wall, cpu = dict.fromkeys(ways, math.inf), dict.fromkeys(ways, math.inf)
     for repeat in range(bench.args.repeat):
         for key, way in ways.items():
-            start = time.perf_counter()
-            members = way(repeat)
-            best[key] = min(best[key], (time.perf_counter() - start) / members)
-    print(f"\nReplicas: {count} chains of {n} magnets, {steps} steps each; wall time with start-up")
-    print(f"{'way':<56} {'s/replica':>10} {f's for {count}':>10} {'atom-st/s':>10} {'speed-up':>9}")
+            clock = Stopwatch()
+            took = clock.took(way(repeat))  # result: the members run
+            wall[key] = min(wall[key], took.wall / took.result)
+            cpu[key] = min(cpu[key], took.cpu / took.result)
+    print(f"\nReplicas: {count} chains of {n} magnets, {steps} steps each; start-up and writing the folder included")
+    print(f"{'way':<52} {'wall/replica':>12} {f'wall, {count}':>11} {'speed-up':>9} {'CPU/replica':>12} {'speed-up':>9}")
     labels = {"one": f"one LAMMPS instance each (run_embedded; {sample} timed)",
               "batched": f"batched: {count} replicas in one instance"}
-    for key, seconds in best.items():
-        print(f"{labels[key]:<56} {seconds:>10.4g} {seconds * count:>10.4g} {n * steps / seconds:>10.3g} "
-              f"{best['one'] / seconds:>9.1f}")
+    for key in ways:
+        print(f"{labels[key]:<52} {wall[key]:>12.4g} {wall[key] * count:>11.4g} {wall['one'] / wall[key]:>9.1f} "
+              f"{cpu[key]:>12.4g} {cpu['one'] / cpu[key]:>9.1f}")
     if write_batched:
         single = simulation.load_trajectory(case, bench.tmp / "replica_0_0").v[-1]
         parts = simulation.split_replicas([case] * count, simulation.load_trajectory(case, bench.tmp / "replicas_0"))
@@ -356,7 +393,7 @@ def replica_rows(bench: Bench) -> None:
         print(f"max |v(batched replica) - v(one instance)| = {np.max(np.abs(together - single)):.1e} m/s "
               "over all replicas (0: bit-identical)")
     else:
-        print(f"{labels['batched']:<56} {'-':>10} {'-':>10} {'-':>10} {'-':>9}  "
+        print(f"{labels['batched']:<52} {'-':>12} {'-':>11} {'-':>9} {'-':>12} {'-':>9}  "
               "not yet available: the package has no batched-replica path")
 
 
@@ -388,6 +425,8 @@ def main() -> None:
           f"impactor {V_I} m/s, far end held, dt = {DT} ms; best of {args.repeat}, interleaved")
     with tempfile.TemporaryDirectory(prefix="bench_engine_") as tmp:
         bench = Bench(args, Path(tmp))
+        print(f"CPU [s]: the process's CPU time (LAMMPS: Loop - Output times its CPU share, shown for loops "
+              f">= {MIN_LOOP_FOR_CPU} s);\n  the steadier ratio on a shared machine, where a process waits for a core")
         print("scipy DOP853: rtol = atol = the loosest 10^-k as accurate as velocity Verlet at dt = "
               f"{DT} ms on the same run (final velocities against DOP853 at 1e-13; both errors in the note)")
         if bench.default_engine is None:
