@@ -1,3 +1,42 @@
-"""pylmp_lattice: shock waves in one-dimensional nonlinear lattices, run with LAMMPS."""
+"""pylmp_lattice: shock waves in one-dimensional nonlinear lattices, run with LAMMPS.
+
+The Python API, in user units (mm, g, ms, N, m/s):
+
+    import pylmp_lattice as pl
+    case = pl.load_case("inputs/paper_experiment.toml", ["run.duration=40"])  # or pl.case_from_dict
+    summary = pl.run(case, "runs/example")      # run, measure, summary.json and shock.png
+    run = pl.read_run("runs/example")           # case, trajectory, summary
+    front = run.front()                          # arrival times, V_P per gap, first peaks
+    run.figure().savefig("example.png")
+
+`pl.measures` holds every shock measure; `pl.to_atoms`, `pl.write_trajectory` and
+`pl.case_from_atoms` connect to ASE.
+"""
+
+from importlib import import_module
 
 __version__ = "0.1.0"
+
+# name -> module; imported on first use, so `import pylmp_lattice` stays light (no LAMMPS, no matplotlib)
+_API = {
+    "Case": "case", "load_case": "case", "case_from_dict": "case", "case_to_dict": "case",
+    "run": "simulation", "simulate": "simulation", "read_run": "simulation", "Run": "simulation",
+    "load_trajectory": "simulation", "Trajectory": "trajectory",
+    "estimate": "preflight",
+    "to_atoms": "ase_io", "write_trajectory": "ase_io", "case_from_atoms": "ase_io",
+    "measures": None, "plots": None, "errors": None,
+}
+_RENAMED = {"run": "run_case"}
+__all__ = [*_API, "__version__"]
+
+
+def __getattr__(name):
+    if name not in _API:
+        raise AttributeError(f"module 'pylmp_lattice' has no attribute {name!r}")
+    if _API[name] is None:
+        return import_module(f".{name}", __name__)
+    return getattr(import_module(f".{_API[name]}", __name__), _RENAMED.get(name, name))
+
+
+def __dir__():
+    return sorted(__all__)

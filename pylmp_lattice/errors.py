@@ -42,3 +42,19 @@ class ContactError(RunError):
             f"magnets {pair[0]} and {pair[1]} touched (gap {gap_mm:.4g} mm) at t = {time_ms:.4f} ms",
             folder,
         )
+
+
+class Interrupted(LatticeError):
+    """A run stopped by SIGINT or SIGTERM; what it wrote so far stays in its folder.
+
+    exit_code follows the shell's convention, 128 + signal number (130 for SIGINT, 143 for SIGTERM).
+    """
+
+    def __init__(self, signum: int, time_ms: float | None = None, folder: Path | None = None):
+        self.signum = signum
+        self.time_ms = time_ms
+        self.folder = folder
+        self.exit_code = 128 + signum
+        where = f" at t = {time_ms:.6g} ms" if time_ms is not None else ""
+        kept = f" (files kept in {folder})" if folder else ""
+        super().__init__(f"interrupted{where}{kept}")

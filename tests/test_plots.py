@@ -23,3 +23,25 @@ def test_shock_figure_plots_the_measured_propagation_velocity():
     expected = measures.propagation_velocity(measures.arrival_times(t, v, 2.0), 12.0)
     np.testing.assert_allclose(line.get_ydata(), expected)
     assert np.nanmedian(line.get_ydata()) == pytest.approx(c, rel=1e-3)
+
+
+def test_shock_figure_is_labelled():
+    """Title, panel letters, gap axis, panel (c) legend with the 2 V_I line, marker key, integer ticks."""
+    t = np.linspace(0, 100, 2001)
+    n = np.arange(40)
+    behind = t[:, None] - n * 12.0 / 3.0
+    v = 2.0 * (1 + np.tanh(behind / 0.5)) / 2 * (1 + 0.3 * np.sin(behind))
+    traj = Trajectory(t=t, x0=12.0 * n, u=np.zeros_like(v), v=v, a=np.gradient(v, t, axis=0) * 1e3)
+    fig = shock_figure(traj, list(n), 2.0, measures.front(t, v, traj.a, 2.0, 12.0), v0=1.6,
+                       title="demo: V_I = 2 m/s, N = 40")
+    a, b, c, d = fig.axes[:4]
+    assert fig._suptitle.get_text() == "demo: V_I = 2 m/s, N = 40"
+    assert [ax.get_title(loc="left") for ax in (a, b, c, d)] == ["(a)", "(b)", "(c)", "(d)"]
+    assert b.get_xlabel().startswith("gap n")
+    labels = [text.get_text() for text in c.get_legend().get_texts()]
+    assert "2 $V_I$ = 4 m/s" in labels and any("acceleration" in label for label in labels)
+    assert any(line.get_label().startswith("2 $V_I$") and line.get_ydata()[0] == 4.0 for line in c.lines)
+    assert {"maxima", "minima"} <= {text.get_text() for text in d.get_legend().get_texts()}
+    for ax in (b, c):
+        ticks = ax.xaxis.get_major_locator()()
+        assert np.all(ticks == np.round(ticks))

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import re
+import signal
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +16,7 @@ import pytest
 import tomli_w
 
 from pylmp_lattice.case import case_to_dict, load_case
+from pylmp_lattice import runner
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ContactError, RunError
 from pylmp_lattice.runner import run_embedded, run_executable, write_run_folder
@@ -69,6 +75,32 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
     with pytest.raises(RunError, match="Bond length > table outer cutoff") as info:
         run_embedded(folder)
     assert info.value.folder == folder.resolve()
+    # the length LAMMPS names (m) is reported in mm, without LAMMPS's source location
+    assert re.search(r"type 1 length 13\.\d+ mm \(files kept in ", str(info.value))
+    assert "src/" not in str(info.value)
+
+
+def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
+    """SIGKILL from outside (e.g. the OOM killer) to lmp's process group (the `lmp` wrapper and
+    the engine it starts): one message naming the signal, files kept."""
+    started = []
+
+    class Recorded(subprocess.Popen):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            started.append(self)
+
+    def killer():
+        while not started or not (tmp_path / "traj.bin").exists():
+            time.sleep(0.05)
+        os.killpg(started[0].pid, signal.SIGKILL)
+
+    monkeypatch.setattr(runner.subprocess, "Popen", Recorded)
+    folder = write_run_folder(load_case(INPUTS / "paper_long_lattice.toml"), tmp_path)
+    threading.Thread(target=killer, daemon=True).start()
+    with pytest.raises(RunError, match=r"^lmp was killed by signal SIGKILL \(files kept in ") as info:
+        run_executable(folder)
+    assert info.value.exit_code == -signal.SIGKILL
 
 
 def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):

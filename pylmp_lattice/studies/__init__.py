@@ -2,7 +2,8 @@
 
 `pylmp-lattice study NAME [-o DIR] [--quick]` runs a study and writes, through the one writer
 `write_study`: DIR/NAME.json (its numbers, units in the keys, strict JSON), DIR/NAME_<table>.csv
-for each table, DIR/NAME.png and DIR/NAME.pdf. A study's own run folders go under DIR/NAME/.
+for each table, DIR/NAME.png and DIR/NAME.pdf. A study's own run folders go under DIR/NAME/;
+running the study again redoes them (`simulate(..., overwrite=True)`), as it rewrites its files.
 `--quick` runs a small version (fewer or shorter runs) for tests and a first look.
 
 To add a study: write `studies/<name>.py` with `run(out: Path, quick: bool) -> StudyResult`

@@ -38,7 +38,7 @@ def experiment_case():
 
 def run(out: Path, quick: bool = False) -> StudyResult:
     case = experiment_case()  # small enough to run whole in the quick version too
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     t, v, a = traj.t, traj.v, traj.a
     peaks = measures.first_peaks(t, v, a, VI)
     x = traj.x0 + traj.u

@@ -32,7 +32,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     samples = law.force(r) * (1 + NOISE * rng.standard_normal(r.size))
     fit = fit_power_law(r, samples)
     case = experiment_case()
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     numbers = {
         "law": {"K_N_mm3": law.K, "b_mm": law.b, "q": law.q},
         "noise_relative": NOISE,

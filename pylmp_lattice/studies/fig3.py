@@ -31,7 +31,7 @@ STEADY = (4, 9, 19)  # 0-based: particles n = 5, 10, 20, well behind the front a
 def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 200.0 if quick else 600.0
     case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     result = analyse(NAME, traj, case, VI, duration, quick)
     result.numbers["paper"] = PAPER
     return result

@@ -24,6 +24,7 @@ from .output import StudyResult
 
 NAME = "harmonic"
 VELOCITIES = (0.05, 0.1, 0.2, 0.4)  # m/s; the chain has no contact, and at u_p / c0 = 0.25 gaps shrink by ~30 %
+QUICK = ((VELOCITIES[0], VELOCITIES[-1]), 300.0)  # u_p values (m/s), run length (ms)
 PARTICLES = 120
 WAKE_PARTICLE = 5
 
@@ -42,8 +43,7 @@ def _decay_exponent(t, dv, t_range):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
-    velocities = (VELOCITIES[0], VELOCITIES[-1]) if quick else VELOCITIES
-    duration = 300.0 if quick else 600.0
+    velocities, duration = QUICK if quick else (VELOCITIES, 600.0)
     omega = np.sqrt(MAGNET_STIFFNESS / MAGNET_MASS)
     c0 = MAGNET_R0 * omega
     limit = harmonic_overshoot_limit()

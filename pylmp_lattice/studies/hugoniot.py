@@ -78,8 +78,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         mine = [r for r in rows if r["chain"] == chain]
         u = np.array([r["u_p_m_per_s"] for r in mine])
         us = np.array([r["U_s_m_per_s"] for r in mine])
-        fit = np.polyfit(u, us, 1)
         small = u <= np.median(u)
+        fit = np.polyfit(u, us, 1) if len(u) >= 2 else (np.nan, np.nan)
         fit_small = np.polyfit(u[small], us[small], 1) if small.sum() >= 2 else (np.nan, np.nan)
         theory[chain] = {
             "c0_m_per_s": ws.c0, "s_weak_shock": ws.s, "s_kdv_leading_edge": 4 * ws.s / 3,

@@ -33,7 +33,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     files, stills = {}, []
 
     case = experiment_case()
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     fig, anim = _movie_s1(plt, traj, _frames(traj.t, frames))
     files["S1"] = _save(anim, out / f"movie_S1.{fmt}", fmt, fps)
     stills.append(fig)
@@ -41,7 +41,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 100.0 if quick else 600.0
     vi = 2.0
     case = paper_case("movie_long_lattice", {"profile": "constant", "velocity": vi}, duration)
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     arrival = measures.arrival_times(traj.t, traj.v, vi)
     reached = int(np.sum(np.isfinite(arrival)))
     steady = measures.steady_oscillation(traj.t, traj.v[:, 9], vi, (0.8 * duration, duration))

@@ -84,7 +84,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         tag = label.split()[0]
         for vi, store in ((STRONG, strong), (WEAK, weak)):
             case = relaxed(paper_case(f"s3_{tag}_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration, **extra))
-            traj = simulate(case, out / NAME / case.name)
+            traj = simulate(case, out / NAME / case.name, overwrite=True)
             front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps())
             store[label] = front
             if vi == STRONG:

@@ -15,9 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ..case import case_from_dict
-from ..dump import read_log
 from ..plots import pyplot
-from ..simulation import simulate
+from ..simulation import friction_work, simulate
 from .output import StudyResult
 
 NAME = "s4"
@@ -48,12 +47,12 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     for r1, ax in zip(separations, axes.T.flat):
         case = rig_case(r1, duration)
         folder = out / NAME / case.name
-        traj = simulate(case, folder)
+        traj = simulate(case, folder, overwrite=True)
         x = traj.x0[1] + traj.u[:, 1]  # mm from the left magnet
         turning = np.flatnonzero(np.diff(np.sign(traj.v[:, 1])) != 0)
         # mechanical energy, mJ (g (m/s)^2 = mJ): the magnet may still move at the end of a short run
         energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * case.chain.masses()[1] * traj.v[:, 1] ** 2
-        friction = read_log(folder / "log.lammps").runs[-1]["f_friction"][-1] * 1e3  # J -> mJ
+        friction = friction_work(folder)
         lost = energy[0] - energy[-1]
         rows.append((r1, x[-1], len(turning), lost, friction, friction / lost - 1))
         ax.plot(traj.t / 1e3, x, lw=0.8)

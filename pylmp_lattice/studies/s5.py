@@ -41,7 +41,7 @@ def linear_case(duration: float):
 def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 200.0 if quick else 600.0
     case = linear_case(duration)
-    traj = simulate(case, out / NAME / case.name)
+    traj = simulate(case, out / NAME / case.name, overwrite=True)
     result = analyse(NAME, traj, case, VI, duration, quick, zone=False)
     # eta of particle 10 in successive windows of about two periods after its front, measured
     # and exact (the same measure on the exact semi-infinite chain's velocity)

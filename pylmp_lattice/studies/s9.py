@@ -33,7 +33,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     rows = []
     for vi, ax in zip(VELOCITIES, axes.flat):
         case = paper_case(f"s9_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration)
-        traj = simulate(case, out / NAME / case.name)
+        traj = simulate(case, out / NAME / case.name, overwrite=True)
         portrait = measures.phase_portrait(traj.t, traj.x0 + traj.u, traj.v, PARTICLE)
         steady = measures.steady_oscillation(traj.t, traj.v[:, PARTICLE], vi, window)
         reference = (steady.max_velocity, steady.min_velocity) if steady.measured else (vi, vi)

@@ -27,6 +27,7 @@ PISTON_SPEEDS = (0.25, 0.5, 1.0, 1.5, 1.8, 1.9, 2.1, 2.2, 2.5, 3.0, 4.0)
 A_GAP = CHAINS["toda"][0]["a"]  # mm, where F = 0: r = gap - a
 SOLITON_GAPS = (10, 40)  # the gaps where the soliton's speed is measured
 STAGGER_GAPS = 6  # the gaps next to the piston where period two is looked for
+QUICK = ((0.5, 1.0, 2.0), (1.0, 1.9, 2.1), 100.0)  # kappas, piston speeds, piston run length
 
 
 def soliton_case(kappa: float, dt: float = 0.01, output: float = 0.05):
@@ -86,9 +87,7 @@ def front(t, r, skip: int = 20, settle: float = 5.0):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
-    kappas = (0.5, 1.0, 2.0) if quick else KAPPAS
-    speeds = (1.0, 1.9, 2.1) if quick else PISTON_SPEEDS
-    duration = 100.0 if quick else 200.0
+    kappas, speeds, duration = QUICK if quick else (KAPPAS, PISTON_SPEEDS, 200.0)
     folder = out / NAME
     solitons = []
     cases = [soliton_case(kappa, dt=0.005 if kappa >= 2 else 0.01) for kappa in kappas]

@@ -1,0 +1,90 @@
+"""ASE at the boundary: a run's trajectory as `ase.Atoms` frames, and a case from an `ase.Atoms` chain.
+
+Numbers stay in this package's user units, which form one consistent system: positions in mm,
+masses in g, velocities in mm/ms = m/s, so ASE's derived quantities come out consistent too
+(`get_kinetic_energy()` in mJ). ASE labels its units Å, amu and eV; here they are not those,
+and `atoms.info["units"]` says so. A chain of 12 mm gaps then shows in ASE's GUI or OVITO as
+12 "Å" spacings, a readable picture, where a conversion to Å would put the magnets 1.2e8 Å apart.
+
+The chain lies on the x axis (y = z = 0). Each frame carries its time in `info["time_ms"]`;
+velocities are stored as ASE stores them (momenta = m v), and extxyz writes masses and momenta.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .case import Case, case_from_dict
+from .errors import ConfigError
+from .trajectory import Trajectory
+
+UNITS = "mm, g, ms (velocity m/s, energy mJ): pylmp_lattice user units, not ASE's"
+# Element symbol of every magnet: ASE needs one; masses are set explicitly.
+SYMBOL = "X"
+
+
+def to_atoms(traj: Trajectory, masses, every: int = 1) -> list:
+    """Frames of a trajectory as a list of `ase.Atoms` (positions, masses, velocities, time).
+
+    masses: g, one per particle (e.g. `case.chain.masses()`); every: keep every k-th frame.
+    """
+    from ase import Atoms
+
+    masses = np.broadcast_to(np.asarray(masses, float), traj.x0.shape)
+    frames = []
+    for k in range(0, len(traj.t), every):
+        pos = np.zeros((len(traj.x0), 3))
+        pos[:, 0] = traj.x0 + traj.u[k]
+        vel = np.zeros_like(pos)
+        vel[:, 0] = traj.v[k]
+        atoms = Atoms([SYMBOL] * len(traj.x0), positions=pos, masses=masses, velocities=vel, pbc=False)
+        atoms.info["time_ms"] = float(traj.t[k])
+        atoms.info["units"] = UNITS
+        frames.append(atoms)
+    return frames
+
+
+def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1) -> Path:
+    """Write frames for ASE's GUI or OVITO: `.extxyz` (extended XYZ) or `.traj` (ASE trajectory)."""
+    from ase.io import write
+
+    path = Path(path)
+    formats = {".extxyz": "extxyz", ".traj": "traj"}
+    if path.suffix not in formats:
+        raise ConfigError("export", f"got {path.name!r}; expected a file ending in {' or '.join(formats)}")
+    write(path, to_atoms(traj, masses, every), format=formats[path.suffix])
+    return path
+
+
+def case_from_atoms(atoms, force: dict, impactor: dict, run: dict, friction: dict | None = None,
+                    table: dict | None = None, name: str = "atoms") -> Case:
+    """A case whose chain is `atoms`: x positions (mm) in chain order and masses (g).
+
+    The other sections are given as in a TOML case (user units), e.g.
+    force = {"law": "power", "K": 413.8, "b": 3.917, "q": 3}. Atom 1 is the impactor and the
+    last atom is held (far_end = "fixed").
+    """
+    x = np.asarray(atoms.get_positions(), float)[:, 0]
+    gaps = np.diff(x)
+    if len(x) < 3 or not np.all(gaps > 0):
+        raise ConfigError("atoms", f"got {len(x)} atoms with x gaps {_show(gaps)} mm; expected >= 3 atoms "
+                                   "in increasing x (chain order)")
+    data = {
+        "name": name,
+        "chain": {"particles": len(x), "mass": [float(m) for m in atoms.get_masses()],
+                  "r0": [float(g) for g in gaps], "far_end": "fixed"},
+        "force": dict(force),
+        "impactor": dict(impactor),
+        "run": dict(run),
+    }
+    if friction is not None:
+        data["friction"] = dict(friction)
+    if table is not None:
+        data["table"] = dict(table)
+    return case_from_dict(data)
+
+
+def _show(values: np.ndarray) -> str:
+    return np.array2string(values, precision=4, threshold=6)

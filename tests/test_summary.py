@@ -1,0 +1,63 @@
+"""The run summary: strict JSON, plateau wording, friction energy."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import measures
+from pylmp_lattice.simulation import read_run, run_case
+from pylmp_lattice.serialize import dumps
+from pylmp_lattice.summary import _plateau
+
+from conftest import make_case
+
+
+def _strict(text: str):
+    def refuse(token):
+        raise ValueError(f"not strict JSON: {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.mark.lammps
+def test_summary_is_strict_json_when_vp_is_undefined(tmp_path):
+    """A short pulse seen for 5 ms: the front crosses 1-2 gaps, too few for a V_P plateau."""
+    case = make_case(particles=10, duration=5.0, impactor={"profile": "sine", "velocity": 2.0, "duration": 2.0})
+    run_case(case, tmp_path / "run")
+    summary = _strict((tmp_path / "run" / "summary.json").read_text())
+    plateau = summary["shock_velocity_plateau_m_per_s"]
+    assert plateau["mean"] is None and plateau["converged"] is False and plateau["gaps"] is None
+    assert summary["first_peak_velocity_over_V_I"] is None
+
+
+def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
+    gaps = np.arange(1, 201)
+    steady = measures.trailing_plateau(3.9 + 1e-4 * np.sin(gaps))
+    decaying = measures.trailing_plateau(3.9 - 0.004 * gaps)  # loses 0.2 of 3.9 m/s over the last 50
+    growing = measures.trailing_plateau(3.0 + 0.004 * gaps)
+    s, d, g = (_plateau(p, "gaps") for p in (steady, decaying, growing))
+    assert (s["converged"], s["trend"]) == (True, "steady") and s["gaps"] == [151, 200]
+    assert (d["converged"], d["trend"]) == (False, "decaying") and d["relative_drift"] < -0.01
+    assert (g["converged"], g["trend"]) == (False, "growing")
+
+
+def test_summary_writer_writes_null_for_values_that_are_not_finite():
+    text = dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": {"d": -float("inf")}, "e": 2})
+    assert _strict(text) == {"a": None, "b": [1.0, None], "c": {"d": None}, "e": 2}
+
+
+@pytest.mark.lammps
+def test_friction_dissipated_energy_is_in_the_summary(tmp_path):
+    """The calibration rig (Fig. S4: left magnet held, right one pushed off from 1.8 mm): the
+    energy friction took is the potential plus kinetic energy lost, from the trajectory."""
+    case = make_case(particles=3, duration=200.0, dt=0.002, interval=1.0, chain={"r0": [1.8, 28.3]},
+                     impactor={"profile": "rest"}, friction={"mu": 0.285, "p": 0.012},
+                     table={"r_max": 30.1, "points": 100000})
+    summary = run_case(case, tmp_path / "rig")
+    assert summary == _strict((tmp_path / "rig" / "summary.json").read_text())
+    traj = read_run(tmp_path / "rig").trajectory
+    energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * np.sum(case.chain.masses() * traj.v ** 2, axis=1)
+    assert summary["friction_dissipated_energy_mJ"] == pytest.approx(energy[0] - energy[-1], rel=1e-5)
