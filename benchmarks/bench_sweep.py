@@ -21,7 +21,7 @@ Everything runs in one session after a warm-up (the pool's fork server started, 
 scipy loaded once), the ways being compared interleaved (1, 2, 1, 2, ...) so that load from
 other users hits them alike; best of --repeat.
 
-    python benchmarks/bench_sweep.py [--members 6] [--particles 200] [--duration 200] [--small 20] [--repeat 2]
+    python benchmarks/bench_sweep.py [--members 6] [--particles 300] [--duration 600] [--small 20] [--repeat 2]
 """
 
 from __future__ import annotations
@@ -77,8 +77,8 @@ def timed_sweep(sweep: Sweep, workers: int) -> tuple[float, float, float, float]
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--members", type=int, default=6)
-    p.add_argument("--particles", type=int, default=200, help="magnets of a throughput member")
-    p.add_argument("--duration", type=float, default=200.0, help="ms, throughput members")
+    p.add_argument("--particles", type=int, default=300, help="magnets of a throughput member")
+    p.add_argument("--duration", type=float, default=600.0, help="ms, throughput members")
     p.add_argument("--small", type=int, default=20, help="members of the 21-magnet overhead sweep")
     p.add_argument("--repeat", type=int, default=2)
     args = p.parse_args()

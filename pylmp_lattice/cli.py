@@ -202,10 +202,10 @@ def _sweep(args) -> int:
         sweep = load_sweep(args.sweep)
         table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
                           retry_failed=args.retry_failed, progress=not args.quiet)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Interrupted) as err:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
               "run the same command to resume", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
     failed = int((table["status"] == "failed").sum())
     print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
           file=sys.stderr)

@@ -2,14 +2,19 @@
 
 `render(case)` returns {file name: text}: the deck `in.lattice`, the data file `chain.data`
 and the potential table `force.table`. Written into one folder, `lmp -in in.lattice` runs it.
+`render_replicas(cases)` puts several chains of equal length into one deck (chain engine).
 Engine units are LAMMPS `units si`; every user value passes through `units.to_engine` here.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
+
 import numpy as np
 
 from .case import Case
+from .errors import ConfigError
 from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
 from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
@@ -62,6 +67,95 @@ def piston_text(imp: Measured) -> str:
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
 
+def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
+    """R cases as R independent chains in one deck (chain engine): {file name: text}.
+
+    The cases may differ only in their [chain] (masses, gaps, and what else the data file
+    holds), with the same number of magnets N and the same table range. Replica r (from 0)
+    has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
+    and sits at y = r times the box height: its x values are those of its single run, so
+    its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
+    chains (no fine output, no front record); read it back with simulation.split_replicas.
+    """
+    first = cases[0]
+    for r, case in enumerate(cases):
+        if not uses_chain_engine(case):
+            raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
+        if dataclasses.replace(case, chain=first.chain, name=first.name) != first:
+            raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
+        if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
+            raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
+    # one text dump of all chains (the H5MD conversion and the front record are per chain)
+    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, format="text", fine=(), front=False))
+    files = render(batch)
+    files[DECK] = deck_text(batch, replicas=len(cases))
+    files[DATA] = _stack_data([data_text(case) for case in cases])
+    return files
+
+
+def _stack_data(texts: list[str]) -> str:
+    """Data files of equal chains as one: IDs in blocks, types by mass, replica r at y + r height."""
+    parsed = [_data_sections(text) for text in texts]
+    masses = sorted({m for _, sections in parsed for m in (float(line.split()[1]) for line in sections["Masses"])})
+    type_of = {m: i + 1 for i, m in enumerate(masses)}
+    header = parsed[0][0]
+    xs = [_bounds(h, "x") for h, _ in parsed]
+    (xlo, xhi), (ylo, yhi), (zlo, zhi) = (min(a for a, _ in xs), max(b for _, b in xs)), _bounds(header, "y"), _bounds(header, "z")
+    height = yhi - ylo
+    natoms = len(parsed[0][1]["Atoms"])
+    nbonds = len(parsed[0][1].get("Bonds", []))
+    out = {"Atoms": [], "Velocities": [], "Bonds": []}
+    for r, (_, sections) in enumerate(parsed):
+        local_type = {line.split()[0]: type_of[float(line.split()[1])] for line in sections["Masses"]}
+        for line in sections["Atoms"]:
+            i, _, t, x, y, *rest = line.split()
+            out["Atoms"].append(" ".join([str(int(i) + r * natoms), str(r + 1), str(local_type[t]), x,
+                                          _num(float(y) + r * height), *rest]))
+        for line in sections.get("Velocities", []):
+            i, *rest = line.split()
+            out["Velocities"].append(" ".join([str(int(i) + r * natoms), *rest]))
+        for line in sections.get("Bonds", []):
+            i, t, a, b = line.split()
+            out["Bonds"].append(f"{int(i) + r * nbonds} {t} {int(a) + r * natoms} {int(b) + r * natoms}")
+    lines = [
+        f"# {len(texts)} replicas of a {natoms}-magnet chain (LAMMPS units si)", "",
+        f"{natoms * len(texts)} atoms", f"{nbonds * len(texts)} bonds", f"{len(masses)} atom types",
+        *(line for line in header if line.endswith("bond types")), "",
+        f"{_num(xlo)} {_num(xhi)} xlo xhi",
+        f"{_num(ylo)} {_num(ylo + len(texts) * height)} ylo yhi",
+        f"{_num(zlo)} {_num(zhi)} zlo zhi", "",
+        "Masses", "", *(f"{type_of[m]} {_num(m)}" for m in masses), "",
+        "Atoms # bond", "", *out["Atoms"],
+    ]
+    for name in ("Velocities", "Bonds"):
+        if out[name]:
+            lines += ["", name, "", *out[name]]
+    return "\n".join(lines) + "\n"
+
+
+def _bounds(header: list[str], axis: str) -> tuple[float, float]:
+    line = next(line for line in header if line.endswith(f"{axis}lo {axis}hi"))
+    low, high = line.split()[:2]
+    return float(low), float(high)
+
+
+def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
+    """A data file's header lines and its sections' lines (section names without comments)."""
+    header, sections, current = [], {}, None
+    for line in text.splitlines()[1:]:
+        line = line.strip()
+        if not line:
+            continue
+        if line[0].isalpha():
+            current = line.split("#")[0].strip()
+            sections[current] = []
+        elif current is None:
+            header.append(line)
+        else:
+            sections[current].append(line)
+    return header, sections
+
+
 def data_text(case: Case) -> str:
     """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
     of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
@@ -107,25 +201,56 @@ def data_text(case: Case) -> str:
     return "\n".join(lines) + "\n"
 
 
-def deck_text(case: Case) -> str:
-    run, n = case.run, case.chain.particles
-    lo, hi = case.table_range()
-    longest = case.second_table_range()[1] if case.second_neighbour else hi
-    hi_si = to_engine(longest, "length")
+def deck_text(case: Case, replicas: int = 1) -> str:
+    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
+    run = case.run
     n_steps = run.steps()
-    held = " ".join(str(i + 1) for i in case.held())
     thermo_every = max(1, n_steps // 20)
+    chain = uses_chain_engine(case)
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
 # Run it in this folder with:  lmp -in {DECK}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
-# ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
+{_chain_sections(case, replicas) if chain else _stock_sections(case)}
+
+# ---- 5. Output: thermo with energies, {case.output.format} trajectory
+timestep        {_num(to_engine(run.dt, 'time'))}
+{_thermo_style(case)}
+thermo_modify   norm no flush yes
+thermo          {thermo_every}
+{_output_lines(case)}
+
+# ---- 6. Run {run.duration:g} ms
+run             {n_steps}
+{"" if chain else _stock_contact_print()}{_front_dump_line(case)}"""
+
+
+# Both engines: atoms with bonds (as the data file has them) on the x axis of a 3D box, kept
+# in the order they were read (the map finds chain neighbours by ID).
+_SYSTEM = """\
 units           si
 dimension       3
 boundary        s f f
 atom_style      bond
-atom_modify     map array sort 0 0.0
+atom_modify     map array sort 0 0.0"""
+
+
+def uses_chain_engine(case: Case) -> bool:
+    """`run.engine = "chain"`, unless second neighbours need the stock path's second bonds."""
+    return case.run.engine == "chain" and case.second_neighbour is None
+
+
+def _stock_sections(case: Case) -> str:
+    """Sections 1-4 of the stock engine: bonds with a table, fix nve, fix move, the guard."""
+    run, n = case.run, case.chain.particles
+    lo, hi = case.table_range()
+    longest = case.second_table_range()[1] if case.second_neighbour else hi
+    hi_si = to_engine(longest, "length")
+    held = " ".join(str(i + 1) for i in case.held())
+    return f"""\
+# ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
+{_SYSTEM}
 read_data       {DATA}
 # Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
 # separation; no pair style, so no other interaction exists. Ghosts must reach across the
@@ -154,20 +279,14 @@ compute         bond_dx all bond/local dx
 compute         bond_ids all property/local batom1 batom2
 compute         closest all reduce max c_bond_dx c_bond_ids[1] c_bond_ids[2] replace 2 1 replace 3 1 inputs local
 variable        min_gap equal -c_closest[1]
-fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft
+fix             contact all halt {run.steps('check_interval')} v_min_gap <= 0.0 error soft"""
 
-# ---- 5. Output: thermo with energies, {case.output.format} trajectory
-timestep        {_num(to_engine(run.dt, 'time'))}
-thermo_style    custom step time ke ebond etotal v_min_gap{" f_friction" if case.friction else ""}
-thermo_modify   norm no flush yes
-thermo          {thermo_every}
-{_output_lines(case)}
 
-# ---- 6. Run {run.duration:g} ms
-run             {n_steps}
+def _stock_contact_print() -> str:
+    return f"""\
 if "${{min_gap}} <= 0.0" then &
   "print '{CONTACT_MARK} magnets $(c_closest[2]:%.0f) and $(c_closest[3]:%.0f) gap $(v_min_gap:%.8g) m at t = $(time:%.10g) s'"
-{_front_dump_line(case)}"""
+"""
 
 
 def records_front(case: Case) -> bool:
@@ -210,6 +329,89 @@ def _front_dump_line(case: Case) -> str:
     return f"write_dump      all custom {FRONT_BIN} {FRONT_COLUMNS} modify sort id time yes\n"
 
 
+def _thermo_style(case: Case) -> str:
+    if not uses_chain_engine(case):
+        return f"thermo_style    custom step time ke ebond etotal v_min_gap{' f_friction' if case.friction else ''}"
+    # the chain fix's energy and friction work under the stock deck's column names
+    friction = " f_chain[1]" if case.friction else ""
+    return (
+        f"thermo_style    custom step time ke f_chain etotal v_min_gap{friction}\n"
+        f"thermo_modify   colname f_chain E_bond{' colname f_chain[1] f_friction' if case.friction else ''}"
+    )
+
+
+def _chain_sections(case: Case, replicas: int = 1) -> str:
+    """Sections 1-4 of the chain engine: one fix lattice/chain does the whole time step.
+
+    `replicas` > 1: the data file holds that many chains of N magnets, IDs in blocks of N."""
+    n = case.chain.particles
+    lo, hi = case.table_range()
+    lo_si, hi_si = to_engine(lo, "length"), to_engine(hi, "length")
+    law = _law_args(case.force)
+    source = (f"# F from the exact {case.force.law} law" if law else
+              "# F from the table's clamped cubic spline, as bond_style table spline reads it")
+    chains = f" length {n}" if replicas > 1 else ""
+    each = " of each chain" if replicas > 1 else ""
+    with_friction = ", Coulomb friction (exact stick-slip)" if case.friction else ""
+    fr = case.friction
+    friction = (f" &\n                friction {_num(fr.mu)} {_num(fr.p)} {_num(to_engine(fr.g, 'acceleration'))}"
+                if fr else "")
+    return f"""\
+# ---- 1. The chain{"s: " + str(replicas) + " chains of" if replicas > 1 else ":"} {n} magnets on the x axis
+{_SYSTEM}
+# domains along x only; no reverse communication of forces (every force is set by its owner)
+processors      * 1 1
+newton          off
+read_data       {DATA}
+# Ghosts must reach across the longest separation on several ranks.
+comm_modify     cutoff {_num(1.05 * hi_si)}
+# fix lattice/chain finds neighbours by atom ID: the data file's bonds are not needed (the
+# two warnings about them come before they are deleted), and without bonds or a pair style
+# LAMMPS builds no neighbour lists; it only redistributes atoms among ranks every 100 steps.
+delete_bonds    all multi remove special
+neigh_modify    every 100 delay 0 check no
+
+# ---- 2-4. Force law {case.force!r}, impactor, held end{with_friction}, contact guard
+# One plugin fix does the whole step: nearest-neighbour forces, velocity Verlet, the
+# impactor's prescribed motion (particle 1{each}), the held far end (particle {n}){with_friction}.
+# It checks every gap at every step: a contact prints '{CONTACT_MARK} magnets I and J ...' and
+# stops the run; a gap outside [{lo:g}, {hi:g}] mm stops it with an error. Its scalar is the
+# potential energy (part of pe through fix_modify energy yes).
+{source}
+fix             chain all lattice/chain law {law or f"table {TABLE} {KEYWORD}"} &
+                impactor {_impactor_args(case.impactor)} &
+                range {_num(lo_si)} {_num(hi_si)}{chains}{friction}
+fix_modify      chain energy yes
+variable        min_gap equal f_chain[2]"""
+
+
+def _law_args(law) -> str | None:
+    """The law in the plugin's analytic form (fix lattice/chain, fix lattice/friction), SI;
+    None for a law it only knows as a table. New analytic laws of the plugin go here."""
+    if isinstance(law, PowerLaw):
+        K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
+        return f"power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
+    if isinstance(law, LinearSpring):
+        return f"linear {_num(to_engine(law.k, 'stiffness'))} {_num(to_engine(law.r_free, 'length'))}"
+    return None
+
+
+def _impactor_args(imp) -> str:
+    """The impactor's motion for fix lattice/chain (SI)."""
+    if isinstance(imp, Rest):
+        return "rest"
+    if isinstance(imp, Measured):
+        return f"measured file {PISTON} column {imp.column} after {imp.after}"
+    v = _num(to_engine(imp.velocity, "velocity"))
+    if isinstance(imp, Constant):
+        return f"constant {v}"
+    if isinstance(imp, Ramp):
+        return f"ramp {v} {_num(to_engine(imp.ramp_time, 'time'))}"
+    if isinstance(imp, SinePulse):
+        return f"sine {v} {_num(to_engine(imp.duration, 'time'))}"
+    raise TypeError(f"no deck for impactor {imp!r}")
+
+
 def _second_neighbour_lines(case: Case) -> str:
     sn = case.second_neighbour
     if sn is None:
@@ -237,12 +439,9 @@ def _friction_lines(case: Case) -> str:
         f"# F from the exact {law.law} law; the bonds' table differs from it by its interpolation\n"
         "# error (< 1e-6 relative with the default 10000 points).\n"
     )
-    if isinstance(law, PowerLaw):
-        K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
-        source, spec = exact, f"law power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
-    elif isinstance(law, LinearSpring):
-        k, r_free = to_engine(law.k, "stiffness"), to_engine(law.r_free, "length")
-        source, spec = exact, f"law linear {_num(k)} {_num(r_free)}"
+    analytic = _law_args(law)
+    if analytic:
+        source, spec = exact, f"law {analytic}"
     else:
         source, spec = f"# F from the bond table, as the bonds (the fix has no analytic {law.law} law).\n", "law bond 1"
     return (

@@ -58,6 +58,16 @@ def write_run_folder(case: Case, folder: str | Path, overwrite: bool = False) ->
     return folder
 
 
+def write_replicas_folder(cases, folder: str | Path) -> Path:
+    """Write the batched deck of `cases` (deck.render_replicas) and the cases (replicas.toml)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in deck.render_replicas(cases).items():
+        (folder / name).write_text(text)
+    (folder / "replicas.toml").write_bytes(tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}).encode())
+    return folder
+
+
 def check_folder(folder: str | Path, overwrite: bool = False) -> bool:
     """Whether `folder` holds an earlier run (it has case.toml) to remove before this one;
     ConfigError if it does and `overwrite` is not set. Other files are not a run's: they stay."""
@@ -236,7 +246,8 @@ def _error_line(text: str) -> str | None:
     """LAMMPS's first ERROR line in `text` in user units, without its source location; None if none."""
     for line in text.splitlines():
         if "ERROR" in line:
-            line = re.sub(r"\s*\(src/[^)]*\)", "", line.strip())
+            # LAMMPS's "(src/...)" and a plugin's "(/path/to/fix.cpp:123)"
+            line = re.sub(r"\s*\((?:src/[^)]*|[^()]*\.(?:cpp|h):\d+)\)", "", line.strip())
             # engine lengths (m) -> mm, e.g. "Bond length > table outer cutoff: type 1 length 0.0130"
             return re.sub(r"\blength (-?[\d.]+(?:[eE][-+]?\d+)?)",
                           lambda m: f"length {from_engine(float(m.group(1)), 'length'):.6g} mm", line)

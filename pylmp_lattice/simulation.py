@@ -153,6 +153,32 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
     return summary
 
 
+def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nprocs: int = 1,
+                      echo: bool = False) -> list[Trajectory]:
+    """Run equal-length chains batched in one LAMMPS instance (see deck.render_replicas);
+    return one trajectory per case, each the same as its own `simulate` run's."""
+    from .runner import write_replicas_folder
+
+    folder = write_replicas_folder(cases, folder)
+    if runner == "embedded":
+        run_embedded(folder, echo=echo)
+    else:
+        run_executable(folder, nprocs=nprocs, echo=echo)
+    return split_replicas(cases, trajectory_from_dump(read_dump(folder / DUMP)))
+
+
+def split_replicas(cases, batched: Trajectory) -> list[Trajectory]:
+    """The trajectories of the replicas in a batched run (replica r: particles r N .. r N + N - 1)."""
+    n = cases[0].chain.particles
+    out = []
+    for r, case in enumerate(cases):
+        part = slice(r * n, (r + 1) * n)
+        a = batched.a[:, part].copy()
+        a[:, 0] = case.impactor.acceleration_at(batched.t)
+        out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], a))
+    return out
+
+
 def run_figure(case: Case, folder: str | Path, front: measures.Front):
     """Fig. 3(a-d) of a run, titled with the case, V_I and N: profiles from the fine output if
     any, else a few magnets the front reached, read alone from the trajectory; panels (a, d)

@@ -37,8 +37,10 @@ def test_signal_stops_the_main_case_cleanly(tmp_path, signum, runner):
     """The main case, signalled 3 s after its start (or, on a loaded machine, once LAMMPS has
     written its first frame): exit within 5 s with 128 + signal, one line, a readable trajectory."""
     folder = tmp_path / "run"
+    # at a 100 times smaller time step: at the default the chain engine finishes within those 3 s
     proc = subprocess.Popen(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(folder),
-                                   "--runner", runner], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                   "--runner", runner, "--set", "run.dt=0.0001"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(3.0)
     deadline = time.monotonic() + 60
     while not (folder / "traj.bin").exists() and time.monotonic() < deadline:

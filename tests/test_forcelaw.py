@@ -140,7 +140,9 @@ def test_other_laws_run_like_an_independent_integrator(tmp_path, law):
 
 
 def test_friction_reads_the_table_for_the_other_laws():
-    """The friction fix has analytic power and linear laws only; the others go through the table."""
+    """The friction fix (stock engine) and the chain fix have analytic power and linear laws
+    only; the others go through the table."""
     for law in OTHER_LAWS:
-        text = deck_text(make_law_case(law, friction={"mu": 0.1, "p": 0.0}))
+        text = deck_text(make_law_case(law, friction={"mu": 0.1, "p": 0.0}, run={"engine": "stock"}))
         assert "lattice/friction 0.1 0.0 9.81 law bond 1" in text
+        assert "law table force.table FORCE_LAW" in deck_text(make_law_case(law))

@@ -41,13 +41,13 @@ def test_error_is_second_order_in_dt(tmp_path):
 def test_sampled_force_law_runs_like_the_exact_law(tmp_path):
     """Samples of the paper's law every 0.1 mm (a 'measured' law), with friction: the same
     trajectory as the exact law within 1e-5 V_I (measured 7.5e-7 V_I; the spline through the
-    samples is off by ~1e-6 relative near contact); the friction fix reads the table."""
+    samples is off by ~1e-6 relative near contact); the chain engine reads the table."""
     r = np.linspace(0.0, 40.0, 401)
     sampled = {"law": "sampled", "r": list(r), "F": list(PowerLaw().force(r))}
     case = make_case(particles=30, velocity=2.0, duration=90.0, force=sampled, table={"r_max": 36.0},
                      friction={"mu": 0.285, "p": 0.012})
     traj = simulate(case, tmp_path)
-    assert "lattice/friction 0.285 0.012 9.81 law bond 1" in (tmp_path / "in.lattice").read_text()
+    assert "law table force.table FORCE_LAW" in (tmp_path / "in.lattice").read_text()
     exact = simulate(make_case(particles=30, velocity=2.0, duration=90.0, friction={"mu": 0.285, "p": 0.012}),
                      tmp_path / "exact")
     assert np.max(np.abs(traj.v - exact.v)) < 1e-5 * 2.0

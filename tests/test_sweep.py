@@ -115,6 +115,8 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('base = "base.toml"\nreplica = 3\n', "replica: unknown key; expected one of base"),
         ('base = "base.toml"\n[grid]\n"impactor.velocty" = [1.0]\n', "grid.impactor.velocty: unknown key; expected one of velocity"),
         ('base = "base.toml"\n[set]\n"colour.hue" = 1\n', "set.colour.hue: unknown section"),
+        ('base = "base.toml"\n[grid]\n"force.law" = ["linear"]\n',
+         "grid.force.law: makes the base case's force.K an unknown key; sweep the whole section instead"),
         ('base = "base.toml"\n[grid]\n"impactor.velocity" = []\n', "grid.impactor.velocity: empty list"),
         ('base = "base.toml"\n[grid]\n"impactor.velocity" = 1.0\n', "grid.impactor.velocity: got 1.0; expected a list"),
         ('base = "base.toml"\n[zip]\n"impactor.velocity" = [1.0, 2.0, 3.0]\n"run.duration" = [10.0, 20.0]\n',
@@ -296,3 +298,48 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
         assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
     assert "-o: another sweep is running in" in capsys.readouterr().err
     assert not list((out / "members").iterdir())
+
+
+def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypatch):
+    from pylmp_lattice.sweep import store
+
+    target = tmp_path / STATUS
+    store.atomic_write(target, '{"status": "running"}')
+
+    def killed(src, dst):
+        raise KeyboardInterrupt  # the process stops between writing the new file and the rename
+
+    monkeypatch.setattr(store.os, "replace", killed)
+    with pytest.raises(KeyboardInterrupt):
+        store.atomic_write(target, '{"status": "done"}')
+    assert target.read_text() == '{"status": "running"}'
+    assert [p.name for p in tmp_path.iterdir()] == [STATUS]  # no temporary file left behind
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_ctrl_c_stops_the_sweep_and_leaves_running_members_unfinished_not_failed(tmp_path):
+    path = write_sweep(tmp_path, SIX, particles=12, duration=50.0, output=0.1)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.PIPE, text=True)
+
+    def statuses():
+        found = []
+        for status in (out / "members").glob(f"*/{STATUS}"):
+            try:
+                found.append(json.loads(status.read_text())["status"])
+            except (OSError, json.JSONDecodeError):
+                pass
+        return found
+
+    deadline = time.time() + 120
+    while not ("done" in statuses() and "running" in statuses()) and time.time() < deadline:
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C does: to the whole foreground group
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130
+    assert err.strip().splitlines()[-1].startswith("pylmp-lattice: interrupted; finished members are kept in")
+    assert "failed" not in statuses() and len(statuses()) < 6
+    assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
+    assert set(load_results(out)["status"]) == {"done"}

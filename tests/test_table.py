@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -15,6 +17,7 @@ from conftest import OTHER_LAWS, make_case, make_law_case
 
 def _read_back(case, tmp_path, monkeypatch):
     """LAMMPS's own F and U from the case's table (bond_write), r in mm, U in mJ, F in N."""
+    case = dataclasses.replace(case, run=dataclasses.replace(case.run, engine="stock"))  # the engine with bonds
     folder = write_run_folder(case, tmp_path)
     lo, hi = case.table_range()
     setup = deck.deck_text(case).split("# ---- 3.")[0]  # the deck's system and force law

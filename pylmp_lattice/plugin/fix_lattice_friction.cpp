@@ -102,6 +102,8 @@ Restrictions
 
 #include "fix_lattice_friction.h"
 
+#include "coulomb.h"
+
 #include "atom.h"
 #include "bond.h"
 #include "domain.h"
@@ -281,7 +283,7 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
   tagint prev_tag = -1;
   double prev_fright = 0.0;
 
-  double work_now = 0.0, work_next = 0.0, sum_fv = 0.0, sum_fh = 0.0;
+  CoulombWork work;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double fx = f[i][0];
@@ -315,49 +317,16 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     const double normal = m * g + p * (fleft + fright);
     const double limit = normal > 0.0 ? mu * normal : 0.0;
     const double dvdf = kick / m;
-
-    // ftot: the constant force over the kick that reproduces the exact Coulomb solution
-    double ftot = 0.0;
-    bool stuck = false;
-    if (v0 == 0.0) {
-      if (fabs(fx) <= limit) stuck = true;
-      else ftot = fx - copysign(limit, fx);
-    } else {
-      const double s = copysign(1.0, v0);
-      ftot = fx - s * limit;
-      const double v1 = v0 + dvdf * ftot;
-      if (s * v1 <= 0.0) {    // the velocity reaches zero within the kick
-        if (fabs(fx) <= limit) stuck = true;
-        // moves off the other way for the rest of the kick, a time m v1 / ftot
-        else ftot = (v1 * (fx + s * limit) / ftot - v0) / dvdf;
-      }
-    }
-
+    bool stuck;
+    const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
     if (stuck) {
-      // v is zeroed now, so all of this kick's loss is settled at this step
-      work_now += 0.5 * v0 * (m * v0 + kick * fx);    // -(ffric) kick (v0 + 0) / 2
+      work.stuck(v0, m, kick, fx);
       v[i][0] = 0.0;
       f[i][0] = 0.0;
       continue;
     }
-    // friction work over the kick, split at the full step: v goes v0, v0 + h, v0 + 2h, so
-    // the halves are -ffric kick/4 (2 v0 + h) and -ffric kick/4 (2 v0 + 3 h), summed below
-    const double ffric = ftot - fx;
-    const double h = 0.5 * dvdf * ftot;
-    sum_fv += ffric * v0;
-    sum_fh += ffric * h;
+    work.slip(v0, fx, ftot, dvdf);
     f[i][0] = ftot;
   }
-
-  if (setup_kick) {
-    // the half kick from v(0): all of its work, -ffric kick (v0 + h), lies after the full
-    // step, and it replaces the second half-kick planned at the end of the last run
-    work_next -= kick * (sum_fv + sum_fh);
-  } else {
-    work_now -= 0.25 * kick * (2.0 * sum_fv + sum_fh);
-    work_next -= 0.25 * kick * (2.0 * sum_fv + 3.0 * sum_fh);
-    work_done += work_pending;
-  }
-  work_done += work_now;
-  work_pending = work_next;
+  work.settle(kick, setup_kick, work_done, work_pending);
 }

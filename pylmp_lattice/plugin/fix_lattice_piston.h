@@ -4,9 +4,9 @@
 #define PYLMP_LATTICE_FIX_LATTICE_PISTON_H
 
 #include "fix.h"
+#include "measured_motion.h"
 
 #include <string>
-#include <vector>
 
 namespace LAMMPS_NS {
 
@@ -26,13 +26,8 @@ class FixLatticePiston : public Fix {
   bigint time_origin;     // step at which the fix was defined: file time t[0]
   double x0[3];           // the atom's position then
 
-  // cubic spline of the file's column: knots t, values y, second derivatives d2y;
-  // yint = integral of the spline from t[0] to each knot (used when the column is v)
-  std::vector<double> t, y, d2y, yint;
+  MeasuredMotion spline;    // the file's motion
 
-  void read_file();
-  void fit_spline();
-  void motion(double, double &, double &) const;
   void place(bool set_x);
 };
 

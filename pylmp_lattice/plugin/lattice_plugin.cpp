@@ -1,8 +1,10 @@
-/* Plugin loader: registers the pylmp_lattice fix styles with LAMMPS on `plugin load`
+/* Plugin loader: registers the pylmp_lattice fix styles (lattice/friction, lattice/piston, lattice/chain,
+   lattice/front) with LAMMPS on `plugin load`
    (or on auto-loading from LAMMPS_PLUGIN_PATH). */
 
 #include "lammpsplugin_abi.h"
 
+#include "fix_lattice_chain.h"
 #include "fix_lattice_friction.h"
 #include "fix_lattice_front.h"
 #include "fix_lattice_piston.h"
@@ -17,6 +19,11 @@ using namespace LAMMPS_NS;
 static void *friction_creator(void *lmp, int narg, char **arg)
 {
   return new FixLatticeFriction(static_cast<LAMMPS *>(lmp), narg, arg);
+}
+
+static void *chain_creator(void *lmp, int narg, char **arg)
+{
+  return new FixLatticeChain(static_cast<LAMMPS *>(lmp), narg, arg);
 }
 
 static void *front_creator(void *lmp, int narg, char **arg)
@@ -46,6 +53,11 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "lattice/piston";
   plugin.info = "Impactor driven by a measured u(t) or v(t) series (pylmp_lattice)";
   plugin.creator.v2 = &piston_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "lattice/chain";
+  plugin.info = "Chain-specialised time step of 1D nearest-neighbour chains (pylmp_lattice)";
+  plugin.creator.v2 = &chain_creator;
   (*register_plugin)(&plugin, lmp);
 
   plugin.name = "lattice/front";

@@ -26,8 +26,9 @@ from pathlib import Path
 import pandas as pd
 
 from ..case import Case
+from ..errors import Interrupted
 from .spec import Member, Sweep
-from .store import DONE, FAILED, RUNNING, MEMBERS, member_folder, now, provenance, read_status, write_status
+from .store import DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, member_folder, now, provenance, read_status, write_status
 from .table import member_row, write_table
 
 LOCK = "sweep.lock"
@@ -63,8 +64,11 @@ def run_member(task: Task) -> dict:
     write_status(folder, record)
     summary = None
     try:
-        summary = run_case(task.case, folder, runner=task.runner, figure=False)
+        # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
+        summary = run_case(task.case, folder, runner=task.runner, figure=False, yes=True)
         record["status"] = DONE
+    except Interrupted:  # Ctrl-C or SIGTERM: unfinished, not failed; on disk it stays "running"
+        return {"record": record | {"status": INTERRUPTED}, "summary": None}
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         record |= {"status": FAILED, "error": one_line(err)}
     record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
@@ -133,13 +137,16 @@ def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, re
                     result = future.result()
                 except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
                     result = _lost(root, m, err)
+                if result["record"]["status"] == INTERRUPTED:
+                    continue
                 rows[m.index] = _row(m, result["record"], result["summary"])
                 table = write_table(root, [rows[i] for i in sorted(rows)])
                 bar.advance(running=len(futures) - done)
-        except KeyboardInterrupt:
-            # queued members never start; running ones finish and are recorded on disk
+        except (KeyboardInterrupt, Interrupted):
+            # queued members never start; running ones are stopped (pool) and re-run on resume
             for future in futures:
                 future.cancel()
+            _interrupt_workers(executor)
             bar.close()
             raise
     bar.close()
@@ -225,6 +232,15 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         yield executor, max(1, sum(threads.values()))
     finally:
         client.close()
+
+
+def _interrupt_workers(executor: Executor) -> None:
+    """Ask a local pool's workers to stop their members (the engine stops at the next step).
+    A Dask cluster's running members finish on their own; their results stay on disk."""
+    if isinstance(executor, ProcessPoolExecutor):
+        for process in list((executor._processes or {}).values()):  # no public list of workers
+            with contextlib.suppress(ProcessLookupError, TypeError):
+                os.kill(process.pid, signal.SIGINT)
 
 
 def _start_forkserver() -> None:

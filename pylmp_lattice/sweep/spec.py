@@ -165,10 +165,16 @@ class Sweep:
         """Re-raise an unknown field or section named by the sweep as an error of the sweep file."""
         if not str(err).startswith(f"{err.field}: unknown"):
             return
-        for table in ("set", "grid", "zip"):
-            for key in getattr(self, table):
-                if err.field == key or err.field.split(".")[0] == key or key.split(".")[0] == err.field:
-                    raise ConfigError(f"{table}.{key}", str(err).split(": ", 1)[1]) from err
+        message = str(err).split(": ", 1)[1]
+        section = err.field.split(".")[0]
+        tables = [(table, key) for table in ("set", "grid", "zip") for key in getattr(self, table)]
+        for table, key in tables:
+            if err.field == key or section == key or key.split(".")[0] == err.field:
+                raise ConfigError(f"{table}.{key}", message) from err
+        for table, key in tables:  # e.g. force.law swept alone: the base's other force fields do not fit
+            if key.split(".")[0] == section:
+                raise ConfigError(f"{table}.{key}", f"makes the base case's {err.field} an {message.split(';')[0]}; "
+                                  f"sweep the whole section instead, e.g. {section} = [{{...}}, {{...}}]") from err
         raise ConfigError("base", f"the base case is invalid ({err})") from err
 
 

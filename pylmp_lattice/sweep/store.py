@@ -27,6 +27,7 @@ import numpy as np
 MEMBERS = "members"
 STATUS = "status.json"
 DONE, FAILED, RUNNING = "done", "failed", "running"
+INTERRUPTED = "interrupted"  # reported by a worker, never written: on disk the member stays "running"
 
 
 def member_folder(root: str | Path, member_id: str) -> Path:

@@ -1,0 +1,155 @@
+"""The chain engine (fix lattice/chain) against the stock path it replaces, on 1 and 2 ranks."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.case import case_from_dict, case_to_dict
+from pylmp_lattice.deck import render_replicas
+from pylmp_lattice.errors import ConfigError, ContactError
+from pylmp_lattice.forcelaw import PowerLaw
+from pylmp_lattice.piston import SinePulse
+from pylmp_lattice.dump import read_dump, trajectory_from_dump
+from pylmp_lattice.runner import run_embedded, write_replicas_folder, write_run_folder
+from pylmp_lattice.simulation import simulate, simulate_replicas, split_replicas
+
+from conftest import make_case
+
+FRICTION = {"mu": 0.285, "p": 0.012}
+# the measured profile: u samples of a 2 m/s, 10 ms half-sine pulse at 8 kHz, held after 20 ms
+_T = np.arange(0.0, 20.0 + 1e-9, 0.125)
+PROFILES = {
+    "constant": {"profile": "constant", "velocity": 2.0},
+    "ramp": {"profile": "ramp", "velocity": 2.0, "ramp_time": 7.3},
+    "sine": {"profile": "sine", "velocity": 2.0, "duration": 7.3},
+    "measured": {"profile": "measured", "t": list(_T), "values": list(SinePulse(2.0, 10.0).displacement_at(_T)),
+                 "column": "u", "after": "hold"},
+    "rest": {"profile": "rest"},
+}
+
+
+def with_run(case, **changes):
+    return dataclasses.replace(case, run=dataclasses.replace(case.run, **changes))
+
+
+def both_engines(case, folder):
+    return {engine: simulate(with_run(case, engine=engine), folder / engine) for engine in ("chain", "stock")}
+
+
+def _chain(profile: str, friction: bool):
+    extra = {"friction": FRICTION} if friction else {}
+    if profile == "rest":  # unequal gaps set the chain moving with the impactor at rest
+        extra["chain"] = {"r0": [9.0 if k % 3 else 15.0 for k in range(20)]}
+    return make_case(particles=21, duration=30.0, interval=0.5, impactor=PROFILES[profile], **extra)
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("friction", [False, True], ids=["frictionless", "friction"])
+@pytest.mark.parametrize("profile", sorted(PROFILES))
+def test_chain_engine_matches_the_stock_path(tmp_path, profile, friction):
+    """Same trajectories to 1e-9 m/s for every impactor profile, with and without friction
+    (the bonds' table differs from the exact law by < 1e-6 relative; measured <= 8.1e-13 m/s)."""
+    runs = both_engines(_chain(profile, friction), tmp_path)
+    chain, stock = runs["chain"], runs["stock"]
+    assert chain.v.shape == stock.v.shape == (61, 21)
+    assert np.max(np.abs(chain.v)) > 0.1  # something moved
+    assert np.max(np.abs(chain.v - stock.v)) < 1e-9
+    assert np.max(np.abs(chain.u - stock.u)) < 1e-9  # mm
+    # forces, friction included: 1e-6 relative of the largest acceleration
+    assert np.max(np.abs(chain.a - stock.a)) < 1e-6 * np.max(np.abs(stock.a))
+    if friction:
+        stuck = stock.v[:, 1:-1] == 0.0
+        assert np.any(stuck) and np.array_equal(chain.v[:, 1:-1] == 0.0, stuck)  # exact stick, same frames
+
+
+@pytest.mark.lammps
+def test_sampled_law_through_the_table_spline(tmp_path):
+    """A law known only as samples: the chain fix interpolates the same table as bond_style
+    table spline, so with friction both engines agree to round-off (1e-12 m/s)."""
+    r = np.linspace(0.0, 40.0, 401)
+    sampled = {"law": "sampled", "r": list(r), "F": list(PowerLaw().force(r))}
+    case = make_case(particles=21, duration=30.0, interval=0.5, force=sampled, table={"r_max": 36.0},
+                     friction=FRICTION)
+    runs = both_engines(case, tmp_path)
+    assert "law table force.table FORCE_LAW" in (tmp_path / "chain" / "in.lattice").read_text()
+    assert np.max(np.abs(runs["chain"].v - runs["stock"].v)) < 1e-12
+
+
+@pytest.mark.lammps
+def test_contact_is_reported_at_the_step_of_a_step_by_step_guard(tmp_path):
+    """21 magnets driven into the held end: the chain fix checks every gap at every step and
+    names the same pair, time and gap as the stock guard run at every step (check_interval =
+    dt); the stock default, every output interval, sees it up to 0.1 ms later."""
+    case = make_case(particles=21, velocity=2.0, duration=200.0)
+    errors = {}
+    for name, run in {"chain": {}, "stock_every_step": {"engine": "stock", "check_interval": 0.01},
+                      "stock_default": {"engine": "stock"}}.items():
+        with pytest.raises(ContactError) as info:
+            simulate(with_run(case, **run), tmp_path / name)
+        errors[name] = info.value
+    chain, stock = errors["chain"], errors["stock_every_step"]
+    assert chain.pair == stock.pair == (19, 20)
+    assert chain.time_ms == stock.time_ms == pytest.approx(68.56, abs=1e-9)
+    assert chain.gap_mm == pytest.approx(stock.gap_mm, abs=1e-9) and chain.gap_mm <= 0
+    assert errors["stock_default"].time_ms == pytest.approx(68.6, abs=1e-9)
+
+
+@pytest.mark.lammps
+def test_one_and_two_ranks_give_bit_identical_trajectories(tmp_path):
+    """200 magnets with friction on 1 and 2 MPI ranks (full doubles in the binary dumps):
+    identical x, v, f (each bond's force comes from the same two positions in the same order;
+    on one rank the drift joins the force pass, on two it does not: the same operations)."""
+    case = make_case(particles=200, velocity=2.0, duration=40.0, interval=1.0, friction=FRICTION)
+    runs = {n: simulate(case, tmp_path / f"np{n}", runner="lmp", nprocs=n) for n in (1, 2)}
+    assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
+    one, two = runs[1], runs[2]
+    assert np.max(np.abs(one.v)) > 1.0
+    for name in ("x0", "u", "v", "a"):
+        assert np.array_equal(getattr(one, name), getattr(two, name)), name
+
+
+def test_engine_field_is_validated_and_round_trips():
+    data = case_to_dict(make_case())
+    assert data["run"]["engine"] == "chain"
+    assert case_from_dict(data) == make_case()
+    data["run"]["engine"] = "fast"
+    with pytest.raises(ConfigError, match=r"run.engine: got 'fast'; choose one of chain, stock"):
+        case_from_dict(data)
+
+
+def _run_with_17_digits(folder):
+    """Run a written folder with its text dump at 17 digits (every double exactly)."""
+    deck = folder / "in.lattice"
+    deck.write_text(deck.read_text().replace("format float %.12g", "format float %.17g"))
+    run_embedded(folder)
+    return trajectory_from_dump(read_dump(folder / "traj.dump"))
+
+
+@pytest.mark.lammps
+def test_batched_replicas_equal_their_single_runs(tmp_path):
+    """Four 21-magnet chains with different masses, with friction, in one LAMMPS instance:
+    each replica's trajectory is bit for bit its own run's (same x values, y offsets only)."""
+    cases = [make_case(particles=21, duration=30.0, interval=0.5, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r},
+                       output={"format": "text"}) for r in range(4)]
+    batched = split_replicas(cases, _run_with_17_digits(write_replicas_folder(cases, tmp_path / "batched")))
+    assert "length 21" in (tmp_path / "batched" / "in.lattice").read_text()
+    for r, case in enumerate(cases):
+        single = _run_with_17_digits(write_run_folder(case, tmp_path / f"single{r}"))
+        single.a[:, 0] = case.impactor.acceleration_at(single.t)
+        assert np.max(np.abs(single.v)) > 1.0
+        for name in ("x0", "u", "v", "a"):
+            assert np.array_equal(getattr(batched[r], name), getattr(single, name)), (r, name)
+    assert not np.array_equal(batched[0].v, batched[3].v)
+    # the package's path: the same trajectories through simulate_replicas
+    again = simulate_replicas(cases, tmp_path / "again")
+    assert np.max(np.abs(again[2].v - batched[2].v)) < 1e-11
+
+
+def test_replicas_may_differ_only_in_their_chain():
+    with pytest.raises(ConfigError, match="replica 1 differs from replica 0 outside"):
+        render_replicas([make_case(), make_case(velocity=1.0)])
+    with pytest.raises(ConfigError, match="batched replicas need the chain engine"):
+        render_replicas([make_case(run={"engine": "stock"})])
