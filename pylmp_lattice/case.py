@@ -344,6 +344,9 @@ class Case:
         lo, hi = self.table_range()
         if self.second_neighbour is not None:
             self._check_second_neighbour()
+            # the chain engine's fix handles nearest neighbours only
+            if self.run.engine != "stock":
+                raise ConfigError("run.engine", f"got {self.run.engine!r}; second neighbours need run.engine = 'stock'")
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
@@ -510,7 +513,8 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         chain=_build(Chain, "chain", data["chain"]),
         force=_build(FORCE_LAWS[law], "force", force, force_keys),
         impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
-        run=_build(RunSettings, "run", data["run"]),
+        # second neighbours run on the stock deck path: the default engine there
+        run=_build(RunSettings, "run", ({"engine": "stock"} if "second_neighbour" in data else {}) | data["run"]),
         table=_build(TableSettings, "table", data.get("table", {})),
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
         output=_build(OutputSettings, "output", data.get("output", {})),

@@ -15,7 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ai_zeros, expit, itairy, jv
 
 
 # ----------------------------------------------------------------------------- harmonic chain
@@ -29,6 +28,8 @@ def harmonic_piston_velocity(n, t, u_p: float, omega: float):
     J_0 + 2 sum_{k>=1} J_2k = 1, so v_n = u_p [1 - J_0 - 2 sum_{k=1}^{n-1} J_2k - J_2n] exactly
     (absolute error ~1e-16 u_p). n: integers >= 0; t: array; returns shape (len(t), len(n)).
     """
+    from scipy.special import jv  # here: scipy.special slows every start, most never need it
+
     n = np.atleast_1d(np.asarray(n, int))
     x = 2 * omega * np.atleast_1d(np.asarray(t, float))[:, None]
     if np.any(n < 0):
@@ -48,6 +49,8 @@ def harmonic_overshoot_limit() -> float:
     of J_2k over k >= n becomes v_n / u_p -> integral_z^inf Ai(s) ds, z = (2/x)^(1/3) (2n - x):
     a front of fixed shape that widens as t^(1/3). Its maximum, at the first zero a1 of Ai, is
     1/3 + integral_0^|a1| Ai(-s) ds, the same for every u_p."""
+    from scipy.special import ai_zeros, itairy  # here: scipy.special slows every start, most never need it
+
     a1 = float(ai_zeros(1)[0][0])
     return 1.0 / 3.0 + float(itairy(-a1)[2])
 
@@ -79,6 +82,8 @@ def toda_soliton(n, t, kappa: float, n0: float = 0.0):
     Returns (x, v, r), each of shape (len(t), len(n)): displacement, velocity, relative
     displacement r_n = x_(n+1) - x_n of the gap that follows particle n.
     """
+    from scipy.special import expit  # here: scipy.special slows every start, most never need it
+
     n = np.atleast_1d(np.asarray(n, float))[None, :]
     t = np.atleast_1d(np.asarray(t, float))[:, None]
     beta = np.sinh(kappa)

@@ -9,8 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import curve_fit
 
 from .errors import ConfigError
 
@@ -85,7 +83,7 @@ class SampledLaw:
 
     r: tuple[float, ...]  # mm, increasing
     F: tuple[float, ...]  # N
-    _spline: CubicSpline = field(init=False, repr=False, compare=False)
+    _spline: scipy.interpolate.CubicSpline = field(init=False, repr=False, compare=False)
     _integral: object = field(init=False, repr=False, compare=False)
 
     law = "sampled"
@@ -98,6 +96,8 @@ class SampledLaw:
             raise ConfigError("force.r", "samples must be strictly increasing")
         if r[0] < 0:
             raise ConfigError("force.r", f"got r = {r[0]} mm; expected >= 0")
+        from scipy.interpolate import CubicSpline  # here, not at the top: scipy's submodules cost a CLI start more than most runs
+
         spline = CubicSpline(r, F)
         object.__setattr__(self, "_spline", spline)
         object.__setattr__(self, "_integral", spline.antiderivative())
@@ -290,6 +290,8 @@ def fit_power_law(r, F, guess: PowerLaw | None = None) -> PowerLawFit:
 
     def log_model(x, logK, b, q):
         return logK - q * np.log(x + b)
+
+    from scipy.optimize import curve_fit  # here, not at the top: scipy's submodules cost a CLI start more than most runs
 
     b_min = max(1e-9, 1e-9 - r.min())
     (logK, b, q), _ = curve_fit(

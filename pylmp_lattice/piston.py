@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .errors import ConfigError
 
@@ -130,7 +129,7 @@ class Measured:
     values: tuple[float, ...]  # mm for column 'u', m/s for column 'v'
     column: str = "u"
     after: str = "hold"
-    _u: CubicSpline = field(init=False, repr=False, compare=False)
+    _u: scipy.interpolate.CubicSpline = field(init=False, repr=False, compare=False)
 
     profile = "measured"
 
@@ -144,6 +143,8 @@ class Measured:
             raise ConfigError("impactor.column", f"got {self.column!r}; choose one of u, v")
         if self.after not in ("hold", "stop"):
             raise ConfigError("impactor.after", f"got {self.after!r}; choose one of hold, stop")
+        from scipy.interpolate import CubicSpline  # here, not at the top: scipy's submodules cost a CLI start more than most runs
+
         spline = CubicSpline(t - t[0], y)
         u = spline if self.column == "u" else spline.antiderivative()
         object.__setattr__(self, "_u", u)

@@ -150,3 +150,13 @@ def test_second_neighbour_section_round_trips_and_validates():
         case_from_dict(data)
     long = make_case(chain={"particles": None, "far_end": "long"}, second_neighbour={"law": "power", "sign": 1})
     assert long.held() == [long.chain.particles - 2, long.chain.particles - 1]
+
+
+def test_second_neighbours_need_the_stock_engine():
+    """The chain engine's fix handles nearest neighbours only: a case with second neighbours
+    runs on the stock deck path by default, and asking for the chain engine is refused."""
+    second = {"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}
+    assert make_case(second_neighbour=second).run.engine == "stock"
+    assert make_case().run.engine == "chain"
+    with pytest.raises(ConfigError, match="run.engine: got 'chain'; second neighbours need run.engine = 'stock'"):
+        make_case(second_neighbour=second, run={"engine": "chain"})

@@ -30,7 +30,7 @@ def paper_dict(name: str, impactor: dict, duration: float, far_end: str = "long"
                dt: float = 0.01, output_interval: float = 0.1, **sections) -> dict:
     """`paper_case` as a case dict. As a sweep's base it leaves a long lattice's N unresolved, so
     each member gets the N its own V_I, law and run length need; `sections` add or replace case
-    sections (force, friction, ...)."""
+    sections (force, friction, ...); a `run` section adds to the run settings."""
     data = {
         "name": name,
         "chain": {"mass": MASS, "r0": R0, "far_end": far_end} | ({"particles": particles} if particles else {}),
@@ -38,6 +38,7 @@ def paper_dict(name: str, impactor: dict, duration: float, far_end: str = "long"
         "impactor": dict(impactor),
         "run": {"duration": duration, "dt": dt, "output_interval": output_interval},
     }
+    data["run"] |= sections.pop("run", {})  # extra run settings join the run length and step
     data.update(sections)
     return data
 
