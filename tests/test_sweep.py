@@ -58,6 +58,26 @@ base = "base.toml"
 """
 
 
+def start_sweep(tmp_path: Path, duration: float, stderr):
+    """The six-member sweep (12 magnets, `duration` ms each) as a command in its own process
+    group, one worker: (command, sweep folder, process)."""
+    path = write_sweep(tmp_path, SIX, particles=12, duration=duration, output=0.1)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
+    return cmd, out, subprocess.Popen(cmd, start_new_session=True, stderr=stderr, text=True)
+
+
+def member_statuses(out: Path) -> dict[Path, str]:
+    """Member folder -> status, as a running sweep has written them so far."""
+    found = {}
+    for status in (out / "members").glob(f"*/{STATUS}"):
+        try:
+            found[status.parent] = json.loads(status.read_text())["status"]
+        except (OSError, json.JSONDecodeError):  # being replaced right now
+            pass
+    return found
+
+
 # ----------------------------------------------------------------------------- the sweep file
 
 def test_members_are_the_grid_product_times_the_zip_with_replicas_innermost(tmp_path):
@@ -167,9 +187,12 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     row = stats[stats["impactor.velocity"] == 2.0].iloc[0]
     assert row["V.mean"] == pytest.approx(np.mean(values), rel=1e-12)
     assert row["V.sem"] == pytest.approx(np.std(values, ddof=1) / np.sqrt(5), rel=1e-12)
+    import matplotlib.pyplot as plt
+
     ax = plot_replica_stats(stats, "impactor.velocity", "V")
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
+    plt.close(ax.figure)
     write_replica_stats(tmp_path, table)
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
     assert (tmp_path / "replica_stats.png").stat().st_size > 0
@@ -207,20 +230,10 @@ def test_local_pool_and_dask_cluster_give_identical_tables(tmp_path):
 @pytest.mark.slow
 def test_sigkill_then_rerun_resumes_without_rerunning_finished_members(tmp_path):
     """The whole process group is killed, as a batch system's wall-time limit does."""
-    path = write_sweep(tmp_path, SIX, particles=12, duration=40.0, output=0.1)
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
-    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.DEVNULL)
+    cmd, out, proc = start_sweep(tmp_path, duration=40.0, stderr=subprocess.DEVNULL)
 
     def done_folders():
-        found = []
-        for status in (out / "members").glob(f"*/{STATUS}"):
-            try:
-                if json.loads(status.read_text())["status"] == "done":
-                    found.append(status.parent)
-            except (OSError, json.JSONDecodeError):
-                pass
-        return found
+        return [folder for folder, status in member_statuses(out).items() if status == "done"]
 
     deadline = time.time() + 120
     while len(done_folders()) < 2 and time.time() < deadline and proc.poll() is None:
@@ -319,19 +332,10 @@ def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypat
 @pytest.mark.lammps
 @pytest.mark.slow
 def test_ctrl_c_stops_the_sweep_and_leaves_running_members_unfinished_not_failed(tmp_path):
-    path = write_sweep(tmp_path, SIX, particles=12, duration=50.0, output=0.1)
-    out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", "1", "--quiet"]
-    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    cmd, out, proc = start_sweep(tmp_path, duration=50.0, stderr=subprocess.PIPE)
 
     def statuses():
-        found = []
-        for status in (out / "members").glob(f"*/{STATUS}"):
-            try:
-                found.append(json.loads(status.read_text())["status"])
-            except (OSError, json.JSONDecodeError):
-                pass
-        return found
+        return list(member_statuses(out).values())
 
     deadline = time.time() + 120
     while not ("done" in statuses() and "running" in statuses()) and time.time() < deadline:
