@@ -68,7 +68,7 @@ namespace {
 // window that ends at the peak).
 enum {
   T_START, T_ARRIVAL, T_PEAK, V_PEAK, A_PEAK, V_ABS_MAX, T_PULSE, NOUT,
-  V_PREV = NOUT, A_PREV, TS_START, DONE, PULSE_DONE,
+  V_PREV = NOUT, DONE, PULSE_DONE, A_PREV, TS_START,
   BEST_V, BEST_T, BEST_VM, BEST_TM, BEST_VP, BEST_TP,
   PULSE_V, PULSE_T, PULSE_VM, PULSE_TM, PULSE_VP, PULSE_TP,
   ARUN_A, ARUN_T, ARUN_AM, ARUN_TM, ARUN_AP, ARUN_TP,
@@ -176,8 +176,15 @@ void FixLatticeFront::sample()
     if (!(mask[i] & groupbit)) continue;
     double *r = rec[i];
     const double vi = v[i][0];
-    const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
     if (!(std::fabs(vi) <= r[V_ABS_MAX])) r[V_ABS_MAX] = std::fabs(vi);    // NaN at first
+    // Most magnets are at rest ahead of the front or have both peaks behind them: for those
+    // the record reads only the first columns (one or two cache lines) and moves on.
+    if (std::isnan(r[T_START]) && vi < start_level) {
+      r[V_PREV] = vi;
+      continue;
+    }
+    if (r[DONE] == 1.0 && r[PULSE_DONE] == 1.0) continue;
+    const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
 
     fill_right(&r[BEST_V], vi, t, t_prev);
     fill_right(&r[PULSE_V], vi, t, t_prev);
