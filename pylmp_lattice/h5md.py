@@ -43,7 +43,7 @@ from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
 FILE = "traj.h5md"
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
-_CHUNK_FRAMES, _CHUNK_PARTICLES = 1024, 32  # 256 kB chunks
+_CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
 
 
 def convert_run(case: Case, folder: Path) -> Path | None:
@@ -112,8 +112,10 @@ def _write_group(g, dump, masses: np.ndarray, compression: str) -> None:
     box.attrs["boundary"] = np.array([b"none"] * 3)
     filters = {} if compression == "none" else {"compression": compression, "shuffle": True}
     # One component a chunk: y and z are never written, so HDF5 stores no chunk for them and
-    # reads its fill value, 0, without compressing or storing anything.
-    chunks = (_CHUNK_FRAMES, min(n, _CHUNK_PARTICLES), 1)
+    # reads its fill value, 0. Chunks hold up to 1024 frames, and more particles when there are
+    # fewer frames: HDF5 compresses whole chunks, so a chunk must not be mostly empty.
+    frames = max(1, min(_CHUNK_FRAMES, dump.frames))
+    chunks = (frames, min(n, max(32, _CHUNK_VALUES // frames)), 1)
     values = {name: g.create_dataset(f"{name}/value", shape=(0, n, 3), maxshape=(None, n, 3), dtype="f8",
                                       chunks=chunks, **filters) for name, _, _ in _FIELDS}
     step = g.create_dataset("position/step", shape=(0,), maxshape=(None,), dtype="i8", chunks=(4096,))
