@@ -33,7 +33,7 @@ import tomli_w
 from . import deck
 from .case import Case, case_to_dict
 from .engine import new_lammps
-from .errors import ConfigError, ContactError, Interrupted, RunError
+from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, RunError
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -179,8 +179,8 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         out.seek(0)
         output = out.read()
     if stopped:
-        step_time = _last_thermo(folder)[1]
-        raise Interrupted(stopped[0], from_engine(step_time, "time") if step_time is not None else None, folder)
+        written = [t for t in (_last_thermo(folder)[1], _last_frame_time(folder)) if t is not None]
+        raise Interrupted(stopped[0], from_engine(max(written), "time") if written else None, folder)
     if proc.returncode != 0:
         log = folder / deck.LOG
         message = _error_line((log.read_text() if log.exists() else "") + output)
@@ -230,6 +230,21 @@ def _last_thermo(folder: Path) -> tuple[int, float | None]:
         return 0, None
     rows = re.findall(r"^\s*(\d+)\s+([-+.\deE]+)\s+[-+.\deE]+\s", text, re.MULTILINE)
     return (int(rows[-1][0]), float(rows[-1][1])) if rows else (0, None)
+
+
+def _last_frame_time(folder: Path) -> float | None:
+    """Time (s) of the last complete frame of the binary trajectory, if there is one: a killed
+    `lmp` prints thermo rows only every 1/20 of the run, but writes frames to the end."""
+    from .bindump import open_dump
+
+    path = folder / deck.TRAJ_BIN
+    if not path.is_file() or path.stat().st_size == 0:
+        return None
+    with contextlib.suppress(DumpFormatError):
+        dump = open_dump(path)
+        if dump.frames:
+            return float(dump.read(dump.frames - 1).time[-1])
+    return None
 
 
 def _check_contact(folder: Path) -> None:
