@@ -16,25 +16,27 @@ using namespace LAMMPS_NS;
 #error "PYLMP_LAMMPS_VERSION must be defined (done by CMakeLists.txt)"
 #endif
 
-static void *friction_creator(void *lmp, int narg, char **arg)
+namespace {
+template <class FixStyle> void *create(void *lmp, int narg, char **arg)
 {
-  return new FixLatticeFriction(static_cast<LAMMPS *>(lmp), narg, arg);
+  return new FixStyle(static_cast<LAMMPS *>(lmp), narg, arg);
 }
 
-static void *chain_creator(void *lmp, int narg, char **arg)
-{
-  return new FixLatticeChain(static_cast<LAMMPS *>(lmp), narg, arg);
-}
-
-static void *front_creator(void *lmp, int narg, char **arg)
-{
-  return new FixLatticeFront(static_cast<LAMMPS *>(lmp), narg, arg);
-}
-
-static void *piston_creator(void *lmp, int narg, char **arg)
-{
-  return new FixLatticePiston(static_cast<LAMMPS *>(lmp), narg, arg);
-}
+// The styles this plugin registers: name, description, and the constructor LAMMPS calls.
+struct Style {
+  const char *name, *info;
+  void *(*creator)(void *, int, char **);
+};
+const Style STYLES[] = {
+    {"lattice/friction", "Coulomb friction on a 1D magnet chain (pylmp_lattice)", &create<FixLatticeFriction>},
+    {"lattice/piston", "Impactor driven by a measured u(t) or v(t) series (pylmp_lattice)",
+     &create<FixLatticePiston>},
+    {"lattice/chain", "Chain-specialised time step of 1D nearest-neighbour chains (pylmp_lattice)",
+     &create<FixLatticeChain>},
+    {"lattice/front", "Front arrival and first peak of each atom, recorded every step (pylmp_lattice)",
+     &create<FixLatticeFront>},
+};
+}    // namespace
 
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
 {
@@ -44,24 +46,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.style = "fix";
   plugin.author = "pylmp_lattice developers";
   plugin.handle = handle;
-
-  plugin.name = "lattice/friction";
-  plugin.info = "Coulomb friction on a 1D magnet chain (pylmp_lattice)";
-  plugin.creator.v2 = &friction_creator;
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "lattice/piston";
-  plugin.info = "Impactor driven by a measured u(t) or v(t) series (pylmp_lattice)";
-  plugin.creator.v2 = &piston_creator;
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "lattice/chain";
-  plugin.info = "Chain-specialised time step of 1D nearest-neighbour chains (pylmp_lattice)";
-  plugin.creator.v2 = &chain_creator;
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "lattice/front";
-  plugin.info = "Front arrival and first peak of each atom, recorded every step (pylmp_lattice)";
-  plugin.creator.v2 = &front_creator;
-  (*register_plugin)(&plugin, lmp);
+  for (const Style &style : STYLES) {
+    plugin.name = style.name;
+    plugin.info = style.info;
+    plugin.creator.v2 = style.creator;
+    (*register_plugin)(&plugin, lmp);
+  }
 }
