@@ -61,7 +61,7 @@ class BinaryDump:
     def blocks(self, start: int = 0, stop: int | None = None) -> Iterator[Frames]:
         """Frames [start, stop) in blocks of about 32 MB."""
         stop = self.frames if stop is None else min(stop, self.frames)
-        per_block = max(1, _BLOCK_BYTES // (8 * self.atoms * len(self.columns)))
+        per_block = max(1, _BLOCK_BYTES // max(1, 8 * self.atoms * len(self.columns)))
         if self.frame_dtype is None:
             yield from _walk(self, start, stop, per_block)
             return
@@ -81,14 +81,15 @@ class BinaryDump:
 
 
 def open_dump(path: str | Path) -> BinaryDump:
-    """The layout of a binary dump and its number of complete frames."""
+    """The layout of a binary dump and its number of complete frames; 0 frames (and no columns)
+    for a file without one, as a run leaves it when stopped before its first frame."""
     path = Path(path)
     try:
         size = path.stat().st_size
         with path.open("rb") as f:
             first = _read_frame(f, path, data=False)
             if first is None:
-                raise DumpFormatError(f"{path}: no complete frame")
+                return BinaryDump(path, (), 0, 0, None)
             if first.chunks > 1:  # several ranks: count the frames one by one
                 frames = 1
                 while _read_frame(f, path, data=False) is not None:

@@ -56,11 +56,9 @@ def convert_run(case: Case, folder: Path) -> Path | None:
     masses = case.chain.masses()
     groups = {}
     for group, name, numbers in (("chain", TRAJ_BIN, None), ("fine", FINE_BIN, case.output.fine)):
-        path = folder / name
-        if path.exists() and path.stat().st_size > 0:
-            dump = open_dump(path)
-            if dump.frames:
-                groups[group] = (dump, masses if numbers is None else masses[np.sort(numbers) - 1])
+        dump = open_dump(folder / name) if (folder / name).exists() else None
+        if dump is not None and dump.frames:
+            groups[group] = (dump, masses if numbers is None else masses[np.sort(numbers) - 1])
     if not groups:
         return None
     target, partial = folder / FILE, folder / (FILE + ".part")

@@ -238,9 +238,7 @@ def _last_frame_time(folder: Path) -> float | None:
     from .bindump import open_dump
 
     path = folder / deck.TRAJ_BIN
-    if not path.is_file() or path.stat().st_size == 0:
-        return None
-    with contextlib.suppress(DumpFormatError):
+    with contextlib.suppress(FileNotFoundError, DumpFormatError):  # the signal's report comes first
         dump = open_dump(path)
         if dump.frames:
             return float(dump.read(dump.frames - 1).time[-1])

@@ -11,6 +11,7 @@ from pylmp_lattice import measures
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ConfigError, RunError
 from pylmp_lattice.front_record import read_front_record
+from pylmp_lattice.h5md import convert_run
 from pylmp_lattice.simulation import execute, load_trajectory, run_case, simulate
 
 from conftest import make_case
@@ -140,6 +141,9 @@ def test_truncated_binary_dump_keeps_its_complete_frames(tmp_path):
     cut = open_dump(path)
     assert cut.frames == len(whole.step) - 1
     np.testing.assert_array_equal(cut.read().data, whole.data[:-1])
+    path.write_bytes(path.read_bytes()[:100])  # cut inside the first frame: nothing to convert
+    assert open_dump(path).frames == 0 and open_dump(path).read().data.size == 0
+    assert convert_run(make_case(particles=10, duration=5.0), folder) is None and path.exists()
 
 
 @lammps
