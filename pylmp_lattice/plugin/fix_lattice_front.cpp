@@ -17,7 +17,7 @@ Example
 Description
    Every time step (and once in the setup of the first run) the fix samples each atom's
    velocity v = vx and acceleration a = fx / m after the step is complete, as a dump at
-   that step would see them, and keeps six numbers per atom (a per-atom array, NaN where
+   that step would see them, and keeps seven numbers per atom (a per-atom array, NaN where
    a measure does not exist):
      1 start time: first time v reaches S
      2 arrival time: first time v reaches L (the front)
@@ -41,6 +41,17 @@ Description
    Ties go to the earliest sample, as numpy's argmax does. Atoms outside the group keep
    NaN. The records move with their atoms between MPI ranks.
 
+Implementation
+   The per-atom rules are in front_rules.h, shared with fix lattice/chain. Each step touches,
+   per atom, only a hot state (the largest |v| so far with a "waiting" sign, the previous v of a
+   waiting atom, a phase byte); a row of the record (NCOL doubles) is touched only for the few
+   atoms between their start and both peaks confirmed. The output column 6 (largest |v|) is
+   copied from the hot state when something may read the record: at output steps, at the end
+   of a run, and at every step if any fix other than lattice/chain and lattice/front runs
+   during steps (it might read f_ID at any step). When fix lattice/chain owns the whole time
+   step (one rank, no other per-step fix; see its header) it applies the same rules inside
+   its force pass and this fix's end_of_step only refreshes the output.
+
 Restrictions
    Not for rRESPA. The time step must not change during the record.
 ------------------------------------------------------------------------- */
@@ -50,89 +61,40 @@ Restrictions
 #include "atom.h"
 #include "error.h"
 #include "memory.h"
+#include "modify.h"
+#include "output.h"
 #include "update.h"
 
 #include <cmath>
 #include <cstring>
-#include <limits>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
+using namespace FrontRecord;
 
 namespace {
-// Columns of a record. The first NOUT are the fix's output; the rest is running state: the
-// previous sample, and blocks that follow a running maximum with its neighbouring samples
-// (value, time, value before, its time, value after, its time): the candidate first peak of v
-// (BEST_*), the candidate pulse maximum of v (PULSE_*), the running maximum of a since the
-// start sample (ARUN_*) and its value when the candidate first peak was set (ASNAP_*, the
-// window that ends at the peak).
-enum {
-  T_START, T_ARRIVAL, T_PEAK, V_PEAK, A_PEAK, V_ABS_MAX, T_PULSE, NOUT,
-  V_PREV = NOUT, DONE, PULSE_DONE, A_PREV, TS_START,
-  BEST_V, BEST_T, BEST_VM, BEST_TM, BEST_VP, BEST_TP,
-  PULSE_V, PULSE_T, PULSE_VM, PULSE_TM, PULSE_VP, PULSE_TP,
-  ARUN_A, ARUN_T, ARUN_AM, ARUN_TM, ARUN_AP, ARUN_TP,
-  ASNAP_A, ASNAP_T, ASNAP_AM, ASNAP_TM, ASNAP_AP, ASNAP_TP,
-  NCOL
-};
-constexpr int MAXIMUM = 6;    // columns in a maximum block
-const double NaN = std::numeric_limits<double>::quiet_NaN();
-
-// A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
-void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
-{
-  const double row[MAXIMUM] = {y, t, y_prev, t_prev, NaN, NaN};
-  std::memcpy(m, row, sizeof(row));
-}
-
-// The sample after a maximum is its right neighbour.
-void fill_right(double *m, double y, double t, double t_prev)
-{
-  if (m[1] == t_prev && std::isnan(m[4])) {
-    m[4] = y;
-    m[5] = t;
-  }
-}
-
-// First time v reaches level, between samples (t0, v0) below it and (t1, v1).
-double crossing(double level, double t0, double v0, double t1, double v1)
-{
-  return t0 + (level - v0) / (v1 - v0) * (t1 - t0);
-}
-
-// Vertex of the parabola through (tm, ym), (t, y), (tp, yp) where it is concave, else (t, y).
-void refine(const double *m, double &t_out, double &y_out)
-{
-  const double y = m[0], t = m[1], ym = m[2], tm = m[3], yp = m[4], tp = m[5];
-  t_out = t;
-  y_out = y;
-  if (std::isnan(ym) || std::isnan(yp)) return;
-  const double h1 = t - tm, h2 = tp - t;
-  const double c = ((ym - y) / h1 + (yp - y) / h2) / (h1 + h2);
-  if (!(c < 0.0)) return;
-  const double b = (yp - y) / h2 - c * h2;
-  t_out = t - b / (2.0 * c);
-  y_out = y - b * b / (4.0 * c);
-}
+// per-atom doubles moved between ranks: the row, then mark, vprev and phase
+constexpr int NPACK = NCOL + 3;
 }    // namespace
 
 FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), rec(nullptr), rows(0), t_prev(0.0), step_prev(-1)
+    Fix(lmp, narg, arg), rec(nullptr), mark(nullptr), vprev(nullptr), phase(nullptr), rows(0),
+    refresh_every_step(true), t_prev(0.0), step_prev(-1)
 {
   if (narg != 11) utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R", error);
   const char *keys[4] = {"start", "front", "drop", "pulse_drop"};
-  double *values[4] = {&start_level, &front_level, &drop, &pulse_drop};
+  double *values[4] = {&levels.start, &levels.front, &levels.drop, &levels.pulse_drop};
   for (int k = 0; k < 4; k++) {
     if (strcmp(arg[3 + 2 * k], keys[k]) != 0)
       error->all(FLERR, "Fix lattice/front: expected '{}', got '{}'", keys[k], arg[3 + 2 * k]);
     *values[k] = utils::numeric(FLERR, arg[4 + 2 * k], false, lmp);
   }
-  if (!(start_level > 0.0 && start_level <= front_level))
-    error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", start_level,
-               front_level);
-  if (!(drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", drop);
-  if (!(pulse_drop > 0.0 && pulse_drop < 1.0))
-    error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", pulse_drop);
+  if (!(levels.start > 0.0 && levels.start <= levels.front))
+    error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", levels.start,
+               levels.front);
+  if (!(levels.drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", levels.drop);
+  if (!(levels.pulse_drop > 0.0 && levels.pulse_drop < 1.0))
+    error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", levels.pulse_drop);
 
   peratom_flag = 1;
   size_peratom_cols = NOUT;
@@ -145,6 +107,9 @@ FixLatticeFront::~FixLatticeFront()
 {
   atom->delete_callback(id, Atom::GROW);
   memory->destroy(rec);
+  memory->destroy(mark);
+  memory->destroy(vprev);
+  memory->destroy(phase);
 }
 
 int FixLatticeFront::setmask()
@@ -152,99 +117,106 @@ int FixLatticeFront::setmask()
   return END_OF_STEP;
 }
 
+void FixLatticeFront::init()
+{
+  // a fix that runs during the steps might read the record (f_ID) at any step
+  constexpr int DURING_STEPS = INITIAL_INTEGRATE | POST_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR |
+      POST_NEIGHBOR | PRE_FORCE | PRE_REVERSE | POST_FORCE | FINAL_INTEGRATE | END_OF_STEP;
+  refresh_every_step = false;
+  for (int j = 0; j < modify->nfix; j++) {
+    Fix *other = modify->fix[j];
+    if (other == this || !(modify->fmask[j] & DURING_STEPS)) continue;
+    if (!utils::strmatch(other->style, "^lattice/chain$")) refresh_every_step = true;
+  }
+}
+
 void FixLatticeFront::setup(int)
 {
   sample();    // the state before the first step, as a dump's first frame
+  refresh();
 }
 
 void FixLatticeFront::end_of_step()
 {
-  sample();
+  sample();    // nothing if fix lattice/chain sampled this step
+  if (refresh_every_step || update->ntimestep == output->next) refresh();
+}
+
+void FixLatticeFront::post_run()
+{
+  refresh();    // for write_dump after the run
+}
+
+bool FixLatticeFront::begin_sample(Sample &s)
+{
+  const bigint step = update->ntimestep;
+  if (step == step_prev) return false;    // a later run's setup repeats the last step
+  s.t = update->atime + (step - update->atimestep) * update->dt;
+  s.t_prev = t_prev;
+  s.first = step_prev < 0;
+  current = s;
+  return true;
+}
+
+void FixLatticeFront::end_sample()
+{
+  t_prev = current.t;
+  step_prev = update->ntimestep;
+}
+
+void FixLatticeFront::set_previous_velocities(const double *v, int stride)
+{
+  for (int i = 0; i < atom->nlocal; i++)
+    if (phase[i] == WAITING) vprev[i] = v[stride * i];
 }
 
 void FixLatticeFront::sample()
 {
-  const bigint step = update->ntimestep;
-  if (step == step_prev) return;    // a later run's setup repeats the last step
-  const double t = update->atime + (step - update->atimestep) * update->dt;
-  const bool first = step_prev < 0;
-
+  Sample s;
+  if (!begin_sample(s)) return;
   double **v = atom->v, **f = atom->f;
   const double *rmass = atom->rmass, *mass = atom->mass;
   const int *type = atom->type, *mask = atom->mask;
   for (int i = 0; i < atom->nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
-    double *r = rec[i];
     const double vi = v[i][0];
-    if (!(std::fabs(vi) <= r[V_ABS_MAX])) r[V_ABS_MAX] = std::fabs(vi);    // NaN at first
-    // Most magnets are at rest ahead of the front or have both peaks behind them: for those
-    // the record reads only the first columns (one or two cache lines) and moves on.
-    if (std::isnan(r[T_START]) && vi < start_level) {
-      r[V_PREV] = vi;
+    mark[i] = mark_max(mark[i], vi);
+    if (phase[i] == FINISHED) continue;
+    const bool waiting = phase[i] == WAITING;
+    if (waiting && !(vi >= levels.start)) {
+      vprev[i] = vi;
       continue;
     }
-    if (r[DONE] == 1.0 && r[PULSE_DONE] == 1.0) continue;
     const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
-
-    fill_right(&r[BEST_V], vi, t, t_prev);
-    fill_right(&r[PULSE_V], vi, t, t_prev);
-    fill_right(&r[ARUN_A], ai, t, t_prev);
-
-    if (std::isnan(r[T_START]) && vi >= start_level) {
-      r[T_START] = first ? t : crossing(start_level, t_prev, r[V_PREV], t, vi);
-      r[TS_START] = t;
-    }
-    bool arrived_now = false;
-    if (std::isnan(r[T_ARRIVAL]) && vi >= front_level) {
-      r[T_ARRIVAL] = first ? t : crossing(front_level, t_prev, r[V_PREV], t, vi);
-      arrived_now = true;
-    }
-
-    const bool started_now = t == r[TS_START];
-    const double v_before = first ? NaN : r[V_PREV];
-    if (r[DONE] != 1.0 && !std::isnan(r[TS_START]) && (started_now || ai > r[ARUN_A]))
-      set_maximum(&r[ARUN_A], ai, t, started_now ? NaN : r[A_PREV], t_prev);
-
-    if (r[PULSE_DONE] != 1.0 && !std::isnan(r[TS_START])) {
-      if (started_now || vi > r[PULSE_V]) {
-        set_maximum(&r[PULSE_V], vi, t, v_before, t_prev);
-      } else if (vi <= r[PULSE_V] - pulse_drop * std::fabs(r[PULSE_V])) {
-        r[PULSE_DONE] = 1.0;
-        double v_max;
-        refine(&r[PULSE_V], r[T_PULSE], v_max);
-      }
-    }
-
-    if (r[DONE] != 1.0 && !std::isnan(r[T_ARRIVAL])) {
-      if (arrived_now || vi > r[BEST_V]) {
-        set_maximum(&r[BEST_V], vi, t, v_before, t_prev);
-        std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
-      } else if (vi <= r[BEST_V] - drop) {
-        r[DONE] = 1.0;
-        refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
-        const bool inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
-        double t_acc;
-        if (inside) refine(&r[ASNAP_A], t_acc, r[A_PEAK]);
-        else r[A_PEAK] = r[ASNAP_A];
-      }
-    }
-    r[V_PREV] = vi;
-    r[A_PREV] = ai;
+    advance(rec[i], mark[i], phase[i], vi, waiting ? vprev[i] : rec[i][V_PREV], ai, levels, s);
   }
-  t_prev = t;
-  step_prev = step;
+  end_sample();
+}
+
+/* the output copy of the largest |v| (NaN before an atom's first sample) */
+
+void FixLatticeFront::refresh()
+{
+  for (int i = 0; i < atom->nlocal; i++) rec[i][V_ABS_MAX] = std::fabs(mark[i]);
 }
 
 double FixLatticeFront::memory_usage()
 {
-  return static_cast<double>(atom->nmax) * NCOL * sizeof(double);
+  return static_cast<double>(rows) * ((NCOL + 2) * sizeof(double) + 1);
 }
 
 void FixLatticeFront::grow_arrays(int nmax)
 {
   memory->grow(rec, nmax, NCOL, "lattice/front:rec");
-  for (int i = rows; i < nmax; i++)    // nothing recorded yet
+  memory->grow(mark, nmax, "lattice/front:mark");
+  memory->grow(vprev, nmax, "lattice/front:vprev");
+  memory->grow(phase, nmax, "lattice/front:phase");
+  for (int i = rows; i < nmax; i++) {    // nothing recorded yet
     for (int c = 0; c < NCOL; c++) rec[i][c] = NaN;
+    mark[i] = UNSAMPLED;
+    vprev[i] = NaN;
+    phase[i] = WAITING;
+  }
   rows = nmax;
   array_atom = rec;
 }
@@ -252,16 +224,25 @@ void FixLatticeFront::grow_arrays(int nmax)
 void FixLatticeFront::copy_arrays(int i, int j, int)
 {
   std::memcpy(rec[j], rec[i], NCOL * sizeof(double));
+  mark[j] = mark[i];
+  vprev[j] = vprev[i];
+  phase[j] = phase[i];
 }
 
 int FixLatticeFront::pack_exchange(int i, double *buf)
 {
   std::memcpy(buf, rec[i], NCOL * sizeof(double));
-  return NCOL;
+  buf[NCOL] = mark[i];
+  buf[NCOL + 1] = vprev[i];
+  buf[NCOL + 2] = phase[i];
+  return NPACK;
 }
 
 int FixLatticeFront::unpack_exchange(int nlocal, double *buf)
 {
   std::memcpy(rec[nlocal], buf, NCOL * sizeof(double));
-  return NCOL;
+  mark[nlocal] = buf[NCOL];
+  vprev[nlocal] = buf[NCOL + 1];
+  phase[nlocal] = static_cast<unsigned char>(buf[NCOL + 2]);
+  return NPACK;
 }

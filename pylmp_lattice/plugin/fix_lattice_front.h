@@ -4,6 +4,7 @@
 #define PYLMP_LATTICE_FIX_LATTICE_FRONT_H
 
 #include "fix.h"
+#include "front_rules.h"
 
 namespace LAMMPS_NS {
 
@@ -12,8 +13,10 @@ class FixLatticeFront : public Fix {
   FixLatticeFront(class LAMMPS *, int, char **);
   ~FixLatticeFront() override;
   int setmask() override;
+  void init() override;
   void setup(int) override;
   void end_of_step() override;
+  void post_run() override;
 
   double memory_usage() override;
   void grow_arrays(int) override;
@@ -21,15 +24,27 @@ class FixLatticeFront : public Fix {
   int pack_exchange(int, double *) override;
   int unpack_exchange(int, double *) override;
 
+  // For fix lattice/chain, which samples the record inside its own pass when it owns the step:
+  // the levels and per-atom state (front_rules.h), and the step's sample times; begin_sample
+  // returns false if this step was sampled already. After its last sample the owner hands the
+  // waiting atoms' previous velocities back with set_previous_velocities.
+  FrontRecord::Levels levels;
+  double **rec;                              // rows: outputs, then running state
+  double *mark, *vprev;                      // hot state; vprev: waiting atoms' last v
+  unsigned char *phase;
+  bool begin_sample(FrontRecord::Sample &);
+  void end_sample();
+  void set_previous_velocities(const double *v, int stride);
+
  private:
-  double start_level, front_level, drop;    // velocity levels (velocity units)
-  double pulse_drop;                         // relative fall that confirms a pulse's maximum
-  double **rec;                              // per-atom record: outputs, then running state
-  int rows;                                  // rows of rec allocated
+  int rows;                                  // per-atom arrays allocated
+  bool refresh_every_step;                   // another fix might read the record at any step
   double t_prev;                             // time of the previous sample
   bigint step_prev;                          // its step (-1: no sample yet)
+  FrontRecord::Sample current;
 
   void sample();
+  void refresh();
 };
 
 }    // namespace LAMMPS_NS

@@ -1,0 +1,172 @@
+/* The per-atom rules of the front record, in one place: fix lattice/front applies them in its own
+   pass after each step; fix lattice/chain applies the same functions inside its force pass when
+   it owns the whole step (see both fixes' headers). Part of pylmp_lattice, GPL-2.0. The
+   measures and their definitions are described in fix_lattice_front.cpp.
+
+Why a hot and a cold part
+   A record row is NCOL doubles (296 bytes), but at any step only the few atoms between their
+   start and both peaks confirmed ("active") change it; the others (at rest ahead of the front,
+   or behind it with both peaks found) need only their largest |v| so far and, while they wait
+   for the start level, their previous velocity. So every step touches, per atom, only
+     mark: the largest |v| so far, its sign bit set while the atom waits (no sample at or above
+           the start level yet), so that "waiting and now at or above the level" is one test on
+           doubles inside a vectorised loop; -NaN before the first sample;
+     phase: WAITING, ACTIVE or FINISHED (one byte);
+   and the row only for active atoms (and at its start). The row's V_ABS_MAX column is the
+   output copy of |mark|, refreshed whenever something may read the record (see the fix). */
+
+#ifndef PYLMP_LATTICE_FRONT_RULES_H
+#define PYLMP_LATTICE_FRONT_RULES_H
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace LAMMPS_NS {
+namespace FrontRecord {
+
+// Columns of a row. The first NOUT are the fix's output; the rest is running state: the previous
+// sample (of an active atom), and blocks that follow a running maximum with its neighbouring
+// samples (value, time, value before, its time, value after, its time): the candidate first
+// peak of v (BEST_*), the candidate pulse maximum of v (PULSE_*), the running maximum of a since
+// the start sample (ARUN_*) and its value when the candidate first peak was set (ASNAP_*, the
+// window that ends at the peak).
+enum Column {
+  T_START, T_ARRIVAL, T_PEAK, V_PEAK, A_PEAK, V_ABS_MAX, T_PULSE, NOUT,
+  V_PREV = NOUT, DONE, PULSE_DONE, A_PREV, TS_START,
+  BEST_V, BEST_T, BEST_VM, BEST_TM, BEST_VP, BEST_TP,
+  PULSE_V, PULSE_T, PULSE_VM, PULSE_TM, PULSE_VP, PULSE_TP,
+  ARUN_A, ARUN_T, ARUN_AM, ARUN_TM, ARUN_AP, ARUN_TP,
+  ASNAP_A, ASNAP_T, ASNAP_AM, ASNAP_TM, ASNAP_AP, ASNAP_TP,
+  NCOL
+};
+enum Phase : unsigned char { WAITING, ACTIVE, FINISHED };
+
+struct Levels {
+  double start, front, drop, pulse_drop;    // velocity levels; relative fall of a pulse
+};
+struct Sample {
+  double t, t_prev;    // this sample's time and the previous one's
+  bool first;          // no earlier sample
+};
+
+const double NaN = std::numeric_limits<double>::quiet_NaN();
+// the mark of an atom not sampled yet: waiting, no maximum
+const double UNSAMPLED = std::copysign(NaN, -1.0);
+
+/* hot part, every atom at every sample: the largest |v|, keeping the waiting sign
+   (NaN compares false, so the first sample replaces the NaN) */
+inline double mark_max(double mark, double v)
+{
+  const double m = std::fabs(mark), a = std::fabs(v);
+  return std::copysign(a <= m ? m : a, mark);
+}
+/* an atom that waits and reaches the start level now: its row must be updated */
+inline bool starts(double mark, double v, const Levels &L)
+{
+  return std::copysign(1.0, mark) < 0.0 && v >= L.start;
+}
+
+namespace detail {
+constexpr int MAXIMUM = 6;    // columns in a maximum block
+
+// A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
+inline void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
+{
+  const double row[MAXIMUM] = {y, t, y_prev, t_prev, NaN, NaN};
+  std::memcpy(m, row, sizeof(row));
+}
+
+// The sample after a maximum is its right neighbour.
+inline void fill_right(double *m, double y, double t, double t_prev)
+{
+  if (m[1] == t_prev && std::isnan(m[4])) {
+    m[4] = y;
+    m[5] = t;
+  }
+}
+
+// First time v reaches level, between samples (t0, v0) below it and (t1, v1).
+inline double crossing(double level, double t0, double v0, double t1, double v1)
+{
+  return t0 + (level - v0) / (v1 - v0) * (t1 - t0);
+}
+
+// Vertex of the parabola through (tm, ym), (t, y), (tp, yp) where it is concave, else (t, y).
+inline void refine(const double *m, double &t_out, double &y_out)
+{
+  const double y = m[0], t = m[1], ym = m[2], tm = m[3], yp = m[4], tp = m[5];
+  t_out = t;
+  y_out = y;
+  if (std::isnan(ym) || std::isnan(yp)) return;
+  const double h1 = t - tm, h2 = tp - t;
+  const double c = ((ym - y) / h1 + (yp - y) / h2) / (h1 + h2);
+  if (!(c < 0.0)) return;
+  const double b = (yp - y) / h2 - c * h2;
+  t_out = t - b / (2.0 * c);
+  y_out = y - b * b / (4.0 * c);
+}
+}    // namespace detail
+
+/* cold part: the row r of an atom that starts now or is active, with its velocity v and
+   acceleration a at this sample and its velocity v_prev at the previous one (the row keeps it
+   for active atoms; a waiting atom's comes from the hot state of whoever samples). Moves the
+   atom from WAITING to ACTIVE (clearing the mark's sign) and from ACTIVE to FINISHED. */
+inline void advance(double *r, double &mark, unsigned char &phase, double v, double v_prev, double a,
+                   const Levels &L, const Sample &s)
+{
+  using namespace detail;
+  const double t = s.t, t_prev = s.t_prev;
+  fill_right(&r[BEST_V], v, t, t_prev);
+  fill_right(&r[PULSE_V], v, t, t_prev);
+  fill_right(&r[ARUN_A], a, t, t_prev);
+
+  if (phase == WAITING) {
+    r[T_START] = s.first ? t : crossing(L.start, t_prev, v_prev, t, v);
+    r[TS_START] = t;
+    phase = ACTIVE;
+    mark = std::fabs(mark);
+  }
+  bool arrived_now = false;
+  if (std::isnan(r[T_ARRIVAL]) && v >= L.front) {
+    r[T_ARRIVAL] = s.first ? t : crossing(L.front, t_prev, v_prev, t, v);
+    arrived_now = true;
+  }
+
+  const bool started_now = t == r[TS_START];
+  const double v_before = s.first ? NaN : v_prev;
+  if (r[DONE] != 1.0 && (started_now || a > r[ARUN_A]))
+    set_maximum(&r[ARUN_A], a, t, started_now ? NaN : r[A_PREV], t_prev);
+
+  if (r[PULSE_DONE] != 1.0) {
+    if (started_now || v > r[PULSE_V]) {
+      set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
+    } else if (v <= r[PULSE_V] - L.pulse_drop * std::fabs(r[PULSE_V])) {
+      r[PULSE_DONE] = 1.0;
+      double v_max;
+      refine(&r[PULSE_V], r[T_PULSE], v_max);
+    }
+  }
+
+  if (r[DONE] != 1.0 && !std::isnan(r[T_ARRIVAL])) {
+    if (arrived_now || v > r[BEST_V]) {
+      set_maximum(&r[BEST_V], v, t, v_before, t_prev);
+      std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
+    } else if (v <= r[BEST_V] - L.drop) {
+      r[DONE] = 1.0;
+      refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
+      const bool inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
+      double t_acc;
+      if (inside) refine(&r[ASNAP_A], t_acc, r[A_PEAK]);
+      else r[A_PEAK] = r[ASNAP_A];
+    }
+  }
+  r[V_PREV] = v;
+  r[A_PREV] = a;
+  if (r[DONE] == 1.0 && r[PULSE_DONE] == 1.0) phase = FINISHED;
+}
+
+}    // namespace FrontRecord
+}    // namespace LAMMPS_NS
+
+#endif
