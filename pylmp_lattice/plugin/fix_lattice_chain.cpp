@@ -9,7 +9,10 @@ Why a fix
    replace Verlet, but the wheel ships no integrate.h/verlet.h, so its ABI would have to be
    restated by hand, and every other fix and output would depend on our copy of Verlet. A
    fix under the stock Verlet keeps all of LAMMPS (dumps, thermo, computes, other fixes, MPI
-   exchange) and can still do the chain's work in two passes over memory per step:
+   exchange) and can still do the chain's work in one or two passes over memory per step.
+
+How a step is done
+   In general (several ranks, or other fixes that run during the steps), in LAMMPS's arrays:
      initial_integrate: v += dt/2m f, x += dt v for the free atoms; impactors placed;
      post_force: every bond force once from the law, friction, f written, and (when no
        other fix uses the forces after this one) the second half kick in the same pass.
@@ -18,6 +21,26 @@ Why a fix
    communication. The deck reneighbours only every 100 steps (`neigh_modify every 100
    check no`: exchange and borders, which is all this fix needs) and sets `newton off`
    (no reverse communication of forces).
+
+   Owning the state. When nothing else can look at the atoms between two outputs (one rank,
+   no pair or kspace style, no sorting, no distance check for reneighbouring, and no other
+   fix that runs during the steps except one fix lattice/front of group all), the fix keeps
+   x, v and f along x in its own contiguous arrays (structure of arrays) and does the whole
+   step in ONE pass over them: block by block (BLOCK atoms, in L1), the first half kick and
+   drift of the next block, then the bond forces and second half kick of this one (so both
+   neighbours of a block have moved when its forces are due), in the same operations as the
+   general path, so both give the same bits. Why: LAMMPS's x, v, f are 3-vectors, so a pass
+   over them moves three times the bytes of the chain's own data; at 10^6 atoms they no
+   longer fit the last-level cache and the step is memory-bound. The atom arrays are written
+   from the fix's arrays exactly when something may read them: at every output step
+   (output->next, before the dumps and thermo of that step; f along y and z is LAMMPS's
+   cleared zero), x before every reneighbouring (pre_exchange: the box and exchange see the
+   positions of the last step, as in the general path's drift-later order), and at the end
+   of every run (post_run), so that dumps, thermo, computes and later commands see what
+   they see on the general path. The fix's own energy and gap read its arrays. The front
+   record (fix lattice/front) is then sampled inside the same pass, with the rules of
+   front_rules.h, where v and f are already in registers: per atom one read and write of its
+   largest |v| and one byte of its phase; the record row only for the few atoms at the front.
 
 Syntax
    fix ID all lattice/chain law args impactor args keyword args ...
@@ -80,11 +103,13 @@ Restrictions
 
 #include "atom.h"
 #include "comm.h"
-#include "coulomb.h"
 #include "domain.h"
 #include "error.h"
+#include "fix_lattice_front.h"
 #include "force.h"
 #include "modify.h"
+#include "neighbor.h"
+#include "output.h"
 #include "timer.h"
 #include "update.h"
 
@@ -92,14 +117,22 @@ Restrictions
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
 
+namespace {
+// runs of at most BLOCK atoms, so that their bond forces (and, owning the state, the velocities
+// between the kicks) stay in the L1 cache between the loops that compute and use them
+constexpr int BLOCK = 256;
+}    // namespace
+
 FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), length(0), nchains(0), range_lo(0.0),
     range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
-    g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), lazy_allowed(false), in_order(false), lazy(false), drive_u(0.0),
+    g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), own_allowed(false), in_order(false), own(false),
+    front(nullptr), drive_u(0.0),
     drive_ud(0.0), work_done(0.0), work_pending(0.0), energy_step(-1), pe_cached(0.0),
     gap_cached(0.0), contact_step(-1)
 {
@@ -192,7 +225,7 @@ FixLatticeChain::~FixLatticeChain()
 
 int FixLatticeChain::setmask()
 {
-  return INITIAL_INTEGRATE | POST_FORCE | FINAL_INTEGRATE | PRE_NEIGHBOR | POST_RUN;
+  return INITIAL_INTEGRATE | POST_FORCE | FINAL_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR | POST_RUN;
 }
 
 void FixLatticeChain::init()
@@ -216,9 +249,13 @@ void FixLatticeChain::init()
   }
 
   // the second half kick may join the force pass only if no other fix reads or changes
-  // the forces after this one or integrates
+  // the forces after this one or integrates; the fix may own the state (see the header) only
+  // if no other fix runs during the steps, except one fix lattice/front of group all
+  constexpr int DURING_STEPS = INITIAL_INTEGRATE | POST_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR |
+      POST_NEIGHBOR | PRE_FORCE | PRE_REVERSE | POST_FORCE | FINAL_INTEGRATE | END_OF_STEP;
   fused = true;
-  bool nothing_between = true;
+  bool alone = true;
+  front = nullptr;
   for (int j = 0, me = -1; j < modify->nfix; j++) {
     if (modify->fix[j] == this) {
       me = j;
@@ -226,14 +263,13 @@ void FixLatticeChain::init()
     }
     if (modify->fmask[j] & FINAL_INTEGRATE) fused = false;
     if ((modify->fmask[j] & POST_FORCE) && me >= 0) fused = false;
-    if (modify->fmask[j] & (POST_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR | PRE_FORCE | PRE_REVERSE))
-      nothing_between = false;
+    if (!(modify->fmask[j] & DURING_STEPS)) continue;
+    auto *record = dynamic_cast<FixLatticeFront *>(modify->fix[j]);
+    if (record && record->igroup == 0 && !front) front = record;
+    else alone = false;
   }
-  // on one rank the drift may wait for the force pass (one pass over memory fewer): then
-  // nothing between the two may look at x (no pair or kspace style, no fix hooks there), no
-  // ghosts need it, and the atoms keep their places (no sorting)
-  lazy_allowed = fused && nothing_between && comm->nprocs == 1 && !force->pair && !force->kspace &&
-      atom->sortfreq == 0;
+  own_allowed = fused && alone && comm->nprocs == 1 && !force->pair && !force->kspace &&
+      atom->sortfreq == 0 && neighbor->dist_check == 0;
 }
 
 /* the layout of this rank's atoms; neighbours must be owned or ghosts */
@@ -268,10 +304,8 @@ void FixLatticeChain::build_lists()
       runs.push_back({i, i, -1, -1});
     }
   }
-  // runs of at most BLOCK atoms, so that their bond forces stay in the L1 cache between
-  // the loop that computes them and the loop that uses them (one bond per block boundary
-  // is computed twice, from the same two positions)
-  constexpr int BLOCK = 256;
+  // blocks of at most BLOCK atoms (one bond per block boundary is computed twice, from the
+  // same two positions)
   std::vector<Run> blocks;
   for (const Run &run : runs) {
     const int left = neighbour(run.first, tag[run.first] - 1);
@@ -283,10 +317,10 @@ void FixLatticeChain::build_lists()
   }
   runs.swap(blocks);
   bond_force.resize(BLOCK + 1);
-  positions.resize(2 * (BLOCK + 2));
+  scratch.resize(4 * (BLOCK + 2));
 
-  // the lazy drift moves block k + 1 before the forces of block k: a free neighbour of a
-  // block must be the end of the block before or the start of the block after it
+  // owning the state, the drift moves block k + 1 before the forces of block k: a free
+  // neighbour of a block must be the end of the block before or the start of the block after it
   auto is_free = [&](int j) {
     const bigint k = (tag[j] - 1) % length;
     return k != 0 && k != length - 1;
@@ -296,7 +330,6 @@ void FixLatticeChain::build_lists()
     if (is_free(runs[k].left) && (k == 0 || runs[k].left != runs[k - 1].last)) in_order = false;
     if (is_free(runs[k].right) && (k + 1 == runs.size() || runs[k].right != runs[k + 1].first)) in_order = false;
   }
-  f_last.resize(atom->nmax);
 }
 
 void FixLatticeChain::setup_pre_neighbor()
@@ -304,9 +337,28 @@ void FixLatticeChain::setup_pre_neighbor()
   build_lists();
 }
 
+/* owning the state: exchange and the box see the positions (of the last step, see the header) */
+
+void FixLatticeChain::pre_exchange()
+{
+  if (!own) return;
+  double **x = atom->x;
+  for (int i = 0; i < atom->nlocal; i++) x[i][0] = xs[i];
+}
+
 void FixLatticeChain::pre_neighbor()
 {
+  if (!own) {
+    build_lists();
+    return;
+  }
+  // owning the state on one rank, the atoms keep their places (no sorting, none leaves the
+  // shrink-wrapped box); the arrays are indexed by them, so check it
+  const auto old_runs = runs;
+  const auto old_impactors = impactors, old_held = held;
   build_lists();
+  if (!(runs == old_runs && impactors == old_impactors && held == old_held && in_order))
+    error->one(FLERR, "Fix lattice/chain: the atoms moved in memory during a run on one rank");
 }
 
 /* the prescribed displacement and velocity at `step` */
@@ -340,52 +392,53 @@ void FixLatticeChain::drive(bigint step)
 
 void FixLatticeChain::place_impactors(bool set_x)
 {
-  double **x = atom->x;
-  double **v = atom->v;
+  const Column x = column(atom->x, xs), v = column(atom->v, vs);
   for (const End &e : impactors) {
-    if (set_x) x[e.i][0] = x0[e.chain] + drive_u;
-    v[e.i][0] = drive_ud;
+    if (set_x) x[e.i] = x0[e.chain] + drive_u;
+    v[e.i] = drive_ud;
   }
 }
 
 void FixLatticeChain::setup(int /*vflag*/)
 {
   energy_step = -1;
+  own = false;
   drive(update->ntimestep);
   place_impactors(false);
-  lazy = false;
   forces(0.5 * update->dt, true, false);
-  // decided once per run: on one rank the atoms keep their order between reneighbourings
-  lazy = lazy_allowed && in_order;
-  if (lazy)
-    for (const Run &run : runs)
-      for (int i = run.first; i <= run.last; i++) f_last[i] = atom->f[i][0];
+  // decided once per run: the atoms keep their order between reneighbourings on one rank
+  own = own_allowed && in_order;
+  if (own) gather();
 }
 
 void FixLatticeChain::initial_integrate(int /*vflag*/)
 {
-  // restrict: stores to x and v cannot change the fix's members, so nothing is reloaded
-  double *__restrict x = atom->x[0];
-  double *__restrict v = atom->v[0];
-  const double *__restrict f = atom->f[0];
-  const int *__restrict type = atom->type;
-  const double *__restrict dtfm_of = dtfm.data();
-  const double dtv = update->dt;
-  if (lazy) {
-    // the free atoms move in post_force, from the forces kept in f_last (force_clear zeroes f)
-  } else if (atom->ntypes == 1) {
-    const double h = dtfm_of[1];
-    for (const Run &run : runs)
-      for (int i = run.first; i <= run.last; i++) {
-        v[3 * i] += h * f[3 * i];
-        x[3 * i] += dtv * v[3 * i];
-      }
+  if (own) {
+    // the free atoms move in post_force; the impactors' velocities of the last step are the
+    // front record's previous samples
+    for (const End &e : impactors) impactor_v[e.chain] = vs[e.i];
   } else {
-    for (const Run &run : runs)
-      for (int i = run.first; i <= run.last; i++) {
-        v[3 * i] += dtfm_of[type[i]] * f[3 * i];
-        x[3 * i] += dtv * v[3 * i];
-      }
+    // restrict: stores to x and v cannot change the fix's members, so nothing is reloaded
+    double *__restrict x = atom->x[0];
+    double *__restrict v = atom->v[0];
+    const double *__restrict f = atom->f[0];
+    const int *__restrict type = atom->type;
+    const double *__restrict dtfm_of = dtfm.data();
+    const double dtv = update->dt;
+    if (atom->ntypes == 1) {
+      const double h = dtfm_of[1];
+      for (const Run &run : runs)
+        for (int i = run.first; i <= run.last; i++) {
+          v[3 * i] += h * f[3 * i];
+          x[3 * i] += dtv * v[3 * i];
+        }
+    } else {
+      for (const Run &run : runs)
+        for (int i = run.first; i <= run.last; i++) {
+          v[3 * i] += dtfm_of[type[i]] * f[3 * i];
+          x[3 * i] += dtv * v[3 * i];
+        }
+    }
   }
   drive(update->ntimestep);
   place_impactors(true);
@@ -393,7 +446,29 @@ void FixLatticeChain::initial_integrate(int /*vflag*/)
 
 void FixLatticeChain::post_force(int /*vflag*/)
 {
-  forces(update->dt, false, fused || lazy);
+  if (!own) {
+    forces(update->dt, false, fused);
+    return;
+  }
+  FrontRecord::Sample sample;
+  const bool record = front && front->begin_sample(sample);
+  int bad = 0;
+  law.dispatch([&](auto F) {
+    if (friction) {
+      if (record) own_step<true, true>(F, bad);
+      else own_step<true, false>(F, bad);
+    } else {
+      if (record) own_step<false, true>(F, bad);
+      else own_step<false, false>(F, bad);
+    }
+  });
+  end_forces();
+  if (record) {
+    sample_front_ends();
+    front->end_sample();
+  }
+  check_gaps(bad);
+  if (update->ntimestep == output->next) scatter();
 }
 
 void FixLatticeChain::final_integrate()
@@ -410,115 +485,266 @@ void FixLatticeChain::final_integrate()
 
 void FixLatticeChain::post_run()
 {
+  if (own) {
+    scatter();
+    if (front) front->set_previous_velocities(vs.data(), 1);
+    own = false;
+  }
   if (contact_step >= 0) timer->reset_timeout();
 }
 
-/* all forces of the step; `kick` is the length of the velocity kick they will make (for
-   the friction), kick_v applies its second half here */
+/* owning the state: the fix's arrays from the atom arrays and back */
+
+void FixLatticeChain::gather()
+{
+  const int n = atom->nlocal;
+  xs.resize(n);
+  vs.resize(n);
+  fs.resize(n);
+  impactor_v.assign(nchains, 0.0);
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  for (int i = 0; i < n; i++) {
+    xs[i] = x[i][0];
+    vs[i] = v[i][0];
+    fs[i] = f[i][0];
+  }
+}
+
+void FixLatticeChain::scatter()
+{
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  for (int i = 0; i < atom->nlocal; i++) {
+    x[i][0] = xs[i];
+    v[i][0] = vs[i];
+    f[i][0] = fs[i];
+  }
+}
+
+/* all forces of the step in the atom arrays; `kick` is the length of the velocity kick they
+   will make (for the friction), kick_v applies its second half here */
 
 void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
 {
   int bad = 0;
   law.dispatch([&](auto F) {
     if (friction) {
-      if (lazy) run_forces<true, LAZY>(F, kick, setup_kick, bad);
-      else if (kick_v) run_forces<true, KICK>(F, kick, setup_kick, bad);
-      else run_forces<true, NO_KICK>(F, kick, setup_kick, bad);
+      if (kick_v) run_forces<true, true>(F, kick, setup_kick, bad);
+      else run_forces<true, false>(F, kick, setup_kick, bad);
     } else {
-      if (lazy) run_forces<false, LAZY>(F, kick, setup_kick, bad);
-      else if (kick_v) run_forces<false, KICK>(F, kick, setup_kick, bad);
-      else run_forces<false, NO_KICK>(F, kick, setup_kick, bad);
+      if (kick_v) run_forces<false, true>(F, kick, setup_kick, bad);
+      else run_forces<false, false>(F, kick, setup_kick, bad);
     }
   });
-  double **x = atom->x;
-  double **f = atom->f;
-  for (const End &e : impactors) f[e.i][0] = -law.force(x[e.other][0] - x[e.i][0]);
-  for (const End &e : held) f[e.i][0] = 0.0;
+  end_forces();
   check_gaps(bad);
 }
 
-template <bool FRICTION, int MODE, class Law>
+/* the impactors' push and the held ends' zero force */
+
+void FixLatticeChain::end_forces()
+{
+  const Column x = column(atom->x, xs), f = column(atom->f, fs);
+  for (const End &e : impactors) f[e.i] = -law.force(x[e.other] - x[e.i]);
+  for (const End &e : held) f[e.i] = 0.0;
+}
+
+/* one free atom's total force from its bonds' forces left and right, with friction the exact
+   stick-slip kick: v (after the first half kick) becomes 0 if the atom sticks */
+
+template <bool FRICTION>
+inline double FixLatticeChain::total_force(double left, double right, int t, double kick, double &v,
+                                           CoulombWork &work) const
+{
+  const double fx = left - right;
+  if constexpr (!FRICTION) {
+    return fx;
+  } else {
+    const double m = mass_of[t];
+    const double normal = weight[t] + p * (left + right);
+    const double limit = normal > 0.0 ? mu * normal : 0.0;
+    const double dvdf = kick / m;
+    const double v0 = v;
+    bool stuck;
+    const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
+    if (stuck) work.stuck(v0, m, kick, fx), v = 0.0;
+    else work.slip(v0, fx, ftot, dvdf);
+    return ftot;
+  }
+}
+
+/* the force pass in the atom arrays (KICK: with the second half kick) */
+
+template <bool FRICTION, bool KICK, class Law>
 void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, int &bad)
 {
-  constexpr bool KICKS = MODE != NO_KICK;
   // restrict: stores to v, f and the bond forces cannot change the law's coefficients
   double *__restrict x = atom->x[0];
   double *__restrict v = atom->v[0];
   double *__restrict f = atom->f[0];
   double *__restrict F = bond_force.data();
-
   const int *__restrict type = atom->type;
   const double *__restrict dtfm_of = dtfm.data();
   const double half_kick = dtfm_of[1];
   const bool one_type = atom->ntypes == 1;
-  double *__restrict f_kept = f_last.data();
-  const double dtv = update->dt;
   // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
-  // right neighbour; two of them, for the block whose forces are due and the next one
-  double *__restrict X[2] = {positions.data(), positions.data() + positions.size() / 2};
-  // LAZY: velocity Verlet's first half kick and drift, with last step's forces, one block
-  // ahead of the forces (so both neighbours of a block have moved when its forces are due)
-  auto drift = [&](const Run &run, double *__restrict Xb) {
-    for (int i = run.first; i <= run.last; i++) {
-      v[3 * i] += (one_type ? half_kick : dtfm_of[type[i]]) * f_kept[i];
-      x[3 * i] += dtv * v[3 * i];
-      Xb[1 + i - run.first] = x[3 * i];
-    }
-  };
+  // right neighbour
+  double *__restrict X = scratch.data();
   // the smallest and largest separation and a NaN probe, as vectorised reductions
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
   CoulombWork work;
-  if (MODE == LAZY && !runs.empty()) drift(runs[0], X[0]);
-  for (size_t b = 0; b < runs.size(); b++) {
-    const Run &run = runs[b];
-    double *__restrict Xb = X[b % 2];
+  for (const Run &run : runs) {
     const int first = run.first, len = run.last - first + 1;
-    if (MODE == LAZY && b + 1 < runs.size()) drift(runs[b + 1], X[(b + 1) % 2]);
-    if (MODE != LAZY)
-      for (int k = 0; k < len; k++) Xb[1 + k] = x[3 * (first + k)];
-    Xb[0] = x[3 * run.left];
-    Xb[len + 1] = x[3 * run.right];
+    for (int k = 0; k < len; k++) X[1 + k] = x[3 * (first + k)];
+    X[0] = x[3 * run.left];
+    X[len + 1] = x[3 * run.right];
     // the bond forces, F[k] left of atom first + k
 #pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
     for (int k = 0; k <= len; k++) {
-      const double r = Xb[k + 1] - Xb[k];
+      const double r = X[k + 1] - X[k];
       r_min = r < r_min ? r : r_min;
       r_max = r > r_max ? r : r_max;
       r_sum += r;
       F[k] = law(r);
     }
-
     double *__restrict fr = f + 3 * first;
     double *__restrict vr = v + 3 * first;
-    if constexpr (!FRICTION) {
-      for (int k = 0; k < len; k++) {
-        const double fx = F[k] - F[k + 1];
-        fr[3 * k] = fx;
-        if (KICKS) vr[3 * k] += (one_type ? half_kick : dtfm_of[type[first + k]]) * fx;
-        if (MODE == LAZY) f_kept[first + k] = fx;
-      }
-    } else {
-      for (int k = 0; k < len; k++) {
-        const int t = type[first + k];
-        const double fx = F[k] - F[k + 1];
-        const double m = mass_of[t];
-        const double normal = weight[t] + p * (F[k] + F[k + 1]);
-        const double limit = normal > 0.0 ? mu * normal : 0.0;
-        const double dvdf = kick / m;
-        const double v0 = vr[3 * k];
-        bool stuck;
-        const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
-        if (stuck) work.stuck(v0, m, kick, fx), vr[3 * k] = 0.0;
-        else work.slip(v0, fx, ftot, dvdf);
-        fr[3 * k] = ftot;
-        if (KICKS) vr[3 * k] += dtfm_of[t] * ftot;
-        if (MODE == LAZY) f_kept[first + k] = ftot;
-      }
+    for (int k = 0; k < len; k++) {
+      const int t = FRICTION || !one_type ? type[first + k] : 1;
+      const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vr[3 * k], work);
+      fr[3 * k] = ftot;
+      if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[t]) * ftot;
     }
   }
   if (FRICTION) work.settle(kick, setup_kick, work_done, work_pending);
   // r <= 0 is a contact
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+}
+
+/* Owning the state, the whole step in one pass over the fix's arrays (see the header): the
+   same operations as initial_integrate, run_forces<KICK> and the front record's sample. */
+
+template <bool FRICTION, bool FRONT, class Law>
+void FixLatticeChain::own_step(const Law law, int &bad)
+{
+  double *__restrict x = xs.data();
+  double *__restrict v = vs.data();
+  double *__restrict f = fs.data();
+  double *__restrict F = bond_force.data();
+  double *__restrict mark = FRONT ? front->mark : nullptr;
+  const int *__restrict type = atom->type;
+  const double *__restrict dtfm_of = dtfm.data();
+  const double half_kick = dtfm_of[1];
+  const bool one_type = atom->ntypes == 1;
+  const double dtv = update->dt, kick = update->dt;
+  const FrontRecord::Levels levels = FRONT ? front->levels : FrontRecord::Levels{};
+  // per block in flight (two): the velocities after the first half kick, and before it
+  double *__restrict half[2] = {scratch.data(), scratch.data() + BLOCK};
+  double *__restrict before[2] = {scratch.data() + 2 * BLOCK, scratch.data() + 3 * BLOCK};
+  // velocity Verlet's first half kick and drift, with last step's forces
+  auto drift = [&](const Run &run, double *__restrict vh, double *__restrict v0) {
+    for (int i = run.first, k = 0; i <= run.last; i++, k++) {
+      v0[k] = v[i];
+      vh[k] = v[i] + (one_type ? half_kick : dtfm_of[type[i]]) * f[i];
+      x[i] += dtv * vh[k];
+    }
+  };
+  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
+  CoulombWork work;
+  if (!runs.empty()) drift(runs[0], half[0], before[0]);
+  for (size_t b = 0; b < runs.size(); b++) {
+    const Run &run = runs[b];
+    const int first = run.first, last = run.last, len = last - first + 1;
+    if (b + 1 < runs.size()) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
+    double *__restrict vh = half[b % 2];
+    // the bond forces, F[k] left of atom first + k: the two end bonds, then the inner ones
+    // from consecutive positions
+    auto bond = [&](double r) {
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      return law(r);
+    };
+    F[0] = bond(x[first] - x[run.left]);
+    F[len] = bond(x[run.right] - x[last]);
+    const double *__restrict xb = x + first;
+#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
+    for (int k = 1; k < len; k++) {
+      const double r = xb[k] - xb[k - 1];
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      F[k] = law(r);
+    }
+    // the forces and the second half kick; the front record's largest |v| and whether an
+    // atom reaches its start level now
+    double *__restrict fb = f + first;
+    double *__restrict vb = v + first;
+    double *__restrict mb = FRONT ? mark + first : nullptr;
+    double starting = 0.0;    // a count, as a double: an int would keep the loop from vectorising
+    // one loop for one atom type and one for several (a test inside would keep the loop from
+    // vectorising)
+    auto kick_loop = [&](auto one_type_) {
+      constexpr bool ONE_TYPE = decltype(one_type_)::value;
+      for (int k = 0; k < len; k++) {
+        const int t = FRICTION || !ONE_TYPE ? type[first + k] : 1;
+        const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vh[k], work);
+        const double vn = vh[k] + (ONE_TYPE ? half_kick : dtfm_of[t]) * ftot;
+        fb[k] = ftot;
+        vb[k] = vn;
+        if constexpr (FRONT) {
+          const double m = mb[k];
+          starting += FrontRecord::starts(m, vn, levels) ? 1.0 : 0.0;
+          mb[k] = FrontRecord::mark_max(m, vn);
+        }
+      }
+    };
+    if (one_type) kick_loop(std::true_type{});
+    else kick_loop(std::false_type{});
+    if constexpr (FRONT) {
+      const unsigned char *__restrict phase = front->phase + first;
+      int active = 0;
+      for (int k = 0; k < len; k++) active |= phase[k] == FrontRecord::ACTIVE;
+      if (starting > 0.0 || active) sample_front_block(run, before[b % 2]);
+    }
+  }
+  if (FRICTION) work.settle(kick, false, work_done, work_pending);
+  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+}
+
+/* owning the state: the front record of a block's atoms that start now or are active;
+   v_before: their velocities of the previous step */
+
+void FixLatticeChain::sample_front_block(const Run &run, const double *v_before)
+{
+  using namespace FrontRecord;
+  const Sample &s = front->current_sample();
+  for (int i = run.first, k = 0; i <= run.last; i++, k++) {
+    unsigned char &phase = front->phase[i];
+    if (!(phase == ACTIVE || starts(front->mark[i], vs[i], front->levels))) continue;
+    const double v_prev = phase == WAITING ? v_before[k] : front->rec[i][V_PREV];
+    advance(front->rec[i], front->mark[i], phase, vs[i], v_prev, fs[i] / mass_of[atom->type[i]],
+            front->levels, s);
+  }
+}
+
+/* owning the state: the front record of the chain ends (the impactor's previous velocity was
+   kept in initial_integrate; a held end's does not change) */
+
+void FixLatticeChain::sample_front_ends()
+{
+  using namespace FrontRecord;
+  const Sample &s = front->current_sample();
+  auto sample = [&](int i, double v_prev) {
+    double &mark = front->mark[i];
+    const bool start = starts(mark, vs[i], front->levels);
+    mark = mark_max(mark, vs[i]);
+    unsigned char &phase = front->phase[i];
+    if (!(phase == ACTIVE || start)) return;
+    advance(front->rec[i], mark, phase, vs[i], phase == WAITING ? v_prev : front->rec[i][V_PREV],
+            fs[i] / mass_of[atom->type[i]], front->levels, s);
+  };
+  for (const End &e : impactors) sample(e.i, impactor_v[e.chain]);
+  for (const End &e : held) sample(e.i, vs[e.i]);
 }
 
 /* every separation of this rank's bonds (each bond once, by its left atom): the potential
@@ -527,14 +753,14 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
 void FixLatticeChain::bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max,
                                 tagint &tag_max)
 {
-  double **x = atom->x;
+  const Column x = column(atom->x, xs);
   const tagint *tag = atom->tag;
   pe = 0.0;
   gap_min = std::numeric_limits<double>::infinity();
   gap_max = -gap_min;
   tag_min = tag_max = 0;
   auto bond = [&](int i, int j) {
-    const double r = x[j][0] - x[i][0];
+    const double r = x[j] - x[i];
     pe += law.energy(r);
     if (r < gap_min) gap_min = r, tag_min = tag[i];
     if (r > gap_max) gap_max = r, tag_max = tag[i];

@@ -4,6 +4,7 @@
 #define PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 
 #include "chain_law.h"
+#include "coulomb.h"
 #include "fix.h"
 #include "measured_motion.h"
 
@@ -18,6 +19,7 @@ class FixLatticeChain : public Fix {
   int setmask() override;
   void init() override;
   void setup_pre_neighbor() override;
+  void pre_exchange() override;
   void pre_neighbor() override;
   void setup(int) override;
   void initial_integrate(int) override;
@@ -43,23 +45,33 @@ class FixLatticeChain : public Fix {
   // per-type constants, set in init(): half-kick dt/(2m), m, m g
   std::vector<double> dtfm, mass_of, weight;
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
-  bool lazy_allowed, in_order;   // one rank, nothing between the passes, blocks in chain order
-  bool lazy;                     // this run: the drift waits for post_force (see init())
-  std::vector<double> f_last;    // lazy: each atom's force of the last step, by local index
+  bool own_allowed, in_order;    // see init() and build_lists()
+  bool own;                      // this run: the fix owns the state (shadow arrays, see the header)
+  class FixLatticeFront *front;  // the front record this fix samples while it owns the state
 
-  // local layout, rebuilt at every reneighbouring: runs of up to 512 free atoms that follow
+  // own: each local atom's x, v, f along x (index = local index); the atom arrays are written
+  // from them only when something may read them
+  std::vector<double> xs, vs, fs;
+  std::vector<double> impactor_v;    // own: each chain's impactor velocity of the previous step
+
+  // local layout, rebuilt at every reneighbouring: runs of up to BLOCK free atoms that follow
   // each other in memory with consecutive IDs, with the local/ghost index of the atom left
   // of the first and right of the last; the chain ends held apart
   struct Run {
     int first, last, left, right;
+    bool operator==(const Run &o) const
+    {
+      return first == o.first && last == o.last && left == o.left && right == o.right;
+    }
   };
   std::vector<Run> runs;
   struct End {
     int i, other, chain;    // impactor: its right neighbour; held end: its left neighbour
+    bool operator==(const End &o) const { return i == o.i && other == o.other && chain == o.chain; }
   };
   std::vector<End> impactors, held;
   std::vector<double> bond_force;    // scratch: the forces of one run's bonds
-  std::vector<double> positions;     // scratch: two runs' positions (see run_forces)
+  std::vector<double> scratch;       // scratch: positions of two runs (AoS), velocities (own)
   double drive_u, drive_ud;      // the drive's displacement and velocity at the current step
 
   double work_done, work_pending;    // friction work (see coulomb.h)
@@ -67,14 +79,27 @@ class FixLatticeChain : public Fix {
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
 
+  // x, v or f along x: the shadow arrays while the fix owns the state, else the atom arrays
+  struct Column {
+    double *p;
+    int stride;
+    double &operator[](int i) const { return p[stride * i]; }
+  };
+  Column column(double **a, std::vector<double> &s) const { return own ? Column{s.data(), 1} : Column{a[0], 3}; }
+
   void build_lists();
   void drive(bigint step);
   void place_impactors(bool set_x);
   void forces(double kick, bool setup_kick, bool kick_v);
-  // the force pass: NO_KICK (setup, or the kick left to final_integrate), KICK (the second
-  // half kick too), LAZY (also the first half kick and drift, one block ahead)
-  enum { NO_KICK, KICK, LAZY };
-  template <bool FRICTION, int MODE, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
+  void end_forces();
+  template <bool FRICTION>
+  double total_force(double left, double right, int t, double kick, double &v, CoulombWork &work) const;
+  template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
+  template <bool FRICTION, bool FRONT, class Law> void own_step(const Law law, int &bad);
+  void sample_front_block(const Run &run, const double *v_before);
+  void sample_front_ends();
+  void gather();
+  void scatter();
   void check_gaps(int bad);
   void bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max, tagint &tag_max);
   void energies();

@@ -34,6 +34,7 @@ class FixLatticeFront : public Fix {
   unsigned char *phase;
   bool begin_sample(FrontRecord::Sample &);
   void end_sample();
+  const FrontRecord::Sample &current_sample() const { return current; }
   void set_previous_velocities(const double *v, int stride);
 
  private:

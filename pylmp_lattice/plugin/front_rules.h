@@ -61,10 +61,11 @@ inline double mark_max(double mark, double v)
   const double m = std::fabs(mark), a = std::fabs(v);
   return std::copysign(a <= m ? m : a, mark);
 }
-/* an atom that waits and reaches the start level now: its row must be updated */
+/* an atom that waits and reaches the start level now: its row must be updated (`&`, not
+   `&&`: no branch, so that the loops that call it vectorise) */
 inline bool starts(double mark, double v, const Levels &L)
 {
-  return std::copysign(1.0, mark) < 0.0 && v >= L.start;
+  return (std::copysign(1.0, mark) < 0.0) & (v >= L.start);
 }
 
 namespace detail {
