@@ -6,7 +6,9 @@ magnet 1 pushed at a constant 2 m/s, magnet N held, dt = 0.01 ms. Ways of integr
   own loop and writes its final velocities, against which every other row is compared;
 - "LAMMPS default" / "LAMMPS stock": the package's path, case_from_dict ->
   runner.write_run_folder -> runner.run_executable (`lmp`), with `[run] engine` left at its
-  default, and with engine = "stock" once the package has that field (detected, not assumed).
+  default, and with engine = "stock" once the package has that field (detected, not assumed);
+  both as the package writes the deck, so with the per-step front record (`[output] front`,
+  on by default); one more row shows the default path without the record.
   The time is LAMMPS's own Loop time minus its Output section (from log.lammps): start-up,
   reading the data file, the one dump frame at the end and the thermo lines are excluded;
   the output interval is the run's duration, so that frame is the only one;
@@ -72,8 +74,8 @@ def has_engine_field() -> bool:
 
 
 def paper_case(n: int, steps: int, variant: dict | None = None):
-    """The benchmark chain as a package case, everything else at the package's defaults except
-    the per-step front record (`[output] front`, off: it is output); `variant` adds sections' fields."""
+    """The benchmark chain as a package case, everything else at the package's defaults (so the
+    per-step front record is on); `variant` adds sections' fields."""
     duration = round(steps * DT, 10)
     data = {
         "name": f"bench_{n}",
@@ -81,7 +83,6 @@ def paper_case(n: int, steps: int, variant: dict | None = None):
         "force": {"law": "power", "K": K, "b": B, "q": Q},
         "impactor": {"profile": "constant", "velocity": V_I},
         "run": {"duration": duration, "dt": DT, "output_interval": duration},
-        "output": {"front": False},
     }
     for section, values in (variant or {}).items():
         data[section] = data[section] | values
@@ -241,10 +242,11 @@ class Bench:
     def __init__(self, args, tmp: Path):
         self.args, self.tmp = args, tmp
         self.exe = build_c_loop(tmp)
-        # `[run] engine` left at its default; the stock path where the package has one; the
-        # default with the package's per-step front record on, as a user's run has it
-        self.variants = {"default": {}} | ({"stock": {"run": {"engine": "stock"}}} if has_engine_field() else {})
-        self.variants["front"] = {"output": {"front": True}}
+        # the deck as the package writes it (`[run] engine` and `[output] front` at their
+        # defaults); the default without the per-step front record; the stock path where the
+        # package has one
+        self.variants = {"default": {}, "no_front": {"output": {"front": False}}}
+        self.variants |= {"stock": {"run": {"engine": "stock"}}} if has_engine_field() else {}
         self.default_engine = getattr(paper_case(21, 1).run, "engine", None)
         self.checked: dict[tuple[int, int], float] = {}  # (N, steps) -> max |v_default - v_C|
 
@@ -254,11 +256,11 @@ class Bench:
     def label(self, name: str) -> str:
         if name == "stock":
             return "LAMMPS stock (engine = stock)"
-        if name == "front":
-            return "LAMMPS default + output.front (as runs are)"
+        if name == "no_front":
+            return "LAMMPS default without front record"
         if self.default_engine is None:
             return "LAMMPS default (stock; no [run] engine yet)"
-        return f"LAMMPS default (engine = {self.default_engine})"
+        return f"LAMMPS default ({self.default_engine} engine, front record)"
 
     def size(self, n: int) -> list[Row]:
         """Every way at chain size n, interleaved over the repeats."""

@@ -368,8 +368,11 @@ comm_modify     cutoff {_num(1.05 * hi_si)}
 # fix lattice/chain finds neighbours by atom ID: the data file's bonds are not needed (the
 # two warnings about them come before they are deleted), and without bonds or a pair style
 # LAMMPS builds no neighbour lists; it only redistributes atoms among ranks every 100 steps.
+# The fix sets every force itself: LAMMPS clears forces only for the (empty) group none.
 delete_bonds    all multi remove special
-neigh_modify    every 100 delay 0 check no
+group           none empty
+atom_modify     first none
+neigh_modify    every 100 delay 0 check no include none
 
 # ---- 2-4. Force law {case.force!r}, impactor, held end{with_friction}, contact guard
 # One plugin fix does the whole step: nearest-neighbour forces, velocity Verlet, the

@@ -40,7 +40,16 @@ How a step is done
    they see on the general path. The fix's own energy and gap read its arrays. The front
    record (fix lattice/front) is then sampled inside the same pass, with the rules of
    front_rules.h, where v and f are already in registers: per atom one read and write of its
-   largest |v| and one byte of its phase; the record row only for the few atoms at the front.
+   largest |v|; the record row only for the few atoms at the front (per block counts of the
+   atoms that are active or still wait for the start level say where to look).
+
+   Clearing the forces. Verlet clears f (a memset of 3 doubles per atom) at every step, which
+   is as much memory traffic as the owned step itself. This fix sets every force it needs, so
+   pylmp_lattice decks ask LAMMPS to clear only the atoms of an empty group (`group none
+   empty`, `atom_modify first none`, `neigh_modify ... include none`, LAMMPS's own option for
+   force_clear), and the fix then clears f itself, as force_clear would, at the setup and at
+   every step it does not own the state (when other fixes may add forces). Pair and kspace
+   styles, which that option would leave without atoms, are refused with it.
 
 Syntax
    fix ID all lattice/chain law args impactor args keyword args ...
@@ -132,7 +141,7 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), length(0), nchains(0), range_lo(0.0),
     range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
     g(0.0), profile(REST), drive_v(0.0), drive_t(0.0), fused(false), own_allowed(false), in_order(false), own(false),
-    front(nullptr), drive_u(0.0),
+    clear_forces(false), front(nullptr), drive_u(0.0),
     drive_ud(0.0), work_done(0.0), work_pending(0.0), energy_step(-1), pe_cached(0.0),
     gap_cached(0.0), contact_step(-1)
 {
@@ -225,7 +234,7 @@ FixLatticeChain::~FixLatticeChain()
 
 int FixLatticeChain::setmask()
 {
-  return INITIAL_INTEGRATE | POST_FORCE | FINAL_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR | POST_RUN;
+  return INITIAL_INTEGRATE | PRE_FORCE | POST_FORCE | FINAL_INTEGRATE | PRE_EXCHANGE | PRE_NEIGHBOR | POST_RUN;
 }
 
 void FixLatticeChain::init()
@@ -268,8 +277,34 @@ void FixLatticeChain::init()
     if (record && record->igroup == 0 && !front) front = record;
     else alone = false;
   }
-  own_allowed = fused && alone && comm->nprocs == 1 && !force->pair && !force->kspace &&
-      atom->sortfreq == 0 && neighbor->dist_check == 0;
+  const bool other_forces = force->pair || force->kspace || force->bond || force->angle ||
+      force->dihedral || force->improper;
+  own_allowed = fused && alone && comm->nprocs == 1 && !other_forces && atom->sortfreq == 0 &&
+      neighbor->dist_check == 0;
+  // LAMMPS clears the forces of `neigh_modify include` group atoms only (see the header)
+  clear_forces = neighbor->includegroup != 0;
+  if (clear_forces && (force->pair || force->kspace))
+    error->all(FLERR, "Fix lattice/chain: neigh_modify include (set by the deck so that the fix clears "
+                      "the forces itself) leaves pair and kspace styles without atoms; remove it to use one");
+}
+
+/* with neigh_modify include, what Verlet's force_clear would do, unless the fix owns the state
+   (then nothing else writes f, whose y and z stay the zero of the setup) */
+
+void FixLatticeChain::setup_pre_force(int /*vflag*/)
+{
+  if (clear_forces) clear();
+}
+
+void FixLatticeChain::pre_force(int /*vflag*/)
+{
+  if (clear_forces && !own) clear();
+}
+
+void FixLatticeChain::clear()
+{
+  const size_t n = atom->nlocal + (force->newton ? atom->nghost : 0);
+  if (n) memset(&atom->f[0][0], 0, 3 * n * sizeof(double));
 }
 
 /* the layout of this rank's atoms; neighbours must be owned or ghosts */
@@ -408,6 +443,7 @@ void FixLatticeChain::setup(int /*vflag*/)
   forces(0.5 * update->dt, true, false);
   // decided once per run: the atoms keep their order between reneighbourings on one rank
   own = own_allowed && in_order;
+  block_front.clear();    // summarised at the first owned sample, after the record's own setup sample
   if (own) gather();
 }
 
@@ -452,6 +488,7 @@ void FixLatticeChain::post_force(int /*vflag*/)
   }
   FrontRecord::Sample sample;
   const bool record = front && front->begin_sample(sample);
+  if (record && block_front.size() != runs.size()) summarise_front();
   int bad = 0;
   law.dispatch([&](auto F) {
     if (friction) {
@@ -675,12 +712,14 @@ void FixLatticeChain::own_step(const Law law, int &bad)
       r_sum += r;
       F[k] = law(r);
     }
-    // the forces and the second half kick; the front record's largest |v| and whether an
-    // atom reaches its start level now
+    // the forces and the second half kick
     double *__restrict fb = f + first;
     double *__restrict vb = v + first;
+    // the front record's largest |v| of every atom (it may change at every step: atoms ahead
+    // of the front feel round-off forces from unequal gaps), and how many atoms are at or
+    // above the start level (a count as a double: an int would keep the loop from vectorising)
     double *__restrict mb = FRONT ? mark + first : nullptr;
-    double starting = 0.0;    // a count, as a double: an int would keep the loop from vectorising
+    double at_start = 0.0;
     // one loop for one atom type and one for several (a test inside would keep the loop from
     // vectorising)
     auto kick_loop = [&](auto one_type_) {
@@ -692,39 +731,52 @@ void FixLatticeChain::own_step(const Law law, int &bad)
         fb[k] = ftot;
         vb[k] = vn;
         if constexpr (FRONT) {
-          const double m = mb[k];
-          starting += FrontRecord::starts(m, vn, levels) ? 1.0 : 0.0;
-          mb[k] = FrontRecord::mark_max(m, vn);
+          mb[k] = FrontRecord::mark_max(mb[k], vn);
+          at_start += vn >= levels.start ? 1.0 : 0.0;
         }
       }
     };
     if (one_type) kick_loop(std::true_type{});
     else kick_loop(std::false_type{});
-    if constexpr (FRONT) {
-      const unsigned char *__restrict phase = front->phase + first;
-      int active = 0;
-      for (int k = 0; k < len; k++) active |= phase[k] == FrontRecord::ACTIVE;
-      if (starting > 0.0 || active) sample_front_block(run, before[b % 2]);
-    }
+    // the rows only of blocks where an atom is active or may reach the start level now
+    if (FRONT && (block_front[b].active > 0 || (block_front[b].waiting > 0 && at_start > 0.0)))
+      sample_front_block(b, before[b % 2]);
   }
   if (FRICTION) work.settle(kick, false, work_done, work_pending);
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
 }
 
-/* owning the state: the front record of a block's atoms that start now or are active;
-   v_before: their velocities of the previous step */
+/* owning the state: the front record of block b's atoms that start now or are active, and
+   the block's counts; v_before: their velocities of the previous step */
 
-void FixLatticeChain::sample_front_block(const Run &run, const double *v_before)
+void FixLatticeChain::sample_front_block(int b, const double *v_before)
 {
   using namespace FrontRecord;
   const Sample &s = front->current_sample();
+  const Run &run = runs[b];
+  BlockFront &bf = block_front[b];
   for (int i = run.first, k = 0; i <= run.last; i++, k++) {
     unsigned char &phase = front->phase[i];
-    if (!(phase == ACTIVE || starts(front->mark[i], vs[i], front->levels))) continue;
-    const double v_prev = phase == WAITING ? v_before[k] : front->rec[i][V_PREV];
-    advance(front->rec[i], front->mark[i], phase, vs[i], v_prev, fs[i] / mass_of[atom->type[i]],
-            front->levels, s);
+    const unsigned char before = phase;
+    if (!(before == ACTIVE || starts(before, vs[i], front->levels))) continue;
+    const double v_prev = before == WAITING ? v_before[k] : front->rec[i][V_PREV];
+    advance(front->rec[i], phase, vs[i], v_prev, fs[i] / mass_of[atom->type[i]], front->levels, s);
+    bf.waiting -= before == WAITING;
+    bf.active += (phase == ACTIVE) - (before == ACTIVE);
   }
+}
+
+/* owning the state: the active and waiting atoms of each block */
+
+void FixLatticeChain::summarise_front()
+{
+  using namespace FrontRecord;
+  block_front.assign(runs.size(), BlockFront{0, 0});
+  for (size_t b = 0; b < runs.size(); b++)
+    for (int i = runs[b].first; i <= runs[b].last; i++) {
+      block_front[b].active += front->phase[i] == ACTIVE;
+      block_front[b].waiting += front->phase[i] == WAITING;
+    }
 }
 
 /* owning the state: the front record of the chain ends (the impactor's previous velocity was
@@ -735,12 +787,10 @@ void FixLatticeChain::sample_front_ends()
   using namespace FrontRecord;
   const Sample &s = front->current_sample();
   auto sample = [&](int i, double v_prev) {
-    double &mark = front->mark[i];
-    const bool start = starts(mark, vs[i], front->levels);
-    mark = mark_max(mark, vs[i]);
+    front->mark[i] = mark_max(front->mark[i], vs[i]);
     unsigned char &phase = front->phase[i];
-    if (!(phase == ACTIVE || start)) return;
-    advance(front->rec[i], mark, phase, vs[i], phase == WAITING ? v_prev : front->rec[i][V_PREV],
+    if (!(phase == ACTIVE || starts(phase, vs[i], front->levels))) return;
+    advance(front->rec[i], phase, vs[i], phase == WAITING ? v_prev : front->rec[i][V_PREV],
             fs[i] / mass_of[atom->type[i]], front->levels, s);
   };
   for (const End &e : impactors) sample(e.i, impactor_v[e.chain]);

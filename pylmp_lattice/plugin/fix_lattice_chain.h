@@ -22,6 +22,8 @@ class FixLatticeChain : public Fix {
   void pre_exchange() override;
   void pre_neighbor() override;
   void setup(int) override;
+  void setup_pre_force(int) override;
+  void pre_force(int) override;
   void initial_integrate(int) override;
   void post_force(int) override;
   void final_integrate() override;
@@ -47,12 +49,18 @@ class FixLatticeChain : public Fix {
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
   bool own_allowed, in_order;    // see init() and build_lists()
   bool own;                      // this run: the fix owns the state (shadow arrays, see the header)
+  bool clear_forces;             // LAMMPS does not clear the forces (neigh_modify include)
   class FixLatticeFront *front;  // the front record this fix samples while it owns the state
 
   // own: each local atom's x, v, f along x (index = local index); the atom arrays are written
   // from them only when something may read them
   std::vector<double> xs, vs, fs;
   std::vector<double> impactor_v;    // own: each chain's impactor velocity of the previous step
+  // own, with a front record: each block's (runs[b]) active and waiting atoms
+  struct BlockFront {
+    int active, waiting;
+  };
+  std::vector<BlockFront> block_front;
 
   // local layout, rebuilt at every reneighbouring: runs of up to BLOCK free atoms that follow
   // each other in memory with consecutive IDs, with the local/ghost index of the atom left
@@ -96,9 +104,11 @@ class FixLatticeChain : public Fix {
   double total_force(double left, double right, int t, double kick, double &v, CoulombWork &work) const;
   template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   template <bool FRICTION, bool FRONT, class Law> void own_step(const Law law, int &bad);
-  void sample_front_block(const Run &run, const double *v_before);
+  void sample_front_block(int b, const double *v_before);
+  void summarise_front();
   void sample_front_ends();
   void gather();
+  void clear();
   void scatter();
   void check_gaps(int bad);
   void bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max, tagint &tag_max);

@@ -43,7 +43,7 @@ Description
 
 Implementation
    The per-atom rules are in front_rules.h, shared with fix lattice/chain. Each step touches,
-   per atom, only a hot state (the largest |v| so far with a "waiting" sign, the previous v of a
+   per atom, only a hot state (the largest |v| so far, the previous v of a
    waiting atom, a phase byte); a row of the record (NCOL doubles) is touched only for the few
    atoms between their start and both peaks confirmed. The output column 6 (largest |v|) is
    copied from the hot state when something may read the record: at output steps, at the end
@@ -183,12 +183,12 @@ void FixLatticeFront::sample()
     mark[i] = mark_max(mark[i], vi);
     if (phase[i] == FINISHED) continue;
     const bool waiting = phase[i] == WAITING;
-    if (waiting && !(vi >= levels.start)) {
+    if (waiting && !starts(phase[i], vi, levels)) {
       vprev[i] = vi;
       continue;
     }
     const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
-    advance(rec[i], mark[i], phase[i], vi, waiting ? vprev[i] : rec[i][V_PREV], ai, levels, s);
+    advance(rec[i], phase[i], vi, waiting ? vprev[i] : rec[i][V_PREV], ai, levels, s);
   }
   end_sample();
 }
@@ -197,7 +197,7 @@ void FixLatticeFront::sample()
 
 void FixLatticeFront::refresh()
 {
-  for (int i = 0; i < atom->nlocal; i++) rec[i][V_ABS_MAX] = std::fabs(mark[i]);
+  for (int i = 0; i < atom->nlocal; i++) rec[i][V_ABS_MAX] = mark[i];
 }
 
 double FixLatticeFront::memory_usage()
@@ -213,7 +213,7 @@ void FixLatticeFront::grow_arrays(int nmax)
   memory->grow(phase, nmax, "lattice/front:phase");
   for (int i = rows; i < nmax; i++) {    // nothing recorded yet
     for (int c = 0; c < NCOL; c++) rec[i][c] = NaN;
-    mark[i] = UNSAMPLED;
+    mark[i] = NaN;
     vprev[i] = NaN;
     phase[i] = WAITING;
   }

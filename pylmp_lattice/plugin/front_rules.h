@@ -8,10 +8,8 @@ Why a hot and a cold part
    start and both peaks confirmed ("active") change it; the others (at rest ahead of the front,
    or behind it with both peaks found) need only their largest |v| so far and, while they wait
    for the start level, their previous velocity. So every step touches, per atom, only
-     mark: the largest |v| so far, its sign bit set while the atom waits (no sample at or above
-           the start level yet), so that "waiting and now at or above the level" is one test on
-           doubles inside a vectorised loop; -NaN before the first sample;
-     phase: WAITING, ACTIVE or FINISHED (one byte);
+     mark: the largest |v| so far (NaN before the first sample), one max instruction;
+     phase: WAITING (no sample at or above the start level yet), ACTIVE or FINISHED (a byte);
    and the row only for active atoms (and at its start). The row's V_ABS_MAX column is the
    output copy of |mark|, refreshed whenever something may read the record (see the fix). */
 
@@ -51,21 +49,19 @@ struct Sample {
 };
 
 const double NaN = std::numeric_limits<double>::quiet_NaN();
-// the mark of an atom not sampled yet: waiting, no maximum
-const double UNSAMPLED = std::copysign(NaN, -1.0);
 
-/* hot part, every atom at every sample: the largest |v|, keeping the waiting sign
-   (NaN compares false, so the first sample replaces the NaN) */
+/* hot part, every atom at every sample: the largest |v| (NaN compares false, so the first
+   sample replaces the NaN of an atom not sampled yet, and a NaN v is kept; written so that
+   x86 does it in one maxpd) */
 inline double mark_max(double mark, double v)
 {
-  const double m = std::fabs(mark), a = std::fabs(v);
-  return std::copysign(a <= m ? m : a, mark);
+  const double a = std::fabs(v);
+  return mark > a ? mark : a;
 }
-/* an atom that waits and reaches the start level now: its row must be updated (`&`, not
-   `&&`: no branch, so that the loops that call it vectorise) */
-inline bool starts(double mark, double v, const Levels &L)
+/* an atom that waits and reaches the start level now: its row must be updated */
+inline bool starts(unsigned char phase, double v, const Levels &L)
 {
-  return (std::copysign(1.0, mark) < 0.0) & (v >= L.start);
+  return phase == WAITING && v >= L.start;
 }
 
 namespace detail {
@@ -112,9 +108,9 @@ inline void refine(const double *m, double &t_out, double &y_out)
 /* cold part: the row r of an atom that starts now or is active, with its velocity v and
    acceleration a at this sample and its velocity v_prev at the previous one (the row keeps it
    for active atoms; a waiting atom's comes from the hot state of whoever samples). Moves the
-   atom from WAITING to ACTIVE (clearing the mark's sign) and from ACTIVE to FINISHED. */
-inline void advance(double *r, double &mark, unsigned char &phase, double v, double v_prev, double a,
-                   const Levels &L, const Sample &s)
+   atom from WAITING to ACTIVE and from ACTIVE to FINISHED. */
+inline void advance(double *r, unsigned char &phase, double v, double v_prev, double a, const Levels &L,
+                    const Sample &s)
 {
   using namespace detail;
   const double t = s.t, t_prev = s.t_prev;
@@ -126,7 +122,6 @@ inline void advance(double *r, double &mark, unsigned char &phase, double v, dou
     r[T_START] = s.first ? t : crossing(L.start, t_prev, v_prev, t, v);
     r[TS_START] = t;
     phase = ACTIVE;
-    mark = std::fabs(mark);
   }
   bool arrived_now = false;
   if (std::isnan(r[T_ARRIVAL]) && v >= L.front) {
