@@ -21,7 +21,9 @@ magnet 1 pushed at a constant 2 m/s, magnet N held, dt = 0.01 ms. Ways of integr
   --scipy-max-steps steps' worth of time (marked in the table); its atom-steps are N times the
   number of dt = 0.01 ms steps in the time it integrated.
 Each size runs each way --repeat times, interleaved (these machines are shared and noisy); the
-table shows the best. The run time at size N is --atom-steps / N steps, but never so long that
+table shows the best. The run time at size N is --atom-steps / N steps, at least --min-steps
+(a package deck prints thermo 20 times a run and the default path then writes its state back
+to LAMMPS's arrays, so a run of 100 steps would measure mostly that), but never so long that
 the front (bounded by V0 + 2 V_I) reaches the held end; max |v - v_C| is over all magnets at
 the end. Then: the accuracy check of issue 7 (default path against the C loop, N = 10^4 after
 10^4 steps; required <= 1e-9 m/s), 1 against 2 MPI ranks (runner.run_executable with nprocs),
@@ -85,7 +87,7 @@ def paper_case(n: int, steps: int, variant: dict | None = None):
         "run": {"duration": duration, "dt": DT, "output_interval": duration},
     }
     for section, values in (variant or {}).items():
-        data[section] = data[section] | values
+        data[section] = data.get(section, {}) | values
     return case_from_dict(data)
 
 
@@ -251,7 +253,8 @@ class Bench:
         self.checked: dict[tuple[int, int], float] = {}  # (N, steps) -> max |v_default - v_C|
 
     def steps_for(self, n: int) -> int:
-        return max(1, min(int(self.args.atom_steps // n), self.args.max_steps, front_limited_steps(n)))
+        steps = max(int(self.args.atom_steps // n), self.args.min_steps)
+        return max(1, min(steps, self.args.max_steps, front_limited_steps(n)))
 
     def label(self, name: str) -> str:
         if name == "stock":
@@ -404,6 +407,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="sizes up to 10^4, 1e7 atom-steps, 2 repeats, MPI at 10^5")
     parser.add_argument("--sizes", type=int, nargs="+", help="chain sizes N (default 21 1000 10000 100000 1000000)")
     parser.add_argument("--atom-steps", type=float, help="work per run, N x steps (default 1e8)")
+    parser.add_argument("--min-steps", type=int, default=1000, help="at least this many steps per run (default 1000)")
     parser.add_argument("--max-steps", type=int, default=100_000, help="at most this many steps per run")
     parser.add_argument("--repeat", type=int, help="runs of each way per size, best kept (default 3)")
     parser.add_argument("--scipy-max-n", type=int, default=1000, help="largest N for solve_ivp")

@@ -14,7 +14,8 @@ from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.dump import read_dump, trajectory_from_dump
 from pylmp_lattice.runner import run_embedded, write_replicas_folder, write_run_folder
-from pylmp_lattice.simulation import simulate, simulate_replicas, split_replicas
+from pylmp_lattice.front_record import read_front_record
+from pylmp_lattice.simulation import load_trajectory, simulate, simulate_replicas, split_replicas
 
 from conftest import make_case
 
@@ -153,3 +154,31 @@ def test_replicas_may_differ_only_in_their_chain():
         render_replicas([make_case(), make_case(velocity=1.0)])
     with pytest.raises(ConfigError, match="batched replicas need the chain engine"):
         render_replicas([make_case(run={"engine": "stock"})])
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("other_fix", ["viscous 0.0", "print 1000000000 ''"], ids=["post_force", "end_of_step"])
+def test_owned_state_gives_the_bits_of_the_general_path(tmp_path, other_fix):
+    """On one rank with only the front record beside it, the chain fix keeps x, v, f in its own
+    arrays and samples the record in its pass; another fix during the steps (a zero viscous
+    force after it, or one that only prints) makes it work in LAMMPS's arrays and the record
+    sample itself. 700 magnets (blocks of 256), friction, a pulse: the same x, v, f and
+    front record, bit for bit."""
+    case = make_case(particles=700, duration=150.0, interval=5.0, impactor=PROFILES["sine"], friction=FRICTION)
+    runs = {}
+    for name, extra in (("owned", None), ("general", other_fix)):
+        folder = write_run_folder(case, tmp_path / name)
+        if extra:
+            deck = folder / "in.lattice"
+            deck.write_text(deck.read_text().replace("\nrun ", f"\nfix             other all {extra}\nrun ", 1))
+        run_embedded(folder)
+        log = (folder / "log.lammps").read_text()
+        assert ("owns the state (one pass per step, front record inside)" in log) == (name == "owned")
+        runs[name] = (load_trajectory(case, folder), (folder / "front.bin").read_bytes())
+    (owned, owned_front), (general, general_front) = runs["owned"], runs["general"]
+    assert np.max(np.abs(owned.v)) > 1.0
+    for name in ("u", "v", "a"):
+        assert np.array_equal(getattr(owned, name), getattr(general, name)), name
+    record = read_front_record(case, tmp_path / "owned")
+    assert np.sum(np.isfinite(record.front.peaks.peak_velocity)) >= 20
+    assert owned_front == general_front

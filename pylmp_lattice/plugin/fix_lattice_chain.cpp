@@ -445,6 +445,10 @@ void FixLatticeChain::setup(int /*vflag*/)
   own = own_allowed && in_order;
   block_front.clear();    // summarised at the first owned sample, after the record's own setup sample
   if (own) gather();
+  if (comm->me == 0)
+    utils::logmesg(lmp, "Fix lattice/chain: {}\n",
+                   own ? std::string("owns the state (one pass per step") + (front ? ", front record inside)" : ")")
+                       : std::string("works in the atom arrays"));
 }
 
 void FixLatticeChain::initial_integrate(int /*vflag*/)

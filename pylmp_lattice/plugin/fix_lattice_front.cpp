@@ -73,12 +73,17 @@ using namespace FixConst;
 using namespace FrontRecord;
 
 namespace {
-// per-atom doubles moved between ranks: the row, then mark, vprev and phase
-constexpr int NPACK = NCOL + 3;
+// per-atom doubles moved between ranks: the row, then mark, vprev, phase and shown
+constexpr int NPACK = NCOL + 4;
+
+bool same_bits(double a, double b)
+{
+  return std::memcmp(&a, &b, sizeof(double)) == 0;
+}
 }    // namespace
 
 FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), rec(nullptr), mark(nullptr), vprev(nullptr), phase(nullptr), rows(0),
+    Fix(lmp, narg, arg), rec(nullptr), mark(nullptr), vprev(nullptr), phase(nullptr), shown(nullptr), rows(0),
     refresh_every_step(true), t_prev(0.0), step_prev(-1)
 {
   if (narg != 11) utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R", error);
@@ -110,6 +115,7 @@ FixLatticeFront::~FixLatticeFront()
   memory->destroy(mark);
   memory->destroy(vprev);
   memory->destroy(phase);
+  memory->destroy(shown);
 }
 
 int FixLatticeFront::setmask()
@@ -193,16 +199,18 @@ void FixLatticeFront::sample()
   end_sample();
 }
 
-/* the output copy of the largest |v| (NaN before an atom's first sample) */
+/* the output copy of the largest |v| (NaN before an atom's first sample); `shown` keeps what
+   the rows hold, so that only the rows of changed atoms are touched */
 
 void FixLatticeFront::refresh()
 {
-  for (int i = 0; i < atom->nlocal; i++) rec[i][V_ABS_MAX] = mark[i];
+  for (int i = 0; i < atom->nlocal; i++)
+    if (!same_bits(mark[i], shown[i])) rec[i][V_ABS_MAX] = shown[i] = mark[i];
 }
 
 double FixLatticeFront::memory_usage()
 {
-  return static_cast<double>(rows) * ((NCOL + 2) * sizeof(double) + 1);
+  return static_cast<double>(rows) * ((NCOL + 3) * sizeof(double) + 1);
 }
 
 void FixLatticeFront::grow_arrays(int nmax)
@@ -211,11 +219,13 @@ void FixLatticeFront::grow_arrays(int nmax)
   memory->grow(mark, nmax, "lattice/front:mark");
   memory->grow(vprev, nmax, "lattice/front:vprev");
   memory->grow(phase, nmax, "lattice/front:phase");
+  memory->grow(shown, nmax, "lattice/front:shown");
   for (int i = rows; i < nmax; i++) {    // nothing recorded yet
     for (int c = 0; c < NCOL; c++) rec[i][c] = NaN;
     mark[i] = NaN;
     vprev[i] = NaN;
     phase[i] = WAITING;
+    shown[i] = NaN;
   }
   rows = nmax;
   array_atom = rec;
@@ -227,6 +237,7 @@ void FixLatticeFront::copy_arrays(int i, int j, int)
   mark[j] = mark[i];
   vprev[j] = vprev[i];
   phase[j] = phase[i];
+  shown[j] = shown[i];
 }
 
 int FixLatticeFront::pack_exchange(int i, double *buf)
@@ -235,6 +246,7 @@ int FixLatticeFront::pack_exchange(int i, double *buf)
   buf[NCOL] = mark[i];
   buf[NCOL + 1] = vprev[i];
   buf[NCOL + 2] = phase[i];
+  buf[NCOL + 3] = shown[i];
   return NPACK;
 }
 
@@ -244,5 +256,6 @@ int FixLatticeFront::unpack_exchange(int nlocal, double *buf)
   mark[nlocal] = buf[NCOL];
   vprev[nlocal] = buf[NCOL + 1];
   phase[nlocal] = static_cast<unsigned char>(buf[NCOL + 2]);
+  shown[nlocal] = buf[NCOL + 3];
   return NPACK;
 }

@@ -39,6 +39,7 @@ class FixLatticeFront : public Fix {
 
  private:
   int rows;                                  // per-atom arrays allocated
+  double *shown;                             // what the rows' V_ABS_MAX column holds
   bool refresh_every_step;                   // another fix might read the record at any step
   double t_prev;                             // time of the previous sample
   bigint step_prev;                          // its step (-1: no sample yet)
