@@ -13,6 +13,9 @@ engine's compute is measured once for reference.
     git worktree add /tmp/before 884f0d8 && python3 -m venv /tmp/before/.venv \\
         && /tmp/before/.venv/bin/pip install /tmp/before
     python benchmarks/bench_output.py --before /tmp/before/.venv/bin/python [--repeat 3]
+
+Each side runs the main job as its own checkout defines it (inputs/paper_long_lattice.toml):
+at 884f0d8 a text dump of every magnet every 0.1 ms; now the output the figure needs.
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import h5py  # noqa: F401 - imported once here, so that the first conversion timed does not pay for it
 
 from pylmp_lattice.case import COMPRESSIONS, load_case
 from pylmp_lattice.h5md import convert_run
@@ -41,10 +46,10 @@ KEYS = (("shock_velocity_plateau_m_per_s", "mean"), ("first_peak_velocity_platea
         ("first_peak_velocity_over_V_I", None), ("linear_wave_speed_V0_m_per_s", None))
 
 
-def end_to_end(python: str, folder: Path) -> tuple[float, dict]:
+def end_to_end(python: str, case: Path, folder: Path) -> tuple[float, dict]:
     """Wall time of the CLI's main job in a fresh process, and its summary. The environment's own
     `pylmp-lattice` script, run outside the source tree, imports that environment's package."""
-    cli = [str(Path(python).parent / "pylmp-lattice"), "run", str(CASE), "-o", str(folder), "--quiet"]
+    cli = [str(Path(python).parent / "pylmp-lattice"), "run", str(case), "-o", str(folder), "--quiet"]
     start = time.perf_counter()
     subprocess.run(cli, check=True, cwd=folder.parent, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - start, json.loads((folder / "summary.json").read_text())
@@ -82,14 +87,18 @@ def conversion(folder: Path, overrides: list[str], compression: str) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", required=True, help="Python of an environment with the older package")
+    parser.add_argument("--before-case", type=Path, default=None,
+                        help="the main job's input in the older checkout (default: beside --before's venv)")
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
+    cases = {"before": args.before_case or Path(args.before).parent.parent.parent / "inputs" / CASE.name,
+             "after": CASE}
     times = {"before": [], "after": []}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for k in range(args.repeat):  # alternate, so that the machine's load hits both alike
             for label, python in (("before", args.before), ("after", sys.executable)):
-                seconds, summary = end_to_end(python, tmp / f"{label}{k}")
+                seconds, summary = end_to_end(python, cases[label], tmp / f"{label}{k}")
                 times[label].append(seconds)
                 if k == 0:
                     times[label + "_summary"] = summary

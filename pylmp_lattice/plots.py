@@ -102,7 +102,7 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     propagation_velocity(front.propagation_velocity, v0, axes[0, 1])
     first_peaks(front.peaks, axes[1, 0], drive_velocity=drive_velocity)
     for letter, ax in zip("abcd", axes.flat):
-        ax.set_title(f"({letter})", loc="left", fontweight="bold")
+        ax.set_title(f"({letter})", loc="left", fontweight="bold", y=1.01)  # a fixed y: no search for the tick labels
     if title:
         fig.suptitle(title)
     return fig
