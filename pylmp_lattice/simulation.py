@@ -142,11 +142,7 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
         if (folder / name).exists():
             summary["files"]["trajectory"] = str(folder / name)
     if figure and front is not None:
-        from .plots import pyplot
-
-        fig = run_figure(case, folder, front)
-        fig.savefig(folder / FIGURE, dpi=120)
-        pyplot().close(fig)  # a long session (API, sweeps) must not keep every figure
+        run_figure(case, folder, front).savefig(folder / FIGURE, dpi=120)
         summary["files"]["figure"] = str(folder / FIGURE)
     summary["wall_time_s"] = round(time.perf_counter() - start, 2)
     (folder / SUMMARY).write_text(dumps(summary) + "\n")

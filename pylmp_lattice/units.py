@@ -39,10 +39,13 @@ H5MD_UNITS = {"length": ("nm", 1e-9), "time": ("s", 1.0), "velocity": ("m s-1", 
 
 
 def to_h5md(value, quantity: str):
-    """LAMMPS `units si` -> the H5MD file's units."""
-    return np.divide(value, H5MD_UNITS[quantity][1])
+    """LAMMPS `units si` -> the H5MD file's units (the array itself where they are the same)."""
+    return value if H5MD_UNITS[quantity][1] == 1.0 else np.divide(value, H5MD_UNITS[quantity][1])
 
 
 def from_h5md(value, quantity: str):
-    """The H5MD file's units -> user units."""
-    return from_engine(np.multiply(value, H5MD_UNITS[quantity][1]), quantity)
+    """The H5MD file's units -> user units (the array itself where they are the same)."""
+    # trajectories are large: no pass over them where the units agree
+    if H5MD_UNITS[quantity][1] != 1.0:
+        value = np.multiply(value, H5MD_UNITS[quantity][1])
+    return value if TO_SI[quantity] == 1.0 else from_engine(value, quantity)

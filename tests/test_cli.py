@@ -58,23 +58,24 @@ def test_signal_stops_the_main_case_cleanly(tmp_path, signum, runner):
     assert m and Path(m.group(2)) == folder.resolve()
     run = read_run(folder)  # what was written opens, without a summary
     assert run.summary is None and len(run.trajectory.t) > 1
-    # embedded: LAMMPS stopped at the reported step, after the last frame (0.1 ms apart);
-    # lmp: the time is that of the last frame written (printed with 6 digits)
+    # embedded: LAMMPS stopped at the reported step, after the last frame (run.output_interval
+    # apart); lmp: the time is that of the last frame written (printed with 6 digits)
     t_stop, t_last = float(m.group(1)), run.trajectory.t[-1]
     if runner == "embedded":
-        assert t_last <= t_stop < t_last + 0.1 + 1e-9
+        assert t_last <= t_stop < t_last + run.case.run.output_interval + 1e-9
     else:
         assert t_stop == pytest.approx(t_last, rel=1e-5)
 
 
 def test_run_too_large_for_the_disk_is_refused_before_lammps_starts(tmp_path):
-    done = subprocess.run(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "--set", "chain.particles=10000000"],
+    done = subprocess.run(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "--set", "chain.particles=100000000"],
                           capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 2
     assert done.stdout == "" and "Traceback" not in done.stderr
     line, = done.stderr.splitlines()
-    # 10^7 magnets x 6001 frames x 56 bytes (binary dump and H5MD) = 3.36 TB
-    assert "too large for this machine" in line and "output 3.36 TB" in line and "free on disk" in line
+    # 10^8 magnets x 601 frames x 56 bytes (binary dump and H5MD) = 3.37 TB, and the four fine
+    # magnets' 6001 frames
+    assert "too large for this machine" in line and "output 3.37 TB" in line and "free on disk" in line
     assert not (tmp_path / "runs").exists()
 
 
@@ -142,8 +143,9 @@ def test_rank_count_must_be_positive(tmp_path, capsys, np_, message):
 def test_dry_run_prints_the_estimate_and_runs_nothing(tmp_path, capsys):
     assert main(["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(tmp_path / "r"), "--dry-run"]) == 0
     est = json.loads(capsys.readouterr().out)
-    assert est["particles"] == 301 and est["steps"] == 60000 and est["frames"] == 6001
-    assert est["output_bytes"] == pytest.approx(301 * 6001 * 56, rel=1e-6) and est["refused"] is None
+    assert est["particles"] == 301 and est["steps"] == 60000 and est["frames"] == 601
+    # every magnet every 1 ms and four every 0.1 ms, 56 bytes each (binary dump and H5MD)
+    assert est["output_bytes"] == pytest.approx((301 * 601 + 4 * 6001) * 56, rel=1e-6) and est["refused"] is None
     assert not (tmp_path / "r").exists()
 
 

@@ -450,6 +450,30 @@ def test_extrema_sequence_of_a_chirp_gives_its_frequency_against_time():
 # ---------------------------------------------------------------------------------------------
 
 
+def test_prominent_maxima_are_scipy_find_peaks():
+    """The package's peak finder (no scipy.signal import) against scipy.signal.find_peaks:
+    identical indices on noisy oscillations, flat maxima and plateaus at the ends, for
+    prominences from none kept to all kept."""
+    from scipy.signal import find_peaks
+
+    from pylmp_lattice.measures._common import prominent_maxima
+
+    rng = np.random.default_rng(7)
+    t = np.linspace(0, 40, 4001)
+    signals = [np.sin(t) * np.exp(-t / 20) + 0.05 * rng.standard_normal(t.size),
+               np.round(3 * np.sin(t) + np.sin(7.3 * t), 1),  # flat maxima
+               np.r_[np.full(5, 2.0), np.sin(t[:200]), np.full(5, 1.0)],  # plateaus at both ends
+               rng.integers(0, 4, 500).astype(float)]
+    checked = 0
+    for y in signals:
+        for p in (0.0, 0.01, 0.1, 0.5, 1.0, 10.0):
+            expected = find_peaks(y, prominence=p)[0]
+            np.testing.assert_array_equal(prominent_maxima(y, p), expected)
+            np.testing.assert_array_equal(prominent_maxima(-y, p), find_peaks(-y, prominence=p)[0])
+            checked += expected.size
+    assert checked > 1000  # the comparison saw many peaks
+
+
 def test_critical_velocity_of_a_broken_line():
     # eta = 0.02 V below V* = 0.8 m/s and 0.02 V + 0.5 (V - 0.8) above it.
     vi = np.linspace(0.05, 2.0, 40)

@@ -44,8 +44,8 @@ def test_paper_long_lattice_numbers(long_lattice):
 
 def test_first_peaks_grow_along_the_chain(long_lattice):
     """Strong-shock signature (Fig. 3c), opposite to the linear chain (Fig. S5c)."""
-    case, traj, _ = long_lattice
-    peaks = measures.first_peaks(traj.t, traj.v, traj.a, 2.0)
+    case, _, folder = long_lattice
+    peaks = measure_run(case, folder)[0].peaks  # the engine's record of every step
     reached = np.flatnonzero(np.isfinite(peaks.peak_velocity))
     n = reached[(reached >= 1) & (reached <= 150)]
     assert np.all(np.diff(peaks.peak_velocity[n]) > 0)

@@ -68,6 +68,38 @@ def first_confirmed_maximum(y, i_from, drop, relative=False):
     return np.argmax(np.where(rows < i_drop, behind, -np.inf), axis=0), confirmed
 
 
+def prominent_maxima(y, min_prominence):
+    """Indices of the local maxima of y (n,) with prominence >= min_prominence: the same as
+    scipy.signal.find_peaks(y, prominence=min_prominence)[0] (a flat maximum counts once, at its
+    middle sample; the prominence is the height above the higher of the lowest samples on each
+    side before a higher one). Written here because importing scipy.signal (1.17) takes longer
+    than a run of the paper's long lattice; tests/test_measures.py holds it to scipy's answer."""
+    y = np.asarray(y, dtype=float)
+    starts = np.flatnonzero(np.r_[True, y[1:] != y[:-1]])  # the runs of equal samples
+    ends = np.r_[starts[1:] - 1, len(y) - 1]
+    z = y[starts]
+    k = np.flatnonzero((z[1:-1] > z[:-2]) & (z[1:-1] > z[2:])) + 1
+    peaks = (starts[k] + ends[k]) // 2
+    heights = y[peaks] - np.array([max(_base(y, i, -1), _base(y, i, 1)) for i in peaks])
+    keep = heights >= min_prominence
+    return peaks[keep]
+
+
+def _base(y, i, side):
+    """The lowest sample from y[i] towards `side` (-1 left, +1 right) before the first one higher
+    than y[i] (or the end), searched in widening windows: a peak's base is usually near it."""
+    width = 64
+    while True:
+        lo, hi = (max(0, i - width), i + 1) if side < 0 else (i, min(len(y), i + 1 + width))
+        segment = y[lo:hi]
+        higher = np.flatnonzero(segment > y[i])
+        if higher.size:
+            return segment[higher[-1] + 1 :].min() if side < 0 else segment[: higher[0]].min()
+        if (side < 0 and lo == 0) or (side > 0 and hi == len(y)):
+            return segment.min()
+        width *= 4
+
+
 def refine_maxima(t, y, i, cols):
     """Time and value of the maximum of y[:, cols] near sample i (arrays broadcast together):
     the vertex of the parabola through samples i-1, i, i+1 (the sample itself at either end of

@@ -10,7 +10,7 @@ import numpy as np
 
 from ._common import (
     FRONT_FRACTION, HZ_PER_INV_MS, NAN, PROMINENCE, check_history, first_crossing,
-    refine_maxima, require_positive,
+    prominent_maxima, refine_maxima, require_positive,
 )
 
 
@@ -47,8 +47,8 @@ def oscillations(
 ) -> Oscillations:
     """Local maxima and minima of one particle's velocity v(t), shape (n_frames,), behind the front.
 
-    Extrema are those of scipy.signal.find_peaks on v (maxima) and -v (minima) with prominence
-    >= prominence * V_I, kept from the front on (the first sample with v >= front_fraction * V_I),
+    Extrema are the peaks of v (maxima) and -v (minima) with prominence >= prominence * V_I, as
+    scipy.signal.find_peaks finds them (`_common.prominent_maxima`), kept from the front on (the first sample with v >= front_fraction * V_I),
     each refined to the vertex of the parabola through it and its two neighbours. With the same
     arguments the first maximum is the first peak of `first_peaks`. Empty if the front never
     arrived.
@@ -56,11 +56,9 @@ def oscillations(
     t, v = check_history(t, v, single=True)
     require_positive(drive_velocity=drive_velocity, front_fraction=front_fraction, prominence=prominence)
     i_front = first_crossing(t, v[:, None], front_fraction * drive_velocity)[0][0]
-    from scipy.signal import find_peaks  # here: scipy.signal takes longer to import than most runs take to measure
-
     extrema = []
     for sign in (1.0, -1.0):
-        i = find_peaks(sign * v, prominence=prominence * drive_velocity)[0]
+        i = prominent_maxima(sign * v, prominence * drive_velocity)
         i = i[i >= i_front]
         t_ext, v_ext = refine_maxima(t, sign * v[:, None], i, cols=0)
         extrema += [t_ext, sign * v_ext]
