@@ -48,10 +48,10 @@ def oscillations(
     """Local maxima and minima of one particle's velocity v(t), shape (n_frames,), behind the front.
 
     Extrema are the peaks of v (maxima) and -v (minima) with prominence >= prominence * V_I, as
-    scipy.signal.find_peaks finds them (`_common.prominent_maxima`), kept from the front on (the first sample with v >= front_fraction * V_I),
-    each refined to the vertex of the parabola through it and its two neighbours. With the same
-    arguments the first maximum is the first peak of `first_peaks`. Empty if the front never
-    arrived.
+    scipy.signal.find_peaks finds them (`_common.prominent_maxima`), kept from the front on (the
+    first sample with v >= front_fraction * V_I), each refined to the vertex of the parabola
+    through it and its two neighbours. With the same arguments the first maximum is the first
+    peak of `first_peaks`. Empty if the front never arrived.
     """
     t, v = check_history(t, v, single=True)
     require_positive(drive_velocity=drive_velocity, front_fraction=front_fraction, prominence=prominence)
