@@ -247,7 +247,7 @@ class RunSettings:
             value = getattr(self, f.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
-        for name in ("output_interval", "check_interval", "duration"):
+        for name in ("duration", "output_interval", "check_interval"):
             _steps(f"run.{name}", getattr(self, name), self.dt)
 
     def steps(self, name: str = "duration") -> int:

@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except ConfigError as err:
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Interrupted as err:
         print(f"pylmp-lattice: {err}", file=sys.stderr)
@@ -41,10 +41,23 @@ def main(argv: list[str] | None = None) -> int:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _one_line(err: Exception) -> str:
+    """The message with control characters escaped: a path or value from the input cannot
+    break it into several lines."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(err))
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line and exit 2, like every other bad input."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {_one_line(Exception(message))}; see {self.prog} --help\n")
 
 
 def _raise_interrupted(signum, frame):
@@ -60,7 +73,7 @@ def _version() -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
+    p = _Parser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
     p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(required=True, metavar="COMMAND")
 
@@ -122,12 +135,12 @@ def _load(args):
     from .case import case_hash, load_case
 
     case = load_case(args.case, args.set)
-    if args.name:
-        if not args.name.strip() or Path(args.name).name != args.name:
-            raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
-        return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
-    default = case.name + (f"-{case_hash(case)}" if args.set else "")
-    return case, args.output or Path("runs") / default
+    if args.name is not None:  # validated by the Case, as a name from the file is
+        case = dataclasses.replace(case, name=args.name)
+    folder = args.output or Path("runs") / (case.name + (f"-{case_hash(case)}" if args.set and args.name is None else ""))
+    if folder.exists() and not folder.is_dir():
+        raise ConfigError("--output", f"{folder} is a file; expected a run folder")
+    return case, folder
 
 
 def _run(args) -> int:
@@ -189,6 +202,8 @@ def _export(args) -> int:
 
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")
+    if not args.output.parent.is_dir():
+        raise ConfigError("--output", f"{args.output.parent} is not a folder; expected an existing folder")
     run = read_run(args.folder)
     path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
     print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
