@@ -714,9 +714,10 @@ def _read_columns(path: Path, field: str, columns: str):
     except OSError as err:
         raise ConfigError(field, f"{path.name}: cannot read ({err.strerror})") from err
     except ValueError as err:  # UnicodeDecodeError included; numpy's message quotes the text
-        where = re.search(r"at row \d+, column \d+", str(err))
+        where = re.search(r"at row (\d+), column (\d+)", str(err))  # numpy: data rows from 0, columns from 1
         raise ConfigError(field, f"{path.name}: expected two numeric columns {columns}, comma-separated"
-                                 + (f" (not a number {where.group()})" if where else "")) from err
+                                 + (f" (not a number in data row {int(where[1]) + 1}, column {where[2]};"
+                                    " comment lines not counted)" if where else "")) from err
     if table.shape[1] != 2 or len(table) == 0:
         raise ConfigError(field, f"{path.name}: got {table.shape[1] if len(table) else 0} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
