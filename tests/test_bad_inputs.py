@@ -18,15 +18,12 @@ import os
 import pytest
 import tomli_w
 
+from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
 
-CASE = {
-    "name": "ok",
-    "chain": {"particles": 10, "mass": 1.084, "r0": 12.0},
-    "force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0},
-    "impactor": {"profile": "constant", "velocity": 1.0},
-    "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1},
-}
+from conftest import make_case
+
+CASE = case_to_dict(make_case(particles=10, velocity=1.0, duration=1.0)) | {"name": "ok"}
 LONG_NAME = "n" * 300
 INJECTION = "x\nshell touch INJECTED\nprint y"
 

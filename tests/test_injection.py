@@ -42,13 +42,7 @@ ATTACKS = [
     "runs/other",
     "n" * 101,
 ]
-CASE = {
-    "name": "ok",
-    "chain": {"particles": 10, "mass": 1.084, "r0": 12.0},
-    "force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0},
-    "impactor": {"profile": "constant", "velocity": 1.0},
-    "run": {"duration": 0.2, "dt": 0.01, "output_interval": 0.1},
-}
+CASE = case_to_dict(make_case(particles=10, velocity=1.0, duration=0.2)) | {"name": "ok"}
 
 
 @pytest.fixture
