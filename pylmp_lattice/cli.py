@@ -138,9 +138,14 @@ def _load(args):
     if args.name is not None:  # validated by the Case, as a name from the file is
         case = dataclasses.replace(case, name=args.name)
     folder = args.output or Path("runs") / (case.name + (f"-{case_hash(case)}" if args.set and args.name is None else ""))
-    if folder.exists() and not folder.is_dir():
-        raise ConfigError("--output", f"{folder} is a file; expected a run folder")
-    return case, folder
+    return case, _folder(folder)
+
+
+def _folder(path: Path) -> Path:
+    """An output folder argument: refused at once if it names a file, before any work."""
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--output", f"{path} is a file; expected a folder")
+    return path
 
 
 def _run(args) -> int:
@@ -215,6 +220,7 @@ def _sweep(args) -> int:
         from .sweep import load_sweep, run_sweep, write_replica_stats
 
         sweep = load_sweep(args.sweep)
+        _folder(args.output)
         table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
                           retry_failed=args.retry_failed, progress=not args.quiet)
     except (KeyboardInterrupt, Interrupted) as err:
@@ -239,7 +245,7 @@ def _study_names() -> list[str]:
 def _study(args) -> int:
     from .studies import run_study
 
-    result = run_study(args.name, args.output, quick=args.quick)
+    result = run_study(args.name, _folder(args.output), quick=args.quick)
     print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 

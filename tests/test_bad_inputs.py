@@ -275,6 +275,15 @@ def test_export_bad_arguments(workdir, capsys):
     refused([], capsys, "the following arguments are required")
 
 
+def test_output_that_is_a_file_is_refused_before_any_work(workdir, capsys):
+    _write_case(CASE)
+    with open("sweep.toml", "wb") as f:
+        tomli_w.dump({"base": "case.toml"}, f)
+    refused(["sweep", "sweep.toml", "-o", "sentinel.txt"], capsys, "--output")
+    refused(["study", "s3", "--quick", "-o", "sentinel.txt"], capsys, "--output")
+    refused(["run", "case.toml", "-o", "sentinel.txt"], capsys, "--output")
+
+
 def test_paths_with_control_characters_stay_one_line(workdir, capsys):
     refused(["deck", "x\ny.toml"], capsys, "case")
     refused(["deck", _write_case(CASE), "-o", "sentinel.txt"], capsys, "--output")
