@@ -196,13 +196,20 @@ class Chain:
 
     @cached_property
     def mass_range(self) -> tuple[float, float]:
-        """Smallest and largest mass, g, drawn in chunks: bounded memory at any N."""
-        return _extremes(self._masses(CHUNK))
+        """Smallest and largest mass, g, in bounded time and memory at any N (see _range)."""
+        return self._range(self.mass, self.mass_disorder, self.defect_mass, self._masses)
 
     @cached_property
     def gap_range(self) -> tuple[float, float]:
-        """Smallest and largest initial separation, mm, drawn in chunks: bounded memory at any N."""
-        return _extremes(self._gaps(CHUNK))
+        """Smallest and largest initial separation, mm, in bounded time and memory at any N."""
+        return self._range(self.r0, self.r0_disorder, self.defect_r0, self._gaps)
+
+    @staticmethod
+    def _range(nominal, width, defect, chunks) -> tuple[float, float]:
+        if not width and np.isscalar(nominal):  # no draws: the value and the defect (N >= 3 keeps one of each)
+            values = [float(nominal)] + ([defect] if defect is not None else [])
+            return min(values), max(values)
+        return _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
 
     def velocities(self) -> np.ndarray:
         """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.

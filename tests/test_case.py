@@ -216,3 +216,14 @@ def test_non_csv_data_file_is_not_echoed(tmp_path):
     assert "hunter2" not in str(info.value) and "password" not in str(info.value)
     assert str(info.value).startswith("impactor.file: notes.txt: expected two numeric columns")
     assert "(not a number in data row 1, column 1; comment lines not counted)" in str(info.value)
+
+
+@pytest.mark.parametrize("chain", [
+    {}, {"defect_index": 3, "defect_mass": 0.5}, {"defect_index": 3, "defect_r0": 20.0},
+    {"mass": [1.0 + 0.1 * k for k in range(12)]}, {"mass_disorder": 0.1, "seed": 1, "defect_index": 2, "defect_mass": 9.0},
+    {"r0_disorder": 0.1, "disorder": "uniform", "seed": 2},
+])
+def test_extremes_of_masses_and_gaps_are_those_of_the_arrays(chain):
+    c = make_case(particles=12, chain=chain).chain
+    assert c.mass_range == (c.masses().min(), c.masses().max())
+    assert c.gap_range == (c.gaps().min(), c.gaps().max())
