@@ -95,7 +95,7 @@ class Chain:
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
-            raise ConfigError("chain.far_end", f"got {self.far_end!r}; choose one of {', '.join(FAR_ENDS)}")
+            raise ConfigError("chain.far_end", f"got {brief(self.far_end)}; choose one of {', '.join(FAR_ENDS)}")
         if self.particles is None and self.far_end == "fixed":
             raise ConfigError("chain.particles", "missing; required when far_end = 'fixed'")
         if self.particles is not None and not (isinstance(self.particles, int) and 3 <= self.particles <= MAX_PARTICLES):
@@ -120,7 +120,7 @@ class Chain:
             if value is not None and not (_is_number(value) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"chain.{name}", f"got {value!r}{unit}; expected >= 0")
         if self.disorder is not None and self.disorder not in DISORDER:
-            raise ConfigError("chain.disorder", f"got {self.disorder!r}; choose one of {', '.join(DISORDER)}")
+            raise ConfigError("chain.disorder", f"got {brief(self.disorder)}; choose one of {', '.join(DISORDER)}")
         if self.disorder == "uniform":
             for name in ("mass_disorder", "r0_disorder"):
                 if (getattr(self, name) or 0) >= 1 / math.sqrt(3):
@@ -245,7 +245,7 @@ class RunSettings:
 
     def __post_init__(self):
         if self.engine not in ENGINES:
-            raise ConfigError("run.engine", f"got {self.engine!r}; choose one of {', '.join(ENGINES)}")
+            raise ConfigError("run.engine", f"got {brief(self.engine)}; choose one of {', '.join(ENGINES)}")
         if self.check_interval is None:
             object.__setattr__(self, "check_interval", self.output_interval)
         for f in fields(self):
@@ -328,7 +328,7 @@ class OutputSettings:
 
     def __post_init__(self):
         if self.format not in OUTPUT_FORMATS:
-            raise ConfigError("output.format", f"got {self.format!r}; choose one of {', '.join(OUTPUT_FORMATS)}")
+            raise ConfigError("output.format", f"got {brief(self.format)}; choose one of {', '.join(OUTPUT_FORMATS)}")
         if not all(isinstance(n, int) and not isinstance(n, bool) for n in self.fine):
             raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected a list of magnet numbers")
         if len(set(self.fine)) != len(self.fine):
@@ -337,7 +337,7 @@ class OutputSettings:
                                                     and self.fine_interval > 0):
             raise ConfigError("output.fine_interval", f"got {self.fine_interval!r} ms; expected > 0")
         if self.compression not in COMPRESSIONS:
-            raise ConfigError("output.compression", f"got {self.compression!r}; choose one of {', '.join(COMPRESSIONS)}")
+            raise ConfigError("output.compression", f"got {brief(self.compression)}; choose one of {', '.join(COMPRESSIONS)}")
         if not isinstance(self.front, bool):
             raise ConfigError("output.front", f"got {self.front!r}; expected true or false")
 
@@ -685,6 +685,8 @@ def _check_type(field: str, value, annotation: str) -> None:
     "bool", ...); numbers finite. The dataclass then checks the range."""
     scalar = re.sub(r"tuple\[[^\]]*\]", "", annotation)
     numeric = "float" in scalar or "int" in scalar
+    if "str" in scalar and not numeric:  # a choice: the dataclass names the allowed values
+        return
     if value is None:  # from Python (TOML has no null): the field's default
         ok = "None" in scalar
     elif isinstance(value, bool):

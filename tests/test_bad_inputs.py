@@ -179,7 +179,7 @@ def refused(argv, capsys, field: str) -> str:
     assert err.count("\n") == 1 and err.endswith("\n"), err
     assert "Traceback" not in err
     assert f"error: {field}" in err, err
-    assert len(err) < 400, err
+    assert len(err) < 250, err
     return err
 
 
