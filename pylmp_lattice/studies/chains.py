@@ -11,12 +11,11 @@ member folder per case under the study's folder.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from ..case import Case, case_from_dict, case_to_dict
 from ..errors import LatticeError
-from ..simulation import SUMMARY, load_trajectory
+from ..run import RunFolder
 from ..sweep import Sweep, member_id, run_sweep
 from ..sweep.store import DONE, member_folder
 from ..trajectory import Trajectory
@@ -67,5 +66,6 @@ def run_cases(cases: list[Case], root: Path, workers: int | None = None) -> list
     out = []
     for case in cases:
         folder = member_folder(root, member_id(case))
-        out.append((json.loads((folder / SUMMARY).read_text()), load_trajectory(case, folder)))
+        run = RunFolder(folder)
+        out.append((run.summary, run.trajectory()))
     return out

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from .. import measures
 from ..case import Case, case_from_dict
-from ..simulation import SUMMARY, load_trajectory
+from ..run import RunFolder
 from ..sweep import Member, Sweep, run_sweep
 from ..sweep.store import member_folder
 
@@ -82,8 +81,8 @@ class SweepRun:
         return {label: self.member.params[key], "status": self.status, "error": self.error}
 
     def trajectory(self):
-        """The member's trajectory, read through `simulation.load_trajectory`."""
-        return load_trajectory(self.member.case, self.folder)
+        """The member's trajectory (`RunFolder.trajectory`)."""
+        return RunFolder(self.folder).trajectory()
 
 
 def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> list[SweepRun]:
@@ -96,7 +95,7 @@ def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> li
     for m in sweep.members():
         row = table.loc[m.id]
         folder = member_folder(root, m.id)
-        summary = json.loads((folder / SUMMARY).read_text()) if row["status"] == "done" else None
+        summary = RunFolder(folder).summary if row["status"] == "done" else None
         error = row["error"] if isinstance(row["error"], str) else None
         runs.append(SweepRun(m, row["status"], error, folder, summary))
     return runs
