@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pylmp_lattice import run as simulation, runner
+from pylmp_lattice import run_folder as simulation, runner
 from pylmp_lattice.case import RunSettings, case_from_dict
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.measures import linear_wave_speed

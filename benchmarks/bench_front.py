@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from pylmp_lattice.case import load_case
-from pylmp_lattice.run import RunFolder
+from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).resolve().parent.parent / "inputs" / "paper_long_lattice.toml"

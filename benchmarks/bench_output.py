@@ -35,7 +35,7 @@ import h5py  # noqa: F401 - imported once here, so that the first conversion tim
 import tomli_w
 
 from pylmp_lattice.case import COMPRESSIONS, case_to_dict, load_case
-from pylmp_lattice.run import RunFolder
+from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).resolve().parent.parent / "inputs" / "paper_long_lattice.toml"

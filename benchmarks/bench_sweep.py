@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from pylmp_lattice.case import load_case
-from pylmp_lattice.run import run_case
-from pylmp_lattice.run.layout import SUMMARY
+from pylmp_lattice.run_folder import run_case
+from pylmp_lattice.run_folder.layout import SUMMARY
 from pylmp_lattice.sweep import Sweep, run_sweep
 from pylmp_lattice.sweep.store import STATUS
 

@@ -21,7 +21,8 @@ __version__ = "0.1.0"
 # name -> module; imported on first use, so `import pylmp_lattice` stays light (no LAMMPS, no matplotlib)
 _API = {
     "Case": "case", "load_case": "case", "case_from_dict": "case", "case_to_dict": "case",
-    "run": "run", "simulate": "run", "execute": "run", "RunFolder": "run", "read_run": "run",
+    "run": "run_folder", "simulate": "run_folder", "execute": "run_folder", "RunFolder": "run_folder",
+    "read_run": "run_folder",
     "Trajectory": "trajectory",
     "estimate": "preflight",
     "to_atoms": "ase_io", "write_trajectory": "ase_io", "case_from_atoms": "ase_io",

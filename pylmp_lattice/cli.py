@@ -137,7 +137,7 @@ def _load(args):
 
 
 def _run(args) -> int:
-    from .run import run_case
+    from .run_folder import run_case
 
     case, folder = _load(args)
     if args.dry_run:
@@ -161,7 +161,7 @@ def _run(args) -> int:
 def _dry_run(case, folder: Path, args) -> int:
     """The estimate as JSON on stdout; exit 2 if the run would be refused."""
     from . import preflight
-    from .run.folder import check_target
+    from .run_folder.folder import check_target
 
     est = preflight.estimate(case, args.np)
     try:
@@ -181,8 +181,8 @@ def _dry_run(case, folder: Path, args) -> int:
 
 
 def _deck(args) -> int:
-    from .run import RunFolder
-    from .run.layout import DECK
+    from .run_folder import RunFolder
+    from .run_folder.layout import DECK
 
     case, folder = _load(args)
     RunFolder.create(case, folder, overwrite=args.overwrite)
@@ -192,7 +192,7 @@ def _deck(args) -> int:
 
 
 def _summarize(args) -> int:
-    from .run import RunFolder
+    from .run_folder import RunFolder
     from .serialize import dumps
 
     folder = RunFolder(args.folder)
@@ -205,7 +205,7 @@ def _summarize(args) -> int:
 
 def _export(args) -> int:
     from .ase_io import write_trajectory
-    from .run import RunFolder
+    from .run_folder import RunFolder
 
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")

@@ -18,7 +18,7 @@ from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
-from .run.layout import (BIN_COLUMNS, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+from .run_folder.layout import (BIN_COLUMNS, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -61,7 +61,7 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
     has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
-    chains (no fine output, no front record); read it back with run.split_replicas.
+    chains (no fine output, no front record); read it back with run_folder.split_replicas.
     """
     first = cases[0]
     for r, case in enumerate(cases):

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DumpFormatError
-from .run.layout import CONTACT_MARK, DUMP_COLUMNS, END_OF_RUN
+from .run_folder.layout import CONTACT_MARK, DUMP_COLUMNS, END_OF_RUN
 from .trajectory import Trajectory
 from .units import from_engine
 

@@ -17,7 +17,7 @@ import numpy as np
 from . import measures
 from .bindump import open_dump
 from .case import Case
-from .run.layout import FRONT_FIELDS
+from .run_folder.layout import FRONT_FIELDS
 from .units import from_engine
 
 

@@ -1,6 +1,6 @@
 """The one layer that talks to LAMMPS: run a run folder's deck, report failures.
 
-Two runners produce the same files in the folder (see `run.layout`): `run_embedded` (the
+Two runners produce the same files in the folder (see `run_folder.layout`): `run_embedded` (the
 LAMMPS Python module, in this process; the default) and `run_executable` (the `lmp` program,
 optionally under `mpiexec`). Writing the folder and reading it back is `run.RunFolder`'s job.
 
@@ -12,7 +12,7 @@ LAMMPS closes its dump and log itself. `lmp` runs in its own process group, to w
 signal is forwarded once, and dies with its parent (a parent-death signal).
 
 A run leaves the calling process as it found it: no change of working directory (the deck
-finds its files through the `dir` variable, see `run.layout`) and no redirection of the
+finds its files through the `dir` variable, see `run_folder.layout`) and no redirection of the
 process's streams (LAMMPS's screen output goes to its own handle on stderr, or nowhere).
 """
 
@@ -35,7 +35,7 @@ from pathlib import Path
 from .dump import find_contact
 from .engine import new_lammps
 from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, RunError
-from .run.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_safe
+from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_safe
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)

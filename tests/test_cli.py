@@ -16,7 +16,7 @@ import tomli_w
 
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
-from pylmp_lattice.run import RunFolder
+from pylmp_lattice.run_folder import RunFolder
 
 from conftest import make_case
 

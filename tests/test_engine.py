@@ -15,7 +15,7 @@ from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.dump import read_dump, trajectory_from_dump
 from pylmp_lattice.runner import run_embedded
 from pylmp_lattice.front_record import read_front_record
-from pylmp_lattice.run import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
+from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
 
 from conftest import make_case
 

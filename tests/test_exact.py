@@ -8,7 +8,7 @@ import pytest
 from pylmp_lattice.exact import (harmonic_overshoot_limit, harmonic_piston_velocity, jump, toda_lead_soliton,
                                  toda_piston_wake, toda_soliton, toda_soliton_speed, wake_energy, weak_shock)
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw, Toda
-from pylmp_lattice.run import simulate
+from pylmp_lattice.run_folder import simulate
 from pylmp_lattice.studies.chains import MAGNET_MASS, MAGNET_STIFFNESS, chain_case
 from pylmp_lattice.studies.toda import front as toda_front
 from pylmp_lattice.studies.toda import piston_case, soliton_case, soliton_speed, staggered_amplitude

@@ -9,7 +9,7 @@ from pylmp_lattice.deck import deck_text
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.forcelaw import (FPUT, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda,
                                     fit_power_law)
-from pylmp_lattice.run import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import OTHER_LAWS, make_law_case
 from reference import integrate_chain

@@ -8,7 +8,7 @@ import pytest
 from pylmp_lattice.exact import weak_shock
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw
 from pylmp_lattice.hugoniot import wake_state
-from pylmp_lattice.run import RunFolder, run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.studies.chains import MAGNET_MASS, MAGNET_R0, chain_case
 from pylmp_lattice.studies.hugoniot import measure
 

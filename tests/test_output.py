@@ -11,7 +11,7 @@ from pylmp_lattice import measures
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ConfigError, RunError
 from pylmp_lattice.front_record import read_front_record
-from pylmp_lattice.run import RunFolder, execute, run_case, simulate
+from pylmp_lattice.run_folder import RunFolder, execute, run_case, simulate
 
 from conftest import make_case
 
@@ -131,7 +131,7 @@ def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
 
 @lammps
 def test_truncated_binary_dump_keeps_its_complete_frames(tmp_path):
-    from pylmp_lattice.run import RunFolder
+    from pylmp_lattice.run_folder import RunFolder
     from pylmp_lattice.runner import run_embedded
 
     folder = run_embedded(RunFolder.create(make_case(particles=10, duration=5.0), tmp_path).path)

@@ -16,7 +16,7 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
-from pylmp_lattice.run import RunFolder, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.summary import summarize
 
 pytestmark = [pytest.mark.lammps, pytest.mark.slow]

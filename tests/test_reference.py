@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice.forcelaw import PowerLaw
-from pylmp_lattice.run import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 from reference import integrate_chain, power_force

@@ -19,8 +19,8 @@ import tomli_w
 
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
-from pylmp_lattice.run import RunFolder, run_case
-from pylmp_lattice.run import layout
+from pylmp_lattice.run_folder import RunFolder, run_case
+from pylmp_lattice.run_folder import layout
 from pylmp_lattice.serialize import dumps
 
 from conftest import make_case
@@ -85,8 +85,7 @@ def _exists(module: str) -> bool:
 
 
 def test_the_package_has_no_import_cycle():
-    graph = {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"): _imports(p)
-             for p in PACKAGE.rglob("*.py")}
+    graph = _import_graph()
     # a package's __init__ is not a dependency of its submodules' own code: follow modules only
     state: dict[str, int] = {}
 
@@ -104,12 +103,54 @@ def test_the_package_has_no_import_cycle():
             visit(node, [node])
 
 
+def _import_graph() -> dict[str, set[str]]:
+    return {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"): _imports(p)
+            for p in PACKAGE.rglob("*.py")}
+
+
+@lammps
+def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
+    """From `pylmp-lattice run` to its summary, no call between two of the package's modules
+    climbs: the callee never imports the caller, directly or not (on 88ad055 the same path
+    climbed back 7 times, e.g. from bindump to simulation). The orchestrator,
+    run_folder.execute, is entered once."""
+    graph = _import_graph()
+
+    def below(module, seen=None):
+        seen = set() if seen is None else seen
+        for nxt in graph.get(module, ()):
+            if nxt not in seen:
+                seen.add(nxt)
+                below(nxt, seen)
+        return seen
+
+    calls = []
+
+    def profile(frame, event, arg):
+        if event == "call" and frame.f_back is not None:
+            callee, caller = frame.f_globals.get("__name__", ""), frame.f_back.f_globals.get("__name__", "")
+            if callee != caller and callee.startswith("pylmp_lattice") and caller.startswith("pylmp_lattice"):
+                calls.append((caller, callee, frame.f_code.co_name))
+
+    monkeypatch.chdir(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=40, duration=20.0))
+    sys.setprofile(profile)
+    try:
+        assert main(["run", str(case), "-o", "r", "--quiet"]) == 0
+    finally:
+        sys.setprofile(None)
+    climbs = [c for c in calls if c[0] in below(c[1])]
+    assert not climbs and len(calls) > 20
+    assert [c for c in calls if c[1] == "pylmp_lattice.run_folder.execute"] == [
+        ("pylmp_lattice.cli", "pylmp_lattice.run_folder.execute", "run_case")]
+
+
 def test_run_file_names_are_written_in_the_layout_module_only():
     names = {layout.SUMMARY, layout.CASE, layout.TRAJ_BIN, layout.FINE_BIN, layout.FRONT_BIN, layout.H5MD,
              layout.LOG, layout.DECK, layout.DATA, layout.TABLE, layout.MARKER, layout.FIGURE}
     offenders = []
     for path in PACKAGE.rglob("*.py"):
-        if path == PACKAGE / "run" / "layout.py":
+        if path == PACKAGE / "run_folder" / "layout.py":
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names:
@@ -131,17 +172,17 @@ def test_overwrite_never_removes_the_working_directory_or_a_parent(tmp_path, mon
     assert all(f.read_text() == "keep me" for f in files) and case.exists()
 
 
-def test_overwrite_removes_a_runs_files_and_nothing_else(tmp_path, monkeypatch):
+def test_overwrite_replaces_a_run_folder_and_nothing_outside_it(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     files = sentinels(tmp_path)
     case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
     assert main(["deck", str(case), "--name", "x"]) == 0
-    mine = tmp_path / "runs" / "x" / "notes.txt"
-    mine.write_text("the user's own notes")
     (tmp_path / "runs" / "x" / layout.SUMMARY).write_text("{}")  # a stale summary must go
     assert main(["deck", str(case), "--name", "x"]) == 2  # a run is there: refused without --overwrite
     assert main(["deck", str(case), "--name", "x", "--overwrite"]) == 0
-    assert mine.read_text() == "the user's own notes" and not (tmp_path / "runs" / "x" / layout.SUMMARY).exists()
+    assert not (tmp_path / "runs" / "x" / layout.SUMMARY).exists() and (tmp_path / "runs" / "x" / layout.DECK).exists()
+    assert main(["deck", str(case), "-o", "runs", "--overwrite"]) == 2
+    assert "runs/" in capsys.readouterr().err.splitlines()[-1]
     assert all(f.read_text() == "keep me" for f in files)
 
 

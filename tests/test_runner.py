@@ -20,7 +20,7 @@ from pylmp_lattice import runner
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ContactError, RunError
 from pylmp_lattice.runner import run_embedded, run_executable
-from pylmp_lattice.run import RunFolder, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
 
 from conftest import make_case
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.run import RunFolder, run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.summary import _plateau
 

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.run import RunFolder
+from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
                                  write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS

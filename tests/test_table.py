@@ -10,7 +10,7 @@ import pytest
 from pylmp_lattice import deck
 from pylmp_lattice.engine import new_lammps
 from pylmp_lattice.forcelaw import PowerLaw
-from pylmp_lattice.run import RunFolder
+from pylmp_lattice.run_folder import RunFolder
 
 from conftest import OTHER_LAWS, make_case, make_law_case
 

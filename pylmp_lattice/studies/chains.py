@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..case import Case, case_from_dict, case_to_dict
 from ..errors import LatticeError
-from ..run import RunFolder
+from ..run_folder import RunFolder
 from ..sweep import Sweep, member_id, run_sweep
 from ..sweep.store import DONE, member_folder
 from ..trajectory import Trajectory

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import measures
 from ..case import Case, case_from_dict
-from ..run import RunFolder
+from ..run_folder import RunFolder
 from ..sweep import Member, Sweep, run_sweep
 from ..sweep.store import member_folder
 

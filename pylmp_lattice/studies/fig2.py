@@ -15,7 +15,7 @@ import numpy as np
 
 from ..forcelaw import PowerLaw, fit_power_law
 from ..plots import pyplot
-from ..run import simulate
+from ..run_folder import simulate
 from .common import PAPER_FORCE
 from .fig1 import experiment_case
 from .output import StudyResult

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import measures
 from ..plots import pyplot
-from ..run import simulate
+from ..run_folder import simulate
 from .common import linear_constants, paper_case, particles_reached, pick
 from .output import StudyResult
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import measures
 from ..plots import pyplot
-from ..run import simulate
+from ..run_folder import simulate
 from .common import paper_case
 from .fig1 import experiment_case
 from .output import StudyResult

@@ -24,7 +24,7 @@ from .. import measures
 from ..case import SecondNeighbour, case_from_dict, case_to_dict
 from ..forcelaw import PowerLaw
 from ..plots import pyplot
-from ..run import simulate
+from ..run_folder import simulate
 from .common import MAGNET_LENGTH, PAPER_FORCE, R0, paper_case, particles_reached
 from .output import StudyResult
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..case import case_from_dict
 from ..plots import pyplot
-from ..run import RunFolder, simulate
+from ..run_folder import RunFolder, simulate
 from .output import StudyResult
 
 NAME = "s4"

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import measures
 from ..exact import harmonic_piston_velocity
-from ..run import simulate
+from ..run_folder import simulate
 from .common import MASS, PAPER_FORCE, R0, paper_case
 from .fig3 import analyse
 from .output import StudyResult

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import measures
 from ..plots import pyplot
-from ..run import RunFolder
+from ..run_folder import RunFolder
 from .common import done_runs, paper_dict, sweep_runs
 from .output import StudyResult
 

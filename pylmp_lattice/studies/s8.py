@@ -18,7 +18,7 @@ import numpy as np
 from .. import measures
 from ..case import case_from_dict
 from ..plots import pyplot
-from ..run import RunFolder
+from ..run_folder import RunFolder
 from .common import done_runs, linear_constants, paper_dict, sweep_runs
 from .output import StudyResult
 

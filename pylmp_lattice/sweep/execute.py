@@ -51,7 +51,7 @@ def run_member(task: Task) -> dict:
     Any earlier unfinished attempt in the folder is removed first (it never counted as done).
     Every error of the run becomes the member's one-line error; the status is written last.
     """
-    from ..run import run_case
+    from ..run_folder import run_case
 
     folder = Path(task.folder)
     if folder.exists():
@@ -174,7 +174,7 @@ def _row(m: Member, record: dict, summary: dict | None) -> dict:
 
 
 def _summary(folder: Path) -> dict | None:
-    from ..run import RunFolder
+    from ..run_folder import RunFolder
 
     return RunFolder(folder).summary
 
@@ -205,7 +205,7 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         # that may hold threads or an initialised MPI), which imports the package once and
         # stays up for later sweeps of the same Python session.
         context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run.execute", "pylmp_lattice.summary"])
+        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run_folder.execute", "pylmp_lattice.summary"])
         _start_forkserver()
         with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
                                  initargs=(os.getpid(),)) as pool:

@@ -1,7 +1,7 @@
 """`RunFolder`: one run folder, written, read and summarized through one object.
 
     folder = RunFolder.create(case, "runs/x")   # the deck, its inputs, case.toml, run.json
-    ...                                          # LAMMPS runs it (run.execute, or lmp -in by hand)
+    ...                                          # LAMMPS runs it (run_folder.execute, or lmp -in by hand)
     folder = RunFolder("runs/x")                 # any run folder, finished or not
     folder.case, folder.status, folder.trajectory(), folder.front(), folder.summarize()
 
@@ -19,6 +19,7 @@ import json
 import logging
 import os
 import re
+import shutil
 from contextlib import contextmanager, suppress
 from functools import cached_property
 from pathlib import Path
@@ -62,15 +63,15 @@ class RunFolder:
     def create(cls, case: Case, path: str | Path, overwrite: bool = False) -> RunFolder:
         """Write the deck, its input files, case.toml and run.json into `path`.
 
-        A folder holding a run is refused unless `overwrite`; then only that run's files go
-        (`layout.RUN_FILES`), never other files, never the working directory or a parent of it.
-        A folder that holds files a run would write, but no run, is refused.
+        A folder holding a run of this package (case.toml and run.json) is refused unless
+        `overwrite`; then it is removed first, so nothing of the earlier run stays beside the new
+        one. Never removed: the working directory, a parent of it, runs/ itself, or a folder
+        that holds no run (one with files a run would write, but no run, is refused).
         """
         path = Path(path)
-        check_target(path, overwrite)
+        if check_target(path, overwrite):
+            shutil.rmtree(path)
         path.mkdir(parents=True, exist_ok=True)
-        for name in layout.RUN_FILES:
-            (path / name).unlink(missing_ok=True)
         for name, text in render(case).items():
             (path / name).write_text(text)
         (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
@@ -380,8 +381,8 @@ def check_target(path: Path, overwrite: bool) -> bool:
     """Whether `path` holds a run to replace; ConfigError if it may not be written (see `create`)."""
     path = Path(path)
     resolved, here = path.resolve(), Path.cwd().resolve()
-    if resolved == here or resolved in here.parents:
-        raise ConfigError("output", f"got {str(path)!r}: the working directory or a parent of it; "
+    if resolved == here or resolved in here.parents or resolved == here / "runs":
+        raise ConfigError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
                                     "choose a new folder for the run")
     if path.exists() and not path.is_dir():
         raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")

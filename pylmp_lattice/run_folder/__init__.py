@@ -2,7 +2,7 @@
 summarizes one (`folder`), and `execute`/`run_case`/`simulate` (`execute`), the one way a case
 becomes a run.
 
-Names are imported on first use: the deck writer and the readers import `run.layout` alone,
+Names are imported on first use: the deck writer and the readers import `run_folder.layout` alone,
 without the layers above them.
 """
 
@@ -15,7 +15,7 @@ __all__ = list(_API)
 
 def __getattr__(name):
     if name not in _API:
-        raise AttributeError(f"module 'pylmp_lattice.run' has no attribute {name!r}")
+        raise AttributeError(f"module 'pylmp_lattice.run_folder' has no attribute {name!r}")
     return getattr(import_module(f".{_API[name]}", __name__), name)
 
 

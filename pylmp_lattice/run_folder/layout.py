@@ -36,7 +36,7 @@ SUMMARY = "summary.json"
 FIGURE = "shock.png"
 LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
 
-# Every name a run of this package may write: `--overwrite` removes these and nothing else.
+# Every name a run of this package may write: a folder holding any of them but no run is refused.
 RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
              FINE_BIN, FRONT_BIN, H5MD, H5MD + ".part", SUMMARY, FIGURE, MARKER, LOCK)
 
