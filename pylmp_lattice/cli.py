@@ -125,14 +125,14 @@ def _case_args(p):
 
 def _load(args):
     """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden."""
-    from .case import case_hash, load_case
+    from .case import case_id, load_case
 
     case = load_case(args.case, args.set)
     if args.name:
         if not args.name.strip() or Path(args.name).name != args.name:
             raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
         return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
-    default = case.name + (f"-{case_hash(case)}" if args.set else "")
+    default = case.name + (f"-{case_id(case)[:8]}" if args.set else "")
     return case, args.output or Path("runs") / default
 
 

@@ -113,7 +113,7 @@ def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
     """From `pylmp-lattice run` to its summary, no call between two of the package's modules
     climbs: the callee never imports the caller, directly or not (on 88ad055 the same path
     climbed back 7 times, e.g. from bindump to simulation). The orchestrator,
-    run_folder.execute, is entered once."""
+    run_folder.execution, is entered once."""
     graph = _import_graph()
 
     def below(module, seen=None):
@@ -141,8 +141,8 @@ def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
         sys.setprofile(None)
     climbs = [c for c in calls if c[0] in below(c[1])]
     assert not climbs and len(calls) > 20
-    assert [c for c in calls if c[1] == "pylmp_lattice.run_folder.execute"] == [
-        ("pylmp_lattice.cli", "pylmp_lattice.run_folder.execute", "run_case")]
+    assert [c for c in calls if c[1] == "pylmp_lattice.run_folder.execution"] == [
+        ("pylmp_lattice.cli", "pylmp_lattice.run_folder.execution", "run_case")]
 
 
 def test_run_file_names_are_written_in_the_layout_module_only():

@@ -1,5 +1,5 @@
 """Run folders: the one home of a run's files (`layout`), the `RunFolder` that writes, reads and
-summarizes one (`folder`), and `execute`/`run_case`/`simulate` (`execute`), the one way a case
+summarizes one (`folder`), and `execute`/`run_case`/`simulate` (`execution`), the one way a case
 becomes a run.
 
 Names are imported on first use: the deck writer and the readers import `run_folder.layout` alone,
@@ -8,8 +8,9 @@ without the layers above them.
 
 from importlib import import_module
 
-_API = {"RunFolder": "folder", "execute": "execute", "run_case": "execute", "simulate": "execute",
-        "simulate_replicas": "execute", "split_replicas": "execute", "write_replicas_folder": "execute", "RUNNERS": "execute"}
+_API = {"RunFolder": "folder", "execute": "execution", "run_case": "execution", "simulate": "execution",
+        "simulate_replicas": "execution", "split_replicas": "execution", "write_replicas_folder": "execution",
+        "RUNNERS": "execution"}
 __all__ = list(_API)
 
 

@@ -1,7 +1,7 @@
 """`RunFolder`: one run folder, written, read and summarized through one object.
 
     folder = RunFolder.create(case, "runs/x")   # the deck, its inputs, case.toml, run.json
-    ...                                          # LAMMPS runs it (run_folder.execute, or lmp -in by hand)
+    ...                                          # LAMMPS runs it (run_folder.execution, or lmp -in by hand)
     folder = RunFolder("runs/x")                 # any run folder, finished or not
     folder.case, folder.status, folder.trajectory(), folder.front(), folder.summarize()
 

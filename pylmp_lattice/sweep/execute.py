@@ -205,7 +205,7 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         # that may hold threads or an initialised MPI), which imports the package once and
         # stays up for later sweeps of the same Python session.
         context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run_folder.execute", "pylmp_lattice.summary"])
+        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run_folder.execution", "pylmp_lattice.summary"])
         _start_forkserver()
         with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
                                  initargs=(os.getpid(),)) as pool:

@@ -56,9 +56,11 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
         raise
     except ContactError as err:
         run.record(CONTACT, time_ms=err.time_ms)
+        run.convert()
         raise
     except RunError as err:
         run.record(FAILED, error=str(err).split(" (files kept")[0])
+        run.convert()
         raise
     except BaseException:
         run.record(INTERRUPTED)
