@@ -22,9 +22,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent.parent / "tests"))
 from conftest import make_case  # noqa: E402
 
-from pylmp_lattice import deck, preflight  # noqa: E402
-from pylmp_lattice.runner import run_embedded, write_run_folder  # noqa: E402
-from pylmp_lattice.simulation import simulate  # noqa: E402
+from pylmp_lattice import preflight  # noqa: E402
+from pylmp_lattice.run_folder import RunFolder, layout, simulate  # noqa: E402
+from pylmp_lattice.runner import run_embedded  # noqa: E402
 
 CASES = {
     "40 moving, text": make_case(particles=40, duration=30.0, output={"format": "text"}),
@@ -54,9 +54,9 @@ def measure(case, folder: Path) -> dict[str, int]:
     """Every file's size: the binary dumps from a bare LAMMPS run, the rest from a full run."""
     sizes = {}
     if case.output.format == "h5md":
-        raw = write_run_folder(case, folder / "raw")
+        raw = RunFolder.create(case, folder / "raw").path
         run_embedded(raw)
-        sizes |= {name: (raw / name).stat().st_size for name in (deck.TRAJ_BIN, deck.FINE_BIN) if (raw / name).exists()}
+        sizes |= {name: (raw / name).stat().st_size for name in (layout.TRAJ_BIN, layout.FINE_BIN) if (raw / name).exists()}
     simulate(case, folder / "full", progress=False)
     sizes |= {p.name: p.stat().st_size for p in (folder / "full").iterdir()}
     return sizes
@@ -75,9 +75,9 @@ def main() -> None:
             if name in sizes:
                 print(f"{label:28} {name:12} {sizes[name]:10d} {value:10.0f} {value / sizes[name]:6.3f}")
         sample = preflight._ChainSample(case)
-        groups = [(deck.DUMP, preflight.frames(case), case.run.output_interval, None)]
+        groups = [(layout.DUMP, preflight.frames(case), case.run.output_interval, None)]
         if case.output.fine:
-            groups.append((deck.DUMP.replace("traj", "fine"), preflight._fine_frames(case), case.fine_interval(),
+            groups.append((layout.FINE_DUMP, preflight._fine_frames(case), case.fine_interval(),
                            np.asarray(case.output.fine)))
         if case.output.format == "text":
             for name, count, interval, atoms in groups:
@@ -95,7 +95,7 @@ def main() -> None:
                 row += [reached, count * k - reached]
                 fixed += preflight._h5md_group_bytes(case.output.compression, count, k, 0.0) \
                     - count * k * preflight.H5MD_BYTES[case.output.compression][1]
-            h5md_rows.setdefault(case.output.compression, []).append((row, sizes["traj.h5md"] - fixed))
+            h5md_rows.setdefault(case.output.compression, []).append((row, sizes[layout.H5MD] - fixed))
     fit = np.linalg.lstsq(np.array(text_rows), np.array(text_rhs), rcond=None)[0]
     print(f"\ntext: TEXT_MOVING_EXTRA = {fit[0]:.1f}, TEXT_UNEVEN_EXTRA = {fit[1]:.1f}")
     for compression, rows in h5md_rows.items():

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import deck
 from .case import Case
 from .errors import ConfigError
+from .deck import records_front
 from .exact import weak_shock
+from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
 from .table import bond_table
 from .units import to_engine
@@ -129,15 +130,15 @@ def file_bytes(case: Case) -> dict[str, float]:
     n, fmt = case.chain.particles, case.output.format
     chain = _ChainSample(case)
     lo, hi = case.table_range()
-    files = {deck.DATA: chain.data_bytes(), deck.TABLE: _table_bytes(case.force, lo, hi, case.table.points),
+    files = {DATA: chain.data_bytes(), TABLE: _table_bytes(case.force, lo, hi, case.table.points),
              "small files": SMALL_FILES_BYTES}
     if case.second_neighbour is not None:
-        files[deck.SECOND_TABLE] = _table_bytes(case.second_neighbour, 2 * lo, 2 * hi, case.table.points)
-    if deck.records_front(case):
-        files[deck.FRONT_BIN] = FRONT_BYTES_PER_ATOM * n
-    groups = [(deck.DUMP, deck.TRAJ_BIN, frames(case), case.run.output_interval, None)]
+        files[SECOND_TABLE] = _table_bytes(case.second_neighbour, 2 * lo, 2 * hi, case.table.points)
+    if records_front(case):
+        files[FRONT_BIN] = FRONT_BYTES_PER_ATOM * n
+    groups = [(DUMP, TRAJ_BIN, frames(case), case.run.output_interval, None)]
     if case.output.fine:
-        groups.append((deck.DUMP.replace("traj", "fine"), deck.FINE_BIN, _fine_frames(case), case.fine_interval(),
+        groups.append((FINE_DUMP, FINE_BIN, _fine_frames(case), case.fine_interval(),
                        np.asarray(case.output.fine)))
     if fmt == "text":
         for text_name, _, count, interval, atoms in groups:
@@ -148,7 +149,7 @@ def file_bytes(case: Case) -> dict[str, float]:
             k = n if atoms is None else len(atoms)
             files[bin_name] = count * (BIN_FRAME_HEADER + 32.0 * k)
             h5md += _h5md_group_bytes(case.output.compression, count, k, chain.reached(count, interval, atoms))
-        files["traj.h5md"] = h5md
+        files[H5MD] = h5md
     return files
 
 
@@ -197,7 +198,7 @@ class _ChainSample:
         return 400 + self.types * 26 + atoms + bond_lines + velocities
 
     def text_bytes(self, count: int, interval: float, atoms=None) -> float:
-        """A text dump (deck.DUMP_COLUMNS, %.12g): frame headers, lines at rest formatted exactly,
+        """A text dump (DUMP_COLUMNS, %.12g): frame headers, lines at rest formatted exactly,
         TEXT_MOVING_EXTRA per atom-frame the wave reached, TEXT_UNEVEN_EXTRA for the uneven ones."""
         k = self.n if atoms is None else len(atoms)
         ids = _digits(self.n) / self.n if atoms is None else float(np.mean([len(str(a)) for a in atoms]))
@@ -250,7 +251,7 @@ def estimate(case: Case, nprocs: int = 1) -> Estimate:
     files = file_bytes(case)
     types = n if case.chain.mass_disorder else len(np.unique(np.asarray(case.chain.mass)))
     memory = BASE_MEMORY_BYTES + ENGINE_BYTES_PER_ATOM * n + ENGINE_BYTES_PER_TYPE_PAIR * (types + 1) ** 2
-    dump = files.get(deck.DUMP, 0.0)
+    dump = files.get(DUMP, 0.0)
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
     if not case.output.front:
         memory += TRAJECTORY_BYTES_PER_ATOM_FRAME * atom_frames(case)

@@ -270,7 +270,9 @@ def test_bad_option_of_run(workdir, capsys, args, field):
 def test_export_bad_arguments(workdir, capsys):
     refused(["export", "runs/other", "-o", "missing/dir/t.extxyz"], capsys, "--output")
     refused(["export", "runs/other", "-o", "t.extxyz", "--every", "0"], capsys, "--every")
-    refused(["export", "nowhere", "-o", "t.extxyz"], capsys, "case")
+    for folder in ("nowhere", "folder", "sentinel.txt", "runs/other"):
+        refused(["export", folder, "-o", "t.extxyz"], capsys, "folder")
+        refused(["summarize", folder], capsys, "folder")
     refused(["study", "nonsense"], capsys, "argument NAME")
     refused([], capsys, "the following arguments are required")
 

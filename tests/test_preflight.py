@@ -9,11 +9,12 @@ import tracemalloc
 
 import pytest
 
-from pylmp_lattice import deck, preflight
+from pylmp_lattice import preflight
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.runner import run_embedded, write_run_folder
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
+from pylmp_lattice.run_folder import layout
+from pylmp_lattice.runner import run_embedded
 
 from conftest import make_case
 
@@ -42,11 +43,11 @@ def test_every_file_estimate_within_25_percent_of_the_run(tmp_path, label):
     simulate(case, tmp_path / "full")
     measured = {p.name: p.stat().st_size for p in (tmp_path / "full").iterdir()}
     if case.output.format == "h5md":
-        raw = write_run_folder(case, tmp_path / "raw")
+        raw = RunFolder.create(case, tmp_path / "raw").path
         run_embedded(raw)
-        measured |= {p.name: p.stat().st_size for p in raw.iterdir() if p.suffix == ".bin" and p.name != deck.FRONT_BIN}
+        measured |= {p.name: p.stat().st_size for p in raw.iterdir() if p.suffix == ".bin" and p.name != layout.FRONT_BIN}
     checked = [name for name in est if name in measured]
-    assert {deck.DATA, deck.TABLE} <= set(checked) and len(checked) >= 4
+    assert {layout.DATA, layout.TABLE} <= set(checked) and len(checked) >= 4
     for name in checked:
         assert est[name] == pytest.approx(measured[name], rel=0.25), name
     peak = sum(measured[name] for name in checked)
@@ -56,7 +57,7 @@ def test_every_file_estimate_within_25_percent_of_the_run(tmp_path, label):
 
 def test_binary_dump_size_is_exact_from_its_format():
     case = make_case(particles=40, duration=30.0)
-    assert preflight.file_bytes(case)[deck.TRAJ_BIN] == 301 * (159 + 32 * 40)
+    assert preflight.file_bytes(case)[layout.TRAJ_BIN] == 301 * (159 + 32 * 40)
 
 
 def test_ten_to_the_eight_magnets_refused_in_under_2_s_and_300_MB(tmp_path):
