@@ -31,7 +31,7 @@ from .h5md import convert_run, read_group
 from .progress import progress_bar
 from .runner import CASE_FILE, run_embedded, run_executable, write_run_folder
 from .trajectory import Trajectory
-from .units import from_engine
+from .units import from_engine, to_engine
 
 RUNNERS = ("embedded", "lmp")
 SUMMARY = "summary.json"
@@ -87,7 +87,7 @@ def load_trajectory(case: Case, folder: str | Path, group: str = "chain", partic
         traj = read_group(folder / H5MD_FILE, group, particles)
     elif (folder / DUMP).exists() or (folder / DUMP.replace("traj", "fine")).exists():
         name = DUMP if group == "chain" else DUMP.replace("traj", "fine")
-        traj = _select(trajectory_from_dump(read_dump(folder / name)), particles)
+        traj = _select(trajectory_from_dump(read_dump(folder / name, dt=to_engine(case.run.dt, "time"))), particles)
     else:
         raise LatticeError(f"{folder}: no trajectory (output.format = {case.output.format!r})")
     # the group's columns are in id order
@@ -160,7 +160,7 @@ def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nproc
         run_embedded(folder, echo=echo)
     else:
         run_executable(folder, nprocs=nprocs, echo=echo)
-    return split_replicas(cases, trajectory_from_dump(read_dump(folder / DUMP)))
+    return split_replicas(cases, trajectory_from_dump(read_dump(folder / DUMP, dt=to_engine(cases[0].run.dt, "time"))))
 
 
 def split_replicas(cases, batched: Trajectory) -> list[Trajectory]:
