@@ -52,6 +52,10 @@ class Chain:
     - defect_index (1-based magnet n) with defect_mass (g) for magnet n and/or defect_r0 (mm)
       for gap n (between magnets n and n+1): one magnet or gap of another value, applied after
       the disorder.
+
+    velocity: initial velocity of each magnet, m/s, one per particle (instead of
+    thermal_velocity), e.g. a frame exported from a run (`ase_io.case_from_atoms`). The
+    impactor's entry is replaced by its drive; the held end's must be 0.
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
@@ -66,6 +70,7 @@ class Chain:
     defect_mass: float | None = None  # g
     defect_r0: float | None = None  # mm
     seed: int | None = None
+    velocity: tuple[float, ...] | None = None  # m/s, initial velocity of each magnet
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
@@ -87,6 +92,21 @@ class Chain:
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
         self._check_ensemble()
+        self._check_velocity()
+
+    def _check_velocity(self):
+        if self.velocity is None:
+            return
+        v = np.atleast_1d(np.asarray(self.velocity, float))
+        if not np.all(np.isfinite(v)):
+            raise ConfigError("chain.velocity", f"got {_show(self.velocity)} m/s; expected finite values")
+        if self.thermal_velocity:
+            raise ConfigError("chain.velocity", "given with chain.thermal_velocity; expected one of the two")
+        if np.isscalar(self.velocity) or len(v) != self.particles:
+            raise ConfigError("chain.velocity", f"got {len(v)} values; expected one per magnet (chain.particles = "
+                                                f"{self.particles})")
+        if v[-1] != 0:
+            raise ConfigError("chain.velocity", f"got {v[-1]} m/s for the held last magnet; expected 0")
 
     def _check_ensemble(self):
         for name, unit in (("thermal_velocity", " m/s"), ("mass_disorder", ""), ("r0_disorder", "")):
@@ -163,13 +183,16 @@ class Chain:
         return r
 
     def velocities(self) -> np.ndarray:
-        """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
+        """Initial velocities, m/s, shape (N,): `velocity` if given, else thermal velocities,
+        zero for the impactor and the held end.
 
         Free magnets get v = c sigma z (z standard normal) minus the mass-weighted mean, so the
         net momentum is zero. Removing the mean takes a known fraction of the expected v^2;
         c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
         so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
         """
+        if self.velocity is not None:
+            return np.array(self.velocity, float)
         v = np.zeros(self.particles)
         if not self.thermal_velocity:
             return v

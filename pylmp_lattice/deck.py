@@ -211,6 +211,7 @@ def deck_text(case: Case, replicas: int = 1) -> str:
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
 # Run it in this folder with:  lmp -in {DECK}
+# (or, without activating the Python environment:  pylmp-lattice lmp -in {DECK})
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
 {_chain_sections(case, replicas) if chain else _stock_sections(case)}
