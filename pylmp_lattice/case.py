@@ -10,6 +10,7 @@ A TOML case has the sections [chain], [force], [impactor], [run] and optionally 
 from __future__ import annotations
 
 import hashlib
+import logging
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, fields, replace
@@ -22,6 +23,8 @@ from .errors import ConfigError
 from .exact import weak_shock
 from .forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
 from .piston import PROFILES, Impactor
+
+logger = logging.getLogger(__name__)
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
@@ -364,6 +367,7 @@ class Case:
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
+            self._drop_fine_beyond_chain()
         lo, hi = self.table_range()
         if self.second_neighbour is not None:
             self._check_second_neighbour()
@@ -397,6 +401,17 @@ class Case:
         dt_max = self.stability_limit()
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+
+    def _drop_fine_beyond_chain(self):
+        """A long lattice's N follows from run.duration: a shorter run makes a shorter chain, and
+        the output.fine magnets beyond it are dropped, with a warning."""
+        n = self.chain.particles
+        beyond = [k for k in self.output.fine if isinstance(k, int) and k > n]
+        if beyond:
+            logger.warning("output.fine: magnets %s are beyond this long lattice's N = %d (set by run.duration = %g ms); "
+                           "dropped", beyond, n, self.run.duration)
+            kept = tuple(k for k in self.output.fine if k not in beyond)
+            object.__setattr__(self, "output", replace(self.output, fine=kept))
 
     def fine_interval(self) -> float:
         """Interval of the fine output, ms (default: every time step)."""
@@ -477,9 +492,36 @@ def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
     """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values)."""
     path = Path(path)
     data = read_toml(path, "case")
+    switched = _switch_laws(data, overrides)
     for item in overrides:
         apply_override(data, item)
-    return case_from_dict(data, base_dir=path.parent)
+    try:
+        return case_from_dict(data, base_dir=path.parent)
+    except ConfigError as err:
+        section = err.field.split(".")[0]
+        if section not in switched:
+            raise
+        raise ConfigError(err.field, f"{str(err)[len(err.field) + 2:]} (--set {section}.law={switched[section]} "
+                                     f"starts [{section}] afresh: give its fields with --set {section}.KEY=VALUE)") from None
+
+
+# A law's parameters belong to it: another law named with --set starts its section afresh.
+_LAW_SECTIONS = ("force", "second_neighbour")
+
+
+def _switch_laws(data: dict, overrides: list[str]) -> dict[str, str]:
+    """Empty the sections whose law `overrides` switch to another than the file's, so that
+    the new law's fields come from `overrides` alone; {section: new law}."""
+    given = {}
+    for item in overrides:
+        apply_override(given, item)
+    switched = {}
+    for section in _LAW_SECTIONS:
+        new = given.get(section, {}).get("law")
+        if section in data and new is not None and new != data[section].get("law", "power"):
+            data[section] = {}
+            switched[section] = new
+    return switched
 
 
 def read_toml(path: Path, field: str) -> dict:
@@ -532,7 +574,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         impactor["t"], impactor["values"] = _read_columns(base_dir / impactor.pop("file"), "impactor.file",
                                                           "t [ms], u [mm] or v [m/s]")
 
-    return Case(
+    case = Case(
         chain=_build(Chain, "chain", data["chain"]),
         force=_build(FORCE_LAWS[law], "force", force, force_keys),
         impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
@@ -544,6 +586,31 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=str(name),
     )
+    for message in unit_warnings(case):
+        logger.warning(message)
+    return case
+
+
+def unit_warnings(case: Case) -> list[str]:
+    """Warnings for values that look like another unit than the case's (mm, g, m/s): r0
+    under 0.1 mm (metres?), a mass under 0.01 g (kilograms?) or over 1 kg (milligrams?), V_I
+    over 100 times the chain's linear wave speed V0 (mm/s?). Such a case is valid, but builds
+    e.g. a chain of 10^5 magnets that touch at once."""
+    out = []
+    r0, m = float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses()))
+    if r0 < 0.1:
+        out.append(f"chain.r0: got {r0:g} mm; lengths are in mm: if it is in m, that is {r0 * 1e3:g} mm")
+    if m < 0.01:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in kg, that is {m * 1e3:g} g")
+    elif m > 1e3:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in mg, that is {m * 1e-3:g} g")
+    vi = case.impactor.peak_velocity()
+    with np.errstate(all="ignore"):
+        v0 = weak_shock(case.force, r0, m).c0
+    if np.isfinite(v0) and vi > 100 * v0:
+        out.append(f"impactor.velocity: got {vi:g} m/s, over 100 times the chain's linear wave speed V0 = {v0:.3g} m/s; "
+                   f"velocities are in m/s: if it is in mm/s, that is {vi * 1e-3:g} m/s")
+    return out
 
 
 def case_to_dict(case: Case) -> dict:
