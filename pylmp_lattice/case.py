@@ -604,6 +604,8 @@ def unit_warnings(case: Case) -> list[str]:
         out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in kg, that is {m * 1e3:g} g")
     elif m > 1e3:
         out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in mg, that is {m * 1e-3:g} g")
+    if out:  # V0 = r0 sqrt(k/m) is then off too
+        return out
     vi = case.impactor.peak_velocity()
     with np.errstate(all="ignore"):
         v0 = weak_shock(case.force, r0, m).c0
