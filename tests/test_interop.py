@@ -156,7 +156,7 @@ def test_chain_velocity_is_checked():
 def test_run_restarted_from_an_exported_frame_continues_the_run(tmp_path):
     """Velocity Verlet's state is x and v: a run from frame k of another (constant drive, so the
     impactor's motion continues alike) repeats that run's later frames, up to the rounding of
-    rebuilding positions from gaps (measured 1e-13 mm)."""
+    rebuilding positions from gaps (measured 7e-13 mm and 2e-13 m/s)."""
     case = make_case(particles=30, duration=30.0, interval=INTERVAL)
     whole = simulate(case, tmp_path / "whole")
     k = 30  # t = 15 ms: the front is halfway along the chain
