@@ -219,6 +219,7 @@ def deck_text(case: Case, replicas: int = 1) -> str:
 # ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
 {_thermo_style(case)}
+# a thermo row at every frame, 15 digits: the H5MD file's observables (energies, smallest gap)
 thermo_modify   norm no flush yes format float %.15g
 thermo          {thermo_every}
 {_output_lines(case)}
