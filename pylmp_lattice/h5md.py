@@ -49,6 +49,7 @@ from .bindump import open_dump
 from .case import Case, case_to_dict
 from .deck import FINE_BIN, LOG, TRAJ_BIN
 from .dump import read_log
+from .errors import LatticeError
 from .trajectory import Trajectory
 from .units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
@@ -119,6 +120,8 @@ def read_observables(path: str | Path) -> dict[str, np.ndarray]:
 
     quantity = {name: q for name, (_, q) in OBSERVABLES.items()} | {"dt": "time"}
     with h5py.File(path, "r") as h5:
+        if "observables" not in h5:
+            raise LatticeError(f"{path}: no observables (an older file: its thermo is in the run's log)")
         obs = h5["observables"]
         out = {name: from_engine(_si(obs[name]["value"], obs[name]["value"][:]), quantity[name]) for name in obs}
         first = next(iter(obs.values()))
