@@ -205,8 +205,8 @@ def deck_text(case: Case, replicas: int = 1) -> str:
     """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
     run = case.run
     n_steps = run.steps()
-    # a thermo row with every frame: the H5MD file's observables are the log's rows at its frames
-    thermo_every = run.steps("output_interval") if case.output.format != "none" else max(1, n_steps // 20)
+    # H5MD output: a thermo row with every frame (the file's observables are the log's rows at its frames)
+    thermo_every = run.steps("output_interval") if case.output.format == "h5md" else max(1, n_steps // 20)
     chain = uses_chain_engine(case)
     return f"""\
 # pylmp_lattice deck for case '{case.name}'
@@ -219,7 +219,7 @@ def deck_text(case: Case, replicas: int = 1) -> str:
 # ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
 {_thermo_style(case)}
-# a thermo row at every frame, 15 digits: the H5MD file's observables (energies, smallest gap)
+# 15 digits; with H5MD output a row at every frame: the file's observables (energies, smallest gap)
 thermo_modify   norm no flush yes format float %.15g
 thermo          {thermo_every}
 {_output_lines(case)}
