@@ -1,7 +1,7 @@
 """Reading LAMMPS binary dumps (`dump custom` into a *.bin file), in blocks of frames.
 
 The deck writes its frames this way (fwrite of full doubles, no text formatting) and
-`h5md.convert_run` turns them into the run's H5MD file. A frame, as LAMMPS 2025 writes it
+`RunFolder.convert` (`h5md.write_file`) turns them into the run's H5MD file. A frame, as LAMMPS 2025 writes it
 (dump custom, format revision 2; see LAMMPS's tools/binary2txt.cpp), is, little-endian:
 
     int64 -10, char[10] "DUMPCUSTOM", int32 endian (1), int32 revision (2),
@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DumpFormatError
+from .trajectory import Trajectory
+from .units import from_engine
 
 logger = logging.getLogger(__name__)
 
@@ -204,3 +206,17 @@ def _by_id(dump: BinaryDump, data: np.ndarray, first: int) -> np.ndarray:
         raise DumpFormatError(f"{dump.path}: atoms not in id order in frames from {first}; "
                               "expected `dump_modify ... sort id`")
     return data
+
+
+def read_trajectory(path: str | Path, mass: np.ndarray, particles=None) -> Trajectory:
+    """A binary dump of x, vx, fx as a trajectory in user units, read as it is (nothing converted
+    or removed: the file may still be growing). mass (kg) of the dump's atoms, for a = f / m;
+    `particles` (0-based indices, increasing) keeps only those columns."""
+    dump = open_dump(path)
+    frames = dump.read()
+    cols = slice(None) if particles is None else list(particles)
+    x, v, f = (frames.data[:, cols, dump.column(c)] for c in ("x", "vx", "fx"))
+    m = np.asarray(mass)[cols]
+    return Trajectory(t=from_engine(frames.time, "time"), x0=from_engine(x[0], "length"),
+                      u=from_engine(x - x[0], "length"), v=from_engine(v, "velocity"),
+                      a=from_engine(f / m, "acceleration"))

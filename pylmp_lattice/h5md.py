@@ -1,7 +1,8 @@
 """A run's trajectory as an H5MD file (HDF5 in the layout of nongnu.org/h5md, version 1.1).
 
-The deck writes binary LAMMPS dumps (`bindump`); `convert_run` turns them, block by block,
-into `traj.h5md`, and `read_group` reads it back in user units, whole or a few particles:
+The deck writes binary LAMMPS dumps (`bindump`); `write_file` turns them, block by block,
+into an H5MD file (a run's traj.h5md), and `read_group` reads it back in user units, whole or a
+few particles:
 
     h5md/                         version [1, 1]; author; creator pylmp_lattice <version>
     particles/trajectory/         every magnet, every run.output_interval
@@ -38,22 +39,19 @@ without decompressing the others.
 from __future__ import annotations
 
 import getpass
-import os
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 import tomli_w
 
-from .bindump import open_dump
+from .bindump import BinaryDump
 from .case import Case, case_to_dict
-from .deck import FINE_BIN, LOG, TRAJ_BIN
 from .dump import read_log
 from .errors import LatticeError
 from .trajectory import Trajectory
 from .units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
-FILE = "traj.h5md"
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
 # observables: name -> (thermo column of the log, quantity)
@@ -65,37 +63,34 @@ _SI = {name: size for name, size in H5MD_UNITS.values()} | {"s": 1.0}
 _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
 
 
-def convert_run(case: Case, folder: Path) -> Path | None:
-    """Write `folder`/traj.h5md from the run's binary dumps and log, then remove the dumps;
-    None if there are none with a complete frame. The file appears only once complete, so a
-    failure on the way leaves the dumps as they were."""
+def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
+    """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
+    "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
+    `log` (LAMMPS's log file) as observables. The dumps are left as they are."""
     import h5py
 
-    folder = Path(folder)
     masses = case.chain.masses()
     species = np.unique(masses, return_inverse=True)[1] + 1
-    groups = {}
-    for group, name, numbers in (("chain", TRAJ_BIN, None), ("fine", FINE_BIN, case.output.fine)):
-        dump = open_dump(folder / name) if (folder / name).exists() else None
-        if dump is not None and dump.frames:
-            chosen = slice(None) if numbers is None else np.sort(numbers) - 1
-            groups[group] = (dump, masses[chosen], species[chosen])
-    if not groups:
-        return None
-    target, partial = folder / FILE, folder / (FILE + ".part")
-    with h5py.File(partial, "w") as h5:
+    with h5py.File(target, "w") as h5:
         _write_header(h5, tomli_w.dumps(case_to_dict(case)))
-        for group, (dump, group_masses, group_species) in groups.items():
-            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, group_masses,
-                         group_species, case.output.compression)
+        for group, dump in dumps.items():
+            chosen = slice(None) if group == "chain" else np.sort(case.output.fine) - 1
+            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
+                         species[chosen], case.output.compression)
         # MDAnalysis reads observables at the frames of the first particle group
-        first = h5["particles"][GROUPS[next(iter(groups))]]
-        interval = case.run.output_interval if "chain" in groups else case.fine_interval()
-        _write_observables(h5.create_group("observables"), first, folder / LOG, interval)
-    os.replace(partial, target)
-    for dump, _, _ in groups.values():
-        dump.path.unlink()
-    return target
+        first = h5["particles"][GROUPS[next(iter(dumps))]]
+        interval = case.run.output_interval if "chain" in dumps else case.fine_interval()
+        _write_observables(h5.create_group("observables"), first, log, interval)
+
+
+def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:
+    """Frames of a group in an H5MD file and its last frame's positions (engine's SI units,
+    nm for lengths), to verify a conversion before its source is removed."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        value = h5["particles"][GROUPS[group]]["position"]["value"]
+        return value.shape[0], (value[-1, :, 0] if value.shape[0] else None)
 
 
 def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajectory:
@@ -184,11 +179,11 @@ def _write_group(g, dump, masses: np.ndarray, species: np.ndarray, compression: 
         done += k
 
 
-def _write_observables(obs, group, log: Path, interval: float) -> None:
+def _write_observables(obs, group, log: Path | None, interval: float) -> None:
     """The log's thermo rows at the group's frames (NaN where a frame has none) and the frame
     interval `interval` (ms), as H5MD time series sharing the group's step and time."""
     step = group["position"]["step"][:]
-    runs = read_log(log).runs if log.exists() else []
+    runs = read_log(log).runs if log is not None and log.exists() else []
     columns = runs[-1] if runs else {}
     series = {}
     if "Step" in columns:

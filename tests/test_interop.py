@@ -21,7 +21,7 @@ from pylmp_lattice.case import load_case, unit_warnings
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.forcelaw import LinearSpring
 from pylmp_lattice.h5md import read_group, read_observables
-from pylmp_lattice.simulation import load_trajectory, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.trajectory import Trajectory
 
 from conftest import PAPER_FORCE, make_case
@@ -191,7 +191,7 @@ def test_pylmp_lattice_lmp_runs_a_deck_without_the_venv_on_path(tmp_path):
     frames = (folder / "traj.bin.txt").read_text().count("ITEM: TIMESTEP")
     assert frames == case.run.steps() // case.run.steps("output_interval") + 1
     # the same trajectory as the package's own run of the case
-    by_hand = load_trajectory(case, folder)
+    by_hand = RunFolder(folder).trajectory()
     own = simulate(case, tmp_path / "own")
     assert_array_equal(by_hand.u, own.u)
     assert_array_equal(by_hand.v, own.v)
