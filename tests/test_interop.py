@@ -256,3 +256,25 @@ def test_values_in_a_likely_wrong_unit_are_named(tmp_path, caplog, override, fie
 def test_paper_cases_raise_no_unit_warning():
     for name in ("paper_experiment", "paper_long_lattice", "paper_friction_long_lattice"):
         assert unit_warnings(load_case(ROOT / "inputs" / f"{name}.toml")) == []
+
+
+def test_h5md_files_with_times_in_seconds_still_read(tmp_path):
+    """Files written before times were in ps name their unit "s": read_group takes each
+    dataset's unit from its attribute. Two magnets of 2 g at 1 and 11 mm, 0.1 ms apart."""
+    import h5py
+
+    with h5py.File(tmp_path / "old.h5md", "w") as h5:
+        g = h5.create_group("particles/trajectory")
+        g["mass"] = [0.002, 0.002]
+        g["mass"].attrs["unit"] = "kg"
+        for name, unit, values in (("position", "nm", [[1e6, 11e6], [1.2e6, 11e6]]), ("velocity", "m s-1", [[2, 0], [2, 0]]),
+                                   ("force", "N", [[0, 0], [0.5, -0.5]])):
+            g[f"{name}/value"] = np.stack([values, np.zeros((2, 2)), np.zeros((2, 2))], axis=-1).astype(float)
+            g[f"{name}/value"].attrs["unit"] = unit
+        g["position/time"] = [0.0, 1e-4]
+        g["position/time"].attrs["unit"] = "s"
+    traj = read_group(tmp_path / "old.h5md")
+    assert_allclose(traj.t, [0.0, 0.1])
+    assert_allclose(traj.x0, [1.0, 11.0])
+    assert_allclose(traj.u, [[0.0, 0.0], [0.2, 0.0]], atol=1e-12)
+    assert_allclose(traj.a, [[0.0, 0.0], [250.0, -250.0]])
