@@ -8,7 +8,7 @@ few particles:
     particles/trajectory/         every magnet, every run.output_interval
         box                       dimension 3, boundary none none none
         id (N,)                   magnet numbers (1 is the impactor)
-        species (N,)              1, 2, ...: one per distinct mass, as the deck's atom types
+        species (N,)              1, 2, ...: one per distinct mass, in increasing mass
         mass (N,)                 kg
         position/value (F, N, 3)  nm; position/step (F,); position/time (F,) ps
         velocity/value (F, N, 3)  m/s; step and time are position's
