@@ -24,6 +24,7 @@ from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
 from ..runner import run_embedded, run_executable
 from ..trajectory import Trajectory
+from ..units import to_engine
 from . import layout
 from .folder import CONTACT, FAILED, FINISHED, INTERRUPTED, RunFolder
 
@@ -97,7 +98,8 @@ def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nproc
         run_embedded(folder, echo=echo)
     else:
         run_executable(folder, nprocs=nprocs, echo=echo)
-    return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP)))
+    dt = to_engine(cases[0].run.dt, "time")
+    return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP, dt=dt)))
 
 
 def write_replicas_folder(cases, folder: str | Path) -> Path:
