@@ -671,7 +671,8 @@ def unit_warnings(case: Case) -> list[str]:
     over 100 times the chain's linear wave speed V0 (mm/s?). Such a case is valid, but builds
     e.g. a chain of 10^5 magnets that touch at once."""
     out = []
-    r0, m = float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses()))
+    # the nominal values (lists only if given per magnet): no array of N values for a huge chain
+    r0, m = float(np.mean(case.chain.r0)), float(np.mean(case.chain.mass))
     if r0 < 0.1:
         out.append(f"chain.r0: got {r0:g} mm; lengths are in mm: if it is in m, that is {r0 * 1e3:g} mm")
     if m < 0.01:
