@@ -393,6 +393,11 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
         lo, hi = self.table_range()
+        smallest, widest = self.chain.gap_range
+        if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
+            raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
+        if not math.isfinite(hi):
+            raise ConfigError("table.r_max", f"got {hi} mm; expected a finite table range")
         if self.second_neighbour is not None:
             self._check_second_neighbour()
             # the chain engine's fix handles nearest neighbours only
@@ -401,7 +406,6 @@ class Case:
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
-        smallest, widest = self.chain.gap_range
         if lo < d[0] or lo > smallest:
             raise ConfigError("table.r_min", f"got {lo} mm; expected in [{d[0]}, {smallest}] mm "
                               f"(the law's range starts at {d[0]} mm; the smallest gap)")
@@ -473,9 +477,13 @@ class Case:
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
-        k_max = float(np.max(self.force.stiffness(r)))
-        if self.second_neighbour is not None:
-            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
+        with np.errstate(all="ignore"):  # extreme parameters: judged by the result below
+            k_max = float(np.max(self.force.stiffness(r)))
+            if self.second_neighbour is not None:
+                k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
+        if not (0 < k_max < math.inf):
+            raise ConfigError("force", f"largest stiffness {k_max:g} N/mm on the table [{lo:g}, {hi:g}] mm; "
+                                       "expected finite and > 0 (a chain that carries waves)")
         return math.sqrt(self.chain.mass_range[0] / k_max)
 
 
