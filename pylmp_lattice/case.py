@@ -107,13 +107,13 @@ class Chain:
             raise ConfigError("chain.far_end", f"got {brief(self.far_end)}; choose one of {', '.join(FAR_ENDS)}")
         if self.particles is None and self.far_end == "fixed":
             raise ConfigError("chain.particles", "missing; required when far_end = 'fixed'")
-        if self.particles is not None and not (isinstance(self.particles, int) and 3 <= self.particles <= MAX_PARTICLES):
-            raise ConfigError("chain.particles", f"got {brief(self.particles)}; expected an integer in [3, {MAX_PARTICLES}]")
+        n = self.particles
+        if n is not None and not (isinstance(n, int) and 3 <= n <= MAX_PARTICLES):
+            raise ConfigError("chain.particles", f"got {brief(n)}; expected an integer in [3, {MAX_PARTICLES}]")
         for name, unit, values in (("mass", "g", self.mass), ("r0", "mm", self.r0)):
             arr = np.atleast_1d(np.asarray(values, float))
             if not np.all(np.isfinite(arr) & (arr > 0)):
                 raise ConfigError(f"chain.{name}", f"got {_show(values)} {unit}; expected > 0")
-        n = self.particles
         if n is not None:
             for name, expected in (("mass", n), ("r0", n - 1)):
                 values = getattr(self, name)
@@ -420,6 +420,11 @@ class Case:
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
             self._drop_fine_beyond_chain()
         lo, hi = self.table_range()
+        smallest, widest = self.chain.gap_range
+        if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
+            raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
+        if not math.isfinite(hi):
+            raise ConfigError("table.r_max", f"got {hi} mm; expected a finite table range")
         if self.second_neighbour is not None:
             self._check_second_neighbour()
             # the chain engine's fix handles nearest neighbours only
@@ -428,7 +433,6 @@ class Case:
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
-        smallest, widest = self.chain.gap_range
         if lo < d[0] or lo > smallest:
             raise ConfigError("table.r_min", f"got {lo} mm; expected in [{d[0]}, {smallest}] mm "
                               f"(the law's range starts at {d[0]} mm; the smallest gap)")
@@ -511,9 +515,14 @@ class Case:
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
-        k_max = float(np.max(self.force.stiffness(r)))
-        if self.second_neighbour is not None:
-            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
+        with np.errstate(all="ignore"):  # extreme parameters: judged by the result below
+            k_max = float(np.max(self.force.stiffness(r)))
+            if self.second_neighbour is not None:
+                r2 = np.linspace(*self.second_table_range(), 20001)
+                k_max += float(np.max(np.abs(self.second_neighbour.stiffness(r2))))
+        if not (0 < k_max < math.inf):
+            raise ConfigError("force", f"largest stiffness {k_max:g} N/mm on the table [{lo:g}, {hi:g}] mm; "
+                                       "expected finite and > 0 (a chain that carries waves)")
         return math.sqrt(self.chain.mass_range[0] / k_max)
 
 
@@ -696,7 +705,8 @@ def data_file(base_dir: str | Path, value, field: str) -> Path:
     Case and sweep files are shared like documents: a path in one never reads outside its
     folder (no absolute path, no '..' or symlink leading out)."""
     if not (isinstance(value, str) and value and value.isprintable()):
-        raise ConfigError(field, f"got {brief(value)}; expected a file name, relative to the folder of the file naming it")
+        raise ConfigError(field, f"got {brief(value)}; expected a file name, relative to the folder of the file "
+                                 "naming it")
     root = Path(base_dir).resolve()
     path = (root / value).resolve()
     if Path(value).is_absolute() or not path.is_relative_to(root):
@@ -760,7 +770,8 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
     converted = {}
     for key, value in values.items():
         if key not in known:
-            raise ConfigError(f"{section}.{_key(key)}", f"unknown key; expected one of {', '.join([*other_keys, *known])}")
+            raise ConfigError(f"{section}.{_key(key)}",
+                              f"unknown key; expected one of {', '.join([*other_keys, *known])}")
         _check_type(f"{section}.{key}", value, known[key].type)
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
@@ -822,7 +833,8 @@ def _read_columns(path: Path, field: str, columns: str):
                                  + (f" (not a number in data row {int(where[1]) + 1}, column {where[2]};"
                                     " comment lines not counted)" if where else "")) from err
     if table.shape[1] != 2 or len(table) == 0:
-        raise ConfigError(field, f"{path.name}: got {table.shape[1] if len(table) else 0} columns; expected 2 ({columns})")
+        columns_got = table.shape[1] if len(table) else 0
+        raise ConfigError(field, f"{path.name}: got {columns_got} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 

@@ -151,8 +151,8 @@ def _load(args):
     case = load_case(args.case, args.set)
     if args.name is not None:  # validated by the Case, as a name from the file is
         case = dataclasses.replace(case, name=args.name)
-    folder = args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if args.set and args.name is None else ""))
-    return case, _folder(folder)
+    overridden = args.set and args.name is None
+    return case, _folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
 
 
 def _folder(path: Path) -> Path:

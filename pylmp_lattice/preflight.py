@@ -182,8 +182,10 @@ class _ChainSample:
         (1-based) from t = (j - 1) / speed. atoms: the magnets written (None: all)."""
         if atoms is None:  # every magnet: the sum over frames of min(N, 1 + speed t), in closed form
             a = self.speed * interval
+            if not math.isfinite(a):
+                return float(count * self.n)
             rising = min(count, math.floor((self.n - 1) / a) + 1) if a > 0 else count
-            return rising + a * rising * (rising - 1) / 2 + self.n * (count - rising) if math.isfinite(a) else count * self.n
+            return rising + a * rising * (rising - 1) / 2 + self.n * (count - rising)
         if not self.speed:
             return float(count * np.sum(atoms == 1))
         start = np.ceil((atoms - 1) / (self.speed * interval))

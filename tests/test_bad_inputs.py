@@ -14,7 +14,10 @@ import datetime
 import logging
 import math
 import os
+import shutil
+import warnings
 
+import numpy as np
 import pytest
 import tomli_w
 
@@ -34,7 +37,9 @@ def _set(path: str, value):
         *sections, key = path.split(".")
         target = data
         for s in sections:
-            target = target.setdefault(s, {})
+            if not isinstance(target.get(s), dict):
+                target[s] = {}
+            target = target[s]
         target[key] = value
     return mutate
 
@@ -286,6 +291,14 @@ def test_output_that_is_a_file_is_refused_before_any_work(workdir, capsys):
     refused(["run", "case.toml", "-o", "sentinel.txt"], capsys, "--output")
 
 
+@pytest.mark.parametrize("folder", ["a b", "x$y", 'q"r', "c#d", "e&"])
+def test_run_folder_the_deck_cannot_name_is_refused_before_anything_is_written(workdir, capsys, folder):
+    """The embedded runner gives the deck its folder as a LAMMPS variable: white space, quotes,
+    $, # or & would split or change the commands (--runner lmp runs in the folder instead)."""
+    refused(["run", _write_case(CASE), "-o", folder, "--quiet"], capsys, "output")
+    assert not (workdir / folder).exists()
+
+
 def test_paths_with_control_characters_stay_one_line(workdir, capsys):
     refused(["deck", "x\ny.toml"], capsys, "case")
     refused(["deck", _write_case(CASE), "-o", "sentinel.txt"], capsys, "--output")
@@ -316,3 +329,40 @@ def test_broken_sweep_file(workdir, capsys):
     (workdir / "sweep.toml").write_bytes(b"\xff\xfe binary")
     refused(["sweep", "sweep.toml", "-o", "runs/sweep"], capsys, "sweep")
     refused(["sweep", "folder", "-o", "runs/sweep"], capsys, "sweep")
+
+
+POOL = [math.nan, math.inf, -math.inf, -1, 0, 0.0, 1, 2.5, 1e308, -1e308, 2**63 - 1, -(2**63), True, False, "",
+        "x" * 300, "long", "a\nb", "../x", [], [math.nan], [1, 2, 3], [[1]], ["a"], {}, {"a": 1},
+        datetime.date(2024, 1, 1), datetime.datetime(2024, 1, 1, 12, 0)]
+
+
+def _paths(data, prefix=""):
+    for key, value in data.items():
+        yield f"{prefix}{key}"
+        if isinstance(value, dict):
+            yield from _paths(value, f"{prefix}{key}.")
+
+
+@pytest.mark.parametrize("seed", range(int(os.environ.get("FUZZ_SEEDS", 6))))
+def test_random_mutations_never_crash(workdir, capsys, seed):
+    """Random values of every TOML type in random fields (and new ones), 1-3 at a time: each
+    case is accepted (exit 0) or refused with one line and exit 2; nothing else."""
+    rng = np.random.default_rng(seed)
+    full = case_to_dict(make_case(particles=10, velocity=1.0, duration=1.0,
+                                  friction={"mu": 0.2}, output={"fine": [2, 3]}))
+    paths = list(_paths(full)) + ["chain.extra", "table.extra", "second_neighbour.K", "impactor.file"]
+    for trial in range(40):
+        data = copy.deepcopy(full)
+        for _ in range(rng.integers(1, 4)):
+            _set(paths[rng.integers(len(paths))], POOL[rng.integers(len(POOL))])(data)
+        path = _write_case(data)
+        try:
+            with warnings.catch_warnings():  # a warning would be a second line on stderr
+                warnings.simplefilter("error")
+                code = main(["deck", path, "-o", f"runs/t{seed}-{trial}"])
+        except Exception as err:  # noqa: BLE001 - the point: no exception escapes main
+            pytest.fail(f"{type(err).__name__}: {err} for {data}")
+        err = capsys.readouterr().err
+        assert code in (0, 2), (code, err, data)
+        assert code == 0 or (err.count("\n") == 1 and "Traceback" not in err), (err, data)
+        shutil.rmtree(f"runs/t{seed}-{trial}", ignore_errors=True)
