@@ -11,9 +11,9 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
-from pylmp_lattice.simulation import load_trajectory, run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.studies import STUDIES, run_study
-from pylmp_lattice.studies.thermal import PARTICLE, VI, WINDOW_PERIODS
+from pylmp_lattice.studies.ensembles.thermal import PARTICLE, VI, WINDOW_PERIODS
 
 INPUTS = Path(__file__).parent.parent / "inputs"
 
@@ -30,7 +30,7 @@ def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
     case = load_case(INPUTS / "paper_long_lattice.toml",
                      ["run.duration=150", f"output.fine=[{PARTICLE + 1}]", "output.fine_interval=0.1"])
     summary = run_case(case, tmp_path / "plain", figure=False)
-    traj = load_trajectory(case, tmp_path / "plain", group="fine")
+    traj = RunFolder(tmp_path / "plain").trajectory("fine")
     span = max(0.2 * 150, WINDOW_PERIODS * 1e3 / summary["linear_frequency_f0_Hz"])
     eta = measures.steady_oscillation(traj.t, traj.v[:, 0], VI, (150 - span, 150)).energy_ratio
     quiet = data["noise_free"]

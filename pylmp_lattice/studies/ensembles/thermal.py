@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import measures
-from ..deck import chain_noise
-from ..plots import pyplot
-from ..simulation import load_trajectory
-from ..sweep import replica_stats
-from .common import linear_constants, paper_dict, sweep_runs
-from .output import StudyResult
+from ... import measures
+from ...deck import chain_noise
+from ...plots import pyplot
+from ...run_folder import RunFolder
+from ...sweep import replica_stats
+from ..output import StudyResult
+from ..scaffold import linear_constants, paper_dict, sweep_runs
 
 NAME = "thermal"
 VI = 2.0  # m/s
@@ -80,7 +80,7 @@ def _measure(run) -> dict:
         return row
     case, summary = run.member.case, run.summary
     speed, peak = summary["shock_velocity_plateau_m_per_s"], summary["first_peak_velocity_plateau_m_per_s"]
-    traj = load_trajectory(case, run.folder, group="fine")
+    traj = RunFolder(run.folder).trajectory("fine")
     f0 = summary["linear_frequency_f0_Hz"]
     end = case.run.duration
     span = max(0.2 * end, WINDOW_PERIODS * 1e3 / f0)  # ms
