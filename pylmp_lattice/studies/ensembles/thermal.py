@@ -121,6 +121,7 @@ def _figure(thermal, mass, quiet, v0, quick):
             if name == PEAK:
                 a.axhline(2 * VI, color="C3", ls="--", lw=0.8, label="$2 V_I$")
             a.set(xlabel=xlabel, ylabel=ylabel)
+            a.set_title(f"({'abcdef'[3 * i + j]})", loc="left")
             a.legend(fontsize="x-small")
     fig.suptitle(f"Long lattice, $V_I$ = {VI:g} m/s ($V_0$ = {v0:.3f} m/s): thermal motion and mass disorder"
                  + (" (quick)" if quick else ""))
