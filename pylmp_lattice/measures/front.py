@@ -26,8 +26,8 @@ class Front:
 
     A gap is flagged when the front crossed it out of order (`out_of_order`: magnet n+1 reached
     no later than magnet n) or slower than any linear wave of the chain can travel
-    (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest linear speed); `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and
-    maxima average."""
+    (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest linear speed);
+    `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and maxima average."""
 
     arrival: np.ndarray
     propagation_velocity: np.ndarray

@@ -34,6 +34,7 @@ WINDOW_PERIODS = 3.5  # the steady window spans at least this many linear period
 THERMAL, DISORDER = "chain.thermal_velocity", "chain.mass_disorder"
 VP, PEAK, ETA = "V_P_m_per_s", "first_peak_m_per_s", "eta"
 SEED = 2026
+UNITS = {THERMAL: "thermal_rms_m_per_s", DISORDER: "mass_disorder"}  # table columns with units
 
 
 def base_case(duration: float) -> dict:
@@ -47,7 +48,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     if quick:
         rms, disorder, replicas, duration = [0.0, 0.02, 0.1], [0.05], 2, 150.0
     else:
-        rms, disorder, replicas, duration = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1], [0.005, 0.01, 0.02, 0.05, 0.1], 8, 600.0
+        rms, disorder = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1], [0.005, 0.01, 0.02, 0.05, 0.1]
+        replicas, duration = 8, 600.0
     # one sweep: the thermal axis (no disorder), then the disorder axis (no thermal motion)
     points = [(f * VI, 0.0) for f in rms] + [(0.0, d) for d in disorder]
     base = base_case(duration)
@@ -65,9 +67,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "noise_free": {VP: quiet[f"{VP}.mean"], PEAK: quiet[f"{PEAK}.mean"], ETA: quiet[f"{ETA}.mean"]},
         "against_thermal_rms": _points(thermal, THERMAL), "against_mass_disorder": _points(mass, DISORDER),
     }
-    tables = {"thermal": _table(thermal, THERMAL, "thermal_rms_m_per_s"), "disorder": _table(mass, DISORDER, "mass_disorder"),
-              "members": {c: members[c].to_numpy() for c in members.columns if c != "status"}
-              | {"status": members["status"].to_numpy()}}
+    tables = {"thermal": _table(thermal, THERMAL), "disorder": _table(mass, DISORDER),
+              "members": {UNITS.get(c, c): members[c].to_numpy() for c in members.columns}}
     return StudyResult(NAME, numbers, tables=tables, figure=_figure(thermal, mass, quiet, v0, quick), quick=quick)
 
 
@@ -97,8 +98,8 @@ def _points(stats: pd.DataFrame, x: str) -> list[dict]:
                 for name in (VP, PEAK, ETA)}} for _, row in stats.iterrows()]
 
 
-def _table(stats: pd.DataFrame, x: str, label: str) -> dict:
-    out = {label: stats[x].to_numpy(float), "members": stats["n"].to_numpy(int)}
+def _table(stats: pd.DataFrame, x: str) -> dict:
+    out = {UNITS[x]: stats[x].to_numpy(float), "members": stats["n"].to_numpy(int)}
     for name in (VP, PEAK, ETA):
         out |= {f"{name}_mean": stats[f"{name}.mean"].to_numpy(float), f"{name}_stderr": stats[f"{name}.sem"].to_numpy(float),
                 f"{name}_count": stats[f"{name}.count"].to_numpy(int)}
