@@ -21,6 +21,63 @@ def pyplot():
     return plt
 
 
+def style_figure(fig, what: str, quick: bool = False, stand_in: str | None = None, letters: str = "abcdefghijkl"):
+    """The package's figure style: panel letters in reading order, and a title saying the case
+    (`what`), whether it is a quick (small) version, and whether its impact is a stand-in.
+
+    Panels are the figure's main axes (not twins or colour bars), ordered by row, then column;
+    each gets "(letter)" at the left of its title, from `letters` (e.g. "bc" for a figure that
+    reproduces the paper's panels (b) and (c)). Returns the figure."""
+    for letter, ax in zip(letters, panels(fig)):
+        ax.set_title(f"({letter})", loc="left", fontweight="bold")
+    notes = (["quick version"] if quick else []) + ([f"stand-in impact: {stand_in}"] if stand_in else [])
+    fig.suptitle(what + (f" [{'; '.join(notes)}]" if notes else ""))
+    return fig
+
+
+def panels(fig) -> list:
+    """The figure's main axes in reading order: no twin axes (they share a panel), no colour bars."""
+    main = []
+    for ax in fig.axes:
+        if ax.get_label() == "<colorbar>" or any(t in main for t in ax._twinned_axes.get_siblings(ax)):
+            continue
+        main.append(ax)
+    # rows from the top (panels whose tops agree to 5 % of the figure), then left to right
+    return sorted(main, key=lambda ax: (-round(ax.get_position().y1 * 20), ax.get_position().x0))
+
+
+def accepted_velocity(front: measures.Front) -> np.ndarray:
+    """V_P over each gap with the gaps the front crossed out of order (magnet n+1 reached no
+    later than magnet n, e.g. a pulse's impactor peaking after magnet 2) as NaN: such a value
+    is not a front's speed, so it is neither drawn nor allowed to set an axis range."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.diff(front.arrival) > 0, front.propagation_velocity, np.nan)
+
+
+def twin_axis(ax, label: str, color: str = "C3"):
+    """A right-hand axis for a second quantity, its label and ticks in `color`."""
+    right = ax.twinx()
+    right.set_ylabel(label, color=color)
+    right.tick_params(axis="y", colors=color)
+    return right
+
+
+def separate(left, right, left_values, right_values, overlap: float = -0.1):
+    """Twin-axis data kept readable: the left axis's data in the upper part of the panel, the
+    right axis's in the lower part (overlapping by `overlap` of the height), each range set by
+    its own finite values; a negative overlap leaves a gap for a legend."""
+    for ax, values, (lo, hi) in ((left, left_values, (0.5 - overlap / 2, 0.97)),
+                                 (right, right_values, (0.03, 0.5 + overlap / 2))):
+        v = np.asarray(values, float)
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            continue
+        vmin, vmax = float(v.min()), float(v.max())
+        span = (vmax - vmin) or abs(vmax) or 1.0
+        scale = span / (hi - lo)
+        ax.set_ylim(vmin - lo * scale, vmax + (1 - hi) * scale)
+
+
 def velocity_profiles(t, v, particles, ax=None):
     """Fig. 3(a): v_n(t) of the chosen particles (0-based numbers; column k of v is particle
     particles[k]), m/s against ms."""
