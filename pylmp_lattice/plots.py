@@ -31,7 +31,7 @@ def style_figure(fig, what: str, quick: bool = False, stand_in: str | None = Non
     for letter, ax in zip(letters, panels(fig)):
         ax.set_title(f"({letter})", loc="left", fontweight="bold")
     notes = (["quick version"] if quick else []) + ([f"stand-in impact: {stand_in}"] if stand_in else [])
-    fig.suptitle(what + (f" [{'; '.join(notes)}]" if notes else ""))
+    fig.suptitle(what + (f"\n[{'; '.join(notes)}]" if notes else ""))
     return fig
 
 
@@ -62,7 +62,7 @@ def twin_axis(ax, label: str, color: str = "C3"):
     return right
 
 
-def separate(left, right, left_values, right_values, overlap: float = -0.1):
+def separate(left, right, left_values, right_values, overlap: float = -0.2):
     """Twin-axis data kept readable: the left axis's data in the upper part of the panel, the
     right axis's in the lower part (overlapping by `overlap` of the height), each range set by
     its own finite values; a negative overlap leaves a gap for a legend."""

@@ -98,7 +98,7 @@ def figure(traj, vi, v0, f0, front, centred, osc, zone, reached, what, quick):
     """Panels (a-c) on the top row, (d-f) below, lettered in reading order."""
     plt = pyplot()
     fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
-    typical = min(49, reached - 1)
+    typical = min(49, reached // 2)  # magnet 50 as in the paper, or one the front passed long ago
     ax[0, 0].plot(traj.t, traj.v[:, typical], lw=0.7, label=f"magnet {typical + 1}")
     ax[0, 0].axhline(vi, color="k", ls=":", lw=0.8, label=f"$V_I$ = {vi:g} m/s")
     ax[0, 0].set(title="velocity profile", xlabel="t (ms)", ylabel="v (m/s)")

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ...case import case_from_dict
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ...simulation import friction_work, simulate
 from ..output import StudyResult
 from ..scaffold import FRICTION, MASS, PAPER_FORCE
@@ -42,10 +42,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     separations = (SEPARATIONS[0], SEPARATIONS[-1]) if quick else SEPARATIONS
     duration = 600.0 if quick else 2000.0
     plt = pyplot()
-    fig, axes = plt.subplots(2, len(separations) // 2, figsize=(4 * len(separations) // 2, 6.5),
+    fig, axes = plt.subplots(2, len(separations) // 2, figsize=(max(7, 4 * len(separations) // 2), 6.5),
                              layout="constrained", sharex=True, squeeze=False)
     rows = []
-    for r1, ax in zip(separations, axes.T.flat):
+    for r1, ax in zip(separations, axes.flat):
         case = rig_case(r1, duration)
         folder = out / NAME / case.name
         traj = simulate(case, folder, overwrite=True)
@@ -56,11 +56,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         friction = friction_work(folder)
         lost = energy[0] - energy[-1]
         rows.append((r1, x[-1], len(turning), lost, friction, friction / lost - 1))
-        ax.plot(traj.t / 1e3, x, lw=0.8)
-        ax.axhline(r1 / 2, color="k", ls=":", lw=0.8)
-        ax.set(title=f"$r_1$ = {r1:g} mm", ylabel="position (mm)")
-    for ax in axes[-1]:
-        ax.set_xlabel("t (s)")
+        ax.plot(traj.t, x, lw=0.8, label="middle magnet")
+        ax.axhline(r1 / 2, color="k", ls=":", lw=0.8, label="$r_1/2$")
+        ax.set(title=f"$r_1$ = {r1:g} mm", xlabel="t (ms)", ylabel="position from the left magnet (mm)")
+        ax.legend(fontsize="x-small", loc="upper right")
+    # the paper's panels (c-h) run from the widest to the narrowest rig
+    letters = "".join("cdefgh"[SEPARATIONS.index(r1)] for r1 in separations)
+    style_figure(fig, f"Fig. S4: the friction rig, $\\mu$ = {FRICTION['mu']:g}, p = {FRICTION['p']:g}, {duration:g} ms",
+                 quick=quick, letters=letters)
     columns = ("r1_mm", "final_position_mm", "half_cycles", "mechanical_energy_lost_mJ", "friction_work_mJ",
                "energy_balance_relative_error")
     table = {c: [row[k] for row in rows] for k, c in enumerate(columns)}
