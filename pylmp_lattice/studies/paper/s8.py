@@ -6,8 +6,8 @@ out; see `measures.arrival`), and its steady propagation velocity is the V_P pla
 last quarter of the gaps crossed. Limits: T_s << T0 gives V0; T_s >> T0 gives the constant
 drive's V_P (a run with constant V_I in the same sweep). (c, d): velocity maxima and minima and
 the frequency of magnet 10 against time for T_s = 100 ms, decaying once the pulse has passed.
-Full: T_s / T0 = 0.1 .. 10 (9 values) and 100 ms over 400 ms; quick: 0.1, 1, 10 and 100 ms
-over 250 ms.
+Full: T_s / T0 = 0.1 .. 10 (9 values) and 100 ms over 400 ms; quick: 0.1 T0, 1 T0 and
+100 ms (4.3 T0) over 250 ms.
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     base = paper_dict("s8", {"profile": "sine", "velocity": VI, "duration": 10.0}, duration)
     v0, f0 = linear_constants(case_from_dict(base))
     t0 = 1e3 / f0  # ms
-    ratios = [0.1, 1.0, 10.0] if quick else list(np.geomspace(0.1, 10.0, 9))
+    # quick: 10 T0 = 235 ms would last nearly the whole 250 ms run; 100 ms = 4.3 T0 is the long pulse
+    ratios = [0.1, 1.0] if quick else list(np.geomspace(0.1, 10.0, 9))
     durations = sorted({float(np.round(x * t0, 3)) for x in ratios} | {SHOWN_TS})
     runs = sweep_runs(base, out / NAME, grid={"impactor.duration": durations})
     steady_drive = paper_dict("s8_constant", {"profile": "constant", "velocity": VI}, duration)
