@@ -90,11 +90,11 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
     if zone is not None:
         tables["transition_zone"] = {"time_ms": zone.time, "front_index": zone.front_index,
                                      "steady_index": zone.steady_index, "width_particles": zone.width}
-    fig = figure(traj, vi, v0, f0, front, centred, osc, zone, reached, what, quick)
+    fig = figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick)
     return StudyResult(name, numbers, tables=tables, figure=fig, quick=quick)
 
 
-def figure(traj, vi, v0, f0, front, centred, osc, zone, reached, what, quick):
+def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     """Panels (a-c) on the top row, (d-f) below, lettered in reading order."""
     plt = pyplot()
     fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
@@ -126,11 +126,15 @@ def figure(traj, vi, v0, f0, front, centred, osc, zone, reached, what, quick):
     ax[1, 0].legend(fontsize="x-small", ncol=2)
     ax[1, 1].set(title="oscillation frequency", xlabel="t (ms)", ylabel="$f/f_0$")
     ax[1, 1].legend(fontsize="x-small", ncol=2)
-    if zone is not None:
+    if zones:
+        zone = zones[TOLERANCE]
         ax[1, 2].plot(zone.time, zone.front_index + 1, label="front")
         ax[1, 2].plot(zone.time, zone.steady_index + 1, label=f"settled (within {TOLERANCE:g} $V_I$)")
-        ax[1, 2].plot(zone.time, zone.width, label="transition zone width")
-        ax[1, 2].legend(fontsize="small")
+        ax[1, 2].plot(zone.time, zone.width, label=f"width (settled within {TOLERANCE:g} $V_I$)")
+        for k, (tol, other) in enumerate((t, z) for t, z in zones.items() if t != TOLERANCE):
+            ax[1, 2].plot(other.time, other.width, ls=(0, (1, 1 + k)), lw=0.9, color="C2",
+                          label=f"width (within {tol:g} $V_I$)")
+        ax[1, 2].legend(fontsize="x-small")
     ax[1, 2].set(title="transition zone", xlabel="t (ms)", ylabel="magnet n, or width (magnets)")
     return style_figure(fig, what, quick=quick)
 
