@@ -39,6 +39,7 @@ STUDIES: dict[str, str] = {
     "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
     "toda": "The Toda lattice: soliton speed, and the piston problem's wake, period two and lead soliton",
     "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
+    "dsw": "Dispersive-shock theory against simulation: V_P, wake frequency and gap, eta and V*, first peaks",
     "all": "every study above, into one folder",
 }
 
