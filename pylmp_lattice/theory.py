@@ -90,11 +90,13 @@ scipy.integrate.quad (relative error ~1e-12); roots by brentq.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from .exact import jump, weak_shock
+from .forcelaw import SampledLaw
 from .measures import linear_frequency, linear_wave_speed
 
 _CONVEXITY_SAMPLES = 65  # grid on [r1, r0] where c must grow under compression
@@ -152,7 +154,10 @@ def riemann_drop(law, mass: float, r0: float, r1: float) -> float:
     """int_{r1}^{r0} c(r) dr, m/s: the piston speed that holds the wake at spacing r1 (Eq. 1)."""
     from scipy.integrate import quad
 
-    value, _ = quad(lambda r: float(wave_speed(law, mass, r)), r1, r0, epsabs=0.0, epsrel=1e-13, limit=200)
+    # a spline's stiffness is only piecewise smooth: integrate between its knots
+    knots = [x for x in law.r if r1 < x < r0] if isinstance(law, SampledLaw) else []
+    value, _ = quad(lambda r: float(wave_speed(law, mass, r)), r1, r0, epsabs=0.0, epsrel=1e-12,
+                    limit=200 + 2 * len(knots), points=knots or None)
     return float(value)
 
 
@@ -165,11 +170,14 @@ def wake_gap(law, mass: float, r0: float, V_I: float) -> float:
 
 def critical_velocity(law, mass: float, r0: float) -> float:
     """V*, m/s (Eq. 4): the piston speed at which the wake's stiffness is 4 k(r0), so the
-    DSW's harmonic edge reaches wavenumber pi at the piston; above it the wake persists."""
+    DSW's harmonic edge reaches wavenumber pi at the piston; above it the wake persists.
+    inf when the stiffness never reaches 4 k(r0) inside the law's domain (no V* before contact)."""
     _check(mass, r0)
     k0 = float(law.stiffness(r0))
-    r_star = _compressed_root(lambda r: float(law.stiffness(r)) - 4 * k0, law, r0,
-                              "law: its stiffness never reaches 4 k(r0) under compression; no V*")
+    try:
+        r_star = _compressed_root(lambda r: float(law.stiffness(r)) - 4 * k0, law, r0, "no V*")
+    except ValueError:
+        return math.inf
     return riemann_drop(law, mass, r0, r_star)
 
 
