@@ -62,13 +62,14 @@ def chain_base(chain: str, periods: float) -> tuple[dict, float]:
     force, r0, mass, table = CHAINS[chain]
     law = chain_law(chain)
     t0 = 1e3 / measures.linear_frequency(float(law.stiffness(r0)), mass)
-    scale = t0 / PAPER_T0
+    dt = 0.01 * t0 / PAPER_T0  # ms; the run and its outputs as whole numbers of steps
+    steps = round(periods * PAPER_T0 / 0.01)
     base = {
         "name": f"dsw_{chain.replace(' ', '_').replace('=', '')}",
         "chain": {"mass": mass, "r0": r0, "far_end": "long"}, "force": dict(force),
         "impactor": {"profile": "constant", "velocity": 1.0},
-        "run": {"duration": float(np.round(periods * t0, 6)), "dt": 0.01 * scale, "output_interval": 1.0 * scale},
-        "output": {"fine": list(FINE), "fine_interval": 0.1 * scale},
+        "run": {"duration": steps * dt, "dt": dt, "output_interval": 100 * dt},
+        "output": {"fine": list(FINE), "fine_interval": 10 * dt},
     } | ({"table": dict(table)} if table else {})
     return base, t0
 
