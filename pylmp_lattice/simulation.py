@@ -184,8 +184,11 @@ def run_figure(case: Case, folder: str | Path, front: measures.Front):
 
     vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
     title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+    # the first peaks saturate at 2 V_I under a steady drive without friction only
+    steady = case.impactor.profile in ("constant", "ramp") and case.friction is None
+    saturation = 2 * vi if steady else None
     if case.output.format == "none":
-        return shock_figure(None, [], vi, front, v0, title=title)
+        return shock_figure(None, [], vi, front, v0, title=title, saturation=saturation)
     if case.output.fine:
         chosen = sorted(n - 1 for n in case.output.fine)
         profiles = load_trajectory(case, folder, "fine")
@@ -194,7 +197,7 @@ def run_figure(case: Case, folder: str | Path, front: measures.Front):
         last = int(reached[-1]) if reached.size else 0
         chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
         profiles = load_trajectory(case, folder, "chain", chosen)
-    return shock_figure(profiles, chosen, vi, front, v0, title=title)
+    return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
 @dataclass(frozen=True)

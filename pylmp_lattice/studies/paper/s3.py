@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..case import SecondNeighbour, case_from_dict, case_to_dict
-from ..forcelaw import PowerLaw
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import MAGNET_LENGTH, PAPER_FORCE, R0, paper_case, particles_reached
-from .output import StudyResult
+from ... import measures
+from ...case import SecondNeighbour, case_from_dict, case_to_dict
+from ...forcelaw import PowerLaw
+from ...plots import accepted_velocity, pyplot, style_figure
+from ...simulation import simulate
+from ..output import StudyResult
+from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case, particles_reached
 
 NAME = "s3"
 FRACTION = 0.05  # |F2(2 r0)| / F(r0), paper Sec. S2
@@ -36,7 +36,7 @@ STRONG, WEAK = 2.0, 0.01  # m/s
 
 def second_neighbour_section(sign: int, fraction: float = FRACTION) -> dict:
     """The [second_neighbour] section: F2 = sign K2/(d + b + L)^q with |F2(2 r0)| = fraction F(r0)."""
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
+    law = PAPER_LAW
     b2 = law.b + MAGNET_LENGTH
     k2 = fraction * float(law.force(R0)) * (2 * R0 + b2) ** law.q
     return {"law": "power", "K": k2, "b": b2, "q": law.q, "sign": sign}
@@ -89,16 +89,21 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             store[label] = front
             if vi == STRONG:
                 n = np.arange(1, len(front.arrival) + 1)
-                left.plot(n[:-1] + 0.5, front.propagation_velocity, ".", ms=3, label=label)
+                left.plot(n[:-1] + 0.5, accepted_velocity(front), ".", ms=3, label=label)
                 right.plot(n, front.peaks.peak_velocity, ".", ms=3, label=label)
         reached = particles_reached(store[label].arrival)
-    left.set(title=f"$V_P$ at $V_I$ = {STRONG:g} m/s", xlabel="particle n", ylabel="$V_P$ (m/s)", xlim=(0, reached))
-    right.set(title="first peak velocity", xlabel="particle n", ylabel="v (m/s)", xlim=(0, reached))
-    left.legend(fontsize="small")
+    left.set(title=f"propagation velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="$V_P$ (m/s)",
+             xlim=(0, reached))
+    right.set(title=f"first peak velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="first peak velocity (m/s)",
+              xlim=(0, reached))
+    left.legend(fontsize="small", title="second neighbours")
+    right.legend(fontsize="small", title="second neighbours")
+    style_figure(fig, f"Fig. S3: long lattice, constant drive, no friction, second neighbours, {duration:g} ms",
+                 quick=quick)
 
     attractive = SecondNeighbour(PowerLaw(**{k: v for k, v in second_neighbour_section(-1).items()
                                              if k in ("K", "b", "q")}), -1.0)
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
+    law = PAPER_LAW
     k1, k2 = float(law.stiffness(R0)), float(attractive.stiffness(2 * R0))
     plateau = {k: measures.trailing_plateau(f.propagation_velocity) for k, f in strong.items()}
     peaks = {k: measures.trailing_plateau(f.peaks.peak_velocity[1:]) for k, f in strong.items()}

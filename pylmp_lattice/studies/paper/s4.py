@@ -14,10 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..case import case_from_dict
-from ..plots import pyplot
-from ..simulation import friction_work, simulate
-from .output import StudyResult
+from ...case import case_from_dict
+from ...plots import pyplot, style_figure
+from ...simulation import friction_work, simulate
+from ..output import StudyResult
+from ..scaffold import FRICTION, MASS, PAPER_FORCE
 
 NAME = "s4"
 SEPARATIONS = (249.5, 150.0, 90.0, 60.0, 40.0, 30.1)  # mm, r1
@@ -28,10 +29,10 @@ def rig_case(r1: float, duration: float = 2000.0):
     """The rig for separation r1 (mm), run for `duration` ms."""
     return case_from_dict({
         "name": f"rig_r1_{r1:g}mm",
-        "chain": {"particles": 3, "mass": 1.084, "r0": [RELEASE_GAP, r1 - RELEASE_GAP]},
-        "force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0},
+        "chain": {"particles": 3, "mass": MASS, "r0": [RELEASE_GAP, r1 - RELEASE_GAP]},
+        "force": dict(PAPER_FORCE),
         "impactor": {"profile": "rest"},
-        "friction": {"mu": 0.285, "p": 0.012},
+        "friction": {"mu": FRICTION["mu"], "p": FRICTION["p"]},
         "run": {"duration": duration, "dt": 0.002, "output_interval": 0.1},
         "table": {"r_max": r1, "points": 100000},
     })
@@ -41,10 +42,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     separations = (SEPARATIONS[0], SEPARATIONS[-1]) if quick else SEPARATIONS
     duration = 600.0 if quick else 2000.0
     plt = pyplot()
-    fig, axes = plt.subplots(2, len(separations) // 2, figsize=(4 * len(separations) // 2, 6.5),
+    fig, axes = plt.subplots(2, len(separations) // 2, figsize=(max(7, 4 * len(separations) // 2), 6.5),
                              layout="constrained", sharex=True, squeeze=False)
     rows = []
-    for r1, ax in zip(separations, axes.T.flat):
+    for r1, ax in zip(separations, axes.flat):
         case = rig_case(r1, duration)
         folder = out / NAME / case.name
         traj = simulate(case, folder, overwrite=True)
@@ -55,16 +56,19 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         friction = friction_work(folder)
         lost = energy[0] - energy[-1]
         rows.append((r1, x[-1], len(turning), lost, friction, friction / lost - 1))
-        ax.plot(traj.t / 1e3, x, lw=0.8)
-        ax.axhline(r1 / 2, color="k", ls=":", lw=0.8)
-        ax.set(title=f"$r_1$ = {r1:g} mm", ylabel="position (mm)")
-    for ax in axes[-1]:
-        ax.set_xlabel("t (s)")
+        ax.plot(traj.t, x, lw=0.8, label="middle magnet")
+        ax.axhline(r1 / 2, color="k", ls=":", lw=0.8, label="$r_1/2$")
+        ax.set(title=f"$r_1$ = {r1:g} mm", xlabel="t (ms)", ylabel="position from the left magnet (mm)")
+        ax.legend(fontsize="x-small", loc="upper right")
+    # the paper's panels (c-h) run from the widest to the narrowest rig
+    letters = "".join("cdefgh"[SEPARATIONS.index(r1)] for r1 in separations)
+    style_figure(fig, f"Fig. S4: the friction rig, $\\mu$ = {FRICTION['mu']:g}, p = {FRICTION['p']:g}, {duration:g} ms",
+                 quick=quick, letters=letters)
     columns = ("r1_mm", "final_position_mm", "half_cycles", "mechanical_energy_lost_mJ", "friction_work_mJ",
                "energy_balance_relative_error")
     table = {c: [row[k] for row in rows] for k, c in enumerate(columns)}
     numbers = {
-        "mu": 0.285, "p": 0.012, "duration_ms": duration,
+        "mu": FRICTION["mu"], "p": FRICTION["p"], "duration_ms": duration,
         "rig": [dict(zip(columns, row)) for row in rows],
         "max_abs_energy_balance_relative_error": float(np.max(np.abs(table["energy_balance_relative_error"]))),
     }

@@ -1,6 +1,6 @@
 """Hugoniots of four chains: U_s against u_p, the jump conditions, and the wake's "temperature".
 
-Chains (studies.chains.CHAINS): the magnets (600 ms), the Toda lattice m = A = B = 1 at
+Chains (studies.scaffold.CHAINS): the magnets (600 ms), the Toda lattice m = A = B = 1 at
 r0 = a = 10 mm (100 ms), Lennard-Jones m = epsilon = sigma = 1 at its minimum r0 = 2^(1/6) mm
 and Morse with alpha r_e = 6 at r_e = r0 (30 ms, dt = 0.002 ms); each a long lattice pushed at
 u_p = V_I. Per run:
@@ -9,7 +9,7 @@ u_p = V_I. Per run:
   (`exact.weak_shock`), and against c0 + (4/3) s u_p, the leading edge of a weak dispersive
   shock (the KdV limit: the lead soliton is twice the mean jump high, and a KdV soliton's speed
   excess is twice its height's share; the Rankine-Hugoniot speed has the mean jump's);
-- the mean state behind (`hugoniot.wake_state`, gaps from a tenth to a third of the way to the
+- the mean state behind (`measures.wake_state`, gaps from a tenth to a third of the way to the
   front, last quarter of the run): the Rankine-Hugoniot speed D and particle velocity from its
   mean compression and mean force (`exact.jump`), against u_p and U_s;
 - the wake's oscillation energy per particle (kinetic + potential about the mean state),
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exact import jump, toda_lead_soliton, wake_energy, weak_shock
-from ..hugoniot import wake_state
-from ..plots import pyplot
-from .chains import CHAINS, chain_case, run_cases
-from .output import StudyResult
+from ...exact import jump, toda_lead_soliton, wake_energy, weak_shock
+from ...measures import wake_state
+from ...plots import pyplot, style_figure
+from ..output import StudyResult
+from ..scaffold import CHAINS, chain_case, run_cases
 
 NAME = "hugoniot"
 # chain -> (u_p values in m/s, duration ms, dt ms, output interval ms)
@@ -87,7 +87,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             "fit_lower_half": {"c0_m_per_s": float(fit_small[1]), "s": float(fit_small[0]),
                                "u_p_max_m_per_s": float(u[small].max())},
         }
-    fig = _figure(rows, theory)
+    fig = style_figure(_figure(rows, theory), "Hugoniots: long lattices pushed at $u_p$ ($U_s$, jump conditions, wake energy)", quick=quick)
     table = {key: [r.get(key) for r in rows] for key in rows[0] if key != "wake_gaps"}
     table["lead_soliton_speed_m_per_s"] = [r.get("lead_soliton_speed_m_per_s") for r in rows]
     numbers = {
@@ -99,6 +99,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
 
 
 def _figure(rows, theory):
+    from matplotlib.ticker import NullFormatter
+
     plt = pyplot()
     chains = list(theory)
     fig, axes = plt.subplots(2, len(chains), figsize=(4.2 * len(chains), 7.5), layout="constrained", squeeze=False)
@@ -116,11 +118,12 @@ def _figure(rows, theory):
                 label=f"fit: {th['fit_all']['c0_m_per_s']:.3f} + {th['fit_all']['s']:.3f} $u_p$")
         if chain == "toda":
             ax.plot(line[1:], CHAINS["toda"][1] * toda_lead_soliton(line[1:])[1], "r-", lw=0.8, label="exact lead soliton")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="speed (m/s)", title=chain)
+        ax.set(xlabel="$u_p$ (m/s)", ylabel="speed (m/s)", title=f"{chain}: front and jump speeds")
         ax.legend(fontsize="x-small")
         ax = axes[1, k]
         ax.loglog(u, [r["wake_oscillation_energy_mJ"] for r in mine], "o", label="wake oscillation energy")
         ax.loglog(u, [max(r["energy_jump_mJ"], 1e-12) for r in mine], "k^", mfc="none", label="energy jump condition")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="energy per particle (mJ)")
+        ax.set(xlabel="$u_p$ (m/s)", ylabel="energy per particle (mJ)", title=f"{chain}: the wake's energy")
+        ax.xaxis.set_minor_formatter(NullFormatter())  # crowded minor labels on a short log axis
         ax.legend(fontsize="x-small")
     return fig
