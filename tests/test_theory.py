@@ -142,8 +142,8 @@ def test_first_peak_limit_recovers_a_known_limit_with_its_uncertainty():
 def paper_runs(tmp_path_factory):
     """The paper's long lattice at V_I = 0.5, 0.75, 1.0 m/s for 30 linear periods (706 ms),
     measured by the dsw study's `measure`."""
-    from pylmp_lattice.studies import dsw
-    from pylmp_lattice.studies.common import sweep_runs
+    from pylmp_lattice.studies.literature import dsw
+    from pylmp_lattice.studies.scaffold import sweep_runs
 
     base, t0 = dsw.chain_base("magnet q=3", 30.0)
     runs = sweep_runs(base, tmp_path_factory.mktemp("dsw"), grid={"impactor.velocity": [0.5, 0.75, 1.0]})
@@ -165,7 +165,7 @@ def test_lead_speed_and_wake_frequency_against_the_paper_chain(paper_runs):
 @pytest.mark.lammps
 def test_critical_velocity_lies_between_decaying_and_persisting_wakes(paper_runs):
     """eta(T)/eta(T/2) at magnet 10: below DECAYS the wake decays, above PERSISTS it persists."""
-    from pylmp_lattice.studies.dsw import DECAYS, PERSISTS
+    from pylmp_lattice.studies.literature.dsw import DECAYS, PERSISTS
 
     decaying = [vi for vi, m in paper_runs.items() if m["eta_ratio"] < DECAYS]
     persisting = [vi for vi, m in paper_runs.items() if m["eta_ratio"] > PERSISTS]

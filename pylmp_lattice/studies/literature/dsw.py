@@ -16,7 +16,7 @@ Per run, measured against the theory's `predict`:
   1e-3 V_I, as Fig. 4) in the window ending at T, against the band edge c(r1)/pi; eta also at
   T/2: the wake "decays" where eta(T)/eta(T/2) < DECAYS, "persists" where it is > PERSISTS;
 - the mean gap and mean force next to the piston (gaps 2-11, the last fifth of the run,
-  `hugoniot.wake_state`) against r1 and F(r1);
+  `measures.wake_state`) against r1 and F(r1);
 - the first-peak limit A (with its standard error) of A - C/n over the same particles.
 Per chain: the predicted V* beside the knees of eta(V_I) (`measures.critical_velocities`)
 and the bracket [largest V_I that decays, smallest that persists].
@@ -30,20 +30,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures, theory
-from ..case import FORCE_LAWS
-from ..hugoniot import wake_state
-from ..plots import pyplot
-from ..simulation import load_trajectory, measure_run
-from . import STUDIES
-from .chains import CHAINS as LITERATURE_CHAINS
-from .chains import MAGNET, MAGNET_MASS, MAGNET_R0
-from .common import done_runs, sweep_runs
-from .output import StudyResult
+from ... import measures, theory
+from ...case import FORCE_LAWS
+from ...plots import pyplot, style_figure
+from ...simulation import load_trajectory, measure_run
+from .. import STUDIES
+from ..output import StudyResult
+from ..scaffold import CHAINS as LITERATURE_CHAINS
+from ..scaffold import MASS, PAPER_FORCE, R0, done_runs, sweep_runs
 
 NAME = "dsw"
 # chain -> (force, spacing r0 in mm, mass in g, table settings)
-CHAINS = {f"magnet q={q:g}": (MAGNET | {"q": q}, MAGNET_R0, MAGNET_MASS, {}) for q in (2.0, 3.0, 4.0, 5.0)}
+CHAINS = {f"magnet q={q:g}": (PAPER_FORCE | {"q": q}, R0, MASS, {}) for q in (2.0, 3.0, 4.0, 5.0)}
 CHAINS |= {name: LITERATURE_CHAINS[name] for name in ("toda", "lj")}
 FRACTIONS = (0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0)  # V_I / V*
 PERIODS = 40.0  # run length in linear periods T0 = 1/f0
@@ -95,7 +93,7 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
         span = max(0.2 * end, WINDOW_PERIODS * t0)
         steady[end] = measures.steady_oscillation(fine.t, fine.v[:, PARTICLE], vi, (end - span, end),
                                                   prominence=PROMINENCE)
-    wake = wake_state(fine.t, fine.v, fine.gaps(), law, mass, WAKE_GAPS, (0.8 * duration, duration))
+    wake = measures.wake_state(fine.t, fine.v, fine.gaps(), law, mass, WAKE_GAPS, (0.8 * duration, duration))
     eta_half, eta_end = steady[duration / 2].energy_ratio, steady[duration].energy_ratio
     ratio = eta_end / eta_half if np.isfinite(eta_half) and eta_half > 0 else np.nan
     trend = "decays" if not np.isfinite(eta_end) or ratio < DECAYS else "persists" if ratio > PERSISTS else "unclear"
@@ -143,7 +141,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         rows += mine
         per_chain[chain] = _chain_numbers(law, mass, r0, t0, v_star, mine)
     numbers = {
-        "title": STUDIES[NAME] + (" (quick)" if quick else ""),
+        "title": STUDIES[NAME] + (" (quick version)" if quick else ""),
         "method": "El, Chaos 15, 037103 (2005); El & Hoefer, Physica D 333, 11 (2016); pylmp_lattice.theory",
         "run_length_periods_T0": periods, "particle": PARTICLE + 1, "wake_gaps": [WAKE_GAPS[0] + 1, WAKE_GAPS[1]],
         "eta_prominence_over_V_I": PROMINENCE, "eta_ratio_decays_below": DECAYS, "eta_ratio_persists_above": PERSISTS,
@@ -155,7 +153,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                                                       for k in next(iter(per_chain.values())) if k != "knees"}}
     tables["chains"] |= {f"knee_{m}_m_per_s": [_cell(c["knees"][m].value) for c in per_chain.values()]
                          for m in measures.KNEE_METHODS}
-    return StudyResult(NAME, numbers, tables=tables, figure=_figure(rows, per_chain, numbers["title"]), quick=quick)
+    return StudyResult(NAME, numbers, tables=tables, figure=_figure(rows, per_chain, quick), quick=quick)
 
 
 def _predict(law, mass, r0, vi):
@@ -186,7 +184,7 @@ def _cell(x):
     return np.nan if x is None else x
 
 
-def _figure(rows, per_chain, title):
+def _figure(rows, per_chain, quick):
     plt = pyplot()
     fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
     ok = [r for r in rows if r["status"] == "done"]
@@ -221,17 +219,17 @@ def _figure(rows, per_chain, title):
     for a in ax.flat:
         a.axvline(1.0, color="k", ls="--", lw=0.8)
         a.set_xlabel("$V_I / V^*$ (theory's $V^*$)")
-    ax[0, 0].set(title="(a) $V_P$: A - C/n limit (o), lead speed (-), R-H (:)", ylabel="$V_P / V_0$")
+    ax[0, 0].set(title="$V_P$: A - C/n limit (o), lead speed (-), R-H (:)", ylabel="$V_P / V_0$")
     ax[0, 1].axhline(0, color="k", lw=0.5)
-    ax[0, 1].set(title="(b) $V_P$ against the lead speed: limit (o), plateau (x)", ylabel="relative error (%)")
+    ax[0, 1].set(title="$V_P$ against the lead speed: limit (o), plateau (x)", ylabel="relative error (%)")
     ax[0, 2].axhline(0, color="k", lw=0.5)
-    ax[0, 2].set(title="(c) wake frequency, magnet 10, against $c(r_1)/\\pi$", ylabel="relative error (%)")
-    ax[1, 0].set(title="(d) $\\eta$ at the end; knees: two-line (v), kneedle (^)", ylabel=r"$\eta$")
+    ax[0, 2].set(title="wake frequency, magnet 10, against $c(r_1)/\\pi$", ylabel="relative error (%)")
+    ax[1, 0].set(title="$\\eta$ at the end; knees: two-line (v), kneedle (^)", ylabel=r"$\eta$")
     ax[1, 1].axhline(0, color="k", lw=0.5)
-    ax[1, 1].set(title="(e) mean gap (o) and force (s) at gaps 2-11 against $r_1$, $F(r_1)$",
+    ax[1, 1].set(title="mean gap (o) and force (s) at gaps 2-11 against $r_1$, $F(r_1)$",
                  ylabel="relative error (%)")
     ax[1, 2].axhline(2.0, color="k", ls=":", lw=0.8)
-    ax[1, 2].set(title="(f) first peak: A - C/n limit (o), plateau (x)", ylabel="first peak / $V_I$")
+    ax[1, 2].set(title="first peak: A - C/n limit (o), plateau (x)", ylabel="first peak / $V_I$")
     ax[0, 0].legend(fontsize="x-small")
-    fig.suptitle(title)
-    return fig
+    return style_figure(fig, "Dispersive-shock theory (El's DSW fitting) against LAMMPS: $V_P$, the wake, "
+                        "$\\eta$ and $V^*$, first peaks", quick=quick)
