@@ -218,18 +218,31 @@ def _figure(rows, per_chain, quick):
         ax[1, 2].plot(x, get("first_peak_plateau_over_V_I"), "x", color=col, ms=4)
     for a in ax.flat:
         a.axvline(1.0, color="k", ls="--", lw=0.8)
-        a.set_xlabel("$V_I / V^*$ (theory's $V^*$)")
-    ax[0, 0].set(title="$V_P$: A - C/n limit (o), lead speed (-), R-H (:)", ylabel="$V_P / V_0$")
-    ax[0, 1].axhline(0, color="k", lw=0.5)
-    ax[0, 1].set(title="$V_P$ against the lead speed: limit (o), plateau (x)", ylabel="relative error (%)")
-    ax[0, 2].axhline(0, color="k", lw=0.5)
-    ax[0, 2].set(title="wake frequency, magnet 10, against $c(r_1)/\\pi$", ylabel="relative error (%)")
-    ax[1, 0].set(title="$\\eta$ at the end; knees: two-line (v), kneedle (^)", ylabel=r"$\eta$")
-    ax[1, 1].axhline(0, color="k", lw=0.5)
-    ax[1, 1].set(title="mean gap (o) and force (s) at gaps 2-11 against $r_1$, $F(r_1)$",
-                 ylabel="relative error (%)")
+        a.set_xlabel("$V_I / V^*$ ($V^*$ of the theory)")
+    for a in ax[0, 1], ax[0, 2], ax[1, 1]:
+        a.axhline(0, color="k", lw=0.5)
+    ax[0, 0].set(title="$V_P$", ylabel="$V_P / V_0$")
+    ax[0, 1].set(title="$V_P$ against the lead speed", ylabel="relative error (%)")
+    ax[0, 2].set(title="wake frequency", ylabel="relative error against $c(r_1)/\\pi$ (%)")
+    ax[1, 0].set(title="$\\eta$ of magnet 10 at the end", ylabel=r"$\eta$")
+    ax[1, 1].set(title="wake next to the piston (gaps 2-11)", ylabel="relative error (%)")
     ax[1, 2].axhline(2.0, color="k", ls=":", lw=0.8)
-    ax[1, 2].set(title="first peak: A - C/n limit (o), plateau (x)", ylabel="first peak / $V_I$")
-    ax[0, 0].legend(fontsize="x-small")
+    ax[1, 2].set(title="first peak", ylabel="first peak / $V_I$")
+    ax[0, 0].legend(fontsize="x-small", loc="upper left")
+    keys = {  # what the markers and lines mean, in black
+        (0, 0): [("o", "", "LAMMPS, A - C/n limit"), ("", "-", "lead speed (theory)"), ("", ":", "Rankine-Hugoniot")],
+        (0, 1): [("o", "-", "A - C/n limit"), ("x", "", "plateau, last quarter")],
+        (1, 0): [("v", "", "two-line knee"), ("^", "", "kneedle knee")],
+        (1, 1): [("o", "-", "mean gap against $r_1$"), ("s", "--", "mean force against $F(r_1)$")],
+        (1, 2): [("o", "", "A - C/n limit"), ("x", "", "plateau, last quarter")],
+    }
+    for (i, j), entries in keys.items():
+        handles = [ax[i, j].plot([], [], marker=m, ls=ls or "none", color="k", ms=4, label=label)[0]
+                   for m, ls, label in entries]
+        if (i, j) == (0, 0):
+            ax[i, j].add_artist(ax[i, j].get_legend())
+            ax[i, j].legend(handles=handles, fontsize="x-small", loc="lower right")
+        else:
+            ax[i, j].legend(handles=handles, fontsize="x-small")
     return style_figure(fig, "Dispersive-shock theory (El's DSW fitting) against LAMMPS: $V_P$, the wake, "
                         "$\\eta$ and $V^*$, first peaks", quick=quick)
