@@ -93,6 +93,9 @@ def test_s4_quick(tmp_path):
         assert 0 < row["final_position_mm"] < row["r1_mm"] and row["half_cycles"] >= 1
         assert math.isfinite(row["friction_work_mJ"]) and row["friction_work_mJ"] > 0
     assert (tmp_path / "s4.png").stat().st_size > 0 and (tmp_path / "s4_rig.csv").exists()
+    # the calibration from the traces with 1 % noise: mu and p within 3 % (measured 4e-4, 2e-3)
+    calibration = data["calibration"]
+    assert abs(calibration["mu_relative_error"]) < 0.03 and abs(calibration["p_relative_error"]) < 0.03
 
 
 # ---------------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from ._common import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
 from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front
+from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion  # noqa: F401 (Fig. S4 calibration)
 from .linear import linear_frequency, linear_wave_speed
 from .oscillation import Oscillations, SteadyOscillation, oscillations, steady_oscillation
 from .peaks import FirstPeaks, first_peaks
