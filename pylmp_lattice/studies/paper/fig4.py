@@ -28,11 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ... import measures
+from ... import measures, theory
 from ...case import case_from_dict
+from ...forcelaw import PowerLaw
 from ...plots import pyplot, style_figure
 from ..output import StudyResult
-from ..scaffold import PAPER_LAW, R0, linear_constants, paper_case, paper_dict, sweep_runs
+from ..scaffold import MASS, PAPER_FORCE, PAPER_LAW, R0, linear_constants, paper_case, paper_dict, sweep_runs
 
 NAME = "fig4"
 PARTICLE = 9  # 0-based: magnet 10
@@ -81,6 +82,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "runs": rows,
         "V_star_by_run_length_ms": v_star,
         "V_star_over_V0": {k: c.value / v0 for k, c in final.items()},
+        "V_star_dsw_m_per_s": (dsw := _dsw_critical_velocity(PAPER_FORCE)), "V_star_dsw_over_V0": dsw / v0,
         "V_star_against_q": by_q,
         "q_sweep_common_fraction_range_of_V0": common,
         "q_sweep_run_length_periods": q_periods,
@@ -92,7 +94,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     velocity = {key: [row.get(key) for row in rows] for key in
                 ("V_I_m_per_s", "status", "V_P_m_per_s", "V_P_converged", "f_Hz", "f_over_f0", "eta")}
     velocity["eta"] = [np.nan if e is None else e for e in velocity["eta"]]
-    fig = _figure(rows, v0, final, by_q, common, duration, quick)
+    fig = _figure(rows, v0, final, dsw, by_q, common, duration, quick)
     return StudyResult(NAME, numbers, tables={"velocity": velocity, "q_runs": q_rows, "V_star": table}, figure=fig,
                        quick=quick)
 
@@ -128,9 +130,11 @@ def _against_q(root, qs, fractions, periods, f0_paper):
         y = np.array([m["eta_by_run_length"][f"{end:g}"] for _, m in used])
         knees = measures.critical_velocities(x, y)
         v0q = scale[(c, q)][0]
+        dsw = _dsw_critical_velocity(force)
         by_q[c][f"{q:g}"] = {
             "force": force, "V0_m_per_s": v0q, "duration_ms": end, "V_star": knees[KNEE], "V_star_all": knees,
-            "V_star_over_V0": knees[KNEE].value / v0q, "runs": len(mine), "used": len(used),
+            "V_star_over_V0": knees[KNEE].value / v0q, "V_star_dsw_m_per_s": dsw, "V_star_dsw_over_V0": dsw / v0q,
+            "runs": len(mine), "used": len(used),
             "touched": [{"V_I_m_per_s": m["V_I_m_per_s"], "error": m["error"]} for _, m in mine if m["status"] != "done"],
             "V_I_m_per_s": x, "eta": y}
     q_rows = {"convention": [c for c, *_ in measured], "q": [q for _, q, *_ in measured],
@@ -141,12 +145,24 @@ def _against_q(root, qs, fractions, periods, f0_paper):
     return by_q, q_rows, common
 
 
+def _dsw_critical_velocity(force: dict) -> float:
+    """The dispersive-shock theory's V* (`theory.critical_velocity`), m/s, for a power law."""
+    return theory.critical_velocity(PowerLaw(force["K"], force["b"], force["q"]), MASS, R0)
+
+
 def _v_star_table(v0, final, by_q) -> dict:
-    """The paper's V*, the knees of the V_I sweep (q = 3) and of the q sweep, side by side."""
-    rows = [("paper", "~0.5 V0 (Fig. 4(c))", 3.0, "-", PAPER["V_star_over_V0"] * v0, PAPER["V_star_over_V0"])]
+    """The paper's V*, the knees of the V_I sweep (q = 3) and of the q sweep, and the DSW
+    theory's V* (the wake's harmonic edge reaches wavenumber pi at the piston), side by side."""
+    dsw = _dsw_critical_velocity(PAPER_FORCE)
+    rows = [("paper", "~0.5 V0 (Fig. 4(c))", 3.0, "paper's law", PAPER["V_star_over_V0"] * v0, PAPER["V_star_over_V0"]),
+            ("DSW theory", "harmonic edge at k = pi", 3.0, "paper's law", dsw, dsw / v0)]
     rows += [("V_I sweep", f"knee: {m}", 3.0, "paper's law", c.value, c.value / v0) for m, c in final.items()]
-    rows += [("q sweep", f"knee: {m}", float(q), conv, c.value, c.value / d["V0_m_per_s"])
-             for conv, per_q in by_q.items() for q, d in per_q.items() for m, c in d["V_star_all"].items()]
+    for conv, per_q in by_q.items():
+        for q, d in per_q.items():
+            rows += [("q sweep", f"knee: {m}", float(q), conv, c.value, c.value / d["V0_m_per_s"])
+                     for m, c in d["V_star_all"].items()]
+            rows.append(("DSW theory", "harmonic edge at k = pi", float(q), conv, d["V_star_dsw_m_per_s"],
+                         d["V_star_dsw_over_V0"]))
     columns = ("source", "definition", "q", "law", "V_star_m_per_s", "V_star_over_V0")
     return {name: [row[k] for row in rows] for k, name in enumerate(columns)}
 
@@ -195,7 +211,7 @@ def _contact_bracket(runs) -> dict:
             "first_contact": hi[1]}
 
 
-def _figure(rows, v0, v_star, by_q, common, duration, quick):
+def _figure(rows, v0, v_star, dsw, by_q, common, duration, quick):
     plt = pyplot()
     fig, ax = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
     done = [r for r in rows if r["status"] == "done"]
@@ -205,7 +221,7 @@ def _figure(rows, v0, v_star, by_q, common, duration, quick):
     ax[0, 0].axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     touched = [r["V_I_m_per_s"] for r in rows if r["status"] != "done"]
     for k, x in enumerate(touched):
-        ax[0, 0].axvline(x, color="C3", ls="--", lw=0.6, label=f"magnets touched ({len(touched)} runs)" if k == 0 else None)
+        ax[0, 0].axvline(x, color="C3", ls="--", lw=0.6, label=f"magnets touched ({len(touched)} run{'s' if len(touched) > 1 else ''})" if k == 0 else None)
     ax[0, 0].set(title="propagation velocity", xlabel="$V_I$ (m/s)", ylabel="$V_P$ (m/s)")
     ax[0, 0].legend(fontsize="small")
     ax[0, 1].plot(vi, get("f_over_f0"), "o-", ms=3)
@@ -214,16 +230,19 @@ def _figure(rows, v0, v_star, by_q, common, duration, quick):
     for k, (method, c) in enumerate(v_star.items()):
         if np.isfinite(c.value):
             ax[1, 0].axvline(c.value, color=f"C{k + 1}", ls="--", lw=0.8, label=f"$V^*$ {method}: {c.value:.2f} m/s")
+    ax[1, 0].axvline(dsw, color="k", ls="-", lw=0.8, label=f"$V^*$ DSW theory: {dsw:.2f} m/s")
     ax[1, 0].set(title="oscillation energy ratio", xlabel="$V_I$ (m/s)", ylabel=r"$\eta$")
     ax[1, 0].legend(fontsize="x-small")
-    for convention, per_q in by_q.items():
-        q = [float(k) for k in per_q]
+    for k, (convention, per_q) in enumerate(by_q.items()):
+        q = [float(x) for x in per_q]
         touched = sum(len(d["touched"]) for d in per_q.values())
-        ax[1, 1].plot(q, [per_q[k]["V_star_over_V0"] for k in per_q], "o-",
-                      label=f"{convention} ({touched} runs touched)")
+        ax[1, 1].plot(q, [per_q[x]["V_star_over_V0"] for x in per_q], "o-", color=f"C{k}",
+                      label=f"{convention}: {KNEE.replace('_', '-')} knee ({touched} touched)")
+        ax[1, 1].plot(q, [per_q[x]["V_star_dsw_over_V0"] for x in per_q], "s--", mfc="none", color=f"C{k}",
+                      label=f"{convention}: DSW theory")
     span = f"{min(common):.2g}-{max(common):.2g} $V_0$" if common else "none"
     ax[1, 1].axhline(PAPER["V_star_over_V0"], color="k", ls=":", lw=0.8, label="paper, q = 3: ~0.5")
     ax[1, 1].set(title=f"critical velocity against q ($V_I$ in {span})", xlabel="q",
-                 ylabel=f"$V^*/V_0$ ({KNEE.replace('_', '-')} knee)")
-    ax[1, 1].legend(fontsize="small")
+                 ylabel="$V^*/V_0$")
+    ax[1, 1].legend(fontsize="x-small", loc="best")
     return style_figure(fig, f"Fig. 4: long lattice, constant drive, no friction, {duration:g} ms", quick=quick)
