@@ -9,7 +9,7 @@ from pylmp_lattice.exact import (harmonic_overshoot_limit, harmonic_piston_veloc
                                  toda_piston_wake, toda_soliton, toda_soliton_speed, wake_energy, weak_shock)
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw, Toda
 from pylmp_lattice.measures import lead_pulse, staggered_amplitude
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 from pylmp_lattice.studies.literature.toda import piston_case, soliton_case, soliton_speed
 from pylmp_lattice.studies.scaffold import MAGNET_STIFFNESS, chain_case
 from pylmp_lattice.studies.scaffold import MASS as MAGNET_MASS

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice.plots import panels
-from pylmp_lattice.simulation import read_run, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.studies import STUDIES
 
 SYMBOLS = ("V_I", "V_P", "V_0", "u_p", "f_0", "T_s", "T_r", "r_1")  # names that belong in $...$
@@ -129,7 +129,7 @@ def test_run_figure(tmp_path, case_factory, drive):
     impactor, sections = DRIVES[drive]
     case = case_factory(particles=30, duration=60.0, impactor=impactor, **sections)
     simulate(case, tmp_path)
-    run = read_run(tmp_path)
+    run = RunFolder(tmp_path)
     fig = run.figure()
     a, b, c, d = check_figure(fig, letters="abcd")
     assert case.name in fig._suptitle.get_text()

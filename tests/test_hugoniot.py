@@ -8,7 +8,7 @@ import pytest
 from pylmp_lattice.exact import weak_shock
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw
 from pylmp_lattice.measures import wake_state
-from pylmp_lattice.simulation import load_trajectory, run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.studies.literature.hugoniot import measure
 from pylmp_lattice.studies.scaffold import MASS as MAGNET_MASS
 from pylmp_lattice.studies.scaffold import R0 as MAGNET_R0
@@ -48,7 +48,7 @@ def test_magnet_chain_weak_shock_limit(tmp_path):
     for u_p in (0.1, 0.5):
         case = chain_case("magnet", f"up{u_p}", {"velocity": u_p}, 600.0, output=0.5)
         summary = run_case(case, tmp_path / case.name, figure=False)
-        rows[u_p] = measure("magnet", u_p, case, summary, load_trajectory(case, tmp_path / case.name))
+        rows[u_p] = measure("magnet", u_p, case, summary, RunFolder(tmp_path / case.name).trajectory())
     for u_p, row in rows.items():
         line = ws.c0 + ws.s * u_p
         assert row["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(u_p, rel=1e-2)

@@ -16,7 +16,6 @@ parallel, one member folder per case under the study's folder.
 
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -26,7 +25,7 @@ from .. import measures
 from ..case import Case, case_from_dict, case_to_dict
 from ..errors import LatticeError
 from ..forcelaw import PowerLaw
-from ..simulation import SUMMARY, load_trajectory
+from ..run_folder import RunFolder
 from ..sweep import Member, Sweep, member_id, run_sweep
 from ..sweep.store import DONE, member_folder
 from ..trajectory import Trajectory
@@ -141,8 +140,8 @@ class SweepRun:
         return {label: self.member.params[key], "status": self.status, "error": self.error}
 
     def trajectory(self) -> Trajectory:
-        """The member's trajectory, read through `simulation.load_trajectory`."""
-        return load_trajectory(self.member.case, self.folder)
+        """The member's trajectory (`RunFolder.trajectory`)."""
+        return RunFolder(self.folder).trajectory()
 
 
 def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> list[SweepRun]:
@@ -155,7 +154,7 @@ def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> li
     for m in sweep.members():
         row = table.loc[m.id]
         folder = member_folder(root, m.id)
-        summary = json.loads((folder / SUMMARY).read_text()) if row["status"] == DONE else None
+        summary = RunFolder(folder).summary if row["status"] == DONE else None
         error = row["error"] if isinstance(row["error"], str) else None
         runs.append(SweepRun(m, row["status"], error, folder, summary))
     return runs
@@ -184,5 +183,6 @@ def run_cases(cases: list[Case], root: Path, workers: int | None = None) -> list
     out = []
     for case in cases:
         folder = member_folder(root, member_id(case))
-        out.append((json.loads((folder / SUMMARY).read_text()), load_trajectory(case, folder)))
+        run = RunFolder(folder)
+        out.append((run.summary, run.trajectory()))
     return out

@@ -33,7 +33,7 @@ import numpy as np
 from ... import measures, theory
 from ...case import FORCE_LAWS
 from ...plots import pyplot, style_figure
-from ...simulation import load_trajectory, measure_run
+from ...run_folder import RunFolder
 from .. import STUDIES
 from ..output import StudyResult
 from ..scaffold import CHAINS as LITERATURE_CHAINS
@@ -82,12 +82,12 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
     """One run's measures (see the module docstring) beside the theory's numbers."""
     case, vi = run.member.case, run.member.params["impactor.velocity"]
     law, mass, duration = case.force, float(case.chain.mass), case.run.duration
-    front, _ = measure_run(case, run.folder)
+    front = RunFolder(run.folder).front()
     reached = int(np.sum(np.isfinite(front.arrival)))
     later = np.arange(max(reached // 4, 1), reached - 1)  # gaps (0-based) and particles the front passed
     vp_limit = theory.first_peak_limit(later + 1, front.propagation_velocity[later])
     peak_limit = theory.first_peak_limit(later, front.peaks.peak_velocity[later] / vi)
-    fine = load_trajectory(case, run.folder, "fine")
+    fine = RunFolder(run.folder).trajectory("fine")
     steady = {}
     for end in (duration / 2, duration):
         span = max(0.2 * end, WINDOW_PERIODS * t0)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ... import measures
 from ...plots import pyplot, style_figure
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import EXPERIMENT_PEAK as VI
 from ..scaffold import EXPERIMENT_RISE as RISE

@@ -15,7 +15,7 @@ import numpy as np
 
 from ...forcelaw import fit_power_law
 from ...plots import pyplot, separate, style_figure, twin_axis
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import EXPERIMENT_STAND_IN as STAND_IN
 from ..scaffold import PAPER_LAW, R0, experiment_case

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..long_lattice import analyse
 from ..output import StudyResult
 from ..scaffold import paper_case

@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import measures
 from ...plots import pyplot, style_figure
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import EXPERIMENT_STAND_IN, experiment_case, paper_case
 

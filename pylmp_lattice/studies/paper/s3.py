@@ -24,7 +24,7 @@ from ... import measures
 from ...case import SecondNeighbour, case_from_dict, case_to_dict
 from ...forcelaw import PowerLaw
 from ...plots import accepted_velocity, pyplot, style_figure
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case, particles_reached
 

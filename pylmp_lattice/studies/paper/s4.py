@@ -24,7 +24,7 @@ import numpy as np
 from ... import measures
 from ...case import case_from_dict
 from ...plots import pyplot, style_figure
-from ...simulation import friction_work, simulate
+from ...run_folder import RunFolder, simulate
 from ..output import StudyResult
 from ..scaffold import FRICTION, MASS, PAPER_FORCE, PAPER_LAW
 
@@ -63,7 +63,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         turning = np.flatnonzero(np.diff(np.sign(traj.v[:, 1])) != 0)
         # mechanical energy, mJ (g (m/s)^2 = mJ): the magnet may still move at the end of a short run
         energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * case.chain.masses()[1] * traj.v[:, 1] ** 2
-        friction = friction_work(folder)
+        friction = RunFolder(folder).friction_work()
         lost = energy[0] - energy[-1]
         rows.append((r1, x[-1], len(turning), lost, friction, friction / lost - 1))
         traces.append((traj.t[::FIT_EVERY], x[::FIT_EVERY]))

@@ -18,7 +18,7 @@ import numpy as np
 
 from ... import measures
 from ...exact import harmonic_piston_velocity
-from ...simulation import simulate
+from ...run_folder import simulate
 from ..long_lattice import analyse
 from ..output import StudyResult
 from ..scaffold import MAGNET_STIFFNESS, MASS, PAPER_LAW, R0, paper_case

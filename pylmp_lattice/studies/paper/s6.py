@@ -15,7 +15,7 @@ import numpy as np
 
 from ... import measures
 from ...plots import accepted_velocity, pyplot, style_figure
-from ...simulation import measure_run
+from ...run_folder import RunFolder
 from ..output import StudyResult
 from ..scaffold import FRICTION, done_runs, paper_dict, sweep_runs
 
@@ -33,7 +33,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     rows, table = [], {}
     for r, row in done_runs(runs, rows, "mu", "friction.mu"):
         mu = row["mu"]
-        vp = accepted_velocity(measure_run(r.member.case, r.folder)[0])
+        vp = accepted_velocity(RunFolder(r.folder).front())
         best = int(np.nanargmax(vp))
         row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
                 "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}

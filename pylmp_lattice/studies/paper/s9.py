@@ -19,7 +19,7 @@ import numpy as np
 
 from ... import measures
 from ...plots import pyplot, style_figure
-from ...simulation import execute, load_trajectory
+from ...run_folder import execute
 from ..output import StudyResult
 from ..scaffold import paper_case
 
@@ -41,7 +41,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         window = (duration - WINDOW, duration)
         case = paper_case(f"s9_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration)
         # magnets 10 and 11 only: the 3 s run has 30001 frames of ~800 magnets
-        pair = load_trajectory(case, execute(case, out / NAME / case.name, overwrite=True), "chain", (PARTICLE, PARTICLE + 1))
+        pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", (PARTICLE, PARTICLE + 1))
         t, v = pair.t, pair.v[:, 0]
         portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, 0)
         steady = measures.steady_oscillation(t, v, vi, window)
