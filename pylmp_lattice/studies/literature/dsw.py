@@ -4,9 +4,9 @@ Chains: the magnet law F = K/(r + b)^q with K, b fixed and q = 2, 3 (the paper's
 (m = 1.084 g, r0 = 12 mm); the Toda lattice (m = A = B = 1, r0 = a = 10 mm) and the
 Lennard-Jones chain (m = epsilon = sigma = 1 at its minimum), each a long lattice pushed at
 constant V_I = x V* for x in FRACTIONS, V* the theory's critical speed of that chain.
-Every chain runs for PERIODS of its own linear period T0 = 1/f0, with dt, the output interval
-and the fine interval scaled with T0 from the paper's (0.01, 1 and 0.1 ms for T0 = 23.5 ms), so
-every run has the same number of steps and frames.
+Every chain runs for PERIODS of its own linear period T0 = 1/f0, with dt = 0.01 ms T0/PAPER_T0
+(T0/2353), frames of the chain every 100 steps and of magnets 1-12 every 10, so every run has
+the same number of steps and frames.
 
 Per run, measured against the theory's `predict`:
 - V_P: the summary's plateau (the last quarter of the gaps crossed), and its limit n -> oo from
@@ -46,7 +46,7 @@ CHAINS |= {name: LITERATURE_CHAINS[name] for name in ("toda", "lj")}
 FRACTIONS = (0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0)  # V_I / V*
 PERIODS = 40.0  # run length in linear periods T0 = 1/f0
 QUICK = {"chains": ("magnet q=3",), "fractions": (0.5, 1.5), "periods": 17.0}
-PAPER_T0 = 23.53  # ms, 1/f0 of the paper's chain: the time step and outputs scale from it
+PAPER_T0 = 23.53  # ms, about 1/f0 of the paper's chain (23.520): the time step scales from it
 PARTICLE = 9  # 0-based: magnet 10, where eta and f are measured (as Fig. 4)
 FINE = tuple(range(1, 13))  # magnets written at the fine interval: the piston's neighbours
 WAKE_GAPS = (1, 11)  # gaps 2-11 (0-based 1..10), next to the piston
