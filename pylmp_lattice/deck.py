@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .case import Case
+from .case import Case, check_name
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
@@ -160,7 +160,7 @@ def data_text(case: Case) -> str:
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
     lines = [
-        f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
+        f"# {check_name(case.name)}: {n} magnets on the x axis (LAMMPS units si)",
         "",
         f"{n} atoms",
         f"{len(pairs)} bonds",
@@ -188,13 +188,16 @@ def data_text(case: Case) -> str:
 
 
 def deck_text(case: Case, replicas: int = 1) -> str:
-    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
+    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas).
+
+    Every value from the case is a validated number or choice, or the name (an identifier,
+    checked again here) in a comment: no input can start a LAMMPS command."""
     run = case.run
     n_steps = run.steps()
     thermo_every = max(1, n_steps // 20)
     chain = uses_chain_engine(case)
     return f"""\
-# pylmp_lattice deck for case '{case.name}'
+# pylmp_lattice deck for case '{check_name(case.name)}'
 # Run it in this folder with:  lmp -in {DECK}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
