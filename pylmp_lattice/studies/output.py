@@ -48,13 +48,14 @@ def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
     out.mkdir(parents=True, exist_ok=True)
     files, replaced = {}, []
     for key, columns in result.tables.items():
-        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c), replaced)
+        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c),
+                                         replaced)
     if result.figure is not None:
         from ..plots import pyplot
 
         for ext in ("png", "pdf"):
-            files[ext] = _replace(out / f"{result.name}.{ext}", lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e),
-                                  replaced)
+            save = lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e)  # noqa: E731
+            files[ext] = _replace(out / f"{result.name}.{ext}", save, replaced)
         pyplot().close(result.figure)  # saved: pyplot need not keep it (`study all` draws dozens)
     data = result.to_dict() | {"files": {k: p.name for k, p in files.items()}}
     files["json"] = _replace(out / f"{result.name}.json", lambda p: p.write_text(dumps(data) + "\n"), replaced)

@@ -101,8 +101,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     axes[1, 1].loglog(tt, amps[0] / velocities[-1] * (tt / tt[0]) ** -1.5, "k--", label="$t^{-3/2}$")
     axes[1, 1].set(xlabel="t (ms)", ylabel="max |$v_5 - u_p$| / $u_p$ per period", title="the wake at particle 5 decays")
     axes[1, 1].legend(fontsize="small")
-    style_figure(fig, f"Harmonic chain (the paper's linear lattice), {PARTICLES} particles, far end held, piston $u_p$, "
-                 f"{duration:g} ms", quick=quick)
+    style_figure(fig, f"Harmonic chain (the paper's linear lattice), {PARTICLES} particles, far end held, "
+                 f"piston $u_p$, {duration:g} ms", quick=quick)
     numbers = {
         "chain": {"k_N_per_mm": MAGNET_STIFFNESS, "mass_g": MAGNET_MASS, "r0_mm": MAGNET_R0, "particles": PARTICLES,
                   "omega_rad_per_ms": omega, "duration_ms": duration, "dt_ms": 0.01},

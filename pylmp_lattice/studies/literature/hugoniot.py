@@ -87,7 +87,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             "fit_lower_half": {"c0_m_per_s": float(fit_small[1]), "s": float(fit_small[0]),
                                "u_p_max_m_per_s": float(u[small].max())},
         }
-    fig = style_figure(_figure(rows, theory), "Hugoniots: long lattices pushed at $u_p$ ($U_s$, jump conditions, wake energy)", quick=quick)
+    fig = style_figure(_figure(rows, theory), "Hugoniots: long lattices pushed at $u_p$ ($U_s$, jump conditions, "
+                       "wake energy)", quick=quick)
     table = {key: [r.get(key) for r in rows] for key in rows[0] if key != "wake_gaps"}
     table["lead_soliton_speed_m_per_s"] = [r.get("lead_soliton_speed_m_per_s") for r in rows]
     numbers = {

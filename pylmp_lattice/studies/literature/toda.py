@@ -106,7 +106,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     axes[1, 0].set(xlabel="piston speed $u_p$ (m/s)", ylabel="max $|r_{n+1} - r_n|$, gaps 0-5 (mm)",
                    title="period two: relaxes below 2, persists above")
     axes[1, 0].legend(fontsize="small")
-    axes[1, 1].plot(u_line[1:], toda_lead_soliton(u_line[1:])[1], "k-", lw=0.8, label=r"lead soliton $\sinh(\kappa)/\kappa$, $\cosh\kappa = 1 + u_p$")
+    axes[1, 1].plot(u_line[1:], toda_lead_soliton(u_line[1:])[1], "k-", lw=0.8,
+                    label=r"lead soliton $\sinh(\kappa)/\kappa$, $\cosh\kappa = 1 + u_p$")
     axes[1, 1].plot(u, [p["front_speed_sites_per_ms"] for p in pistons], "o", label="LAMMPS front")
     axes[1, 1].set(xlabel="piston speed $u_p$ (m/s)", ylabel="front speed (sites/ms)", title="the front")
     style_figure(fig, f"Toda lattice (m = A = B = 1, a = {A_GAP:g} mm): a soliton, and the piston problem over "

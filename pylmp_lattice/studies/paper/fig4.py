@@ -90,7 +90,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     }
     if quick:
         numbers["quick_cannot_show"] = {
-            "V_star_by_run_length_ms": "with 8 values of V_I the knees, and how they move with the run length, are rough"}
+            "V_star_by_run_length_ms": "with 8 values of V_I the knees, and how they move with the run length, "
+                                       "are rough"}
     velocity = {key: [row.get(key) for row in rows] for key in
                 ("V_I_m_per_s", "status", "V_P_m_per_s", "V_P_converged", "f_Hz", "f_over_f0", "eta")}
     velocity["eta"] = [np.nan if e is None else e for e in velocity["eta"]]
@@ -135,7 +136,8 @@ def _against_q(root, qs, fractions, periods, f0_paper):
             "force": force, "V0_m_per_s": v0q, "duration_ms": end, "V_star": knees[KNEE], "V_star_all": knees,
             "V_star_over_V0": knees[KNEE].value / v0q, "V_star_dsw_m_per_s": dsw, "V_star_dsw_over_V0": dsw / v0q,
             "runs": len(mine), "used": len(used),
-            "touched": [{"V_I_m_per_s": m["V_I_m_per_s"], "error": m["error"]} for _, m in mine if m["status"] != "done"],
+            "touched": [{"V_I_m_per_s": m["V_I_m_per_s"], "error": m["error"]}
+                        for _, m in mine if m["status"] != "done"],
             "V_I_m_per_s": x, "eta": y}
     q_rows = {"convention": [c for c, *_ in measured], "q": [q for _, q, *_ in measured],
               "V_I_over_V0": [x for _, _, x, _ in measured],
@@ -221,7 +223,8 @@ def _figure(rows, v0, v_star, dsw, by_q, common, duration, quick):
     ax[0, 0].axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     touched = [r["V_I_m_per_s"] for r in rows if r["status"] != "done"]
     for k, x in enumerate(touched):
-        ax[0, 0].axvline(x, color="C3", ls="--", lw=0.6, label=f"magnets touched ({len(touched)} run{'s' if len(touched) > 1 else ''})" if k == 0 else None)
+        label = f"magnets touched ({len(touched)} run{'s' if len(touched) > 1 else ''})"
+        ax[0, 0].axvline(x, color="C3", ls="--", lw=0.6, label=label if k == 0 else None)
     ax[0, 0].set(title="propagation velocity", xlabel="$V_I$ (m/s)", ylabel="$V_P$ (m/s)")
     ax[0, 0].legend(fontsize="small")
     ax[0, 1].plot(vi, get("f_over_f0"), "o-", ms=3)

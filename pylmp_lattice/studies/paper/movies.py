@@ -54,7 +54,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
 
     # the last frame of S2 stands for the movies in NAME.png
     still = style_figure(stills[1], "Movie S2 (last frame)", quick=quick, letters="")
-    numbers = {"stand_in_impact_S1": EXPERIMENT_STAND_IN, "format": fmt, "frames": frames, "fps": fps, "movie_files": {k: p.name for k, p in files.items()},
+    numbers = {"stand_in_impact_S1": EXPERIMENT_STAND_IN,
+               "format": fmt, "frames": frames, "fps": fps, "movie_files": {k: p.name for k, p in files.items()},
                "ffmpeg_available": fmt == "mp4"}
     return StudyResult(NAME, numbers, figure=still, quick=quick)
 

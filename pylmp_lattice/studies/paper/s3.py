@@ -94,8 +94,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         reached = particles_reached(store[label].arrival)
     left.set(title=f"propagation velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="$V_P$ (m/s)",
              xlim=(0, reached))
-    right.set(title=f"first peak velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="first peak velocity (m/s)",
-              xlim=(0, reached))
+    right.set(title=f"first peak velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n",
+              ylabel="first peak velocity (m/s)", xlim=(0, reached))
     left.legend(fontsize="small", title="second neighbours")
     right.legend(fontsize="small", title="second neighbours")
     style_figure(fig, f"Fig. S3: long lattice, constant drive, no friction, second neighbours, {duration:g} ms",

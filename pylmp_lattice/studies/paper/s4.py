@@ -3,8 +3,8 @@ r1 apart, released at rest 1.8 mm from the left one, oscillates and stops by fri
 
 Six separations r1 from 249.5 mm to 30.1 mm (the paper's range; the four inner values are ours,
 the paper does not list them), mu = 0.285, p = 0.012; the middle magnet's position against time
-as in Fig. S4(c-h). Per r1: the final position (at rest once the run is long enough), the number of half cycles, and the energy
-check: mechanical energy lost between the release and the end against the friction work
+as in Fig. S4(c-h). Per r1: the final position (at rest once the run is long enough), the number
+of half cycles, and the energy check: mechanical energy lost between the release and the end against the friction work
 (LAMMPS's f_friction). Quick: the two end separations, 600 ms.
 
 Calibration, as an experimentalist would do it: each trace (every 0.5 ms) gets white noise of

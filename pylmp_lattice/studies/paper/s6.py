@@ -41,8 +41,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         ax.plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$\\mu$ = {mu:g}")
     ax.set(xlabel="gap n (magnets n and n+1)", ylabel="$V_P$ (m/s)", title="propagation velocity along the chain")
     ax.legend(fontsize="small", title="friction")
-    style_figure(fig, f"Fig. S6: long lattice, constant $V_I$ = {VI:g} m/s, friction p = {FRICTION['p']:g}, {duration:g} ms",
-                 quick=quick, letters="")
+    style_figure(fig, f"Fig. S6: long lattice, constant $V_I$ = {VI:g} m/s, friction p = {FRICTION['p']:g}, "
+                 f"{duration:g} ms", quick=quick, letters="")
     size = max((len(v) for v in table.values()), default=0)
     table = {"gap": np.arange(1, size + 1)} | {k: np.pad(v, (0, size - len(v)), constant_values=np.nan)
                                               for k, v in table.items()}

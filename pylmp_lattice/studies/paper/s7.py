@@ -45,7 +45,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     ax[0].set(xlabel="gap n (magnets n and n+1)", ylabel="$V_P$ (m/s)", title="propagation velocity")
     ax[0].legend(fontsize="small")
     ax[1].plot(x, [row["steady_oscillation"].amplitude for row in done], "o-")
-    ax[1].set(xlabel="$T_r$ (ms)", ylabel="amplitude (m/s)", title=f"steady amplitude, magnet {PARTICLE + 1}", xscale="log")
+    ax[1].set(xlabel="$T_r$ (ms)", ylabel="amplitude (m/s)", title=f"steady amplitude, magnet {PARTICLE + 1}",
+              xscale="log")
     ax[2].plot(x, [row["f_over_f0"] for row in done], "o-")
     ax[2].set(xlabel="$T_r$ (ms)", ylabel="$f/f_0$", title=f"steady frequency, magnet {PARTICLE + 1}", xscale="log")
     for a in ax[1:]:

@@ -65,11 +65,12 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     y = np.array([row["V_P_plateau"].mean for row in done])
     ax[0].semilogx(x, y, "o-", label="half-sine pulse")
     ax[0].axhline(v0, color="k", ls=":", label=f"$V_0$ = {v0:.3f} m/s")
-    ax[0].axhline(v_const, color="C3", ls="--", label=f"$V_P$ = {v_const:.3f} m/s under a constant drive, $V_I$ = {VI:g} m/s")
+    ax[0].axhline(v_const, color="C3", ls="--",
+                  label=f"$V_P$ = {v_const:.3f} m/s under a constant drive, $V_I$ = {VI:g} m/s")
     ax[0].set(title="steady propagation velocity", xlabel="$T_s/T_0$", ylabel="$V_P$ (m/s)")
     ax[0].legend(fontsize="small")
-    style_figure(fig, f"Fig. S8: long lattice, half-sine pulse of peak $V_I$ = {VI:g} m/s and length $T_s$, no friction, "
-                 f"{duration:g} ms", quick=quick, letters="bcd")
+    style_figure(fig, f"Fig. S8: long lattice, half-sine pulse of peak $V_I$ = {VI:g} m/s and length $T_s$, "
+                 f"no friction, {duration:g} ms", quick=quick, letters="bcd")
     numbers = {"V_I_peak_m_per_s": VI, "duration_ms": duration, "V0_m_per_s": v0, "T0_ms": t0,
                "V_P_constant_drive_m_per_s": v_const, "runs": rows, "shown": shown,
                "V_P_shortest_over_V0": y[0] / v0 if y.size else None,

@@ -69,7 +69,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     style_figure(fig, "Fig. S9: long lattice, constant drive, no friction: magnet 10", quick=quick)
     numbers = {"particle": PARTICLE + 1, "window_length_ms": WINDOW, "runs": rows}
     if quick:
-        numbers["quick_cannot_show"] = {"eta_by_time_ms": f"the settling at V_I = {SLOW:g} m/s, which needs {LONG:g} ms"}
+        numbers["quick_cannot_show"] = {"eta_by_time_ms": f"the settling at V_I = {SLOW:g} m/s, which needs "
+                                                          f"{LONG:g} ms"}
     table = {"V_I_m_per_s": [r["V_I_m_per_s"] for r in rows],
              "duration_ms": [r["duration_ms"] for r in rows],
              "eta": [r["steady_oscillation"].energy_ratio for r in rows],
