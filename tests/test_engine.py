@@ -1,4 +1,4 @@
-"""The chain engine (fix lattice/chain) against the stock path it replaces, on 1 and 2 ranks."""
+"""The chain engine (fix lattice/chain) against the stock path it replaces, on 1, 2 and 3 ranks."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.deck import render_replicas
 from pylmp_lattice.errors import ConfigError, ContactError
@@ -99,17 +100,28 @@ def test_contact_is_reported_at_the_step_of_a_step_by_step_guard(tmp_path):
 
 
 @pytest.mark.lammps
-def test_one_and_two_ranks_give_bit_identical_trajectories(tmp_path):
-    """200 magnets with friction on 1 and 2 MPI ranks (full doubles in the binary dumps):
-    identical x, v, f (each bond's force comes from the same two positions in the same order;
-    on one rank the drift joins the force pass, on two it does not: the same operations)."""
-    case = make_case(particles=200, velocity=2.0, duration=40.0, interval=1.0, friction=FRICTION)
-    runs = {n: simulate(case, tmp_path / f"np{n}", runner="lmp", nprocs=n) for n in (1, 2)}
-    assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
-    one, two = runs[1], runs[2]
-    assert np.max(np.abs(one.v)) > 1.0
-    for name in ("x0", "u", "v", "a"):
-        assert np.array_equal(getattr(one, name), getattr(two, name)), name
+def test_one_two_and_three_ranks_give_bit_identical_trajectories_and_front_records(tmp_path):
+    """700 magnets with friction and a pulse on 1, 2 and 3 MPI ranks (full doubles in the
+    binary dumps): the chain fix owns the state on every rank (its log says so) and exchanges
+    only the positions across the slab edges; x, v, f and the front record are identical bit
+    for bit (each bond's force comes from the same two positions in the same order)."""
+    case = make_case(particles=700, velocity=2.0, duration=100.0, interval=5.0, impactor=PROFILES["sine"],
+                     friction=FRICTION)
+    runs, fronts = {}, {}
+    for n in (1, 2, 3):
+        runs[n] = simulate(case, tmp_path / f"np{n}", runner="lmp", nprocs=n)
+        log = (tmp_path / f"np{n}" / "log.lammps").read_text()
+        assert f"owns the state (one pass per step, front record inside) on {n} rank" in log
+        if n > 1:
+            assert f"{n} by 1 by 1 MPI processor grid" in log
+        # the record's values (the file's chunks differ: one per rank)
+        fronts[n] = open_dump(tmp_path / f"np{n}" / "front.bin").read().data.view(np.uint64)
+    assert np.max(np.abs(runs[1].v)) > 1.0
+    assert np.sum(np.isfinite(read_front_record(case, tmp_path / "np1").front.peaks.peak_velocity)) >= 15
+    for n in (2, 3):
+        for name in ("x0", "u", "v", "a"):
+            assert np.array_equal(getattr(runs[1], name), getattr(runs[n], name)), (n, name)
+        assert np.array_equal(fronts[n], fronts[1]), n
 
 
 def test_engine_field_is_validated_and_round_trips():

@@ -104,6 +104,7 @@ FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
   peratom_flag = 1;
   size_peratom_cols = NOUT;
   peratom_freq = 1;
+  maxexchange = NPACK;
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
 }
@@ -188,13 +189,8 @@ void FixLatticeFront::sample()
     const double vi = v[i][0];
     mark[i] = mark_max(mark[i], vi);
     if (phase[i] == FINISHED) continue;
-    const bool waiting = phase[i] == WAITING;
-    if (waiting && !starts(phase[i], vi, levels)) {
-      vprev[i] = vi;
-      continue;
-    }
-    const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
-    advance(rec[i], phase[i], vi, waiting ? vprev[i] : rec[i][V_PREV], ai, levels, s);
+    sample_row(i, vi, f[i][0], rmass ? rmass[i] : mass[type[i]], vprev[i]);
+    if (phase[i] == WAITING) vprev[i] = vi;
   }
   end_sample();
 }

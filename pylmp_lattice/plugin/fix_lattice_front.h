@@ -37,6 +37,20 @@ class FixLatticeFront : public Fix {
   const FrontRecord::Sample &current_sample() const { return current; }
   void set_previous_velocities(const double *v, int stride);
 
+  /* The one per-atom sampling routine past the hot part (mark_max), for this fix's own pass and
+     fix lattice/chain's: the row of atom i if it is active or reaches the start level now, with
+     its v, f along x and mass at this sample, and v_waiting, its v at the previous sample (used
+     only if it was waiting). Returns its phase before. */
+  unsigned char sample_row(int i, double v, double f, double m, double v_waiting)
+  {
+    using namespace FrontRecord;
+    unsigned char &now = phase[i];
+    const unsigned char before = now;
+    if (before == ACTIVE || starts(before, v, levels))
+      advance(rec[i], now, v, before == WAITING ? v_waiting : rec[i][V_PREV], f / m, levels, current);
+    return before;
+  }
+
  private:
   int rows;                                  // per-atom arrays allocated
   double *shown;                             // what the rows' V_ABS_MAX column holds
