@@ -53,7 +53,7 @@ void FixLatticeChain::build_lists()
     } else if (!runs.empty() && runs.back().last == i - 1 && tag[i - 1] == t - 1) {
       runs.back().last = i;
     } else {
-      runs.push_back({i, i, -1, -1});
+      runs.push_back({i, i, -1, -1, c});
     }
   }
   // blocks of at most BLOCK atoms (one bond per block boundary is computed twice, from the
@@ -65,7 +65,8 @@ void FixLatticeChain::build_lists()
     const int right = neighbour(run.last, tag[run.last] + 1);
     for (int first = run.first; first <= run.last; first += BLOCK) {
       const int last = std::min(first + BLOCK - 1, run.last);
-      blocks.push_back({first, last, first == run.first ? left : first - 1, last == run.last ? right : last + 1});
+      blocks.push_back({first, last, first == run.first ? left : first - 1, last == run.last ? right : last + 1,
+                        run.chain});
     }
   }
   std::sort(blocks.begin(), blocks.end(), [&](const Run &a, const Run &b) { return tag[a.first] < tag[b.first]; });

@@ -48,6 +48,16 @@ void FixLatticeChain::end_forces()
   for (const End &e : held) f[e.i] = 0.0;
 }
 
+/* each chain's friction work of this step's kicks, settled (see coulomb.h) */
+
+void FixLatticeChain::settle_work(double kick, bool setup_kick)
+{
+  for (bigint c = 0; c < nchains; c++) {
+    works[c].settle(kick, setup_kick, work_done[c], work_pending[c]);
+    works[c] = CoulombWork();
+  }
+}
+
 /* one free atom's total force from its bonds' forces left and right, with friction the exact
    stick-slip kick: v (after the first half kick) becomes 0 if the atom sticks */
 
@@ -91,9 +101,10 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
   double *__restrict X = scratch.data();
   // the smallest and largest separation and a NaN probe, as vectorised reductions
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
-  CoulombWork work;
   for (const Run &run : runs) {
     const int first = run.first, len = run.last - first + 1;
+    CoulombWork work;
+    if constexpr (FRICTION) work = works[run.chain];
     for (int k = 0; k < len; k++) X[1 + k] = x[3 * (first + k)];
     X[0] = x[3 * run.left];
     X[len + 1] = x[3 * run.right];
@@ -114,8 +125,9 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
       fr[3 * k] = ftot;
       if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[t]) * ftot;
     }
+    if constexpr (FRICTION) works[run.chain] = work;
   }
-  if (FRICTION) work.settle(kick, setup_kick, work_done, work_pending);
+  if (FRICTION) settle_work(kick, setup_kick);
   // r <= 0 is a contact
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
 }
@@ -149,11 +161,12 @@ void FixLatticeChain::own_step(const Law law, int &bad)
     }
   };
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
-  CoulombWork work;
   if (!runs.empty()) drift(runs[0], half[0], before[0]);
   for (size_t b = 0; b < runs.size(); b++) {
     const Run &run = runs[b];
     const int first = run.first, last = run.last, len = last - first + 1;
+    CoulombWork work;
+    if constexpr (FRICTION) work = works[run.chain];
     if (b + 1 < runs.size()) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
     double *__restrict vh = half[b % 2];
     // the bond forces, F[k] left of atom first + k: the two end bonds, then the inner ones
@@ -201,11 +214,12 @@ void FixLatticeChain::own_step(const Law law, int &bad)
     };
     if (one_type) kick_loop(std::true_type{});
     else kick_loop(std::false_type{});
+    if constexpr (FRICTION) works[run.chain] = work;
     // the rows only of blocks where an atom is active or may reach the start level now
     if (FRONT && (block_front[b].active > 0 || (block_front[b].waiting > 0 && at_start > 0.0)))
       sample_front_block(b, before[b % 2]);
   }
-  if (FRICTION) work.settle(kick, false, work_done, work_pending);
+  if (FRICTION) settle_work(kick, false);
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
 }
 

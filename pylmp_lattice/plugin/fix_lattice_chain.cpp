@@ -116,7 +116,8 @@ Description
 Output
    Global scalar: potential energy of all bonds (energy units; with fix_modify energy
    yes it is part of pe and etotal). Global vector: [1] friction work done so far
-   (extensive), [2] the smallest separation (intensive).
+   (extensive), [2] the smallest separation (intensive), [3 + c] chain c's friction work
+   (c = 0 .. chains - 1, extensive; a chain's equals a one-chain run's bit for bit on one rank).
 
 Restrictions
    Group all, no periodic x, an atom map, per-type masses, units with ftm2v, not rRESPA.
@@ -150,7 +151,7 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
     g(0.0), fused(false), own_allowed(false), own(false), clear_forces(false), front(nullptr),
     drive_u(0.0), drive_ud(0.0), xs(nullptr), vs(nullptr), fs(nullptr), nmax_state(0),
-    in_order(false), edges_ok(false), work_done(0.0), work_pending(0.0), energy_step(-1),
+    in_order(false), edges_ok(false), energy_step(-1),
     pe_cached(0.0), gap_cached(0.0), contact_step(-1)
 {
   if (igroup != 0) error->all(FLERR, "Fix lattice/chain must be defined for group all");
@@ -193,6 +194,9 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     error->all(FLERR, "Fix lattice/chain: length {} must be >= 3 and divide the {} atoms", length,
                atom->natoms);
   nchains = atom->natoms / length;
+  work_done.assign(nchains, 0.0);
+  work_pending.assign(nchains, 0.0);
+  works.assign(nchains, CoulombWork());
 
   // each chain's impactor position now: its owner contributes it, every rank keeps all
   time_origin = update->ntimestep;
@@ -203,11 +207,12 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
   MPI_Allreduce(mine.data(), x0.data(), nchains, MPI_DOUBLE, MPI_SUM, world);
 
   scalar_flag = vector_flag = 1;
-  size_vector = 2;
+  size_vector = 2 + nchains;
   global_freq = 1;
   extscalar = 1;
   extvector = -1;
-  extlist = new int[2]{1, 0};
+  extlist = new int[size_vector];
+  for (int k = 0; k < size_vector; k++) extlist[k] = k != 1;    // all but the separation extensive
   energy_global_flag = 1;
   time_integrate = 1;
   maxexchange = 3;    // xs, vs, fs
@@ -324,8 +329,8 @@ void FixLatticeChain::pre_neighbor()
   build_lists();
   if (!own) return;
   block_front.clear();    // the blocks changed: summarised again at the next sample
-  if (!in_order || !edges_ok)
-    error->all(FLERR, "Fix lattice/chain: an atom's chain neighbour is no longer on the next rank "
+  if (!in_order || !edges_ok)    // in_order is this rank's: error->one
+    error->one(FLERR, "Fix lattice/chain: an atom's chain neighbour is no longer on the next rank "
                       "in x (a slab narrower than a gap); run on fewer ranks");
 }
 
@@ -456,11 +461,15 @@ double FixLatticeChain::compute_scalar()
 
 double FixLatticeChain::compute_vector(int n)
 {
-  if (n == 0) {
-    double all;
-    MPI_Allreduce(&work_done, &all, 1, MPI_DOUBLE, MPI_SUM, world);
-    return all;
+  if (n == 1) {
+    energies();
+    return gap_cached;
   }
-  energies();
-  return gap_cached;
+  double mine = 0.0, all;
+  if (n == 0)
+    for (double w : work_done) mine += w;
+  else
+    mine = work_done[n - 2];
+  MPI_Allreduce(&mine, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+  return all;
 }

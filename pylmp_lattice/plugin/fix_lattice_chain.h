@@ -81,7 +81,7 @@ class FixLatticeChain : public Fix {
   // BLOCK free atoms that follow each other in memory with consecutive IDs, in ID order, with
   // the local/ghost index of the atom left of the first and right of the last
   struct Run {
-    int first, last, left, right;
+    int first, last, left, right, chain;
   };
   std::vector<Run> runs;
   struct End {
@@ -108,7 +108,10 @@ class FixLatticeChain : public Fix {
   std::vector<BlockFront> block_front;
 
   // ---- checks and energy (chain_checks.cpp)
-  double work_done, work_pending;    // friction work (see coulomb.h)
+  // friction work of each chain on this rank (see coulomb.h): done, due at the next step, and
+  // this step's sums (each chain's runs add to it in ID order, as a one-chain run does)
+  std::vector<double> work_done, work_pending;
+  std::vector<CoulombWork> works;
   bigint energy_step;                // step at which pe_cached and gap_cached were computed
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
@@ -135,6 +138,7 @@ class FixLatticeChain : public Fix {
   void forces(double kick, bool setup_kick, bool kick_v);
   void own_pass();
   void end_forces();
+  void settle_work(double kick, bool setup_kick);
   template <bool FRICTION>
   double total_force(double left, double right, int t, double kick, double &v, CoulombWork &work) const;
   template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);

@@ -49,7 +49,7 @@ Implementation
    copied from the hot state when something may read the record: at output steps, at the end
    of a run, and at every step if any fix other than lattice/chain and lattice/front runs
    during steps (it might read f_ID at any step). When fix lattice/chain owns the whole time
-   step (one rank, no other per-step fix; see its header) it applies the same rules inside
+   step (no other per-step fix; on any number of ranks; see its header) it applies the same rules inside
    its force pass and this fix's end_of_step only refreshes the output.
 
 Restrictions

@@ -1,0 +1,129 @@
+"""MPI benchmark: one long chain on 1 and 2 ranks, the per-step cost of a rank more, and a
+projection to 4-64 ranks.
+
+The chain is bench_engine.py's (the paper's magnets, constant 2 m/s impactor, dt = 0.01 ms), as
+the package writes its deck (chain engine, per-step front record on), run by
+runner.run_executable(nprocs); the time is LAMMPS's Loop time minus its Output section
+(bench_engine.run_lammps), best of --repeat runs, ranks interleaved. The load average (1 min)
+is read before every run and printed beside the best.
+
+1. Speed-up: N = --n (10^6) magnets, --steps (2000) steps, 1 against 2 ranks.
+2. The cost of a rank more, per step: a chain of --slab magnets per rank (10^4) on 1 rank
+   against 2 slabs of it on 2 ranks, --comm-steps steps. Each rank does the same work in both,
+   so the difference is what having a neighbour costs at every step: the slab-edge exchange
+   (two MPI_Sendrecv of a few doubles), the contact flag's MPI_Allreduce, and LAMMPS's own
+   forward communication of its (few) ghosts, plus waiting for the slower rank.
+3. Projection: a step on P ranks takes N t_atom / P + t_comm(P), with t_atom the 1-rank time
+   per magnet and step from 1., and t_comm(P) = t_comm(2) log2(P) from 2. (each doubling of
+   the ranks adds one stage to the allreduce; counting the whole measured cost as growing so
+   makes the projection lean pessimistic). It assumes that each rank has its own core and its
+   memory bandwidth (on one node, ranks share the memory bus: a slab of N/P magnets, 32 bytes
+   each with the front record, leaves the last-level cache at large N/P). Scaling stops where
+   the exchange costs as much as the work: efficiency 50%.
+
+    python benchmarks/bench_mpi.py                    # about 3 minutes on an idle 2-core machine
+    python benchmarks/bench_mpi.py --n 100000 --repeat 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from bench_engine import paper_case, run_lammps
+from pylmp_lattice import runner, simulation
+
+
+def timed(folder: Path, ranks: int) -> tuple[float, float]:
+    """(engine seconds, 1-minute load average just before the run)."""
+    load = os.getloadavg()[0]
+    return run_lammps(folder, nprocs=ranks).wall, load
+
+
+def best_of(folders: dict[int, Path], repeat: int) -> dict[int, tuple[float, float]]:
+    """Each rank count's best (seconds, load then), the counts interleaved over the repeats."""
+    best = dict.fromkeys(folders, (math.inf, math.nan))
+    for _ in range(repeat):
+        for ranks, folder in folders.items():
+            took = timed(folder, ranks)
+            if took[0] < best[ranks][0]:
+                best[ranks] = took
+    return best
+
+
+def owned_on_all_ranks(folder: Path, ranks: int) -> bool:
+    return f"owns the state (one pass per step, front record inside) on {ranks} rank" in \
+        (folder / "log.lammps").read_text()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=1_000_000, help="magnets of the long chain (10^6)")
+    parser.add_argument("--steps", type=int, default=2000, help="its steps (2000)")
+    parser.add_argument("--slab", type=int, default=10_000, help="magnets per rank for the cost of a rank (10^4)")
+    parser.add_argument("--comm-steps", type=int, default=20_000, help="steps for the cost of a rank (20000)")
+    parser.add_argument("--repeat", type=int, default=5, help="runs of each, best kept (5)")
+    args = parser.parse_args()
+
+    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    print(f"MPI benchmark, {stamp}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start; "
+          f"best of {args.repeat}, interleaved; time = LAMMPS Loop - Output")
+    with tempfile.TemporaryDirectory(prefix="bench_mpi_") as tmp:
+        tmp = Path(tmp)
+        # 1. speed-up at N
+        case = paper_case(args.n, args.steps)
+        folders = {ranks: runner.write_run_folder(case, tmp / f"long_{ranks}") for ranks in (1, 2)}
+        long = best_of(folders, args.repeat)
+        v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
+        print(f"\n1. N = {args.n} magnets, {args.steps} steps, front record on")
+        print(f"{'ranks':>6} {'loop [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'load 1 min':>11}  path")
+        for ranks, (seconds, load) in long.items():
+            path = "owned, slab edges exchanged" if owned_on_all_ranks(folders[ranks], ranks) else "atom arrays"
+            print(f"{ranks:>6} {seconds:>9.4g} {args.n * args.steps / seconds:>10.3g} "
+                  f"{long[1][0] / seconds:>9.2f} {load:>11.2f}  {path}")
+        same = np.array_equal(v[1], v[2])
+        print(f"final velocities on 1 and 2 ranks: {'bit-identical' if same else 'DIFFER'}")
+
+        # 2. the per-step cost of a neighbour
+        cases = {1: paper_case(args.slab, args.comm_steps), 2: paper_case(2 * args.slab, args.comm_steps)}
+        folders = {ranks: runner.write_run_folder(c, tmp / f"slab_{ranks}") for ranks, c in cases.items()}
+        slab = best_of(folders, args.repeat)
+        t_comm = max(0.0, (slab[2][0] - slab[1][0]) / args.comm_steps)
+        print(f"\n2. {args.slab} magnets a rank, {args.comm_steps} steps: 1 rank (N = {args.slab}) against "
+              f"2 ranks (N = {2 * args.slab})")
+        print(f"{'ranks':>6} {'loop [s]':>9} {'per step [us]':>14} {'load 1 min':>11}")
+        for ranks, (seconds, load) in slab.items():
+            print(f"{ranks:>6} {seconds:>9.4g} {1e6 * seconds / args.comm_steps:>14.2f} {load:>11.2f}")
+        print(f"cost of a neighbour rank: t_comm(2) = {1e6 * t_comm:.2f} us per step")
+
+    # 3. projection
+    t_atom = long[1][0] / (args.n * args.steps)
+    work = args.n * t_atom
+    print(f"\n3. Projection for N = {args.n}: step = N t_atom / P + t_comm(2) log2(P), "
+          f"t_atom = {1e9 * t_atom:.2f} ns, t_comm(2) = {1e6 * t_comm:.2f} us")
+    print(f"{'ranks':>6} {'step [us]':>10} {'speed-up':>9} {'efficiency':>11}")
+    stops = None
+    for ranks in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024):
+        step = work / ranks + t_comm * math.log2(ranks)
+        speedup = work / step
+        if stops is None and speedup / ranks < 0.5:
+            stops = ranks
+        if ranks <= 64 or ranks == stops:
+            print(f"{ranks:>6} {1e6 * step:>10.1f} {speedup:>9.1f} {speedup / ranks:>11.0%}")
+    if stops:
+        print(f"stops scaling (efficiency < 50%) at {stops} ranks, {args.n // stops} magnets a rank")
+    else:
+        print("efficiency stays >= 50% up to 1024 ranks")
+    print(f"magnets a rank at which the exchange costs a tenth of the work (2 ranks): "
+          f"{10 * t_comm / t_atom:.0f} (pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
+    print(f"\nload average {os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores, shared machine)")
+
+
+if __name__ == "__main__":
+    main()
