@@ -25,7 +25,7 @@ from .case import Case, load_case
 from .deck import DUMP, FINE_BIN, LOG, TRAJ_BIN
 from .dump import read_dump, read_log, trajectory_from_dump
 from .errors import ConfigError, LatticeError
-from .front_record import has_front_record, read_front_record
+from .front_record import case_front, has_front_record, read_front_record
 from .h5md import FILE as H5MD_FILE
 from .h5md import convert_run, read_group
 from .progress import progress_bar
@@ -105,7 +105,7 @@ def measure_run(case: Case, folder: str | Path) -> tuple[measures.Front | None, 
         return record.front, record.max_speed
     traj = load_trajectory(case, folder)
     vi = case.impactor.peak_velocity()
-    front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), arrival_method(case)) if vi > 0 else None
+    front = case_front(case, traj.t, traj.v, traj.a, arrival_method(case)) if vi > 0 else None
     return front, np.max(np.abs(traj.v), axis=0)
 
 
