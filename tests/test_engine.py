@@ -9,7 +9,7 @@ import pytest
 
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.case import case_from_dict, case_to_dict
-from pylmp_lattice.deck import render_replicas
+from pylmp_lattice.deck import DATA, render_replicas
 from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
@@ -182,6 +182,28 @@ def test_batched_replicas_report_their_own_friction_work(tmp_path):
     assert min(single) > 0 and len(set(single)) == 3
     assert [batched[3 + r] for r in range(3)] == single
     assert batched[1] == pytest.approx(sum(single), rel=1e-14)
+
+
+@pytest.mark.lammps
+def test_per_atom_masses_give_the_bits_of_per_type_masses(tmp_path):
+    """The same masses per atom (fix property/atom rmass, as a mass-disordered chain may use)
+    instead of per type: the chain fix, owning the state, gives the same x, v, f bit for bit."""
+    case = make_case(particles=300, duration=30.0, interval=5.0, impactor=PROFILES["sine"], friction=FRICTION)
+    runs = {}
+    for name in ("type", "atom"):
+        folder = write_run_folder(case, tmp_path / name)
+        if name == "atom":
+            mass = (folder / DATA).read_text().split("Masses")[1].split()[1]  # type 1's, as written
+            deck = folder / "in.lattice"
+            deck.write_text(deck.read_text().replace(
+                "\ndelete_bonds", f"\nfix masses all property/atom rmass\nset group all mass {mass}\ndelete_bonds", 1))
+        run_embedded(folder)
+        assert "owns the state" in (folder / "log.lammps").read_text()
+        runs[name] = load_trajectory(case, folder)
+    assert "set group all mass" in (tmp_path / "atom" / "in.lattice").read_text()
+    assert np.max(np.abs(runs["type"].v)) > 1.0
+    for name in ("u", "v", "a"):
+        assert np.array_equal(getattr(runs["type"], name), getattr(runs["atom"], name)), name
 
 
 def test_replicas_may_differ_only_in_their_chain():

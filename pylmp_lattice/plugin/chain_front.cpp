@@ -16,7 +16,7 @@ void FixLatticeChain::sample_front_block(int b, const double *v_before)
 {
   const Run &run = runs[b];
   BlockFront &bf = block_front[b];
-  const int *type = atom->type;
+  const int *type = slots();
   for (int i = run.first, k = 0; i <= run.last; i++, k++) {
     const unsigned char before = front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_before[k]);
     const unsigned char now = front->phase[i];
@@ -42,7 +42,7 @@ void FixLatticeChain::summarise_front()
 
 void FixLatticeChain::sample_front_ends()
 {
-  const int *type = atom->type;
+  const int *type = slots();
   auto sample = [&](int i, double v_prev) {
     front->mark[i] = mark_max(front->mark[i], vs[i]);
     front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_prev);

@@ -18,6 +18,13 @@
 
 using namespace LAMMPS_NS;
 
+/* each atom's mass slot (see the header) */
+
+const int *FixLatticeChain::slots() const
+{
+  return atom->rmass ? local_index.data() : atom->type;
+}
+
 bool FixLatticeChain::is_free(int i) const
 {
   const bigint k = (atom->tag[i] - 1) % length;
@@ -39,6 +46,18 @@ void FixLatticeChain::build_lists()
                  t, tag[i]);
     return j;
   };
+  if (atom->rmass) {    // per-atom masses: the slot tables of this rank's atoms, as init() does per type
+    local_index.resize(nlocal);
+    dtfm.resize(nlocal);
+    mass_of.resize(nlocal);
+    weight.resize(nlocal);
+    for (int i = 0; i < nlocal; i++) {
+      local_index[i] = i;
+      mass_of[i] = atom->rmass[i];
+      dtfm[i] = dtf / atom->rmass[i];
+      weight[i] = atom->rmass[i] * g;
+    }
+  }
   runs.clear();
   impactors.clear();
   held.clear();
@@ -152,7 +171,7 @@ void FixLatticeChain::find_edges()
 void FixLatticeChain::send_edges()
 {
   const double dtv = update->dt;
-  const int *type = atom->type;
+  const int *type = slots();
   for (Edge &e : edges)
     for (size_t k = 0; k < e.send.size(); k++) {
       const int j = e.send[k];

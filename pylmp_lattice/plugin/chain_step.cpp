@@ -92,10 +92,9 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
   double *__restrict v = atom->v[0];
   double *__restrict f = atom->f[0];
   double *__restrict F = bond_force.data();
-  const int *__restrict type = atom->type;
+  const int *__restrict type = slots();
   const double *__restrict dtfm_of = dtfm.data();
-  const double half_kick = dtfm_of[1];
-  const bool one_type = atom->ntypes == 1;
+  const double half_kick = one_type ? dtfm_of[1] : 0.0;
   // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
   // right neighbour
   double *__restrict X = scratch.data();
@@ -143,10 +142,9 @@ void FixLatticeChain::own_step(const Law law, int &bad)
   double *__restrict f = fs;
   double *__restrict F = bond_force.data();
   double *__restrict mark = FRONT ? front->mark : nullptr;
-  const int *__restrict type = atom->type;
+  const int *__restrict type = slots();
   const double *__restrict dtfm_of = dtfm.data();
-  const double half_kick = dtfm_of[1];
-  const bool one_type = atom->ntypes == 1;
+  const double half_kick = one_type ? dtfm_of[1] : 0.0;
   const double dtv = update->dt, kick = update->dt;
   const FrontRecord::Levels levels = FRONT ? front->levels : FrontRecord::Levels{};
   // per block in flight (two): the velocities after the first half kick, and before it

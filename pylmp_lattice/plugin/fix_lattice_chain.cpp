@@ -120,7 +120,8 @@ Output
    (c = 0 .. chains - 1, extensive; a chain's equals a one-chain run's bit for bit on one rank).
 
 Restrictions
-   Group all, no periodic x, an atom map, per-type masses, units with ftm2v, not rRESPA.
+   Group all, no periodic x, an atom map, per-type or per-atom masses (with per-atom masses,
+   rmass, the same bits as types of those masses), units with ftm2v, not rRESPA.
    Other fixes may add forces; the integration of the chain atoms must be this fix's.
 ------------------------------------------------------------------------- */
 
@@ -240,18 +241,22 @@ void FixLatticeChain::init()
     error->all(FLERR, "Fix lattice/chain does not support run_style respa");
   if (atom->map_style == Atom::MAP_NONE)
     error->all(FLERR, "Fix lattice/chain needs an atom map (atom_modify map array)");
-  if (atom->rmass || !atom->mass) error->all(FLERR, "Fix lattice/chain needs per-type masses");
+  if (!atom->rmass && !atom->mass) error->all(FLERR, "Fix lattice/chain needs masses");
   if (domain->xperiodic) error->all(FLERR, "Fix lattice/chain needs a non-periodic x boundary");
 
-  const int ntypes = atom->ntypes;
-  dtfm.assign(ntypes + 1, 0.0);
-  mass_of.assign(ntypes + 1, 0.0);
-  weight.assign(ntypes + 1, 0.0);
-  const double dtf = 0.5 * update->dt * force->ftm2v;
-  for (int t = 1; t <= ntypes; t++) {
-    mass_of[t] = atom->mass[t];
-    dtfm[t] = dtf / atom->mass[t];
-    weight[t] = atom->mass[t] * g;
+  // per-type masses here; per-atom masses (atom->rmass) at every reneighbouring (build_lists)
+  dtf = 0.5 * update->dt * force->ftm2v;
+  one_type = !atom->rmass && atom->ntypes == 1;
+  if (!atom->rmass) {
+    const int ntypes = atom->ntypes;
+    dtfm.assign(ntypes + 1, 0.0);
+    mass_of.assign(ntypes + 1, 0.0);
+    weight.assign(ntypes + 1, 0.0);
+    for (int t = 1; t <= ntypes; t++) {
+      mass_of[t] = atom->mass[t];
+      dtfm[t] = dtf / atom->mass[t];
+      weight[t] = atom->mass[t] * g;
+    }
   }
 
   // the second half kick may join the force pass only if no other fix reads or changes
@@ -378,10 +383,10 @@ void FixLatticeChain::initial_integrate(int /*vflag*/)
     double *__restrict x = atom->x[0];
     double *__restrict v = atom->v[0];
     const double *__restrict f = atom->f[0];
-    const int *__restrict type = atom->type;
+    const int *__restrict type = slots();
     const double *__restrict dtfm_of = dtfm.data();
     const double dtv = update->dt;
-    if (atom->ntypes == 1) {
+    if (one_type) {
       const double h = dtfm_of[1];
       for (const Run &run : runs)
         for (int i = run.first; i <= run.last; i++) {
@@ -411,7 +416,7 @@ void FixLatticeChain::final_integrate()
   if (!fused) {
     double *__restrict v = atom->v[0];
     const double *__restrict f = atom->f[0];
-    const int *__restrict type = atom->type;
+    const int *__restrict type = slots();
     for (const Run &run : runs)
       for (int i = run.first; i <= run.last; i++) v[3 * i] += dtfm[type[i]] * f[3 * i];
   }

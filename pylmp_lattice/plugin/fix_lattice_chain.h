@@ -61,8 +61,12 @@ class FixLatticeChain : public Fix {
   bigint time_origin;            // step at which the fix was defined: the drive's t = 0
   std::vector<double> x0;        // each chain's impactor position then
 
-  // per-type constants, set in init(): half-kick dt/(2m), m, m g
+  // per mass slot: half-kick dt/(2m), m, m g; a slot is the atom's type (set in init()) or,
+  // with per-atom masses (atom->rmass), its local index (set in build_lists())
   std::vector<double> dtfm, mass_of, weight;
+  std::vector<int> local_index;    // per-atom masses: 0, 1, ..., nlocal - 1
+  bool one_type;                   // one mass for all atoms, slot 1
+  double dtf;                      // dt/2 in force-to-velocity units
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
   bool own_allowed;              // see init()
   bool own;                      // this run: the fix owns the state (see the header)
@@ -129,6 +133,7 @@ class FixLatticeChain : public Fix {
   void find_edges();
   void send_edges();
   bool is_free(int i) const;
+  const int *slots() const;
   // fix_lattice_chain.cpp
   void place_impactors(bool set_x);
   void gather();
