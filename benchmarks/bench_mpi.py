@@ -7,7 +7,11 @@ runner.run_executable(nprocs); the time is LAMMPS's Loop time minus its Output s
 (bench_engine.run_lammps), best of --repeat runs, ranks interleaved. The load average (1 min)
 is read before every run and printed beside the best.
 
-1. Speed-up: N = --n (10^6) magnets, --steps (2000) steps, 1 against 2 ranks.
+1. Speed-up: N = --n (10^6) magnets, --steps (2000) steps, 1 against 2 ranks. Beside the wall
+   times: the CPU time a step of the slowest rank's passes and its wall time in the exchanges
+   (the fix reports both at the end of a run on several ranks). On a loaded machine a rank waits
+   for a core at every exchange, so the wall speed-up falls far below what the work division
+   gives; the CPU speed-up (1-rank CPU time over the slowest rank's) shows that division.
 2. The cost of a rank more, per step: a chain of --slab magnets per rank (10^4) on 1 rank
    against 2 slabs of it on 2 ranks, --comm-steps steps. Each rank does the same work in both,
    so the difference is what having a neighbour costs at every step: the slab-edge exchange
@@ -30,7 +34,9 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import tempfile
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -40,20 +46,41 @@ from bench_engine import paper_case, run_lammps
 from pylmp_lattice import runner, simulation
 
 
-def timed(folder: Path, ranks: int) -> tuple[float, float]:
-    """(engine seconds, 1-minute load average just before the run)."""
+@dataclass
+class Timing:
+    """One run: engine wall seconds (Loop - Output), the load average (1 min) before it, the CPU
+    time a step of the slowest rank's passes and its wall time a step in the exchanges (slab
+    edges and contact flag), us; on one rank the CPU time is LAMMPS's (Loop - Output) x CPU use."""
+
+    wall: float = math.inf
+    load: float = math.nan
+    pass_cpu: float = math.nan
+    exchange: float = 0.0
+
+
+FIX_LINE = re.compile(r"owned steps: pass (\S+) us CPU a step, exchanges (\S+) us wall")
+
+
+def timed(folder: Path, ranks: int, steps: int) -> Timing:
     load = os.getloadavg()[0]
-    return run_lammps(folder, nprocs=ranks).wall, load
+    took = run_lammps(folder, nprocs=ranks)
+    line = FIX_LINE.search((folder / "log.lammps").read_text())
+    if ranks == 1:
+        return Timing(took.wall, load, 1e6 * took.cpu / steps)
+    return Timing(took.wall, load, float(line.group(1)), float(line.group(2)))
 
 
-def best_of(folders: dict[int, Path], repeat: int) -> dict[int, tuple[float, float]]:
-    """Each rank count's best (seconds, load then), the counts interleaved over the repeats."""
-    best = dict.fromkeys(folders, (math.inf, math.nan))
+def best_of(folders: dict[int, Path], repeat: int, steps: int) -> dict[int, Timing]:
+    """Each rank count's best run by wall time, and its best CPU and exchange times a step,
+    the counts interleaved over the repeats."""
+    best = {ranks: Timing() for ranks in folders}
     for _ in range(repeat):
         for ranks, folder in folders.items():
-            took = timed(folder, ranks)
-            if took[0] < best[ranks][0]:
-                best[ranks] = took
+            took, b = timed(folder, ranks, steps), best[ranks]
+            if took.wall < b.wall:
+                b.wall, b.load = took.wall, took.load
+            b.pass_cpu = took.pass_cpu if math.isnan(b.pass_cpu) else min(b.pass_cpu, took.pass_cpu)
+            b.exchange = took.exchange if b.exchange == 0.0 else min(b.exchange, took.exchange)
     return best
 
 
@@ -79,31 +106,35 @@ def main() -> None:
         # 1. speed-up at N
         case = paper_case(args.n, args.steps)
         folders = {ranks: runner.write_run_folder(case, tmp / f"long_{ranks}") for ranks in (1, 2)}
-        long = best_of(folders, args.repeat)
+        long = best_of(folders, args.repeat, args.steps)
         v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
         print(f"\n1. N = {args.n} magnets, {args.steps} steps, front record on")
-        print(f"{'ranks':>6} {'loop [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'load 1 min':>11}  path")
-        for ranks, (seconds, load) in long.items():
+        print(f"{'ranks':>6} {'loop [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'load 1 min':>11} "
+              f"{'CPU/step [us]':>14} {'CPU speed-up':>13} {'exch/step [us]':>15}  path")
+        for ranks, t in long.items():
             path = "owned, slab edges exchanged" if owned_on_all_ranks(folders[ranks], ranks) else "atom arrays"
-            print(f"{ranks:>6} {seconds:>9.4g} {args.n * args.steps / seconds:>10.3g} "
-                  f"{long[1][0] / seconds:>9.2f} {load:>11.2f}  {path}")
+            print(f"{ranks:>6} {t.wall:>9.4g} {args.n * args.steps / t.wall:>10.3g} {long[1].wall / t.wall:>9.2f} "
+                  f"{t.load:>11.2f} {t.pass_cpu:>14.1f} {long[1].pass_cpu / t.pass_cpu:>13.2f} {t.exchange:>15.1f}  {path}")
+        print("CPU/step: the slowest rank's CPU time in its passes (1 rank: the whole loop's); CPU speed-up: how\n"
+              "the work divides when each rank has a core; exch/step: wall time in the exchanges (best run)")
         same = np.array_equal(v[1], v[2])
         print(f"final velocities on 1 and 2 ranks: {'bit-identical' if same else 'DIFFER'}")
 
         # 2. the per-step cost of a neighbour
         cases = {1: paper_case(args.slab, args.comm_steps), 2: paper_case(2 * args.slab, args.comm_steps)}
         folders = {ranks: runner.write_run_folder(c, tmp / f"slab_{ranks}") for ranks, c in cases.items()}
-        slab = best_of(folders, args.repeat)
-        t_comm = max(0.0, (slab[2][0] - slab[1][0]) / args.comm_steps)
+        slab = best_of(folders, args.repeat, args.comm_steps)
+        t_comm = max(0.0, (slab[2].wall - slab[1].wall) / args.comm_steps)
         print(f"\n2. {args.slab} magnets a rank, {args.comm_steps} steps: 1 rank (N = {args.slab}) against "
               f"2 ranks (N = {2 * args.slab})")
-        print(f"{'ranks':>6} {'loop [s]':>9} {'per step [us]':>14} {'load 1 min':>11}")
-        for ranks, (seconds, load) in slab.items():
-            print(f"{ranks:>6} {seconds:>9.4g} {1e6 * seconds / args.comm_steps:>14.2f} {load:>11.2f}")
-        print(f"cost of a neighbour rank: t_comm(2) = {1e6 * t_comm:.2f} us per step")
+        print(f"{'ranks':>6} {'loop [s]':>9} {'per step [us]':>14} {'load 1 min':>11} {'exch/step [us]':>15}")
+        for ranks, t in slab.items():
+            print(f"{ranks:>6} {t.wall:>9.4g} {1e6 * t.wall / args.comm_steps:>14.2f} {t.load:>11.2f} {t.exchange:>15.2f}")
+        print(f"cost of a neighbour rank: t_comm(2) = {1e6 * t_comm:.2f} us per step (loop difference); "
+              f"the fix's own exchanges took {slab[2].exchange:.2f} us a step (best run)")
 
     # 3. projection
-    t_atom = long[1][0] / (args.n * args.steps)
+    t_atom = long[1].wall / (args.n * args.steps)
     work = args.n * t_atom
     print(f"\n3. Projection for N = {args.n}: step = N t_atom / P + t_comm(2) log2(P), "
           f"t_atom = {1e9 * t_atom:.2f} ns, t_comm(2) = {1e6 * t_comm:.2f} us")

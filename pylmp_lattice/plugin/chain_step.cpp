@@ -15,6 +15,7 @@
 #include "update.h"
 
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <type_traits>
 
@@ -223,9 +224,20 @@ void FixLatticeChain::own_step(const Law law, int &bad)
 
 /* owning the state: the step's one pass, with the front record sampled inside it */
 
+/* CPU time of this thread (several ranks only: a system call) */
+static double thread_cpu()
+{
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
 void FixLatticeChain::own_pass()
 {
-  if (comm->nprocs > 1) send_edges();
+  const bool ranks = comm->nprocs > 1;
+  const double w0 = ranks ? MPI_Wtime() : 0.0;
+  if (ranks) send_edges();
+  const double w1 = ranks ? MPI_Wtime() : 0.0, c1 = ranks ? thread_cpu() : 0.0;
   FrontRecord::Sample sample;
   const bool record = front && front->begin_sample(sample);
   if (record && block_front.size() != runs.size()) summarise_front();
@@ -244,6 +256,12 @@ void FixLatticeChain::own_pass()
     sample_front_ends();
     front->end_sample();
   }
+  const double c2 = ranks ? thread_cpu() : 0.0, w2 = ranks ? MPI_Wtime() : 0.0;
   check_gaps(bad);
+  if (ranks) {
+    pass_cpu += c2 - c1;
+    exchange_wall += (w1 - w0) + (MPI_Wtime() - w2);
+    owned_steps++;
+  }
   if (update->ntimestep == output->next) scatter();
 }

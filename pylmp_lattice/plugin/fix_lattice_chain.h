@@ -120,6 +120,11 @@ class FixLatticeChain : public Fix {
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
 
+  // owning the state on several ranks, this run: this rank's CPU time in its passes and wall
+  // time in the exchanges (slab edges, contact flag), reported at the end (benchmarks/bench_mpi.py)
+  double pass_cpu, exchange_wall;
+  bigint owned_steps;
+
   // x, v or f along x: the fix's arrays while it owns the state, else the atom arrays
   struct Column {
     double *p;
