@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pylmp_lattice import runner, simulation
+from pylmp_lattice import run_folder as simulation, runner
 from pylmp_lattice.case import RunSettings, case_from_dict
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.measures import linear_wave_speed
@@ -271,7 +271,7 @@ class Bench:
         ways = {"C": lambda: run_c_loop(self.exe, n, steps), "numpy": lambda: run_numpy(n, steps)}
         folders = {}
         for name, variant in self.variants.items():
-            folders[name] = runner.write_run_folder(paper_case(n, steps, variant), self.tmp / f"{name}_{n}")
+            folders[name] = simulation.RunFolder.create(paper_case(n, steps, variant), self.tmp / f"{name}_{n}").path
             rows[name] = Row(self.label(name), steps)
             ways[name] = lambda folder=folders[name]: run_lammps(folder)
         scipy = Row("scipy DOP853", min(steps, self.args.scipy_max_steps))
@@ -295,7 +295,7 @@ class Bench:
                 if key not in folders:
                     row.v = took.result
         for name, folder in folders.items():
-            rows[name].v = simulation.load_trajectory(paper_case(n, steps, self.variants[name]), folder).v[-1]
+            rows[name].v = simulation.RunFolder(folder).trajectory().v[-1]
         c = rows.pop("C")
         for row in rows.values():
             # a capped DOP853 run is compared with the C loop over the same time
@@ -308,8 +308,8 @@ class Bench:
         """max |v_default - v_C| after `steps` steps at size n, m/s (from the table if it ran this)."""
         if (n, steps) not in self.checked:
             case = paper_case(n, steps)
-            folder = runner.run_executable(runner.write_run_folder(case, self.tmp / "check"))
-            v = simulation.load_trajectory(case, folder).v[-1]
+            folder = runner.run_executable(simulation.RunFolder.create(case, self.tmp / "check").path)
+            v = simulation.RunFolder(folder).trajectory().v[-1]
             self.checked[n, steps] = float(np.max(np.abs(v - run_c_loop(self.exe, n, steps).result)))
         return self.checked[n, steps]
 

@@ -2,7 +2,7 @@
 projection to 4-64 ranks.
 
 The chain is bench_engine.py's (the paper's magnets, constant 2 m/s impactor, dt = 0.01 ms), as
-the package writes its deck (chain engine, per-step front record on), run by
+the package writes its deck (chain engine, per-step front record on; RunFolder.create), run by
 runner.run_executable(nprocs); the time is LAMMPS's Loop time minus its Output section
 (bench_engine.run_lammps), best of --repeat runs, ranks interleaved. The load average (1 min)
 is read before every run and printed beside the best.
@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_engine import paper_case, run_lammps
-from pylmp_lattice import runner, simulation
+from pylmp_lattice.run_folder import RunFolder
 
 
 @dataclass
@@ -105,9 +105,9 @@ def main() -> None:
         tmp = Path(tmp)
         # 1. speed-up at N
         case = paper_case(args.n, args.steps)
-        folders = {ranks: runner.write_run_folder(case, tmp / f"long_{ranks}") for ranks in (1, 2)}
+        folders = {ranks: RunFolder.create(case, tmp / f"long_{ranks}").path for ranks in (1, 2)}
         long = best_of(folders, args.repeat, args.steps)
-        v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
+        v = {ranks: RunFolder(folder).trajectory().v[-1] for ranks, folder in folders.items()}
         print(f"\n1. N = {args.n} magnets, {args.steps} steps, front record on")
         print(f"{'ranks':>6} {'loop [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'load 1 min':>11} "
               f"{'CPU/step [us]':>14} {'CPU speed-up':>13} {'exch/step [us]':>15}  path")
@@ -122,7 +122,7 @@ def main() -> None:
 
         # 2. the per-step cost of a neighbour
         cases = {1: paper_case(args.slab, args.comm_steps), 2: paper_case(2 * args.slab, args.comm_steps)}
-        folders = {ranks: runner.write_run_folder(c, tmp / f"slab_{ranks}") for ranks, c in cases.items()}
+        folders = {ranks: RunFolder.create(c, tmp / f"slab_{ranks}").path for ranks, c in cases.items()}
         slab = best_of(folders, args.repeat, args.comm_steps)
         t_comm = max(0.0, (slab[2].wall - slab[1].wall) / args.comm_steps)
         print(f"\n2. {args.slab} magnets a rank, {args.comm_steps} steps: 1 rank (N = {args.slab}) against "

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import piston
-from pylmp_lattice.plugin import plugin_file, plugin_styles
+from pylmp_lattice.engine import plugin_styles
+from pylmp_lattice.plugin import plugin_file
 
 pytestmark = pytest.mark.lammps
 

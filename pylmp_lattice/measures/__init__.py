@@ -14,7 +14,9 @@ One module per concept: `levels` (every threshold, against V_I and the chain's n
 `linear` (V0, f0, the slowest linear speed), `arrival` (front arrival), `propagation` (V_P and
 its plateau), `peaks` (first peaks, rise time), `oscillation` (extrema, frequency, steady
 oscillation), `critical` (V*), `transition` (transition zone), `phase` (phase portrait), and
-`front` (the run's per-particle measures at once). Typical use on a `Trajectory` `tr`:
+`front` (the run's per-particle measures at once), `pulse` (a pulse's speed, the piston
+problem's lead pulse and period two), `wake` (the mean state behind a shock). Typical use on a
+`Trajectory` `tr`:
 
     t_front = arrival_times(tr.t, tr.v, vi)
     vp = propagation_velocity(t_front, np.diff(tr.x0))
@@ -42,7 +44,9 @@ from .propagation import (
     propagation_velocity,
     trailing_plateau,
 )
+from .pulse import centroid_speed, lead_pulse, staggered_amplitude
 from .transition import TransitionZone, steady_onset_times, transition_zone
+from .wake import WakeState, wake_state
 
 __all__ = [
     "FRONT_FRACTION", "NOISE_FALL", "NOISE_LEVEL", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
@@ -53,4 +57,5 @@ __all__ = [
     "front", "front_levels", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
     "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",
     "trailing_plateau", "transition_zone",
+    "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",
 ]
