@@ -17,10 +17,12 @@ is read before every run and printed beside the best.
    so the difference is what having a neighbour costs at every step: the slab-edge exchange
    (two MPI_Sendrecv of a few doubles), the contact flag's MPI_Allreduce, and LAMMPS's own
    forward communication of its (few) ghosts, plus waiting for the slower rank.
-3. Projection: a step on P ranks takes N t_atom / P + t_comm(P), with t_atom the 1-rank time
-   per magnet and step from 1., and t_comm(P) = t_comm(2) log2(P) from 2. (each doubling of
-   the ranks adds one stage to the allreduce; counting the whole measured cost as growing so
-   makes the projection lean pessimistic). It assumes that each rank has its own core and its
+3. Projection: a step on P ranks takes N t_atom / P + t_comm(P), with t_atom the 1-rank CPU
+   time per magnet and step from 1., and t_comm(P) = t_comm(2) log2(P) from 2. (each doubling
+   of the ranks adds one stage to the allreduce; counting the whole measured cost as growing
+   so makes the projection lean pessimistic), t_comm(2) taken twice: the fix's exchanges at
+   their fastest step (both ranks on a core, as on a machine of one's own) and the loop
+   difference on average under the load of the run. It assumes that each rank has its own core and its
    memory bandwidth (on one node, ranks share the memory bus: a slab of N/P magnets, 32 bytes
    each with the front record, leaves the last-level cache at large N/P). Scaling stops where
    the exchange costs as much as the work: efficiency 50%.
@@ -56,9 +58,10 @@ class Timing:
     load: float = math.nan
     pass_cpu: float = math.nan
     exchange: float = 0.0
+    fastest: float = 0.0  # us, the exchanges of the fastest step
 
 
-FIX_LINE = re.compile(r"owned steps: pass (\S+) us CPU a step, exchanges (\S+) us wall")
+FIX_LINE = re.compile(r"owned steps: pass (\S+) us CPU a step, exchanges (\S+) us wall a step, (\S+) us at the fastest")
 
 
 def timed(folder: Path, ranks: int, steps: int) -> Timing:
@@ -67,7 +70,7 @@ def timed(folder: Path, ranks: int, steps: int) -> Timing:
     line = FIX_LINE.search((folder / "log.lammps").read_text())
     if ranks == 1:
         return Timing(took.wall, load, 1e6 * took.cpu / steps)
-    return Timing(took.wall, load, float(line.group(1)), float(line.group(2)))
+    return Timing(took.wall, load, *map(float, line.groups()))
 
 
 def best_of(folders: dict[int, Path], repeat: int, steps: int) -> dict[int, Timing]:
@@ -81,6 +84,7 @@ def best_of(folders: dict[int, Path], repeat: int, steps: int) -> dict[int, Timi
                 b.wall, b.load = took.wall, took.load
             b.pass_cpu = took.pass_cpu if math.isnan(b.pass_cpu) else min(b.pass_cpu, took.pass_cpu)
             b.exchange = took.exchange if b.exchange == 0.0 else min(b.exchange, took.exchange)
+            b.fastest = took.fastest if b.fastest == 0.0 else min(b.fastest, took.fastest)
     return best
 
 
@@ -127,32 +131,40 @@ def main() -> None:
         t_comm = max(0.0, (slab[2].wall - slab[1].wall) / args.comm_steps)
         print(f"\n2. {args.slab} magnets a rank, {args.comm_steps} steps: 1 rank (N = {args.slab}) against "
               f"2 ranks (N = {2 * args.slab})")
-        print(f"{'ranks':>6} {'loop [s]':>9} {'per step [us]':>14} {'load 1 min':>11} {'exch/step [us]':>15}")
+        print(f"{'ranks':>6} {'loop [s]':>9} {'per step [us]':>14} {'load 1 min':>11} {'exch/step [us]':>15} "
+              f"{'fastest step':>13}")
         for ranks, t in slab.items():
-            print(f"{ranks:>6} {t.wall:>9.4g} {1e6 * t.wall / args.comm_steps:>14.2f} {t.load:>11.2f} {t.exchange:>15.2f}")
-        print(f"cost of a neighbour rank: t_comm(2) = {1e6 * t_comm:.2f} us per step (loop difference); "
-              f"the fix's own exchanges took {slab[2].exchange:.2f} us a step (best run)")
+            print(f"{ranks:>6} {t.wall:>9.4g} {1e6 * t.wall / args.comm_steps:>14.2f} {t.load:>11.2f} {t.exchange:>15.2f} "
+                  f"{t.fastest:>13.2f}")
+        t_fast = 1e-6 * slab[2].fastest
+        print(f"cost of a neighbour rank: t_comm(2) = {1e6 * t_comm:.2f} us a step on average under this load (loop "
+              f"difference);\nthe fix's exchanges took {slab[2].exchange:.2f} us a step on average and "
+              f"{1e6 * t_fast:.2f} us at the fastest step (both ranks on a core: the machine's own cost)")
 
-    # 3. projection
-    t_atom = long[1].wall / (args.n * args.steps)
+    # 3. projection, with the exchange cost of a step when both ranks have a core, and under this load
+    t_atom = 1e-6 * long[1].pass_cpu / args.n  # CPU time per magnet and step on one rank
     work = args.n * t_atom
-    print(f"\n3. Projection for N = {args.n}: step = N t_atom / P + t_comm(2) log2(P), "
-          f"t_atom = {1e9 * t_atom:.2f} ns, t_comm(2) = {1e6 * t_comm:.2f} us")
-    print(f"{'ranks':>6} {'step [us]':>10} {'speed-up':>9} {'efficiency':>11}")
-    stops = None
-    for ranks in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024):
-        step = work / ranks + t_comm * math.log2(ranks)
-        speedup = work / step
-        if stops is None and speedup / ranks < 0.5:
-            stops = ranks
-        if ranks <= 64 or ranks == stops:
-            print(f"{ranks:>6} {1e6 * step:>10.1f} {speedup:>9.1f} {speedup / ranks:>11.0%}")
-    if stops:
-        print(f"stops scaling (efficiency < 50%) at {stops} ranks, {args.n // stops} magnets a rank")
-    else:
-        print("efficiency stays >= 50% up to 1024 ranks")
-    print(f"magnets a rank at which the exchange costs a tenth of the work (2 ranks): "
-          f"{10 * t_comm / t_atom:.0f} (pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
+    costs = {"at the fastest step": t_fast, "under this load": t_comm}
+    print(f"\n3. Projection for N = {args.n}: step = N t_atom / P + t_comm log2(P), t_atom = {1e9 * t_atom:.2f} ns "
+          f"(1-rank CPU), t_comm = {1e6 * t_fast:.2f} us (fastest step) or {1e6 * t_comm:.1f} us (this load)")
+    print(f"{'ranks':>6}" + "".join(f" {'step [us]':>10} {'speed-up':>9} {'effic.':>7}" for _ in costs) +
+          "   <- t_comm: " + ", ".join(costs))
+    stops = dict.fromkeys(costs)
+    for ranks in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096):
+        cells = ""
+        for name, cost in costs.items():
+            step = work / ranks + cost * math.log2(ranks)
+            speedup = work / step
+            if stops[name] is None and speedup / ranks < 0.5:
+                stops[name] = ranks
+            cells += f" {1e6 * step:>10.1f} {speedup:>9.1f} {speedup / ranks:>7.0%}"
+        if ranks <= 64 or ranks in stops.values():
+            print(f"{ranks:>6}{cells}")
+    for name, at in stops.items():
+        where = f"at {at} ranks, {args.n // at} magnets a rank" if at else "not up to 4096 ranks"
+        print(f"t_comm {name}: stops scaling (efficiency < 50%) {where}")
+    print(f"magnets a rank at which the exchange costs a tenth of the work: {10 * t_fast / t_atom:.0f} "
+          f"(fastest step; pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores, shared machine)")
 
 

@@ -260,7 +260,9 @@ void FixLatticeChain::own_pass()
   check_gaps(bad);
   if (ranks) {
     pass_cpu += c2 - c1;
-    exchange_wall += (w1 - w0) + (MPI_Wtime() - w2);
+    const double exchange = (w1 - w0) + (MPI_Wtime() - w2);
+    exchange_wall += exchange;
+    exchange_min = exchange < exchange_min ? exchange : exchange_min;
     owned_steps++;
   }
   if (update->ntimestep == output->next) scatter();

@@ -122,7 +122,7 @@ class FixLatticeChain : public Fix {
 
   // owning the state on several ranks, this run: this rank's CPU time in its passes and wall
   // time in the exchanges (slab edges, contact flag), reported at the end (benchmarks/bench_mpi.py)
-  double pass_cpu, exchange_wall;
+  double pass_cpu, exchange_wall, exchange_min;    // exchange_min: the fastest step's
   bigint owned_steps;
 
   // x, v or f along x: the fix's arrays while it owns the state, else the atom arrays
