@@ -207,6 +207,41 @@ def test_per_atom_masses_give_the_bits_of_per_type_masses(tmp_path):
         assert np.array_equal(getattr(runs["type"], name), getattr(runs["atom"], name)), name
 
 
+@pytest.mark.lammps
+def test_batched_replicas_record_their_fronts_with_their_own_levels(tmp_path):
+    """fix lattice/front with per-chain levels (length n levels FILE), as members whose noise
+    sets their levels need: each chain's front record is its single run's with its levels, bit
+    for bit (the chain fix samples it inside its pass)."""
+    cases = [make_case(particles=21, duration=30.0, interval=10.0, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
+             for r in range(3)]
+    levels = [f"{0.02 + 0.01 * r!r} {0.8 + 0.1 * r!r} 0.1 {0.1 + 0.05 * r!r} {0.01 * r!r}" for r in range(3)]
+    records = {}
+    for name, folder in [(r, RunFolder.create(c, tmp_path / f"single{r}").path) for r, c in enumerate(cases)] + \
+            [("batched", write_replicas_folder(cases, tmp_path / "batched"))]:
+        deck = folder / "in.lattice"
+        lines = deck.read_text().splitlines()
+        if name == "batched":  # its deck has no record: the single runs' lines, with the levels file
+            (folder / "levels.txt").write_text("# start front drop pulse_drop pulse_floor\n" + "\n".join(levels) + "\n")
+            single = (tmp_path / "single0" / "in.lattice").read_text().splitlines()
+            k = next(i for i, line in enumerate(lines) if line.startswith("run "))
+            lines[k:k + 1] = [next(line for line in single if " lattice/front " in line) +
+                              " length 21 levels ${dir}/levels.txt", lines[k],
+                              next(line for line in single if "front.bin" in line)]
+        else:
+            k = next(i for i, line in enumerate(lines) if " lattice/front " in line)
+            start, front, drop, pulse_drop, floor = levels[name].split()
+            lines[k] = (f"fix front all lattice/front start {start} front {front} drop {drop} pulse_drop {pulse_drop} "
+                        f"pulse_floor {floor}")
+        deck.write_text("\n".join(lines) + "\n")
+        run_embedded(folder)
+        assert "front record inside" in (folder / "log.lammps").read_text()
+        records[name] = open_dump(folder / "front.bin").read().data[-1].view(np.uint64)
+    for r in range(3):
+        member = records["batched"][21 * r:21 * (r + 1), 1:]
+        assert np.array_equal(member, records[r][:, 1:]), r
+    assert not np.array_equal(records[0][:, 1:], records[1][:, 1:])
+
+
 def test_replicas_may_differ_only_in_their_chain():
     with pytest.raises(ConfigError, match="replica 1 differs from replica 0 outside"):
         render_replicas([make_case(), make_case(velocity=1.0)])

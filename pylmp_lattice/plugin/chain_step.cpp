@@ -147,7 +147,6 @@ void FixLatticeChain::own_step(const Law law, int &bad)
   const double *__restrict dtfm_of = dtfm.data();
   const double half_kick = one_type ? dtfm_of[1] : 0.0;
   const double dtv = update->dt, kick = update->dt;
-  const FrontRecord::Levels levels = FRONT ? front->levels : FrontRecord::Levels{};
   // per block in flight (two): the velocities after the first half kick, and before it
   double *__restrict half[2] = {scratch.data(), scratch.data() + BLOCK};
   double *__restrict before[2] = {scratch.data() + 2 * BLOCK, scratch.data() + 3 * BLOCK};
@@ -195,6 +194,7 @@ void FixLatticeChain::own_step(const Law law, int &bad)
     // above the start level (a count as a double: an int would keep the loop from vectorising)
     double *__restrict mb = FRONT ? mark + first : nullptr;
     double at_start = 0.0;
+    const double start = FRONT ? front->chain_levels(run.chain).start : 0.0;
     // one loop for one atom type and one for several (a test inside would keep the loop from
     // vectorising)
     auto kick_loop = [&](auto one_type_) {
@@ -207,7 +207,7 @@ void FixLatticeChain::own_step(const Law law, int &bad)
         vb[k] = vn;
         if constexpr (FRONT) {
           mb[k] = FrontRecord::mark_max(mb[k], vn);
-          at_start += vn >= levels.start ? 1.0 : 0.0;
+          at_start += vn >= start ? 1.0 : 0.0;
         }
       }
     };
