@@ -163,8 +163,10 @@ def main() -> None:
     for name, at in stops.items():
         where = f"at {at} ranks, {args.n // at} magnets a rank" if at else "not up to 4096 ranks"
         print(f"t_comm {name}: stops scaling (efficiency < 50%) {where}")
-    print(f"magnets a rank at which the exchange costs a tenth of the work: {10 * t_fast / t_atom:.0f} "
-          f"(fastest step; pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
+    t_slab = 1e-6 * slab[1].pass_cpu / args.slab  # per magnet and step at the slab's size (in cache)
+    print(f"magnets a rank at which the exchange costs a tenth of the work: {10 * t_fast / t_slab:.0f} "
+          f"(t_comm at the fastest step, {1e9 * t_slab:.2f} ns a magnet-step at {args.slab} magnets; "
+          "pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores, shared machine)")
 
 

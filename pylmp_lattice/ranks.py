@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import os
 
-# Measured by benchmarks/bench_mpi.py on the project's 2-core machine (docs/performance.md,
-# "MPI ranks"): the owned one-pass step with the front record, per magnet and step, and the
-# per-step cost of the slab-edge exchange plus the contact flag's allreduce, 2 ranks.
-ATOM_STEP_SECONDS = 2.8e-9
-EXCHANGE_SECONDS = 6e-6
-# A slab shorter than this spends more than a tenth of its step exchanging.
+# Measured on the project's 2-core machine (docs/performance.md, "Chain engine on several MPI
+# ranks", 2026-11-24): the owned one-pass step with the front record, CPU time per magnet and
+# step at 10^4 magnets (benchmarks/bench_engine.py: 0.2636 s for 10^8 magnet-steps), and the
+# exchanges of a step on 2 ranks (slab edges and the contact flag) at their fastest step, when
+# both ranks had a core (benchmarks/bench_mpi.py: 3.37 and 3.52 us in two runs).
+ATOM_STEP_SECONDS = 2.6e-9
+EXCHANGE_SECONDS = 3.5e-6
+# A slab shorter than this spends more than a tenth of its step exchanging (about 13 000).
 MIN_MAGNETS_PER_RANK = round(10 * EXCHANGE_SECONDS / ATOM_STEP_SECONDS)
 
 
@@ -44,6 +46,6 @@ def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[s
     if per_rank < MIN_MAGNETS_PER_RANK:
         best = max(1, magnets // MIN_MAGNETS_PER_RANK)
         warnings.append(f"--np {nprocs}: {magnets} magnets give {per_rank} a rank, fewer than the "
-                        f"{MIN_MAGNETS_PER_RANK} a rank needs to gain from the slab-edge exchange; "
-                        f"use --np {best} or fewer")
+                        f"{MIN_MAGNETS_PER_RANK} below which the slab-edge exchange costs over a tenth of a "
+                        f"step and more ranks gain little; use --np {best} or fewer")
     return warnings
