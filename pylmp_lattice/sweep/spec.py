@@ -46,7 +46,7 @@ from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 
-KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner")
+KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "cluster")
 KEEP = ("all", "measures")
 RUNNERS = ("embedded", "lmp")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
@@ -192,6 +192,7 @@ def load_sweep(path: str | Path) -> Sweep:
     for table in ("set", "grid", "zip"):
         if not isinstance(data.get(table, {}), dict):
             raise ConfigError(table, f"got {data[table]!r}; expected a table [{table}]")
+    data.pop("cluster", None)  # what batch jobs book: sweep.cluster reads it
     return Sweep(base=path.parent / data.pop("base"), **data)
 
 
