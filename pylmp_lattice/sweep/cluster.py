@@ -27,6 +27,7 @@ quotes, no newlines); the scheduler's address and the Python are this process's 
 from __future__ import annotations
 
 import contextlib
+import logging
 import re
 import shutil
 import sys
@@ -36,6 +37,8 @@ from pathlib import Path
 
 from ..case import read_toml
 from ..errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 KINDS = ("slurm", "pbs")
 LOGS = "cluster"  # under the sweep folder: job scripts' output and errors
@@ -153,10 +156,27 @@ def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path) -
     submit = cls.job_cls.submit_command
     if shutil.which(submit) is None:  # jobqueue would only log the failed submissions, and wait
         raise ConfigError("--cluster", f"{submit} is not on PATH; a {kind} cluster is submitted from a machine that has it")
-    with cls(**job_options(kind, spec, Path(folder) / LOGS)) as cluster:
+    logs = Path(folder) / LOGS
+    with _quiet("distributed", "dask_jobqueue"), cls(**job_options(kind, spec, logs)) as cluster:
         # adapt, not scale: a worker that retired at its lifetime is replaced by a new job
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
+        log.info("%s: %d jobs of one worker (%d cores, %s, %s); scheduler %s; job logs in %s",
+                 kind, jobs, spec.cores, spec.memory, spec.walltime, cluster.scheduler_address, logs)
         yield cluster.scheduler_address
+
+
+@contextlib.contextmanager
+def _quiet(*names: str):
+    """Dask's scheduler logs every worker and client coming and going; warnings are enough here."""
+    loggers = [logging.getLogger(name) for name in names]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
 
 
 def _bytes(text: str) -> int:
