@@ -145,7 +145,8 @@ class LocalSlurm:
     def _spawn(self, name: str, cmd: list[str]) -> None:
         with open(self.folder / "log" / f"{name}.stdout", "wb") as out:
             self.processes[name] = subprocess.Popen(cmd, env=self.env, stdin=subprocess.DEVNULL, stdout=out,
-                                                    stderr=subprocess.STDOUT, start_new_session=True)
+                                                    stderr=subprocess.STDOUT, start_new_session=True,
+                                                    preexec_fn=_die_with_parent)
 
     def _ok(self, cmd: list[str], expect: str = "") -> bool:
         done = subprocess.run(cmd, env=self.env, capture_output=True, text=True, timeout=30)
@@ -197,6 +198,14 @@ class LocalSlurm:
                     process.kill()
                     process.wait()
         self.processes.clear()
+
+
+def _die_with_parent() -> None:
+    """In the daemon (before exec): SIGTERM when the test process ends, however it ends."""
+    import ctypes
+
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 def _free_port() -> int:

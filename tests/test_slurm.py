@@ -7,8 +7,10 @@ tests/slurm_cluster.py), installing Debian's slurm-wlm and munge first where the
 from __future__ import annotations
 
 import json
+from collections import Counter
 import subprocess
 import sys
+import time
 import tomllib
 from pathlib import Path
 
@@ -20,6 +22,7 @@ from test_sweep import SIX, write_sweep
 
 from pylmp_lattice.cli import main
 from pylmp_lattice.sweep import load_results, load_sweep, run_sweep
+from pylmp_lattice.sweep import cluster
 from pylmp_lattice.sweep.cluster import ClusterSpec, job_options
 from pylmp_lattice.sweep.store import STATUS
 
@@ -128,3 +131,34 @@ def test_sweep_on_slurm_gives_the_local_pools_table_in_two_jobs(tmp_path, slurm)
         assert "Registered to:" in log, log
     record = json.loads((out / table["folder"][0] / STATUS).read_text())
     assert record["status"] == "done" and record["provenance"]["python"]
+
+
+@pytest.mark.slurm
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_path, slurm, monkeypatch):
+    """Workers live 12 +- 1.2 s of a 1 min walltime here (LIFETIME 0.2 instead of 0.9), and the
+    sweep starts 8 s after they joined, so both retire during it: new jobs replace them, no job
+    meets its walltime, and no finished member runs again (only one its worker was running)."""
+    from distributed import Client
+
+    monkeypatch.setattr(cluster, "LIFETIME", 0.2)
+    monkeypatch.setattr(cluster, "STAGGER", 0.02)
+    monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
+    velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
+    sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
+    spec = ClusterSpec(memory="1GiB", walltime="00:01:00")
+    with cluster.batch_cluster("slurm", 2, spec, tmp_path / "out") as batch:
+        with Client(batch.scheduler_address) as client:
+            client.wait_for_workers(2, timeout=120)
+        time.sleep(8.0)
+        table = run_sweep(sweep, tmp_path / "out", scheduler=batch.scheduler_address, progress=False)
+        log = list(batch.scheduler.transition_log)  # (key, start, finish, ...)
+    assert len(table) == 60 and set(table["status"]) == {"done"}
+
+    jobs = [j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())]
+    retired = [j for j in jobs if j["JobState"] == "COMPLETED"]  # the worker left; the job script ended
+    assert len(retired) >= 2 and len(jobs) >= 4, [(j["JobId"], j["JobState"]) for j in jobs]
+    assert {j["JobState"] for j in jobs} <= {"COMPLETED", "CANCELLED"}  # no TIMEOUT
+    finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
+    assert len(finished) == 60 and max(finished.values()) == 1  # no finished member ran again

@@ -138,14 +138,14 @@ def sweep_scheduler(sweep_file: str | Path, folder: str | Path, kind: str | None
     for option, value in (("--scheduler", scheduler), ("--workers", workers)):
         if value is not None:
             raise ConfigError(option, "the batch cluster has its own workers; leave it out with --cluster")
-    with batch_cluster(kind, 1 if jobs is None else jobs, spec, folder) as address:
-        yield address
+    with batch_cluster(kind, 1 if jobs is None else jobs, spec, folder) as cluster:
+        yield cluster.scheduler_address
 
 
 @contextlib.contextmanager
-def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path) -> Iterator[str]:
-    """Keep `jobs` batch jobs of one Dask worker each while the block runs; yield the scheduler's
-    address (for `run_sweep(scheduler=...)`). Leaving the block cancels the jobs."""
+def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path):
+    """Keep `jobs` batch jobs of one Dask worker each while the block runs; yield the jobqueue
+    cluster (its `scheduler_address` for `run_sweep`). Leaving the block cancels the jobs."""
     if kind not in KINDS:
         raise ConfigError("--cluster", f"got {kind!r}; choose one of {', '.join(KINDS)}")
     if not (isinstance(jobs, int) and jobs >= 1):
@@ -162,7 +162,7 @@ def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path) -
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
         log.info("%s: %d jobs of one worker (%d cores, %s, %s); scheduler %s; job logs in %s",
                  kind, jobs, spec.cores, spec.memory, spec.walltime, cluster.scheduler_address, logs)
-        yield cluster.scheduler_address
+        yield cluster
 
 
 @contextlib.contextmanager
