@@ -7,7 +7,7 @@
    to the finished table.
 2. Overhead per member: the paper's 21-magnet experiment (inputs/paper_experiment.toml),
    --small members over impactor velocity, as a sweep with one worker. Each member's
-   `simulation.run_case` times itself (summary.json wall_time_s); overhead = sweep wall time /
+   `run.run_case` times itself (summary.json wall_time_s); overhead = sweep wall time /
    members - mean run_case time: process pool, task transfer, status and provenance writes,
    and rewriting results.csv/.parquet after every member, measured within the same sweep.
 
@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from pylmp_lattice.case import load_case
-from pylmp_lattice.simulation import SUMMARY, run_case
+from pylmp_lattice.run_folder import run_case
+from pylmp_lattice.run_folder.layout import SUMMARY
 from pylmp_lattice.sweep import Sweep, run_sweep
 from pylmp_lattice.sweep.store import STATUS
 

@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except ConfigError as err:
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Interrupted as err:
         print(f"pylmp-lattice: {err}", file=sys.stderr)
@@ -41,10 +41,23 @@ def main(argv: list[str] | None = None) -> int:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _one_line(err: Exception) -> str:
+    """The message with control characters escaped: a path or value from the input cannot
+    break it into several lines."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(err))
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line and exit 2, like every other bad input."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {_one_line(Exception(message))}; see {self.prog} --help\n")
 
 
 def _raise_interrupted(signum, frame):
@@ -60,7 +73,7 @@ def _version() -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
+    p = _Parser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
     p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(required=True, metavar="COMMAND")
 
@@ -79,6 +92,12 @@ def _parser() -> argparse.ArgumentParser:
     deck = sub.add_parser("deck", help="write a deck that runs with `lmp -in in.lattice`")
     _case_args(deck)
     deck.set_defaults(func=_deck)
+
+    summ = sub.add_parser("summarize", help="write DIR/summary.json and its figure for any run folder "
+                                            "(a deck run by hand with lmp, a run stopped by contact or interrupted)")
+    summ.add_argument("folder", type=Path, help="run folder")
+    summ.add_argument("--no-figure", action="store_true", help="summary.json only")
+    summ.set_defaults(func=_summarize)
 
     export = sub.add_parser("export", help="write a run's trajectory for ASE's GUI or OVITO (.extxyz or .traj)")
     export.add_argument("folder", type=Path, help="run folder")
@@ -122,19 +141,24 @@ def _case_args(p):
 
 def _load(args):
     """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden."""
-    from .case import case_hash, load_case
+    from .case import case_id, load_case
 
     case = load_case(args.case, args.set)
-    if args.name:
-        if not args.name.strip() or Path(args.name).name != args.name:
-            raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
-        return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
-    default = case.name + (f"-{case_hash(case)}" if args.set else "")
-    return case, args.output or Path("runs") / default
+    if args.name is not None:  # validated by the Case, as a name from the file is
+        case = dataclasses.replace(case, name=args.name)
+    overridden = args.set and args.name is None
+    return case, _folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
+
+
+def _folder(path: Path) -> Path:
+    """An output folder argument: refused at once if it names a file, before any work."""
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--output", f"{path} is a file; expected a folder")
+    return path
 
 
 def _run(args) -> int:
-    from .simulation import run_case
+    from .run_folder import run_case
 
     case, folder = _load(args)
     if args.dry_run:
@@ -158,12 +182,12 @@ def _run(args) -> int:
 def _dry_run(case, folder: Path, args) -> int:
     """The estimate as JSON on stdout; exit 2 if the run would be refused."""
     from . import preflight
-    from .runner import check_folder
+    from .run_folder.folder import check_target
 
     est = preflight.estimate(case, args.np)
     try:
         preflight.check(case, folder, args.np, yes=args.yes)
-        check_folder(folder, args.overwrite)
+        check_target(folder, args.overwrite)
         refused = None
     except ConfigError as err:
         refused = str(err)
@@ -178,23 +202,40 @@ def _dry_run(case, folder: Path, args) -> int:
 
 
 def _deck(args) -> int:
-    from .runner import write_run_folder
+    from .run_folder import RunFolder
+    from .run_folder.layout import DECK
 
     case, folder = _load(args)
-    write_run_folder(case, folder, overwrite=args.overwrite)
-    print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
+    RunFolder.create(case, folder, overwrite=args.overwrite)
+    print(f"wrote {folder}/{DECK}; run it with: cd {folder} && lmp -in {DECK}; "
+          f"then: pylmp-lattice summarize {folder}")
+    return 0
+
+
+def _summarize(args) -> int:
+    from .run_folder import RunFolder
+    from .serialize import dumps
+
+    folder = RunFolder(args.folder)
+    if not args.folder.is_dir():
+        raise ConfigError("folder", f"got {str(args.folder)!r}; expected a run folder")
+    summary = folder.summarize(figure=not args.no_figure)
+    print(dumps(summary))
     return 0
 
 
 def _export(args) -> int:
     from .ase_io import write_trajectory
-    from .simulation import read_run
+    from .run_folder import RunFolder
 
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")
-    run = read_run(args.folder)
-    path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
-    print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
+    if not args.output.parent.is_dir():
+        raise ConfigError("--output", f"{args.output.parent} is not a folder; expected an existing folder")
+    run = RunFolder(args.folder)
+    traj = run.trajectory()
+    path = write_trajectory(args.output, traj, run.case.chain.masses(), every=args.every)
+    print(f"wrote {path} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
 
@@ -204,6 +245,7 @@ def _sweep(args) -> int:
         from .sweep.cluster import sweep_scheduler
 
         sweep = load_sweep(args.sweep)
+        _folder(args.output)
         with sweep_scheduler(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as scheduler:
             table = run_sweep(sweep, args.output, workers=args.workers, scheduler=scheduler,
                               retry_failed=args.retry_failed, progress=not args.quiet)
@@ -229,20 +271,20 @@ def _study_names() -> list[str]:
 def _study(args) -> int:
     from .studies import run_study
 
-    result = run_study(args.name, args.output, quick=args.quick)
+    result = run_study(args.name, _folder(args.output), quick=args.quick)
     print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 
 
 def _info(args) -> int:
-    from .engine import new_lammps
+    from .engine import new_lammps, plugin_styles
 
     lmp = new_lammps(["-screen", "none", "-log", "none"])
     print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
     print("packages: " + " ".join(lmp.installed_packages))
     lmp.close()
     try:
-        from .plugin import plugin_file, plugin_styles
+        from .plugin import plugin_file
 
         print(f"plugin: {plugin_file()} loads, styles: {', '.join(plugin_styles())}")
     except (ImportError, LatticeError, OSError) as err:

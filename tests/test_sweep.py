@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.simulation import load_trajectory
+from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
                                  write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS
@@ -283,7 +283,7 @@ def test_thermal_replicas_reproduce_differ_and_have_the_requested_rms(tmp_path):
     assert first["shock_velocity_max_m_per_s.value"].nunique() == replicas  # different seeds: different runs
     v2 = []
     for member in sweep.members():
-        traj = load_trajectory(member.case, tmp_path / "a" / "members" / member.id)
+        traj = RunFolder(tmp_path / "a" / "members" / member.id).trajectory()
         np.testing.assert_allclose(traj.v[0, 1:-1], member.case.chain.velocities()[1:-1], rtol=1e-9)
         v2.append(np.mean(traj.v[0, 1:-1] ** 2))
     tol = 3 * np.sqrt(2 / (replicas * (particles - 3)))

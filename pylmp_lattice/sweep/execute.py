@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import json
 import multiprocessing
 import os
 import resource
@@ -52,7 +51,7 @@ def run_member(task: Task) -> dict:
     Any earlier unfinished attempt in the folder is removed first (it never counted as done).
     Every error of the run becomes the member's one-line error; the status is written last.
     """
-    from ..simulation import run_case
+    from ..run_folder import run_case
 
     folder = Path(task.folder)
     if folder.exists():
@@ -178,12 +177,9 @@ def _row(m: Member, record: dict, summary: dict | None) -> dict:
 
 
 def _summary(folder: Path) -> dict | None:
-    from ..simulation import SUMMARY
+    from ..run_folder import RunFolder
 
-    try:
-        return json.loads((folder / SUMMARY).read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
-        return None
+    return RunFolder(folder).summary
 
 
 def _lost(root: Path, m: Member, err: BaseException) -> dict:
@@ -212,7 +208,7 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         # that may hold threads or an initialised MPI), which imports the package once and
         # stays up for later sweeps of the same Python session.
         context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
+        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run_folder.execution", "pylmp_lattice.summary"])
         _start_forkserver()
         with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
                                  initargs=(os.getpid(),)) as pool:

@@ -25,15 +25,13 @@ Members are the grid product (keys in file order, the zip as one more axis), eac
 `replicas` times (innermost), numbered from 0 in that order. A member whose chain is random
 (thermal velocities or disorder) gets chain.seed derived from the sweep seed and its number,
 unless the sweep itself sets chain.seed. A member is identified by the hash of its resolved
-case (`member_id`); two members with the same case are one member.
+case (`case.case_id`); two members with the same case are one member.
 """
 
 from __future__ import annotations
 
 import copy
-import hashlib
 import itertools
-import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,10 +39,11 @@ from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_to_dict, read_toml
+from ..case import Case, case_from_dict, case_id, case_to_dict, data_file, identity_hash, read_toml
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
+member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
 
 KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "cluster")
 KEEP = ("all", "measures")
@@ -158,12 +157,13 @@ class Sweep:
             case = case_from_dict(data, base_dir=self.base_dir)
         except ConfigError as err:
             self._check_known(err)
-            return Member(index, _hash({k: v for k, v in data.items() if k != "name"}), params, None, str(err))
-        return Member(index, member_id(case), params, case)
+            return Member(index, identity_hash({k: v for k, v in data.items() if k != "name"}), params, None, str(err))
+        return Member(index, case_id(case), params, case)
 
     def _check_known(self, err: ConfigError) -> None:
         """Re-raise an unknown field or section named by the sweep as an error of the sweep file."""
-        if not str(err).startswith(f"{err.field}: unknown"):
+        # unknown fields, and names and files that are unsafe, are errors of the sweep file, not failed members
+        if not (str(err).startswith(f"{err.field}: unknown") or err.field == "name" or err.field.endswith(".file")):
             return
         message = str(err).split(": ", 1)[1]
         section = err.field.split(".")[0]
@@ -187,30 +187,16 @@ def load_sweep(path: str | Path) -> Sweep:
             raise ConfigError(key, f"unknown key; expected one of {', '.join(KEYS)}")
     if "base" not in data:
         raise ConfigError("base", "missing; expected the path of the base case, e.g. base = \"case.toml\"")
-    if not isinstance(data["base"], str):
-        raise ConfigError("base", f"got {data['base']!r}; expected a path (string)")
     for table in ("set", "grid", "zip"):
         if not isinstance(data.get(table, {}), dict):
             raise ConfigError(table, f"got {data[table]!r}; expected a table [{table}]")
     data.pop("cluster", None)  # what batch jobs book: sweep.cluster reads it
-    return Sweep(base=path.parent / data.pop("base"), **data)
+    return Sweep(base=data_file(path.parent, data.pop("base"), "base"), **data)
 
 
 def member_seed(sweep_seed: int, index: int) -> int:
     """The seed of member `index`: independent streams for every (sweep seed, index) pair."""
     return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
-
-
-def member_id(case: Case) -> str:
-    """The member's identity: a hash of its resolved case. The name is a label, not physics."""
-    data = case_to_dict(case)
-    data.pop("name", None)
-    return _hash(data)
-
-
-def _hash(data: dict) -> str:
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
