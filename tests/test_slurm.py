@@ -85,13 +85,15 @@ def test_cluster_section_reaches_the_pbs_job_script(tmp_path):
         ("", ["--cluster", "slurm", "--workers", "2"], "--workers: the batch cluster has its own workers"),
         ("", ["--cluster", "slurm", "--scheduler", "tcp://h:1"], "--scheduler: the batch cluster has its own workers"),
         ("", ["--cluster", "pbs"], "--cluster: qsub is not on PATH"),
+        ("", ["--cluster", "slurm", "-o", "my out"], "-o: got 'my out'; with --cluster, a folder path of letters"),
     ],
 )
 def test_bad_cluster_section_or_options_are_one_line_naming_the_field_exit_2(tmp_path, capsys, monkeypatch, text,
                                                                             args, field):
     monkeypatch.setenv("PATH", "/nonexistent")  # nothing may be submitted
     path = write_sweep(tmp_path, SIX + "[cluster]\n" + text + "\n")
-    assert main(["sweep", str(path), "-o", str(tmp_path / "out"), *args]) == 2
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", str(path), "-o", "out", *args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}"), err
     assert not (tmp_path / "out" / "members").exists()

@@ -21,7 +21,8 @@ scheduler runs that member again elsewhere; re-running the command resumes in an
 
 jobqueue writes these values into a job script that a shell runs, so every one is checked
 against a strict pattern (no spaces except one between a directive's option and its value, no
-quotes, no newlines); the scheduler's address and the Python are this process's own.
+quotes, no newlines), and so is the sweep folder's path (DIR/cluster/ is named in the script);
+the scheduler's address and the Python are this process's own.
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ LIFETIME, STAGGER = 0.90, 0.05
 _QUEUE = re.compile(r"[A-Za-z0-9_.@-]+")
 _MEMORY = re.compile(r"\d+(\.\d+)?([kKMGTP]i?)?B")
 _WALLTIME = re.compile(r"(?:(\d+)-)?(\d+):([0-5]\d):([0-5]\d)")
+_PATH = re.compile(r"[A-Za-z0-9_./+@%,=~-]+")
 _DIRECTIVE = re.compile(r"-{1,2}[A-Za-z][A-Za-z0-9_-]*(?:[ =][A-Za-z0-9_.,:@%/+=-]+)?")
 
 
@@ -150,13 +152,16 @@ def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path):
         raise ConfigError("--cluster", f"got {kind!r}; choose one of {', '.join(KINDS)}")
     if not (isinstance(jobs, int) and jobs >= 1):
         raise ConfigError("--jobs", f"got {jobs!r}; expected an integer >= 1")
+    logs = Path(folder).resolve() / LOGS
+    if not _PATH.fullmatch(str(logs)):  # it is written into the job script's directives
+        raise ConfigError("-o", f"got {str(folder)!r}; with --cluster, a folder path of letters, digits and "
+                          "_ . / + - @ % , = ~ only (no spaces or shell characters)")
     from dask_jobqueue import PBSCluster, SLURMCluster
 
     cls = SLURMCluster if kind == "slurm" else PBSCluster
     submit = cls.job_cls.submit_command
     if shutil.which(submit) is None:  # jobqueue would only log the failed submissions, and wait
         raise ConfigError("--cluster", f"{submit} is not on PATH; a {kind} cluster is submitted from a machine that has it")
-    logs = Path(folder) / LOGS
     with _quiet("distributed", "dask_jobqueue"), cls(**job_options(kind, spec, logs)) as cluster:
         # adapt, not scale: a worker that retired at its lifetime is replaced by a new job
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
