@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 import subprocess
 import sys
 import time
@@ -164,3 +165,30 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
     assert {j["JobState"] for j in jobs} <= {"COMPLETED", "CANCELLED"}  # no TIMEOUT
     finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
     assert len(finished) == 60 and max(finished.values()) == 1  # no finished member ran again
+
+
+@pytest.mark.slurm
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_a_job_killed_mid_sweep_loses_only_its_running_member(tmp_path, slurm, monkeypatch):
+    """scancel ends a job as its walltime does (SIGTERM, then SIGKILL): the sweep goes on with
+    the other worker (a new job replaces the killed one once Dask gives the worker up, after
+    15 s), and every member is done once (none finished is run again)."""
+    monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
+    velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
+    sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
+    out = tmp_path / "out"
+    with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch:
+        with ThreadPoolExecutor(1) as coordinator:
+            result = coordinator.submit(run_sweep, sweep, out, scheduler=batch.scheduler_address, progress=False)
+            while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
+                time.sleep(0.1)
+            killed = slurm.queued()[0]
+            subprocess.run(["scancel", killed], env=slurm.env, check=True)
+            table = result.result(timeout=300)
+        log = list(batch.scheduler.transition_log)
+    assert len(table) == 60 and set(table["status"]) == {"done"}
+    jobs = {j["JobId"]: j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())}
+    assert jobs[killed]["JobState"] == "CANCELLED", jobs
+    finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
+    assert len(finished) == 60 and max(finished.values()) == 1
