@@ -242,13 +242,12 @@ def _export(args) -> int:
 def _sweep(args) -> int:
     try:
         from .sweep import load_sweep, run_sweep, write_replica_stats
-        from .sweep.cluster import sweep_scheduler
+        from .sweep.cluster import sweep_workers
 
         sweep = load_sweep(args.sweep)
         _folder(args.output)
-        with sweep_scheduler(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as scheduler:
-            table = run_sweep(sweep, args.output, workers=args.workers, scheduler=scheduler,
-                              retry_failed=args.retry_failed, progress=not args.quiet)
+        with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
+            table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
               "run the same command to resume", file=sys.stderr)

@@ -126,22 +126,22 @@ def job_options(kind: str, spec: ClusterSpec, log_directory: str | Path) -> dict
 
 
 @contextlib.contextmanager
-def sweep_scheduler(sweep_file: str | Path, folder: str | Path, kind: str | None, jobs: int | None,
-                    scheduler: str | None, workers: int | None) -> Iterator[str | None]:
-    """The command line's choice of executor as a scheduler address for `run_sweep`: a batch
-    cluster (`kind`, `jobs`) started for the block, the given `scheduler`, or None (local pool).
+def sweep_workers(sweep_file: str | Path, folder: str | Path, kind: str | None, jobs: int | None,
+                  scheduler: str | None, workers: int | None) -> Iterator[dict]:
+    """The command line's choice of workers as keyword arguments of `run_sweep`: a batch cluster
+    (`kind`, `jobs`) kept for the block, else the given `workers` or `scheduler`.
     The sweep file's [cluster] section is checked in every case."""
     spec = read_cluster(sweep_file)
     if kind is None:
         if jobs is not None:
             raise ConfigError("--jobs", "counts batch jobs; use it with --cluster (or --workers for local processes)")
-        yield scheduler
+        yield {"workers": workers, "scheduler": scheduler}
         return
     for option, value in (("--scheduler", scheduler), ("--workers", workers)):
         if value is not None:
             raise ConfigError(option, "the batch cluster has its own workers; leave it out with --cluster")
     with batch_cluster(kind, 1 if jobs is None else jobs, spec, folder) as cluster:
-        yield cluster.scheduler_address
+        yield {"scheduler": cluster.scheduler_address}
 
 
 @contextlib.contextmanager
