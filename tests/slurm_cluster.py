@@ -3,8 +3,8 @@
 `LocalSlurm.started()` writes a minimal slurm.conf into a new folder (no cgroups:
 proctrack/linuxproc and task/none; no database: jobcomp/filetxt writes one line per finished
 job), starts the three daemons in the foreground as children of this process on free ports,
-and waits until the node is idle; `stop()` cancels the cluster's jobs and ends the daemons.
-Clients (sbatch, squeue, dask-jobqueue) find the cluster through `env` (SLURM_CONF).
+and waits until the node is idle; `stop()` cancels the cluster's jobs, ends the daemons and
+removes the folder (the daemons also get SIGTERM if the test process dies). Clients (sbatch, squeue, dask-jobqueue) find the cluster through `env` (SLURM_CONF).
 
 `install()` installs Debian's `slurm-wlm` and `munge` where they are missing (needs root and
 apt-get, as on CI). Every failure raises SlurmUnavailable saying exactly what failed, with the
@@ -182,7 +182,7 @@ class LocalSlurm:
         return done.stdout.split()
 
     def stop(self) -> None:
-        """Cancel every job of this cluster, then end the daemons this object started."""
+        """Cancel every job of this cluster, end the daemons this object started, remove the folder."""
         if "slurmctld" in self.processes and self.processes["slurmctld"].poll() is None:
             subprocess.run(["scancel", "--full", "--partition=test"], env=self.env, capture_output=True, timeout=30)
             deadline = time.monotonic() + 20
@@ -198,6 +198,7 @@ class LocalSlurm:
                     process.kill()
                     process.wait()
         self.processes.clear()
+        shutil.rmtree(self.folder, ignore_errors=True)
 
 
 def _die_with_parent() -> None:

@@ -141,30 +141,31 @@ def test_sweep_on_slurm_gives_the_local_pools_table_in_two_jobs(tmp_path, slurm)
 @pytest.mark.slow
 def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_path, slurm, monkeypatch):
     """Workers live 12 +- 1.2 s of a 1 min walltime here (LIFETIME 0.2 instead of 0.9), and the
-    sweep starts 8 s after they joined, so both retire during it: new jobs replace them, no job
-    meets its walltime, and no finished member runs again (only one its worker was running)."""
+    sweep starts 10 s after they joined, so both retire 1-3 s into it (its 80 members take
+    longer, at 0.1-0.5 s each): new jobs replace them, no job meets its walltime, and no
+    finished member runs again (only one its worker was running)."""
     from distributed import Client
 
     monkeypatch.setattr(cluster, "LIFETIME", 0.2)
     monkeypatch.setattr(cluster, "STAGGER", 0.02)
     monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
-    velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
+    velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(80))
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     spec = ClusterSpec(memory="1GiB", walltime="00:01:00")
     with cluster.batch_cluster("slurm", 2, spec, tmp_path / "out") as batch:
         with Client(batch.scheduler_address) as client:
             client.wait_for_workers(2, timeout=120)
-        time.sleep(8.0)
+        time.sleep(10.0)
         table = run_sweep(sweep, tmp_path / "out", scheduler=batch.scheduler_address, progress=False)
         log = list(batch.scheduler.transition_log)  # (key, start, finish, ...)
-    assert len(table) == 60 and set(table["status"]) == {"done"}
+    assert len(table) == 80 and set(table["status"]) == {"done"}
 
     jobs = [j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())]
     retired = [j for j in jobs if j["JobState"] == "COMPLETED"]  # the worker left; the job script ended
     assert len(retired) >= 2 and len(jobs) >= 4, [(j["JobId"], j["JobState"]) for j in jobs]
     assert {j["JobState"] for j in jobs} <= {"COMPLETED", "CANCELLED"}  # no TIMEOUT
     finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
-    assert len(finished) == 60 and max(finished.values()) == 1  # no finished member ran again
+    assert len(finished) == 80 and max(finished.values()) == 1  # no finished member ran again
 
 
 @pytest.mark.slurm
