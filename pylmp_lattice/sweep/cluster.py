@@ -36,6 +36,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from dask.utils import parse_bytes
+
 from ..case import read_toml
 from ..errors import ConfigError
 
@@ -69,7 +71,7 @@ class ClusterSpec:
             raise ConfigError("cluster.queue", f"got {self.queue!r}; expected a name of letters, digits, _ . @ -")
         if not (isinstance(self.cores, int) and not isinstance(self.cores, bool) and 1 <= self.cores <= 4096):
             raise ConfigError("cluster.cores", f"got {self.cores!r}; expected an integer in 1..4096")
-        if not (isinstance(self.memory, str) and _MEMORY.fullmatch(self.memory)) or _bytes(self.memory) < 2**20:
+        if not (isinstance(self.memory, str) and _MEMORY.fullmatch(self.memory)) or parse_bytes(self.memory) < 2**20:
             raise ConfigError("cluster.memory", f"got {self.memory!r}; expected at least 1 MiB with a unit, "
                               "e.g. \"2GiB\" or \"500MB\"")
         if not (isinstance(self.walltime, str) and _WALLTIME.fullmatch(self.walltime)) or self.seconds < 60:
@@ -117,7 +119,6 @@ def job_options(kind: str, spec: ClusterSpec, log_directory: str | Path) -> dict
     }
     if kind == "slurm":
         return options | {"walltime": spec.walltime, "job_cpu": spec.cores}
-    from dask.utils import parse_bytes
     from dask_jobqueue.pbs import pbs_format_bytes_ceil
 
     hours, rest = divmod(spec.seconds, 3600)
@@ -182,9 +183,3 @@ def _quiet(*names: str):
     finally:
         for logger, level in zip(loggers, levels):
             logger.setLevel(level)
-
-
-def _bytes(text: str) -> int:
-    from dask.utils import parse_bytes
-
-    return parse_bytes(text)
