@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import re
 import tomllib
@@ -27,6 +28,8 @@ from .errors import ConfigError
 from .exact import weak_shock
 from .forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
 from .piston import PROFILES, Impactor
+
+logger = logging.getLogger(__name__)
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
@@ -79,6 +82,10 @@ class Chain:
     - defect_index (1-based magnet n) with defect_mass (g) for magnet n and/or defect_r0 (mm)
       for gap n (between magnets n and n+1): one magnet or gap of another value, applied after
       the disorder.
+
+    velocity: initial velocity of each magnet, m/s, one per particle (instead of
+    thermal_velocity), e.g. a frame exported from a run (`ase_io.case_from_atoms`). The
+    impactor's entry is replaced by its drive; the held end's must be 0.
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
@@ -93,6 +100,7 @@ class Chain:
     defect_mass: float | None = None  # g
     defect_r0: float | None = None  # mm
     seed: int | None = None
+    velocity: tuple[float, ...] | None = None  # m/s, initial velocity of each magnet
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
@@ -114,6 +122,21 @@ class Chain:
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
         self._check_ensemble()
+        self._check_velocity()
+
+    def _check_velocity(self):
+        if self.velocity is None:
+            return
+        v = np.atleast_1d(np.asarray(self.velocity, float))
+        if not np.all(np.isfinite(v)):
+            raise ConfigError("chain.velocity", f"got {_show(self.velocity)} m/s; expected finite values")
+        if self.thermal_velocity:
+            raise ConfigError("chain.velocity", "given with chain.thermal_velocity; expected one of the two")
+        if np.isscalar(self.velocity) or len(v) != self.particles:
+            raise ConfigError("chain.velocity", f"got {len(v)} values; expected one per magnet (chain.particles = "
+                                                f"{self.particles})")
+        if v[-1] != 0:
+            raise ConfigError("chain.velocity", f"got {v[-1]} m/s for the held last magnet; expected 0")
 
     def _check_ensemble(self):
         for name, unit in (("thermal_velocity", " m/s"), ("mass_disorder", ""), ("r0_disorder", "")):
@@ -213,13 +236,16 @@ class Chain:
         return _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
 
     def velocities(self) -> np.ndarray:
-        """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
+        """Initial velocities, m/s, shape (N,): `velocity` if given, else thermal velocities,
+        zero for the impactor and the held end.
 
         Free magnets get v = c sigma z (z standard normal) minus the mass-weighted mean, so the
         net momentum is zero. Removing the mean takes a known fraction of the expected v^2;
         c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
         so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
         """
+        if self.velocity is not None:
+            return np.array(self.velocity, float)
         v = np.zeros(self.particles)
         if not self.thermal_velocity:
             return v
@@ -392,6 +418,7 @@ class Case:
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
+            self._drop_fine_beyond_chain()
         lo, hi = self.table_range()
         smallest, widest = self.chain.gap_range
         if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
@@ -429,6 +456,17 @@ class Case:
         dt_max = self.stability_limit()
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+
+    def _drop_fine_beyond_chain(self):
+        """A long lattice's N follows from run.duration: a shorter run makes a shorter chain, and
+        the output.fine magnets beyond it are dropped, with a warning."""
+        n = self.chain.particles
+        beyond = [k for k in self.output.fine if isinstance(k, int) and k > n]
+        if beyond:
+            logger.warning("output.fine: magnets %s are beyond this long lattice's N = %d (set by run.duration = %g ms); "
+                           "dropped", beyond, n, self.run.duration)
+            kept = tuple(k for k in self.output.fine if k not in beyond)
+            object.__setattr__(self, "output", replace(self.output, fine=kept))
 
     def fine_interval(self) -> float:
         """Interval of the fine output, ms (default: every time step)."""
@@ -520,9 +558,36 @@ def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
     Files the case names (force.file, impactor.file) are read from the case file's folder."""
     path = Path(path)
     data = read_toml(path, "case")
+    switched = _switch_laws(data, overrides)
     for item in overrides:
         apply_override(data, item)
-    return case_from_dict(data, base_dir=path.parent)
+    try:
+        return case_from_dict(data, base_dir=path.parent)
+    except ConfigError as err:
+        section = err.field.split(".")[0]
+        if section not in switched:
+            raise
+        raise ConfigError(err.field, f"{str(err)[len(err.field) + 2:]} (--set {section}.law={switched[section]} "
+                                     f"starts [{section}] afresh: give its fields with --set {section}.KEY=VALUE)") from None
+
+
+# A law's parameters belong to it: another law named with --set starts its section afresh.
+_LAW_SECTIONS = ("force", "second_neighbour")
+
+
+def _switch_laws(data: dict, overrides: list[str]) -> dict[str, str]:
+    """Empty the sections whose law `overrides` switch to another than the file's, so that
+    the new law's fields come from `overrides` alone; {section: new law}."""
+    given = {}
+    for item in overrides:
+        apply_override(given, item)
+    switched = {}
+    for section in _LAW_SECTIONS:
+        new = given.get(section, {}).get("law")
+        if section in data and new is not None and new != data[section].get("law", "power"):
+            data[section] = {}
+            switched[section] = new
+    return switched
 
 
 def read_toml(path: Path, field: str) -> dict:
@@ -592,7 +657,7 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         impactor["t"], impactor["values"] = _read_columns(data_file(base_dir, impactor.pop("file"), "impactor.file"),
                                                           "impactor.file", "t [ms], u [mm] or v [m/s]")
 
-    return Case(
+    case = Case(
         chain=_build(Chain, "chain", data["chain"]),
         force=_build(FORCE_LAWS[law], "force", force, force_keys),
         impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
@@ -604,6 +669,34 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=name,
     )
+    for message in unit_warnings(case):
+        logger.warning(message)
+    return case
+
+
+def unit_warnings(case: Case) -> list[str]:
+    """Warnings for values that look like another unit than the case's (mm, g, m/s): r0
+    under 0.1 mm (metres?), a mass under 0.01 g (kilograms?) or over 1 kg (milligrams?), V_I
+    over 100 times the chain's linear wave speed V0 (mm/s?). Such a case is valid, but builds
+    e.g. a chain of 10^5 magnets that touch at once."""
+    out = []
+    # the nominal values (lists only if given per magnet): no array of N values for a huge chain
+    r0, m = float(np.mean(case.chain.r0)), float(np.mean(case.chain.mass))
+    if r0 < 0.1:
+        out.append(f"chain.r0: got {r0:g} mm; lengths are in mm: if it is in m, that is {r0 * 1e3:g} mm")
+    if m < 0.01:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in kg, that is {m * 1e3:g} g")
+    elif m > 1e3:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in mg, that is {m * 1e-3:g} g")
+    if out:  # V0 = r0 sqrt(k/m) is then off too
+        return out
+    vi = case.impactor.peak_velocity()
+    with np.errstate(all="ignore"):
+        v0 = weak_shock(case.force, r0, m).c0
+    if np.isfinite(v0) and vi > 100 * v0:
+        out.append(f"impactor.velocity: got {vi:g} m/s, over 100 times the chain's linear wave speed V0 = {v0:.3g} m/s; "
+                   f"velocities are in m/s: if it is in mm/s, that is {vi * 1e-3:g} m/s")
+    return out
 
 
 def data_file(base_dir: str | Path, value, field: str) -> Path:

