@@ -113,6 +113,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("-o", "--output", type=Path, required=True, help="sweep folder DIR")
     sweep.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
+    sweep.add_argument("--cluster", choices=("slurm", "pbs"),
+                       help="submit --jobs batch jobs of one Dask worker each; the sweep file's [cluster] says what they book")
+    sweep.add_argument("--jobs", type=int, metavar="N", help="batch jobs with --cluster (default 1)")
     sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_sweep)
@@ -250,11 +253,12 @@ def _export(args) -> int:
 def _sweep(args) -> int:
     try:
         from .sweep import load_sweep, run_sweep, write_replica_stats
+        from .sweep.cluster import sweep_workers
 
         sweep = load_sweep(args.sweep)
         _folder(args.output)
-        table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
-                          retry_failed=args.retry_failed, progress=not args.quiet)
+        with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
+            table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
               "run the same command to resume", file=sys.stderr)

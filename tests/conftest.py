@@ -63,3 +63,27 @@ def quick_studies(tmp_path_factory):
 
     get.out = out
     return get
+
+
+# Set on CI (.ci/run): SLURM that cannot start fails the slurm tests instead of skipping them.
+REQUIRE_SLURM = "PYLMP_LATTICE_REQUIRE_SLURM"
+
+
+@pytest.fixture(scope="session")
+def slurm():
+    """A one-node SLURM on localhost for this test session (tests/slurm_cluster.py); skipped,
+    saying why, where it cannot start, unless PYLMP_LATTICE_REQUIRE_SLURM=1."""
+    import os
+
+    from slurm_cluster import LocalSlurm, SlurmUnavailable
+
+    try:
+        cluster = LocalSlurm.started()
+    except SlurmUnavailable as err:
+        if os.environ.get(REQUIRE_SLURM) == "1":
+            pytest.fail(f"SLURM did not start ({REQUIRE_SLURM}=1): {err}")
+        pytest.skip(f"SLURM did not start: {err}")
+    try:
+        yield cluster
+    finally:
+        cluster.stop()

@@ -130,17 +130,20 @@ def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, re
         futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
         bar.show(running=len(futures))
         try:
-            for done, future in enumerate(as_completed(futures), start=1):
-                m = futures[future]
+            for future in as_completed(futures):
+                # dropped once handled: a Dask future kept would keep the result in a worker's
+                # memory, and a worker retiring (its lifetime) would have the member run again
+                m = futures.pop(future)
                 try:
                     result = future.result()
                 except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
                     result = _lost(root, m, err)
+                del future
                 if result["record"]["status"] == INTERRUPTED:
                     continue
                 rows[m.index] = _row(m, result["record"], result["summary"])
                 table = write_table(root, [rows[i] for i in sorted(rows)])
-                bar.advance(running=len(futures) - done)
+                bar.advance(running=len(futures))
         except (KeyboardInterrupt, Interrupted):
             # queued members never start; running ones are stopped (pool) and re-run on resume
             for future in futures:

@@ -45,7 +45,7 @@ from ..errors import ConfigError
 log = logging.getLogger(__name__)
 member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
 
-KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner")
+KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "cluster")
 KEEP = ("all", "measures")
 RUNNERS = ("embedded", "lmp")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
@@ -190,6 +190,7 @@ def load_sweep(path: str | Path) -> Sweep:
     for table in ("set", "grid", "zip"):
         if not isinstance(data.get(table, {}), dict):
             raise ConfigError(table, f"got {data[table]!r}; expected a table [{table}]")
+    data.pop("cluster", None)  # what batch jobs book: sweep.cluster reads it
     return Sweep(base=data_file(path.parent, data.pop("base"), "base"), **data)
 
 
