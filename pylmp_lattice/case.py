@@ -13,6 +13,7 @@ import hashlib
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, fields, replace
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -137,30 +138,25 @@ class Chain:
         # the draws of the others.
         return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed or 0).spawn(3)]
 
-    def _perturbed(self, nominal: np.ndarray, width: float | None, rng: np.random.Generator) -> np.ndarray:
+    def _perturbed(self, nominal: np.ndarray, width: float | None, stream: int) -> np.ndarray:
         if not width:
             return nominal
+        rng = self._streams()[stream]
         if self.disorder == "uniform":
             noise = rng.uniform(-math.sqrt(3), math.sqrt(3), nominal.shape)
         else:
             noise = rng.standard_normal(nominal.shape)
         return nominal * (1 + width * noise)
 
+    # The draws are made once per chain (a sweep builds thousands of chains): the methods
+    # return copies of these cached arrays.
     def masses(self) -> np.ndarray:
         """Mass of each particle, g, shape (N,), with disorder and defect."""
-        nominal = np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
-        m = self._perturbed(nominal, self.mass_disorder, self._streams()[0])
-        if self.defect_mass is not None:
-            m[self.defect_index - 1] = self.defect_mass
-        return m
+        return self._masses.copy()
 
     def gaps(self) -> np.ndarray:
         """Initial separations, mm, shape (N-1,), with disorder and defect."""
-        nominal = np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
-        r = self._perturbed(nominal, self.r0_disorder, self._streams()[1])
-        if self.defect_r0 is not None:
-            r[self.defect_index - 1] = self.defect_r0
-        return r
+        return self._gaps.copy()
 
     def velocities(self) -> np.ndarray:
         """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
@@ -170,6 +166,26 @@ class Chain:
         c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
         so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
         """
+        return self._velocities.copy()
+
+    @cached_property
+    def _masses(self) -> np.ndarray:
+        nominal = np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
+        m = self._perturbed(nominal, self.mass_disorder, 0)
+        if self.defect_mass is not None:
+            m[self.defect_index - 1] = self.defect_mass
+        return m
+
+    @cached_property
+    def _gaps(self) -> np.ndarray:
+        nominal = np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
+        r = self._perturbed(nominal, self.r0_disorder, 1)
+        if self.defect_r0 is not None:
+            r[self.defect_index - 1] = self.defect_r0
+        return r
+
+    @cached_property
+    def _velocities(self) -> np.ndarray:
         v = np.zeros(self.particles)
         if not self.thermal_velocity:
             return v
@@ -421,11 +437,16 @@ class Case:
         k2_max)/m), k_max + k2_max takes the place of k_max.
         """
         lo, hi = self.table_range()
-        r = np.linspace(lo, hi, 20001)
-        k_max = float(np.max(self.force.stiffness(r)))
+        k_max = _max_stiffness(self.force, lo, hi)
         if self.second_neighbour is not None:
             k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
         return math.sqrt(float(np.min(self.chain.masses())) / k_max)
+
+
+@lru_cache(maxsize=64)
+def _max_stiffness(law: ForceLaw, lo: float, hi: float) -> float:
+    """Largest stiffness of `law` on [lo, hi] mm, N/mm, sampled (cached: sweeps ask it per member)."""
+    return float(np.max(law.stiffness(np.linspace(lo, hi, 20001))))
 
 
 def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, duration: float) -> int:
