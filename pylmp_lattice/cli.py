@@ -93,6 +93,8 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
     sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.add_argument("--overwrite", action="store_true", help="replace a different sweep held in DIR")
+    sweep.add_argument("--yes", action="store_true", help="run a sweep of over 100000 members")
     sweep.set_defaults(func=_sweep)
 
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
@@ -201,18 +203,20 @@ def _sweep(args) -> int:
 
         sweep = load_sweep(args.sweep)
         table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
-                          retry_failed=args.retry_failed, progress=not args.quiet)
+                          retry_failed=args.retry_failed, progress=not args.quiet, overwrite=args.overwrite,
+                          yes=args.yes)
     except (KeyboardInterrupt, Interrupted) as err:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
               "run the same command to resume", file=sys.stderr)
         return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
-    failed = int((table["status"] == "failed").sum())
-    print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
-          file=sys.stderr)
+    failed, interrupted = (int((table["status"] == s).sum()) for s in ("failed", "interrupted"))
+    print(f"{len(table)} members: {len(table) - failed - interrupted} done, {failed} failed"
+          + (f", {interrupted} interrupted (a worker was lost; run the same command to finish)" if interrupted else "")
+          + f"; table {args.output / 'results.csv'}", file=sys.stderr)
     if sweep.replicas > 1:
         write_replica_stats(args.output, table)
         print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
-    return EXIT_RUN_ERROR if failed else 0
+    return EXIT_RUN_ERROR if failed or interrupted else 0
 
 
 def _study_names() -> list[str]:

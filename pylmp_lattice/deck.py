@@ -67,7 +67,7 @@ def piston_text(imp: Measured) -> str:
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
 
-def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
+def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str]:
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
@@ -76,6 +76,9 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
     chains (no fine output, no front record); read it back with simulation.split_replicas.
+    With `front` it writes no per-frame output, only the front record of every atom (one
+    front.bin; replica r's rows are its atoms), as each case alone would with output.format
+    = "none".
     """
     first = cases[0]
     for r, case in enumerate(cases):
@@ -85,8 +88,10 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
-    # one text dump of all chains (the H5MD conversion and the front record are per chain)
-    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, format="text", fine=(), front=False))
+    # one text dump of all chains (the H5MD conversion and the front record are per chain), or
+    # with `front` the front record alone (the fix's record is per atom)
+    output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
+    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
     files = render(batch)
     files[DECK] = deck_text(batch, replicas=len(cases))
     files[DATA] = _stack_data([data_text(case) for case in cases])

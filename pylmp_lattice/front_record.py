@@ -41,18 +41,30 @@ def has_front_record(folder: str | Path) -> bool:
 
 def read_front_record(case: Case, folder: str | Path, arrival_method: str = "level") -> FrontRecord:
     """The record; arrival by `arrival_method`, "level" or "velocity_peak" (see measures.arrival)."""
+    return read_front_records([case], folder, arrival_method)[0]
+
+
+def read_front_records(cases, folder: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
+    """The record of a batch of equal chains (deck.render_replicas with `front`): one per case,
+    chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     frame = open_dump(Path(folder) / FRONT_BIN).read()
-    record = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(_COLUMNS)}
+    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(_COLUMNS)}
     end = float(from_engine(frame.time[-1], "time"))
+    case = cases[0]
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]
     drive = measures.first_peaks(t, v, a, vi)
-    peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
-                                  for f in fields(measures.FirstPeaks)))
+    drive_arrival = measures.arrival_times(t, v, vi, method=arrival_method)
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
-    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method), record[column][1:]])
-    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method)
-    return FrontRecord(front, record["max_speed"], end)
+    n, out = case.chain.particles, []
+    for r, case in enumerate(cases):
+        record = {name: values[r * n:(r + 1) * n] for name, values in columns.items()}
+        peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
+                                      for f in fields(measures.FirstPeaks)))
+        arrival = np.concatenate([drive_arrival, record[column][1:]])
+        front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method)
+        out.append(FrontRecord(front, record["max_speed"].copy(), end))
+    return out

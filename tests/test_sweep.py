@@ -306,11 +306,14 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
     path = write_sweep(tmp_path, SIX)
     out = tmp_path / "out"
     out.mkdir()
-    with open(out / "sweep.lock", "w") as held:
+    held = os.open(out, os.O_RDONLY)  # the lock is on the folder itself: no lock file left behind
+    try:
         fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
         assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+    finally:
+        os.close(held)
     assert "-o: another sweep is running in" in capsys.readouterr().err
-    assert not list((out / "members").iterdir())
+    assert list(out.iterdir()) == []
 
 
 def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypatch):

@@ -11,8 +11,18 @@
 
 from .execute import run_sweep
 from .spec import Member, Sweep, load_sweep, member_id, member_seed
-from .stats import plot_replica_stats, replica_stats, write_replica_stats
 from .table import load_results
+
+_STATS = ("replica_stats", "plot_replica_stats", "write_replica_stats")
+
+
+def __getattr__(name: str):
+    """The statistics load pandas (a second of start-up): imported when first asked for."""
+    if name in _STATS:
+        from . import stats
+
+        return getattr(stats, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = ["Member", "Sweep", "load_sweep", "member_id", "member_seed", "run_sweep", "load_results",
            "replica_stats", "plot_replica_stats", "write_replica_stats"]

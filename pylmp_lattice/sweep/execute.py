@@ -1,219 +1,371 @@
-"""Running a sweep's members: one code path for a local process pool and a Dask cluster.
+"""Running a sweep: the coordinator. One code path for a local process pool and any
+`concurrent.futures` executor (a Dask cluster's `get_executor()`, a batch system's).
 
-Both are `concurrent.futures` executors (`ProcessPoolExecutor`, or a `distributed.Client`'s
-`get_executor()`); `run_member` runs in the worker and writes everything to the member's
-folder, so results live on disk, not in worker memory. The coordinator (this process) skips
-members that are done, collects the rest as they finish, and rewrites the table after each.
+The coordinator counts the members and estimates the run before enumerating them, claims the
+folder (one coordinator per DIR, DIR/sweep.json names the sweep it holds), then enumerates the
+members lazily: a member done on disk (status done, summary that parses) is skipped, the others
+are grouped into tasks, consecutive members of one parameter point, sized to the workers
+(`_Blocks`), and run by `batch.run_task` in the workers, whose results live on disk. At most one
+task per worker is in flight, so a stop never finds members queued. The table is kept in
+memory (O(1) per member), written every few seconds and at the end.
+
+Stopping (SIGINT, SIGTERM): no further task is sent, the local workers are told to stop (their
+engines stop at the next step, their members become "interrupted"), the table is written, and
+`Interrupted` is raised, within about a second; a second signal kills the workers at once.
+A local worker exits by itself when the coordinator dies (it watches a pipe, which closes
+whether or not the dead coordinator is reaped). A lost worker (killed, out of memory) breaks
+the pool: every member in flight is read back from its folder, "done" if it finished there,
+else "interrupted", and the sweep stops; running the command again completes it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
-import json
+import importlib
+import logging
+import math
 import multiprocessing
 import os
-import resource
-import shutil
 import signal
 import sys
 import threading
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import pandas as pd
+from ..errors import ConfigError, Interrupted
+from . import batch
+from .batch import Task
+from .spec import Member, Sweep, _hash
+from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, member_folder, read_json,
+                    read_status)
+from .table import Table, member_row
 
-from ..case import Case
-from ..errors import Interrupted
-from .spec import Member, Sweep
-from .store import DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, member_folder, now, provenance, read_status, write_status
-from .table import member_row, write_table
+log = logging.getLogger(__name__)
 
-LOCK = "sweep.lock"
-
-
-@dataclass(frozen=True)
-class Task:
-    """What a worker needs to run one member (small and picklable)."""
-
-    folder: str
-    id: str
-    index: int
-    params: dict
-    case: Case
-    runner: str
-
-
-def run_member(task: Task) -> dict:
-    """Run one member in its folder; return {"record": status record, "summary": summary or None}.
-
-    Any earlier unfinished attempt in the folder is removed first (it never counted as done).
-    Every error of the run becomes the member's one-line error; the status is written last.
-    """
-    from ..simulation import run_case
-
-    folder = Path(task.folder)
-    if folder.exists():
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True)
-    start, cpu = time.perf_counter(), _cpu_time()
-    record = {"id": task.id, "index": task.index, "params": task.params, "status": RUNNING, "error": None,
-              "started": now(), "provenance": provenance()}
-    write_status(folder, record)
-    summary = None
-    try:
-        # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
-        summary = run_case(task.case, folder, runner=task.runner, figure=False, yes=True)
-        record["status"] = DONE
-    except Interrupted:  # Ctrl-C or SIGTERM: unfinished, not failed; on disk it stays "running"
-        return {"record": record | {"status": INTERRUPTED}, "summary": None}
-    except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
-        record |= {"status": FAILED, "error": one_line(err)}
-    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
-               "cpu_time_s": round(_cpu_time() - cpu, 3)}
-    write_status(folder, record)
-    return {"record": record, "summary": summary}
-
-
-def _cpu_time() -> float:
-    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + children.ru_utime + children.ru_stime
-
-
-def one_line(err: BaseException) -> str:
-    """An exception as one line; our own errors speak for themselves, others get their type."""
-    from ..errors import LatticeError
-
-    lines = str(err).strip().splitlines()
-    text = lines[0] if lines else ""
-    return text if isinstance(err, LatticeError) and text else f"{type(err).__name__}: {text}".rstrip(": ")
+# A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
+MANY_MEMBERS = 100_000
+# A task's members: at most this many atoms, atom-steps (about a second of engine time) and
+# atom types (LAMMPS keeps some per-type-pair tables) in one instance; the first task of each
+# worker is small, so that the first members start at once.
+MAX_ATOMS = 200_000
+MAX_ATOM_STEPS = 5e7
+MAX_TYPES = 1024
+FIRST_TASK = 16
+# Seconds the workers get to stop their engines and report after a stop signal.
+GRACE = 1.0
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
-              retry_failed: bool = False, progress: bool = True) -> pd.DataFrame:
-    """Run every member not yet done; return the table (also in root/results.{csv,parquet}).
+              retry_failed: bool = False, progress: bool = True, executor: Executor | None = None,
+              slots: int | None = None, overwrite: bool = False, yes: bool = False):
+    """Run every member not yet done; return the table (a pandas DataFrame, also in
+    root/results.{csv,parquet}).
 
     workers: local processes (default: one per core); scheduler: a Dask scheduler address
-    (tcp://HOST:PORT), whose workers must see `root` on a shared file system.
-    Members that failed before are skipped unless `retry_failed`.
+    (tcp://HOST:PORT), whose workers must see `root` on a shared file system; or executor: any
+    `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
+    Members that failed before are skipped unless `retry_failed`. A folder that holds a
+    different sweep is refused unless `overwrite` (which removes its members and table); a
+    sweep of over MANY_MEMBERS members needs `yes`.
+    Raises Interrupted on SIGINT or SIGTERM, after writing the table.
     """
-    root = Path(root)
-    members = sweep.members()
-    (root / MEMBERS).mkdir(parents=True, exist_ok=True)
-    with _lock(root):
-        return _run(sweep, root, members, workers, scheduler, retry_failed, progress)
+    root = Path(root).resolve()
+    # the table needs pandas (a second or more to import): loaded while the members start
+    threading.Thread(target=importlib.import_module, args=("pandas",), daemon=True).start()
+    total = sweep.count()
+    if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
+        raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+    log.info("%s: %d members (%s)", root.name, total, _estimate(sweep, total, slots or workers or os.cpu_count() or 1))
+    if total > MANY_MEMBERS and not yes:
+        raise ConfigError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
+                          "to run them, or sweep fewer values")
+    root.mkdir(parents=True, exist_ok=True)
+    with _lock(root), _StopSignals() as stop:
+        _claim(root, sweep, overwrite)
+        (root / MEMBERS).mkdir(exist_ok=True)
+        with _executor(workers, scheduler, sweep.runner, executor, slots) as pool:
+            stop.on_signal = pool.on_signal
+            return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
 
 
-def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, retry_failed, progress) -> pd.DataFrame:
-    rows: dict[int, dict] = {}
-    todo: list[Member] = []
-    for m in members:
-        folder = member_folder(root, m.id)
+# ----------------------------------------------------------------------------- the coordinator
+
+class _Coordinator:
+    def __init__(self, sweep: Sweep, root: Path, pool: _Pool, stop: _StopSignals, retry_failed: bool,
+                 progress: bool, total: int):
+        self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
+        self.retry_failed = retry_failed
+        self.table = Table(root)
+        self.blocks = _Blocks(total, pool.slots)
+        self.bar = _Progress(total, progress)
+        self.lost = False
+
+    def run(self):
+        tasks = self._tasks()
+        running: dict[Future, Task] = {}
+        try:
+            while True:
+                while not (self.stop.signals or self.lost) and len(running) < self.pool.slots:
+                    task = next(tasks, None)
+                    if task is None:
+                        break
+                    running[self.pool.submit(task)] = task
+                    self.bar.show(len(running))
+                if not running:
+                    break
+                done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+                for future in done:
+                    self._collect(running.pop(future), future)
+                if self.stop.signals and running:
+                    self._wind_down(running)
+                self.table.flush()
+        finally:
+            self.bar.close()
+            table = self.table.write()
+        if self.stop.signals:
+            raise Interrupted(self.stop.signals[0])
+        return table
+
+    def _tasks(self):
+        """Tasks of members not done, in sweep order (members are enumerated as tasks are needed)."""
+        group: list[Member] = []
+        key = size = None
+        for m in self.sweep.iter_members():
+            if self._finished(m):
+                continue
+            point = _point(m)
+            if group and (point != key or len(group) >= size):
+                yield Task(str(self.root), tuple(group), self.sweep.runner)
+                group = []
+            if not group:
+                key, size = point, self.blocks.next_size(m)
+            group.append(m)
+        if group:
+            yield Task(str(self.root), tuple(group), self.sweep.runner)
+
+    def _finished(self, m: Member) -> bool:
+        """Whether the member's outcome on disk stands (its row is set from it)."""
+        self.blocks.seen += 1
+        folder = member_folder(self.root, m.id)
         record = read_status(folder)
-        finished = record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED)
-        if finished and (record["status"] == DONE or not retry_failed):
-            rows[m.index] = _row(m, record, _summary(folder) if record["status"] == DONE else None)
-        elif m.case is None:  # invalid parameters: failed without running
-            folder.mkdir(parents=True, exist_ok=True)
-            record = {"id": m.id, "index": m.index, "params": m.params, "status": FAILED, "error": m.error,
-                      "started": now(), "ended": now(), "wall_time_s": 0.0, "provenance": provenance()}
-            write_status(folder, record)
-            rows[m.index] = _row(m, record, None)
-        else:
-            todo.append(m)
-    table = write_table(root, [rows[i] for i in sorted(rows)])
-    bar = _Progress(len(members), rows, progress)
-    with _executor(workers, scheduler, sweep.runner) as (executor, slots):
-        bar.slots = slots
-        futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
-        bar.show(running=len(futures))
+        if record is None or record.get("id") != m.id:
+            return False
+        if record["status"] == DONE:
+            summary = _summary(folder)
+            if summary is None:  # done needs a summary that parses: run it again
+                return False
+            self._row(m, record, summary)
+            return True
+        if record["status"] == FAILED and not self.retry_failed:
+            self._row(m, record, None)
+            return True
+        return False
+
+    def _collect(self, task: Task, future: Future) -> None:
         try:
-            for done, future in enumerate(as_completed(futures), start=1):
-                m = futures[future]
-                try:
-                    result = future.result()
-                except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
-                    result = _lost(root, m, err)
-                if result["record"]["status"] == INTERRUPTED:
-                    continue
-                rows[m.index] = _row(m, result["record"], result["summary"])
-                table = write_table(root, [rows[i] for i in sorted(rows)])
-                bar.advance(running=len(futures) - done)
-        except (KeyboardInterrupt, Interrupted):
-            # queued members never start; running ones are stopped (pool) and re-run on resume
-            for future in futures:
-                future.cancel()
-            _interrupt_workers(executor)
-            bar.close()
-            raise
-    bar.close()
-    return table
+            results = future.result()
+        except Exception as err:  # noqa: BLE001 - the worker was lost (killed, crashed): read the disk
+            if not self.stop.signals:
+                log.warning("a worker was lost (%s); its members are read back from their folders",
+                            batch.one_line(err))
+                self.lost = True
+            results = [_from_disk(self.root, m) for m in task.members]
+        for m, result in zip(task.members, results):
+            self._row(m, result["record"], result["summary"])
+
+    def _wind_down(self, running: dict[Future, Task]) -> None:
+        """After a stop signal: the workers' reports for GRACE seconds, then the disk."""
+        deadline = time.monotonic() + GRACE
+        while running and time.monotonic() < deadline and len(self.stop.signals) < 2:
+            done, _ = wait(running, timeout=0.05, return_when=FIRST_COMPLETED)
+            for future in done:
+                self._collect(running.pop(future), future)
+        self.pool.kill()
+        for task in running.values():
+            for m in task.members:
+                result = _from_disk(self.root, m)
+                self._row(m, result["record"], result["summary"])
+        running.clear()
+
+    def _row(self, m: Member, record: dict, summary: dict | None) -> None:
+        self.table.set(m.index, member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary))
+        self.bar.advance(record["status"])
 
 
-@contextlib.contextmanager
-def _lock(root: Path):
-    """One coordinator per sweep folder (the kernel drops the lock if the coordinator dies)."""
-    from ..errors import ConfigError
-
-    with open(root / LOCK, "a+") as f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
-        yield
-
-
-def _task(root: Path, m: Member, sweep: Sweep) -> Task:
-    return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner)
-
-
-def _row(m: Member, record: dict, summary: dict | None) -> dict:
-    return member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary)
+def _from_disk(root: Path, m: Member) -> dict:
+    """A member whose worker did not report: done if it finished on disk, else interrupted."""
+    folder = member_folder(root, m.id)
+    record = read_status(folder)
+    if record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED):
+        summary = _summary(folder) if record["status"] == DONE else None
+        if record["status"] == FAILED or summary is not None:
+            return {"record": record, "summary": summary}
+    return {"record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED, "error": None},
+            "summary": None}
 
 
 def _summary(folder: Path) -> dict | None:
     from ..simulation import SUMMARY
 
+    return read_json(folder / SUMMARY)
+
+
+def _point(m: Member) -> str:
+    """The member's parameter point: members of one point differ only in their seed."""
+    return _hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
+
+
+@dataclass
+class _Blocks:
+    """Task sizes: the first task of each worker small (a quick start), then the members left
+    shared evenly among the workers, within what one instance should hold (MAX_*)."""
+
+    total: int
+    slots: int
+    seen: int = 0
+    sized: int = 0
+    limits: dict = field(default_factory=dict)
+
+    def next_size(self, m: Member) -> int:
+        cap = self._cap(m)
+        self.sized += 1
+        if self.sized <= self.slots:
+            return min(cap, FIRST_TASK)
+        return max(1, min(cap, math.ceil((self.total - self.seen + 1) / self.slots)))
+
+    def _cap(self, m: Member) -> int:
+        """Members of this point one instance may hold (1 if they cannot be batched)."""
+        point = _point(m)
+        if point not in self.limits:
+            case = m.case
+            if case is None or not batch.batchable(case):
+                self.limits[point] = 1
+            else:
+                n, chain = case.chain.particles, case.chain
+                types = n if (chain.mass_disorder or not isinstance(chain.mass, (int, float))) else 2
+                self.limits[point] = max(1, min(MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps())),
+                                                MAX_TYPES // types))
+        return self.limits[point]
+
+
+def _estimate(sweep: Sweep, total: int, workers: int) -> str:
+    """The sweep's engine time, from the first member's case (preflight's model)."""
+    from ..preflight import SECONDS_PER_ATOM_STEP, _duration
+
+    first = next(sweep.iter_members(), None)
+    if first is None or first.case is None:
+        return "no estimate"
+    case = first.case
+    seconds = SECONDS_PER_ATOM_STEP * case.chain.particles * case.run.steps() * total / workers
+    return f"about {_duration(seconds)} of engine time on {workers} workers, if all are like the first"
+
+
+# ----------------------------------------------------------------------------- the folder
+
+@contextlib.contextmanager
+def _lock(root: Path):
+    """One coordinator per sweep folder: a lock on the folder itself (no lock file to leave
+    behind; the kernel drops it when the coordinator dies)."""
+    fd = os.open(root, os.O_RDONLY)
     try:
-        return json.loads((folder / SUMMARY).read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
-        return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
+        yield
+    finally:
+        os.close(fd)
 
 
-def _lost(root: Path, m: Member, err: BaseException) -> dict:
-    """A member whose worker died: recorded as failed (re-run with --retry-failed)."""
-    folder = member_folder(root, m.id)
-    record = (read_status(folder) or {"id": m.id, "index": m.index, "params": m.params, "started": None})
-    record |= {"status": FAILED, "error": f"worker lost: {one_line(err)}", "ended": now(), "wall_time_s": None}
-    folder.mkdir(parents=True, exist_ok=True)
-    write_status(folder, record)
-    return {"record": record, "summary": None}
+def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
+    """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`,
+    which removes the other sweep's members, batches and table first."""
+    import json
+    import shutil
+
+    from .table import CSV, PARQUET
+
+    identity = sweep.identity()
+    held = read_json(root / SWEEP_FILE)
+    if held is not None and held.get("identity") != identity:
+        if not overwrite:
+            raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
+                              "or pass --overwrite to replace it")
+        for name in (MEMBERS, batch.BATCHES):
+            shutil.rmtree(root / name, ignore_errors=True)
+        for name in (CSV, PARQUET):
+            (root / name).unlink(missing_ok=True)
+    if held is None or held.get("identity") != identity:
+        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n")
+
+
+# ----------------------------------------------------------------------------- signals
+
+class _StopSignals:
+    """SIGINT and SIGTERM recorded (in the main thread; elsewhere the process's handling stays):
+    the first asks the workers to stop, the second kills them (`on_signal(count)`)."""
+
+    def __init__(self):
+        self.signals: list[int] = []
+        self.on_signal = lambda count: None
+        self.previous = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.previous = {s: signal.signal(s, self._handle) for s in STOP_SIGNALS}
+        return self
+
+    def _handle(self, signum, frame):
+        self.signals.append(signum)
+        self.on_signal(len(self.signals))
+
+    def __exit__(self, *exc):
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
+
+
+# ----------------------------------------------------------------------------- executors
+
+class _Pool:
+    """An executor, its number of worker slots, and how to stop its workers (local pools only)."""
+
+    def __init__(self, executor: Executor, slots: int):
+        self.executor, self.slots = executor, slots
+
+    def submit(self, task: Task) -> Future:
+        return self.executor.submit(batch.run_task, task)
+
+    def on_signal(self, count: int) -> None:
+        """First signal: the workers stop their engines; second: they are killed."""
+        self.kill() if count > 1 else self._signal(signal.SIGINT)
+
+    def kill(self) -> None:
+        self._signal(signal.SIGKILL)
+
+    def _signal(self, signum: int) -> None:
+        if isinstance(self.executor, ProcessPoolExecutor):
+            for process in list((self.executor._processes or {}).values()):  # no public list of workers
+                with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
+                    os.kill(process.pid, signum)
 
 
 @contextlib.contextmanager
-def _executor(workers: int | None, scheduler: str | None, runner: str):
-    """(executor, number of worker slots): a local process pool, or a Dask cluster's executor.
+def _executor(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None, slots: int | None):
+    """A `_Pool`: the given executor, a local process pool, or a Dask cluster's executor.
 
     The embedded runner changes the worker's working directory while LAMMPS runs, so it
-    needs one member at a time per process: pool processes are, Dask workers must be."""
-    from ..errors import ConfigError
-
-    if workers is not None and not (isinstance(workers, int) and workers >= 1):
-        raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+    needs one task at a time per process: pool processes are, Dask workers must be."""
+    if executor is not None:
+        if workers is not None or scheduler is not None:
+            raise ConfigError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
+        yield _Pool(executor, slots or 1)
+        return
     if scheduler is None:
-        workers = workers or os.cpu_count() or 1
-        # forkserver: workers are forked from a clean server process (never from a coordinator
-        # that may hold threads or an initialised MPI), which imports the package once and
-        # stays up for later sweeps of the same Python session.
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
-        _start_forkserver()
-        with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
-                                 initargs=(os.getpid(),)) as pool:
-            yield pool, workers
+        yield from _local_pool(workers or os.cpu_count() or 1)
         return
     if workers is not None:
         raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
@@ -228,19 +380,27 @@ def _executor(workers: int | None, scheduler: str | None, runner: str):
         if runner == "embedded" and any(n > 1 for n in threads.values()):
             raise ConfigError("runner", "the embedded runner needs Dask workers with one thread each "
                               "(dask worker --nthreads 1); or set runner = \"lmp\" in the sweep file")
-        executor: Executor = client.get_executor(pure=False)
-        yield executor, max(1, sum(threads.values()))
+        yield _Pool(client.get_executor(pure=False), max(1, sum(threads.values())))
     finally:
         client.close()
 
 
-def _interrupt_workers(executor: Executor) -> None:
-    """Ask a local pool's workers to stop their members (the engine stops at the next step).
-    A Dask cluster's running members finish on their own; their results stay on disk."""
-    if isinstance(executor, ProcessPoolExecutor):
-        for process in list((executor._processes or {}).values()):  # no public list of workers
-            with contextlib.suppress(ProcessLookupError, TypeError):
-                os.kill(process.pid, signal.SIGINT)
+def _local_pool(workers: int):
+    """Worker processes forked from a clean fork server (never from a coordinator that may hold
+    threads or an initialised MPI), which imports the package once and stays up for later
+    sweeps of the same Python session. Each worker holds the read end of a pipe whose write
+    end only this process holds: when it closes (this process died), the worker exits."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["pylmp_lattice.sweep.batch", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
+    _start_forkserver()
+    alive_r, alive_w = context.Pipe(duplex=False)
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init, initargs=(alive_r,))
+    try:
+        yield _Pool(pool, workers)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        alive_w.close()
+        alive_r.close()
 
 
 def _start_forkserver() -> None:
@@ -249,7 +409,8 @@ def _start_forkserver() -> None:
     from multiprocessing import forkserver
 
     if threading.current_thread() is not threading.main_thread():
-        return  # signal handlers can only be set from the main thread
+        forkserver.ensure_running()
+        return
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         forkserver.ensure_running()
@@ -257,43 +418,40 @@ def _start_forkserver() -> None:
         signal.signal(signal.SIGINT, previous)
 
 
-def _pool_worker_init(coordinator: int) -> None:
-    """A pool worker: Ctrl-C is for the coordinator, and the worker ends when the sweep does.
+def _pool_worker_init(alive) -> None:
+    """A pool worker: a stop signal stops its member and any later start, and the worker exits
+    GRACE seconds later; it exits at once when the coordinator is gone."""
 
-    Without this watch, the workers of a coordinator killed with SIGKILL would wait for work
-    forever (and keep the fork server alive).
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    batch.EXIT_AFTER_STOP = GRACE
+    for s in STOP_SIGNALS:
+        signal.signal(s, lambda signum, frame: batch.stopping(signum))
 
     def watch():
-        while True:
-            time.sleep(1.0)
-            try:
-                os.kill(coordinator, 0)
-            except ProcessLookupError:
-                os._exit(1)  # the member in hand stays "running" on disk and is re-run on resume
+        with contextlib.suppress(EOFError, OSError):
+            alive.recv()  # nothing is ever sent: returns when the coordinator's end closes
+        os._exit(1)  # the members in hand stay unfinished on disk and are run again on resume
 
     threading.Thread(target=watch, daemon=True).start()
 
 
 class _Progress:
-    """A progress bar on stderr: members finished of all, failed, running, and time left."""
+    """A progress bar on stderr (terminals only): members finished of all, failed, running."""
 
-    def __init__(self, total: int, rows: dict, enabled: bool):
+    def __init__(self, total: int, enabled: bool):
         from tqdm import tqdm
 
-        self.rows, self.slots = rows, 1
-        self.bar = tqdm(total=total, initial=len(rows), file=sys.stderr, disable=not enabled,
-                        unit="member", dynamic_ncols=True)
+        self.failed = self.running = 0
+        self.bar = tqdm(total=total, file=sys.stderr, disable=None if enabled else True, unit="member",
+                        dynamic_ncols=True, mininterval=0.5)
 
-    def show(self, running: int, refresh: bool = True) -> None:
-        failed = sum(r["status"] == FAILED for r in self.rows.values())
-        self.bar.set_postfix_str(f"done {len(self.rows) - failed}, failed {failed}, running {min(self.slots, running)}",
-                                 refresh=refresh)
+    def show(self, running: int) -> None:
+        self.running = running
+        self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
 
-    def advance(self, running: int) -> None:
-        self.show(running, refresh=False)
-        self.bar.update(1)
+    def advance(self, status: str) -> None:
+        self.failed += status == FAILED
+        if status != INTERRUPTED:
+            self.bar.update(1)
 
     def close(self) -> None:
         self.bar.close()

@@ -165,6 +165,16 @@ class Sweep:
         return any(_is_random({"chain": v} if k == "chain" else {"chain": {k[6:]: v}})
                    for k, v in swept if k == "chain" or k.startswith("chain."))
 
+    def describe(self) -> dict:
+        """The sweep as plain data (what DIR/sweep.json records)."""
+        return {"base": self.base, "set": self.set, "grid": self.grid, "zip": self.zip, "replicas": self.replicas,
+                "seed": self.seed, "keep": self.keep}
+
+    def identity(self) -> str:
+        """A hash of everything that decides the members (not how they run): two sweeps with the
+        same identity have the same members."""
+        return _hash(self.describe())
+
     def count(self) -> int:
         """Members before identical cases are merged: known without enumerating them."""
         points = math.prod(len(v) for v in self.grid.values()) * (len(next(iter(self.zip.values()))) if self.zip else 1)
