@@ -228,14 +228,18 @@ class _Blocks:
     slots: int
     seen: int = 0
     sized: int = 0
+    even: int = 0
     limits: dict = field(default_factory=dict)
 
     def next_size(self, m: Member) -> int:
+        """The size of the task that starts with member `m` (the `seen`-th enumerated)."""
         cap = self._cap(m)
         self.sized += 1
         if self.sized <= self.slots:
             return min(cap, FIRST_TASK)
-        return max(1, min(cap, math.ceil((self.total - self.seen + 1) / self.slots)))
+        if not self.even:
+            self.even = math.ceil((self.total - self.seen + 1) / self.slots)
+        return max(1, min(cap, self.even))
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""
