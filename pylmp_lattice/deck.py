@@ -34,6 +34,7 @@ BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v an
 FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 8))
 LOG = "log.lammps"
 PISTON = "piston.txt"
+CHAIN_WORK = "chain_work.txt"  # a batch with friction: each chain's friction work
 # Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
 CONTACT_MARK = "CONTACT:"
 
@@ -93,9 +94,23 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
     batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
     files = render(batch)
-    files[DECK] = deck_text(batch, replicas=len(cases))
+    files[DECK] = deck_text(batch, replicas=len(cases)) + (_chain_work_lines(len(cases)) if front and first.friction else "")
     files[DATA] = _stack_data([data_text(case) for case in cases])
     return files
+
+
+def _chain_work_lines(replicas: int) -> str:
+    """After a batched run with friction: each chain's friction work (J, the fix's vector entry
+    2 + chain), one line per chain in CHAIN_WORK."""
+    return f"""
+# ---- 7. Each chain's friction work (J), one line per chain
+variable        chain loop {replicas}
+label           chain_work
+variable        work equal f_chain[$(v_chain+2)]
+print           "$(v_work:%.17g)" append {CHAIN_WORK} screen no
+next            chain
+jump            SELF chain_work
+"""
 
 
 def _stack_data(texts: list[str]) -> str:

@@ -332,26 +332,6 @@ def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypat
     assert [p.name for p in tmp_path.iterdir()] == [STATUS]  # no temporary file left behind
 
 
-@pytest.mark.lammps
-@pytest.mark.slow
-def test_ctrl_c_stops_the_sweep_and_leaves_running_members_unfinished_not_failed(tmp_path):
-    cmd, out, proc = start_sweep(tmp_path, duration=50.0, stderr=subprocess.PIPE)
-
-    def statuses():
-        return list(member_statuses(out).values())
-
-    deadline = time.time() + 120
-    while not ("done" in statuses() and "running" in statuses()) and time.time() < deadline:
-        time.sleep(0.02)
-    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C does: to the whole foreground group
-    err = proc.communicate(timeout=60)[1]
-    assert proc.returncode == 130
-    assert err.strip().splitlines()[-1].startswith("pylmp-lattice: interrupted; finished members are kept in")
-    assert "failed" not in statuses() and len(statuses()) < 6
-    assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
-    assert set(load_results(out)["status"]) == {"done"}
-
-
 # ----------------------------------------------------------------------------- batched members
 
 THERMAL = """\

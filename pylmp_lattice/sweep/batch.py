@@ -32,10 +32,15 @@ from .spec import Member
 from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_member_file, write_status
 
 BATCHES = "batches"
+# Whether the plugin's fix lattice/chain reports each chain's friction work (vector entries
+# 3.. of the fix): until it does, members with friction run one per instance.
+FRICTION_PER_CHAIN = False
 # Set by a stop signal (see execute._pool_worker_init); read before each start.
 STOP = threading.Event()
 # In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
 EXIT_AFTER_STOP: float | None = None
+# Whether this process is inside run_task (a pool worker's signal handler stops it there).
+IN_TASK = threading.Event()
 
 
 @dataclass(frozen=True)
@@ -51,6 +56,14 @@ class Task:
 def run_task(task: Task) -> list[dict]:
     """Run the task's members; one result per member, in order: {"id", "record", "summary"}.
     Every member's outcome is on disk (its status written last) before it is returned."""
+    IN_TASK.set()
+    try:
+        return _run_task(task)
+    finally:
+        IN_TASK.clear()
+
+
+def _run_task(task: Task) -> list[dict]:
     root = Path(task.root)
     results: dict[str, dict] = {}
     cases = [m.case for m in task.members]
@@ -59,12 +72,13 @@ def run_task(task: Task) -> list[dict]:
             results[m.id] = _invalid(root, m)
     valid = [(m, c) for m, c in zip(task.members, cases) if c is not None]
     for group in _batches(valid):
+        started = now()  # before the look at STOP: a member never starts after a stop signal
         if STOP.is_set():
             break
         if len(group) > 1:
-            results |= _run_batch(root, group, task.runner)
+            results |= _run_batch(root, group, task.runner, started)
         else:
-            results[group[0][0].id] = run_member(root, *group[0], task.runner)
+            results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     return [results.get(m.id) or _interrupted(m) for m in task.members]
 
 
@@ -80,7 +94,7 @@ def batchable(case: Case) -> bool:
     from ..deck import records_front, uses_chain_engine
 
     return (uses_chain_engine(case) and case.output.format == "none" and records_front(case)
-            and case.friction is None)
+            and (case.friction is None or FRICTION_PER_CHAIN))
 
 
 def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
@@ -92,13 +106,13 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
     return list(groups.values())
 
 
-def run_member(root: Path, m: Member, case: Case, runner: str) -> dict:
+def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> dict:
     """Run one member alone in its folder (`run_case`); any earlier attempt there is removed first."""
     from ..simulation import run_case
 
     folder = _fresh(member_folder(root, m.id))
     start, cpu = time.perf_counter(), _cpu_time()
-    record = _record(m)
+    record = _record(m, started)
     write_status(folder, record)
     try:
         # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
@@ -116,7 +130,7 @@ def run_member(root: Path, m: Member, case: Case, runner: str) -> dict:
     return {"id": m.id, "record": record, "summary": summary}
 
 
-def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[str, dict]:
+def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
     from ..runner import run_embedded, run_executable
@@ -130,7 +144,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str) -> dic
     for m, case in group:
         folder = _fresh(member_folder(root, m.id))
         write_member_file(folder / "case.toml", tomli_w.dumps(case_to_dict(case)))
-        records.append(_record(m) | {"batch": f"{BATCHES}/{batch.name}"})
+        records.append(_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"})
         write_status(folder, records[-1])
     try:
         (run_embedded if runner == "embedded" else run_executable)(batch)
@@ -141,9 +155,10 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str) -> dic
     except LatticeError:  # a contact or an engine error in some chain: each member gets its own outcome
         out = {}
         for m, case in group:
+            started = now()
             if STOP.is_set():
                 break
-            out[m.id] = run_member(root, m, case, runner)
+            out[m.id] = run_member(root, m, case, runner, started)
         return out
     summaries = _summaries(cases, batch)
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
@@ -166,7 +181,16 @@ def _summaries(cases: list[Case], batch: Path) -> list[dict]:
     from ..summary import summarize
 
     records = read_front_records(cases, batch, arrival_method(cases[0]))
-    return [summarize(case, r.front, r.max_speed) for case, r in zip(cases, records)]
+    summaries = [summarize(case, r.front, r.max_speed) for case, r in zip(cases, records)]
+    if cases[0].friction is not None:
+        from ..deck import CHAIN_WORK
+        from ..units import from_engine
+
+        # as a run alone reads it from its log: the thermo column's 8 significant digits
+        works = (batch / CHAIN_WORK).read_text().split()
+        for summary, work in zip(summaries, works, strict=True):
+            summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
+    return summaries
 
 
 def _write_summary(folder: Path, summary: dict) -> None:
@@ -176,9 +200,9 @@ def _write_summary(folder: Path, summary: dict) -> None:
     write_member_file(folder / SUMMARY, dumps(summary) + "\n")
 
 
-def _record(m: Member) -> dict:
+def _record(m: Member, started: str | None = None) -> dict:
     return {"id": m.id, "index": m.index, "params": m.params, "status": RUNNING, "error": None,
-            "started": now(), "pid": os.getpid(), "provenance": provenance()}
+            "started": started or now(), "pid": os.getpid(), "provenance": provenance()}
 
 
 def _invalid(root: Path, m: Member) -> dict:

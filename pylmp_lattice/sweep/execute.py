@@ -103,6 +103,7 @@ class _Coordinator:
         self.blocks = _Blocks(total, pool.slots)
         self.bar = _Progress(total, progress)
         self.lost = False
+        self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
 
     def run(self):
         tasks = self._tasks()
@@ -120,9 +121,13 @@ class _Coordinator:
                 done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(running.pop(future), future)
-                if self.stop.signals and running:
+                if (self.stop.signals or self.lost) and running:
                     self._wind_down(running)
                 self.table.flush()
+            if self.broken:
+                self.pool.kill()
+                for task in self.broken:
+                    self._from_disk(task)
         finally:
             self.bar.close()
             table = self.table.write()
@@ -168,27 +173,30 @@ class _Coordinator:
     def _collect(self, task: Task, future: Future) -> None:
         try:
             results = future.result()
-        except Exception as err:  # noqa: BLE001 - the worker was lost (killed, crashed): read the disk
-            if not self.stop.signals:
-                log.warning("a worker was lost (%s); its members are read back from their folders",
+        except Exception as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
+            if not (self.stop.signals or self.lost):
+                log.warning("a worker was lost (%s); the members in flight are read back from their folders",
                             batch.one_line(err))
                 self.lost = True
-            results = [_from_disk(self.root, m) for m in task.members]
+            self.broken.append(task)
+            return
         for m, result in zip(task.members, results):
             self._row(m, result["record"], result["summary"])
 
+    def _from_disk(self, task: Task) -> None:
+        for m in task.members:
+            result = _from_disk(self.root, m)
+            self._row(m, result["record"], result["summary"])
+
     def _wind_down(self, running: dict[Future, Task]) -> None:
-        """After a stop signal: the workers' reports for GRACE seconds, then the disk."""
+        """After a stop signal or a lost worker: the workers' reports for GRACE seconds, then
+        the workers are killed and what they did not report is read from the disk."""
         deadline = time.monotonic() + GRACE
         while running and time.monotonic() < deadline and len(self.stop.signals) < 2:
             done, _ = wait(running, timeout=0.05, return_when=FIRST_COMPLETED)
             for future in done:
                 self._collect(running.pop(future), future)
-        self.pool.kill()
-        for task in running.values():
-            for m in task.members:
-                result = _from_disk(self.root, m)
-                self._row(m, result["record"], result["summary"])
+        self.broken += running.values()
         running.clear()
 
     def _row(self, m: Member, record: dict, summary: dict | None) -> None:
@@ -426,9 +434,15 @@ def _pool_worker_init(alive) -> None:
     """A pool worker: a stop signal stops its member and any later start, and the worker exits
     GRACE seconds later; it exits at once when the coordinator is gone."""
 
+    def stop(signum, frame):
+        batch.stopping(signum)
+        if batch.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
+            raise Interrupted(signum)
+        os._exit(128 + signum)  # between tasks: nothing in hand
+
     batch.EXIT_AFTER_STOP = GRACE
     for s in STOP_SIGNALS:
-        signal.signal(s, lambda signum, frame: batch.stopping(signum))
+        signal.signal(s, stop)
 
     def watch():
         with contextlib.suppress(EOFError, OSError):
