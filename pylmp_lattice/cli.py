@@ -199,6 +199,10 @@ def _export(args) -> int:
 
 def _sweep(args) -> int:
     try:
+        if args.scheduler is None:  # the local workers' fork server loads the engine meanwhile
+            from .sweep.pool import start_forkserver
+
+            start_forkserver()
         from .sweep import load_sweep, run_sweep, write_replica_stats
 
         sweep = load_sweep(args.sweep)

@@ -365,10 +365,11 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path):
 
 
 def test_tasks_are_sized_to_the_workers_and_the_first_ones_are_small(tmp_path):
-    from pylmp_lattice.sweep.execute import FIRST_TASK, _Coordinator, _Pool, _StopSignals
+    from pylmp_lattice.sweep.execute import FIRST_TASK, _Coordinator, _StopSignals
+    from pylmp_lattice.sweep.pool import Pool
 
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=200), particles=12, duration=20.0))
-    coordinator = _Coordinator(sweep, tmp_path, _Pool(None, 2), _StopSignals(), False, False, sweep.count())
+    coordinator = _Coordinator(sweep, tmp_path, Pool(None, 2), _StopSignals(), False, False, sweep.count())
     tasks = list(coordinator._tasks())
     sizes = [len(t.members) for t in tasks]
     assert sizes == [FIRST_TASK, FIRST_TASK, 84, 84]  # then the rest shared evenly by the 2 workers
@@ -431,7 +432,6 @@ def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, ca
 
 def test_a_done_member_without_a_summary_that_parses_is_run_again(tmp_path, monkeypatch):
     """The coordinator trusts `done` only with a summary that parses (no engine: the run is faked)."""
-    from pylmp_lattice.sweep import batch
 
     ran = []
 

@@ -29,7 +29,7 @@ import tomli_w
 from ..case import Case, case_to_dict
 from ..errors import Interrupted, LatticeError
 from .spec import Member
-from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_member_file, write_status
+from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_status
 
 BATCHES = "batches"
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entries
@@ -133,25 +133,24 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
-    from ..runner import run_embedded, run_executable
+    from ..runner import CASE_FILE, run_embedded, run_executable
+    from ..serialize import dumps
+    from ..simulation import SUMMARY
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
     batch = _fresh(root / BATCHES / group[0][0].id)
     for name, text in deck.render_replicas(cases, front=True).items():
         (batch / name).write_text(text)
-    records = []
-    for m, case in group:
-        folder = _fresh(member_folder(root, m.id))
-        write_member_file(folder / "case.toml", tomli_w.dumps(case_to_dict(case)))
-        records.append(_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"})
-        write_status(folder, records[-1])
+    # the members' folders are written after the run (a killed batch leaves none: not started)
+    records = [_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"} for m, _ in group]
     try:
         (run_embedded if runner == "embedded" else run_executable)(batch)
     except Interrupted as err:
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
-        return _stopped(group, root, records)
+        return {m.id: {"id": m.id, "record": record | {"status": INTERRUPTED, "ended": now()}, "summary": None}
+                for (m, _), record in zip(group, records)}
     except LatticeError:  # a contact or an engine error in some chain: each member gets its own outcome
         out = {}
         for m, case in group:
@@ -164,10 +163,12 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
     out = {}
     for (m, case), record, summary in zip(group, records, summaries):
-        folder = member_folder(root, m.id)
+        # case.toml and summary.json, then status.json last (atomically): the member is done
+        folder = _fresh(member_folder(root, m.id))
+        (folder / CASE_FILE).write_text(tomli_w.dumps(case_to_dict(case)))
         summary["files"] = {"folder": str(folder), "log": str(batch / deck.LOG)}
         summary["wall_time_s"] = round(wall, 4)
-        _write_summary(folder, summary)
+        (folder / SUMMARY).write_text(dumps(summary) + "\n")
         record |= {"status": DONE, "ended": now(), "wall_time_s": round(wall, 4), "cpu_time_s": round(cpu, 4)}
         write_status(folder, record)
         out[m.id] = {"id": m.id, "record": record, "summary": summary}
@@ -191,13 +192,6 @@ def _summaries(cases: list[Case], batch: Path) -> list[dict]:
         for summary, work in zip(summaries, works, strict=True):
             summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
     return summaries
-
-
-def _write_summary(folder: Path, summary: dict) -> None:
-    from ..serialize import dumps
-    from ..simulation import SUMMARY
-
-    write_member_file(folder / SUMMARY, dumps(summary) + "\n")
 
 
 def _record(m: Member, started: str | None = None) -> dict:

@@ -25,19 +25,19 @@ import fcntl
 import importlib
 import logging
 import math
-import multiprocessing
 import os
 import signal
 import sys
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError, Interrupted
 from . import batch
 from .batch import Task
+from .pool import GRACE, Pool, executor_pool
 from .spec import Member, Sweep, _hash
 from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, member_folder, read_json,
                     read_status)
@@ -54,9 +54,6 @@ MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 5e7
 MAX_TYPES = 1024
 FIRST_TASK = 16
-# Seconds the workers get to stop their engines and report after a stop signal.
-GRACE = 1.0
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -74,8 +71,6 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     Raises Interrupted on SIGINT or SIGTERM, after writing the table.
     """
     root = Path(root).resolve()
-    # the table needs pandas (a second or more to import): loaded while the members start
-    threading.Thread(target=importlib.import_module, args=("pandas",), daemon=True).start()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
@@ -87,7 +82,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     with _lock(root), _StopSignals() as stop:
         _claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
-        with _executor(workers, scheduler, sweep.runner, executor, slots) as pool:
+        with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
             stop.on_signal = pool.on_signal
             return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
 
@@ -95,7 +90,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
 # ----------------------------------------------------------------------------- the coordinator
 
 class _Coordinator:
-    def __init__(self, sweep: Sweep, root: Path, pool: _Pool, stop: _StopSignals, retry_failed: bool,
+    def __init__(self, sweep: Sweep, root: Path, pool: Pool, stop: _StopSignals, retry_failed: bool,
                  progress: bool, total: int):
         self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
         self.retry_failed = retry_failed
@@ -103,6 +98,7 @@ class _Coordinator:
         self.blocks = _Blocks(total, pool.slots)
         self.bar = _Progress(total, progress)
         self.lost = False
+        self.pandas = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
 
     def run(self):
@@ -116,6 +112,10 @@ class _Coordinator:
                         break
                     running[self.pool.submit(task)] = task
                     self.bar.show(len(running))
+                if self.pandas is None:
+                    # the table needs pandas (a second or more to import): loaded while the first members run
+                    self.pandas = threading.Thread(target=importlib.import_module, args=("pandas",), daemon=True)
+                    self.pandas.start()
                 if not running:
                     break
                 done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
@@ -328,7 +328,7 @@ class _StopSignals:
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self.previous = {s: signal.signal(s, self._handle) for s in STOP_SIGNALS}
+            self.previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
         return self
 
     def _handle(self, signum, frame):
@@ -338,118 +338,6 @@ class _StopSignals:
     def __exit__(self, *exc):
         for s, handler in self.previous.items():
             signal.signal(s, handler)
-
-
-# ----------------------------------------------------------------------------- executors
-
-class _Pool:
-    """An executor, its number of worker slots, and how to stop its workers (local pools only)."""
-
-    def __init__(self, executor: Executor, slots: int):
-        self.executor, self.slots = executor, slots
-
-    def submit(self, task: Task) -> Future:
-        return self.executor.submit(batch.run_task, task)
-
-    def on_signal(self, count: int) -> None:
-        """First signal: the workers stop their engines; second: they are killed."""
-        self.kill() if count > 1 else self._signal(signal.SIGINT)
-
-    def kill(self) -> None:
-        self._signal(signal.SIGKILL)
-
-    def _signal(self, signum: int) -> None:
-        if isinstance(self.executor, ProcessPoolExecutor):
-            for process in list((self.executor._processes or {}).values()):  # no public list of workers
-                with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
-                    os.kill(process.pid, signum)
-
-
-@contextlib.contextmanager
-def _executor(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None, slots: int | None):
-    """A `_Pool`: the given executor, a local process pool, or a Dask cluster's executor.
-
-    The embedded runner changes the worker's working directory while LAMMPS runs, so it
-    needs one task at a time per process: pool processes are, Dask workers must be."""
-    if executor is not None:
-        if workers is not None or scheduler is not None:
-            raise ConfigError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
-        yield _Pool(executor, slots or 1)
-        return
-    if scheduler is None:
-        yield from _local_pool(workers or os.cpu_count() or 1)
-        return
-    if workers is not None:
-        raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
-    from distributed import Client
-
-    try:
-        client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as err:
-        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err})") from err
-    try:
-        threads = client.nthreads()
-        if runner == "embedded" and any(n > 1 for n in threads.values()):
-            raise ConfigError("runner", "the embedded runner needs Dask workers with one thread each "
-                              "(dask worker --nthreads 1); or set runner = \"lmp\" in the sweep file")
-        yield _Pool(client.get_executor(pure=False), max(1, sum(threads.values())))
-    finally:
-        client.close()
-
-
-def _local_pool(workers: int):
-    """Worker processes forked from a clean fork server (never from a coordinator that may hold
-    threads or an initialised MPI), which imports the package once and stays up for later
-    sweeps of the same Python session. Each worker holds the read end of a pipe whose write
-    end only this process holds: when it closes (this process died), the worker exits."""
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(["pylmp_lattice.sweep.batch", "pylmp_lattice.simulation", "pylmp_lattice.summary"])
-    _start_forkserver()
-    alive_r, alive_w = context.Pipe(duplex=False)
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init, initargs=(alive_r,))
-    try:
-        yield _Pool(pool, workers)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-        alive_w.close()
-        alive_r.close()
-
-
-def _start_forkserver() -> None:
-    """Start the fork server with Ctrl-C ignored (inherited): it and its workers are left to the
-    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
-    from multiprocessing import forkserver
-
-    if threading.current_thread() is not threading.main_thread():
-        forkserver.ensure_running()
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        forkserver.ensure_running()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-def _pool_worker_init(alive) -> None:
-    """A pool worker: a stop signal stops its member and any later start, and the worker exits
-    GRACE seconds later; it exits at once when the coordinator is gone."""
-
-    def stop(signum, frame):
-        batch.stopping(signum)
-        if batch.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
-            raise Interrupted(signum)
-        os._exit(128 + signum)  # between tasks: nothing in hand
-
-    batch.EXIT_AFTER_STOP = GRACE
-    for s in STOP_SIGNALS:
-        signal.signal(s, stop)
-
-    def watch():
-        with contextlib.suppress(EOFError, OSError):
-            alive.recv()  # nothing is ever sent: returns when the coordinator's end closes
-        os._exit(1)  # the members in hand stay unfinished on disk and are run again on resume
-
-    threading.Thread(target=watch, daemon=True).start()
 
 
 class _Progress:

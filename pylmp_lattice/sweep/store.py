@@ -6,7 +6,7 @@ DIR/batches/) and `status.json`: status ("running", "done", "failed" or "interru
 one-line error, the swept parameters, wall and CPU time and provenance (package version and git
 commit, LAMMPS version, plugin build, Python and numpy versions, host, start and end times).
 A member counts as done only when status.json says so and its summary.json parses, and
-status.json is replaced in one step (`write_member_file`) after everything else is written: a
+status.json is replaced in one step (`write_status`) after everything else is written: a
 member killed half-way is re-run. DIR/sweep.json names the sweep the folder holds.
 """
 
@@ -56,15 +56,11 @@ def atomic_write(path: Path, data: bytes | str, sync: bool = True) -> None:
         raise
 
 
-def write_member_file(path: Path, text: str) -> None:
-    """A member's file, replaced atomically but not synced: thousands of members write them, a
-    killed process leaves the old or the new file, and after a power cut a member whose
-    status or summary does not parse is simply run again."""
-    atomic_write(path, text, sync=False)
-
-
 def write_status(folder: Path, record: dict) -> None:
-    write_member_file(Path(folder) / STATUS, json.dumps(record, indent=2) + "\n")
+    """The member's status, replaced atomically but not synced: thousands of members write it,
+    a killed process leaves the old or the new file, and after a power cut a member whose
+    status or summary does not parse is simply run again."""
+    atomic_write(Path(folder) / STATUS, json.dumps(record, separators=(",", ":")) + "\n", sync=False)
 
 
 def read_status(folder: Path) -> dict | None:
