@@ -93,7 +93,7 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
     sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
-    sweep.add_argument("--overwrite", action="store_true", help="replace a different sweep held in DIR")
+    sweep.add_argument("--overwrite", action="store_true", help="make DIR this sweep's when it holds a different one (its table is replaced)")
     sweep.add_argument("--yes", action="store_true", help="run a sweep of over 100000 members")
     sweep.set_defaults(func=_sweep)
 

@@ -66,8 +66,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     (tcp://HOST:PORT), whose workers must see `root` on a shared file system; or executor: any
     `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
-    different sweep is refused unless `overwrite` (which removes its members and table); a
-    sweep of over MANY_MEMBERS members needs `yes`.
+    different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
+    MANY_MEMBERS members needs `yes`.
     Raises Interrupted on SIGINT or SIGTERM, after writing the table.
     """
     root = Path(root).resolve()
@@ -294,23 +294,16 @@ def _lock(root: Path):
 
 
 def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
-    """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`,
-    which removes the other sweep's members, batches and table first."""
+    """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`, which
+    makes DIR this sweep's (its table is replaced; member folders are named by their case, so
+    those of identical cases are reused and the others stay on disk, out of the table)."""
     import json
-    import shutil
-
-    from .table import CSV, PARQUET
 
     identity = sweep.identity()
     held = read_json(root / SWEEP_FILE)
-    if held is not None and held.get("identity") != identity:
-        if not overwrite:
-            raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
-                              "or pass --overwrite to replace it")
-        for name in (MEMBERS, batch.BATCHES):
-            shutil.rmtree(root / name, ignore_errors=True)
-        for name in (CSV, PARQUET):
-            (root / name).unlink(missing_ok=True)
+    if held is not None and held.get("identity") != identity and not overwrite:
+        raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
+                          "or pass --overwrite to replace it")
     if held is None or held.get("identity") != identity:
         atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n")
 
