@@ -22,35 +22,16 @@ import pytest
 
 from pylmp_lattice.sweep import load_results
 from pylmp_lattice.sweep.store import STATUS
+from test_sweep import BASE
 
 pytestmark = [pytest.mark.lammps, pytest.mark.slow]
 
-BASE = """\
-name = "faults"
-[chain]
-particles = 600
-mass = 1.084
-r0 = 12.0
-far_end = "fixed"
-[force]
-law = "power"
-K = 413.8
-b = 3.917
-q = 3.0
-[impactor]
-profile = "constant"
-velocity = 1.0
-[run]
-duration = 150.0
-dt = 0.01
-output_interval = 1.0
-"""
 # Six members, each run alone (one parameter point each), each about 10^7 atom-steps.
 SWEEP = 'base = "base.toml"\nkeep = "measures"\n[grid]\n"impactor.velocity" = [0.5, 0.6, 0.7, 0.8, 0.9, 1.0]\n'
 
 
 def start(tmp_path: Path, workers: int):
-    (tmp_path / "base.toml").write_text(BASE)
+    (tmp_path / "base.toml").write_text(BASE.format(particles=600, duration=150.0, output=1.0))
     (tmp_path / "sweep.toml").write_text(SWEEP)
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(tmp_path / "sweep.toml"), "-o", str(out),
@@ -131,10 +112,16 @@ def test_sigint_exits_within_2_s_starts_nothing_after_and_a_rerun_finishes(tmp_p
     assert set(load_results(out)["status"]) == {"done"} and len(load_results(out)) == 6
 
 
-def test_a_second_sigint_only_makes_it_faster(tmp_path):
+def start_two(tmp_path: Path):
+    """The sweep on 2 workers, once both run a member: (command, folder, process, worker pids, slack)."""
     slack = latency()
     cmd, out, proc = start(tmp_path, workers=2)
     wait_for(lambda: len(running(out)) == 2, proc)
+    return cmd, out, proc, {r["pid"] for r in running(out)}, slack
+
+
+def test_a_second_sigint_only_makes_it_faster(tmp_path):
+    cmd, out, proc, workers, slack = start_two(tmp_path)
     sent = time.time()
     os.killpg(proc.pid, signal.SIGINT)
     time.sleep(0.05)
@@ -147,10 +134,7 @@ def test_a_second_sigint_only_makes_it_faster(tmp_path):
 
 def test_sigterm_to_the_coordinator_alone_stops_its_workers(tmp_path):
     """SIGTERM (e.g. from a batch system) reaches only the coordinator, which stops the workers."""
-    slack = latency()
-    cmd, out, proc = start(tmp_path, workers=2)
-    wait_for(lambda: len(running(out)) == 2, proc)
-    workers = {r["pid"] for r in running(out)}
+    cmd, out, proc, workers, slack = start_two(tmp_path)
     sent = time.time()
     proc.send_signal(signal.SIGTERM)
     proc.communicate(timeout=60)
@@ -161,10 +145,7 @@ def test_sigterm_to_the_coordinator_alone_stops_its_workers(tmp_path):
 
 
 def test_workers_exit_when_the_coordinator_is_killed_and_not_reaped(tmp_path):
-    slack = latency()
-    cmd, out, proc = start(tmp_path, workers=2)
-    wait_for(lambda: len(running(out)) == 2, proc)
-    workers = {r["pid"] for r in running(out)}
+    cmd, out, proc, workers, slack = start_two(tmp_path)
     os.kill(proc.pid, signal.SIGKILL)  # the coordinator alone; this test, its parent, does not reap it yet
     killed = time.monotonic()
     while any(alive(pid) for pid in workers) and time.monotonic() - killed < 5.0 + slack:
@@ -178,9 +159,8 @@ def test_workers_exit_when_the_coordinator_is_killed_and_not_reaped(tmp_path):
 
 def test_a_killed_worker_leaves_a_table_that_matches_the_disk_and_a_rerun_finishes(tmp_path):
     """As an out-of-memory kill would: the members in flight are read back from their folders."""
-    cmd, out, proc = start(tmp_path, workers=2)
-    wait_for(lambda: len(running(out)) == 2, proc)
-    victim = running(out)[0]["pid"]
+    cmd, out, proc, workers, slack = start_two(tmp_path)
+    victim = min(workers)
     os.kill(victim, signal.SIGKILL)
     err = proc.communicate(timeout=120)[1]
     assert proc.returncode == 1, err
