@@ -1,5 +1,5 @@
 """The friction calibration rig of Fig. S4, kept as a script for old commands; the study itself
-is `pylmp_lattice.studies.s4` (the same as `pylmp-lattice study s4 [-o DIR] [--quick]`).
+is `pylmp_lattice.studies.paper.s4` (the same as `pylmp-lattice study s4 [-o DIR] [--quick]`).
 
     python analysis/friction_calibration.py [-o OUTDIR] [--quick]
 """

@@ -16,19 +16,19 @@ import tempfile
 import time
 from pathlib import Path
 
-from pylmp_lattice import deck
 from pylmp_lattice.case import load_case
 from pylmp_lattice.engine import new_lammps
-from pylmp_lattice.runner import _working_dir, run_embedded, write_run_folder
+from pylmp_lattice.run_folder import RunFolder
+from pylmp_lattice.run_folder.layout import DECK, DIR_VARIABLE, LOG
+from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).parent.parent / "inputs" / "paper_long_lattice.toml"
 
 
 def plain(folder: Path) -> None:
-    with _working_dir(folder.resolve()):
-        lmp = new_lammps(["-log", deck.LOG, "-screen", "none"])
-        lmp.file(deck.DECK)
-        lmp.close()
+    lmp = new_lammps(["-log", str(folder / LOG), "-screen", "none", "-var", DIR_VARIABLE, str(folder)])
+    lmp.file(str(folder / DECK))
+    lmp.close()
 
 
 def main() -> None:
@@ -41,7 +41,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(args.repeat):
             for (name, values), run in zip(times.items(), (plain, run_embedded)):
-                folder = write_run_folder(case, Path(tmp) / f"{k}-{len(values)}-{run.__name__}")
+                folder = RunFolder.create(case, Path(tmp) / f"{k}-{len(values)}-{run.__name__}").path
                 start = time.perf_counter()
                 run(folder)
                 values.append(time.perf_counter() - start)

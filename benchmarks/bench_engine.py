@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pylmp_lattice import runner, simulation
+from pylmp_lattice import run_folder as simulation, runner
 from pylmp_lattice.case import RunSettings, case_from_dict
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.measures import linear_wave_speed
@@ -272,7 +272,7 @@ class Bench:
         ways = {"C": lambda: run_c_loop(self.exe, n, steps), "numpy": lambda: run_numpy(n, steps)}
         folders = {}
         for name, variant in self.variants.items():
-            folders[name] = runner.write_run_folder(paper_case(n, steps, variant), self.tmp / f"{name}_{n}")
+            folders[name] = simulation.RunFolder.create(paper_case(n, steps, variant), self.tmp / f"{name}_{n}").path
             rows[name] = Row(self.label(name), steps)
             ways[name] = lambda folder=folders[name]: run_lammps(folder)
         scipy = Row("scipy DOP853", min(steps, self.args.scipy_max_steps))
@@ -296,7 +296,7 @@ class Bench:
                 if key not in folders:
                     row.v = took.result
         for name, folder in folders.items():
-            rows[name].v = simulation.load_trajectory(paper_case(n, steps, self.variants[name]), folder).v[-1]
+            rows[name].v = simulation.RunFolder(folder).trajectory().v[-1]
         c = rows.pop("C")
         for row in rows.values():
             # a capped DOP853 run is compared with the C loop over the same time
@@ -309,8 +309,8 @@ class Bench:
         """max |v_default - v_C| after `steps` steps at size n, m/s (from the table if it ran this)."""
         if (n, steps) not in self.checked:
             case = paper_case(n, steps)
-            folder = runner.run_executable(runner.write_run_folder(case, self.tmp / "check"))
-            v = simulation.load_trajectory(case, folder).v[-1]
+            folder = runner.run_executable(simulation.RunFolder.create(case, self.tmp / "check").path)
+            v = simulation.RunFolder(folder).trajectory().v[-1]
             self.checked[n, steps] = float(np.max(np.abs(v - run_c_loop(self.exe, n, steps).result)))
         return self.checked[n, steps]
 
@@ -342,14 +342,14 @@ def mpi_rows(bench: Bench) -> None:
     steps = bench.steps_for(n)
     case = paper_case(n, steps)
     # a folder each: a run's trajectory file is made from its binary dump once, when first read
-    folders = {ranks: runner.write_run_folder(case, bench.tmp / f"mpi_{n}_{ranks}") for ranks in (1, 2)}
+    folders = {ranks: simulation.RunFolder.create(case, bench.tmp / f"mpi_{n}_{ranks}").path for ranks in (1, 2)}
     best, cpu_use = dict.fromkeys(folders, math.inf), {}
     for _ in range(bench.args.repeat):
         for ranks, folder in folders.items():
             took = run_lammps(folder, nprocs=ranks)
             if took.wall < best[ranks]:
                 best[ranks], cpu_use[ranks] = took.wall, took.cpu / took.wall  # NaN: loop too short
-    v = {ranks: simulation.load_trajectory(case, folder).v[-1] for ranks, folder in folders.items()}
+    v = {ranks: simulation.RunFolder(folder).trajectory().v[-1] for ranks, folder in folders.items()}
     print(f"\nMPI: {bench.label('default')}, N = {n}, {steps} steps, runner.run_executable(nprocs); wall time")
     print(f"{'ranks':>6} {'wall [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'CPU use per rank':>17}")
     for ranks, seconds in best.items():

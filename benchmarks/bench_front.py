@@ -15,7 +15,8 @@ import tempfile
 from pathlib import Path
 
 from pylmp_lattice.case import load_case
-from pylmp_lattice.runner import run_embedded, write_run_folder
+from pylmp_lattice.run_folder import RunFolder
+from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).resolve().parent.parent / "inputs" / "paper_long_lattice.toml"
 CASES = {"main case, 301 magnets, 600 ms": [],
@@ -24,7 +25,7 @@ CASES = {"main case, 301 magnets, 600 ms": [],
 
 def loop_time(folder: Path, overrides: list[str], front: bool) -> float:
     case = load_case(CASE, overrides + ['output.format="none"', f"output.front={str(front).lower()}"])
-    run_embedded(write_run_folder(case, folder))
+    run_embedded(RunFolder.create(case, folder).path)
     return float(re.search(r"Loop time of (\S+)", (folder / "log.lammps").read_text()).group(1))
 
 

@@ -32,10 +32,11 @@ from pathlib import Path
 
 import h5py  # noqa: F401 - imported once here, so that the first conversion timed does not pay for it
 
-from pylmp_lattice.case import COMPRESSIONS, load_case
-from pylmp_lattice.h5md import convert_run
-from pylmp_lattice.runner import run_embedded, write_run_folder
-from pylmp_lattice.simulation import load_trajectory
+import tomli_w
+
+from pylmp_lattice.case import COMPRESSIONS, case_to_dict, load_case
+from pylmp_lattice.run_folder import RunFolder
+from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).resolve().parent.parent / "inputs" / "paper_long_lattice.toml"
 BEFORE = "884f0d8"  # the commit issue 6 measured from
@@ -57,7 +58,7 @@ def end_to_end(python: str, case: Path, folder: Path) -> tuple[float, dict]:
 
 def engine_run(folder: Path, overrides: list[str]) -> tuple[float, float]:
     """One run of the main case with `overrides`, without conversion: (compute, LAMMPS output) in s."""
-    run_embedded(write_run_folder(load_case(CASE, overrides), folder))
+    run_embedded(RunFolder.create(load_case(CASE, overrides), folder).path)
     log = (folder / "log.lammps").read_text()
     loop = float(re.search(r"Loop time of (\S+)", log).group(1))
     output = float(re.search(r"^Output\s*\|\s*(\S+)", log, re.MULTILINE).group(1))
@@ -70,16 +71,17 @@ def conversion(folder: Path, overrides: list[str], compression: str) -> dict:
     case = load_case(CASE, overrides + [f'output.compression="{compression}"'])
     target = folder.parent / f"{folder.name}-{compression}"
     target.mkdir()
-    for name in ("traj.bin", "fine.bin"):
+    for name in ("traj.bin", "fine.bin", "case.toml", "run.json", "log.lammps"):
         if (folder / name).exists():
             shutil.copy(folder / name, target / name)
     start = time.perf_counter()
-    convert_run(case, target)
+    (target / "case.toml").write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    RunFolder(target).convert()
     convert = time.perf_counter() - start
     start = time.perf_counter()
-    frames = len(load_trajectory(case, target).t)
+    frames = len(RunFolder(target).trajectory().t)
     if case.output.fine:
-        load_trajectory(case, target, "fine")
+        RunFolder(target).trajectory("fine")
     return {"convert": convert, "read": time.perf_counter() - start, "frames": frames,
             "bytes": (target / "traj.h5md").stat().st_size}
 

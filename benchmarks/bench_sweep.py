@@ -112,7 +112,7 @@ def check_member_zero(case, final_v: np.ndarray, tmp: Path) -> float:
     """Largest |v| difference, m/s, between member 0 run alone (trajectory kept) and the loop."""
     import dataclasses
 
-    from pylmp_lattice.simulation import simulate
+    from pylmp_lattice.run_folder import simulate
 
     kept = dataclasses.replace(case, output=dataclasses.replace(case.output, format="h5md"))
     traj = simulate(kept, tmp / "member0")

@@ -5,7 +5,8 @@ The Python API, in user units (mm, g, ms, N, m/s):
     import pylmp_lattice as pl
     case = pl.load_case("inputs/paper_experiment.toml", ["run.duration=40"])  # or pl.case_from_dict
     summary = pl.run(case, "runs/example")      # run, measure, summary.json and shock.png
-    run = pl.read_run("runs/example")           # case, trajectory, summary
+    run = pl.RunFolder("runs/example")          # any run folder: case, status, summary
+    traj = run.trajectory()                      # t, x0, u, v, a in user units
     front = run.front()                          # arrival times, V_P per gap, first peaks
     run.figure().savefig("example.png")
 
@@ -20,13 +21,15 @@ __version__ = "0.1.0"
 # name -> module; imported on first use, so `import pylmp_lattice` stays light (no LAMMPS, no matplotlib)
 _API = {
     "Case": "case", "load_case": "case", "case_from_dict": "case", "case_to_dict": "case",
-    "run": "simulation", "simulate": "simulation", "read_run": "simulation", "Run": "simulation",
-    "load_trajectory": "simulation", "Trajectory": "trajectory",
+    "run": "run_folder", "simulate": "run_folder", "execute": "run_folder", "RunFolder": "run_folder",
+    "read_run": "run_folder",
+    "Trajectory": "trajectory",
     "estimate": "preflight",
     "to_atoms": "ase_io", "write_trajectory": "ase_io", "case_from_atoms": "ase_io",
     "measures": None, "plots": None, "errors": None,
 }
-_RENAMED = {"run": "run_case"}
+# pl.run is run_case; pl.read_run(folder) is RunFolder(folder), kept for earlier scripts
+_RENAMED = {"run": "run_case", "read_run": "RunFolder"}
 __all__ = [*_API, "__version__"]
 
 

@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DumpFormatError
+from .trajectory import Trajectory
+from .units import from_engine
 
 logger = logging.getLogger(__name__)
 
@@ -204,3 +206,17 @@ def _by_id(dump: BinaryDump, data: np.ndarray, first: int) -> np.ndarray:
         raise DumpFormatError(f"{dump.path}: atoms not in id order in frames from {first}; "
                               "expected `dump_modify ... sort id`")
     return data
+
+
+def read_trajectory(path: str | Path, mass: np.ndarray, particles=None) -> Trajectory:
+    """A binary dump of x, vx, fx as a trajectory in user units, read as it is (nothing converted
+    or removed: the file may still be growing). mass (kg) of the dump's atoms, for a = f / m;
+    `particles` (0-based indices, increasing) keeps only those columns."""
+    dump = open_dump(path)
+    frames = dump.read()
+    cols = slice(None) if particles is None else list(particles)
+    x, v, f = (frames.data[:, cols, dump.column(c)] for c in ("x", "vx", "fx"))
+    m = np.asarray(mass)[cols]
+    return Trajectory(t=from_engine(frames.time, "time"), x0=from_engine(x[0], "length"),
+                      u=from_engine(x - x[0], "length"), v=from_engine(v, "velocity"),
+                      a=from_engine(f / m, "acceleration"))

@@ -10,6 +10,7 @@ A TOML case has the sections [chain], [force], [impactor], [run] and optionally 
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, fields, replace
@@ -623,9 +624,28 @@ def _read_columns(path: Path, field: str, columns: str):
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 
-def case_hash(case: Case) -> str:
-    """8 hex digits identifying the resolved case (its TOML form), e.g. for a run folder's name."""
-    return hashlib.sha256(tomli_w.dumps(case_to_dict(case)).encode()).hexdigest()[:8]
+def case_id(case: Case) -> str:
+    """The case's identity: 16 hex digits of a hash of its resolved form, the name left out (a
+    label, not physics). One identity names run folders (`runs/NAME-<first 8>`) and sweep members."""
+    return identity_hash({k: v for k, v in case_to_dict(case).items() if k != "name"})
+
+
+def identity_hash(data: dict) -> str:
+    """16 hex digits of a hash of a resolved case dict (keys sorted, so the order never matters;
+    numbers normalised, so that 1 and 1.0 are one value)."""
+    text = json.dumps(_normalised(data), sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _normalised(value):
+    """A whole float as an int (1.0 -> 1), in nested dicts and lists: one text per number."""
+    if isinstance(value, dict):
+        return {k: _normalised(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_normalised(v) for v in value]
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 def _steps(field: str, interval: float, dt: float) -> int:

@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -80,6 +80,12 @@ def _parser() -> argparse.ArgumentParser:
     _case_args(deck)
     deck.set_defaults(func=_deck)
 
+    summ = sub.add_parser("summarize", help="write DIR/summary.json and its figure for any run folder "
+                                            "(a deck run by hand with lmp, a run stopped by contact or interrupted)")
+    summ.add_argument("folder", type=Path, help="run folder")
+    summ.add_argument("--no-figure", action="store_true", help="summary.json only")
+    summ.set_defaults(func=_summarize)
+
     export = sub.add_parser("export", help="write a run's trajectory for ASE's GUI or OVITO (.extxyz or .traj)")
     export.add_argument("folder", type=Path, help="run folder")
     export.add_argument("-o", "--output", type=Path, required=True, help="file ending in .extxyz or .traj")
@@ -121,19 +127,19 @@ def _case_args(p):
 
 def _load(args):
     """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden."""
-    from .case import case_hash, load_case
+    from .case import case_id, load_case
 
     case = load_case(args.case, args.set)
     if args.name:
         if not args.name.strip() or Path(args.name).name != args.name:
             raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
         return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
-    default = case.name + (f"-{case_hash(case)}" if args.set else "")
+    default = case.name + (f"-{case_id(case)[:8]}" if args.set else "")
     return case, args.output or Path("runs") / default
 
 
 def _run(args) -> int:
-    from .simulation import run_case
+    from .run_folder import run_case
 
     case, folder = _load(args)
     if args.dry_run:
@@ -157,12 +163,12 @@ def _run(args) -> int:
 def _dry_run(case, folder: Path, args) -> int:
     """The estimate as JSON on stdout; exit 2 if the run would be refused."""
     from . import preflight
-    from .runner import check_folder
+    from .run_folder.folder import check_target
 
     est = preflight.estimate(case, args.np)
     try:
         preflight.check(case, folder, args.np, yes=args.yes)
-        check_folder(folder, args.overwrite)
+        check_target(folder, args.overwrite)
         refused = None
     except ConfigError as err:
         refused = str(err)
@@ -177,23 +183,38 @@ def _dry_run(case, folder: Path, args) -> int:
 
 
 def _deck(args) -> int:
-    from .runner import write_run_folder
+    from .run_folder import RunFolder
+    from .run_folder.layout import DECK
 
     case, folder = _load(args)
-    write_run_folder(case, folder, overwrite=args.overwrite)
-    print(f"wrote {folder}/in.lattice; run it with: cd {folder} && lmp -in in.lattice")
+    RunFolder.create(case, folder, overwrite=args.overwrite)
+    print(f"wrote {folder}/{DECK}; run it with: cd {folder} && lmp -in {DECK}; "
+          f"then: pylmp-lattice summarize {folder}")
+    return 0
+
+
+def _summarize(args) -> int:
+    from .run_folder import RunFolder
+    from .serialize import dumps
+
+    folder = RunFolder(args.folder)
+    if not args.folder.is_dir():
+        raise ConfigError("folder", f"got {str(args.folder)!r}; expected a run folder")
+    summary = folder.summarize(figure=not args.no_figure)
+    print(dumps(summary))
     return 0
 
 
 def _export(args) -> int:
     from .ase_io import write_trajectory
-    from .simulation import read_run
+    from .run_folder import RunFolder
 
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")
-    run = read_run(args.folder)
-    path = write_trajectory(args.output, run.trajectory, run.case.chain.masses(), every=args.every)
-    print(f"wrote {path} ({-(-len(run.trajectory.t) // args.every)} frames, {run.case.chain.particles} atoms)")
+    run = RunFolder(args.folder)
+    traj = run.trajectory()
+    path = write_trajectory(args.output, traj, run.case.chain.masses(), every=args.every)
+    print(f"wrote {path} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
 
@@ -238,14 +259,14 @@ def _study(args) -> int:
 
 
 def _info(args) -> int:
-    from .engine import new_lammps
+    from .engine import new_lammps, plugin_styles
 
     lmp = new_lammps(["-screen", "none", "-log", "none"])
     print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
     print("packages: " + " ".join(lmp.installed_packages))
     lmp.close()
     try:
-        from .plugin import plugin_file, plugin_styles
+        from .plugin import plugin_file
 
         print(f"plugin: {plugin_file()} loads, styles: {', '.join(plugin_styles())}")
     except (ImportError, LatticeError, OSError) as err:

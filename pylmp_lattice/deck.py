@@ -15,28 +15,13 @@ import numpy as np
 
 from .case import Case
 from .errors import ConfigError
-from .dump import DUMP_COLUMNS
 from .forcelaw import LinearSpring, PowerLaw
 from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
+from .run_folder.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+                         FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
-
-DECK = "in.lattice"
-DATA = "chain.data"
-TABLE = "force.table"
-SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
-DUMP = "traj.dump"  # output.format = "text"
-TRAJ_BIN = "traj.bin"  # output.format = "h5md": LAMMPS binary dumps, turned into traj.h5md after the run
-FINE_BIN = "fine.bin"
-FRONT_BIN = "front.bin"  # the front record of fix lattice/front, written at the end of the run
-BIN_COLUMNS = "id x vx fx"  # y, z stay 0 (see section 3): a 1D frame is x, v and f along x
-FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, 8))
-LOG = "log.lammps"
-PISTON = "piston.txt"
-CHAIN_WORK = "chain_work.txt"  # a batch with friction: each chain's friction work
-# Printed by the deck when two magnets touched; `runner` turns it into a ContactError.
-CONTACT_MARK = "CONTACT:"
 
 
 def _num(x) -> str:
@@ -76,7 +61,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
-    chains (no fine output, no front record); read it back with simulation.split_replicas.
+    chains (no fine output, no front record); read it back with run_folder.split_replicas.
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
     = "none".
@@ -107,7 +92,7 @@ def _chain_work_lines(replicas: int) -> str:
 variable        chain loop {replicas}
 label           chain_work
 variable        work equal f_chain[$(v_chain+2)]
-print           "$(v_work:%.17g)" append {CHAIN_WORK} screen no
+print           "$(v_work:%.17g)" append {in_deck(CHAIN_WORK)} screen no
 next            chain
 jump            SELF chain_work
 """
@@ -232,6 +217,9 @@ def deck_text(case: Case, replicas: int = 1) -> str:
 # Run it in this folder with:  lmp -in {DECK}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
+# The folder of this run's files: here, unless set on the command line (lmp -var {DIR_VARIABLE} PATH).
+variable        {DIR_VARIABLE} index .
+
 {_chain_sections(case, replicas) if chain else _stock_sections(case)}
 
 # ---- 5. Output: thermo with energies, {case.output.format} trajectory
@@ -271,7 +259,7 @@ def _stock_sections(case: Case) -> str:
     return f"""\
 # ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
 {_SYSTEM}
-read_data       {DATA}
+read_data       {in_deck(DATA)}
 # Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
 # separation; no pair style, so no other interaction exists. Ghosts must reach across the
 # longest bond on several ranks.
@@ -280,7 +268,7 @@ comm_modify     cutoff {_num(1.05 * hi_si)}
 # ---- 2. Force law {case.force!r}
 # Tabulated on [{lo:g}, {hi:g}] mm; a separation outside stops the run with an error.
 bond_style      table spline {case.table.points}
-bond_coeff      1 {TABLE} {KEYWORD}
+bond_coeff      1 {in_deck(TABLE)} {KEYWORD}
 {_second_neighbour_lines(case)}
 
 # ---- 3. Boundary conditions: particle 1 is the impactor, particle(s) {held} held at rest
@@ -320,18 +308,18 @@ def _output_lines(case: Case) -> str:
     every = run.steps("output_interval")
     lines = []
     if out.format == "text":
-        lines += [f"dump            traj all custom {every} {DUMP} {DUMP_COLUMNS}",
+        lines += [f"dump            traj all custom {every} {in_deck(DUMP)} {DUMP_COLUMNS}",
                   "dump_modify     traj sort id time yes format float %.12g"]
     elif out.format == "h5md":
         # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5md.
-        lines += [f"dump            traj all custom {every} {TRAJ_BIN} {BIN_COLUMNS}",
+        lines += [f"dump            traj all custom {every} {in_deck(TRAJ_BIN)} {BIN_COLUMNS}",
                   "dump_modify     traj sort id time yes"]
     if out.fine and out.format != "none":
         fine_every = round(case.fine_interval() / run.dt)  # a whole number: Case checks it
-        name = DUMP.replace("traj", "fine") if out.format == "text" else FINE_BIN
+        name = FINE_DUMP if out.format == "text" else FINE_BIN
         columns = DUMP_COLUMNS if out.format == "text" else BIN_COLUMNS
         lines += [f"group           fine id {' '.join(map(str, out.fine))}",
-                  f"dump            fine fine custom {fine_every} {name} {columns}",
+                  f"dump            fine fine custom {fine_every} {in_deck(name)} {columns}",
                   "dump_modify     fine sort id time yes" + (" format float %.12g" if out.format == "text" else "")]
     if records_front(case):
         vi = to_engine(case.impactor.peak_velocity(), "velocity")
@@ -346,7 +334,7 @@ def _output_lines(case: Case) -> str:
 def _front_dump_line(case: Case) -> str:
     if not records_front(case):
         return ""
-    return f"write_dump      all custom {FRONT_BIN} {FRONT_COLUMNS} modify sort id time yes\n"
+    return f"write_dump      all custom {in_deck(FRONT_BIN)} {FRONT_COLUMNS} modify sort id time yes\n"
 
 
 def _thermo_style(case: Case) -> str:
@@ -382,7 +370,7 @@ def _chain_sections(case: Case, replicas: int = 1) -> str:
 # domains along x only; no reverse communication of forces (every force is set by its owner)
 processors      * 1 1
 newton          off
-read_data       {DATA}
+read_data       {in_deck(DATA)}
 # Ghosts must reach across the longest separation on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
 # fix lattice/chain finds neighbours by atom ID: the data file's bonds are not needed (the
@@ -401,7 +389,7 @@ neigh_modify    every 100 delay 0 check no include none
 # stops the run; a gap outside [{lo:g}, {hi:g}] mm stops it with an error. Its scalar is the
 # potential energy (part of pe through fix_modify energy yes).
 {source}
-fix             chain all lattice/chain law {law or f"table {TABLE} {KEYWORD}"} &
+fix             chain all lattice/chain law {law or f"table {in_deck(TABLE)} {KEYWORD}"} &
                 impactor {_impactor_args(case.impactor)} &
                 range {_num(lo_si)} {_num(hi_si)}{chains}{friction}
 fix_modify      chain energy yes
@@ -424,7 +412,7 @@ def _impactor_args(imp) -> str:
     if isinstance(imp, Rest):
         return "rest"
     if isinstance(imp, Measured):
-        return f"measured file {PISTON} column {imp.column} after {imp.after}"
+        return f"measured file {in_deck(PISTON)} column {imp.column} after {imp.after}"
     v = _num(to_engine(imp.velocity, "velocity"))
     if isinstance(imp, Constant):
         return f"constant {v}"
@@ -443,7 +431,7 @@ def _second_neighbour_lines(case: Case) -> str:
     return (
         f"# Second neighbours {sn!r}: bonds i-(i+2) of type 2, d = x_(i+2) - x_i\n"
         f"# tabulated on [{lo2:g}, {hi2:g}] mm.\n"
-        f"bond_coeff      2 {SECOND_TABLE} {KEYWORD}"
+        f"bond_coeff      2 {in_deck(SECOND_TABLE)} {KEYWORD}"
     )
 
 
@@ -483,7 +471,7 @@ def _piston_lines(case: Case) -> str:
     if isinstance(imp, Measured):
         return (
             "# measured motion, cubic-spline interpolated by the plugin's fix\n"
-            f"fix             piston impactor lattice/piston file {PISTON} column {imp.column} after {imp.after}"
+            f"fix             piston impactor lattice/piston file {in_deck(PISTON)} column {imp.column} after {imp.after}"
         )
     v = to_engine(imp.velocity, "velocity")
     if isinstance(imp, Constant):

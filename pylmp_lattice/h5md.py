@@ -1,7 +1,7 @@
 """A run's trajectory as an H5MD file (HDF5 in the layout of nongnu.org/h5md, version 1.1).
 
-The deck writes binary LAMMPS dumps (`bindump`); `convert_run` turns them, block by block,
-into `traj.h5md`, and `read_group` reads it back in user units, whole or a few particles:
+The deck writes binary LAMMPS dumps (`bindump`); `write_file` turns them, block by block,
+into an H5MD file, and `read_group` reads it back in user units, whole or a few particles:
 
     h5md/                         version [1, 1]; author; creator pylmp_lattice <version>
     particles/trajectory/         every magnet, every run.output_interval
@@ -27,50 +27,44 @@ HDF5 library without h5py); a few particles read back without decompressing the 
 from __future__ import annotations
 
 import getpass
-import os
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 import tomli_w
 
-from .bindump import open_dump
+from .bindump import BinaryDump
 from .case import Case, case_to_dict
-from .deck import FINE_BIN, TRAJ_BIN
 from .trajectory import Trajectory
 from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
 
-FILE = "traj.h5md"
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
 _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
 
 
-def convert_run(case: Case, folder: Path) -> Path | None:
-    """Write `folder`/traj.h5md from the run's binary dumps, then remove them; None if there are
-    none with a complete frame. The file appears only once complete, so a failure on the way
-    leaves the dumps as they were."""
+def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump]) -> None:
+    """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
+    "chain" (every magnet) or "fine" (the output.fine magnets). The dumps are left as they are."""
     import h5py
 
-    folder = Path(folder)
     masses = case.chain.masses()
-    groups = {}
-    for group, name, numbers in (("chain", TRAJ_BIN, None), ("fine", FINE_BIN, case.output.fine)):
-        dump = open_dump(folder / name) if (folder / name).exists() else None
-        if dump is not None and dump.frames:
-            groups[group] = (dump, masses if numbers is None else masses[np.sort(numbers) - 1])
-    if not groups:
-        return None
-    target, partial = folder / FILE, folder / (FILE + ".part")
-    with h5py.File(partial, "w") as h5:
+    with h5py.File(target, "w") as h5:
         _write_header(h5, tomli_w.dumps(case_to_dict(case)))
-        for group, (dump, group_masses) in groups.items():
+        for group, dump in dumps.items():
+            group_masses = masses if group == "chain" else masses[np.sort(case.output.fine) - 1]
             _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, group_masses,
                          case.output.compression)
-    os.replace(partial, target)
-    for dump, _ in groups.values():
-        dump.path.unlink()
-    return target
+
+
+def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:
+    """Frames of a group in an H5MD file and its last frame's positions (engine's SI units,
+    nm for lengths), to verify a conversion before its source is removed."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        value = h5["particles"][GROUPS[group]]["position"]["value"]
+        return value.shape[0], (value[-1, :, 0] if value.shape[0] else None)
 
 
 def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajectory:

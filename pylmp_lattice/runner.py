@@ -1,15 +1,19 @@
-"""The one layer that talks to LAMMPS: write a run folder, run its deck, report failures.
+"""The one layer that talks to LAMMPS: run a run folder's deck, report failures.
 
-Two runners produce the same files in the folder (deck, data, table, case.toml, log.lammps,
-traj.bin or traj.dump): `run_embedded` (the LAMMPS Python module, in this process; the default) and
-`run_executable` (the `lmp` program, optionally under `mpiexec`).
+Two runners produce the same files in the folder (see `run_folder.layout`): `run_embedded` (the
+LAMMPS Python module, in this process; the default) and `run_executable` (the `lmp` program,
+optionally under `mpiexec`). Writing the folder and reading it back is `run.RunFolder`'s job.
 
 Both stop cleanly on SIGINT or SIGTERM and raise `Interrupted`, keeping the files written so
 far. The embedded run calls LAMMPS from a worker thread: a C call holds the thread, and Python
 runs signal handlers only in the main thread, between bytecodes. The handler asks LAMMPS for a
 "soft stop" (`force_timeout`, checked every step), so the run ends as a normal run does and
 LAMMPS closes its dump and log itself. `lmp` runs in its own process group, to which the
-signal is forwarded once.
+signal is forwarded once, and dies with its parent (a parent-death signal).
+
+A run leaves the calling process as it found it: no change of working directory (the deck
+finds its files through the `dir` variable, see `run_folder.layout`) and no redirection of the
+process's streams (LAMMPS's screen output goes to its own handle on stderr, or nowhere).
 """
 
 from __future__ import annotations
@@ -28,55 +32,15 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import tomli_w
-
-from . import deck
-from .case import Case, case_to_dict
+from .dump import find_contact
 from .engine import new_lammps
 from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, RunError
+from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_safe
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds between looks at a running engine (progress, and the end of an interrupted lmp).
 POLL = 0.2
-CASE_FILE = "case.toml"
-
-
-def write_run_folder(case: Case, folder: str | Path, overwrite: bool = False) -> Path:
-    """Write the deck, its input files and the case (case.toml) into `folder`.
-
-    A folder that already holds a run is refused unless `overwrite`; then the whole earlier run
-    folder is removed first, so no stale summary or figure stays beside the new run's files.
-    """
-    folder = Path(folder)
-    if check_folder(folder, overwrite):
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, text in deck.render(case).items():
-        (folder / name).write_text(text)
-    (folder / CASE_FILE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
-    return folder
-
-
-def write_replicas_folder(cases, folder: str | Path) -> Path:
-    """Write the batched deck of `cases` (deck.render_replicas) and the cases (replicas.toml)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, text in deck.render_replicas(cases).items():
-        (folder / name).write_text(text)
-    (folder / "replicas.toml").write_bytes(tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}).encode())
-    return folder
-
-
-def check_folder(folder: str | Path, overwrite: bool = False) -> bool:
-    """Whether `folder` holds an earlier run (it has case.toml) to remove before this one;
-    ConfigError if it does and `overwrite` is not set. Other files are not a run's: they stay."""
-    if not (Path(folder) / CASE_FILE).exists():
-        return False
-    if not overwrite:
-        raise ConfigError("output", f"{folder} already holds a run; pass --overwrite (overwrite=True) to "
-                                    "replace it, or choose another --name or -o")
-    return True
 
 
 def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int], None] | None = None) -> Path:
@@ -86,21 +50,21 @@ def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int]
     `on_step(step)` is called about every POLL seconds with the current time step.
     """
     folder = Path(folder).resolve()
-    args = ["-log", deck.LOG] + ([] if echo else ["-screen", "none"])
-    engine = _Engine(args)
-    with _working_dir(folder), _stdout_to_stderr():
-        worker = threading.Thread(target=engine.run, name="lammps", daemon=True)
-        try:
-            with _stop_signals(lambda signum: engine.stop()) as stopped:
-                worker.start()
-                while worker.is_alive():
-                    worker.join(POLL)
-                    if on_step:
-                        on_step(engine.step())
-        finally:
-            if worker.is_alive():  # an error in this thread: stop LAMMPS and let it close its files
-                engine.stop()
-                worker.join()
+    args = ["-log", str(folder / LOG), "-screen", "/dev/stderr" if echo else "none",
+            "-var", DIR_VARIABLE, _deck_dir(folder)]
+    engine = _Engine(args, str(folder / DECK))
+    worker = threading.Thread(target=engine.run, name="lammps", daemon=True)
+    try:
+        with _stop_signals(lambda signum: engine.stop()) as stopped:
+            worker.start()
+            while worker.is_alive():
+                worker.join(POLL)
+                if on_step:
+                    on_step(engine.step())
+    finally:
+        if worker.is_alive():  # an error in this thread: stop LAMMPS and let it close its files
+            engine.stop()
+            worker.join()
     if engine.failure:
         text = str(engine.failure)
         raise RunError(_error_line(text) or text.strip() or "LAMMPS failed", folder) from engine.failure
@@ -119,8 +83,9 @@ class _Engine:
     touches a closed instance.
     """
 
-    def __init__(self, args: list[str]):
+    def __init__(self, args: list[str], deck: str):
         self.args = args
+        self.deck = deck
         self.lock = threading.RLock()  # re-entrant: a signal handler may run while the main thread holds it
         self.lmp = None
         self.stopped = False
@@ -133,7 +98,7 @@ class _Engine:
                 self.lmp = new_lammps(self.args)
                 if self.stopped:  # a signal came before the instance existed
                     self.lmp.force_timeout()
-            self.lmp.file(deck.DECK)
+            self.lmp.file(self.deck)
         except Exception as err:  # the module raises a bare Exception carrying LAMMPS's message
             self.failure = err
         finally:
@@ -162,13 +127,13 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
     `echo` passes LAMMPS's screen output to stderr; `on_step(step)` follows the log's thermo rows.
     """
     folder = Path(folder).resolve()
-    cmd = [_tool("lmp"), "-in", deck.DECK, "-log", deck.LOG] + ([] if echo else ["-screen", "none"])
+    cmd = [_tool("lmp"), "-in", DECK, "-log", LOG] + ([] if echo else ["-screen", "none"])
     if nprocs > 1:
         cmd = [_tool("mpiexec"), "-n", str(nprocs)] + cmd
     with tempfile.TemporaryFile("w+") as out:
         # Its own process group: a terminal's Ctrl-C reaches only us, and we stop the whole group once.
         proc = subprocess.Popen(cmd, cwd=folder, stdout=sys.stderr if echo else out, stderr=subprocess.STDOUT,
-                                text=True, start_new_session=True)
+                                text=True, start_new_session=True, preexec_fn=_die_with_parent)
         with _stop_signals(lambda signum: _signal_group(proc, signum)) as stopped:
             while proc.poll() is None:
                 time.sleep(POLL)
@@ -182,7 +147,7 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         written = [t for t in (_last_thermo(folder)[1], _last_frame_time(folder)) if t is not None]
         raise Interrupted(stopped[0], from_engine(max(written), "time") if written else None, folder)
     if proc.returncode != 0:
-        log = folder / deck.LOG
+        log = folder / LOG
         message = _error_line((log.read_text() if log.exists() else "") + output)
         if message is None:
             message = (f"lmp was killed by signal {signal.Signals(-proc.returncode).name}" if proc.returncode < 0
@@ -190,6 +155,24 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         raise RunError(message, folder, proc.returncode)
     _check_contact(folder)
     return folder
+
+
+def _die_with_parent() -> None:
+    """In the child before exec: SIGTERM when the parent dies, so that mpiexec stops its ranks
+    and lmp stops even if the parent is killed outright (Linux's PR_SET_PDEATHSIG)."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1 = PR_SET_PDEATHSIG
+
+
+def _deck_dir(folder: Path) -> str:
+    """The folder as the deck's `dir` variable: relative to here if that is shorter and safe."""
+    relative = os.path.relpath(folder)
+    for path in (relative, str(folder)):
+        if deck_safe(path):
+            return path
+    raise ConfigError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
+                                "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
+                                "or use --runner lmp")
 
 
 def _signal_group(proc: subprocess.Popen, signum: int) -> None:
@@ -225,7 +208,7 @@ def _stop_signals(stop: Callable[[int], None]):
 def _last_thermo(folder: Path) -> tuple[int, float | None]:
     """Step and time (s) of the last thermo row in the folder's log so far; (0, None) before one."""
     try:
-        text = (folder / deck.LOG).read_text(errors="replace")
+        text = (folder / LOG).read_text(errors="replace")
     except FileNotFoundError:
         return 0, None
     rows = re.findall(r"^\s*(\d+)\s+([-+.\deE]+)\s+[-+.\deE]+\s", text, re.MULTILINE)
@@ -237,7 +220,7 @@ def _last_frame_time(folder: Path) -> float | None:
     `lmp` prints thermo rows only every 1/20 of the run, but writes frames to the end."""
     from .bindump import open_dump
 
-    path = folder / deck.TRAJ_BIN
+    path = folder / TRAJ_BIN
     with contextlib.suppress(FileNotFoundError, DumpFormatError):  # the signal's report comes first
         dump = open_dump(path)
         if dump.frames:
@@ -246,13 +229,10 @@ def _last_frame_time(folder: Path) -> float | None:
 
 
 def _check_contact(folder: Path) -> None:
-    """Raise ContactError if the deck's guard stopped the run (it prints CONTACT_MARK)."""
-    text = (folder / deck.LOG).read_text()
-    pattern = re.escape(deck.CONTACT_MARK) + r" magnets (\d+) and (\d+) gap (\S+) m at t = (\S+) s"
-    m = re.search(r"^" + pattern, text, re.MULTILINE)
-    if m:
-        i, j, gap, t = m.groups()
-        raise ContactError((int(i), int(j)), from_engine(float(t), "time"), from_engine(float(gap), "length"), folder)
+    """Raise ContactError if the run stopped because two magnets touched (the deck's CONTACT line)."""
+    contact = find_contact((folder / LOG).read_text(errors="replace"))
+    if contact:
+        raise ContactError(contact.magnets, contact.time_ms, contact.gap_mm, folder)
 
 
 def _error_line(text: str) -> str | None:
@@ -274,28 +254,3 @@ def _tool(name: str) -> str:
     if not found:
         raise RunError(f"`{name}` not found; install the `lammps[mpi]` package")
     return found
-
-
-@contextlib.contextmanager
-def _working_dir(path: Path):
-    # The deck names its files relative to the run folder, as for `lmp -in` run there.
-    old = Path.cwd()
-    os.chdir(path)
-    try:
-        yield
-    finally:
-        os.chdir(old)
-
-
-@contextlib.contextmanager
-def _stdout_to_stderr():
-    """Send the process's C-level stdout (LAMMPS's screen) to stderr: stdout carries only results."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    os.dup2(2, 1)
-    try:
-        yield
-    finally:
-        ctypes.CDLL(None).fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)

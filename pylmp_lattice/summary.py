@@ -17,7 +17,7 @@ QUIET_FRACTION = 1e-3
 def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
     """Linear wave speed and frequency, shock velocity plateau, first peaks (user units).
 
-    front: the run's front measures (`simulation.measure_run`); None without a drive.
+    front: the run's front measures (`RunFolder.measures`); None without a drive.
     max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
     end stayed at rest."""
     chain, vi = case.chain, case.impactor.peak_velocity()

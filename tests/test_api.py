@@ -22,7 +22,7 @@ def readme_example() -> str:
 
 def test_the_package_lists_the_names_a_researcher_needs():
     names = set(dir(pl))
-    assert {"load_case", "case_from_dict", "run", "read_run", "measures", "plots", "to_atoms",
+    assert {"load_case", "case_from_dict", "run", "RunFolder", "read_run", "measures", "plots", "to_atoms",
             "case_from_atoms", "estimate"} <= names
     with pytest.raises(AttributeError):
         pl.no_such_name
@@ -37,8 +37,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     # what the example claims: a finished run folder and measures of its front
     summary, run, front = namespace["summary"], namespace["run"], namespace["front"]
     assert (tmp_path / "runs/api_example/summary.json").exists() and (tmp_path / "api_example.png").exists()
-    assert run.summary == summary and run.trajectory.t[-1] == pytest.approx(40.0)
-    assert len(namespace["frames"]) == len(run.trajectory.t)
+    assert run.summary == summary and run.trajectory().t[-1] == pytest.approx(40.0)
+    assert len(namespace["frames"]) == len(run.trajectory().t)
     # the half-sine drive's front, 12 mm gaps: between V0 = 1.6 m/s and the bound V0 + 2 * 2.81
     vp = summary["shock_velocity_plateau_m_per_s"]["mean"]
     assert 1.6 < vp < 7.2 and front.arrival[1] < front.arrival[5]

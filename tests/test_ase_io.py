@@ -10,7 +10,7 @@ from ase.io import read
 from pylmp_lattice.ase_io import case_from_atoms, to_atoms, write_trajectory
 from pylmp_lattice.case import case_from_dict
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import PAPER_FORCE, make_case
 

@@ -120,7 +120,7 @@ def test_thermal_chain_in_the_engine_shares_its_energy_equally(tmp_path):
     T = 2 s is E/2 = KE(0)/2. Errors: the slowest mode (omega ~ 42 rad/s) averaged over
     omega T ~ 84 rad, at most about 1/(omega T) ~ 1 %; anharmonicity at strains ~ 1e-2, ~1 %
     at most. Tolerance 1 % (measured 0.013 %); a start that put energy elsewhere fails."""
-    from pylmp_lattice.simulation import simulate
+    from pylmp_lattice.run_folder import simulate
 
     case = make_case(particles=21, duration=2000.0, dt=0.05, interval=1.0, impactor={"profile": "rest"},
                      chain={"thermal_velocity": 0.01, "seed": 4})

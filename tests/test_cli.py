@@ -16,7 +16,7 @@ import tomli_w
 
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
-from pylmp_lattice.simulation import read_run
+from pylmp_lattice.run_folder import RunFolder
 
 from conftest import make_case
 
@@ -49,18 +49,18 @@ def test_signal_stops_the_main_case_cleanly(tmp_path, signum, runner):
     sent = time.monotonic()
     proc.send_signal(signum)
     out, err = proc.communicate(timeout=30)
-    assert time.monotonic() - sent < 5.0
+    assert time.monotonic() - sent < 2.0  # issue 19: Ctrl-C returns within 2 s at any run length
     assert proc.returncode == 128 + signum
     assert out == "" and "Traceback" not in err
     lines = err.splitlines()
     assert len(lines) == 1, err
     m = INTERRUPTED.match(lines[0])
     assert m and Path(m.group(2)) == folder.resolve()
-    run = read_run(folder)  # what was written opens, without a summary
-    assert run.summary is None and len(run.trajectory.t) > 1
+    run = RunFolder(folder)  # what was written opens, without a summary
+    assert run.summary is None and len(run.trajectory().t) > 1
     # embedded: LAMMPS stopped at the reported step, after the last frame (run.output_interval
     # apart); lmp: the time is that of the last frame written (printed with 6 digits)
-    t_stop, t_last = float(m.group(1)), run.trajectory.t[-1]
+    t_stop, t_last = float(m.group(1)), run.trajectory().t[-1]
     if runner == "embedded":
         assert t_last <= t_stop < t_last + run.case.run.output_interval + 1e-9
     else:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 

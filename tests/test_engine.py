@@ -13,9 +13,9 @@ from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.dump import read_dump, trajectory_from_dump
-from pylmp_lattice.runner import run_embedded, write_replicas_folder, write_run_folder
+from pylmp_lattice.runner import run_embedded
 from pylmp_lattice.front_record import read_front_record
-from pylmp_lattice.simulation import load_trajectory, simulate, simulate_replicas, split_replicas
+from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
 
 from conftest import make_case
 
@@ -75,7 +75,7 @@ def test_sampled_law_through_the_table_spline(tmp_path):
     case = make_case(particles=21, duration=30.0, interval=0.5, force=sampled, table={"r_max": 36.0},
                      friction=FRICTION)
     runs = both_engines(case, tmp_path)
-    assert "law table force.table FORCE_LAW" in (tmp_path / "chain" / "in.lattice").read_text()
+    assert "law table ${dir}/force.table FORCE_LAW" in (tmp_path / "chain" / "in.lattice").read_text()
     assert np.max(np.abs(runs["chain"].v - runs["stock"].v)) < 1e-12
 
 
@@ -138,7 +138,7 @@ def test_batched_replicas_equal_their_single_runs(tmp_path):
     batched = split_replicas(cases, _run_with_17_digits(write_replicas_folder(cases, tmp_path / "batched")))
     assert "length 21" in (tmp_path / "batched" / "in.lattice").read_text()
     for r, case in enumerate(cases):
-        single = _run_with_17_digits(write_run_folder(case, tmp_path / f"single{r}"))
+        single = _run_with_17_digits(RunFolder.create(case, tmp_path / f"single{r}").path)
         single.a[:, 0] = case.impactor.acceleration_at(single.t)
         assert np.max(np.abs(single.v)) > 1.0
         for name in ("x0", "u", "v", "a"):
@@ -167,18 +167,18 @@ def test_owned_state_gives_the_bits_of_the_general_path(tmp_path, other_fix):
     case = make_case(particles=700, duration=150.0, interval=5.0, impactor=PROFILES["sine"], friction=FRICTION)
     runs = {}
     for name, extra in (("owned", None), ("general", other_fix)):
-        folder = write_run_folder(case, tmp_path / name)
+        folder = RunFolder.create(case, tmp_path / name).path
         if extra:
             deck = folder / "in.lattice"
             deck.write_text(deck.read_text().replace("\nrun ", f"\nfix             other all {extra}\nrun ", 1))
         run_embedded(folder)
         log = (folder / "log.lammps").read_text()
         assert ("owns the state (one pass per step, front record inside)" in log) == (name == "owned")
-        runs[name] = (load_trajectory(case, folder), (folder / "front.bin").read_bytes())
+        runs[name] = (RunFolder(folder).trajectory(), (folder / "front.bin").read_bytes())
     (owned, owned_front), (general, general_front) = runs["owned"], runs["general"]
     assert np.max(np.abs(owned.v)) > 1.0
     for name in ("u", "v", "a"):
         assert np.array_equal(getattr(owned, name), getattr(general, name)), name
-    record = read_front_record(case, tmp_path / "owned")
+    record = read_front_record(case, tmp_path / "owned" / "front.bin")
     assert np.sum(np.isfinite(record.front.peaks.peak_velocity)) >= 20
     assert owned_front == general_front

@@ -8,10 +8,11 @@ import pytest
 from pylmp_lattice.exact import (harmonic_overshoot_limit, harmonic_piston_velocity, jump, toda_lead_soliton,
                                  toda_piston_wake, toda_soliton, toda_soliton_speed, wake_energy, weak_shock)
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw, Toda
-from pylmp_lattice.simulation import simulate
-from pylmp_lattice.studies.chains import MAGNET_MASS, MAGNET_STIFFNESS, chain_case
-from pylmp_lattice.studies.toda import front as toda_front
-from pylmp_lattice.studies.toda import piston_case, soliton_case, soliton_speed, staggered_amplitude
+from pylmp_lattice.measures import lead_pulse, staggered_amplitude
+from pylmp_lattice.run_folder import simulate
+from pylmp_lattice.studies.literature.toda import piston_case, soliton_case, soliton_speed
+from pylmp_lattice.studies.scaffold import MAGNET_STIFFNESS, chain_case
+from pylmp_lattice.studies.scaffold import MASS as MAGNET_MASS
 
 from reference import integrate_chain
 
@@ -134,7 +135,7 @@ def test_toda_piston_uniform_wake_and_lead_soliton(tmp_path, u_p):
     assert np.mean(traj.v[late, 1:11]) == pytest.approx(u_p, rel=1e-3)
     assert np.max(np.abs(r[-1, :10] - expected)) < 1e-2 * abs(expected)
     kappa, lead = toda_lead_soliton(u_p)
-    speed, height = toda_front(t, r)
+    speed, height = lead_pulse(t, np.expm1(-r))
     assert speed == pytest.approx(float(lead), rel=1e-2)
     assert height == pytest.approx(np.sinh(kappa) ** 2, rel=0.07)
 

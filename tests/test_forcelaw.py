@@ -9,7 +9,7 @@ from pylmp_lattice.deck import deck_text
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.forcelaw import (FPUT, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda,
                                     fit_power_law)
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import OTHER_LAWS, make_law_case
 from reference import integrate_chain
@@ -145,4 +145,4 @@ def test_friction_reads_the_table_for_the_other_laws():
     for law in OTHER_LAWS:
         text = deck_text(make_law_case(law, friction={"mu": 0.1, "p": 0.0}, run={"engine": "stock"}))
         assert "lattice/friction 0.1 0.0 9.81 law bond 1" in text
-        assert "law table force.table FORCE_LAW" in deck_text(make_law_case(law))
+        assert "law table ${dir}/force.table FORCE_LAW" in deck_text(make_law_case(law))

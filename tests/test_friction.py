@@ -13,7 +13,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.dump import read_log
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 from reference import integrate_chain_friction, power_force

@@ -1,4 +1,4 @@
-"""The mean state behind a shock (hugoniot.wake_state), and the magnet chain's weak-shock limit."""
+"""The mean state behind a shock (measures.wake_state), and the magnet chain's weak-shock limit."""
 
 from __future__ import annotations
 
@@ -7,10 +7,12 @@ import pytest
 
 from pylmp_lattice.exact import weak_shock
 from pylmp_lattice.forcelaw import LinearSpring, PowerLaw
-from pylmp_lattice.hugoniot import wake_state
-from pylmp_lattice.simulation import load_trajectory, run_case
-from pylmp_lattice.studies.chains import MAGNET_MASS, MAGNET_R0, chain_case
-from pylmp_lattice.studies.hugoniot import measure
+from pylmp_lattice.measures import wake_state
+from pylmp_lattice.run_folder import RunFolder, run_case
+from pylmp_lattice.studies.literature.hugoniot import measure
+from pylmp_lattice.studies.scaffold import MASS as MAGNET_MASS
+from pylmp_lattice.studies.scaffold import R0 as MAGNET_R0
+from pylmp_lattice.studies.scaffold import chain_case
 
 
 def test_wake_state_of_a_synthetic_oscillation():
@@ -46,7 +48,7 @@ def test_magnet_chain_weak_shock_limit(tmp_path):
     for u_p in (0.1, 0.5):
         case = chain_case("magnet", f"up{u_p}", {"velocity": u_p}, 600.0, output=0.5)
         summary = run_case(case, tmp_path / case.name, figure=False)
-        rows[u_p] = measure("magnet", u_p, case, summary, load_trajectory(case, tmp_path / case.name))
+        rows[u_p] = measure("magnet", u_p, case, summary, RunFolder(tmp_path / case.name).trajectory())
     for u_p, row in rows.items():
         line = ws.c0 + ws.s * u_p
         assert row["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(u_p, rel=1e-2)

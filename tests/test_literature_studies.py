@@ -7,7 +7,8 @@ import json
 
 import pytest
 
-from pylmp_lattice.studies import harmonic, hugoniot, run_study, toda
+from pylmp_lattice.studies import run_study
+from pylmp_lattice.studies.literature import harmonic, hugoniot, toda
 
 pytestmark = pytest.mark.lammps
 

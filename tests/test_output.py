@@ -11,8 +11,7 @@ from pylmp_lattice import measures
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ConfigError, RunError
 from pylmp_lattice.front_record import read_front_record
-from pylmp_lattice.h5md import convert_run
-from pylmp_lattice.simulation import execute, load_trajectory, run_case, simulate
+from pylmp_lattice.run_folder import RunFolder, execute, run_case, simulate
 
 from conftest import make_case
 
@@ -46,7 +45,7 @@ def test_front_record_equals_the_array_measures_of_every_step(tmp_path, sections
     case = make_case(particles=40, duration=40.0, interval=0.01, **sections)
     traj = simulate(case, tmp_path)
     arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps(), method)
-    record = read_front_record(case, tmp_path, method).front
+    record = read_front_record(case, tmp_path / "front.bin", method).front
     assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 8 and np.sum(np.isfinite(record.arrival)) >= 8
     for a, b in ((arrays.arrival, record.arrival), *zip(_peak_fields(arrays), _peak_fields(record))):
         np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
@@ -68,7 +67,7 @@ def test_front_record_against_coarse_frames_within_the_interpolation_error(tmp_p
         case = make_case(particles=40, duration=40.0, interval=interval)
         traj = simulate(case, tmp_path / str(interval))
         arrays = measures.front(traj.t, traj.v, traj.a, 2.0, case.chain.gaps())
-        record = read_front_record(case, tmp_path / str(interval)).front
+        record = read_front_record(case, tmp_path / str(interval) / "front.bin").front
         reached = np.isfinite(record.arrival)
         errors[interval] = np.max(np.abs(arrays.arrival[reached] - record.arrival[reached]))
         peak = np.isfinite(record.peaks.peak_velocity)
@@ -111,7 +110,7 @@ def test_text_and_h5md_outputs_hold_the_same_trajectory(tmp_path):
 def test_fine_output_holds_chosen_magnets_every_step(tmp_path):
     case = make_case(particles=20, duration=10.0, interval=0.5, output={"fine": [7, 2], "fine_interval": 0.02})
     simulate(case, tmp_path)
-    coarse, fine = load_trajectory(case, tmp_path), load_trajectory(case, tmp_path, group="fine")
+    coarse, fine = RunFolder(tmp_path).trajectory(), RunFolder(tmp_path).trajectory("fine")
     assert fine.v.shape == (501, 2) and np.allclose(np.diff(fine.t), 0.02)
     common = np.flatnonzero(np.isin(np.round(fine.t, 9), np.round(coarse.t, 9)))
     np.testing.assert_array_equal(fine.v[common], coarse.v[:, [1, 6]])  # columns in magnet order
@@ -125,16 +124,17 @@ def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
                      impactor={"profile": "sine", "velocity": 2.0, "duration": 5.0})
     with pytest.raises(RunError, match=r"magnets \d+ and \d+ outside the table range"):  # chain engine
         execute(case, tmp_path)
-    traj = load_trajectory(case, tmp_path)
+    traj = RunFolder(tmp_path).trajectory()
     assert 5.0 < traj.t[-1] < 60.0 and np.allclose(np.diff(traj.t), 0.1)
     assert np.max(traj.gaps()[-1]) > 12.5  # a gap close to the table's end, 13 mm
 
 
 @lammps
 def test_truncated_binary_dump_keeps_its_complete_frames(tmp_path):
-    from pylmp_lattice.runner import run_embedded, write_run_folder
+    from pylmp_lattice.run_folder import RunFolder
+    from pylmp_lattice.runner import run_embedded
 
-    folder = run_embedded(write_run_folder(make_case(particles=10, duration=5.0), tmp_path))
+    folder = run_embedded(RunFolder.create(make_case(particles=10, duration=5.0), tmp_path).path)
     path = folder / "traj.bin"
     whole = open_dump(path).read()
     path.write_bytes(path.read_bytes()[:-100])
@@ -143,7 +143,7 @@ def test_truncated_binary_dump_keeps_its_complete_frames(tmp_path):
     np.testing.assert_array_equal(cut.read().data, whole.data[:-1])
     path.write_bytes(path.read_bytes()[:100])  # cut inside the first frame: nothing to convert
     assert open_dump(path).frames == 0 and open_dump(path).read().data.size == 0
-    assert convert_run(make_case(particles=10, duration=5.0), folder) is None and path.exists()
+    assert not RunFolder(folder).convert() and path.exists()
 
 
 @lammps

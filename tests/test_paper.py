@@ -16,7 +16,7 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
-from pylmp_lattice.simulation import measure_run, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.summary import summarize
 
 pytestmark = [pytest.mark.lammps, pytest.mark.slow]
@@ -31,7 +31,7 @@ def long_lattice(tmp_path_factory):
 
 def test_paper_long_lattice_numbers(long_lattice):
     case, _, folder = long_lattice
-    s = summarize(case, *measure_run(case, folder))
+    s = summarize(case, *RunFolder(folder).measures())
     assert 1.60 <= s["linear_wave_speed_V0_m_per_s"] <= 1.62
     # 0.5%: the paper gives 3 digits and our plateau still drifts by +0.06% across its window
     assert s["shock_velocity_plateau_m_per_s"]["mean"] == pytest.approx(3.92, rel=5e-3)
@@ -45,7 +45,7 @@ def test_paper_long_lattice_numbers(long_lattice):
 def test_first_peaks_grow_along_the_chain(long_lattice):
     """Strong-shock signature (Fig. 3c), opposite to the linear chain (Fig. S5c)."""
     case, _, folder = long_lattice
-    peaks = measure_run(case, folder)[0].peaks  # the engine's record of every step
+    peaks = RunFolder(folder).front().peaks  # the engine's record of every step
     reached = np.flatnonzero(np.isfinite(peaks.peak_velocity))
     n = reached[(reached >= 1) & (reached <= 150)]
     assert np.all(np.diff(peaks.peak_velocity[n]) > 0)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice.piston import Constant, Ramp, SinePulse
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 

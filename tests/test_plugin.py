@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pylmp_lattice.plugin import plugin_file, plugin_styles
+from pylmp_lattice.engine import plugin_styles
+from pylmp_lattice.plugin import plugin_file
 
 pytestmark = pytest.mark.lammps
 

@@ -9,7 +9,7 @@ import pytest
 
 from pylmp_lattice import preflight
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice.forcelaw import PowerLaw
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case
 from reference import integrate_chain, power_force
@@ -47,7 +47,7 @@ def test_sampled_force_law_runs_like_the_exact_law(tmp_path):
     case = make_case(particles=30, velocity=2.0, duration=90.0, force=sampled, table={"r_max": 36.0},
                      friction={"mu": 0.285, "p": 0.012})
     traj = simulate(case, tmp_path)
-    assert "law table force.table FORCE_LAW" in (tmp_path / "in.lattice").read_text()
+    assert "law table ${dir}/force.table FORCE_LAW" in (tmp_path / "in.lattice").read_text()
     exact = simulate(make_case(particles=30, velocity=2.0, duration=90.0, friction={"mu": 0.285, "p": 0.012}),
                      tmp_path / "exact")
     assert np.max(np.abs(traj.v - exact.v)) < 1e-5 * 2.0
@@ -61,7 +61,7 @@ def test_second_neighbours_match_independent_integrator(tmp_path):
     second = {"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}
     case = make_case(particles=30, velocity=2.0, duration=60.0, second_neighbour=second)
     traj = simulate(case, tmp_path)
-    assert "bond_coeff      2 second.table" in (tmp_path / "in.lattice").read_text()
+    assert "bond_coeff      2 ${dir}/second.table" in (tmp_path / "in.lattice").read_text()
     law = PowerLaw(206.2, 10.267, 3.0)
     drive = (lambda t: 2.0 * t, lambda t: np.full_like(t, 2.0))
     v_ref = integrate_chain(power_force(), 1.084, 12.0, 30, *drive, traj.t, force2=lambda d: -law.force(d))

@@ -19,8 +19,8 @@ from pylmp_lattice.case import case_to_dict, load_case
 from pylmp_lattice import runner
 from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.errors import ContactError, RunError
-from pylmp_lattice.runner import run_embedded, run_executable, write_run_folder
-from pylmp_lattice.simulation import load_trajectory, simulate
+from pylmp_lattice.runner import run_embedded, run_executable
+from pylmp_lattice.run_folder import RunFolder, simulate
 
 from conftest import make_case
 
@@ -38,7 +38,7 @@ def test_paper_chain_driven_into_its_fixed_end_stops_on_contact(tmp_path):
     assert err.pair[1] == err.pair[0] + 1 and 1 <= err.pair[0] < 21
     assert err.gap_mm <= 0 and str(tmp_path) in str(err)
     # what was written up to the stop stays readable: frames up to the contact time
-    traj = load_trajectory(case, tmp_path)
+    traj = RunFolder(tmp_path).trajectory()
     assert traj.t[-1] == pytest.approx(err.time_ms, abs=0.1 + 1e-9)
     assert len(traj.t) == round(traj.t[-1] / 0.1) + 1
     log_lines = (tmp_path / "log.lammps").read_text().splitlines()
@@ -61,8 +61,8 @@ def test_cli_reports_contact_in_one_line(tmp_path):
 
 def test_deck_runs_unchanged_with_lmp_and_matches_embedded(tmp_path):
     case = make_case(particles=30, velocity=2.0, duration=40.0)
-    a = run_embedded(write_run_folder(case, tmp_path / "embedded"))
-    b = run_executable(write_run_folder(case, tmp_path / "lmp"))
+    a = run_embedded(RunFolder.create(case, tmp_path / "embedded").path)
+    b = run_executable(RunFolder.create(case, tmp_path / "lmp").path)
     fa, fb = open_dump(a / "traj.bin").read(), open_dump(b / "traj.bin").read()
     assert fa.data.shape == fb.data.shape == (401, 30, 4)
     assert np.array_equal(fa.data, fb.data) and np.array_equal(fa.time, fb.time)
@@ -72,7 +72,7 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
     # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 opens
     case = make_case(particles=10, velocity=2.0, duration=60.0, table={"r_max": 13.0},
                      impactor={"profile": "sine", "velocity": 2.0, "duration": 5.0})
-    folder = write_run_folder(case, tmp_path)
+    folder = RunFolder.create(case, tmp_path).path
     with pytest.raises(RunError, match=r"magnets \d+ and \d+ outside the table range") as info:
         run_embedded(folder)
     assert info.value.folder == folder.resolve()
@@ -97,7 +97,7 @@ def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
         os.killpg(started[0].pid, signal.SIGKILL)
 
     monkeypatch.setattr(runner.subprocess, "Popen", Recorded)
-    folder = write_run_folder(load_case(INPUTS / "paper_long_lattice.toml"), tmp_path)
+    folder = RunFolder.create(load_case(INPUTS / "paper_long_lattice.toml"), tmp_path).path
     threading.Thread(target=killer, daemon=True).start()
     with pytest.raises(RunError, match=r"^lmp was killed by signal SIGKILL \(files kept in ") as info:
         run_executable(folder)
@@ -108,7 +108,7 @@ def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):
     """The package's deck (friction on) on 1 and 2 ranks: identical dumps and front records
     (paper experiment); two ranks write two chunks per binary frame."""
     case = load_case(INPUTS / "paper_experiment.toml")
-    one, two = (run_executable(write_run_folder(case, tmp_path / f"np{n}"), nprocs=n) for n in (1, 2))
+    one, two = (run_executable(RunFolder.create(case, tmp_path / f"np{n}").path, nprocs=n) for n in (1, 2))
     assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
     for name in ("traj.bin", "front.bin"):
         a, b = open_dump(one / name), open_dump(two / name)

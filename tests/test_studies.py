@@ -55,6 +55,29 @@ def test_unknown_study_is_a_usage_error(capsys):
         run_study("nope")
 
 
+def test_layout_studies_import_the_scaffold_and_measures_never_each_other():
+    """Every study name resolves to a module under studies/paper or studies/literature with a
+    `run`; no study imports another study (shared pieces live in the scaffold or measures);
+    the paper's constants are defined once (scaffold), never as literals in a study."""
+    import ast
+    import importlib
+    from pathlib import Path
+
+    from pylmp_lattice.studies import study_module
+
+    names = [n for n in STUDIES if n != "all"]
+    for name in names:
+        module = importlib.import_module(study_module(name))
+        assert callable(module.run) and module.NAME == name
+        assert Path(module.__file__).parent.name in ("paper", "literature")
+        tree = ast.parse(Path(module.__file__).read_text())
+        imported = {node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+        imported |= {a.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) for a in node.names}
+        assert not imported & set(names) - {name}, f"{name} imports another study"
+        literals = {node.value for node in ast.walk(tree) if isinstance(node, ast.Constant)}
+        assert not literals & {413.8, 3.917, 1.084}, f"{name} repeats the paper's K, b or m"
+
+
 @pytest.mark.lammps
 @pytest.mark.slow
 def test_s4_quick(tmp_path):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.simulation import read_run, run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.summary import _plateau
 
@@ -58,6 +58,6 @@ def test_friction_dissipated_energy_is_in_the_summary(tmp_path):
                      table={"r_max": 30.1, "points": 100000})
     summary = run_case(case, tmp_path / "rig")
     assert summary == _strict((tmp_path / "rig" / "summary.json").read_text())
-    traj = read_run(tmp_path / "rig").trajectory
+    traj = RunFolder(tmp_path / "rig").trajectory()
     energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * np.sum(case.chain.masses() * traj.v ** 2, axis=1)
     assert summary["friction_dissipated_energy_mJ"] == pytest.approx(energy[0] - energy[-1], rel=1e-5)

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.simulation import load_trajectory
+from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
                                  write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS
@@ -283,7 +283,7 @@ def test_thermal_replicas_reproduce_differ_and_have_the_requested_rms(tmp_path):
     assert first["shock_velocity_max_m_per_s.value"].nunique() == replicas  # different seeds: different runs
     v2 = []
     for member in sweep.members():
-        traj = load_trajectory(member.case, tmp_path / "a" / "members" / member.id)
+        traj = RunFolder(tmp_path / "a" / "members" / member.id).trajectory()
         np.testing.assert_allclose(traj.v[0, 1:-1], member.case.chain.velocities()[1:-1], rtol=1e-9)
         v2.append(np.mean(traj.v[0, 1:-1] ** 2))
     tol = 3 * np.sqrt(2 / (replicas * (particles - 3)))
@@ -348,7 +348,7 @@ keep = "measures"
 def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path):
     """Five thermal replicas run as one batch (one LAMMPS instance, one front record); each
     member's summary equals, bit for bit, the summary of its case run alone with run_case."""
-    from pylmp_lattice.simulation import run_case
+    from pylmp_lattice.run_folder import run_case
     from pylmp_lattice.sweep.table import scalar_measures
 
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=5), particles=12, duration=40.0))
@@ -440,7 +440,7 @@ def test_a_done_member_without_a_summary_that_parses_is_run_again(tmp_path, monk
         (Path(folder) / "summary.json").write_text(json.dumps(summary))
         return summary
 
-    monkeypatch.setattr("pylmp_lattice.simulation.run_case", fake_run_case)
+    monkeypatch.setattr("pylmp_lattice.run_folder.run_case", fake_run_case)
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [1.0, 2.0, 3.0]\n')
     sweep, out = load_sweep(path), tmp_path / "out"
     from concurrent.futures import ThreadPoolExecutor

@@ -10,7 +10,7 @@ import pytest
 from pylmp_lattice import deck
 from pylmp_lattice.engine import new_lammps
 from pylmp_lattice.forcelaw import PowerLaw
-from pylmp_lattice.runner import write_run_folder
+from pylmp_lattice.run_folder import RunFolder
 
 from conftest import OTHER_LAWS, make_case, make_law_case
 
@@ -18,7 +18,7 @@ from conftest import OTHER_LAWS, make_case, make_law_case
 def _read_back(case, tmp_path, monkeypatch):
     """LAMMPS's own F and U from the case's table (bond_write), r in mm, U in mJ, F in N."""
     case = dataclasses.replace(case, run=dataclasses.replace(case.run, engine="stock"))  # the engine with bonds
-    folder = write_run_folder(case, tmp_path)
+    folder = RunFolder.create(case, tmp_path).path
     lo, hi = case.table_range()
     setup = deck.deck_text(case).split("# ---- 3.")[0]  # the deck's system and force law
     monkeypatch.chdir(folder)

@@ -12,7 +12,8 @@ dataclasses that `serialize.dumps` writes as strict JSON (NaN as null).
 One module per concept: `linear` (V0, f0), `arrival` (front arrival), `propagation` (V_P and
 its plateau), `peaks` (first peaks, rise time), `oscillation` (extrema, frequency, steady
 oscillation), `critical` (V*), `transition` (transition zone), `phase` (phase portrait), and
-`front` (the run's per-particle measures at once). Typical use on a `Trajectory` `tr`:
+`front` (the run's per-particle measures at once), `pulse` (a pulse's speed, the piston
+problem's lead pulse and period two), `wake` (the mean state behind a shock). Typical use on a `Trajectory` `tr`:
 
     t_front = arrival_times(tr.t, tr.v, vi)
     vp = propagation_velocity(t_front, np.diff(tr.x0))
@@ -37,7 +38,9 @@ from .propagation import (
     propagation_velocity,
     trailing_plateau,
 )
+from .pulse import centroid_speed, lead_pulse, staggered_amplitude
 from .transition import TransitionZone, steady_onset_times, transition_zone
+from .wake import WakeState, wake_state
 
 __all__ = [
     "FRONT_FRACTION", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
@@ -46,4 +49,5 @@ __all__ = [
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",
     "front", "linear_frequency", "linear_wave_speed", "oscillations", "phase_portrait", "propagation_velocity",
     "steady_oscillation", "steady_onset_times", "trailing_plateau", "transition_zone",
+    "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",
 ]

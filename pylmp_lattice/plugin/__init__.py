@@ -45,28 +45,3 @@ def plugin_dir() -> str:
         return str(plugin_file().parent)
     except RunError:
         return str(_candidates()[0].parent)
-
-
-def plugin_styles() -> list[str]:
-    """Load the plugin into a fresh LAMMPS instance; return the styles registered by plugins.
-
-    Entries read ``"fix lattice/friction"``; styles auto-loaded from LAMMPS_PLUGIN_PATH
-    are listed too.
-    """
-    import ctypes
-
-    from ..engine import new_lammps
-
-    path = plugin_file()
-    lmp = new_lammps()
-    try:
-        lmp.command(f"plugin load {path}")
-        style = ctypes.create_string_buffer(100)
-        name = ctypes.create_string_buffer(100)
-        found = []
-        for index in range(lmp.lib.lammps_plugin_count()):
-            lmp.lib.lammps_plugin_name(index, style, name, 100)
-            found.append(f"{style.value.decode()} {name.value.decode()}")
-        return found
-    finally:
-        lmp.close()

@@ -1,4 +1,11 @@
-"""Studies: the paper's figures, each one module with `run(out, quick) -> StudyResult`.
+"""Studies: the paper's figures and the literature's tests, each one module with
+`run(out, quick) -> StudyResult`.
+
+Layout: `paper/` (one module per figure of the paper: fig1-4, s3-s9, movies), `literature/`
+(harmonic, toda, hugoniot), on one scaffold: `scaffold` (the paper's constants, the chains as
+cases, runs of many cases), `long_lattice` (Fig. 3's measures and panels, shared by fig3 and
+s5), `output` (the one writer). Studies call measures (`pylmp_lattice.measures`) and the
+scaffold, never each other.
 
 `pylmp-lattice study NAME [-o DIR] [--quick]` runs a study and writes, through the one writer
 `write_study`: DIR/NAME.json (its numbers, units in the keys, strict JSON), DIR/NAME_<table>.csv
@@ -6,8 +13,8 @@ for each table, DIR/NAME.png and DIR/NAME.pdf. A study's own run folders go unde
 running the study again redoes them (`simulate(..., overwrite=True)`), as it rewrites its files.
 `--quick` runs a small version (fewer or shorter runs) for tests and a first look.
 
-To add a study: write `studies/<name>.py` with `run(out: Path, quick: bool) -> StudyResult`
-and add its name and one-line title to STUDIES.
+To add a study: write `studies/<origin>/<name>.py` with `run(out: Path, quick: bool) ->
+StudyResult` and add its name, origin and one-line title to STUDIES.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ __all__ = ["STUDIES", "StudyResult", "run_study", "write_study"]
 
 log = logging.getLogger(__name__)
 
-# name -> title; the module pylmp_lattice.studies.<name> runs it.
+# name -> title; the module pylmp_lattice.studies.<ORIGIN[name]>.<name> runs it.
 STUDIES: dict[str, str] = {
     "fig1": "Fig. 1(b, c): the 21-magnet experiment with a smooth synthetic impact; rise times",
     "fig2": "Fig. 2: force and stiffness against separation, the power-law fit, magnets 2 and 8",
@@ -41,6 +48,14 @@ STUDIES: dict[str, str] = {
     "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
     "all": "every study above, into one folder",
 }
+LITERATURE = ("harmonic", "toda", "hugoniot")
+# name -> the subpackage that holds it ("" for `all`, which lives beside the scaffold)
+ORIGIN = {name: "literature" if name in LITERATURE else "" if name == "all" else "paper" for name in STUDIES}
+
+
+def study_module(name: str) -> str:
+    """The module that runs study `name`."""
+    return ".".join(filter(None, (__name__, ORIGIN[name], name)))
 
 
 def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = False) -> StudyResult:
@@ -49,6 +64,6 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
     out = Path(out)
     log.info("study %s: %s -> %s", name, STUDIES[name], out)
-    result = importlib.import_module(f"{__name__}.{name}").run(out, quick)
+    result = importlib.import_module(study_module(name)).run(out, quick)
     write_study(result, out)
     return result

@@ -108,7 +108,7 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
 
 def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> dict:
     """Run one member alone in its folder (`run_case`); any earlier attempt there is removed first."""
-    from ..simulation import run_case
+    from ..run_folder import run_case
 
     folder = _fresh(member_folder(root, m.id))
     start, cpu = time.perf_counter(), _cpu_time()
@@ -133,9 +133,10 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
-    from ..runner import CASE_FILE, run_embedded, run_executable
+    from ..run_folder import RunFolder, layout
+    from ..run_folder.folder import FINISHED
+    from ..runner import run_embedded, run_executable
     from ..serialize import dumps
-    from ..simulation import SUMMARY
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
@@ -163,12 +164,14 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
     out = {}
     for (m, case), record, summary in zip(group, records, summaries):
-        # case.toml and summary.json, then status.json last (atomically): the member is done
+        # a run folder (case.toml, run.json: finished in the batch, summary.json), then status.json
+        # last (atomically): the member is done
         folder = _fresh(member_folder(root, m.id))
-        (folder / CASE_FILE).write_text(tomli_w.dumps(case_to_dict(case)))
-        summary["files"] = {"folder": str(folder), "log": str(batch / deck.LOG)}
-        summary["wall_time_s"] = round(wall, 4)
-        (folder / SUMMARY).write_text(dumps(summary) + "\n")
+        (folder / layout.CASE).write_text(tomli_w.dumps(case_to_dict(case)))
+        log = f"../../{BATCHES}/{batch.name}/{layout.LOG}"
+        RunFolder(folder).record(FINISHED, batch=f"{BATCHES}/{batch.name}", chain=len(out))
+        summary |= {"status": FINISHED, "files": {"folder": str(folder), "log": log}, "wall_time_s": round(wall, 4)}
+        (folder / layout.SUMMARY).write_text(dumps(summary) + "\n")
         record |= {"status": DONE, "ended": now(), "wall_time_s": round(wall, 4), "cpu_time_s": round(cpu, 4)}
         write_status(folder, record)
         out[m.id] = {"id": m.id, "record": record, "summary": summary}
@@ -177,18 +180,19 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
 
 def _summaries(cases: list[Case], batch: Path) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it."""
+    from .. import measures
     from ..front_record import read_front_records
-    from ..simulation import arrival_method
+    from ..run_folder import layout
     from ..summary import summarize
 
-    records = read_front_records(cases, batch, arrival_method(cases[0]))
+    method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
+    records = read_front_records(cases, batch / layout.FRONT_BIN, method)
     summaries = [summarize(case, r.front, r.max_speed) for case, r in zip(cases, records)]
     if cases[0].friction is not None:
-        from ..deck import CHAIN_WORK
         from ..units import from_engine
 
         # as a run alone reads it from its log: the thermo column's 8 significant digits
-        works = (batch / CHAIN_WORK).read_text().split()
+        works = (batch / layout.CHAIN_WORK).read_text().split()
         for summary, work in zip(summaries, works, strict=True):
             summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
     return summaries

@@ -38,7 +38,8 @@ from ..errors import ConfigError, Interrupted
 from . import batch
 from .batch import Task
 from .pool import GRACE, Pool, executor_pool
-from .spec import Member, Sweep, _hash
+from ..case import identity_hash
+from .spec import Member, Sweep
 from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, member_folder, read_json,
                     read_status)
 from .table import Table, member_row
@@ -217,14 +218,14 @@ def _from_disk(root: Path, m: Member) -> dict:
 
 
 def _summary(folder: Path) -> dict | None:
-    from ..simulation import SUMMARY
+    from ..run_folder import RunFolder
 
-    return read_json(folder / SUMMARY)
+    return RunFolder(folder).summary
 
 
 def _point(m: Member) -> str:
     """The member's parameter point: members of one point differ only in their seed."""
-    return _hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
+    return identity_hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
 
 
 @dataclass

@@ -20,7 +20,8 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds a local worker lives on after a stop signal (to stop its engine and report).
 GRACE = 1.0
 # What the fork server imports once for all workers.
-PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.simulation", "pylmp_lattice.summary", "pylmp_lattice.engine"]
+PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.folder",
+           "pylmp_lattice.summary", "pylmp_lattice.engine"]
 
 
 class Pool:
@@ -53,8 +54,8 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
                   slots: int | None):
     """A `Pool`: the given executor, a local process pool, or a Dask cluster's executor.
 
-    The embedded runner changes the worker's working directory while LAMMPS runs, so it
-    needs one task at a time per process: pool processes are, Dask workers must be."""
+    A process holds one LAMMPS (and MPI) instance at a time, so the embedded runner needs one
+    task at a time per process: pool processes are, Dask workers must be (one thread each)."""
     if executor is not None:
         if workers is not None or scheduler is not None:
             raise ConfigError("--workers", "an executor has its own workers; leave out --workers and --scheduler")

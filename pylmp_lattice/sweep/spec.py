@@ -25,8 +25,8 @@ Members are the grid product (keys in file order, the zip as one more axis), eac
 `replicas` times (innermost), numbered from 0 in that order. A member whose chain is random
 (thermal velocities or disorder) gets chain.seed derived from the sweep seed and its number,
 unless the sweep itself sets chain.seed. A member is identified by the hash of its resolved
-case (`member_id`, numbers normalised: 1 and 1.0 are one value); two members with the same case
-are one member. A field is set or swept, not both; swept numbers must be finite.
+case (`case.case_id`, numbers normalised: 1 and 1.0 are one value); two members with the same
+case are one member. A field is set or swept, not both; swept numbers must be finite.
 
 Enumeration is lazy where it can be: the first replica of each parameter point is validated
 when enumerated; the others differ from it only in chain.seed, so their identity is derived
@@ -36,9 +36,7 @@ from its resolved case and each is built and validated (`Member.case`) by whoeve
 from __future__ import annotations
 
 import copy
-import hashlib
 import itertools
-import json
 import logging
 import math
 from collections.abc import Iterator
@@ -49,10 +47,11 @@ from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_to_dict, read_toml
+from ..case import Case, case_from_dict, case_id, case_to_dict, identity_hash, read_toml
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
+member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
 
 KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner")
 KEEP = ("all", "measures")
@@ -173,7 +172,7 @@ class Sweep:
     def identity(self) -> str:
         """A hash of everything that decides the members (not how they run): two sweeps with the
         same identity have the same members."""
-        return _hash(self.describe())
+        return identity_hash(self.describe())
 
     def count(self) -> int:
         """Members before identical cases are merged: known without enumerating them."""
@@ -273,29 +272,9 @@ def member_seed(sweep_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
 
 
-def member_id(case: Case) -> str:
-    """The member's identity: a hash of its resolved case. The name is a label, not physics."""
-    return _case_id(case_to_dict(case))
-
-
 def _case_id(data: dict) -> str:
-    return _hash({k: v for k, v in data.items() if k != "name"})
-
-
-def _hash(data: dict) -> str:
-    text = json.dumps(_normalised(data), sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _normalised(value):
-    """Numbers as one value each: a whole float as an int (1.0 -> 1), in nested dicts and lists."""
-    if isinstance(value, dict):
-        return {k: _normalised(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_normalised(v) for v in value]
-    if isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
+    """`case.case_id` of a resolved case dict."""
+    return identity_hash({k: v for k, v in data.items() if k != "name"})
 
 
 def _check_finite(key: str, value) -> None:

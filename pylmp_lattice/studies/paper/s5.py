@@ -2,7 +2,7 @@
 
 Springs F = k (r_free - r) with k the paper law's stiffness at r0 (so V0 and f0 are the magnet
 chain's) and r_free giving the same preload; V_I = 0.5 m/s (a linear chain's response scales
-with V_I; it must stay below V0 or the magnets touch). The panels of Fig. 3 for it: V_P falls
+with V_I; it must stay below V0 or the magnets touch). The panels of Fig. 3 for it (`studies.long_lattice`): V_P falls
 towards V0, the first peak velocity grows and the first peak acceleration falls with n, and
 the oscillation decays completely. The decay is measured as eta of particle 10 in successive
 windows, against the same measure on the exact semi-infinite chain, whose v_n/V_I - 1 is a sum
@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..exact import harmonic_piston_velocity
-from ..simulation import simulate
-from .common import MASS, PAPER_FORCE, R0, paper_case
-from .fig3 import analyse
-from .output import StudyResult
+from ... import measures
+from ...exact import harmonic_piston_velocity
+from ...run_folder import simulate
+from ..long_lattice import analyse
+from ..output import StudyResult
+from ..scaffold import MAGNET_STIFFNESS, MASS, PAPER_LAW, R0, paper_case
 
 NAME = "s5"
 VI = 0.5  # m/s
@@ -30,12 +30,9 @@ DECAY_PROMINENCE = 1e-3  # of V_I
 
 
 def linear_case(duration: float):
-    from ..forcelaw import PowerLaw
-
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
-    k = float(law.stiffness(R0))
+    k = MAGNET_STIFFNESS
     return paper_case("s5_linear_lattice", {"profile": "constant", "velocity": VI}, duration,
-                      force={"law": "linear", "k": k, "r_free": R0 + float(law.force(R0)) / k})
+                      force={"law": "linear", "k": k, "r_free": R0 + float(PAPER_LAW.force(R0)) / k})
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:

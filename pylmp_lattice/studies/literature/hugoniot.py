@@ -1,6 +1,6 @@
 """Hugoniots of four chains: U_s against u_p, the jump conditions, and the wake's "temperature".
 
-Chains (studies.chains.CHAINS): the magnets (600 ms), the Toda lattice m = A = B = 1 at
+Chains (studies.scaffold.CHAINS): the magnets (600 ms), the Toda lattice m = A = B = 1 at
 r0 = a = 10 mm (100 ms), Lennard-Jones m = epsilon = sigma = 1 at its minimum r0 = 2^(1/6) mm
 and Morse with alpha r_e = 6 at r_e = r0 (30 ms, dt = 0.002 ms); each a long lattice pushed at
 u_p = V_I. Per run:
@@ -9,7 +9,7 @@ u_p = V_I. Per run:
   (`exact.weak_shock`), and against c0 + (4/3) s u_p, the leading edge of a weak dispersive
   shock (the KdV limit: the lead soliton is twice the mean jump high, and a KdV soliton's speed
   excess is twice its height's share; the Rankine-Hugoniot speed has the mean jump's);
-- the mean state behind (`hugoniot.wake_state`, gaps from a tenth to a third of the way to the
+- the mean state behind (`measures.wake_state`, gaps from a tenth to a third of the way to the
   front, last quarter of the run): the Rankine-Hugoniot speed D and particle velocity from its
   mean compression and mean force (`exact.jump`), against u_p and U_s;
 - the wake's oscillation energy per particle (kinetic + potential about the mean state),
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exact import jump, toda_lead_soliton, wake_energy, weak_shock
-from ..hugoniot import wake_state
-from ..plots import pyplot
-from .chains import CHAINS, chain_case, run_cases
-from .output import StudyResult
+from ...exact import jump, toda_lead_soliton, wake_energy, weak_shock
+from ...measures import wake_state
+from ...plots import pyplot
+from ..output import StudyResult
+from ..scaffold import CHAINS, chain_case, run_cases
 
 NAME = "hugoniot"
 # chain -> (u_p values in m/s, duration ms, dt ms, output interval ms)

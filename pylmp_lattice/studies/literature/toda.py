@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exact import toda_lead_soliton, toda_piston_wake, toda_soliton, toda_soliton_speed
-from ..plots import pyplot
-from .chains import CHAINS, chain_case, run_cases
-from .output import StudyResult
+from ...exact import toda_lead_soliton, toda_piston_wake, toda_soliton, toda_soliton_speed
+from ...measures import centroid_speed, lead_pulse, staggered_amplitude
+from ...plots import pyplot
+from ..output import StudyResult
+from ..scaffold import CHAINS, chain_case, run_cases
 
 NAME = "toda"
 KAPPAS = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5)
@@ -46,44 +47,16 @@ def soliton_case(kappa: float, dt: float = 0.01, output: float = 0.05):
                       output=output, r0=A_GAP + r0[0])
 
 
-def soliton_speed(t, gaps, n=SOLITON_GAPS) -> float:
-    """Sites per unit time from the time centroids of w = exp(-r) - 1 at gaps n[0] .. n[1];
-    t (frames,) and gaps (frames, N-1) in the chain's units (ms, mm)."""
-    idx = np.arange(n[0], n[1] + 1)
-    w = np.expm1(-(np.asarray(gaps)[:, idx] - A_GAP))
-    arrival = (t[:, None] * w).sum(axis=0) / w.sum(axis=0)
-    return float(1.0 / np.polyfit(idx, arrival, 1)[0])
+def soliton_speed(t, gaps) -> float:
+    """The soliton's speed (sites per ms) from the time centroids of exp(-r) - 1 at
+    SOLITON_GAPS (`measures.centroid_speed`); gaps (frames, N-1) in mm."""
+    return centroid_speed(t, np.expm1(-(np.asarray(gaps) - A_GAP)), SOLITON_GAPS)
 
 
 def piston_case(u_p: float, duration: float, particles: int | None = None):
     """The Toda piston problem: a held far end beyond the front's reach unless `particles`."""
     particles = particles or int(toda_lead_soliton(u_p)[1] * duration) + 30
     return chain_case("toda", f"piston_up{u_p:g}", {"velocity": u_p}, duration, particles=particles)
-
-
-def staggered_amplitude(t, r, t_end: float, gaps: int = STAGGER_GAPS) -> float:
-    """Largest |r_(n+1) - r_n| over the first `gaps` gaps in the 10 time units before t_end:
-    the period-two component next to the piston."""
-    sel = (t > t_end - 10) & (t <= t_end)
-    return float(np.max(np.abs(np.diff(r[sel, :gaps], axis=1))))
-
-
-def front(t, r, skip: int = 20, settle: float = 5.0):
-    """Front speed (sites per unit time) and height (exp(-r) - 1) of the leading pulse: the
-    time of the largest exp(-r) - 1 at each gap beyond `skip` (refined by a parabola through
-    three frames), fitted over the later half of the gaps it has passed `settle` time units
-    before the run's end (and reached: a peak above 5 % of the largest); height: the mean peak
-    over the last five of those gaps."""
-    w = np.expm1(-r)
-    peak = np.argmax(w, axis=0)
-    passed = peak < np.searchsorted(t, t[-1] - settle)
-    reached = w.max(axis=0) > 0.05 * w.max()  # not round-off ahead of the front
-    n = np.flatnonzero((np.arange(r.shape[1]) > skip) & (peak > 0) & passed & reached)
-    i = peak[n]
-    y0, y1, y2 = w[i - 1, n], w[i, n], w[i + 1, n]
-    tp = t[i] + (t[1] - t[0]) * 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
-    half = len(n) // 2
-    return float(1.0 / np.polyfit(n[half:], tp[half:], 1)[0]), float(np.mean(y1[-5:]))
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
@@ -101,15 +74,15 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         t, r = traj.t, traj.gaps() - A_GAP
         late = t > duration - 10
         kappa, lead = toda_lead_soliton(u_p)
-        speed, height = front(t, r)
+        speed, height = lead_pulse(t, np.expm1(-r))
         uniform = float(toda_piston_wake(u_p))
         mean_r = float(np.mean(r[late, :10]))
         pistons.append({
             "u_p": u_p, "mean_r_gaps_0_9": mean_r, "uniform_wake_r": uniform,
             "relative_error_exp_minus_r": float(np.exp(-mean_r) / np.exp(-uniform) - 1) if u_p < 2 else None,
             "mean_v_particles_1_10": float(np.mean(traj.v[late, 1:11])),
-            "staggered_t_half": staggered_amplitude(t, r, duration / 2),
-            "staggered_t_end": staggered_amplitude(t, r, duration),
+            "staggered_t_half": staggered_amplitude(t, r, duration / 2, STAGGER_GAPS),
+            "staggered_t_end": staggered_amplitude(t, r, duration, STAGGER_GAPS),
             "front_speed_sites_per_ms": speed, "lead_soliton_speed": float(lead),
             "front_height": height, "lead_soliton_height_sinh2k": float(np.sinh(kappa) ** 2),
         })

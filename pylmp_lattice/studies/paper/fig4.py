@@ -24,11 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..case import case_from_dict
-from ..plots import pyplot
-from .common import PAPER_FORCE, R0, linear_constants, paper_case, paper_dict, sweep_runs
-from .output import StudyResult
+from ... import measures
+from ...case import case_from_dict
+from ...plots import pyplot
+from ..output import StudyResult
+from ..scaffold import PAPER_LAW, R0, linear_constants, paper_case, paper_dict, sweep_runs
 
 NAME = "fig4"
 PARTICLE = 9  # 0-based: magnet 10
@@ -120,7 +120,7 @@ def _linear_constants(force: dict) -> tuple[float, float]:
 
 def _law(q: float, convention: str) -> dict:
     """The magnet law with power q: same K and b, or same F(r0) and dF/dr(r0) as the paper's."""
-    K, b, q0 = PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"]
+    K, b, q0 = PAPER_LAW.K, PAPER_LAW.b, PAPER_LAW.q
     if convention.startswith("fixed K"):
         return {"law": "power", "K": K, "b": b, "q": q}
     f0, k0 = K / (R0 + b) ** q0, q0 * K / (R0 + b) ** (q0 + 1)

@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..case import case_from_dict
-from ..plots import pyplot
-from ..simulation import measure_run
-from .common import done_runs, linear_constants, paper_dict, sweep_runs
-from .output import StudyResult
+from ... import measures
+from ...case import case_from_dict
+from ...plots import pyplot
+from ...run_folder import RunFolder
+from ..output import StudyResult
+from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
 NAME = "s8"
 VI = 2.0
@@ -44,7 +44,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     rows, shown = [], None
     for r, row in done_runs(runs, rows, "T_s_ms", "impactor.duration"):
         ts = row["T_s_ms"]
-        front = measure_run(r.member.case, r.folder)[0]
+        front = RunFolder(r.folder).front()
         row |= {"T_s_over_T0": ts / t0, "V_P_plateau": measures.trailing_plateau(front.propagation_velocity),
                 "gaps_crossed": int(np.sum(np.isfinite(front.propagation_velocity)))}
         if ts == (SHOWN_TS if not quick else durations[-1]):

@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..plots import pyplot
-from ..simulation import measure_run
-from .common import done_runs, paper_dict, sweep_runs
-from .output import StudyResult
+from ... import measures
+from ...plots import pyplot
+from ...run_folder import RunFolder
+from ..output import StudyResult
+from ..scaffold import FRICTION, done_runs, paper_dict, sweep_runs
 
 NAME = "s6"
 VI = 2.0
@@ -26,23 +26,23 @@ VI = 2.0
 def run(out: Path, quick: bool = False) -> StudyResult:
     mus, duration = ([0.0, 0.1, 0.285], 150.0) if quick else ([0.0, 0.02, 0.05, 0.1, 0.2, 0.285], 300.0)
     base = paper_dict("s6", {"profile": "constant", "velocity": VI}, duration,
-                      friction={"mu": 0.285, "p": 0.012, "g": 9.81})
+                      friction=dict(FRICTION))
     runs = sweep_runs(base, out / NAME, grid={"friction.mu": mus})
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     rows, table = [], {}
     for r, row in done_runs(runs, rows, "mu", "friction.mu"):
         mu = row["mu"]
-        vp = measure_run(r.member.case, r.folder)[0].propagation_velocity
+        vp = RunFolder(r.folder).front().propagation_velocity
         best = int(np.nanargmax(vp))
         row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
                 "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}
         table[f"V_P_mu_{mu:g}_m_per_s"] = vp
         ax.plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$\\mu$ = {mu:g}")
-    ax.set(xlabel="gap n", ylabel="$V_P$ (m/s)", title=f"$V_I$ = {VI:g} m/s, p = 0.012")
+    ax.set(xlabel="gap n", ylabel="$V_P$ (m/s)", title=f"$V_I$ = {VI:g} m/s, p = {FRICTION['p']:g}")
     ax.legend(fontsize="small")
     size = max((len(v) for v in table.values()), default=0)
     table = {"gap": np.arange(1, size + 1)} | {k: np.pad(v, (0, size - len(v)), constant_values=np.nan)
                                               for k, v in table.items()}
-    numbers = {"V_I_m_per_s": VI, "p": 0.012, "duration_ms": duration, "runs": rows}
+    numbers = {"V_I_m_per_s": VI, "p": FRICTION["p"], "duration_ms": duration, "runs": rows}
     return StudyResult(NAME, numbers, tables={"V_P": table}, figure=fig, quick=quick)

@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import paper_case
-from .output import StudyResult
+from ... import measures
+from ...plots import pyplot
+from ...run_folder import simulate
+from ..output import StudyResult
+from ..scaffold import paper_case
 
 NAME = "s9"
 VELOCITIES = (0.01, 0.1, 1.0, 2.0)  # m/s

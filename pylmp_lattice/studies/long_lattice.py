@@ -1,40 +1,23 @@
-"""Fig. 3 (a-e): the long lattice without friction, constant V_I = 2 m/s.
+"""The measures and figure of a constant drive on the long lattice: Fig. 3's panels, shared by
+`fig3` (the magnet chain) and `s5` (the linear lattice).
 
 (a) a typical velocity profile; (b) propagation velocity V_P along the chain (per gap and
-centred); (c) first peak velocity and acceleration; (d) velocity maxima and minima against
-time for several particles; (e) the oscillation frequency from them; and (f, ours) the width of
-the disordered transition zone against time. Numbers: V0, the V_P plateau and whether it has
-converged, where the first peak reaches the paper's 3.87 m/s, the saturated first peak / V_I,
-the steady oscillation (f/f0, eta, amplitude) of particles behind the front, and the
-transition zone's growth. Full: 600 ms (the front reaches particle ~200); quick: 200 ms.
+centred); (c) first peak velocity and acceleration; (d) velocity maxima and minima against time
+for several particles; (e) the oscillation frequency from them; and (f, ours) the width of the
+disordered transition zone against time.
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 
 from .. import measures
 from ..plots import pyplot
-from ..simulation import simulate
-from .common import linear_constants, paper_case, particles_reached, pick
 from .output import StudyResult
+from .scaffold import linear_constants, particles_reached, pick
 
-NAME = "fig3"
-VI = 2.0  # m/s
-PAPER = {"V0_m_per_s": 1.62, "V_P_m_per_s": 3.92, "first_peak_m_per_s": 3.87, "saturated_first_peak_over_V_I": 2.0}
 TRACKED = (1, 4, 9, 24, 49, 99, 149)  # 0-based: particles n = 2, 5, 10, 25, 50, 100, 150
 STEADY = (4, 9, 19)  # 0-based: particles n = 5, 10, 20, well behind the front at the end
-
-
-def run(out: Path, quick: bool = False) -> StudyResult:
-    duration = 200.0 if quick else 600.0
-    case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
-    traj = simulate(case, out / NAME / case.name, overwrite=True)
-    result = analyse(NAME, traj, case, VI, duration, quick)
-    result.numbers["paper"] = PAPER
-    return result
 
 
 def analyse(name, traj, case, vi, duration, quick, zone=True) -> StudyResult:

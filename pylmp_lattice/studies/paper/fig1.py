@@ -2,7 +2,8 @@
 
 The measured impact u1(t) is not published, so a half-sine velocity pulse stands in for it
 (peak 2.81 m/s, rising in 23.9 ms, the paper's magnet-1 rise time), with the calibrated
-friction and magnet 21 fixed: the case of inputs/paper_experiment.toml. Shows the x-t diagram
+friction and magnet 21 fixed: `scaffold.experiment_case`, the case of
+inputs/paper_experiment.toml. Shows the x-t diagram
 of the magnets (Fig. 1(b)) and velocity profiles (Fig. 1(c)); numbers: the rise time of every
 magnet (paper: 23.9 ms for n = 1, 4.9 ms for n = 6) and the front speed, fitted over magnets
 2-12 and 6-18 (paper: V_P = 6.42 m/s, from the x-t diagram).
@@ -14,26 +15,20 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import MAGNET_LENGTH, R0, paper_case
-from .output import StudyResult
+from ... import measures
+from ...plots import pyplot
+from ...run_folder import simulate
+from ..output import StudyResult
+from ..scaffold import EXPERIMENT_PEAK as VI
+from ..scaffold import EXPERIMENT_RISE as RISE
+from ..scaffold import MAGNET_LENGTH, R0, experiment_case
 
 NAME = "fig1"
-VI, RISE = 2.81, 23.9  # m/s, ms: the pulse's peak and rise (T_s = 2 x 23.9 ms)
 PAPER = {"rise_time_n1_ms": 23.9, "rise_time_n6_ms": 4.9, "V_P_m_per_s": 6.42}
 PROFILES = (0, 1, 3, 5, 7, 11, 15)  # 0-based: magnets n = 1, 2, 4, 6, 8, 12, 16
 # 0-based magnet ranges for the front speed: the front accelerates, so its speed depends on where
 # it is read; the paper does not say where its red arrow was drawn.
 FITS = {"n=2..12": (1, 12), "n=6..18": (5, 18)}
-
-
-def experiment_case():
-    """The paper's 21-magnet experiment with the stand-in pulse (= inputs/paper_experiment.toml)."""
-    return paper_case("paper_experiment", {"profile": "sine", "velocity": VI, "duration": 2 * RISE}, 60.0,
-                      far_end="fixed", particles=21, dt=0.0125, output_interval=0.125,
-                      friction={"mu": 0.285, "p": 0.012, "g": 9.81})
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:

@@ -1,6 +1,6 @@
 """Fig. 2: (a) the nearest-neighbour force and the instantaneous stiffness against separation,
 and the fit that gives K, b, q; (b-d) velocities and accelerations of magnets 2 and 8 in the
-experiment model (the case of `fig1`; the paper's experimental curves are not published, so
+experiment model (`scaffold.experiment_case`, as in `fig1`; the paper's experimental curves are not published, so
 only the model's side is shown).
 
 `fit_power_law` is checked on samples of the law with 2 % multiplicative noise (seeded), over
@@ -13,12 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..forcelaw import PowerLaw, fit_power_law
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import PAPER_FORCE
-from .fig1 import experiment_case
-from .output import StudyResult
+from ...forcelaw import fit_power_law
+from ...plots import pyplot
+from ...run_folder import simulate
+from ..output import StudyResult
+from ..scaffold import PAPER_LAW, R0, experiment_case
 
 NAME = "fig2"
 NOISE = 0.02  # relative, 1 sigma
@@ -26,7 +25,7 @@ SHOWN = (1, 7)  # 0-based: magnets n = 2 and 8, as in the paper
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
+    law = PAPER_LAW
     r = np.linspace(2.0, 40.0, 60)
     rng = np.random.default_rng(2020)
     samples = law.force(r) * (1 + NOISE * rng.standard_normal(r.size))
@@ -39,8 +38,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "fit": {"K_N_mm3": fit.law.K, "b_mm": fit.law.b, "q": fit.law.q,
                 "rms_relative_error": fit.rms_relative_error, "max_relative_error": fit.max_relative_error},
         "fit_relative_error": {"K": fit.law.K / law.K - 1, "b": fit.law.b / law.b - 1, "q": fit.law.q / law.q - 1},
-        "force_at_r0_N": float(law.force(12.0)),
-        "stiffness_at_r0_N_per_mm": float(law.stiffness(12.0)),
+        "force_at_r0_N": float(law.force(R0)),
+        "stiffness_at_r0_N_per_mm": float(law.stiffness(R0)),
         "peak_velocity_m_per_s": {f"n={n + 1}": float(traj.v[:, n].max()) for n in SHOWN},
         "peak_acceleration_m_per_s2": {f"n={n + 1}": float(traj.a[:, n].max()) for n in SHOWN},
     }

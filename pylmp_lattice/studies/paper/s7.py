@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..case import case_from_dict
-from ..plots import pyplot
-from .common import done_runs, linear_constants, paper_dict, sweep_runs
-from .output import StudyResult
+from ... import measures
+from ...case import case_from_dict
+from ...plots import pyplot
+from ..output import StudyResult
+from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
 NAME = "s7"
 VI = 2.0

@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..case import SecondNeighbour, case_from_dict, case_to_dict
-from ..forcelaw import PowerLaw
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import MAGNET_LENGTH, PAPER_FORCE, R0, paper_case, particles_reached
-from .output import StudyResult
+from ... import measures
+from ...case import SecondNeighbour, case_from_dict, case_to_dict
+from ...forcelaw import PowerLaw
+from ...plots import pyplot
+from ...run_folder import simulate
+from ..output import StudyResult
+from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case, particles_reached
 
 NAME = "s3"
 FRACTION = 0.05  # |F2(2 r0)| / F(r0), paper Sec. S2
@@ -36,7 +36,7 @@ STRONG, WEAK = 2.0, 0.01  # m/s
 
 def second_neighbour_section(sign: int, fraction: float = FRACTION) -> dict:
     """The [second_neighbour] section: F2 = sign K2/(d + b + L)^q with |F2(2 r0)| = fraction F(r0)."""
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
+    law = PAPER_LAW
     b2 = law.b + MAGNET_LENGTH
     k2 = fraction * float(law.force(R0)) * (2 * R0 + b2) ** law.q
     return {"law": "power", "K": k2, "b": b2, "q": law.q, "sign": sign}
@@ -98,7 +98,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
 
     attractive = SecondNeighbour(PowerLaw(**{k: v for k, v in second_neighbour_section(-1).items()
                                              if k in ("K", "b", "q")}), -1.0)
-    law = PowerLaw(PAPER_FORCE["K"], PAPER_FORCE["b"], PAPER_FORCE["q"])
+    law = PAPER_LAW
     k1, k2 = float(law.stiffness(R0)), float(attractive.stiffness(2 * R0))
     plateau = {k: measures.trailing_plateau(f.propagation_velocity) for k, f in strong.items()}
     peaks = {k: measures.trailing_plateau(f.peaks.peak_velocity[1:]) for k, f in strong.items()}

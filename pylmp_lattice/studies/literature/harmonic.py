@@ -17,10 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exact import harmonic_overshoot_limit, harmonic_piston_velocity
-from ..plots import pyplot
-from .chains import MAGNET_MASS, MAGNET_R0, MAGNET_STIFFNESS, chain_case, run_cases
-from .output import StudyResult
+from ...exact import harmonic_overshoot_limit, harmonic_piston_velocity
+from ...plots import pyplot
+from ..output import StudyResult
+from ..scaffold import MAGNET_STIFFNESS, chain_case, run_cases
+from ..scaffold import MASS as MAGNET_MASS
+from ..scaffold import R0 as MAGNET_R0
 
 NAME = "harmonic"
 VELOCITIES = (0.05, 0.1, 0.2, 0.4)  # m/s; the chain has no contact, and at u_p / c0 = 0.25 gaps shrink by ~30 %

@@ -14,10 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..case import case_from_dict
-from ..plots import pyplot
-from ..simulation import friction_work, simulate
-from .output import StudyResult
+from ...case import case_from_dict
+from ...plots import pyplot
+from ...run_folder import RunFolder, simulate
+from ..output import StudyResult
+from ..scaffold import FRICTION, MASS, PAPER_FORCE
 
 NAME = "s4"
 SEPARATIONS = (249.5, 150.0, 90.0, 60.0, 40.0, 30.1)  # mm, r1
@@ -28,10 +29,10 @@ def rig_case(r1: float, duration: float = 2000.0):
     """The rig for separation r1 (mm), run for `duration` ms."""
     return case_from_dict({
         "name": f"rig_r1_{r1:g}mm",
-        "chain": {"particles": 3, "mass": 1.084, "r0": [RELEASE_GAP, r1 - RELEASE_GAP]},
-        "force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0},
+        "chain": {"particles": 3, "mass": MASS, "r0": [RELEASE_GAP, r1 - RELEASE_GAP]},
+        "force": dict(PAPER_FORCE),
         "impactor": {"profile": "rest"},
-        "friction": {"mu": 0.285, "p": 0.012},
+        "friction": {"mu": FRICTION["mu"], "p": FRICTION["p"]},
         "run": {"duration": duration, "dt": 0.002, "output_interval": 0.1},
         "table": {"r_max": r1, "points": 100000},
     })
@@ -52,7 +53,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         turning = np.flatnonzero(np.diff(np.sign(traj.v[:, 1])) != 0)
         # mechanical energy, mJ (g (m/s)^2 = mJ): the magnet may still move at the end of a short run
         energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * case.chain.masses()[1] * traj.v[:, 1] ** 2
-        friction = friction_work(folder)
+        friction = RunFolder(folder).friction_work()
         lost = energy[0] - energy[-1]
         rows.append((r1, x[-1], len(turning), lost, friction, friction / lost - 1))
         ax.plot(traj.t / 1e3, x, lw=0.8)
@@ -64,7 +65,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                "energy_balance_relative_error")
     table = {c: [row[k] for row in rows] for k, c in enumerate(columns)}
     numbers = {
-        "mu": 0.285, "p": 0.012, "duration_ms": duration,
+        "mu": FRICTION["mu"], "p": FRICTION["p"], "duration_ms": duration,
         "rig": [dict(zip(columns, row)) for row in rows],
         "max_abs_energy_balance_relative_error": float(np.max(np.abs(table["energy_balance_relative_error"]))),
     }

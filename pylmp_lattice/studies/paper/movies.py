@@ -1,6 +1,6 @@
 """Movies S1 and S2: animations of the magnets, as MP4 where ffmpeg is available, else GIF.
 
-S1: the 21-magnet experiment (the run of `fig1`): the magnets on the rod, coloured by
+S1: the 21-magnet experiment (`scaffold.experiment_case`, the run of `fig1`): the magnets on the rod, coloured by
 velocity, over the 60 ms of the run. S2: the long lattice at V_I = 2 m/s (the run of `fig3`):
 particle velocity against particle number with the front and the settled particles marked, so
 the transition zone between them is seen to grow. Quick: 6 frames, and 100 ms of the long lattice.
@@ -12,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import measures
-from ..plots import pyplot
-from ..simulation import simulate
-from .common import paper_case
-from .fig1 import experiment_case
-from .output import StudyResult
+from ... import measures
+from ...plots import pyplot
+from ...run_folder import simulate
+from ..output import StudyResult
+from ..scaffold import experiment_case, paper_case
 
 NAME = "movies"
 

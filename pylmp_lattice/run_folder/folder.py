@@ -1,0 +1,408 @@
+"""`RunFolder`: one run folder, written, read and summarized through one object.
+
+    folder = RunFolder.create(case, "runs/x")   # the deck, its inputs, case.toml, run.json
+    ...                                          # LAMMPS runs it (run_folder.execution, or lmp -in by hand)
+    folder = RunFolder("runs/x")                 # any run folder, finished or not
+    folder.case, folder.status, folder.trajectory(), folder.front(), folder.summarize()
+
+What it reads, it caches (a folder that changes on disk is read again: the cache is keyed by
+the files' sizes and times). It never destroys: binary dumps become traj.h5md only when no
+LAMMPS process can still write them (no runner holds the folder's lock, and the log is ended
+or the package recorded how the run stopped), and only after the H5MD file is verified. A
+folder still being written is read as it stands, and says so.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import logging
+import os
+import re
+import shutil
+from contextlib import contextmanager, suppress
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from .. import measures
+from ..bindump import open_dump, read_trajectory
+from ..case import Case, case_to_dict, load_case
+from ..deck import render
+from ..dump import Contact, find_contact, log_ended, read_dump, read_log, trajectory_from_dump
+from ..errors import ConfigError, LatticeError
+from ..front_record import read_front_record
+from ..serialize import dumps
+from ..trajectory import Trajectory
+from ..units import from_engine, to_engine, to_h5md
+from . import layout
+
+log = logging.getLogger(__name__)
+
+PACKAGE = "pylmp_lattice"
+# How a run ended, as run.json records it; "written" until a runner of this package ran it.
+WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
+    "written", "running", "finished", "interrupted", "contact", "failed")
+
+
+class RunFolder:
+    """A run folder on disk (see `layout` for its files). Open any folder with `RunFolder(path)`."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self._cache: dict = {}
+
+    def __repr__(self) -> str:
+        return f"RunFolder({str(self.path)!r})"
+
+    # ---- writing
+
+    @classmethod
+    def create(cls, case: Case, path: str | Path, overwrite: bool = False) -> RunFolder:
+        """Write the deck, its input files, case.toml and run.json into `path`.
+
+        A folder holding a run of this package (case.toml and run.json) is refused unless
+        `overwrite`; then it is removed first, so nothing of the earlier run stays beside the new
+        one. Never removed: the working directory, a parent of it, runs/ itself, or a folder
+        that holds no run (one with files a run would write, but no run, is refused).
+        """
+        path = Path(path)
+        if check_target(path, overwrite):
+            shutil.rmtree(path)
+        path.mkdir(parents=True, exist_ok=True)
+        for name, text in render(case).items():
+            (path / name).write_text(text)
+        (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+        folder = cls(path)
+        folder.record(WRITTEN)
+        return folder
+
+    def record(self, state: str, **details) -> None:
+        """Write run.json (atomically): the package, its version, the state and its details."""
+        from .. import __version__
+
+        data = {"package": PACKAGE, "version": __version__, "state": state, **details}
+        tmp = self.path / (layout.MARKER + ".tmp")
+        tmp.write_text(json.dumps(data, indent=2) + "\n")
+        os.replace(tmp, self.path / layout.MARKER)
+
+    @contextmanager
+    def running(self):
+        """Hold the folder's lock while LAMMPS runs in it (readers then leave its dumps alone)."""
+        with (self.path / layout.LOCK).open("w") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+            self.record(RUNNING)
+            try:
+                yield
+            finally:
+                fcntl.flock(handle, fcntl.LOCK_UN)
+                (self.path / layout.LOCK).unlink(missing_ok=True)
+
+    # ---- what the folder is
+
+    def is_run(self) -> bool:
+        """Whether the folder holds a run of this package (case.toml and run.json)."""
+        return (self.path / layout.CASE).is_file() and self.marker() is not None
+
+    def marker(self) -> dict | None:
+        try:
+            data = json.loads((self.path / layout.MARKER).read_text())
+        except (OSError, ValueError):
+            return None
+        return data if isinstance(data, dict) and data.get("package") == PACKAGE else None
+
+    @property
+    def case(self) -> Case:
+        if "case" not in self._cache:
+            if not (self.path / layout.CASE).is_file():
+                raise ConfigError("folder", f"got {str(self.path)!r}; expected a run folder (it has no {layout.CASE})")
+            self._cache["case"] = load_case(self.path / layout.CASE)
+        return self._cache["case"]
+
+    @property
+    def status(self) -> str:
+        """"running" while a runner of this package or, by its log, LAMMPS writes the folder;
+        else how the run ended ("finished", "interrupted", "contact", "failed"), or "written"
+        for a deck never run."""
+        if self._locked():
+            return RUNNING
+        state = (self.marker() or {}).get("state", WRITTEN)
+        if state not in (WRITTEN, RUNNING):
+            return state
+        text = self.log_text()
+        if text is None:
+            return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
+        if not log_ended(text):
+            return RUNNING if state == WRITTEN else INTERRUPTED  # by hand: LAMMPS may still be writing
+        return CONTACT if find_contact(text) else FAILED if re.search(r"^ERROR", text, re.MULTILINE) else FINISHED
+
+    def being_written(self) -> bool:
+        return self.status == RUNNING
+
+    def _locked(self) -> bool:
+        try:
+            with (self.path / layout.LOCK).open("r") as handle:
+                try:
+                    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    return True
+                fcntl.flock(handle, fcntl.LOCK_UN)
+        except FileNotFoundError:
+            pass
+        return False
+
+    def log_text(self) -> str | None:
+        try:
+            return (self.path / layout.LOG).read_text(errors="replace")
+        except FileNotFoundError:
+            return None
+
+    def contact(self) -> Contact | None:
+        """Where two magnets touched, if the run stopped so."""
+        text = self.log_text()
+        return find_contact(text) if text else None
+
+    def friction_work(self) -> float:
+        """Energy the friction has dissipated by the end of the run, mJ (the fix's scalar in the log)."""
+        return float(from_engine(read_log(self.path / layout.LOG).runs[-1]["f_friction"][-1], "energy"))
+
+    @property
+    def summary(self) -> dict | None:
+        """summary.json, or None if the folder has none (or one that does not parse)."""
+        try:
+            return json.loads((self.path / layout.SUMMARY).read_text())
+        except (OSError, ValueError):
+            return None
+
+    # ---- trajectories
+
+    def convert(self) -> bool:
+        """Turn the binary dumps into traj.h5md when safe (see the module); whether it did.
+
+        The dumps are removed only after the H5MD file holds every frame they hold, with the
+        same last frame."""
+        from .. import h5md
+
+        case = self.case
+        if case.output.format != "h5md" or self.being_written():
+            return False
+        sources = {group: open_dump(self.path / name) for group, name in _BINARIES.items()
+                   if (self.path / name).is_file()}
+        sources = {group: dump for group, dump in sources.items() if dump.frames}
+        if not sources:
+            return False
+        frames = sum(d.frames for d in sources.values())
+        log.info("%s: converting %d frames to %s", self.path, frames, layout.H5MD)
+        target, partial = self.path / layout.H5MD, self.path / (layout.H5MD + ".part")
+        h5md.write_file(partial, case, sources)
+        for group, dump in sources.items():
+            count, last = h5md.frame_count(partial, group)
+            expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
+            if count != dump.frames or not np.allclose(last, expected, rtol=1e-12, atol=0):
+                partial.unlink()
+                raise LatticeError(f"{self.path}: the H5MD conversion of {dump.path.name} did not verify; kept it")
+        os.replace(partial, target)
+        for dump in sources.values():
+            dump.path.unlink()
+        self._cache.clear()
+        return True
+
+    def trajectory(self, group: str = "chain", particles=None) -> Trajectory:
+        """The trajectory in user units: group "chain" (every magnet) or "fine" (the output.fine
+        magnets at output.fine_interval); `particles`: 0-based indices into the group, increasing.
+
+        From traj.h5md, the binary dumps (converted first when safe, else read as they stand)
+        or the text dump. The impactor's acceleration comes from its profile: the piston imposes
+        its motion, and the force on it in the file is the chain's push, not m a."""
+        from .. import h5md
+
+        if group not in _BINARIES:
+            raise ConfigError("group", f"got {group!r}; choose one of {', '.join(_BINARIES)}")
+        case = self.case
+        key = ("trajectory", group, None if particles is None else tuple(particles), self._stamp())
+        if key in self._cache:
+            return self._cache[key]
+        binary, text = self.path / _BINARIES[group], self.path / _TEXTS[group]
+        if binary.is_file() and not self.convert() and binary.is_file():
+            if self.being_written():
+                log.warning("%s is still being written: read the %d frames it has so far", self.path,
+                            open_dump(binary).frames)
+            traj = read_trajectory(binary, self._masses(group), particles)
+        elif (self.path / layout.H5MD).is_file():
+            traj = h5md.read_group(self.path / layout.H5MD, group, particles)
+        elif text.is_file():
+            traj = _select(trajectory_from_dump(read_dump(text)), particles)
+        else:
+            raise LatticeError(f"{self.path}: no {group} trajectory (output.format = {case.output.format!r})")
+        numbers = self._numbers(group)
+        numbers = numbers if particles is None else numbers[list(particles)]
+        traj.a[:, numbers == 0] = case.impactor.acceleration_at(traj.t)[:, None]
+        self._cache[key] = traj
+        return traj
+
+    def _numbers(self, group: str) -> np.ndarray:
+        """0-based magnet numbers of a group's columns (in id order)."""
+        case = self.case
+        return np.arange(case.chain.particles) if group == "chain" else np.sort(case.output.fine) - 1
+
+    def _masses(self, group: str) -> np.ndarray:
+        return to_engine(self.case.chain.masses()[self._numbers(group)], "mass")
+
+    def _stamp(self) -> tuple:
+        """Sizes and times of the files a read depends on: a changed folder is read again."""
+        out = []
+        for name in (layout.H5MD, layout.TRAJ_BIN, layout.FINE_BIN, layout.DUMP, layout.FINE_DUMP, layout.FRONT_BIN):
+            with suppress(FileNotFoundError):
+                st = (self.path / name).stat()
+                out.append((name, st.st_size, st.st_mtime_ns))
+        return tuple(out)
+
+    # ---- measures
+
+    def arrival_method(self) -> str:
+        """A pulse's arrival is its first velocity peak (far from the impactor it may never reach
+        V_I/2); any other drive's is the crossing of V_I/2."""
+        return measures.default_arrival_method(pulse=self.case.impactor.profile == "sine")
+
+    def measures(self) -> tuple[measures.Front | None, np.ndarray | None]:
+        """The front measures and each magnet's largest |v| (m/s): from the engine's record when
+        the run wrote one, else from the whole trajectory. (None, None) without a drive, or
+        without either source."""
+        key = ("measures", self._stamp())
+        if key not in self._cache:
+            self._cache[key] = self._measure()
+        return self._cache[key]
+
+    def _measure(self):
+        case = self.case
+        vi = case.impactor.peak_velocity()
+        if vi <= 0:
+            return None, None
+        if (self.path / layout.FRONT_BIN).is_file():
+            record = read_front_record(case, self.path / layout.FRONT_BIN, self.arrival_method())
+            return record.front, record.max_speed
+        try:
+            traj = self.trajectory()
+        except LatticeError:
+            return None, None
+        front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), self.arrival_method())
+        return front, np.max(np.abs(traj.v), axis=0)
+
+    def front(self) -> measures.Front | None:
+        """The front measures (arrival times, V_P per gap, first peaks); see `measures`."""
+        return self.measures()[0]
+
+    # ---- summary and figure
+
+    def summarize(self, figure: bool = True, wall_time: float | None = None) -> dict:
+        """Write summary.json (strict JSON: an undefined measure is null), then the figure; return
+        the summary. Works for any run folder: finished, run by hand, stopped by a contact or
+        interrupted (measured up to where it stopped; `stopped` says where). A figure that fails
+        is a warning: the summary is already written."""
+        from ..summary import summarize
+
+        case, status = self.case, self.status
+        front, max_speed = self.measures()
+        summary = summarize(case, front, max_speed)
+        summary["status"] = status
+        stopped = self._stopped(status)
+        if stopped:
+            summary["stopped"] = stopped
+        if case.friction is not None and (self.path / layout.LOG).is_file():
+            with suppress(KeyError, IndexError, LatticeError):
+                summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6)
+        files = {"folder": str(self.path), "log": layout.LOG}
+        for name in (layout.H5MD, layout.TRAJ_BIN, layout.DUMP):
+            if (self.path / name).exists():
+                files["trajectory"] = name
+        summary["files"] = files
+        if wall_time is not None:
+            summary["wall_time_s"] = round(wall_time, 2)
+        (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
+        if figure and front is not None:
+            try:
+                log.info("%s: drawing %s", self.path, layout.FIGURE)
+                self.figure().savefig(self.path / layout.FIGURE, dpi=120)
+            except Exception as err:  # the summary stands without its figure
+                log.warning("%s: no figure (%s: %s); summary.json is written", self.path, type(err).__name__, err)
+            else:
+                files["figure"] = layout.FIGURE
+                (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
+        return summary
+
+    def _stopped(self, status: str) -> dict | None:
+        """Where a run that did not finish stopped: a contact (pair, time, gap) or the last time
+        it wrote (an interrupt, or a run still going)."""
+        if status == CONTACT:
+            c = self.contact()
+            return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
+        if status in (INTERRUPTED, RUNNING, FAILED):
+            marker = self.marker() or {}
+            return {"reason": "interrupted" if status != FAILED else "failed",
+                    "time_ms": marker.get("time_ms", self._last_time()),
+                    **({"error": marker["error"]} if "error" in marker else {})}
+        return None
+
+    def _last_time(self) -> float | None:
+        """The last time (ms) the folder holds a frame of, or the front record's end."""
+        with suppress(LatticeError, OSError, IndexError, ValueError):
+            return float(self.trajectory().t[-1])
+        return None
+
+    def figure(self):
+        """Fig. 3(a-d) of the run, titled with the case, V_I and N: profiles from the fine output
+        if any, else a few magnets the front reached; panels (a, d) empty without a trajectory."""
+        from ..plots import shock_figure
+        from ..summary import linear_chain
+
+        case, front = self.case, self.front()
+        vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
+        title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+        if case.output.format == "none":
+            return shock_figure(None, [], vi, front, v0, title=title)
+        if case.output.fine:
+            chosen = sorted(n - 1 for n in case.output.fine)
+            profiles = self.trajectory("fine")
+        else:
+            reached = np.flatnonzero(np.isfinite(front.arrival))
+            last = int(reached[-1]) if reached.size else 0
+            chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
+            profiles = self.trajectory("chain", chosen)
+        return shock_figure(profiles, chosen, vi, front, v0, title=title)
+
+
+_BINARIES = {"chain": layout.TRAJ_BIN, "fine": layout.FINE_BIN}
+_TEXTS = {"chain": layout.DUMP, "fine": layout.FINE_DUMP}
+
+
+def check_target(path: Path, overwrite: bool) -> bool:
+    """Whether `path` holds a run to replace; ConfigError if it may not be written (see `create`)."""
+    path = Path(path)
+    resolved, here = path.resolve(), Path.cwd().resolve()
+    if resolved == here or resolved in here.parents or resolved == here / "runs":
+        raise ConfigError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
+                                    "choose a new folder for the run")
+    if path.exists() and not path.is_dir():
+        raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")
+    folder = RunFolder(path)
+    if folder.is_run():
+        if not overwrite:
+            raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
+                                        "replace it, or choose another --name or -o")
+        if folder.being_written():
+            raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
+        return True
+    clash = sorted(name for name in layout.RUN_FILES if (path / name).exists())
+    if clash:
+        raise ConfigError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
+                                    "choose an empty or new folder")
+    return False
+
+
+def _select(traj: Trajectory, particles) -> Trajectory:
+    if particles is None:
+        return traj
+    cols = list(particles)
+    return Trajectory(traj.t, traj.x0[cols], traj.u[:, cols], traj.v[:, cols], traj.a[:, cols])

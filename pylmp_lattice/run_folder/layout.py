@@ -1,0 +1,70 @@
+"""What a run folder holds: the one place that names a run's files and the columns LAMMPS writes.
+
+A run folder (see `folder.RunFolder`) is written by the package and run by LAMMPS, in-process
+or by `lmp -in in.lattice` by hand. Every other module takes these names from here.
+
+The deck names its files through the LAMMPS variable `dir` (`variable dir index .`): run by
+hand in the folder, they are `./NAME`; the embedded runner sets `-var dir FOLDER`, so the
+calling process never changes its working directory.
+"""
+
+from __future__ import annotations
+
+import re
+
+# ---- written before the run (deck.render, RunFolder.create)
+DECK = "in.lattice"
+DATA = "chain.data"
+TABLE = "force.table"
+SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
+PISTON = "piston.txt"  # a measured impactor's samples
+CASE = "case.toml"  # the case, user units; a folder with it and MARKER holds a run
+REPLICAS = "replicas.toml"  # the cases of a batched-replica folder
+MARKER = "run.json"  # the package's record of the folder: version, state, where a run stopped
+
+# ---- written by LAMMPS
+LOG = "log.lammps"
+DUMP = "traj.dump"  # output.format = "text": every magnet
+FINE_DUMP = "fine.dump"  # output.format = "text": the output.fine magnets
+TRAJ_BIN = "traj.bin"  # output.format = "h5md": binary dumps, converted into H5MD after the run
+FINE_BIN = "fine.bin"
+FRONT_BIN = "front.bin"  # fix lattice/front's record, written at the end of the run
+CHAIN_WORK = "chain_work.txt"  # a batch of chains with friction: each chain's friction work (J), a line each
+
+# ---- written after the run
+H5MD = "traj.h5md"
+SUMMARY = "summary.json"
+FIGURE = "shock.png"
+LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
+
+# Every name a run of this package may write: a folder holding any of them but no run is refused.
+RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
+             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", SUMMARY, FIGURE, MARKER, LOCK)
+
+# ---- columns
+DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"  # text dumps
+BIN_COLUMNS = "id x vx fx"  # binary dumps: y, z stay 0, so a 1D frame is x, v and f along x
+# fix lattice/front's per-atom columns, in order, and the quantity of each (for units.from_engine)
+FRONT_FIELDS = (("start_time", "time"), ("arrival", "time"), ("peak_time", "time"),
+                ("peak_velocity", "velocity"), ("peak_acceleration", "acceleration"), ("max_speed", "velocity"),
+                ("pulse_arrival", "time"))
+FRONT_COLUMNS = "id " + " ".join(f"f_front[{k}]" for k in range(1, len(FRONT_FIELDS) + 1))
+
+# ---- lines the deck and LAMMPS print into the log
+CONTACT_MARK = "CONTACT:"  # the deck's line when two magnets touched
+END_OF_RUN = "Total wall time:"  # LAMMPS's last log line of a run that ended
+
+DIR_VARIABLE = "dir"
+# Characters a folder path may hold to go into a deck through ${dir}: LAMMPS splits a command at
+# white space after substituting variables, and quotes, $ or & would start new syntax.
+_DECK_SAFE = re.compile(r"[A-Za-z0-9_./+,:@%=~-]+")
+
+
+def in_deck(name: str) -> str:
+    """A run file as the deck names it."""
+    return f"${{{DIR_VARIABLE}}}/{name}"
+
+
+def deck_safe(path: str) -> bool:
+    """Whether a folder path can be given to the deck as its `dir` variable."""
+    return bool(_DECK_SAFE.fullmatch(path))

@@ -1,0 +1,390 @@
+"""The run folder: one home for its files, safe to overwrite, never destroyed by reading,
+summarized whatever way the run ended, and runs that leave their process as they found it."""
+
+from __future__ import annotations
+
+import ast
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomli_w
+
+from pylmp_lattice.case import case_to_dict
+from pylmp_lattice.cli import main
+from pylmp_lattice.run_folder import RunFolder, run_case
+from pylmp_lattice.run_folder import layout
+from pylmp_lattice.serialize import dumps
+
+from conftest import make_case
+
+ROOT = Path(__file__).parent.parent
+PACKAGE = ROOT / "pylmp_lattice"
+INPUTS = ROOT / "inputs"
+CLI = [sys.executable, "-m", "pylmp_lattice.cli"]
+lammps = pytest.mark.lammps
+
+
+def write_case(path: Path, case) -> Path:
+    path.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    return path
+
+
+def sentinels(root: Path) -> list[Path]:
+    """Files a run must never touch: one in the working directory, one in runs/other."""
+    (root / "runs" / "other").mkdir(parents=True, exist_ok=True)
+    files = [root / "SENTINEL", root / "runs" / "other" / "SENTINEL"]
+    for f in files:
+        f.write_text("keep me")
+    return files
+
+
+def numbers(tree, prefix=""):
+    """The numeric leaves of a summary, keyed by their path."""
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            yield from numbers(v, f"{prefix}.{k}")
+    elif isinstance(tree, list):
+        for i, v in enumerate(tree):
+            yield from numbers(v, f"{prefix}[{i}]")
+    elif isinstance(tree, (int, float)) and not isinstance(tree, bool):
+        yield prefix, tree
+
+
+# ---- one home for the layout, no import cycles
+
+
+def _imports(path: Path) -> set[str]:
+    """Modules of the package that a module imports, at any depth of its code."""
+    module = ".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = package.split(".")
+            base = base[: len(base) - node.level + 1] if node.level else []
+            target = ".".join(base + ([node.module] if node.module else []))
+            for alias in node.names:
+                candidate = f"{target}.{alias.name}"
+                found.add(candidate if _exists(candidate) else target)
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+    return {m for m in found if m.startswith("pylmp_lattice") and _exists(m) and m != module}
+
+
+def _exists(module: str) -> bool:
+    path = ROOT.joinpath(*module.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def test_the_package_has_no_import_cycle():
+    graph = _import_graph()
+    # a package's __init__ is not a dependency of its submodules' own code: follow modules only
+    state: dict[str, int] = {}
+
+    def visit(node, path):
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                raise AssertionError("import cycle: " + " -> ".join(path[path.index(nxt):] + [nxt]))
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])
+
+
+def _import_graph() -> dict[str, set[str]]:
+    return {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"): _imports(p)
+            for p in PACKAGE.rglob("*.py")}
+
+
+@lammps
+def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
+    """From `pylmp-lattice run` to its summary, no call between two of the package's modules
+    climbs: the callee never imports the caller, directly or not (on 88ad055 the same path
+    climbed back 7 times, e.g. from bindump to simulation). The orchestrator,
+    run_folder.execution, is entered once."""
+    graph = _import_graph()
+
+    def below(module, seen=None):
+        seen = set() if seen is None else seen
+        for nxt in graph.get(module, ()):
+            if nxt not in seen:
+                seen.add(nxt)
+                below(nxt, seen)
+        return seen
+
+    calls = []
+
+    def profile(frame, event, arg):
+        if event == "call" and frame.f_back is not None:
+            callee, caller = frame.f_globals.get("__name__", ""), frame.f_back.f_globals.get("__name__", "")
+            if callee != caller and callee.startswith("pylmp_lattice") and caller.startswith("pylmp_lattice"):
+                calls.append((caller, callee, frame.f_code.co_name))
+
+    monkeypatch.chdir(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=40, duration=20.0))
+    sys.setprofile(profile)
+    try:
+        assert main(["run", str(case), "-o", "r", "--quiet"]) == 0
+    finally:
+        sys.setprofile(None)
+    climbs = [c for c in calls if c[0] in below(c[1])]
+    assert not climbs and len(calls) > 20
+    assert [c for c in calls if c[1] == "pylmp_lattice.run_folder.execution"] == [
+        ("pylmp_lattice.cli", "pylmp_lattice.run_folder.execution", "run_case")]
+
+
+def test_run_file_names_are_written_in_the_layout_module_only():
+    names = {layout.SUMMARY, layout.CASE, layout.TRAJ_BIN, layout.FINE_BIN, layout.FRONT_BIN, layout.H5MD,
+             layout.LOG, layout.DECK, layout.DATA, layout.TABLE, layout.MARKER, layout.FIGURE}
+    offenders = []
+    for path in PACKAGE.rglob("*.py"):
+        if path == PACKAGE / "run_folder" / "layout.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names:
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.value!r}")
+    assert not offenders, offenders
+
+
+# ---- nothing outside the folder is written or deleted
+
+
+@pytest.mark.parametrize("target", [".", "..", "runs/.."])
+def test_overwrite_never_removes_the_working_directory_or_a_parent(tmp_path, monkeypatch, capsys, target):
+    monkeypatch.chdir(tmp_path)
+    files = sentinels(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
+    assert main(["deck", str(case), "-o", target, "--overwrite"]) == 2
+    line, = capsys.readouterr().err.splitlines()
+    assert line.startswith("pylmp-lattice: error: output: got") and "working directory" in line
+    assert all(f.read_text() == "keep me" for f in files) and case.exists()
+
+
+def test_overwrite_replaces_a_run_folder_and_nothing_outside_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    files = sentinels(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
+    assert main(["deck", str(case), "--name", "x"]) == 0
+    (tmp_path / "runs" / "x" / layout.SUMMARY).write_text("{}")  # a stale summary must go
+    assert main(["deck", str(case), "--name", "x"]) == 2  # a run is there: refused without --overwrite
+    assert main(["deck", str(case), "--name", "x", "--overwrite"]) == 0
+    assert not (tmp_path / "runs" / "x" / layout.SUMMARY).exists() and (tmp_path / "runs" / "x" / layout.DECK).exists()
+    assert main(["deck", str(case), "-o", "runs", "--overwrite"]) == 2
+    assert "runs/" in capsys.readouterr().err.splitlines()[-1]
+    assert all(f.read_text() == "keep me" for f in files)
+
+
+def test_a_folder_with_a_runs_file_names_but_no_run_is_refused(tmp_path, monkeypatch, capsys):
+    """`run -o DIR` used to replace same-named files of a folder that holds no run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "chain.data").write_text("a user's own data file")
+    case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
+    for command in ("deck", "run"):
+        assert main([command, str(case), "-o", "mine", "--overwrite"]) == 2
+        line, = capsys.readouterr().err.splitlines()
+        assert "output: mine holds chain.data but no run of this package" in line
+    assert (tmp_path / "mine" / "chain.data").read_text() == "a user's own data file"
+
+
+# ---- summarize any folder
+
+
+@lammps
+def test_deck_run_by_hand_then_summarize_equals_the_cli_run(tmp_path):
+    """pylmp-lattice deck CASE -o D && (cd D && lmp -in in.lattice) && pylmp-lattice summarize D
+    gives the numbers of pylmp-lattice run CASE, to 1e-12 relative."""
+    case = write_case(tmp_path / "case.toml", make_case(particles=60, duration=30.0, output={"fine": [2, 20]}))
+    assert main(["run", str(case), "-o", str(tmp_path / "cli"), "--quiet"]) == 0
+    assert main(["deck", str(case), "-o", str(tmp_path / "hand")]) == 0
+    lmp = Path(sys.executable).parent / "lmp"
+    subprocess.run([str(lmp), "-in", layout.DECK, "-screen", "none"], cwd=tmp_path / "hand", check=True)
+    assert RunFolder(tmp_path / "hand").status == "finished"
+    assert main(["summarize", str(tmp_path / "hand")]) == 0
+    cli, hand = (json.loads((tmp_path / d / layout.SUMMARY).read_text()) for d in ("cli", "hand"))
+    a = {k: v for k, v in numbers(cli) if "wall_time" not in k}
+    b = {k: v for k, v in numbers(hand) if "wall_time" not in k}
+    assert a.keys() == b.keys() and len(a) > 10
+    for key in a:
+        assert b[key] == pytest.approx(a[key], rel=1e-12, abs=0), key
+    assert (tmp_path / "hand" / layout.FIGURE).exists()
+
+
+@lammps
+def test_reading_while_lmp_writes_loses_nothing(tmp_path):
+    """A folder read while `lmp -in` runs in it is read as it stands (nothing converted or
+    deleted); read again after the run, it has every frame."""
+    case = write_case(tmp_path / "case.toml", make_case(particles=2000, duration=400.0, interval=1.0))
+    assert main(["deck", str(case), "-o", str(tmp_path / "d")]) == 0
+    folder = tmp_path / "d"
+    lmp = subprocess.Popen([str(Path(sys.executable).parent / "lmp"), "-in", layout.DECK, "-screen", "none"],
+                           cwd=folder)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            dump = folder / layout.TRAJ_BIN
+            if dump.exists() and dump.stat().st_size > 0 and lmp.poll() is None:
+                break
+            time.sleep(0.02)
+        during = RunFolder(folder)
+        assert during.status == "running" and lmp.poll() is None, "lmp finished too soon for this test"
+        early = during.trajectory()
+        assert (folder / layout.TRAJ_BIN).exists() and not (folder / layout.H5MD).exists()
+    finally:
+        assert lmp.wait(timeout=120) == 0
+    after = RunFolder(folder).trajectory()
+    assert len(after.t) == 401 and 1 <= len(early.t) <= len(after.t)
+    np.testing.assert_array_equal(after.v[: len(early.t)], early.v)
+    assert (folder / layout.H5MD).exists() and not (folder / layout.TRAJ_BIN).exists()
+
+
+@lammps
+def test_a_failed_figure_keeps_the_summary(tmp_path, monkeypatch, caplog):
+    def broken(self):
+        raise ValueError("no figure today")
+
+    monkeypatch.setattr(RunFolder, "figure", broken)
+    summary = run_case(make_case(particles=40, duration=30.0), tmp_path / "r")
+    assert json.loads((tmp_path / "r" / layout.SUMMARY).read_text()) == json.loads(dumps(summary))
+    assert summary["shock_velocity_plateau_m_per_s"]["mean"] > 1.6
+    assert "figure" not in summary["files"] and "no figure (ValueError: no figure today)" in caplog.text
+
+
+@lammps
+def test_summarize_a_run_stopped_by_contact(tmp_path, capsys):
+    """Driven into its held end, a short chain touches; its folder still summarizes, and says where."""
+    case = write_case(tmp_path / "case.toml", make_case(particles=21, velocity=2.0, duration=100.0))
+    assert main(["run", str(case), "-o", str(tmp_path / "c"), "--quiet"]) == 1
+    assert "touched" in capsys.readouterr().err
+    assert main(["summarize", str(tmp_path / "c"), "--no-figure"]) == 0
+    summary = json.loads((tmp_path / "c" / layout.SUMMARY).read_text())
+    assert summary["status"] == "contact"
+    stop = summary["stopped"]
+    assert stop["reason"] == "contact" and stop["magnets"] == [19, 20]
+    assert stop["time_ms"] == pytest.approx(68.56, abs=1e-9) and stop["gap_mm"] < 0
+
+
+@lammps
+@pytest.mark.slow
+def test_ctrl_c_returns_within_2_s_and_the_folder_summarizes_up_to_the_stop(tmp_path):
+    """A 6000 ms main case (4000 magnets): SIGINT once it writes; exit 130 within 2 s, then
+    `summarize` reads every frame written up to the stop (converted by that first read)."""
+    folder = tmp_path / "run"
+    proc = subprocess.Popen(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(folder),
+                                   "--set", "run.duration=6000", "--yes"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        dump = folder / layout.TRAJ_BIN
+        if dump.exists() and dump.stat().st_size > 10_000_000:
+            break
+        time.sleep(0.05)
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert time.monotonic() - sent < 2.0, err
+    assert proc.returncode == 130 and out == "" and "Traceback" not in err
+    run = RunFolder(folder)
+    assert run.status == "interrupted" and (folder / layout.TRAJ_BIN).exists()
+    done = subprocess.run(CLI + ["summarize", str(folder), "--no-figure"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    assert summary["stopped"]["reason"] == "interrupted"
+    t_stop = summary["stopped"]["time_ms"]
+    traj = RunFolder(folder).trajectory()
+    assert 0 < traj.t[-1] <= t_stop < traj.t[-1] + 1.0 + 1e-9  # frames 1 ms apart
+    assert (folder / layout.H5MD).exists() and not (folder / layout.TRAJ_BIN).exists()
+
+
+# ---- the process is left as it was
+
+
+@lammps
+def test_a_run_in_a_thread_leaves_the_process_as_it_found_it(tmp_path, monkeypatch, capfd):
+    """While a run goes on in a thread, the main thread's cwd, relative files and prints work."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "work").mkdir()
+    monkeypatch.chdir(tmp_path / "work")
+    here = Path.cwd()
+    errors = []
+
+    def job():
+        try:
+            run_case(make_case(particles=400, duration=300.0), tmp_path / "threaded", figure=False)
+        except Exception as err:  # pragma: no cover - reported below
+            errors.append(err)
+
+    worker = threading.Thread(target=job)
+    worker.start()
+    written = 0
+    while worker.is_alive():
+        assert Path.cwd() == here
+        with open("relative.txt", "a") as f:
+            f.write("x")
+        print("main thread line", flush=True)
+        os.write(1, b"raw fd 1 line\n")
+        written += 1
+        time.sleep(0.01)
+    worker.join()
+    assert not errors and written > 3
+    assert (here / "relative.txt").read_text() == "x" * written
+    assert not (tmp_path / "threaded" / "relative.txt").exists()
+    out, err = capfd.readouterr()
+    assert out.count("main thread line") == written and out.count("raw fd 1 line") == written
+    assert "raw fd 1 line" not in err
+    assert (tmp_path / "threaded" / layout.SUMMARY).exists()
+
+
+@lammps
+@pytest.mark.slow
+def test_lmp_ranks_die_with_a_killed_parent(tmp_path):
+    """`--runner lmp --np 2`: SIGKILL the parent; mpiexec and its ranks stop within 5 s."""
+    folder = tmp_path / "run"
+    proc = subprocess.Popen(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(folder),
+                                   "--set", "run.duration=20000", "--runner", "lmp", "--np", "2", "--yes"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while not (folder / layout.LOG).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    children = _descendants(proc.pid)
+    assert any("mpiexec" in c or "lmp" in c for c in children.values()), children
+    proc.kill()
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and any(_alive(p) for p in children):
+        time.sleep(0.1)
+    assert not [cmd for p, cmd in children.items() if _alive(p)]
+
+
+def _descendants(pid: int) -> dict[int, str]:
+    """Every process below `pid`: {pid: command line}."""
+    rows = {}
+    for line in subprocess.run(["ps", "-eo", "pid=,ppid=,args="], capture_output=True, text=True).stdout.splitlines():
+        p, pp, *cmd = line.split(None, 2)
+        rows[int(p)] = (int(pp), cmd[0] if cmd else "")
+    found, frontier = {}, {pid}
+    while frontier:
+        frontier = {p for p, (pp, _) in rows.items() if pp in frontier and p not in found}
+        found.update({p: rows[p][1] for p in frontier})
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
