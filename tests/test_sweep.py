@@ -345,23 +345,31 @@ keep = "measures"
 
 
 @pytest.mark.lammps
-def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path):
+@pytest.mark.parametrize("friction", [False, True])
+def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, friction):
     """Five thermal replicas run as one batch (one LAMMPS instance, one front record); each
-    member's summary equals, bit for bit, the summary of its case run alone with run_case."""
+    member's summary equals, bit for bit, the summary of its case run alone with run_case
+    (with friction: its friction work too, the fix's entry for its chain)."""
     from pylmp_lattice.run_folder import run_case
+    from pylmp_lattice.sweep import batch
     from pylmp_lattice.sweep.table import scalar_measures
 
-    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=5), particles=12, duration=40.0))
+    text = THERMAL.format(replicas=5) + ('"friction.mu" = 0.285\n"friction.p" = 0.012\n"friction.g" = 9.81\n' if friction else "")
+    sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=40.0))
     table = run_sweep(sweep, tmp_path / "out", workers=1, progress=False)
     assert set(table["status"]) == {"done"} and len(table) == 5
     records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    if friction and "batch" not in records[0]:
+        pytest.skip("this plugin build does not report each chain's friction work: members ran alone")
     assert len({r["batch"] for r in records}) == 1  # one instance ran them all
     assert table["particles_reached_by_front"].min() >= 8  # the front crossed most of the chain
     for member in sweep.members()[:3]:
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
         batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
         assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
+        assert ("friction_dissipated_energy_mJ" in batched) == friction
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
+    assert batch.FRICTION_PER_CHAIN or not friction
 
 
 def test_tasks_are_sized_to_the_workers_and_the_first_ones_are_small(tmp_path):

@@ -32,9 +32,11 @@ from .spec import Member
 from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_status
 
 BATCHES = "batches"
-# Whether the plugin's fix lattice/chain reports each chain's friction work (vector entries
-# 3.. of the fix): until it does, members with friction run one per instance.
-FRICTION_PER_CHAIN = False
+# Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
+# for chain c); a build without it makes the batch deck fail at the end, and from then on this
+# process runs members with friction one per instance.
+FRICTION_PER_CHAIN = True
+NO_CHAIN_WORK = "fix vector is accessed out-of-range"
 # Set by a stop signal (see execute._pool_worker_init); read before each start.
 STOP = threading.Event()
 # In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
@@ -152,7 +154,10 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         shutil.rmtree(batch, ignore_errors=True)
         return {m.id: {"id": m.id, "record": record | {"status": INTERRUPTED, "ended": now()}, "summary": None}
                 for (m, _), record in zip(group, records)}
-    except LatticeError:  # a contact or an engine error in some chain: each member gets its own outcome
+    except LatticeError as err:  # a contact or an engine error in some chain: each member gets its own outcome
+        if NO_CHAIN_WORK in str(err):
+            global FRICTION_PER_CHAIN
+            FRICTION_PER_CHAIN = False
         out = {}
         for m, case in group:
             started = now()
