@@ -29,7 +29,7 @@ import tomli_w
 from ..case import Case, case_to_dict
 from ..errors import Interrupted, LatticeError
 from .spec import Member
-from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_status
+from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, outcome, provenance, write_status
 
 BATCHES = "batches"
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
@@ -68,11 +68,16 @@ def run_task(task: Task) -> list[dict]:
 def _run_task(task: Task) -> list[dict]:
     root = Path(task.root)
     results: dict[str, dict] = {}
-    cases = [m.case for m in task.members]
-    for m, case in zip(task.members, cases):
+    for m in task.members:  # a task run again (e.g. by Dask after its worker died) keeps what is done
+        found = outcome(root, m.id)
+        if found is not None and found["record"]["status"] == DONE:
+            results[m.id] = {"id": m.id} | found
+    todo = [m for m in task.members if m.id not in results]
+    cases = [m.case for m in todo]
+    for m, case in zip(todo, cases):
         if case is None:  # invalid parameters (a replica's own draw): failed without running
             results[m.id] = _invalid(root, m)
-    valid = [(m, c) for m, c in zip(task.members, cases) if c is not None]
+    valid = [(m, c) for m, c in zip(todo, cases) if c is not None]
     for group in _batches(valid):
         started = now()  # before the look at STOP: a member never starts after a stop signal
         if STOP.is_set():

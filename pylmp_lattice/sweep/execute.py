@@ -40,8 +40,7 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, member_folder, read_json,
-                    read_status)
+from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, outcome, read_json
 from .table import Table, member_row
 
 log = logging.getLogger(__name__)
@@ -156,20 +155,11 @@ class _Coordinator:
     def _finished(self, m: Member) -> bool:
         """Whether the member's outcome on disk stands (its row is set from it)."""
         self.blocks.seen += 1
-        folder = member_folder(self.root, m.id)
-        record = read_status(folder)
-        if record is None or record.get("id") != m.id:
+        found = outcome(self.root, m.id)
+        if found is None or (found["record"]["status"] == FAILED and self.retry_failed):
             return False
-        if record["status"] == DONE:
-            summary = _summary(folder)
-            if summary is None:  # done needs a summary that parses: run it again
-                return False
-            self._row(m, record, summary)
-            return True
-        if record["status"] == FAILED and not self.retry_failed:
-            self._row(m, record, None)
-            return True
-        return False
+        self._row(m, found["record"], found["summary"])
+        return True
 
     def _collect(self, task: Task, future: Future) -> None:
         try:
@@ -206,21 +196,9 @@ class _Coordinator:
 
 
 def _from_disk(root: Path, m: Member) -> dict:
-    """A member whose worker did not report: done if it finished on disk, else interrupted."""
-    folder = member_folder(root, m.id)
-    record = read_status(folder)
-    if record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED):
-        summary = _summary(folder) if record["status"] == DONE else None
-        if record["status"] == FAILED or summary is not None:
-            return {"record": record, "summary": summary}
-    return {"record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED, "error": None},
-            "summary": None}
-
-
-def _summary(folder: Path) -> dict | None:
-    from ..run_folder import RunFolder
-
-    return RunFolder(folder).summary
+    """A member whose worker did not report: as it stands on disk, else interrupted."""
+    return outcome(root, m.id) or {"record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
+                                              "error": None}, "summary": None}
 
 
 def _point(m: Member) -> str:

@@ -68,6 +68,19 @@ def read_status(folder: Path) -> dict | None:
     return read_json(Path(folder) / STATUS)
 
 
+def outcome(root: str | Path, member_id: str) -> dict | None:
+    """The member's outcome on disk, {"record", "summary"}, if it stands: "done" with a summary
+    that parses, or "failed"; else None (never run, unfinished, or done without a summary)."""
+    from ..run_folder import RunFolder
+
+    folder = member_folder(root, member_id)
+    record = read_status(folder)
+    if record is None or record.get("id") != member_id or record.get("status") not in (DONE, FAILED):
+        return None
+    summary = RunFolder(folder).summary if record["status"] == DONE else None
+    return None if record["status"] == DONE and summary is None else {"record": record, "summary": summary}
+
+
 def read_json(path: Path) -> dict | None:
     """A JSON object from a file; None if it is missing or does not parse."""
     try:
