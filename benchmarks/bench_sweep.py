@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -51,20 +52,31 @@ def write_sweep(folder: Path, members: int, thermal: float, friction: bool) -> P
     return path
 
 
+def children_cpu() -> float:
+    """CPU seconds of this process's finished children (and theirs, once waited for)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
-    """The sweep as a user runs it; wall time, start-up and first result, seconds."""
+    """The sweep as a user runs it: wall time, start-up, first result, the table written, and
+    CPU (the coordinator's, and the workers' in their tasks), seconds."""
     cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", str(workers),
            "--quiet"]
+    cpu = children_cpu()
     start = time.time()
     done = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.time() - start
+    cpu = children_cpu() - cpu
     if done.returncode != 0:
         raise SystemExit(f"sweep failed ({done.returncode}): {done.stderr}")
     records = [json.loads(p.read_text()) for p in (out / "members").glob("*/status.json")]
     assert all(r["status"] == "done" for r in records)
     stamp = lambda key: min(datetime.fromisoformat(r[key]).timestamp() for r in records)  # noqa: E731
     batched = sum("batch" in r for r in records)
+    tasks = sum(r["cpu_time_s"] for r in records)  # each member's share of its task's CPU
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
+            "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks,
             "members": len(records), "batched": batched}
 
 
@@ -80,8 +92,8 @@ def loop_states(sweep_path: Path):
     return cases, x, v, m
 
 
-def run_loop(exe: Path, tmp: Path, cases, x, v, m, workers: int) -> tuple[float, np.ndarray]:
-    """The C loop over all chains on `workers` processes; (wall time, final velocities)."""
+def run_loop(exe: Path, tmp: Path, cases, x, v, m, workers: int) -> tuple[float, float, np.ndarray]:
+    """The C loop over all chains on `workers` processes; (wall time, CPU time, final velocities)."""
     from pylmp_lattice.units import to_engine
 
     case = cases[0]
@@ -97,6 +109,7 @@ def run_loop(exe: Path, tmp: Path, cases, x, v, m, workers: int) -> tuple[float,
         state, final = tmp / f"state{k}.bin", tmp / f"final{k}.bin"
         state.write_bytes(np.concatenate([x[part].ravel(), v[part].ravel(), m[part].ravel()]).astype("<f8").tobytes())
         files.append((part, state, final))
+    cpu = children_cpu()
     start = time.time()
     procs = [subprocess.Popen([str(exe), str(len(part)), str(x.shape[1]), *args, str(state), str(final)],
                               stdout=subprocess.PIPE, text=True) for part, state, final in files]
@@ -105,7 +118,7 @@ def run_loop(exe: Path, tmp: Path, cases, x, v, m, workers: int) -> tuple[float,
         assert p.returncode == 0
     wall = time.time() - start
     final = np.concatenate([np.fromfile(f, "<f8").reshape(len(part), -1) for part, _, f in files])
-    return wall, final
+    return wall, children_cpu() - cpu, final
 
 
 def check_member_zero(case, final_v: np.ndarray, tmp: Path) -> float:
@@ -140,20 +153,25 @@ def main() -> None:
             load_before = os.getloadavg()[0]
             sweep = run_sweep_command(path, folder / "out", args.workers)
             cases, x, v, m = loop_states(path)
-            loop_wall, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+            loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
             error = check_member_zero(cases[0], final[0], folder)
             assert error < 1e-9, f"the loop and the engine differ by {error} m/s"
-            rows.append((variant, sweep, loop_wall, error, load_before, os.getloadavg()[0]))
+            rows.append((variant, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
     print(f"machine: {os.cpu_count()} cores; {args.members} members of the 21-magnet experiment "
           f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
-    print("| variant | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | members batched "
-          "| C loop wall (s) | sweep / loop | loop vs engine, member 0 (m/s) | load before, after |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for variant, s, loop_wall, error, before, after in rows:
+    print("| variant | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
+          "| members batched | C loop wall (s) | sweep / loop, wall | sweep CPU (s) | C loop CPU (s) | sweep / loop, CPU "
+          "| loop vs engine, member 0 (m/s) | load before, after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for variant, s, loop_wall, loop_cpu, error, before, after in rows:
         print(f"| {variant} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
-              f"{s['first']:.2f} | {s['batched']}/{s['members']} | {loop_wall:.3f} | {s['wall'] / loop_wall:.1f}x | "
+              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {loop_wall:.3f} | "
+              f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
               f"{error:.1e} | {before:.1f}, {after:.1f} |")
+    print("start-up: the command to the first member's start; table written: the command to results.parquet "
+          "(the command then writes the replica statistics and figure). Sweep CPU: the coordinator's and the "
+          "workers' in their tasks (not the fork server's imports).")
 
 
 if __name__ == "__main__":

@@ -105,11 +105,11 @@ class _Coordinator:
         tasks = self._tasks()
         running: dict[Future, Task] = {}
         try:
+            ready: list[Task] = []  # the next tasks, enumerated while the workers run
             while True:
-                while not (self.stop.signals or self.lost) and len(running) < self.pool.slots:
-                    task = next(tasks, None)
-                    if task is None:
-                        break
+                stopping = self.stop.signals or self.lost
+                while not stopping and len(running) < self.pool.slots and (ready or self._more(tasks, ready)):
+                    task = ready.pop(0)
                     running[self.pool.submit(task)] = task
                     self.bar.show(len(running))
                 if self.pandas is None:
@@ -118,7 +118,8 @@ class _Coordinator:
                     self.pandas.start()
                 if not running:
                     break
-                done, _ = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+                busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
+                done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(running.pop(future), future)
                 if (self.stop.signals or self.lost) and running:
@@ -134,6 +135,13 @@ class _Coordinator:
         if self.stop.signals:
             raise Interrupted(self.stop.signals[0])
         return table
+
+    def _more(self, tasks, ready: list[Task]) -> bool:
+        """Enumerate the next task into `ready`; whether there was one."""
+        task = next(tasks, None)
+        if task is not None:
+            ready.append(task)
+        return task is not None
 
     def _tasks(self):
         """Tasks of members not done, in sweep order (members are enumerated as tasks are needed)."""
