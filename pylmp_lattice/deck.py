@@ -74,6 +74,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
+        if front and deck_text(case) != deck_text(first):  # e.g. front levels set by the chain's own draw
+            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file")
     # one text dump of all chains (the H5MD conversion and the front record are per chain), or
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)

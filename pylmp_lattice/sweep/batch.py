@@ -105,10 +105,14 @@ def batchable(case: Case) -> bool:
 
 
 def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
-    """Members that can run together (equal N and table range; see deck.render_replicas), in order."""
+    """Members that can run together, in order: equal decks (the chains differ only in the data
+    file; anything a chain's draw puts into the deck, e.g. front levels set by its noise, keeps
+    it apart), N and table range (see deck.render_replicas)."""
+    from ..deck import deck_text
+
     groups: dict[tuple, list] = {}
     for i, (m, case) in enumerate(valid):
-        key = (case.chain.particles, case.table_range()) if batchable(case) else ("alone", i)
+        key = (case.chain.particles, case.table_range(), deck_text(case)) if batchable(case) else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
 
