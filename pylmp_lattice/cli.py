@@ -224,7 +224,7 @@ def _sweep(args) -> int:
             from .sweep.pool import start_forkserver
 
             start_forkserver()
-        from .sweep import load_sweep, run_sweep, write_replica_stats
+        from .sweep import load_sweep, run_sweep
 
         sweep = load_sweep(args.sweep)
         table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
@@ -239,6 +239,8 @@ def _sweep(args) -> int:
           + (f", {interrupted} interrupted (a worker was lost; run the same command to finish)" if interrupted else "")
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)
     if sweep.replicas > 1:
+        from .sweep import write_replica_stats  # loads matplotlib: only now
+
         write_replica_stats(args.output, table)
         print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
     return EXIT_RUN_ERROR if failed or interrupted else 0
