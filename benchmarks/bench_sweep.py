@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -75,8 +76,11 @@ def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
     stamp = lambda key: min(datetime.fromisoformat(r[key]).timestamp() for r in records)  # noqa: E731
     batched = sum("batch" in r for r in records)
     tasks = sum(r["cpu_time_s"] for r in records)  # each member's share of its task's CPU
+    # LAMMPS's own loop time of every batch (or member run alone), summed over the workers
+    logs = [*(out / "batches").glob("*/log.lammps"), *(out / "members").glob("*/log.lammps")]
+    engine = sum(float(re.search(r"Loop time of (\S+)", p.read_text()).group(1)) for p in logs) / workers
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
-            "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks,
+            "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks, "engine": engine,
             "members": len(records), "batched": batched}
 
 
@@ -161,17 +165,19 @@ def main() -> None:
     print(f"machine: {os.cpu_count()} cores; {args.members} members of the 21-magnet experiment "
           f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
     print("| variant | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
-          "| members batched | C loop wall (s) | sweep / loop, wall | sweep CPU (s) | C loop CPU (s) | sweep / loop, CPU "
-          "| loop vs engine, member 0 (m/s) | load before, after |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
+          "| C loop CPU (s) | sweep / loop, CPU | loop vs engine, member 0 (m/s) | load before, after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for variant, s, loop_wall, loop_cpu, error, before, after in rows:
         print(f"| {variant} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
-              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {loop_wall:.3f} | "
+              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {s['engine']:.2f} | {loop_wall:.3f} | "
+              f"{s['engine'] / loop_wall:.1f}x | "
               f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
               f"{error:.1e} | {before:.1f}, {after:.1f} |")
     print("start-up: the command to the first member's start; table written: the command to results.parquet "
-          "(the command then writes the replica statistics and figure). Sweep CPU: the coordinator's and the "
-          "workers' in their tasks (not the fork server's imports).")
+          "(the command then writes the replica statistics and figure). Engine: LAMMPS's loop time of every "
+          "instance (log.lammps), summed, over the workers. Sweep CPU: the coordinator's and the workers' in "
+          "their tasks (not the fork server's imports).")
 
 
 if __name__ == "__main__":
