@@ -170,3 +170,16 @@ def test_a_killed_worker_leaves_a_table_that_matches_the_disk_and_a_rerun_finish
     assert_table_matches_disk(out)
     assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
     assert set(load_results(out)["status"]) == {"done"} and len(load_results(out)) == 6
+
+
+def test_the_first_member_starts_within_1_s_of_the_command(tmp_path):
+    """Start-up: the command to the first member's start (its status.json), against 1 s plus the
+    machine's latency for loading the command's modules (see `latency`)."""
+    slack = latency()
+    launched = time.time()
+    cmd, out, proc = start(tmp_path, workers=2)
+    wait_for(lambda: statuses(out), proc)
+    first = min(datetime.fromisoformat(r["started"]).timestamp() for r in statuses(out).values())
+    os.killpg(proc.pid, signal.SIGINT)
+    proc.communicate(timeout=60)
+    assert first - launched < 1.0 + slack, f"first member {first - launched:.2f} s after the command (slack {slack:.2f} s)"
