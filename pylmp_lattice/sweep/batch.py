@@ -2,10 +2,12 @@
 
 A task is a few members of one parameter point (they differ only in chain.seed, see `spec`).
 Those the chain engine can hold together (keep = "measures": no per-frame output, a front
-record; equal N and table range) run as one deck (`deck.render_replicas(front=True)`) in
-DIR/batches/<id of the first>/: its chains are the members' chains bit for bit, and the fix's
-front record is per atom, so chain r's rows are member r's record. Each member folder then gets
-its case.toml, summary.json and status.json, as a run alone would (O(1) files per member).
+record; decks equal but for the data file) run as one deck (`deck.render_replicas(front=True)`)
+in DIR/batches/<id of the first>/: its chains are the members' chains bit for bit, and the fix's
+front record is per atom, so chain r's rows are member r's record (with friction, the fix also
+reports each chain's friction work). Each member folder then gets case.toml, run.json (finished,
+in that batch), summary.json and status.json: the summary a run alone would write (O(1) files
+per member).
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
 own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
 
@@ -37,7 +39,7 @@ BATCHES = "batches"
 # process runs members with friction one per instance.
 FRICTION_PER_CHAIN = True
 NO_CHAIN_WORK = "fix vector is accessed out-of-range"
-# Set by a stop signal (see execute._pool_worker_init); read before each start.
+# Set by a stop signal (see pool._pool_worker_init); read before each start.
 STOP = threading.Event()
 # In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
 EXIT_AFTER_STOP: float | None = None
