@@ -489,3 +489,29 @@ def test_git_commit_is_read_from_the_clone_pip_installed_from(tmp_path, monkeypa
     monkeypatch.setattr(store.importlib.metadata, "distribution", lambda name: Dist())
     head = subprocess.run(["git", "-C", str(clone), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
     assert store._git_commit().startswith(head)
+
+
+@pytest.mark.lammps
+def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
+    """A batch that stops (e.g. one chain's magnets touch) gives each member its own outcome:
+    its members run again one by one (here the batch is made to fail; the runs alone succeed)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice import runner
+    from pylmp_lattice.errors import ContactError
+
+    original = runner.run_embedded
+
+    def batch_fails(folder, **kwargs):
+        if "batches" in Path(folder).parts:
+            raise ContactError((3, 4), 1.0, -0.01, Path(folder))
+        return original(folder, **kwargs)
+
+    monkeypatch.setattr(runner, "run_embedded", batch_fails)
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    with ThreadPoolExecutor(1) as pool:  # in this process, so that the failing runner applies
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert list(table["status"]) == ["done"] * 3
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    assert not any("batch" in r for r in records)  # each ran alone
+    assert all((tmp_path / "out" / f / "log.lammps").exists() for f in table["folder"])
