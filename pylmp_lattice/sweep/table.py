@@ -90,7 +90,7 @@ class Table:
     """The rows of a running sweep by member index: a row is set in O(1), and the files are
     rewritten at most every `every` seconds (`flush`) and at the end (`write`)."""
 
-    def __init__(self, root: str | Path, every: float = 10.0):
+    def __init__(self, root: str | Path, every: float = 30.0):
         self.root, self.every = Path(root), every
         self.rows: dict[int, dict] = {}
         self.written = time.monotonic()
