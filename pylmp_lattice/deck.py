@@ -9,6 +9,7 @@ Engine units are LAMMPS `units si`; every user value passes through `units.to_en
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Sequence
 
 import numpy as np
@@ -18,7 +19,7 @@ from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
-from .run_folder.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+from .run_folder.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -74,8 +75,9 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
-        if front and deck_text(case) != deck_text(first):  # e.g. front levels set by the chain's own draw
-            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file")
+        if front and batch_key(case) != batch_key(first):
+            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file "
+                                          "and the front record's levels")
     # one text dump of all chains (the H5MD conversion and the front record are per chain), or
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
@@ -83,7 +85,27 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     files = render(batch)
     files[DECK] = deck_text(batch, replicas=len(cases)) + (_chain_work_lines(len(cases)) if front and first.friction else "")
     files[DATA] = _stack_data([data_text(case) for case in cases])
+    if front:
+        # each chain's own levels, as its deck alone gives them (they may follow its draw's noise):
+        # one row per chain for fix lattice/front's `levels` file, when they differ
+        rows = [_FRONT_FIX.search(deck_text(case)).groups() for case in cases]
+        if len(set(rows)) > 1:
+            files[FRONT_LEVELS] = "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
+                f"{start} {level} {drop} {pulse} {floor or '0.0'}\n" for start, level, drop, pulse, floor in rows)
+            files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
+                                                   f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
+
+
+# fix lattice/front's line in a deck, its levels as groups (pulse_floor optional)
+_FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S+) drop (\S+) pulse_drop (\S+)"
+                        r"(?: pulse_floor (\S+))?", re.MULTILINE)
+
+
+def batch_key(case: Case) -> str:
+    """What chains batched with the front record must share: the case's deck, but for the front
+    record's levels (each chain gets its own, see render_replicas)."""
+    return _FRONT_FIX.sub("fix front", deck_text(case))
 
 
 def _chain_work_lines(replicas: int) -> str:

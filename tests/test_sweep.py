@@ -515,3 +515,41 @@ def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
     records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
     assert not any("batch" in r for r in records)  # each ran alone
     assert all((tmp_path / "out" / f / "log.lammps").exists() for f in table["folder"])
+
+
+@pytest.mark.lammps
+def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
+    """Front levels that depend on each chain (here: scaled by its seed; in the package: by its
+    noise) go to fix lattice/front's per-chain levels file; each batched member's summary still
+    equals its run alone, whose deck has its own levels."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice import deck
+    from pylmp_lattice.run_folder import run_case
+    from pylmp_lattice.sweep.table import scalar_measures
+
+    original = deck._output_lines
+
+    def own_levels(case):  # the start level 1.0 to 1.9 times the usual, by seed
+        text = original(case)
+        start = deck._FRONT_FIX.search(text)
+        if start is None:
+            return text
+        scaled = float(start.group(1)) * (1 + (case.chain.seed or 0) % 10 / 10)
+        return text.replace(f"start {start.group(1)} ", f"start {deck._num(scaled)} ", 1)
+
+    monkeypatch.setattr(deck, "_output_lines", own_levels)
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=40.0))
+    levels = {deck._FRONT_FIX.search(deck.deck_text(m.case)).group(1) for m in sweep.members()}
+    assert len(levels) > 1
+    files = deck.render_replicas([m.case for m in sweep.members()], front=True)
+    assert "front_levels.txt" in files and " length 12 levels ${dir}/front_levels.txt" in files["in.lattice"]
+    with ThreadPoolExecutor(1) as pool:  # in this process, so that the levels apply
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    if "batch" not in records[0]:
+        pytest.skip("this plugin build has no per-chain front levels: members ran alone")
+    for member in sweep.members():
+        alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
+        batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
+        assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))

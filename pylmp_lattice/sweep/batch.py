@@ -39,6 +39,9 @@ BATCHES = "batches"
 # process runs members with friction one per instance.
 FRICTION_PER_CHAIN = True
 NO_CHAIN_WORK = "fix vector is accessed out-of-range"
+# Likewise for fix lattice/front's per-chain levels (`length n levels FILE`): a build without
+# them refuses the batch deck, and from then on chains batch only with equal levels.
+LEVELS_PER_CHAIN = True
 # Set by a stop signal (see pool._pool_worker_init); read before each start.
 STOP = threading.Event()
 # In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
@@ -107,14 +110,14 @@ def batchable(case: Case) -> bool:
 
 
 def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
-    """Members that can run together, in order: equal decks (the chains differ only in the data
-    file; anything a chain's draw puts into the deck, e.g. front levels set by its noise, keeps
-    it apart), N and table range (see deck.render_replicas)."""
-    from ..deck import deck_text
+    """Members that can run together, in order: equal decks but for the data file and the front
+    record's levels (each chain gets its own), N and table range (see deck.render_replicas)."""
+    from ..deck import batch_key, deck_text
 
     groups: dict[tuple, list] = {}
     for i, (m, case) in enumerate(valid):
-        key = (case.chain.particles, case.table_range(), deck_text(case)) if batchable(case) else ("alone", i)
+        shared = batch_key(case) if LEVELS_PER_CHAIN else deck_text(case)
+        key = (case.chain.particles, case.table_range(), shared) if batchable(case) else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
 
@@ -154,7 +157,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
     batch = _fresh(root / BATCHES / group[0][0].id)
-    for name, text in deck.render_replicas(cases, front=True).items():
+    files = deck.render_replicas(cases, front=True)
+    for name, text in files.items():
         (batch / name).write_text(text)
     # the members' folders are written after the run (a killed batch leaves none: not started)
     records = [_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"} for m, _ in group]
@@ -166,9 +170,11 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         return {m.id: {"id": m.id, "record": record | {"status": INTERRUPTED, "ended": now()}, "summary": None}
                 for (m, _), record in zip(group, records)}
     except LatticeError as err:  # a contact or an engine error in some chain: each member gets its own outcome
+        global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
-            global FRICTION_PER_CHAIN
             FRICTION_PER_CHAIN = False
+        if layout.FRONT_LEVELS in files and "lattice/front" in str(err):
+            LEVELS_PER_CHAIN = False
         out = {}
         for m, case in group:
             started = now()
