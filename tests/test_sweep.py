@@ -180,7 +180,7 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     rows.append(rows[0] | {"id": "f", "status": "failed", "V": 1e9})  # failed members do not count
     rows.append(rows[0] | {"id": "i", "V": np.inf})  # nor infinite values (counted apart)
     table = pd.DataFrame(rows)
-    stats = replica_stats(table)
+    stats = replica_stats(table, ["V"])
     assert list(stats["n"]) == [6, 5] and list(stats["V.count"]) == [5, 5]
     assert np.isfinite(stats["V.mean"]).all()
     values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
@@ -193,7 +193,7 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
     plt.close(ax.figure)
-    write_replica_stats(tmp_path, table)
+    write_replica_stats(tmp_path, table, ["V"])
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
     assert (tmp_path / "replica_stats.png").stat().st_size > 0
 
@@ -346,21 +346,26 @@ keep = "measures"
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("friction", [False, True])
-def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, friction):
+def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, monkeypatch, friction):
     """Five thermal replicas run as one batch (one LAMMPS instance, one front record); each
     member's summary equals, bit for bit, the summary of its case run alone with run_case
     (with friction: its friction work too, the fix's entry for its chain)."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from pylmp_lattice.run_folder import run_case
     from pylmp_lattice.sweep import batch
     from pylmp_lattice.sweep.table import scalar_measures
 
+    monkeypatch.setattr(batch, "FRICTION_PER_CHAIN", True)
+    monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
     text = THERMAL.format(replicas=5) + ('"friction.mu" = 0.285\n"friction.p" = 0.012\n"friction.g" = 9.81\n' if friction else "")
     sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=40.0))
-    table = run_sweep(sweep, tmp_path / "out", workers=1, progress=False)
+    with ThreadPoolExecutor(1) as pool:  # in this process: the plugin's abilities show in batch's flags
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
     assert set(table["status"]) == {"done"} and len(table) == 5
     records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
-    if friction and "batch" not in records[0]:
-        pytest.skip("this plugin build does not report each chain's friction work: members ran alone")
+    if "batch" not in records[0] and not (batch.FRICTION_PER_CHAIN and batch.LEVELS_PER_CHAIN):
+        pytest.skip("this plugin build lacks each chain's friction work or front levels: members ran alone")
     assert len({r["batch"] for r in records}) == 1  # one instance ran them all
     assert table["particles_reached_by_front"].min() >= 8  # the front crossed most of the chain
     for member in sweep.members()[:3]:
@@ -369,7 +374,6 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, fri
         assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
         assert ("friction_dissipated_energy_mJ" in batched) == friction
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
-    assert batch.FRICTION_PER_CHAIN or not friction
 
 
 def test_tasks_are_sized_to_the_workers_and_the_first_ones_are_small(tmp_path):
@@ -526,6 +530,7 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
 
     from pylmp_lattice import deck
     from pylmp_lattice.run_folder import run_case
+    from pylmp_lattice.sweep import batch
     from pylmp_lattice.sweep.table import scalar_measures
 
     original = deck._output_lines
@@ -539,6 +544,7 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
         return text.replace(f"start {start.group(1)} ", f"start {deck._num(scaled)} ", 1)
 
     monkeypatch.setattr(deck, "_output_lines", own_levels)
+    monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=40.0))
     levels = {deck._FRONT_FIX.search(deck.deck_text(m.case)).group(1) for m in sweep.members()}
     assert len(levels) > 1

@@ -33,7 +33,7 @@ from ..case import Case, case_to_dict, load_case
 from ..deck import render
 from ..dump import Contact, find_contact, log_ended, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
-from ..front_record import read_front_record
+from ..front_record import case_front, read_front_record
 from ..serialize import dumps
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine, to_h5md
@@ -196,7 +196,7 @@ class RunFolder:
         frames = sum(d.frames for d in sources.values())
         log.info("%s: converting %d frames to %s", self.path, frames, layout.H5MD)
         target, partial = self.path / layout.H5MD, self.path / (layout.H5MD + ".part")
-        h5md.write_file(partial, case, sources)
+        h5md.write_file(partial, case, sources, self.path / layout.LOG)
         for group, dump in sources.items():
             count, last = h5md.frame_count(partial, group)
             expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
@@ -233,7 +233,7 @@ class RunFolder:
         elif (self.path / layout.H5MD).is_file():
             traj = h5md.read_group(self.path / layout.H5MD, group, particles)
         elif text.is_file():
-            traj = _select(trajectory_from_dump(read_dump(text)), particles)
+            traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), particles)
         else:
             raise LatticeError(f"{self.path}: no {group} trajectory (output.format = {case.output.format!r})")
         numbers = self._numbers(group)
@@ -287,7 +287,7 @@ class RunFolder:
             traj = self.trajectory()
         except LatticeError:
             return None, None
-        front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), self.arrival_method())
+        front = case_front(case, traj.t, traj.v, traj.a, self.arrival_method())
         return front, np.max(np.abs(traj.v), axis=0)
 
     def front(self) -> measures.Front | None:
