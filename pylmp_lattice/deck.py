@@ -13,10 +13,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .case import Case
+from . import measures
+from .case import Case, check_name
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
-from . import measures
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .run_folder.layout import (BIN_COLUMNS, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
@@ -143,8 +143,8 @@ def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
 
 
 def data_text(case: Case) -> str:
-    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg), bonds i-(i+1)
-    of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg); for the stock
+    engine bonds i-(i+1) of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
 
     Positions and masses include the chain's disorder and defect; a chain with thermal motion
     gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
@@ -154,18 +154,21 @@ def data_text(case: Case) -> str:
     v = to_engine(case.chain.velocities(), "velocity")
     velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
-    pairs = [(i, i + 1, 1) for i in range(n - 1)]
+    # The chain engine finds neighbours by atom ID: bonds would only make LAMMPS warn that no
+    # bond style is set.
+    pairs = [] if uses_chain_engine(case) else [(i, i + 1, 1) for i in range(n - 1)]
     if case.second_neighbour is not None:
         pairs += [(i, i + 2, 2) for i in range(n - 2)]
+    bonds = ["", "Bonds", "", *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs))] if pairs else []
     # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
     half = to_engine(case.table_range()[1], "length")
     lines = [
-        f"# {case.name}: {n} magnets on the x axis (LAMMPS units si)",
+        f"# {check_name(case.name)}: {n} magnets on the x axis (LAMMPS units si)",
         "",
         f"{n} atoms",
         f"{len(pairs)} bonds",
         f"{len(masses)} atom types",
-        f"{pairs[-1][2]} bond types",
+        f"{pairs[-1][2] if pairs else 0} bond types",
         "",
         f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
         f"{_num(-half)} {_num(half)} ylo yhi",
@@ -178,24 +181,26 @@ def data_text(case: Case) -> str:
         "Atoms # bond",
         "",
         *(f"{i + 1} 1 {t + 1} {_num(xi)} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
-        "",
-        "Bonds",
-        "",
-        *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs)),
+        *bonds,
         *velocities,
     ]
     return "\n".join(lines) + "\n"
 
 
 def deck_text(case: Case, replicas: int = 1) -> str:
-    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas)."""
+    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas).
+
+    Every value from the case is a validated number or choice, or the name (an identifier,
+    checked again here) in a comment: no input can start a LAMMPS command."""
     run = case.run
     n_steps = run.steps()
-    thermo_every = max(1, n_steps // 20)
+    # H5MD output: a thermo row with every frame (the file's observables are the log's rows at its frames)
+    thermo_every = run.steps("output_interval") if case.output.format == "h5md" else max(1, n_steps // 20)
     chain = uses_chain_engine(case)
     return f"""\
-# pylmp_lattice deck for case '{case.name}'
+# pylmp_lattice deck for case '{check_name(case.name)}'
 # Run it in this folder with:  lmp -in {DECK}
+# (or, without activating the Python environment:  pylmp-lattice lmp -in {DECK})
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
 # The folder of this run's files: here, unless set on the command line (lmp -var {DIR_VARIABLE} PATH).
@@ -206,7 +211,8 @@ variable        {DIR_VARIABLE} index .
 # ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
 {_thermo_style(case)}
-thermo_modify   norm no flush yes
+# 15 digits; with H5MD output a row at every frame: the file's observables (energies, smallest gap)
+thermo_modify   norm no flush yes format float %.15g
 thermo          {thermo_every}
 {_output_lines(case)}
 
@@ -215,8 +221,8 @@ run             {n_steps}
 {"" if chain else _stock_contact_print()}{_front_dump_line(case)}"""
 
 
-# Both engines: atoms with bonds (as the data file has them) on the x axis of a 3D box, kept
-# in the order they were read (the map finds chain neighbours by ID).
+# Both engines: atoms of the bond style (the stock engine's data file has bonds) on the x axis
+# of a 3D box, kept in the order they were read (the map finds chain neighbours by ID).
 _SYSTEM = """\
 units           si
 dimension       3
@@ -289,8 +295,9 @@ def _output_lines(case: Case) -> str:
     every = run.steps("output_interval")
     lines = []
     if out.format == "text":
+        # LAMMPS's standard frame header, which every dump reader takes (the time is step * dt)
         lines += [f"dump            traj all custom {every} {in_deck(DUMP)} {DUMP_COLUMNS}",
-                  "dump_modify     traj sort id time yes format float %.12g"]
+                  "dump_modify     traj sort id format float %.12g"]
     elif out.format == "h5md":
         # Binary frames of full doubles at the speed of fwrite; `h5md` turns them into traj.h5md.
         lines += [f"dump            traj all custom {every} {in_deck(TRAJ_BIN)} {BIN_COLUMNS}",
@@ -301,7 +308,7 @@ def _output_lines(case: Case) -> str:
         columns = DUMP_COLUMNS if out.format == "text" else BIN_COLUMNS
         lines += [f"group           fine id {' '.join(map(str, out.fine))}",
                   f"dump            fine fine custom {fine_every} {in_deck(name)} {columns}",
-                  "dump_modify     fine sort id time yes" + (" format float %.12g" if out.format == "text" else "")]
+                  "dump_modify     fine sort id" + (" format float %.12g" if out.format == "text" else " time yes")]
     if records_front(case):
         lv = front_levels(case)
         levels = (to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop))
@@ -368,11 +375,10 @@ newton          off
 read_data       {in_deck(DATA)}
 # Ghosts must reach across the longest separation on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
-# fix lattice/chain finds neighbours by atom ID: the data file's bonds are not needed (the
-# two warnings about them come before they are deleted), and without bonds or a pair style
-# LAMMPS builds no neighbour lists; it only redistributes atoms among ranks every 100 steps.
+# fix lattice/chain finds neighbours by atom ID: the data file has no bonds, and without
+# bonds or a pair style LAMMPS builds no neighbour lists; it only redistributes atoms among
+# ranks every 100 steps.
 # The fix sets every force itself: LAMMPS clears forces only for the (empty) group none.
-delete_bonds    all multi remove special
 group           none empty
 atom_modify     first none
 neigh_modify    every 100 delay 0 check no include none

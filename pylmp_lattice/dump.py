@@ -3,21 +3,28 @@
 A run with text output writes its trajectory as
 
     dump traj all custom EVERY traj.dump id type mass x y z vx vy vz fx fy fz
-    dump_modify traj sort id time yes format float %.12g
+    dump_modify traj sort id format float %.12g
 
-so each frame is 11 header lines (ITEM: TIME, ITEM: TIMESTEP, ITEM: NUMBER OF ATOMS, ITEM: BOX
-BOUNDS + 3 lines, ITEM: ATOMS) followed by one line per atom in id (chain) order. Readers return
-the file's numbers in LAMMPS `units si`; `trajectory_from_dump` converts them to user units.
+so each frame is LAMMPS's standard 9 header lines (ITEM: TIMESTEP, ITEM: NUMBER OF ATOMS, ITEM:
+BOX BOUNDS + 3 lines, ITEM: ATOMS) followed by one line per atom in id (chain) order: the
+layout every dump reader takes (MDAnalysis's LAMMPSDUMP, OVITO, ASE). A frame's time is its
+step times the run's time step, exactly as LAMMPS computes its `time` with a constant dt.
+Dumps of older runs, written with `dump_modify time yes`, start each frame with two more lines
+(ITEM: TIME and the time), which are read too. Readers return the file's numbers in LAMMPS
+`units si`; `trajectory_from_dump` converts them to user units.
 
 Two readers give the same arrays:
 - "fast": reads the file once and parses the atom lines in one `numpy.loadtxt` call.
-- "mdanalysis": MDAnalysis's LAMMPSDUMP reader, the reference. It cannot parse the ITEM: TIME
-  lines (it assumes 9 header lines per frame), so it reads a copy without them and the times come
-  from those lines. Its `positions`, `velocities` and `forces` are float32, and positions are
-  shifted by the box origin, which it does not expose (shrink-wrapped boxes move it every frame),
-  so they cannot be turned back into the file's numbers. It reads no units here (units None) but
-  sets time = step * 1 ps. We therefore take id, mass, x, vx and fx through its
-  `additional_columns`, which it parses as float64 from the file's text, unshifted and unconverted.
+- "mdanalysis": MDAnalysis's LAMMPSDUMP reader, the reference (given a copy without the ITEM:
+  TIME lines when the file has them). Its `positions`, `velocities` and `forces` are float32,
+  and positions are shifted by the box origin, which it does not expose (shrink-wrapped boxes
+  move it every frame), so they cannot be turned back into the file's numbers. We therefore
+  take id, mass, x, vx and fx through its `additional_columns`, which it parses as float64
+  from the file's text, unshifted and unconverted.
+
+To open a text dump in MDAnalysis yourself: `Universe("traj.dump", format="LAMMPSDUMP",
+dt=DT)`, with DT the run's time step in ps (it sets each frame's time to step * dt), then
+convert its numbers from SI yourself (it reads no units from a dump).
 """
 
 from __future__ import annotations
@@ -40,7 +47,21 @@ logger = logging.getLogger(__name__)
 
 READERS = ("fast", "mdanalysis")
 _ATOMS_HEADER = f"ITEM: ATOMS {DUMP_COLUMNS}"
-_HEADER_LINES = 11
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where a frame's header lines are, counted from the frame's first line."""
+
+    lines: int  # header lines per frame
+    first: str  # the frame's first line
+    step: int  # line of the step number (the time, if any, is on line 1)
+    atoms: int  # line of the number of atoms
+    header: int  # line of ITEM: ATOMS
+
+
+_STANDARD = _Layout(9, "ITEM: TIMESTEP", 1, 3, 8)
+_WITH_TIME = _Layout(11, "ITEM: TIME", 3, 5, 10)  # dump_modify time yes
 
 
 @dataclass(frozen=True)
@@ -67,16 +88,26 @@ class DumpFrames:
         return len(self.time)
 
 
-def read_dump(path: str | Path, reader: str = "fast") -> DumpFrames:
-    """Read a `dump traj` file; a truncated last frame (a stopped run) is dropped with a warning."""
+def read_dump(path: str | Path, reader: str = "fast", dt: float | None = None) -> DumpFrames:
+    """Read a `dump traj` file; a truncated last frame (a stopped run) is dropped with a warning.
+
+    dt: the run's time step, s; a frame's time is step * dt. Needed unless the file carries its
+    times (ITEM: TIME lines, as older runs wrote them)."""
     if reader not in READERS:
         raise ValueError(f"reader: got {reader!r}; expected one of {', '.join(map(repr, READERS))}")
     path = Path(path)
-    lines, n_atoms, n_frames = _split_frames(path)
-    per_frame = n_atoms + _HEADER_LINES
-    time = np.array([float(lines[k * per_frame + 1]) for k in range(n_frames)])
+    lines, layout, n_atoms, n_frames = _split_frames(path)
+    per_frame = n_atoms + layout.lines
+    starts = range(0, n_frames * per_frame, per_frame)
+    step = np.array([int(lines[s + layout.step]) for s in starts], dtype=np.int64)
+    if layout is _WITH_TIME:
+        time = np.array([float(lines[s + 1]) for s in starts])
+    elif dt is None:
+        raise ValueError(f"dt: {path} has no ITEM: TIME lines; give the run's time step (s)")
+    else:
+        time = step * float(dt)  # LAMMPS's own time = atime + (step - atimestep) dt, atime = 0
     parse = _parse_fast if reader == "fast" else _parse_mdanalysis
-    return DumpFrames(time, *parse(path, lines, n_atoms, n_frames))
+    return DumpFrames(time, step, *parse(path, lines, layout, n_atoms, n_frames))
 
 
 def trajectory_from_dump(frames: DumpFrames) -> Trajectory:
@@ -91,8 +122,9 @@ def trajectory_from_dump(frames: DumpFrames) -> Trajectory:
     )
 
 
-def _split_frames(path: Path) -> tuple[list[str], int, int]:
-    """The file's lines, atoms per frame and number of complete frames, every header checked."""
+def _split_frames(path: Path) -> tuple[list[str], _Layout, int, int]:
+    """The file's lines, frame layout, atoms per frame and number of complete frames, every
+    header checked."""
     try:
         text = path.read_text(encoding="ascii")
     except FileNotFoundError as err:
@@ -100,36 +132,34 @@ def _split_frames(path: Path) -> tuple[list[str], int, int]:
     lines = text.split("\n")
     # The last element is "" after a final newline, or a line cut short: never a complete line.
     n_lines = len(lines) - 1
-    if n_lines < _HEADER_LINES:
-        raise DumpFormatError(f"{path}: no complete frame; expected {_HEADER_LINES} header lines")
-    if lines[0] != "ITEM: TIME" or lines[2] != "ITEM: TIMESTEP":
-        raise DumpFormatError(
-            f"{path}: got first lines {lines[0]!r}, {lines[2]!r}; expected 'ITEM: TIME', "
-            "'ITEM: TIMESTEP' (dump_modify time yes)"
-        )
-    if lines[10] != _ATOMS_HEADER:
-        raise DumpFormatError(f"{path}: got {lines[10]!r}; expected {_ATOMS_HEADER!r}")
-    n_atoms = int(lines[5])
-    per_frame = n_atoms + _HEADER_LINES
+    layout = next((lay for lay in (_STANDARD, _WITH_TIME) if lines[0] == lay.first), None)
+    if layout is None:
+        raise DumpFormatError(f"{path}: got first line {lines[0]!r}; expected 'ITEM: TIMESTEP' (or 'ITEM: TIME')")
+    if n_lines < layout.lines:
+        raise DumpFormatError(f"{path}: no complete frame; expected {layout.lines} header lines")
+    if lines[layout.header] != _ATOMS_HEADER:
+        raise DumpFormatError(f"{path}: got {lines[layout.header]!r}; expected {_ATOMS_HEADER!r}")
+    n_atoms = int(lines[layout.atoms])
+    per_frame = n_atoms + layout.lines
     n_frames = n_lines // per_frame
     if n_frames == 0:
         raise DumpFormatError(f"{path}: no complete frame of {n_atoms} atoms")
     for k in range(n_frames):
-        head = lines[k * per_frame : k * per_frame + _HEADER_LINES]
-        if head[0] != "ITEM: TIME" or head[5] != lines[5] or head[10] != _ATOMS_HEADER:
+        head = lines[k * per_frame : k * per_frame + layout.lines]
+        if head[0] != layout.first or head[layout.atoms] != lines[layout.atoms] or head[layout.header] != _ATOMS_HEADER:
             raise DumpFormatError(
                 f"{path}: frame {k} does not start at line {k * per_frame + 1}; "
                 f"expected frames of {n_atoms} atoms with header {_ATOMS_HEADER!r}"
             )
     if n_lines > n_frames * per_frame or lines[-1]:
         logger.warning("%s: dropped a truncated last frame (kept %d frames)", path, n_frames)
-    return lines, n_atoms, n_frames
+    return lines, layout, n_atoms, n_frames
 
 
-def _parse_fast(path: Path, lines: list[str], n_atoms: int, n_frames: int):
-    per_frame = n_atoms + _HEADER_LINES
+def _parse_fast(path: Path, lines: list[str], layout: _Layout, n_atoms: int, n_frames: int):
+    per_frame = n_atoms + layout.lines
     starts = range(0, n_frames * per_frame, per_frame)
-    atom_lines = [line for s in starts for line in lines[s + _HEADER_LINES : s + per_frame]]
+    atom_lines = [line for s in starts for line in lines[s + layout.lines : s + per_frame]]
     try:
         # Only the columns that vary are parsed for every frame: most of the time is float parsing.
         first = np.loadtxt(atom_lines[:n_atoms], usecols=(0, 2), ndmin=2)
@@ -137,32 +167,30 @@ def _parse_fast(path: Path, lines: list[str], n_atoms: int, n_frames: int):
     except ValueError as err:
         raise DumpFormatError(f"{path}: {err}") from err
     x, v, f = xvf.T.reshape(3, n_frames, n_atoms)
-    step = np.array([int(lines[s + 3]) for s in starts])
-    return step, first[:, 0].astype(np.int64), first[:, 1], x, v, f
+    return first[:, 0].astype(np.int64), first[:, 1], x, v, f
 
 
-def _parse_mdanalysis(path: Path, lines: list[str], n_atoms: int, n_frames: int):
+def _parse_mdanalysis(path: Path, lines: list[str], layout: _Layout, n_atoms: int, n_frames: int):
     from MDAnalysis.coordinates.LAMMPS import DumpReader
 
-    per_frame = n_atoms + _HEADER_LINES
-    step = np.empty(n_frames, dtype=np.int64)
+    per_frame = n_atoms + layout.lines
+    skip = layout.lines - _STANDARD.lines  # the ITEM: TIME lines, if any
     x, v, f = (np.empty((n_frames, n_atoms)) for _ in range(3))
     with tempfile.TemporaryDirectory() as tmp:
-        # A copy without the two ITEM: TIME lines per frame, and without a truncated last frame.
+        # A copy of the complete frames in the standard layout.
         copy = Path(tmp) / path.name
         with copy.open("w", encoding="ascii") as out:
             for s in range(0, n_frames * per_frame, per_frame):
-                out.write("\n".join(lines[s + 2 : s + per_frame]) + "\n")
+                out.write("\n".join(lines[s + skip : s + per_frame]) + "\n")
         with warnings.catch_warnings():
             # It warns that it sets dt = 1 ps; we do not use its times.
             warnings.filterwarnings("ignore", message="Reader has no dt information")
             with DumpReader(str(copy), additional_columns=["id", "mass", "x", "vx", "fx"]) as reader:
                 for i, ts in enumerate(reader):
-                    step[i] = ts.data["step"]
                     x[i], v[i], f[i] = ts.data["x"], ts.data["vx"], ts.data["fx"]
                 ts = reader[0]
                 ids, mass = ts.data["id"].astype(np.int64), ts.data["mass"].copy()
-    return step, ids, mass, x, v, f
+    return ids, mass, x, v, f
 
 
 @dataclass(frozen=True)

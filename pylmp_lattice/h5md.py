@@ -1,27 +1,39 @@
 """A run's trajectory as an H5MD file (HDF5 in the layout of nongnu.org/h5md, version 1.1).
 
 The deck writes binary LAMMPS dumps (`bindump`); `write_file` turns them, block by block,
-into an H5MD file, and `read_group` reads it back in user units, whole or a few particles:
+into an H5MD file (a run's traj.h5md), and `read_group` reads it back in user units, whole or a
+few particles:
 
     h5md/                         version [1, 1]; author; creator pylmp_lattice <version>
     particles/trajectory/         every magnet, every run.output_interval
         box                       dimension 3, boundary none none none
         id (N,)                   magnet numbers (1 is the impactor)
+        species (N,)              1, 2, ...: one per distinct mass, in increasing mass
         mass (N,)                 kg
-        position/value (F, N, 3)  nm; position/step (F,); position/time (F,) s
+        position/value (F, N, 3)  nm; position/step (F,); position/time (F,) ps
         velocity/value (F, N, 3)  m/s; step and time are position's
         force/value (F, N, 3)     N: the total force, friction included
     particles/trajectory_fine/    the same for the output.fine magnets, every output.fine_interval
+    observables/                  one value per frame of particles/trajectory (its step, time)
+        kinetic_energy, potential_energy, total_energy   J (the log's thermo rows)
+        friction_work             J, the energy friction has dissipated (runs with friction)
+        min_gap                   nm, the smallest gap x_(n+1) - x_n
+        dt                        ps, the interval between frames
     parameters/pylmp_lattice      attribute case: the case as TOML text
 
-Units are the engine's SI ones, lengths in nm (`units.H5MD_UNITS`), each named in its dataset's
-`unit` attribute. y and z are kept as zeros, so that readers of 3D trajectories take the file as
-it is: `MDAnalysis.Universe("traj.h5md")` opens it and converts to its own units (it reads
-only units it knows, hence nm; it infers the atoms from the group "trajectory" and reads the
-first group by name, hence the names). The datasets are
-chunked by blocks of frames and particles, one component a chunk, and compressed with byte
-shuffling (output.compression: lzf, h5py's fast filter, by default; gzip for readers that use the
-HDF5 library without h5py); a few particles read back without decompressing the others.
+Units are the engine's SI ones, lengths in nm and times in ps (`units.H5MD_UNITS`), each named
+in its dataset's `unit` attribute. y and z are kept as zeros, so that readers of 3D
+trajectories take the file as it is. `MDAnalysis.Universe("traj.h5md")` opens it: its H5MD
+reader knows only some units (hence nm and ps), infers the atoms from the group
+"trajectory" and reads the first group by name (hence the names), and takes every
+observable of a frame into `ts.data`, where `dt` is the frame interval it reports (hence
+observables at the frames, and dt in ps, its time unit). It reads no masses: import
+`pylmp_lattice.mdanalysis` first, which registers a topology parser for H5MD files, and the
+Universe has the file's masses (in u) and species (as types), and MDAnalysis warns about
+nothing. The datasets are chunked by blocks of frames and particles, one component a chunk,
+and compressed with byte shuffling (output.compression: lzf, h5py's fast filter, by
+default; gzip for readers that use the HDF5 library without h5py); a few particles read back
+without decompressing the others.
 """
 
 from __future__ import annotations
@@ -35,26 +47,40 @@ import tomli_w
 
 from .bindump import BinaryDump
 from .case import Case, case_to_dict
+from .dump import read_log
+from .errors import LatticeError
 from .trajectory import Trajectory
-from .units import H5MD_UNITS, from_h5md, to_engine, to_h5md
+from .units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
+# observables: name -> (thermo column of the log, quantity)
+OBSERVABLES = {"kinetic_energy": ("KinEng", "energy"), "potential_energy": ("E_bond", "energy"),
+               "total_energy": ("TotEng", "energy"), "friction_work": ("f_friction", "energy"),
+               "min_gap": ("v_min_gap", "length")}
+# SI size of each unit a file of this package names (files written before times were in ps: s)
+_SI = {name: size for name, size in H5MD_UNITS.values()} | {"s": 1.0}
 _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
 
 
-def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump]) -> None:
+def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
     """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
-    "chain" (every magnet) or "fine" (the output.fine magnets). The dumps are left as they are."""
+    "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
+    `log` (LAMMPS's log file) as observables. The dumps are left as they are."""
     import h5py
 
     masses = case.chain.masses()
+    species = np.unique(masses, return_inverse=True)[1] + 1
     with h5py.File(target, "w") as h5:
         _write_header(h5, tomli_w.dumps(case_to_dict(case)))
         for group, dump in dumps.items():
-            group_masses = masses if group == "chain" else masses[np.sort(case.output.fine) - 1]
-            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, group_masses,
-                         case.output.compression)
+            chosen = slice(None) if group == "chain" else np.sort(case.output.fine) - 1
+            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
+                         species[chosen], case.output.compression)
+        # MDAnalysis reads observables at the frames of the first particle group
+        first = h5["particles"][GROUPS[next(iter(dumps))]]
+        interval = case.run.output_interval if "chain" in dumps else case.fine_interval()
+        _write_observables(h5.create_group("observables"), first, log, interval)
 
 
 def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:
@@ -75,11 +101,33 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
     with h5py.File(path, "r") as h5:
         g = h5["particles"][GROUPS[group]]
         cols = slice(None) if particles is None else list(particles)
-        x, v, f = (g[name]["value"][:, cols, 0] for name, _, _ in _FIELDS)
-        t, m = g["position"]["time"][:], g["mass"][cols]
-    x = from_h5md(x, "length")
-    return Trajectory(t=from_h5md(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_h5md(v, "velocity"),
-                      a=from_h5md(f / m, "acceleration"))
+        x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)
+        t, m = _si(g["position"]["time"], g["position"]["time"][:]), _si(g["mass"], g["mass"][cols])
+    x = from_engine(x, "length")
+    return Trajectory(t=from_engine(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_engine(v, "velocity"),
+                      a=from_engine(f / m, "acceleration"))
+
+
+def read_observables(path: str | Path) -> dict[str, np.ndarray]:
+    """The observables of an H5MD file in user units (energies mJ, min_gap mm, dt ms), and
+    their frames' time "t" (ms)."""
+    import h5py
+
+    quantity = {name: q for name, (_, q) in OBSERVABLES.items()} | {"dt": "time"}
+    with h5py.File(path, "r") as h5:
+        if "observables" not in h5:
+            raise LatticeError(f"{path}: no observables (an older file: its thermo is in the run's log)")
+        obs = h5["observables"]
+        out = {name: from_engine(_si(obs[name]["value"], obs[name]["value"][:]), quantity[name]) for name in obs}
+        first = next(iter(obs.values()))
+        out["t"] = from_engine(_si(first["time"], first["time"][:]), "time")
+    return out
+
+
+def _si(dataset, values: np.ndarray) -> np.ndarray:
+    """A dataset's values in SI, from the unit its attribute names."""
+    size = _SI[dataset.attrs["unit"]]
+    return values if size == 1.0 else values * size
 
 
 def _write_header(h5, case_toml: str) -> None:
@@ -94,11 +142,12 @@ def _write_header(h5, case_toml: str) -> None:
     h5.create_group("parameters/pylmp_lattice").attrs["case"] = case_toml
 
 
-def _write_group(g, dump, masses: np.ndarray, compression: str) -> None:
-    """Stream the dump's frames into a particle group, converting to user units."""
+def _write_group(g, dump, masses: np.ndarray, species: np.ndarray, compression: str) -> None:
+    """Stream the dump's frames into a particle group, converting to the file's units."""
     n = dump.atoms
     g["mass"] = to_h5md(to_engine(masses, "mass"), "mass")
     g["mass"].attrs["unit"] = H5MD_UNITS["mass"][0]
+    g["species"] = species.astype(np.int32)
     box = g.create_group("box")
     box.attrs["dimension"] = 3
     box.attrs["boundary"] = np.array([b"none"] * 3)
@@ -128,3 +177,25 @@ def _write_group(g, dump, masses: np.ndarray, compression: str) -> None:
         if done == 0:
             g["id"] = block.data[0, :, dump.column("id")].astype(np.int64)
         done += k
+
+
+def _write_observables(obs, group, log: Path | None, interval: float) -> None:
+    """The log's thermo rows at the group's frames (NaN where a frame has none) and the frame
+    interval `interval` (ms), as H5MD time series sharing the group's step and time."""
+    step = group["position"]["step"][:]
+    runs = read_log(log).runs if log is not None and log.exists() else []
+    columns = runs[-1] if runs else {}
+    series = {}
+    if "Step" in columns:
+        # the deck prints a thermo row at every frame's step
+        row_of = {int(s): i for i, s in enumerate(columns["Step"])}
+        rows = np.array([row_of.get(int(s), -1) for s in step], dtype=np.int64)
+        for name, (column, quantity) in OBSERVABLES.items():
+            if column in columns:
+                values = np.where(rows >= 0, columns[column][rows], np.nan)
+                series[name] = (to_h5md(values, quantity), H5MD_UNITS[quantity][0])
+    series["dt"] = (np.full(len(step), to_h5md(to_engine(interval, "time"), "time")), H5MD_UNITS["time"][0])
+    for name, (values, unit) in series.items():
+        obs[f"{name}/value"] = values
+        obs[f"{name}/value"].attrs["unit"] = unit
+        obs[f"{name}/step"], obs[f"{name}/time"] = group["position"]["step"], group["position"]["time"]

@@ -51,7 +51,7 @@ def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int]
     """
     folder = Path(folder).resolve()
     args = ["-log", str(folder / LOG), "-screen", "/dev/stderr" if echo else "none",
-            "-var", DIR_VARIABLE, _deck_dir(folder)]
+            "-var", DIR_VARIABLE, deck_dir(folder)]
     engine = _Engine(args, str(folder / DECK))
     worker = threading.Thread(target=engine.run, name="lammps", daemon=True)
     try:
@@ -164,7 +164,7 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1 = PR_SET_PDEATHSIG
 
 
-def _deck_dir(folder: Path) -> str:
+def deck_dir(folder: Path) -> str:
     """The folder as the deck's `dir` variable: relative to here if that is shorter and safe."""
     relative = os.path.relpath(folder)
     for path in (relative, str(folder)):

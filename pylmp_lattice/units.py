@@ -32,20 +32,13 @@ def from_engine(value, quantity: str):
     return np.divide(value, TO_SI[quantity]) if not np.isscalar(value) else value / TO_SI[quantity]
 
 
-# The H5MD trajectory file (see `h5md`) keeps the engine's SI units, but lengths in nm: MDAnalysis's
-# H5MD reader knows no m or mm, only Angstrom, nm, pm and fm. Name and size in SI of each unit.
-H5MD_UNITS = {"length": ("nm", 1e-9), "time": ("s", 1.0), "velocity": ("m s-1", 1.0),
-              "force": ("N", 1.0), "mass": ("kg", 1.0), "acceleration": ("m s-2", 1.0)}
+# The H5MD trajectory file (see `h5md`) keeps the engine's SI units, but lengths in nm and times
+# in ps: MDAnalysis's H5MD reader knows no m or mm, and takes the frame interval (observable dt)
+# in ps without converting it. Name and size in SI of each unit.
+H5MD_UNITS = {"length": ("nm", 1e-9), "time": ("ps", 1e-12), "velocity": ("m s-1", 1.0),
+              "force": ("N", 1.0), "mass": ("kg", 1.0), "acceleration": ("m s-2", 1.0), "energy": ("J", 1.0)}
 
 
 def to_h5md(value, quantity: str):
     """LAMMPS `units si` -> the H5MD file's units (the array itself where they are the same)."""
     return value if H5MD_UNITS[quantity][1] == 1.0 else np.divide(value, H5MD_UNITS[quantity][1])
-
-
-def from_h5md(value, quantity: str):
-    """The H5MD file's units -> user units (the array itself where they are the same)."""
-    # trajectories are large: no pass over them where the units agree
-    if H5MD_UNITS[quantity][1] != 1.0:
-        value = np.multiply(value, H5MD_UNITS[quantity][1])
-    return value if TO_SI[quantity] == 1.0 else from_engine(value, quantity)

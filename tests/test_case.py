@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import tomli_w
 
 from pylmp_lattice.case import case_from_dict, case_to_dict, load_case
 from pylmp_lattice.errors import ConfigError
@@ -160,3 +161,69 @@ def test_second_neighbours_need_the_stock_engine():
     assert make_case().run.engine == "chain"
     with pytest.raises(ConfigError, match="run.engine: got 'chain'; second neighbours need run.engine = 'stock'"):
         make_case(second_neighbour=second, run={"engine": "chain"})
+
+
+MEASURED = "# t [ms], u [mm]\n" + "".join(f"{t},{0.5 * t}\n" for t in range(6))
+
+
+@pytest.mark.parametrize("name", ["a", "paper_experiment", "run-1.5", "A" * 100, "..x", "x.."])
+def test_valid_names(name):
+    assert make_case().__class__(**{**make_case().__dict__, "name": name}).name == name
+
+
+@pytest.mark.parametrize("name", ["", ".", "..", "a/b", "/abs", "a b", "x\nshell touch X", "é", "n" * 101, 5, None])
+def test_name_is_an_identifier(name):
+    with pytest.raises(ConfigError) as info:
+        case_from_dict(case_to_dict(make_case()) | {"name": name})
+    assert info.value.field == "name"
+    assert str(info.value).endswith("expected 1-100 characters of letters, digits, '-', '_', '.' (not '.' or '..')")
+
+
+def test_long_name_gives_one_short_line():
+    with pytest.raises(ConfigError) as info:
+        case_from_dict(case_to_dict(make_case()) | {"name": "n" * 300})
+    assert str(info.value).startswith("name: got 'nnnnnnnnn") and len(str(info.value)) < 160
+
+
+def _measured_case(folder: Path, file: str):
+    data = case_to_dict(make_case(particles=6, duration=4.0)) | {"impactor": {"profile": "measured", "file": file}}
+    (folder / "case.toml").write_bytes(tomli_w.dumps(data).encode())
+    return load_case(folder / "case.toml")
+
+
+def test_data_file_is_read_from_the_case_folder_only(tmp_path, monkeypatch):
+    """impactor.file (like force.file) names a file inside the case file's folder, whatever the
+    working directory: absolute paths, '..' and links leading out are refused."""
+    case_dir, outside = tmp_path / "cases", tmp_path / "elsewhere"
+    (case_dir / "data").mkdir(parents=True)
+    outside.mkdir()
+    (case_dir / "data" / "u1.csv").write_text(MEASURED)
+    (outside / "u1.csv").write_text(MEASURED)
+    (case_dir / "link.csv").symlink_to(outside / "u1.csv")
+    (case_dir / "inside-link.csv").symlink_to(case_dir / "data" / "u1.csv")
+    monkeypatch.chdir(outside)  # a relative path is not read from the working directory
+    assert _measured_case(case_dir, "data/u1.csv").impactor.t == (0, 1, 2, 3, 4, 5)
+    assert _measured_case(case_dir, "inside-link.csv").impactor.t == (0, 1, 2, 3, 4, 5)
+    for bad in (str(outside / "u1.csv"), "../elsewhere/u1.csv", "data/../../elsewhere/u1.csv", "link.csv"):
+        with pytest.raises(ConfigError, match=r"^impactor\.file: got .*; expected a file inside the folder"):
+            _measured_case(case_dir, bad)
+
+
+def test_non_csv_data_file_is_not_echoed(tmp_path):
+    (tmp_path / "notes.txt").write_text("password = hunter2\n0,1\n")
+    with pytest.raises(ConfigError) as info:
+        _measured_case(tmp_path, "notes.txt")
+    assert "hunter2" not in str(info.value) and "password" not in str(info.value)
+    assert str(info.value).startswith("impactor.file: notes.txt: expected two numeric columns")
+    assert "(not a number in data row 1, column 1; comment lines not counted)" in str(info.value)
+
+
+@pytest.mark.parametrize("chain", [
+    {}, {"defect_index": 3, "defect_mass": 0.5}, {"defect_index": 3, "defect_r0": 20.0},
+    {"mass": [1.0 + 0.1 * k for k in range(12)]}, {"mass_disorder": 0.1, "seed": 1, "defect_index": 2, "defect_mass": 9.0},
+    {"r0_disorder": 0.1, "disorder": "uniform", "seed": 2},
+])
+def test_extremes_of_masses_and_gaps_are_those_of_the_arrays(chain):
+    c = make_case(particles=12, chain=chain).chain
+    assert c.mass_range == (c.masses().min(), c.masses().max())
+    assert c.gap_range == (c.gaps().min(), c.gaps().max())

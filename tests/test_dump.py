@@ -37,7 +37,7 @@ fix nve all nve
 timestep {DT}
 thermo 10
 dump traj all custom {EVERY} {dump_path} {DUMP_COLUMNS}
-dump_modify traj sort id time yes format float %.12g
+dump_modify traj sort id format float %.12g
 run {STEPS}
 """
 
@@ -67,10 +67,13 @@ def chain_run(tmp_path_factory):
 
 
 def write_dump(path, time, step, mass, x, v, f):
-    """A dump in the `dump traj` layout from arrays (SI), as LAMMPS would write it."""
+    """A dump in the `dump traj` layout from arrays (SI), as LAMMPS would write it with
+    `dump_modify time yes` (older runs); time None: the standard layout, without ITEM: TIME."""
     with open(path, "w") as out:
-        for t, s, xs, vs, fs in zip(time, step, x, v, f):
-            out.write(f"ITEM: TIME\n{t:.12g}\nITEM: TIMESTEP\n{s}\nITEM: NUMBER OF ATOMS\n{len(xs)}\n")
+        for k, (s, xs, vs, fs) in enumerate(zip(step, x, v, f)):
+            if time is not None:
+                out.write(f"ITEM: TIME\n{time[k]:.12g}\n")
+            out.write(f"ITEM: TIMESTEP\n{s}\nITEM: NUMBER OF ATOMS\n{len(xs)}\n")
             out.write("ITEM: BOX BOUNDS ss ff ff\n0 1\n-0.01 0.01\n-0.01 0.01\n")
             out.write(f"ITEM: ATOMS {DUMP_COLUMNS}\n")
             for i, (m, xi, vi, fi) in enumerate(zip(mass, xs, vs, fs), start=1):
@@ -85,16 +88,16 @@ def assert_frames_equal(a, b):
 @pytest.mark.lammps
 def test_readers_agree_exactly(chain_run):
     folder, _ = chain_run
-    fast = read_dump(folder / "traj.dump", reader="fast")
+    fast = read_dump(folder / "traj.dump", reader="fast", dt=DT)
     assert fast.n_frames == STEPS // EVERY + 1
-    assert_frames_equal(fast, read_dump(folder / "traj.dump", reader="mdanalysis"))
+    assert_frames_equal(fast, read_dump(folder / "traj.dump", reader="mdanalysis", dt=DT))
 
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("reader", READERS)
 def test_last_frame_matches_lammps(chain_run, reader):
     folder, last = chain_run
-    frames = read_dump(folder / "traj.dump", reader=reader)
+    frames = read_dump(folder / "traj.dump", reader=reader, dt=DT)
     assert_array_equal(frames.step, np.arange(0, STEPS + 1, EVERY))
     assert_allclose(frames.time, frames.step * DT, rtol=1e-12)
     assert_array_equal(frames.id, last["id"])
@@ -108,39 +111,48 @@ def test_last_frame_matches_lammps(chain_run, reader):
 
 @pytest.mark.lammps
 @pytest.mark.parametrize("reader", READERS)
-@pytest.mark.parametrize("cut", ["mid_line", "after_time_item", "at_atoms_header"])
+@pytest.mark.parametrize("cut", ["mid_line", "after_step_item", "at_atoms_header"])
 def test_truncated_last_frame_is_dropped(chain_run, tmp_path, reader, cut):
     folder, _ = chain_run
     text = (folder / "traj.dump").read_text()
-    last_frame = text.rindex("ITEM: TIME")
+    last_frame = text.rindex("ITEM: TIMESTEP")
     at = {
         "mid_line": text.rindex("\n", 0, len(text) - 1) + 5,
-        "after_time_item": last_frame + len("ITEM: TIME\n"),
+        "after_step_item": last_frame + len("ITEM: TIMESTEP\n"),
         "at_atoms_header": text.rindex("ITEM: ATOMS"),
     }[cut]
     (tmp_path / "traj.dump").write_text(text[:at])
-    full = read_dump(folder / "traj.dump", reader=reader)
-    cut_frames = read_dump(tmp_path / "traj.dump", reader=reader)
+    full = read_dump(folder / "traj.dump", reader=reader, dt=DT)
+    cut_frames = read_dump(tmp_path / "traj.dump", reader=reader, dt=DT)
     assert cut_frames.n_frames == full.n_frames - 1
     assert_array_equal(cut_frames.x, full.x[:-1])
     assert_array_equal(cut_frames.f, full.f[:-1])
 
 
 @pytest.mark.parametrize("reader", READERS)
-def test_units_of_trajectory(tmp_path, reader):
-    # Two magnets of 2 g at 1 mm and 11 mm; after 0.1 ms the first has moved 0.2 mm at 2 m/s
-    # under 0.5 N, i.e. 250 m/s^2.
+@pytest.mark.parametrize("layout", ["standard", "with_time"])
+def test_units_of_trajectory(tmp_path, reader, layout):
+    # Two magnets of 2 g at 1 mm and 11 mm; after 0.1 ms (10 steps of 1e-5 s) the first has
+    # moved 0.2 mm at 2 m/s under 0.5 N, i.e. 250 m/s^2.
     mass = np.array([0.002, 0.002])
     x = np.array([[0.001, 0.011], [0.0012, 0.011]])
     v = np.array([[2.0, 0.0], [2.0, 0.0]])
     f = np.array([[0.0, 0.0], [0.5, -0.5]])
-    write_dump(tmp_path / "traj.dump", [0.0, 1e-4], [0, 10], mass, x, v, f)
-    traj = trajectory_from_dump(read_dump(tmp_path / "traj.dump", reader=reader))
+    write_dump(tmp_path / "traj.dump", None if layout == "standard" else [0.0, 1e-4], [0, 10], mass, x, v, f)
+    # a file with ITEM: TIME lines keeps its own times: the dt given is not used
+    traj = trajectory_from_dump(read_dump(tmp_path / "traj.dump", reader=reader,
+                                          dt=1e-5 if layout == "standard" else 7.0))
     assert_allclose(traj.t, [0.0, 0.1])
     assert_allclose(traj.x0, [1.0, 11.0])
     assert_allclose(traj.u, [[0.0, 0.0], [0.2, 0.0]], atol=1e-12)
     assert_allclose(traj.v, v)
     assert_allclose(traj.a, [[0.0, 0.0], [250.0, -250.0]])
+
+
+def test_standard_layout_needs_the_time_step(tmp_path):
+    write_dump(tmp_path / "traj.dump", None, [0], [0.002], [[0.001]], [[0.0]], [[0.0]])
+    with pytest.raises(ValueError, match="dt: .*traj.dump has no ITEM: TIME lines"):
+        read_dump(tmp_path / "traj.dump")
 
 
 def test_missing_file(tmp_path):

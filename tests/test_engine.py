@@ -139,7 +139,7 @@ def _run_with_17_digits(folder):
     deck = folder / "in.lattice"
     deck.write_text(deck.read_text().replace("format float %.12g", "format float %.17g"))
     run_embedded(folder)
-    return trajectory_from_dump(read_dump(folder / "traj.dump"))
+    return trajectory_from_dump(read_dump(folder / "traj.dump", dt=1e-5))  # make_case: dt = 0.01 ms
 
 
 @pytest.mark.lammps

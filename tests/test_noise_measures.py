@@ -13,7 +13,8 @@ from pylmp_lattice import measures
 from pylmp_lattice.deck import chain_noise, render
 from pylmp_lattice.front_record import case_front, read_front_record
 from pylmp_lattice.serialize import dumps
-from pylmp_lattice.simulation import simulate
+from pylmp_lattice.run_folder import simulate
+from pylmp_lattice.run_folder.layout import FRONT_BIN
 from pylmp_lattice.summary import summarize
 
 from conftest import make_case
@@ -137,7 +138,7 @@ def test_record_equals_the_array_measures_on_noisy_runs(tmp_path, sections, meth
     case = make_case(particles=40, duration=40.0, interval=0.01, chain=NOISY, **sections)
     traj = simulate(case, tmp_path)
     arrays = case_front(case, traj.t, traj.v, traj.a, method)
-    record = read_front_record(case, tmp_path, method).front
+    record = read_front_record(case, tmp_path / FRONT_BIN, method).front
     assert record.noise == arrays.noise == chain_noise(case) > 0.05
     assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 8 and np.sum(np.isfinite(record.arrival)) >= 8
     p, q = arrays.peaks, record.peaks

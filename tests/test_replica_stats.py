@@ -54,7 +54,7 @@ def test_plots_are_labelled_with_names_and_units():
     ax = plot_replica_stats(stats, "impactor.velocity", f"{PEAK}.mean")
     assert ax.get_xlabel() == "impactor velocity $V_I$ (m/s)"
     assert ax.get_ylabel() == "first peak velocity, plateau (m/s)"
-    assert "4-4 values" in ax.get_title()
+    assert "4-4 values per point" in ax.get_title()
     plt.close(ax.figure)
     assert label("chain.thermal_velocity") == "thermal RMS velocity (m/s)" and label("some.field") == "some.field"
 

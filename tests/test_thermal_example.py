@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from pylmp_lattice.run_folder.layout import SUMMARY
 from pylmp_lattice.sweep import Sweep, load_sweep, replica_stats, run_sweep
 
 INPUTS = Path(__file__).parent.parent / "inputs"
@@ -38,7 +39,7 @@ def test_shipped_thermal_example_measures_every_member_and_its_replica_means(tmp
     numeric = table.select_dtypes("number").to_numpy(float)
     assert not np.isinf(numeric).any()
     for folder in table["folder"]:  # strict JSON agrees with the table
-        summary = json.loads((tmp_path / "noisy" / folder / "summary.json").read_text())
+        summary = json.loads((tmp_path / "noisy" / folder / SUMMARY).read_text())
         row = table[table["folder"] == folder].iloc[0]
         assert summary[VP]["mean"] == row[f"{VP}.mean"]
         assert summary["shock_velocity_max_m_per_s"]["value"] == row["shock_velocity_max_m_per_s.value"]

@@ -86,7 +86,10 @@ def noise_velocity(masses, velocities, gaps, energy, free) -> float:
     free (N,) bool: the magnets that move freely (not the impactor, not the held end)."""
     masses, velocities, gaps = (np.asarray(x, dtype=float) for x in (masses, velocities, gaps))
     free = np.asarray(free, dtype=bool)
-    kinetic = float(np.sum(masses[free] * velocities[free] ** 2))
+    # masses relative to the largest, so that sums of huge masses cannot overflow
+    scale = float(np.max(masses[free])) if np.any(free) else 1.0
+    relative = masses[free] / scale
+    kinetic = float(np.sum(relative * velocities[free] ** 2))
     # exactly 0 for equal gaps (the sum would leave rounding errors)
     disorder = float(np.sum(energy(gaps)) - gaps.size * energy(np.mean(gaps))) if np.ptp(gaps) > 0 else 0.0
-    return float(np.sqrt(max(kinetic + 2.0 * max(disorder, 0.0), 0.0) / np.sum(masses[free])))
+    return float(np.sqrt(max(kinetic + 2.0 * max(disorder, 0.0) / scale, 0.0) / np.sum(relative)))

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive
+from ._common import (
+    HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive,
+)
 from .levels import FRONT_FRACTION, NOISE_FALL, PROMINENCE, level
 
 
@@ -143,7 +145,8 @@ def steady_oscillation(
     k = int(inside.sum()) - 1
     if k < 1:
         return SteadyOscillation(NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, (t_a, t_b), 0,
-                                 _no_oscillation(t, v, drive_velocity, (t_a, t_b), front_fraction, prominence, noise, k + 1))
+                                 _no_oscillation(t, v, drive_velocity, (t_a, t_b), front_fraction, prominence, noise,
+                                                 k + 1))
     max_time, max_velocity = osc.max_time[inside], osc.max_velocity[inside]
     t0, t1 = max_time[0], max_time[-1]
     periods = np.diff(max_time)

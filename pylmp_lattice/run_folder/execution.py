@@ -22,8 +22,9 @@ from ..deck import render_replicas
 from ..dump import read_dump, trajectory_from_dump
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
-from ..runner import run_embedded, run_executable
+from ..runner import deck_dir, run_embedded, run_executable
 from ..trajectory import Trajectory
+from ..units import to_engine
 from . import layout
 from .folder import CONTACT, FAILED, FINISHED, INTERRUPTED, RunFolder
 
@@ -44,6 +45,8 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
     if nprocs > 1 and runner != "lmp":
         raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
     preflight.check(case, folder, nprocs, yes=yes)
+    if runner == "embedded":
+        deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
     run = RunFolder.create(case, folder, overwrite=overwrite)
     try:
         with run.running(), progress_bar(case, progress) as on_step:
@@ -97,7 +100,8 @@ def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nproc
         run_embedded(folder, echo=echo)
     else:
         run_executable(folder, nprocs=nprocs, echo=echo)
-    return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP)))
+    dt = to_engine(cases[0].run.dt, "time")
+    return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP, dt=dt)))
 
 
 def write_replicas_folder(cases, folder: str | Path) -> Path:

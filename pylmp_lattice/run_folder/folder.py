@@ -33,7 +33,7 @@ from ..case import Case, case_to_dict, load_case
 from ..deck import render
 from ..dump import Contact, find_contact, log_ended, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
-from ..front_record import read_front_record
+from ..front_record import case_front, read_front_record
 from ..serialize import dumps
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine, to_h5md
@@ -196,7 +196,7 @@ class RunFolder:
         frames = sum(d.frames for d in sources.values())
         log.info("%s: converting %d frames to %s", self.path, frames, layout.H5MD)
         target, partial = self.path / layout.H5MD, self.path / (layout.H5MD + ".part")
-        h5md.write_file(partial, case, sources)
+        h5md.write_file(partial, case, sources, self.path / layout.LOG)
         for group, dump in sources.items():
             count, last = h5md.frame_count(partial, group)
             expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
@@ -233,7 +233,7 @@ class RunFolder:
         elif (self.path / layout.H5MD).is_file():
             traj = h5md.read_group(self.path / layout.H5MD, group, particles)
         elif text.is_file():
-            traj = _select(trajectory_from_dump(read_dump(text)), particles)
+            traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), particles)
         else:
             raise LatticeError(f"{self.path}: no {group} trajectory (output.format = {case.output.format!r})")
         numbers = self._numbers(group)
@@ -287,7 +287,7 @@ class RunFolder:
             traj = self.trajectory()
         except LatticeError:
             return None, None
-        front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), self.arrival_method())
+        front = case_front(case, traj.t, traj.v, traj.a, self.arrival_method())
         return front, np.max(np.abs(traj.v), axis=0)
 
     def front(self) -> measures.Front | None:
@@ -360,8 +360,11 @@ class RunFolder:
         case, front = self.case, self.front()
         vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+        # the first peaks saturate at 2 V_I under a steady drive without friction only
+        steady = case.impactor.profile in ("constant", "ramp") and case.friction is None
+        saturation = 2 * vi if steady else None
         if case.output.format == "none":
-            return shock_figure(None, [], vi, front, v0, title=title)
+            return shock_figure(None, [], vi, front, v0, title=title, saturation=saturation)
         if case.output.fine:
             chosen = sorted(n - 1 for n in case.output.fine)
             profiles = self.trajectory("fine")
@@ -370,7 +373,7 @@ class RunFolder:
             last = int(reached[-1]) if reached.size else 0
             chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
             profiles = self.trajectory("chain", chosen)
-        return shock_figure(profiles, chosen, vi, front, v0, title=title)
+        return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
 _BINARIES = {"chain": layout.TRAJ_BIN, "fine": layout.FINE_BIN}

