@@ -197,7 +197,8 @@ def test_per_atom_masses_give_the_bits_of_per_type_masses(tmp_path):
             mass = (folder / DATA).read_text().split("Masses")[1].split()[1]  # type 1's, as written
             deck = folder / "in.lattice"
             deck.write_text(deck.read_text().replace(
-                "\ndelete_bonds", f"\nfix masses all property/atom rmass\nset group all mass {mass}\ndelete_bonds", 1))
+                "\ngroup           none empty",
+                f"\nfix masses all property/atom rmass\nset group all mass {mass}\ngroup           none empty", 1))
         run_embedded(folder)
         assert "owns the state" in (folder / "log.lammps").read_text()
         runs[name] = RunFolder(folder).trajectory()
