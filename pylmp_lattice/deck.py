@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from functools import lru_cache
 from collections.abc import Sequence
 
 import numpy as np
@@ -68,6 +69,11 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     = "none".
     """
     first = cases[0]
+    decks = [deck_text(case) for case in cases] if front else []  # each chain's deck alone
+    for r, text in enumerate(decks):
+        if _without_levels(text) != _without_levels(decks[0]):
+            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file "
+                                          "and the front record's levels")
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
@@ -75,9 +81,6 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
-        if front and batch_key(case) != batch_key(first):
-            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file "
-                                          "and the front record's levels")
     # one text dump of all chains (the H5MD conversion and the front record are per chain), or
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
@@ -88,7 +91,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     if front:
         # each chain's own levels, as its deck alone gives them (they may follow its draw's noise):
         # one row per chain for fix lattice/front's `levels` file, when they differ
-        rows = [_FRONT_FIX.search(deck_text(case)).groups() for case in cases]
+        rows = [_FRONT_FIX.search(text).groups() for text in decks]
         if len(set(rows)) > 1:
             files[FRONT_LEVELS] = "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
                 f"{start} {level} {drop} {pulse} {floor or '0.0'}\n" for start, level, drop, pulse, floor in rows)
@@ -105,7 +108,11 @@ _FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S
 def batch_key(case: Case) -> str:
     """What chains batched with the front record must share: the case's deck, but for the front
     record's levels (each chain gets its own, see render_replicas)."""
-    return _FRONT_FIX.sub("fix front", deck_text(case))
+    return _without_levels(deck_text(case))
+
+
+def _without_levels(deck: str) -> str:
+    return _FRONT_FIX.sub("fix front", deck)
 
 
 def _chain_work_lines(replicas: int) -> str:
@@ -365,6 +372,14 @@ def _output_lines(case: Case) -> str:
 
 def chain_noise(case: Case) -> float:
     """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
+    try:  # cached: a sweep's batch asks it per chain for the deck, the levels and the record
+        return _chain_noise(case)
+    except TypeError:  # a case built with arrays is not hashable: computed each time
+        return _chain_noise.__wrapped__(case)
+
+
+@lru_cache(maxsize=4096)
+def _chain_noise(case: Case) -> float:
     chain = case.chain
     free = np.ones(chain.particles, bool)
     free[[0, *case.held()]] = False
