@@ -13,10 +13,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from . import measures
 from .case import Case, check_name
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
-from .measures import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
 from .run_folder.layout import (BIN_COLUMNS, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
@@ -310,13 +310,27 @@ def _output_lines(case: Case) -> str:
                   f"dump            fine fine custom {fine_every} {in_deck(name)} {columns}",
                   "dump_modify     fine sort id" + (" format float %.12g" if out.format == "text" else " time yes")]
     if records_front(case):
-        vi = to_engine(case.impactor.peak_velocity(), "velocity")
-        levels = (START_FRACTION * vi, FRONT_FRACTION * vi, PROMINENCE * vi)
+        lv = front_levels(case)
+        levels = (to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop))
+        floor = f" pulse_floor {_num(to_engine(lv.pulse_floor, 'velocity'))}" if lv.pulse_floor > 0 else ""
         lines += ["# Front arrival and first peak of every magnet, from every step (plugin fix; the",
-                  "# definitions of measures.py, levels as fractions of V_I); written after the run.",
-                  "fix             front all lattice/front start {} front {} drop {} pulse_drop {}".format(
-                      *map(_num, levels), _num(PULSE_DROP))]
+                  "# definitions of measures, levels against V_I and the chain's noise); written after the run.",
+                  "fix             front all lattice/front start {} front {} drop {} pulse_drop {}{}".format(
+                      *map(_num, levels), _num(lv.pulse_drop), floor)]
     return "\n".join(lines) if lines else "# no per-frame output (output.format = 'none')"
+
+
+def chain_noise(case: Case) -> float:
+    """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
+    chain = case.chain
+    free = np.ones(chain.particles, bool)
+    free[[0, *case.held()]] = False
+    return measures.noise_velocity(chain.masses(), chain.velocities(), chain.gaps(), case.force.energy, free)
+
+
+def front_levels(case: Case) -> measures.FrontLevels:
+    """The front measures' levels for this case (m/s): the fix's arguments, and the array measures'."""
+    return measures.front_levels(case.impactor.peak_velocity(), chain_noise(case))
 
 
 def _front_dump_line(case: Case) -> str:

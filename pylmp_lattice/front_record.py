@@ -5,6 +5,10 @@ time step of every magnet, so a run has its front measures without any per-frame
 impactor's motion is prescribed, not integrated (its force is the chain's push on the piston),
 so its measures come from its profile sampled at the same steps, as `RunFolder.trajectory` takes its
 acceleration from the profile.
+
+Both the record and the array measures of a trajectory (`case_front`) are interpreted here
+with the case's levels (`deck.front_levels`: against V_I and the chain's noise velocity) and
+its slowest linear speed, below which a gap's V_P is flagged (`measures.Front`).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 from . import measures
 from .bindump import open_dump
 from .case import Case
+from .deck import chain_noise
 from .run_folder.layout import FRONT_FIELDS
 from .units import from_engine
 
@@ -39,13 +44,27 @@ def read_front_record(case: Case, path: str | Path, arrival_method: str = "level
     frame = open_dump(path).read()
     record = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     end = float(from_engine(frame.time[-1], "time"))
-    imp, vi = case.impactor, case.impactor.peak_velocity()
+    imp, vi, noise = case.impactor, case.impactor.peak_velocity(), chain_noise(case)
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]
-    drive = measures.first_peaks(t, v, a, vi)
+    drive = measures.first_peaks(t, v, a, vi, noise=noise)
     peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
                                   for f in fields(measures.FirstPeaks)))
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
-    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method), record[column][1:]])
-    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method)
+    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method, noise=noise), record[column][1:]])
+    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method,
+                           noise, slowest_linear_speed(case))
     return FrontRecord(front, record["max_speed"], end)
+
+
+def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.Front:
+    """`measures.front` of a trajectory of `case` (t ms, v m/s, a m/s^2), with the case's noise
+    velocity and slowest linear speed: the same definitions as the record."""
+    return measures.front(t, v, a, case.impactor.peak_velocity(), case.chain.gaps(), arrival_method,
+                          chain_noise(case), slowest_linear_speed(case))
+
+
+def slowest_linear_speed(case: Case) -> float:
+    """The chain's slowest local linear wave speed, m/s (`measures.slowest_linear_speed`)."""
+    gaps = case.chain.gaps()
+    return measures.slowest_linear_speed(case.force.stiffness(gaps), case.chain.masses(), gaps)

@@ -31,7 +31,7 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
     }
     if front is None:  # no drive, no shock (e.g. the friction calibration rig)
         return out
-    vp = front.propagation_velocity
+    vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speed = measures.trailing_plateau(vp)
     first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
     out |= {
@@ -41,11 +41,12 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
         "shock_velocity_max_m_per_s": _maximum(vp),
         "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, "particles", offset=1),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
+        "front_flags": _flags(front),
     }
     if chain.far_end == "long" and max_speed is not None:
         last_free = min(case.held()) - 1  # 0-based
         last = float(max_speed[last_free])
-        out["far_end_quiet"] = bool(last <= QUIET_FRACTION * vi)
+        out["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, front.noise))
         if not out["far_end_quiet"]:
             log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
                         last_free + 1, last)
@@ -67,17 +68,25 @@ def _maximum(vp: np.ndarray) -> dict | None:
     return {"value": round(float(np.nanmax(vp)), 5), "gap": int(np.nanargmax(vp)) + 1}
 
 
+def _flags(front: measures.Front) -> dict:
+    """The gaps flagged (out of order, below the slowest linear speed), as counts and gap numbers."""
+    flags = front.flags()
+    return {"out_of_order": len(flags["out_of_order_gaps"]), "below_linear_speed": len(flags["below_linear_speed_gaps"]),
+            **{k: round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
+
+
 def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
     """A plateau as JSON, over "gaps" or "particles" numbered 1-based as in the paper (gap n lies
-    between magnets n and n+1). trend: "steady" when converged (drift within 1 %), else
-    "decaying" (e.g. V_P with friction) or "growing": a drifting mean is not a plateau. Null, like
-    the numbers, when the series has too few values."""
+    between magnets n and n+1). trend: "steady" when converged (drift within 1 %, or 3 standard
+    errors), else "decaying" (e.g. V_P with friction) or "growing": a drifting mean is not a
+    plateau. Null, like the numbers, when the series has too few values."""
     defined = bool(np.isfinite(p.mean))
     trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
+        "relative_drift_stderr": round(p.drift_stderr, 5),
         "converged": defined and p.converged(),
         "trend": trend,
         over: [p.start + offset + 1, p.stop + offset] if defined else None,

@@ -180,7 +180,7 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     rows.append(rows[0] | {"id": "f", "status": "failed", "V": 1e9})  # failed members do not count
     rows.append(rows[0] | {"id": "i", "V": np.inf})  # nor infinite values (counted apart)
     table = pd.DataFrame(rows)
-    stats = replica_stats(table)
+    stats = replica_stats(table, ["V"])
     assert list(stats["n"]) == [6, 5] and list(stats["V.count"]) == [5, 5]
     assert np.isfinite(stats["V.mean"]).all()
     values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
@@ -193,7 +193,7 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     bars = ax.containers[0]
     np.testing.assert_allclose(bars.lines[0].get_ydata(), stats["V.mean"])
     plt.close(ax.figure)
-    write_replica_stats(tmp_path, table)
+    write_replica_stats(tmp_path, table, ["V"])
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "replica_stats.csv"), stats)
     assert (tmp_path / "replica_stats.png").stat().st_size > 0
 

@@ -4,16 +4,19 @@ Conventions (user units, see `units`): time t in ms, particle velocity v in m/s 
 acceleration a in m/s^2, lengths in mm, mass in g, stiffness in N/mm, frequency in Hz.
 A history has shape (n_frames, N): particles in chain order, particle 0 the impactor. The
 shock runs towards increasing index and drives particles with positive velocities; the drive
-(impactor) velocity V_I > 0 sets the scale of every threshold, given as a fraction of V_I.
+(impactor) velocity V_I > 0 sets the scale of every threshold, given as a fraction of V_I, and
+in a noisy chain each is also at least a multiple of its noise velocity (`levels`).
 A measure that does not exist for a particle (the front never reached it, no confirmed peak)
 is NaN, not an exception; arrays of the wrong shape raise ValueError. Results objects are
 dataclasses that `serialize.dumps` writes as strict JSON (NaN as null).
 
-One module per concept: `linear` (V0, f0), `arrival` (front arrival), `propagation` (V_P and
+One module per concept: `levels` (every threshold, against V_I and the chain's noise),
+`linear` (V0, f0, the slowest linear speed), `arrival` (front arrival), `propagation` (V_P and
 its plateau), `peaks` (first peaks, rise time), `oscillation` (extrema, frequency, steady
 oscillation), `critical` (V*), `transition` (transition zone), `phase` (phase portrait), and
 `front` (the run's per-particle measures at once), `pulse` (a pulse's speed, the piston
-problem's lead pulse and period two), `wake` (the mean state behind a shock). Typical use on a `Trajectory` `tr`:
+problem's lead pulse and period two), `wake` (the mean state behind a shock). Typical use on a
+`Trajectory` `tr`:
 
     t_front = arrival_times(tr.t, tr.v, vi)
     vp = propagation_velocity(t_front, np.diff(tr.x0))
@@ -22,12 +25,15 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
     steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
 """
 
-from ._common import FRONT_FRACTION, PROMINENCE, PULSE_DROP, START_FRACTION
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
 from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front
 from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion  # noqa: F401 (Fig. S4 calibration)
-from .linear import linear_frequency, linear_wave_speed
+from .levels import (
+    FRONT_FRACTION, NOISE_FALL, NOISE_LEVEL, PROMINENCE, PULSE_DROP, START_FRACTION, FrontLevels, front_levels,
+    noise_velocity,
+)
+from .linear import linear_frequency, linear_wave_speed, slowest_linear_speed
 from .oscillation import Oscillations, SteadyOscillation, oscillations, steady_oscillation
 from .peaks import FirstPeaks, first_peaks
 from .phase import PhasePortrait, phase_portrait
@@ -44,11 +50,13 @@ from .transition import TransitionZone, steady_onset_times, transition_zone
 from .wake import WakeState, wake_state
 
 __all__ = [
-    "FRONT_FRACTION", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
-    "ARRIVAL_METHODS", "KNEE_METHODS", "CriticalVelocity", "FirstPeaks", "Front", "FrontFit", "Oscillations",
+    "FRONT_FRACTION", "NOISE_FALL", "NOISE_LEVEL", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
+    "ARRIVAL_METHODS", "KNEE_METHODS", "CriticalVelocity", "FirstPeaks", "Front", "FrontFit", "FrontLevels",
+    "Oscillations",
     "PhasePortrait", "Plateau", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",
-    "front", "linear_frequency", "linear_wave_speed", "oscillations", "phase_portrait", "propagation_velocity",
-    "steady_oscillation", "steady_onset_times", "trailing_plateau", "transition_zone",
+    "front", "front_levels", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
+    "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",
+    "trailing_plateau", "transition_zone",
     "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",
 ]

@@ -7,13 +7,6 @@ import numpy as np
 from ..units import TO_SI
 
 HZ_PER_INV_MS = 1.0 / TO_SI["time"]  # 1/ms -> Hz
-# Default levels, as fractions of V_I: the start of motion, the front, the fall that confirms a
-# first peak; and the relative fall that confirms a pulse's maximum. The engine's on-the-fly
-# record (fix lattice/front, written by `deck`) uses the same ones.
-START_FRACTION = 0.01
-FRONT_FRACTION = 0.5
-PROMINENCE = 0.05
-PULSE_DROP = 0.1
 NAN = float("nan")
 
 
@@ -53,15 +46,15 @@ def first_crossing(t, v, level):
     return np.where(reached, i, len(t)), np.where(reached, time, np.nan)
 
 
-def first_confirmed_maximum(y, i_from, drop, relative=False):
+def first_confirmed_maximum(y, i_from, drop, relative=False, floor=0.0):
     """Per column of y (n_frames, N): the first maximum at or after sample i_from[col] that is
     confirmed by a later fall of `drop` below it (absolute, or `drop` times the maximum if
-    `relative`) before y exceeds it. Returns (index, confirmed): the index of the largest sample
-    between i_from and the confirming fall, and whether a fall was found."""
+    `relative`, but at least `floor`) before y exceeds it. Returns (index, confirmed): the index
+    of the largest sample between i_from and the confirming fall, and whether a fall was found."""
     rows = np.arange(y.shape[0])[:, None]
     behind = np.where(rows >= i_from, y, -np.inf)
     running_max = np.maximum.accumulate(behind, axis=0)  # -inf before i_from
-    fall = drop * np.abs(running_max) if relative else drop
+    fall = np.maximum(drop * np.abs(running_max), floor) if relative else drop
     dropped = (y <= running_max - fall) & np.isfinite(running_max)
     confirmed = dropped.any(axis=0)
     i_drop = np.argmax(dropped, axis=0)

@@ -12,16 +12,18 @@
 A peak counts only when it is confirmed by a later fall of `drop` times its own height before
 the signal exceeds it, searched from the start of motion (v_n >= start_fraction * V_I); this
 ignores wiggles on the rise and works whatever the pulse's amplitude.
+
+In a noisy chain (noise velocity sigma > 0, see `levels`) every velocity level is at least
+5 sigma and every velocity fall at least 3 sigma; the acceleration peak's relative fall has no
+noise floor (its start of motion has).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._common import (
-    FRONT_FRACTION, PULSE_DROP, START_FRACTION, check_history, first_confirmed_maximum,
-    first_crossing, refine_maxima, require_positive,
-)
+from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from .levels import FRONT_FRACTION, PULSE_DROP, START_FRACTION, front_levels
 
 ARRIVAL_METHODS = ("level", "velocity_peak", "acceleration_peak")
 
@@ -41,6 +43,7 @@ def arrival_times(
     a=None,
     start_fraction: float = START_FRACTION,
     drop: float = PULSE_DROP,
+    noise: float = 0.0,
 ) -> np.ndarray:
     """Front arrival time of each particle, ms, shape (N,); NaN where it never arrived.
 
@@ -48,11 +51,13 @@ def arrival_times(
     method "level": first time v_n >= fraction * V_I (t[0] if already there);
     "velocity_peak" / "acceleration_peak": time of the first confirmed maximum of v_n / a_n
     after the start of motion (see the module docstring).
+    noise: the chain's noise velocity sigma, m/s (`levels.noise_velocity`; 0 for a chain at rest).
     """
     t, v = check_history(t, v)
     require_positive(drive_velocity=drive_velocity, fraction=fraction, start_fraction=start_fraction, drop=drop)
+    levels = front_levels(drive_velocity, noise, start_fraction, fraction, pulse_drop=drop)
     if method == "level":
-        return first_crossing(t, v, fraction * drive_velocity)[1]
+        return first_crossing(t, v, levels.front)[1]
     if method not in ARRIVAL_METHODS:
         raise ValueError(f"method: got {method!r}; choose one of {', '.join(ARRIVAL_METHODS)}")
     y = v
@@ -62,7 +67,8 @@ def arrival_times(
         y = np.asarray(a, dtype=float)
         if y.shape != v.shape:
             raise ValueError(f"a: got shape {y.shape}; expected {v.shape}, the shape of v")
-    i_start, _ = first_crossing(t, v, start_fraction * drive_velocity)
-    i_peak, confirmed = first_confirmed_maximum(y, i_start, drop, relative=True)
+    i_start, _ = first_crossing(t, v, levels.start)
+    floor = levels.pulse_floor if method == "velocity_peak" else 0.0
+    i_peak, confirmed = first_confirmed_maximum(y, i_start, drop, relative=True, floor=floor)
     t_peak, _ = refine_maxima(t, y, i_peak, np.arange(v.shape[1]))
     return np.where(confirmed & (i_start < len(t)), t_peak, np.nan)

@@ -1,4 +1,5 @@
-"""The per-particle front measures of a run, computed once for the summary and the figure."""
+"""The per-particle front measures of a run, computed once for the summary and the figure, and
+the gaps whose V_P cannot be a front's: flagged, not averaged."""
 
 from __future__ import annotations
 
@@ -6,22 +7,60 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._common import NAN
 from .arrival import arrival_times
 from .peaks import FirstPeaks, first_peaks
 from .propagation import propagation_velocity
 
+# A linear front's half-level crossing lags its sound speed by a little (an Airy front: V_P =
+# V0 (1 - 0.068 n^(-2/3)) at gap n, 6.8 % at the first, see study s5); slower than the slowest
+# linear speed by more than this fraction, a gap was not crossed by the front.
+LINEAR_LAG = 0.1
+
 
 @dataclass(frozen=True)
 class Front:
-    """arrival (N,) ms by `arrival_method`; propagation_velocity (N-1,) m/s over each gap; peaks."""
+    """arrival (N,) ms by `arrival_method`; propagation_velocity (N-1,) m/s over each gap, as
+    measured; peaks; noise: the noise velocity sigma the levels were set against, m/s;
+    slowest_linear_speed: the chain's slowest linear wave speed, m/s (NaN: not checked).
+
+    A gap is flagged when the front crossed it out of order (`out_of_order`: magnet n+1 reached
+    no later than magnet n) or slower than any linear wave of the chain can travel
+    (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest linear speed);
+    `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and maxima average."""
 
     arrival: np.ndarray
     propagation_velocity: np.ndarray
     peaks: FirstPeaks
     arrival_method: str = "level"
+    noise: float = 0.0
+    slowest_linear_speed: float = NAN
+
+    @property
+    def out_of_order(self) -> np.ndarray:
+        with np.errstate(invalid="ignore"):
+            return np.diff(self.arrival) <= 0
+
+    @property
+    def below_linear_speed(self) -> np.ndarray:
+        with np.errstate(invalid="ignore"):
+            return ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * self.slowest_linear_speed)
+
+    @property
+    def accepted_velocity(self) -> np.ndarray:
+        return np.where(self.out_of_order | self.below_linear_speed, NAN, self.propagation_velocity)
+
+    def flags(self) -> dict:
+        """The flagged gaps (1-based, gap n between magnets n and n+1) and what they were set against."""
+        gaps = lambda mask: (np.flatnonzero(mask) + 1).tolist()  # noqa: E731
+        return {"out_of_order_gaps": gaps(self.out_of_order), "below_linear_speed_gaps": gaps(self.below_linear_speed),
+                "slowest_linear_speed_m_per_s": self.slowest_linear_speed, "noise_velocity_m_per_s": self.noise}
 
 
-def front(t, v, a, drive_velocity: float, spacing, arrival_method: str = "level") -> Front:
-    """Arrival times (by `arrival_method`, see `arrival`), propagation velocity and first peaks."""
-    arrival = arrival_times(t, v, drive_velocity, method=arrival_method, a=a)
-    return Front(arrival, propagation_velocity(arrival, spacing), first_peaks(t, v, a, drive_velocity), arrival_method)
+def front(t, v, a, drive_velocity: float, spacing, arrival_method: str = "level", noise: float = 0.0,
+          slowest_linear_speed: float = NAN) -> Front:
+    """Arrival times (by `arrival_method`, see `arrival`), propagation velocity and first peaks,
+    with levels set against V_I and the noise velocity sigma (m/s; see `levels`)."""
+    arrival = arrival_times(t, v, drive_velocity, method=arrival_method, a=a, noise=noise)
+    return Front(arrival, propagation_velocity(arrival, spacing), first_peaks(t, v, a, drive_velocity, noise=noise),
+                 arrival_method, noise, slowest_linear_speed)

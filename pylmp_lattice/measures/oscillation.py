@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._common import (
-    FRONT_FRACTION, HZ_PER_INV_MS, NAN, PROMINENCE, check_history, first_crossing,
-    prominent_maxima, refine_maxima, require_positive,
+    HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive,
 )
+from .levels import FRONT_FRACTION, NOISE_FALL, PROMINENCE, level
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,8 @@ class Oscillations:
 
 
 def oscillations(
-    t, v, drive_velocity: float, front_fraction: float = FRONT_FRACTION, prominence: float = PROMINENCE
+    t, v, drive_velocity: float, front_fraction: float = FRONT_FRACTION, prominence: float = PROMINENCE,
+    noise: float = 0.0,
 ) -> Oscillations:
     """Local maxima and minima of one particle's velocity v(t), shape (n_frames,), behind the front.
 
@@ -51,14 +52,15 @@ def oscillations(
     scipy.signal.find_peaks finds them (`_common.prominent_maxima`), kept from the front on (the
     first sample with v >= front_fraction * V_I), each refined to the vertex of the parabola
     through it and its two neighbours. With the same arguments the first maximum is the first
-    peak of `first_peaks`. Empty if the front never arrived.
+    peak of `first_peaks`. Empty if the front never arrived. noise: the chain's noise velocity
+    sigma, m/s: the front level is at least 5 sigma and the prominence at least 3 sigma (`levels`).
     """
     t, v = check_history(t, v, single=True)
     require_positive(drive_velocity=drive_velocity, front_fraction=front_fraction, prominence=prominence)
-    i_front = first_crossing(t, v[:, None], front_fraction * drive_velocity)[0][0]
+    i_front = first_crossing(t, v[:, None], level(front_fraction, drive_velocity, noise))[0][0]
     extrema = []
     for sign in (1.0, -1.0):
-        i = prominent_maxima(sign * v, prominence * drive_velocity)
+        i = prominent_maxima(sign * v, level(prominence, drive_velocity, noise, NOISE_FALL))
         i = i[i >= i_front]
         t_ext, v_ext = refine_maxima(t, sign * v[:, None], i, cols=0)
         extrema += [t_ext, sign * v_ext]
@@ -116,6 +118,7 @@ def steady_oscillation(
     window: tuple[float, float],
     front_fraction: float = FRONT_FRACTION,
     prominence: float = PROMINENCE,
+    noise: float = 0.0,
 ) -> SteadyOscillation:
     """Steady oscillation of one particle, v shape (n_frames,), in the time window (t_a, t_b), ms.
 
@@ -128,6 +131,7 @@ def steady_oscillation(
     Fewer than two maxima in the window gives NaN numbers and a `reason`: the front had not
     arrived, the oscillation has decayed below prominence * V_I (its remaining size is stated),
     or the window is shorter than a period. It never falls back to maxima outside the window.
+    noise: the chain's noise velocity sigma, m/s, as in `oscillations`.
     """
     t, v = check_history(t, v, single=True)
     t_a, t_b = (float(x) for x in window)
@@ -136,12 +140,13 @@ def steady_oscillation(
     if t_b <= t[0] or t_a >= t[-1]:
         raise ValueError(f"window: got ({t_a}, {t_b}) ms; expected to overlap the record [{t[0]}, {t[-1]}] ms")
     t_a, t_b = max(t_a, float(t[0])), min(t_b, float(t[-1]))  # the part of the window recorded
-    osc = oscillations(t, v, drive_velocity, front_fraction, prominence)
+    osc = oscillations(t, v, drive_velocity, front_fraction, prominence, noise)
     inside = (osc.max_time >= t_a) & (osc.max_time <= t_b)
     k = int(inside.sum()) - 1
     if k < 1:
         return SteadyOscillation(NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN, (t_a, t_b), 0,
-                                 _no_oscillation(t, v, drive_velocity, (t_a, t_b), front_fraction, prominence, k + 1))
+                                 _no_oscillation(t, v, drive_velocity, (t_a, t_b), front_fraction, prominence, noise,
+                                                 k + 1))
     max_time, max_velocity = osc.max_time[inside], osc.max_velocity[inside]
     t0, t1 = max_time[0], max_time[-1]
     periods = np.diff(max_time)
@@ -164,16 +169,17 @@ def steady_oscillation(
     )
 
 
-def _no_oscillation(t, v, vi, window, front_fraction, prominence, n_maxima) -> str:
+def _no_oscillation(t, v, vi, window, front_fraction, prominence, noise, n_maxima) -> str:
     t_a, t_b = window
-    arrived = np.flatnonzero(v >= front_fraction * vi)
+    front, least = level(front_fraction, vi, noise), level(prominence, vi, noise, NOISE_FALL)
+    arrived = np.flatnonzero(v >= front)
     if arrived.size == 0 or t[arrived[0]] > t_b:
-        return f"the front (v >= {front_fraction:g} V_I) had not arrived by the end of the window, {t_b:g} ms"
+        return f"the front (v >= {front:.3g} m/s) had not arrived by the end of the window, {t_b:g} ms"
     part = v[(t >= t_a) & (t <= t_b)]
     swing = float(part.max() - part.min()) if part.size else 0.0
-    if swing < prominence * vi:
+    if swing < least:
         return (f"no oscillation left in [{t_a:g}, {t_b:g}] ms: v varies by {swing:.3g} m/s there, "
-                f"below the prominence threshold {prominence * vi:.3g} m/s ({prominence:g} V_I)")
+                f"below the prominence threshold {least:.3g} m/s ({prominence:g} V_I)")
     return f"{n_maxima} velocity maxima in [{t_a:g}, {t_b:g}] ms; at least two are needed for a period"
 
 

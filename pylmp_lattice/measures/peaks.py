@@ -7,10 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import (
-    FRONT_FRACTION, PROMINENCE, START_FRACTION, check_history, first_confirmed_maximum,
-    first_crossing, refine_maxima, require_positive,
-)
+from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from .levels import FRONT_FRACTION, PROMINENCE, START_FRACTION, front_levels
 
 _BLOCK_ELEMENTS = 1 << 22  # first_peaks works on column blocks of about this many samples
 
@@ -48,6 +46,7 @@ def first_peaks(
     start_fraction: float = START_FRACTION,
     front_fraction: float = FRONT_FRACTION,
     prominence: float = PROMINENCE,
+    noise: float = 0.0,
 ) -> FirstPeaks:
     """First velocity peak, first peak acceleration and start of motion of every particle.
 
@@ -65,6 +64,9 @@ def first_peaks(
     - Rise time (`FirstPeaks.rise_time`): peak time minus start of motion, the paper's "duration
       from zero velocity to first peak velocity" (Fig. 1(c)); zero velocity is taken as
       start_fraction * V_I so that a numerically tiny precursor does not count.
+
+    noise: the chain's noise velocity sigma, m/s (`levels`): the start and front levels are at
+    least 5 sigma, the confirming fall at least 3 sigma, so thermal motion is not a start.
     """
     t, v = check_history(t, v)
     a = np.asarray(a, dtype=float)
@@ -73,7 +75,8 @@ def first_peaks(
     require_positive(drive_velocity=drive_velocity, start_fraction=start_fraction, prominence=prominence)
     if not start_fraction <= front_fraction:
         raise ValueError(f"front_fraction: got {front_fraction}; expected >= start_fraction = {start_fraction}")
-    levels = (start_fraction * drive_velocity, front_fraction * drive_velocity, prominence * drive_velocity)
+    lv = front_levels(drive_velocity, noise, start_fraction, front_fraction, prominence)
+    levels = (lv.start, lv.front, lv.drop)
     width = max(1, _BLOCK_ELEMENTS // len(t))  # bounds the temporaries for long chains
     blocks = [
         _first_peaks_block(t, v[:, j : j + width], a[:, j : j + width], *levels)

@@ -93,10 +93,11 @@ class Plateau:
     """Level of a per-particle series over its trailing window (see `trailing_plateau`).
 
     mean, std: of the finite values in the window; drift: the relative change across the window
-    of the least-squares line through them, slope * (stop - 1 - start) / mean; values[start:stop]
-    is the window. All NaN (and start == stop) when there are too few finite values.
-    A series whose drift exceeds the tolerance is not a plateau: `converged()` is False, and
-    `to_dict` reports it with `converged: false` beside its drift.
+    of the least-squares line through them, slope * (stop - 1 - start) / mean; drift_stderr: its
+    standard error from the scatter of the values (0 for values on a line, NaN for 2 values); values[start:stop] is the
+    window. All NaN (and start == stop) when there are too few finite values. A series whose
+    drift exceeds the tolerance, and three standard errors, is not a plateau: `converged()` is
+    False, and `to_dict` reports it with `converged: false` beside its drift.
     """
 
     mean: float
@@ -104,13 +105,19 @@ class Plateau:
     drift: float
     start: int
     stop: int
+    drift_stderr: float = 0.0
 
     def converged(self, rtol: float = 0.01) -> bool:
-        """True if the series changes by at most rtol (relative) across the window."""
-        return bool(abs(self.drift) <= rtol)
+        """True if the series changes by at most rtol (relative) across the window, or by no more
+        than three standard errors of its drift: a noisy series (e.g. V_P in a thermal chain, which
+        scatters by about 1 % per gap) is not called drifting for a trend its scatter makes (three:
+        a steady series with Gaussian scatter is called drifting 0.3 % of the time)."""
+        allowed = rtol if not np.isfinite(self.drift_stderr) else max(rtol, 3.0 * self.drift_stderr)
+        return bool(abs(self.drift) <= allowed)
 
     def to_dict(self, rtol: float = 0.01) -> dict:
-        return {"mean": self.mean, "std": self.std, "relative_drift": self.drift, "start": self.start,
+        return {"mean": self.mean, "std": self.std, "relative_drift": self.drift,
+                "relative_drift_stderr": self.drift_stderr, "start": self.start,
                 "stop": self.stop, "converged": self.converged(rtol), "converged_rtol": rtol}
 
 
@@ -130,13 +137,19 @@ def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3) -> Pla
     finite = np.flatnonzero(np.isfinite(values))
     count = max(int(np.ceil(fraction * finite.size)), min_points)
     if finite.size < count:
-        return Plateau(NAN, NAN, NAN, values.size, values.size)
+        return Plateau(NAN, NAN, NAN, values.size, values.size, NAN)
     index = finite[-count:]
     window = values[index]
     mean = float(window.mean())
-    slope = np.polyfit(index, window, 1)[0]
-    drift = float(slope * (index[-1] - index[0]) / mean)
-    return Plateau(mean, float(window.std()), drift, int(index[0]), int(index[-1]) + 1)
+    line = np.polyfit(index, window, 1)
+    drift = float(line[0] * (index[-1] - index[0]) / mean)
+    # The drift's standard error if each value scatters independently by s, estimated from the
+    # second differences (variance 6 s^2) of the window and as many values before it; a smooth
+    # series (any noise-free one) has s, hence the error, near 0.
+    tail = values[finite[-2 * count:]]
+    scatter = np.sqrt(np.mean(np.diff(tail, 2) ** 2) / 6) if tail.size > 2 else NAN
+    stderr = float(scatter / abs(mean) * (count - 1) * np.sqrt(12 / (count * (count**2 - 1))))
+    return Plateau(mean, float(window.std()), drift, int(index[0]), int(index[-1]) + 1, stderr)
 
 
 def _arrival(arrival):

@@ -9,7 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import NAN, PROMINENCE, check_history, require_positive
+from ._common import NAN, check_history, require_positive
+from .levels import PROMINENCE
 from .oscillation import oscillations
 
 

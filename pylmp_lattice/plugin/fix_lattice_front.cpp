@@ -3,10 +3,12 @@
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
-   fix ID group-ID lattice/front start S front L drop D pulse_drop R
+   fix ID group-ID lattice/front start S front L drop D pulse_drop R [pulse_floor P]
 
    S, L, D = velocity levels (velocity units, m/s in units si), 0 < S <= L, D > 0
    R = relative fall that confirms a pulse's maximum, 0 < R < 1
+   P = least absolute fall that confirms a pulse's maximum (velocity units), P >= 0, default 0
+   (pylmp_lattice sets S, L, D and P against V_I and the chain's noise: measures/levels.py)
 
 Example
    fix front all lattice/front start 0.02 front 1.0 drop 0.1 pulse_drop 0.1
@@ -37,7 +39,7 @@ Description
      to the peak's sample, refined by the same parabola when it lies strictly inside;
    - the pulse arrival (measures.arrival_times, method "velocity_peak") is found like the
      first peak, but searched from the first sample at or above S and confirmed by a fall of
-     R times the maximum.
+     R times the maximum, or P if that is larger.
    Ties go to the earliest sample, as numpy's argmax does. Atoms outside the group keep
    NaN. The records move with their atoms between MPI ranks.
 
@@ -86,7 +88,8 @@ FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), rec(nullptr), mark(nullptr), vprev(nullptr), phase(nullptr), shown(nullptr), rows(0),
     refresh_every_step(true), t_prev(0.0), step_prev(-1)
 {
-  if (narg != 11) utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R", error);
+  if (narg != 11 && narg != 13)
+    utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R [pulse_floor P]", error);
   const char *keys[4] = {"start", "front", "drop", "pulse_drop"};
   double *values[4] = {&levels.start, &levels.front, &levels.drop, &levels.pulse_drop};
   for (int k = 0; k < 4; k++) {
@@ -98,6 +101,13 @@ FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
     error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", levels.start,
                levels.front);
   if (!(levels.drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", levels.drop);
+  if (narg == 13) {
+    if (strcmp(arg[11], "pulse_floor") != 0)
+      error->all(FLERR, "Fix lattice/front: expected 'pulse_floor', got '{}'", arg[11]);
+    levels.pulse_floor = utils::numeric(FLERR, arg[12], false, lmp);
+    if (!(levels.pulse_floor >= 0.0))
+      error->all(FLERR, "Fix lattice/front: need pulse_floor >= 0, got {}", levels.pulse_floor);
+  }
   if (!(levels.pulse_drop > 0.0 && levels.pulse_drop < 1.0))
     error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", levels.pulse_drop);
 

@@ -42,6 +42,7 @@ enum Phase : unsigned char { WAITING, ACTIVE, FINISHED };
 
 struct Levels {
   double start, front, drop, pulse_drop;    // velocity levels; relative fall of a pulse
+  double pulse_floor = 0.0;                 // least absolute fall of a pulse (the chain's noise)
 };
 struct Sample {
   double t, t_prev;    // this sample's time and the previous one's
@@ -137,7 +138,7 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
   if (r[PULSE_DONE] != 1.0) {
     if (started_now || v > r[PULSE_V]) {
       set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
-    } else if (v <= r[PULSE_V] - L.pulse_drop * std::fabs(r[PULSE_V])) {
+    } else if (v <= r[PULSE_V] - std::fmax(L.pulse_drop * std::fabs(r[PULSE_V]), L.pulse_floor)) {
       r[PULSE_DONE] = 1.0;
       double v_max;
       refine(&r[PULSE_V], r[T_PULSE], v_max);

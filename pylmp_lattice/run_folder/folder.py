@@ -33,7 +33,7 @@ from ..case import Case, case_to_dict, load_case
 from ..deck import render
 from ..dump import Contact, find_contact, log_ended, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
-from ..front_record import read_front_record
+from ..front_record import case_front, read_front_record
 from ..serialize import dumps
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine, to_h5md
@@ -287,7 +287,7 @@ class RunFolder:
             traj = self.trajectory()
         except LatticeError:
             return None, None
-        front = measures.front(traj.t, traj.v, traj.a, vi, case.chain.gaps(), self.arrival_method())
+        front = case_front(case, traj.t, traj.v, traj.a, self.arrival_method())
         return front, np.max(np.abs(traj.v), axis=0)
 
     def front(self) -> measures.Front | None:

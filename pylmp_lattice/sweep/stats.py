@@ -1,4 +1,9 @@
-"""Statistics over replicas: mean and standard error of each measure per parameter point."""
+"""Statistics over replicas: mean and standard error of each measure per parameter point.
+
+Only outcomes are averaged (`MEASURES`: V_P, the first peak, ...), never the inputs a member's
+summary repeats (V_I, V0, f0, N). A plateau counts only from the members where it converged
+(its `.converged` column), and every mean says how many values it used.
+"""
 
 from __future__ import annotations
 
@@ -14,23 +19,48 @@ from .store import atomic_write
 # Columns that label a member rather than its parameter point.
 REPLICA_COLUMNS = ("replica", "chain.seed")
 STATS_CSV, STATS_PNG = "replica_stats.csv", "replica_stats.png"
+# The table columns averaged by default: column -> (name, unit).
+MEASURES = {
+    "shock_velocity_plateau_m_per_s.mean": ("shock velocity plateau $V_P$", "m/s"),
+    "first_peak_velocity_plateau_m_per_s.mean": ("first peak velocity, plateau", "m/s"),
+    "shock_velocity_max_m_per_s.value": ("largest $V_P$", "m/s"),
+    "particles_reached_by_front": ("magnets reached by the front", None),
+    "friction_dissipated_energy_mJ": ("energy taken by friction", "mJ"),
+}
+# Names and units of the fields a sweep commonly varies (any other is shown by its key).
+FIELDS = {
+    "impactor.velocity": ("impactor velocity $V_I$", "m/s"),
+    "impactor.duration": ("pulse duration $T_s$", "ms"),
+    "chain.thermal_velocity": ("thermal RMS velocity", "m/s"),
+    "chain.mass_disorder": ("mass disorder (relative std)", None),
+    "chain.r0_disorder": ("gap disorder (relative std)", None),
+    "chain.particles": ("magnets N", None),
+    "friction.mu": (r"friction $\mu$", None),
+    "force.q": ("force law power q", None),
+    "run.duration": ("run length", "ms"),
+}
+
+
+def label(column: str) -> str:
+    """An axis label for a table column: its name and unit, e.g. "impactor velocity $V_I$ (m/s)"."""
+    name, unit = MEASURES.get(column) or FIELDS.get(column) or (column, None)
+    return f"{name} ({unit})" if unit else name
 
 
 def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.DataFrame:
     """Per parameter point (the swept columns without replica and seed), over its done members:
-    `n`, and for each measure `<measure>.mean`, `<measure>.sem` (standard error of the mean,
-    std with ddof=1 over sqrt(count); NaN for a single value) and `<measure>.count`, the number
-    of finite values used (a measure can be missing or infinite in some members, e.g. V_P
-    where two arrivals coincide).
+    `n` (done members), and for each measure `<measure>.mean`, `<measure>.sem` (standard error of
+    the mean, std with ddof=1 over sqrt(count); NaN for a single value) and `<measure>.count`,
+    the number of values used: finite, and, for a plateau (a measure `X.mean` beside a column
+    `X.converged`), from members where it converged.
 
-    measures: numeric columns to summarise (default: every numeric measure column).
+    measures: columns to summarise (default: those of `MEASURES` in the table).
     """
     done = table[table["status"] == "done"]
     start = list(table.columns).index("status")
     point = [c for c in table.columns[1:start] if c not in REPLICA_COLUMNS]
     if measures is None:
-        after = list(table.columns)[list(table.columns).index("wall_time_s") + 1:]
-        measures = [c for c in after if pd.api.types.is_numeric_dtype(table[c]) and not pd.api.types.is_bool_dtype(table[c])]
+        measures = [c for c in MEASURES if c in table.columns]
     groups = done.groupby(point, sort=False, dropna=False) if point else [((), done)]
     rows = []
     for key, group in groups:
@@ -38,7 +68,11 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
         row["n"] = len(group)
         for name in measures:
             values = group[name].to_numpy(float)
-            values = values[np.isfinite(values)]
+            keep = np.isfinite(values)
+            converged = name.removesuffix(".mean") + ".converged"
+            if name.endswith(".mean") and converged in group.columns:
+                keep &= group[converged].to_numpy() == True  # noqa: E712 (a column of True, False or NaN)
+            values = values[keep]
             row[f"{name}.mean"] = values.mean() if len(values) else np.nan
             row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
             row[f"{name}.count"] = len(values)
@@ -47,7 +81,8 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
 
 
 def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwargs):
-    """`measure` mean against column `x` with standard-error bars (as the paper's Fig. 4); returns the Axes."""
+    """`measure` mean against column `x` with standard-error bars (as the paper's Fig. 4), both
+    axes labelled with name and unit; returns the Axes."""
     if ax is None:
         import matplotlib.pyplot as plt
 
@@ -56,19 +91,22 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
     mean, sem = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem"))
     ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=kwargs.pop("fmt", "o-"),
                 capsize=kwargs.pop("capsize", 3), **kwargs)
-    ax.set_xlabel(x)
-    ax.set_ylabel(measure)
+    ax.set_xlabel(label(x))
+    ax.set_ylabel(label(measure))
+    used = data[f"{measure}.count"].to_numpy()
+    ax.set_title(f"mean ± standard error; {used.min()}-{used.max()} values per point", fontsize="small")
     return ax
 
 
-def write_replica_stats(root: str | Path, table: pd.DataFrame, panels: int = 6) -> pd.DataFrame:
+def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
+                        panels: int = 6) -> pd.DataFrame:
     """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
     between replicas, against the first numeric swept field (or the point number), with
     standard-error bars. Returns the statistics."""
     from matplotlib.figure import Figure
 
     root = Path(root)
-    stats = replica_stats(table)
+    stats = replica_stats(table, measures)
     atomic_write(root / STATS_CSV, stats.to_csv(index=False))
     point = list(stats.columns[:list(stats.columns).index("n")])
     numeric = [c for c in point if pd.api.types.is_numeric_dtype(stats[c])]

@@ -1,0 +1,2 @@
+"""Ensembles: replicas of random chains (thermal motion, disorder), their means with standard
+errors: thermal."""

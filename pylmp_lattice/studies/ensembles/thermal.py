@@ -1,0 +1,129 @@
+"""Thermal motion and mass disorder (the paper's future work): the long lattice at V_I = 2 m/s
+(inputs/paper_long_lattice.toml), with V_P, the first peak and the wake's eta against the
+thermal RMS velocity (0 to 10 % of V_I) and against the magnets' mass disorder, each point the
+mean of its replicas with its standard error.
+
+Measures: V_P and first-peak plateaus from the engine's record (levels set against each
+member's noise velocity, `measures.levels`), each counted only where its plateau converged;
+eta of magnet 10's steady oscillation over the last fifth of the run (at least 3.5 linear
+periods), with the prominence set against the noise as well. A noise-free point (RMS 0, no
+disorder) is one run, shared by both axes, and equals the plain noise-free run (tested).
+Full: RMS 0, 0.5, 1, 2, 5, 10 % of V_I and mass disorder 0.5, 1, 2, 5, 10 % (normal), 8
+replicas each, 600 ms. Quick: RMS 0, 2, 10 %, disorder 5 %, 2 replicas, 150 ms.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ... import measures
+from ...deck import chain_noise
+from ...plots import pyplot
+from ...run_folder import RunFolder
+from ...sweep import replica_stats
+from ..output import StudyResult
+from ..scaffold import linear_constants, paper_dict, sweep_runs
+
+NAME = "thermal"
+VI = 2.0  # m/s
+PARTICLE = 9  # 0-based: magnet 10, whose wake oscillation gives eta (as in Fig. 4)
+WINDOW_PERIODS = 3.5  # the steady window spans at least this many linear periods 1/f0
+THERMAL, DISORDER = "chain.thermal_velocity", "chain.mass_disorder"
+VP, PEAK, ETA = "V_P_m_per_s", "first_peak_m_per_s", "eta"
+SEED = 2026
+UNITS = {THERMAL: "thermal_rms_m_per_s", DISORDER: "mass_disorder"}  # table columns with units
+
+
+def base_case(duration: float) -> dict:
+    """The paper's long lattice at V_I = 2 m/s (inputs/paper_long_lattice.toml), writing magnet 10
+    every 0.1 ms for eta and the whole chain only every 10 ms."""
+    return paper_dict(NAME, {"profile": "constant", "velocity": VI}, duration, output_interval=10.0,
+                      output={"fine": [PARTICLE + 1], "fine_interval": 0.1})
+
+
+def run(out: Path, quick: bool = False) -> StudyResult:
+    if quick:
+        rms, disorder, replicas, duration = [0.0, 0.02, 0.1], [0.05], 2, 150.0
+    else:
+        rms, disorder = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1], [0.005, 0.01, 0.02, 0.05, 0.1]
+        replicas, duration = 8, 600.0
+    # one sweep: the thermal axis (no disorder), then the disorder axis (no thermal motion)
+    points = [(f * VI, 0.0) for f in rms] + [(0.0, d) for d in disorder]
+    base = base_case(duration)
+    runs = sweep_runs(base, out / NAME, replicas=replicas, seed=SEED,
+                      zip={THERMAL: [p[0] for p in points], DISORDER: [p[1] for p in points]})
+    members = pd.DataFrame([_measure(r) for r in runs])
+    stats = replica_stats(members, [VP, PEAK, ETA])
+    quiet = stats[(stats[THERMAL] == 0) & (stats[DISORDER] == 0)].iloc[0]
+    thermal = stats[stats[DISORDER] == 0].sort_values(THERMAL)
+    mass = pd.concat([quiet.to_frame().T, stats[stats[DISORDER] > 0]]).sort_values(DISORDER)
+    v0, f0 = linear_constants(runs[0].member.case)
+    numbers = {
+        "V_I_m_per_s": VI, "duration_ms": duration, "replicas": replicas, "particle_for_eta": PARTICLE + 1,
+        "V0_m_per_s": v0, "f0_Hz": f0, "members": len(runs), "members_done": int(sum(r.done for r in runs)),
+        "noise_free": {VP: quiet[f"{VP}.mean"], PEAK: quiet[f"{PEAK}.mean"], ETA: quiet[f"{ETA}.mean"]},
+        "against_thermal_rms": _points(thermal, THERMAL), "against_mass_disorder": _points(mass, DISORDER),
+    }
+    tables = {"thermal": _table(thermal, THERMAL), "disorder": _table(mass, DISORDER),
+              "members": {UNITS.get(c, c): members[c].to_numpy() for c in members.columns}}
+    return StudyResult(NAME, numbers, tables=tables, figure=_figure(thermal, mass, quiet, v0, quick), quick=quick)
+
+
+def _measure(run) -> dict:
+    """A member's row: its point, replica, status; V_P and first peak (NaN unless converged), eta."""
+    p = run.member.params
+    row = {"id": run.member.id, THERMAL: p[THERMAL], DISORDER: p[DISORDER], "replica": p.get("replica", 0),
+           "status": run.status, VP: np.nan, PEAK: np.nan, ETA: np.nan, "noise_velocity_m_per_s": np.nan}
+    if not run.done:
+        return row
+    case, summary = run.member.case, run.summary
+    speed, peak = summary["shock_velocity_plateau_m_per_s"], summary["first_peak_velocity_plateau_m_per_s"]
+    traj = RunFolder(run.folder).trajectory("fine")
+    f0 = summary["linear_frequency_f0_Hz"]
+    end = case.run.duration
+    span = max(0.2 * end, WINDOW_PERIODS * 1e3 / f0)  # ms
+    noise = chain_noise(case)
+    steady = measures.steady_oscillation(traj.t, traj.v[:, 0], VI, (end - span, end), noise=noise)
+    return row | {VP: speed["mean"] if speed["converged"] else np.nan,
+                  PEAK: peak["mean"] if peak["converged"] else np.nan,
+                  ETA: steady.energy_ratio, "noise_velocity_m_per_s": noise}
+
+
+def _points(stats: pd.DataFrame, x: str) -> list[dict]:
+    return [{x: float(row[x]), "members": int(row["n"]),
+             **{name: {"mean": row[f"{name}.mean"], "stderr": row[f"{name}.sem"], "count": int(row[f"{name}.count"])}
+                for name in (VP, PEAK, ETA)}} for _, row in stats.iterrows()]
+
+
+def _table(stats: pd.DataFrame, x: str) -> dict:
+    out = {UNITS[x]: stats[x].to_numpy(float), "members": stats["n"].to_numpy(int)}
+    for name in (VP, PEAK, ETA):
+        out |= {f"{name}_mean": stats[f"{name}.mean"].to_numpy(float), f"{name}_stderr": stats[f"{name}.sem"].to_numpy(float),
+                f"{name}_count": stats[f"{name}.count"].to_numpy(int)}
+    return out
+
+
+def _figure(thermal, mass, quiet, v0, quick):
+    plt = pyplot()
+    fig, ax = plt.subplots(2, 3, figsize=(13, 7.5), layout="constrained")
+    axes = ((thermal, thermal[THERMAL].to_numpy(float) / VI * 100, "thermal RMS velocity (% of $V_I$)"),
+            (mass, mass[DISORDER].to_numpy(float) * 100, "mass disorder (relative std, %)"))
+    panels = ((VP, "shock velocity plateau $V_P$ (m/s)"), (PEAK, "first peak velocity (m/s)"),
+              (ETA, r"wake oscillation energy ratio $\eta$ (magnet 10)"))
+    for i, (stats, x, xlabel) in enumerate(axes):
+        for j, (name, ylabel) in enumerate(panels):
+            a = ax[i, j]
+            a.errorbar(x, stats[f"{name}.mean"].to_numpy(float), yerr=stats[f"{name}.sem"].to_numpy(float),
+                       fmt="o-", ms=4, capsize=3, label="mean ± standard error")
+            a.axhline(float(quiet[f"{name}.mean"]), color="k", ls=":", lw=1, label="noise-free run")
+            if name == PEAK:
+                a.axhline(2 * VI, color="C3", ls="--", lw=0.8, label="$2 V_I$")
+            a.set(xlabel=xlabel, ylabel=ylabel)
+            a.set_title(f"({'abcdef'[3 * i + j]})", loc="left")
+            a.legend(fontsize="x-small")
+    fig.suptitle(f"Long lattice, $V_I$ = {VI:g} m/s ($V_0$ = {v0:.3f} m/s): thermal motion and mass disorder"
+                 + (" (quick)" if quick else ""))
+    return fig

@@ -1,0 +1,152 @@
+"""Front measures that hold under noise: the levels (measures.levels), the chain's noise velocity,
+the flagged gaps, and the binding test of the engine's record against the array measures on
+noisy runs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import measures
+from pylmp_lattice.deck import chain_noise, render
+from pylmp_lattice.front_record import case_front, read_front_record
+from pylmp_lattice.serialize import dumps
+from pylmp_lattice.run_folder import simulate
+from pylmp_lattice.run_folder.layout import FRONT_BIN
+from pylmp_lattice.summary import summarize
+
+from conftest import make_case
+
+FRICTION = {"mu": 0.285, "p": 0.012}
+PULSE = {"profile": "sine", "velocity": 2.0, "duration": 10.0}
+NOISY = {"thermal_velocity": 0.1, "r0_disorder": 0.01, "seed": 7}  # 5 % of V_I = 2 m/s
+
+
+def test_levels_without_noise_are_the_fractions_of_V_I():
+    lv = measures.front_levels(2.0)
+    assert (lv.start, lv.front, lv.drop, lv.pulse_drop, lv.pulse_floor) == (0.02, 1.0, 0.1, 0.1, 0.0)
+
+
+def test_levels_rise_with_the_noise_as_multiples_of_sigma():
+    lv = measures.front_levels(2.0, noise=0.1)
+    assert lv.start == pytest.approx(0.5) and lv.front == 1.0  # 5 sigma; V_I/2 is larger
+    assert lv.drop == pytest.approx(0.3) and lv.pulse_floor == pytest.approx(0.3)  # 3 sigma
+    with pytest.raises(ValueError, match="noise: got -1"):
+        measures.front_levels(2.0, noise=-1.0)
+
+
+def test_noise_velocity_of_a_harmonic_chain_is_its_energy_above_rest():
+    """Linear spring U = k (r_free - r)^2 / 2: the disorder's energy is k/2 sum (r_n - mean r)^2
+    exactly, so sigma^2 = (sum m v^2 + k sum (r_n - mean)^2) / sum m over the free magnets."""
+    rng = np.random.default_rng(1)
+    m, v, r = 1.0 + 0.1 * rng.random(12), rng.normal(0, 0.05, 12), 10.0 + 0.2 * rng.standard_normal(11)
+    free = np.r_[False, np.ones(10, bool), False]
+    v[~free] = 0.0
+    k = 0.5
+    energy = lambda x: 0.5 * k * (30.0 - np.asarray(x)) ** 2  # noqa: E731
+    expected = np.sqrt((np.sum(m * v**2) + k * np.sum((r - r.mean()) ** 2)) / m[free].sum())
+    assert measures.noise_velocity(m, v, r, energy, free) == pytest.approx(expected, rel=1e-12)
+    assert measures.noise_velocity(m, 0 * v, np.full(11, 10.0), energy, free) == 0.0  # mass disorder alone
+
+
+def test_noise_velocity_of_a_thermal_chain_is_its_rms_velocity():
+    case = make_case(particles=200, chain={"thermal_velocity": 0.05, "seed": 3})
+    v = case.chain.velocities()[1:-1]
+    assert chain_noise(case) == pytest.approx(np.sqrt(np.mean(v**2)), rel=1e-12)
+    assert chain_noise(case) == pytest.approx(0.05, rel=0.15)  # the draw's RMS scatters about the nominal
+    assert chain_noise(make_case()) == 0.0
+
+
+def test_thermal_motion_is_not_a_start_of_motion():
+    """A magnet moving at 0.1 m/s before a front of 2 m/s arrives: with the noise-blind levels
+    (start 0.02 m/s) it 'starts' at t = 0 and its pulse 'arrives' at a thermal maximum; with
+    sigma = 0.1 m/s both wait for the front."""
+    t = np.linspace(0, 40, 4001)
+    thermal = 0.1 * np.sin(2 * np.pi * t / 7.0)
+    pulse = 2.0 * np.exp(-((t - 25.0) / 2.0) ** 2)
+    v = (thermal + pulse)[:, None]
+    blind = measures.arrival_times(t, v, 2.0, method="velocity_peak")
+    robust = measures.arrival_times(t, v, 2.0, method="velocity_peak", noise=0.1)
+    assert blind[0] < 5.0 and robust[0] == pytest.approx(25.0, abs=0.1)
+    peaks = measures.first_peaks(t, v, np.gradient(v, t, axis=0), 2.0, noise=0.1)
+    assert peaks.start_time[0] > 20.0
+
+
+def test_gaps_out_of_order_or_slower_than_linear_waves_are_flagged_not_averaged():
+    arrival = np.array([0.0, 3.0, 6.0, 5.5, 9.0, 20.0, 23.0, 26.0, 29.0])
+    peaks = measures.FirstPeaks(*(np.full(9, np.nan),) * 4)
+    front = measures.Front(arrival, measures.propagation_velocity(arrival, 12.0), peaks,
+                           slowest_linear_speed=1.6)
+    np.testing.assert_array_equal(np.flatnonzero(front.out_of_order), [2])  # gap 3: magnet 4 before 3
+    np.testing.assert_array_equal(np.flatnonzero(front.below_linear_speed), [4])  # 12 mm in 11 ms
+    assert np.isnan(front.accepted_velocity[[2, 4]]).all() and np.isfinite(front.accepted_velocity).sum() == 6
+    assert front.flags()["out_of_order_gaps"] == [3] and front.flags()["below_linear_speed_gaps"] == [5]
+
+
+def test_summary_has_no_inf_where_arrivals_coincide():
+    """Two magnets moving at t[0] gave V_P = inf over their gap, and shock_velocity_max inf in
+    the table (null in summary.json); the gap is now out of order, and no number is infinite."""
+    case = make_case(particles=10)
+    arrival = np.array([0.0, 0.0, 3.0, 6.0, 9.0, 12.0, 15.0, 18.0, 21.0, np.nan])
+    peaks = measures.FirstPeaks(*(np.full(10, 3.9),) * 4)
+    vp = measures.propagation_velocity(arrival, case.chain.gaps())
+    front = measures.Front(arrival, vp, peaks, slowest_linear_speed=1.6)
+    assert np.isinf(vp[0])
+    summary = summarize(case, front)
+    assert summary["shock_velocity_max_m_per_s"] == {"value": 4.0, "gap": 2}
+    assert summary["front_flags"]["out_of_order_gaps"] == [1]
+    json.loads(dumps(summary), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))
+
+
+def test_plateau_of_a_noisy_series_converges_within_its_standard_error():
+    """A flat series with 1 % scatter per value, window of 3 values (12 values): its drift is
+    about its standard error (median ratio 0.67 for a Gaussian; the error is itself estimated
+    from 4 second differences), so it is a plateau in 96 % of draws (measured over 2000), where
+    a 1 % tolerance alone accepts 53 %. A series growing by 5 % across its window, without
+    scatter, is not a plateau."""
+    rng = np.random.default_rng(0)
+    calls = [measures.trailing_plateau(3.6 * (1 + 0.01 * rng.standard_normal(12))) for _ in range(1000)]
+    assert np.mean([p.converged() for p in calls]) > 0.93
+    assert np.mean([abs(p.drift) <= 0.01 for p in calls]) < 0.6
+    assert np.median([abs(p.drift) / p.drift_stderr for p in calls]) == pytest.approx(0.67, abs=0.15)
+    growing = measures.trailing_plateau(np.linspace(3.0, 3.6, 12))
+    assert growing.drift_stderr == pytest.approx(0.0, abs=1e-12) and not growing.converged()
+
+
+def test_deck_passes_the_noise_levels_to_the_record():
+    deck = render(make_case(impactor=PULSE, chain=NOISY))["in.lattice"]
+    sigma = chain_noise(make_case(impactor=PULSE, chain=NOISY))
+    line = next(x for x in deck.splitlines() if "lattice/front" in x)
+    values = dict(zip(line.split()[4::2], map(float, line.split()[5::2])))
+    assert values["start"] == pytest.approx(5 * sigma) and values["pulse_floor"] == pytest.approx(3 * sigma)
+    assert values["front"] == pytest.approx(1.0) and values["drop"] == pytest.approx(max(0.1, 3 * sigma))
+    assert "pulse_floor" not in render(make_case(impactor=PULSE))["in.lattice"]
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("sections, method", [
+    ({}, "level"), ({"friction": FRICTION}, "level"), ({"impactor": PULSE}, "velocity_peak"),
+    ({"impactor": PULSE, "friction": FRICTION}, "velocity_peak"),
+], ids=["constant", "constant-friction", "pulse", "pulse-friction"])
+def test_record_equals_the_array_measures_on_noisy_runs(tmp_path, sections, method):
+    """The binding test of the one definition: on a chain with thermal motion (5 % of V_I) and
+    gap disorder, sampled at every step, the engine's record and the array measures agree to
+    1e-9; and the noise matters: with noise-blind levels the arrays would start most magnets at
+    t = 0."""
+    case = make_case(particles=40, duration=40.0, interval=0.01, chain=NOISY, **sections)
+    traj = simulate(case, tmp_path)
+    arrays = case_front(case, traj.t, traj.v, traj.a, method)
+    record = read_front_record(case, tmp_path / FRONT_BIN, method).front
+    assert record.noise == arrays.noise == chain_noise(case) > 0.05
+    assert np.sum(np.isfinite(record.peaks.peak_velocity)) >= 8 and np.sum(np.isfinite(record.arrival)) >= 8
+    p, q = arrays.peaks, record.peaks
+    for a, b in ((arrays.arrival, record.arrival), (p.start_time, q.start_time), (p.peak_time, q.peak_time),
+                 (p.peak_velocity, q.peak_velocity), (p.peak_acceleration, q.peak_acceleration)):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+        np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(record.out_of_order, arrays.out_of_order)
+    blind = measures.first_peaks(traj.t, traj.v, traj.a, 2.0)
+    assert np.sum(blind.start_time[1:] == traj.t[0]) > 10
+    assert not np.any(record.peaks.start_time[1:] == traj.t[0])

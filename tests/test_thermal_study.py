@@ -1,0 +1,52 @@
+"""`pylmp-lattice study thermal --quick`: ensembles of the long lattice under thermal motion and
+mass disorder; the zero-noise point is the noise-free run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pylmp_lattice import measures
+from pylmp_lattice.case import load_case
+from pylmp_lattice.run_folder import RunFolder, run_case
+from pylmp_lattice.studies import STUDIES, run_study
+from pylmp_lattice.studies.ensembles.thermal import PARTICLE, VI, WINDOW_PERIODS
+
+INPUTS = Path(__file__).parent.parent / "inputs"
+
+
+@pytest.mark.lammps
+def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
+    assert "thermal" in STUDIES
+    result = run_study("thermal", tmp_path, quick=True)
+    data = json.loads((tmp_path / "thermal.json").read_text())
+    assert data["quick"] is True and result.figure.get_suptitle().endswith("(quick)")
+    assert data["members"] == data["members_done"] == 1 + 2 * 2 + 2  # the noise-free point runs once
+
+    # the shipped long lattice, as long as the quick study, writing magnet 10 finely
+    case = load_case(INPUTS / "paper_long_lattice.toml",
+                     ["run.duration=150", f"output.fine=[{PARTICLE + 1}]", "output.fine_interval=0.1"])
+    summary = run_case(case, tmp_path / "plain", figure=False)
+    traj = RunFolder(tmp_path / "plain").trajectory("fine")
+    span = max(0.2 * 150, WINDOW_PERIODS * 1e3 / summary["linear_frequency_f0_Hz"])
+    eta = measures.steady_oscillation(traj.t, traj.v[:, 0], VI, (150 - span, 150)).energy_ratio
+    quiet = data["noise_free"]
+    assert quiet["V_P_m_per_s"] == summary["shock_velocity_plateau_m_per_s"]["mean"]
+    assert quiet["first_peak_m_per_s"] == summary["first_peak_velocity_plateau_m_per_s"]["mean"]
+    assert quiet["eta"] == eta
+    for axis in ("against_thermal_rms", "against_mass_disorder"):
+        first = data[axis][0]
+        assert first["V_P_m_per_s"]["mean"] == quiet["V_P_m_per_s"] and first["members"] == 1
+
+    # noisy points: two replicas each, with standard errors; V_P stays within 5 % of the noise-free
+    # value up to 10 % thermal RMS (quick: measured +2.6 %), and the first peak near 2 V_I
+    noisy = data["against_thermal_rms"][1:] + data["against_mass_disorder"][1:]
+    assert all(p["members"] == 2 and p["first_peak_m_per_s"]["count"] == 2 for p in noisy)
+    assert all(np.isfinite(p["first_peak_m_per_s"]["stderr"]) and p["first_peak_m_per_s"]["stderr"] > 0 for p in noisy)
+    for p in noisy:
+        assert p["V_P_m_per_s"]["mean"] == pytest.approx(quiet["V_P_m_per_s"], rel=0.05)
+        assert p["first_peak_m_per_s"]["mean"] == pytest.approx(2 * VI, rel=0.05)
+    assert [p["chain.thermal_velocity"] for p in data["against_thermal_rms"]] == [0.0, 0.04, 0.2]
