@@ -49,7 +49,7 @@ def test_bad_traces_are_refused():
 def lammps_rig(tmp_path_factory):
     """The package's S4 rig (LAMMPS, dt = 0.002 ms) at r1 = 30.1 and 249.5 mm, 1400 ms (both at
     rest from ~1300 ms): t (ms) and x (mm from the left magnet), every 0.5 ms."""
-    from pylmp_lattice.simulation import simulate
+    from pylmp_lattice.run_folder import simulate
     from pylmp_lattice.studies.paper.s4 import rig_case
 
     traces = {}
