@@ -10,12 +10,13 @@ import time
 import tracemalloc
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pylmp_lattice import deck, preflight
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.run_folder import RunFolder, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas
 from pylmp_lattice.run_folder import layout
 from pylmp_lattice.runner import run_embedded
 
@@ -185,3 +186,18 @@ def test_coarse_but_stable_dt_warns_with_the_expected_error(caplog):
     assert "1/f0 = 3.142 ms" in text and "0.67 %" in text and "dt <= 0.0628 ms" in text
     fine = make_case(particles=12, duration=10.0, dt=0.05, interval=0.1, chain={"mass": 1.0}, force=spring)
     assert preflight.coarse_dt_warning(fine) is None
+
+
+@pytest.mark.lammps
+def test_batched_replicas_with_masses_per_magnet_equal_their_single_runs(tmp_path):
+    """Three mass-disordered chains (seeds 1-3) in one LAMMPS instance: the data files' masses
+    per magnet are stacked with the atoms, and each replica's trajectory is its own run's."""
+    cases = [make_case(particles=21, duration=10.0, interval=0.5, output={"format": "text"},
+                       chain={"mass_disorder": 0.05, "seed": seed}) for seed in (1, 2, 3)]
+    batched = simulate_replicas(cases, tmp_path / "batched")
+    stacked = (tmp_path / "batched" / layout.DATA).read_text().split("MagnetMasses\n\n")[1].splitlines()
+    assert [int(line.split()[0]) for line in stacked] == list(range(1, 64))
+    for r, case in enumerate(cases):
+        single = simulate(case, tmp_path / f"single{r}")
+        assert np.max(np.abs(batched[r].v - single.v)) < 1e-11 and np.max(np.abs(single.v)) > 0.5
+    assert not np.array_equal(batched[0].v, batched[2].v)
