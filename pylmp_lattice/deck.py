@@ -26,6 +26,19 @@ from .table import KEYWORD, bond_table
 from .units import to_engine
 
 
+# A chain with more distinct masses than this (mass disorder) gives every magnet its own mass
+# (fix property/atom rmass, filled from the data file's MAGNET_MASSES section) under one atom
+# type: LAMMPS keeps arrays per pair of atom types, 16 bytes a pair (+238 MB at 4000 types).
+MAX_ATOM_TYPES = 16
+MAGNET_MASSES = "MagnetMasses"
+
+
+def per_atom_masses(case: Case) -> bool:
+    """Whether the deck gives masses per magnet (one atom type) rather than one type per mass."""
+    return bool(case.chain.mass_disorder) or (not np.isscalar(case.chain.mass)
+                                               and len(set(case.chain.mass)) > MAX_ATOM_TYPES)
+
+
 def _num(x) -> str:
     """A float as the shortest text that reads back to the same double."""
     return repr(float(x))
@@ -86,8 +99,10 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
     batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
     files = render(batch)
-    files[DECK] = deck_text(batch, replicas=len(cases)) + (_chain_work_lines(len(cases)) if front and first.friction else "")
-    files[DATA] = _stack_data([data_text(case) for case in cases])
+    per_atom = any(per_atom_masses(case) for case in cases)
+    files[DECK] = (deck_text(batch, replicas=len(cases), per_atom=per_atom)
+                   + (_chain_work_lines(len(cases)) if front and first.friction else ""))
+    files[DATA] = _stack_data([data_text(case, per_atom) for case in cases])
     if front:
         # each chain's own levels, as its deck alone gives them (they may follow its draw's noise):
         # one row per chain for fix lattice/front's `levels` file, when they differ
@@ -140,16 +155,17 @@ def _stack_data(texts: list[str]) -> str:
     height = yhi - ylo
     natoms = len(parsed[0][1]["Atoms"])
     nbonds = len(parsed[0][1].get("Bonds", []))
-    out = {"Atoms": [], "Velocities": [], "Bonds": []}
+    out = {"Atoms": [], "Velocities": [], MAGNET_MASSES: [], "Bonds": []}
     for r, (_, sections) in enumerate(parsed):
         local_type = {line.split()[0]: type_of[float(line.split()[1])] for line in sections["Masses"]}
         for line in sections["Atoms"]:
             i, _, t, x, y, *rest = line.split()
             out["Atoms"].append(" ".join([str(int(i) + r * natoms), str(r + 1), str(local_type[t]), x,
                                           _num(float(y) + r * height), *rest]))
-        for line in sections.get("Velocities", []):
-            i, *rest = line.split()
-            out["Velocities"].append(" ".join([str(int(i) + r * natoms), *rest]))
+        for name in ("Velocities", MAGNET_MASSES):
+            for line in sections.get(name, []):
+                i, *rest = line.split()
+                out[name].append(" ".join([str(int(i) + r * natoms), *rest]))
         for line in sections.get("Bonds", []):
             i, t, a, b = line.split()
             out["Bonds"].append(f"{int(i) + r * nbonds} {t} {int(a) + r * natoms} {int(b) + r * natoms}")
@@ -163,7 +179,7 @@ def _stack_data(texts: list[str]) -> str:
         "Masses", "", *(f"{type_of[m]} {_num(m)}" for m in masses), "",
         "Atoms # bond", "", *out["Atoms"],
     ]
-    for name in ("Velocities", "Bonds"):
+    for name in ("Velocities", "Bonds", MAGNET_MASSES):
         if out[name]:
             lines += ["", name, "", *out[name]]
     return "\n".join(lines) + "\n"
@@ -192,15 +208,18 @@ def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
     return header, sections
 
 
-def data_text(case: Case) -> str:
+def data_text(case: Case, per_atom: bool | None = None) -> str:
     """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg); for the stock
     engine bonds i-(i+1) of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
 
     Positions and masses include the chain's disorder and defect; a chain with thermal motion
-    gets a Velocities section (m/s) for its free magnets. Mass disorder makes one type per
-    magnet, and LAMMPS keeps some per-type-pair tables: fine up to a few thousand magnets."""
+    gets a Velocities section (m/s) for its free magnets. With per-atom masses (default
+    `per_atom_masses(case)`) every magnet is type 1 and its mass is in the MAGNET_MASSES section."""
     x = to_engine(case.chain.positions(), "length")
-    masses, types = np.unique(case.chain.masses(), return_inverse=True)
+    per_atom = per_atom_masses(case) if per_atom is None else per_atom
+    each = case.chain.masses()
+    masses, types = (each[:1], np.zeros(len(each), int)) if per_atom else np.unique(each, return_inverse=True)
+    magnet_masses = ["", MAGNET_MASSES, "", *(f"{i + 1} {_num(to_engine(m, 'mass'))}" for i, m in enumerate(each))]
     v = to_engine(case.chain.velocities(), "velocity")
     velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
     n = len(x)
@@ -232,13 +251,15 @@ def data_text(case: Case) -> str:
         "",
         *(f"{i + 1} 1 {t + 1} {_num(xi)} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
         *bonds,
+        *(magnet_masses if per_atom else []),
         *velocities,
     ]
     return "\n".join(lines) + "\n"
 
 
-def deck_text(case: Case, replicas: int = 1) -> str:
-    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas).
+def deck_text(case: Case, replicas: int = 1, per_atom: bool | None = None) -> str:
+    """The deck; `replicas` > 1 (chain engine): that many chains in the data file (see render_replicas);
+    per_atom: masses per magnet (default `per_atom_masses(case)`).
 
     Every value from the case is a validated number or choice, or the name (an identifier,
     checked again here) in a comment: no input can start a LAMMPS command."""
@@ -247,6 +268,7 @@ def deck_text(case: Case, replicas: int = 1) -> str:
     # H5MD output: a thermo row with every frame (the file's observables are the log's rows at its frames)
     thermo_every = run.steps("output_interval") if case.output.format == "h5md" else max(1, n_steps // 20)
     chain = uses_chain_engine(case)
+    per_atom = per_atom_masses(case) if per_atom is None else per_atom
     return f"""\
 # pylmp_lattice deck for case '{check_name(case.name)}'
 # Run it in this folder with:  lmp -in {DECK}
@@ -256,7 +278,7 @@ def deck_text(case: Case, replicas: int = 1) -> str:
 # The folder of this run's files: here, unless set on the command line (lmp -var {DIR_VARIABLE} PATH).
 variable        {DIR_VARIABLE} index .
 
-{_chain_sections(case, replicas) if chain else _stock_sections(case)}
+{_chain_sections(case, replicas, per_atom) if chain else _stock_sections(case, per_atom)}
 
 # ---- 5. Output: thermo with energies, {case.output.format} trajectory
 timestep        {_num(to_engine(run.dt, 'time'))}
@@ -281,12 +303,20 @@ atom_style      bond
 atom_modify     map array sort 0 0.0"""
 
 
+def _read_data(per_atom: bool) -> str:
+    if not per_atom:
+        return f"read_data       {in_deck(DATA)}"
+    return ("# one mass per magnet (mass disorder) and one atom type: LAMMPS keeps arrays per pair of types\n"
+            "fix             masses all property/atom rmass\n"
+            f"read_data       {in_deck(DATA)} fix masses NULL {MAGNET_MASSES}")
+
+
 def uses_chain_engine(case: Case) -> bool:
     """`run.engine = "chain"`, unless second neighbours need the stock path's second bonds."""
     return case.run.engine == "chain" and case.second_neighbour is None
 
 
-def _stock_sections(case: Case) -> str:
+def _stock_sections(case: Case, per_atom: bool) -> str:
     """Sections 1-4 of the stock engine: bonds with a table, fix nve, fix move, the guard."""
     run, n = case.run, case.chain.particles
     lo, hi = case.table_range()
@@ -296,7 +326,7 @@ def _stock_sections(case: Case) -> str:
     return f"""\
 # ---- 1. The chain: {n} magnets on the x axis, bonded to their nearest neighbours
 {_SYSTEM}
-read_data       {in_deck(DATA)}
+{_read_data(per_atom)}
 # Bonds act between consecutive magnets (type 1; type 2: second neighbours, if set) at every
 # separation; no pair style, so no other interaction exists. Ghosts must reach across the
 # longest bond on several ranks.
@@ -408,7 +438,7 @@ def _thermo_style(case: Case) -> str:
     )
 
 
-def _chain_sections(case: Case, replicas: int = 1) -> str:
+def _chain_sections(case: Case, replicas: int, per_atom: bool) -> str:
     """Sections 1-4 of the chain engine: one fix lattice/chain does the whole time step.
 
     `replicas` > 1: the data file holds that many chains of N magnets, IDs in blocks of N."""
@@ -430,7 +460,7 @@ def _chain_sections(case: Case, replicas: int = 1) -> str:
 # domains along x only; no reverse communication of forces (every force is set by its owner)
 processors      * 1 1
 newton          off
-read_data       {in_deck(DATA)}
+{_read_data(per_atom)}
 # Ghosts must reach across the longest separation on several ranks.
 comm_modify     cutoff {_num(1.05 * hi_si)}
 # fix lattice/chain finds neighbours by atom ID: the data file has no bonds, and without

@@ -22,7 +22,7 @@ import numpy as np
 
 from .case import Case
 from .errors import ConfigError
-from .deck import records_front
+from .deck import per_atom_masses, records_front
 from .exact import weak_shock
 from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
@@ -62,7 +62,7 @@ SMALL_FILES_BYTES = 150e3
 SAMPLE = 100_000
 # LAMMPS's per-rank memory for a chain ("Per MPI rank memory": 61 MB at 2e5 atoms), rounded up;
 # plus per pair of atom types two arrays of doubles (measured: 15 bytes per type pair, +238 MB
-# for 4000 types): one type per distinct mass, so mass disorder adds 16 N^2 bytes.
+# for 4000 types): one type per distinct mass, except with masses per magnet (deck.per_atom_masses).
 ENGINE_BYTES_PER_ATOM = 400
 ENGINE_BYTES_PER_TYPE_PAIR = 16
 # Reading a text dump back (the figure reads it) holds the text, its lines and the arrays:
@@ -164,7 +164,8 @@ class _ChainSample:
         gaps = next(chain._gaps(k - 1))
         self.x = to_engine(np.concatenate([[0.0], np.cumsum(gaps)]), "length")  # m, as in the data file
         self.mass = to_engine(next(chain._masses(k)), "mass")  # kg
-        self.types = n if chain.mass_disorder else len(np.unique(np.asarray(chain.mass)))
+        self.per_atom = per_atom_masses(case)
+        self.types = 1 if self.per_atom else len(np.unique(np.asarray(chain.mass)))
         # magnets whose two gaps differ in the engine's doubles feel a force from the first step
         spacing = np.diff(self.x)
         self.uneven = float(np.mean(spacing[1:] != spacing[:-1]))
@@ -199,7 +200,8 @@ class _ChainSample:
         bonds = 0 if uses_chain_engine(case) else n - 1 + (n - 2 if case.second_neighbour is not None else 0)
         bond_lines = _digits(bonds) + bonds * 5 + 2 * _digits(n) if bonds else 0
         velocities = _digits(n) + n * 26 if case.chain.thermal_velocity else 0
-        return 400 + self.types * 26 + atoms + bond_lines + velocities
+        masses = _digits(n) + n * (1 + _mean_len(repr, self.mass) + 1) if self.per_atom else 0
+        return 400 + self.types * 26 + atoms + bond_lines + velocities + masses
 
     def text_bytes(self, count: int, interval: float, atoms=None) -> float:
         """A text dump (DUMP_COLUMNS, %.12g): frame headers, lines at rest formatted exactly,
@@ -253,7 +255,7 @@ def _table_bytes(law, lo: float, hi: float, points: int) -> float:
 def estimate(case: Case, nprocs: int = 1) -> Estimate:
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)
-    types = n if case.chain.mass_disorder else len(np.unique(np.asarray(case.chain.mass)))
+    types = 1 if per_atom_masses(case) else len(np.unique(np.asarray(case.chain.mass)))
     memory = BASE_MEMORY_BYTES + ENGINE_BYTES_PER_ATOM * n + ENGINE_BYTES_PER_TYPE_PAIR * (types + 1) ** 2
     dump = files.get(DUMP, 0.0)
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0

@@ -73,8 +73,10 @@ def test_data_file_carries_disorder_and_velocities():
     atoms = text.split("Atoms # bond\n\n")[1].split("\n\n")[0].splitlines()
     x = np.array([float(line.split()[3]) for line in atoms])
     np.testing.assert_allclose(x * 1e3, case.chain.positions(), rtol=1e-15, atol=1e-12)
-    masses = dict(line.split() for line in text.split("Masses\n\n")[1].split("\n\n")[0].splitlines())
-    m = np.array([float(masses[line.split()[2]]) for line in atoms])
+    # mass disorder: every magnet its own mass (deck.per_atom_masses), one atom type
+    assert {line.split()[2] for line in atoms} == {"1"}
+    magnet_masses = text.split("MagnetMasses\n\n")[1].split("\n\n")[0].splitlines()
+    m = np.array([float(line.split()[1]) for line in magnet_masses])
     np.testing.assert_allclose(m * 1e3, case.chain.masses(), rtol=1e-15)
     vel = text.split("Velocities\n\n")[1].strip().splitlines()
     np.testing.assert_allclose([float(line.split()[1]) for line in vel], case.chain.velocities(), rtol=1e-15)

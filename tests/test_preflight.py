@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import logging
 import os
+import subprocess
+import sys
 import time
 import tracemalloc
+from pathlib import Path
 
+import numpy as np
 import pytest
 
-from pylmp_lattice import preflight
+from pylmp_lattice import deck, preflight
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.run_folder import RunFolder, simulate
+from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas
 from pylmp_lattice.run_folder import layout
 from pylmp_lattice.runner import run_embedded
 
@@ -89,12 +93,60 @@ def test_disordered_chain_is_validated_in_bounded_memory():
     assert case.chain.gap_range == (gaps.min(), gaps.max())
 
 
-def test_mass_disorder_memory_counts_the_type_pairs():
-    """One LAMMPS atom type per magnet: per-type-pair arrays of 16 bytes (measured +238 MB at
-    4000 types); a uniform chain has one type."""
+def test_type_pairs_are_counted_where_masses_are_per_type():
+    """LAMMPS keeps 16 bytes per pair of atom types: a chain of 12 distinct masses has 12 types;
+    mass disorder gives masses per magnet under one type, as a uniform chain has."""
     plain = preflight.estimate(make_case(particles=4000, duration=10.0))
     disordered = preflight.estimate(make_case(particles=4000, duration=10.0, chain={"mass_disorder": 0.01, "seed": 1}))
-    assert disordered.memory_bytes - plain.memory_bytes == pytest.approx(16 * (4001**2 - 2**2))
+    assert disordered.memory_bytes == plain.memory_bytes
+    twelve = make_case(particles=12, duration=10.0, chain={"mass": [1.0 + 0.01 * k for k in range(12)]})
+    one = make_case(particles=12, duration=10.0)
+    assert preflight.estimate(twelve).memory_bytes - preflight.estimate(one).memory_bytes == 16 * (13**2 - 2**2)
+
+
+MEMORY_RUN = """
+import resource, sys
+sys.path.insert(0, {tests!r})
+from conftest import make_case
+from pylmp_lattice.run_folder import execute
+chain = {{"mass_disorder": 0.02, "seed": 1}} if sys.argv[1] == "disorder" else {{}}
+execute(make_case(particles=int(sys.argv[2]), duration=0.1, output={{"format": "none"}}, chain=chain), sys.argv[3])
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+@pytest.mark.lammps
+def test_mass_disorder_memory_is_linear_in_n(tmp_path):
+    """A run's peak memory (RSS of a fresh process, 0.1 ms): 4000 and 8000 magnets with mass
+    disorder cost what a uniform chain of 8000 does, within 10 MB (per-type masses took
+    +238 MB at 4000 and would take +950 MB at 8000)."""
+    code = MEMORY_RUN.format(tests=str(Path(__file__).parent))
+    rss = {}
+    for kind, n in (("uniform", 8000), ("disorder", 4000), ("disorder", 8000)):
+        out = subprocess.run([sys.executable, "-c", code, kind, str(n), str(tmp_path / f"{kind}{n}")],
+                             capture_output=True, text=True, check=True)
+        rss[kind, n] = int(out.stdout.split()[-1])
+    assert rss["disorder", 8000] - rss["uniform", 8000] < 10e6, rss
+    assert rss["disorder", 8000] - rss["disorder", 4000] < 10e6, rss
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("engine", ["chain", "stock"])
+def test_masses_per_magnet_give_the_run_of_masses_per_type(tmp_path, engine):
+    """The same disordered chain (with friction on the chain engine) written with one atom type
+    per mass and with masses per magnet: the text dumps agree in every column but the type."""
+    case = make_case(particles=30, duration=5.0, output={"format": "text", "front": False}, run={"engine": engine},
+                     chain={"mass_disorder": 0.02, "seed": 3}, friction={"mu": 0.285} if engine == "chain" else {})
+    dumps = []
+    for per_atom in (True, False):
+        folder = RunFolder.create(case, tmp_path / str(per_atom)).path
+        (folder / layout.DECK).write_text(deck.deck_text(case, per_atom=per_atom))
+        (folder / layout.DATA).write_text(deck.data_text(case, per_atom))
+        run_embedded(folder)
+        lines = (folder / layout.DUMP).read_text().splitlines()
+        dumps.append([line.split()[:1] + line.split()[2:] if len(line.split()) == 12 else line for line in lines])
+    assert "MagnetMasses" in (tmp_path / "True" / layout.DATA).read_text()
+    assert dumps[0] == dumps[1]
 
 
 def test_run_larger_than_the_free_disk_is_refused_before_anything_is_written(tmp_path, monkeypatch):
@@ -134,3 +186,18 @@ def test_coarse_but_stable_dt_warns_with_the_expected_error(caplog):
     assert "1/f0 = 3.142 ms" in text and "0.67 %" in text and "dt <= 0.0628 ms" in text
     fine = make_case(particles=12, duration=10.0, dt=0.05, interval=0.1, chain={"mass": 1.0}, force=spring)
     assert preflight.coarse_dt_warning(fine) is None
+
+
+@pytest.mark.lammps
+def test_batched_replicas_with_masses_per_magnet_equal_their_single_runs(tmp_path):
+    """Three mass-disordered chains (seeds 1-3) in one LAMMPS instance: the data files' masses
+    per magnet are stacked with the atoms, and each replica's trajectory is its own run's."""
+    cases = [make_case(particles=21, duration=10.0, interval=0.5, output={"format": "text"},
+                       chain={"mass_disorder": 0.05, "seed": seed}) for seed in (1, 2, 3)]
+    batched = simulate_replicas(cases, tmp_path / "batched")
+    stacked = (tmp_path / "batched" / layout.DATA).read_text().split("MagnetMasses\n\n")[1].splitlines()
+    assert [int(line.split()[0]) for line in stacked] == list(range(1, 64))
+    for r, case in enumerate(cases):
+        single = simulate(case, tmp_path / f"single{r}")
+        assert np.max(np.abs(batched[r].v - single.v)) < 1e-11 and np.max(np.abs(single.v)) > 0.5
+    assert not np.array_equal(batched[0].v, batched[2].v)
