@@ -27,6 +27,7 @@ from .exact import weak_shock
 from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
 from .deck import uses_chain_engine
+from .ranks import rank_warnings
 from .table import bond_table
 from .units import to_engine
 
@@ -271,10 +272,8 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
     warn about many ranks and a coarse time step. Returns the estimate."""
     if not (isinstance(nprocs, int) and nprocs >= 1):
         raise ConfigError("--np", f"got {nprocs!r}; expected an integer >= 1")
-    cores = os.cpu_count() or 1
-    if nprocs > cores:
-        log.warning("--np %d is more than the %d cores of this machine: ranks will share cores and run slower",
-                    nprocs, cores)
+    for line in rank_warnings(case.chain.particles, nprocs):  # --np tells the truth
+        log.warning(line)
     est = estimate(case, nprocs)
     disk, memory = free_disk(folder), available_memory()
     if est.output_bytes > disk or (memory is not None and est.memory_bytes > memory):
