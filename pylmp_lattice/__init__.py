@@ -26,7 +26,7 @@ _API = {
     "Trajectory": "trajectory",
     "estimate": "preflight",
     "to_atoms": "ase_io", "write_trajectory": "ase_io", "case_from_atoms": "ase_io",
-    "measures": None, "plots": None, "errors": None,
+    "measures": None, "plots": None, "errors": None, "theory": None,
 }
 # pl.run is run_case; pl.read_run(folder) is RunFolder(folder), kept for earlier scripts
 _RENAMED = {"run": "run_case", "read_run": "RunFolder"}

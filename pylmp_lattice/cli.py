@@ -10,6 +10,7 @@ import argparse
 import dataclasses
 import json
 import logging
+import re
 import signal
 import sys
 from pathlib import Path
@@ -57,6 +58,8 @@ class _Parser(argparse.ArgumentParser):
     """A usage error is one line and exit 2, like every other bad input."""
 
     def error(self, message):
+        # argparse quotes every choice of a long list: 'fig1', 'fig2', ... reads as well without
+        message = re.sub(r"\(choose from (.*)\)", lambda m: "(choose from " + m.group(1).replace("'", "") + ")", message)
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {_one_line(Exception(message))}; see {self.prog} --help\n")
 
 

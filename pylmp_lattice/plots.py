@@ -21,6 +21,66 @@ def pyplot():
     return plt
 
 
+def style_figure(fig, what: str, quick: bool = False, stand_in: str | None = None, letters: str = "abcdefghijkl"):
+    """The package's figure style: panel letters in reading order, and a title saying the case
+    (`what`), whether it is a quick (small) version, and whether its impact is a stand-in.
+
+    Panels are the figure's main axes (not twins or colour bars), ordered by row, then column;
+    each gets "(letter)" at the left of its title, from `letters` (e.g. "bc" for a figure that
+    reproduces the paper's panels (b) and (c)). Returns the figure."""
+    for letter, ax in zip(letters, panels(fig)):
+        ax.set_title(f"({letter})", loc="left", fontweight="bold")
+    notes = (["quick version"] if quick else []) + ([f"stand-in impact: {stand_in}"] if stand_in else [])
+    fig.suptitle(what + (f"\n[{'; '.join(notes)}]" if notes else ""))
+    return fig
+
+
+def panels(fig) -> list:
+    """The figure's main axes in reading order: no twin axes (they share a panel), no colour bars."""
+    main = []
+    for ax in fig.axes:
+        if ax.get_label() == "<colorbar>" or any(t in main for t in ax._twinned_axes.get_siblings(ax)):
+            continue
+        main.append(ax)
+    # rows from the top (panels whose tops agree to 5 % of the figure), then left to right
+    return sorted(main, key=lambda ax: (-round(ax.get_position().y1 * 20), ax.get_position().x0))
+
+
+def accepted_velocity(front: measures.Front) -> np.ndarray:
+    """V_P over each gap with the gaps the front crossed out of order (magnet n+1 reached no
+    later than magnet n, e.g. a pulse's impactor peaking after magnet 2) as NaN: such a value
+    is not a front's speed, so it is neither drawn nor allowed to set an axis range."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.diff(front.arrival) > 0, front.propagation_velocity, np.nan)
+
+
+def twin_axis(ax, label: str, color: str = "C3"):
+    """A right-hand axis for a second quantity, its label and ticks in `color`."""
+    right = ax.twinx()
+    right.set_ylabel(label, color=color)
+    right.tick_params(axis="y", colors=color)
+    return right
+
+
+def separate(left, right, left_values, right_values, overlap: float = -0.2):
+    """Twin-axis data kept readable: the left axis's data in the upper part of the panel, the
+    right axis's in the lower part (overlapping by `overlap` of the height), each range set by
+    its own finite values; a negative overlap leaves a gap for a legend."""
+    for ax, values, (lo, hi) in ((left, left_values, (0.5 - overlap / 2, 0.97)),
+                                 (right, right_values, (0.03, 0.5 + overlap / 2))):
+        log = ax.get_yscale() == "log"
+        v = np.asarray(values, float)
+        v = v[np.isfinite(v) & (v > 0)] if log else v[np.isfinite(v)]
+        if v.size == 0:
+            continue
+        v = np.log10(v) if log else v
+        vmin, vmax = float(v.min()), float(v.max())
+        span = (vmax - vmin) or abs(vmax) or 1.0
+        scale = span / (hi - lo)
+        limits = np.array([vmin - lo * scale, vmax + (1 - hi) * scale])
+        ax.set_ylim(*(10**limits if log else limits))
+
+
 def velocity_profiles(t, v, particles, ax=None):
     """Fig. 3(a): v_n(t) of the chosen particles (0-based numbers; column k of v is particle
     particles[k]), m/s against ms."""
@@ -32,11 +92,15 @@ def velocity_profiles(t, v, particles, ax=None):
     return ax
 
 
-def propagation_velocity(vp, v0=None, ax=None):
-    """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1)."""
+def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0):
+    """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1); NaN
+    gaps are left out; `flagged`: how many were left out as flagged (`accepted_velocity`),
+    said in the legend."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
     ax.plot(n, vp, ".", ms=3, label="$V_P$ over gap n")
+    if flagged:
+        ax.plot([], [], " ", label=f"{flagged} gap{'s' if flagged > 1 else ''} crossed out of order: not drawn")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")
@@ -45,21 +109,24 @@ def propagation_velocity(vp, v0=None, ax=None):
     return ax
 
 
-def first_peaks(peaks: measures.FirstPeaks, ax=None, drive_velocity: float | None = None):
-    """Fig. 3(c): first peak velocity (left axis) and acceleration (right axis) against n,
-    with the saturation level 2 V_I when `drive_velocity` is given."""
+def first_peaks(peaks: measures.FirstPeaks, ax=None, saturation: float | None = None):
+    """Fig. 3(c): first peak velocity (left axis, upper part) and acceleration (right axis,
+    lower part) against n, with the level the first peaks saturate at (m/s; 2 V_I under a
+    constant drive without friction) drawn when given."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(peaks.peak_velocity) + 1)
-    handles = ax.plot(n, peaks.peak_velocity, ".", ms=3, color="C0", label="first peak velocity (left)")
-    if drive_velocity is not None:
-        handles.append(ax.axhline(2 * drive_velocity, color="k", ls=":", lw=1,
-                                  label=f"2 $V_I$ = {2 * drive_velocity:g} m/s"))
-    ax.set(xlabel="particle n", ylabel="first peak velocity (m/s)")
+    handles = ax.plot(n, peaks.peak_velocity, "o", ms=2.5, color="C0", label="first peak velocity (left)")
+    velocities = peaks.peak_velocity
+    if saturation is not None:
+        handles.append(ax.axhline(saturation, color="k", ls=":", lw=1, label=f"2 $V_I$ = {saturation:g} m/s"))
+        velocities = np.append(velocities, saturation)
+    ax.set(xlabel="magnet n", ylabel="first peak velocity (m/s)")
     _integer_ticks(ax)
-    right = ax.twinx()
-    handles += right.plot(n, peaks.peak_acceleration, ".", ms=3, color="C3", label="first peak acceleration (right)")
-    right.set_ylabel("first peak acceleration (m/s$^2$)", color="C3")
-    ax.legend(handles=handles, fontsize="small", loc="lower right")
+    right = twin_axis(ax, "first peak acceleration (m/s$^2$)")
+    handles += right.plot(n, peaks.peak_acceleration, "s", ms=2, mfc="none", color="C3",
+                          label="first peak acceleration (right)")
+    separate(ax, right, velocities, peaks.peak_acceleration)
+    ax.legend(handles=handles, fontsize="small", loc="center right")
     return ax
 
 
@@ -80,12 +147,14 @@ def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
 
 
 def shock_figure(profiles, particles, drive_velocity: float, front: measures.Front, v0: float | None = None,
-                 title: str | None = None):
+                 title: str | None = None, saturation: float | None = None):
     """The four panels of Fig. 3(a-d), lettered, under `title`; returns the Figure.
 
     profiles: a Trajectory of the chosen particles (their 0-based numbers in `particles`) for
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
-    front: the run's front measures for panels (b) and (c)."""
+    front: the run's front measures for panels (b) and (c), gaps crossed out of order left out
+    (`accepted_velocity`); saturation: the first peaks' limit (2 V_I for a constant drive
+    without friction; None: no such line, e.g. for a pulse)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(11, 8))
@@ -99,8 +168,9 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     else:
         velocity_profiles(profiles.t, profiles.v, particles, axes[0, 0])
         oscillation_peaks(profiles.t, profiles.v, particles, drive_velocity, axes[1, 1])
-    propagation_velocity(front.propagation_velocity, v0, axes[0, 1])
-    first_peaks(front.peaks, axes[1, 0], drive_velocity=drive_velocity)
+    shown = accepted_velocity(front)
+    propagation_velocity(shown, v0, axes[0, 1], int(np.sum(np.isnan(shown) & np.isfinite(front.propagation_velocity))))
+    first_peaks(front.peaks, axes[1, 0], saturation=saturation)
     for letter, ax in zip("abcd", axes.flat):
         ax.set_title(f"({letter})", loc="left", fontweight="bold", y=1.01)  # a fixed y: no search for the tick labels
     if title:

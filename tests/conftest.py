@@ -47,6 +47,24 @@ def case_factory():
     return make_case
 
 
+@pytest.fixture(scope="session")
+def quick_studies(tmp_path_factory):
+    """Run a study's quick version once per test session (tests/test_studies.py checks its
+    numbers, tests/test_figures.py its figure); returns its StudyResult."""
+    from pylmp_lattice.studies import run_study
+
+    out = tmp_path_factory.mktemp("studies")
+    done = {}
+
+    def get(name):
+        if name not in done:
+            done[name] = run_study(name, out, quick=True)
+        return done[name]
+
+    get.out = out
+    return get
+
+
 # Set on CI (.ci/run): SLURM that cannot start fails the slurm tests instead of skipping them.
 REQUIRE_SLURM = "PYLMP_LATTICE_REQUIRE_SLURM"
 

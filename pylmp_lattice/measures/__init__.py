@@ -28,6 +28,7 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
 from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front
+from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion  # noqa: F401 (Fig. S4 calibration)
 from .levels import (
     FRONT_FRACTION, NOISE_FALL, NOISE_LEVEL, PROMINENCE, PULSE_DROP, START_FRACTION, FrontLevels, front_levels,
     noise_velocity,

@@ -360,8 +360,11 @@ class RunFolder:
         case, front = self.case, self.front()
         vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+        # the first peaks saturate at 2 V_I under a steady drive without friction only
+        steady = case.impactor.profile in ("constant", "ramp") and case.friction is None
+        saturation = 2 * vi if steady else None
         if case.output.format == "none":
-            return shock_figure(None, [], vi, front, v0, title=title)
+            return shock_figure(None, [], vi, front, v0, title=title, saturation=saturation)
         if case.output.fine:
             chosen = sorted(n - 1 for n in case.output.fine)
             profiles = self.trajectory("fine")
@@ -370,7 +373,7 @@ class RunFolder:
             last = int(reached[-1]) if reached.size else 0
             chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
             profiles = self.trajectory("chain", chosen)
-        return shock_figure(profiles, chosen, vi, front, v0, title=title)
+        return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
 _BINARIES = {"chain": layout.TRAJ_BIN, "fine": layout.FINE_BIN}

@@ -2,8 +2,8 @@
 `run(out, quick) -> StudyResult`.
 
 Layout: `paper/` (one module per figure of the paper: fig1-4, s3-s9, movies), `literature/`
-(harmonic, toda, hugoniot), `ensembles/` (replicas of random chains: thermal), on one scaffold: `scaffold` (the paper's constants, the chains as
-cases, runs of many cases), `long_lattice` (Fig. 3's measures and panels, shared by fig3 and
+(harmonic, toda, hugoniot, dsw), `ensembles/` (replicas of random chains: thermal), on one
+scaffold: `scaffold` (the paper's constants, the chains as cases, runs of many cases), `long_lattice` (Fig. 3's measures and panels, shared by fig3 and
 s5), `output` (the one writer). Studies call measures (`pylmp_lattice.measures`) and the
 scaffold, never each other.
 
@@ -46,10 +46,11 @@ STUDIES: dict[str, str] = {
     "harmonic": "The harmonic chain driven by a piston, against its exact (Bessel) solution",
     "toda": "The Toda lattice: soliton speed, and the piston problem's wake, period two and lead soliton",
     "hugoniot": "Hugoniots of the magnet, Toda, Lennard-Jones and Morse chains; jump conditions; wake energy",
+    "dsw": "Dispersive-shock theory against simulation: V_P, wake frequency and gap, eta and V*, first peaks",
     "thermal": "Thermal motion and mass disorder: V_P, first peak and eta of the long lattice (ensembles)",
     "all": "every study above, into one folder",
 }
-LITERATURE = ("harmonic", "toda", "hugoniot")
+LITERATURE = ("harmonic", "toda", "hugoniot", "dsw")
 ENSEMBLES = ("thermal",)
 # name -> the subpackage that holds it ("" for `all`, which lives beside the scaffold)
 ORIGIN = {name: "literature" if name in LITERATURE else "ensembles" if name in ENSEMBLES else "" if name == "all"

@@ -46,25 +46,30 @@ def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
     write never leaves half a file, and a replaced file is reported in the log."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    files = {}
+    files, replaced = {}, []
     for key, columns in result.tables.items():
-        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c))
+        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c),
+                                         replaced)
     if result.figure is not None:
         from ..plots import pyplot
 
         for ext in ("png", "pdf"):
-            files[ext] = _replace(out / f"{result.name}.{ext}", lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e))
+            save = lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e)  # noqa: E731
+            files[ext] = _replace(out / f"{result.name}.{ext}", save, replaced)
         pyplot().close(result.figure)  # saved: pyplot need not keep it (`study all` draws dozens)
     data = result.to_dict() | {"files": {k: p.name for k, p in files.items()}}
-    files["json"] = _replace(out / f"{result.name}.json", lambda p: p.write_text(dumps(data) + "\n"))
+    files["json"] = _replace(out / f"{result.name}.json", lambda p: p.write_text(dumps(data) + "\n"), replaced)
+    if replaced:
+        log.info("study %s: replaced %s in %s", result.name, ", ".join(replaced), out)
     return files
 
 
-def _replace(path: Path, write) -> Path:
+def _replace(path: Path, write, replaced: list) -> Path:
+    """Write `path` through a partial file renamed over it; a replaced file's name joins `replaced`."""
     tmp = path.with_name(f".{path.name}.partial")
     write(tmp)
     if path.exists():
-        log.info("replacing %s", path)
+        replaced.append(path.name)
     os.replace(tmp, path)
     return path
 

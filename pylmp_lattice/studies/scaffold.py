@@ -53,6 +53,7 @@ SECTIONS = ("chain", "force", "impactor", "run", "table", "friction")
 # The 21-magnet experiment (Fig. 1): its impact u1(t) is not published, so a half-sine velocity
 # pulse stands in for it (peak 2.81 m/s, rising in 23.9 ms, the paper's magnet-1 rise time).
 EXPERIMENT_PEAK, EXPERIMENT_RISE = 2.81, 23.9  # m/s, ms
+EXPERIMENT_STAND_IN = f"half-sine pulse, peak {EXPERIMENT_PEAK:g} m/s, rise {EXPERIMENT_RISE:g} ms"
 
 
 def paper_case(name: str, impactor: dict, duration: float, **options) -> Case:

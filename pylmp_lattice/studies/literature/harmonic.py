@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...exact import harmonic_overshoot_limit, harmonic_piston_velocity
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ..output import StudyResult
 from ..scaffold import MAGNET_STIFFNESS, chain_case, run_cases
 from ..scaffold import MASS as MAGNET_MASS
@@ -85,21 +85,24 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     # (a) the last run, point by point
     for k in (1, 10, 30, 60):
         if k < len(n):
-            axes[0, 0].plot(traj.t, traj.v[:, k] / u_p, ".", ms=1.5)
-            axes[0, 0].plot(traj.t, exact[:, k] / u_p, "k-", lw=0.5)
-    axes[0, 0].set(xlabel="t (ms)", ylabel="$v_n / u_p$", title=f"n = 1, 10, 30, 60 (dots: LAMMPS, lines: exact), $u_p$ = {u_p:g} m/s")
+            axes[0, 0].plot(traj.t, traj.v[:, k] / u_p, ".", ms=1.5, label=f"n = {k} (LAMMPS)")
+            axes[0, 0].plot(traj.t, exact[:, k] / u_p, "k-", lw=0.5, label="exact" if k == 1 else None)
+    axes[0, 0].set(xlabel="t (ms)", ylabel="$v_n / u_p$", title=f"against the exact chain, $u_p$ = {u_p:g} m/s")
+    axes[0, 0].legend(fontsize="x-small", markerscale=4)
     axes[0, 1].set(xlabel="t (ms)", ylabel="max$_n$ |v - exact| / $u_p$", title=f"error over particles 0-{PARTICLES - 31}")
     axes[0, 1].legend(fontsize="small")
     n_line = np.arange(1, 90)
     t_long = np.linspace(0.0, 3 * n_line[-1] / omega, 6001)
     axes[1, 0].plot(n_line, harmonic_piston_velocity(n_line, t_long, 1.0, omega).max(axis=0), "k-", lw=0.8, label="exact")
     axes[1, 0].axhline(limit, color="k", ls=":", label=f"far-field limit {limit:.4f}")
-    axes[1, 0].set(xlabel="particle n", ylabel="first peak / $u_p$", title="overshoot (same for every $u_p$)")
+    axes[1, 0].set(xlabel="particle n", ylabel="first peak velocity / $u_p$", title="overshoot (same for every $u_p$)")
     axes[1, 0].legend(fontsize="small")
     tt = np.array([mids[0], mids[-1]])
     axes[1, 1].loglog(tt, amps[0] / velocities[-1] * (tt / tt[0]) ** -1.5, "k--", label="$t^{-3/2}$")
     axes[1, 1].set(xlabel="t (ms)", ylabel="max |$v_5 - u_p$| / $u_p$ per period", title="the wake at particle 5 decays")
     axes[1, 1].legend(fontsize="small")
+    style_figure(fig, f"Harmonic chain (the paper's linear lattice), {PARTICLES} particles, far end held, "
+                 f"piston $u_p$, {duration:g} ms", quick=quick)
     numbers = {
         "chain": {"k_N_per_mm": MAGNET_STIFFNESS, "mass_g": MAGNET_MASS, "r0_mm": MAGNET_R0, "particles": PARTICLES,
                   "omega_rad_per_ms": omega, "duration_ms": duration, "dt_ms": 0.01},

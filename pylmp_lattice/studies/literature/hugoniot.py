@@ -27,7 +27,7 @@ import numpy as np
 
 from ...exact import jump, toda_lead_soliton, wake_energy, weak_shock
 from ...measures import wake_state
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ..output import StudyResult
 from ..scaffold import CHAINS, chain_case, run_cases
 
@@ -87,7 +87,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             "fit_lower_half": {"c0_m_per_s": float(fit_small[1]), "s": float(fit_small[0]),
                                "u_p_max_m_per_s": float(u[small].max())},
         }
-    fig = _figure(rows, theory)
+    fig = style_figure(_figure(rows, theory), "Hugoniots: long lattices pushed at $u_p$ ($U_s$, jump conditions, "
+                       "wake energy)", quick=quick)
     table = {key: [r.get(key) for r in rows] for key in rows[0] if key != "wake_gaps"}
     table["lead_soliton_speed_m_per_s"] = [r.get("lead_soliton_speed_m_per_s") for r in rows]
     numbers = {
@@ -95,10 +96,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                        "duration_ms": plans[c][1], "dt_ms": plans[c][2]} for c in plans},
         "theory_and_fits": theory, "points": rows,
     }
+    if quick:
+        numbers["quick_cannot_show"] = {"chains": "the Lennard-Jones and Morse chains (full study only)"}
     return StudyResult(NAME, numbers, tables={"points": table}, figure=fig, quick=quick)
 
 
 def _figure(rows, theory):
+    from matplotlib.ticker import NullFormatter
+
     plt = pyplot()
     chains = list(theory)
     fig, axes = plt.subplots(2, len(chains), figsize=(4.2 * len(chains), 7.5), layout="constrained", squeeze=False)
@@ -116,11 +121,12 @@ def _figure(rows, theory):
                 label=f"fit: {th['fit_all']['c0_m_per_s']:.3f} + {th['fit_all']['s']:.3f} $u_p$")
         if chain == "toda":
             ax.plot(line[1:], CHAINS["toda"][1] * toda_lead_soliton(line[1:])[1], "r-", lw=0.8, label="exact lead soliton")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="speed (m/s)", title=chain)
+        ax.set(xlabel="$u_p$ (m/s)", ylabel="speed (m/s)", title=f"{chain}: front and jump speeds")
         ax.legend(fontsize="x-small")
         ax = axes[1, k]
         ax.loglog(u, [r["wake_oscillation_energy_mJ"] for r in mine], "o", label="wake oscillation energy")
         ax.loglog(u, [max(r["energy_jump_mJ"], 1e-12) for r in mine], "k^", mfc="none", label="energy jump condition")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="energy per particle (mJ)")
+        ax.set(xlabel="$u_p$ (m/s)", ylabel="energy per particle (mJ)", title=f"{chain}: the wake's energy")
+        ax.xaxis.set_minor_formatter(NullFormatter())  # crowded minor labels on a short log axis
         ax.legend(fontsize="x-small")
     return fig

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...exact import toda_lead_soliton, toda_piston_wake, toda_soliton, toda_soliton_speed
 from ...measures import centroid_speed, lead_pulse, staggered_amplitude
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ..output import StudyResult
 from ..scaffold import CHAINS, chain_case, run_cases
 
@@ -89,26 +89,29 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), layout="constrained")
     k_line = np.linspace(0.1, max(kappas) * 1.05, 200)
-    axes[0, 0].plot(k_line, toda_soliton_speed(k_line), "k-", lw=0.8, label="sinh(k)/k")
+    axes[0, 0].plot(k_line, toda_soliton_speed(k_line), "k-", lw=0.8, label=r"$\sinh(\kappa)/\kappa$")
     axes[0, 0].plot([s["kappa"] for s in solitons], [s["speed_sites_per_ms"] for s in solitons], "o", label="LAMMPS")
-    axes[0, 0].set(xlabel="k", ylabel="soliton speed (sites per unit time)", title="one soliton")
+    axes[0, 0].set(xlabel=r"$\kappa$", ylabel="soliton speed (sites/ms)", title="one soliton")
     axes[0, 0].legend(fontsize="small")
     u = np.array([p["u_p"] for p in pistons])
     u_line = np.linspace(0.0, max(u) * 1.05, 200)
-    axes[0, 1].plot(u_line, np.where(u_line < 2, (1 + u_line / 2) ** 2, np.nan), "k-", lw=0.8, label="(1 + u_p/2)^2")
+    axes[0, 1].plot(u_line, np.where(u_line < 2, (1 + u_line / 2) ** 2, np.nan), "k-", lw=0.8, label="$(1 + u_p/2)^2$")
     axes[0, 1].plot(u, [np.exp(-p["mean_r_gaps_0_9"]) for p in pistons], "o", label="LAMMPS, gaps 0-9, last 10 units")
-    axes[0, 1].axvline(2.0, color="k", ls=":", lw=0.8)
-    axes[0, 1].set(xlabel="piston speed $u_p$", ylabel="mean exp(-r) next to the piston", title="the wake")
+    axes[0, 1].axvline(2.0, color="k", ls=":", lw=0.8, label="critical speed 2")
+    axes[0, 1].set(xlabel="piston speed $u_p$ (m/s)", ylabel="mean $\\exp(-r)$ next to the piston", title="the wake")
     axes[0, 1].legend(fontsize="small")
-    axes[1, 0].semilogy(u, [p["staggered_t_half"] for p in pistons], "s", label=f"t = {duration / 2:g}")
-    axes[1, 0].semilogy(u, [p["staggered_t_end"] for p in pistons], "o", label=f"t = {duration:g}")
+    axes[1, 0].semilogy(u, [p["staggered_t_half"] for p in pistons], "s", label=f"t = {duration / 2:g} ms")
+    axes[1, 0].semilogy(u, [p["staggered_t_end"] for p in pistons], "o", label=f"t = {duration:g} ms")
     axes[1, 0].axvline(2.0, color="k", ls=":", lw=0.8, label="critical speed 2")
-    axes[1, 0].set(xlabel="piston speed $u_p$", ylabel="max |r_(n+1) - r_n|, gaps 0-5",
+    axes[1, 0].set(xlabel="piston speed $u_p$ (m/s)", ylabel="max $|r_{n+1} - r_n|$, gaps 0-5 (mm)",
                    title="period two: relaxes below 2, persists above")
     axes[1, 0].legend(fontsize="small")
-    axes[1, 1].plot(u_line[1:], toda_lead_soliton(u_line[1:])[1], "k-", lw=0.8, label="lead soliton sinh(k)/k, cosh k = 1 + u_p")
+    axes[1, 1].plot(u_line[1:], toda_lead_soliton(u_line[1:])[1], "k-", lw=0.8,
+                    label=r"lead soliton $\sinh(\kappa)/\kappa$, $\cosh\kappa = 1 + u_p$")
     axes[1, 1].plot(u, [p["front_speed_sites_per_ms"] for p in pistons], "o", label="LAMMPS front")
-    axes[1, 1].set(xlabel="piston speed $u_p$", ylabel="front speed (sites per unit time)", title="the front")
+    axes[1, 1].set(xlabel="piston speed $u_p$ (m/s)", ylabel="front speed (sites/ms)", title="the front")
+    style_figure(fig, f"Toda lattice (m = A = B = 1, a = {A_GAP:g} mm): a soliton, and the piston problem over "
+                 f"{duration:g} ms", quick=quick)
     axes[1, 1].legend(fontsize="small")
     numbers = {
         "units": "m = A = B = 1 (g, N, 1/mm): time in ms, velocity in m/s, r = gap - a in mm",

@@ -16,11 +16,12 @@ from pathlib import Path
 import numpy as np
 
 from ... import measures
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import EXPERIMENT_PEAK as VI
 from ..scaffold import EXPERIMENT_RISE as RISE
+from ..scaffold import EXPERIMENT_STAND_IN as STAND_IN
 from ..scaffold import MAGNET_LENGTH, R0, experiment_case
 
 NAME = "fig1"
@@ -55,20 +56,23 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "V_P_over_centre_spacing_r0_plus_L_m_per_s": {
             k: f.velocity * (R0 + MAGNET_LENGTH) / R0 for k, f in speeds["velocity_peak"].items()},
         "paper": PAPER,
+        "stand_in_impact": STAND_IN,
     }
     tables = {"magnets": {"n": np.arange(1, len(rise) + 1), "start_time_ms": peaks.start_time,
                           "first_peak_time_ms": peaks.peak_time, "first_peak_velocity_m_per_s": peaks.peak_velocity,
                           "rise_time_ms": rise}}
-    return StudyResult(NAME, numbers, tables=tables, figure=figure(t, x, v), quick=quick)
+    return StudyResult(NAME, numbers, tables=tables, figure=figure(t, x, v, quick), quick=quick)
 
 
-def figure(t, x, v):
+def figure(t, x, v, quick):
+    """The paper's panels (b) and (c)."""
     plt = pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(12, 5.5), layout="constrained")
     left.plot(x, t, color="k", lw=0.8)
-    left.set(title="(b) magnet trajectories", xlabel="x (mm)", ylabel="t (ms)", ylim=(t[-1], t[0]))
+    left.set(title="magnet trajectories", xlabel="x (mm)", ylabel="t (ms)", ylim=(t[-1], t[0]))
     for n in PROFILES:
         right.plot(t, v[:, n], lw=0.8, label=f"n = {n + 1}")
-    right.set(title="(c) velocity profiles", xlabel="t (ms)", ylabel="v (m/s)")
+    right.set(title="velocity profiles", xlabel="t (ms)", ylabel="v (m/s)")
     right.legend(fontsize="small")
-    return fig
+    return style_figure(fig, "Fig. 1: the 21-magnet experiment (model), calibrated friction, magnet 21 fixed",
+                        quick=quick, stand_in=STAND_IN, letters="bc")

@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from ...forcelaw import fit_power_law
-from ...plots import pyplot
+from ...plots import pyplot, separate, style_figure, twin_axis
 from ...run_folder import simulate
 from ..output import StudyResult
+from ..scaffold import EXPERIMENT_STAND_IN as STAND_IN
 from ..scaffold import PAPER_LAW, R0, experiment_case
 
 NAME = "fig2"
@@ -48,19 +49,21 @@ def run(out: Path, quick: bool = False) -> StudyResult:
               "samples": {"r_mm": r, "F_noisy_N": samples, "F_fit_N": fit.law.force(r)}}
     plt = pyplot()
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")
-    ax[0].semilogy(r, samples, ".", ms=4, label=f"samples ({NOISE:.0%} noise)")
-    ax[0].semilogy(grid, law.force(grid), "k-", lw=1, label="F = K/(r+b)$^q$")
-    ax[0].semilogy(grid, fit.law.force(grid), "C1--", lw=1, label=f"fit: q = {fit.law.q:.3f}")
-    ax[0].set(title="(a) force and stiffness", xlabel="separation r (mm)", ylabel="F (N)")
-    ax[0].legend(fontsize="small")
-    right = ax[0].twinx()
-    right.semilogy(grid, law.stiffness(grid), "C3-", lw=1)
-    right.set_ylabel("stiffness -dF/dr (N/mm)", color="C3")
+    handles = ax[0].semilogy(r, samples, ".", ms=4, label=f"F: samples ({NOISE:.0%} noise)")
+    handles += ax[0].semilogy(grid, law.force(grid), "k-", lw=1, label="F = K/(r+b)$^q$ (left)")
+    handles += ax[0].semilogy(grid, fit.law.force(grid), "C1--", lw=1, label=f"fit: q = {fit.law.q:.3f}")
+    ax[0].set(title="force and stiffness", xlabel="separation r (mm)", ylabel="F (N)")
+    right = twin_axis(ax[0], "stiffness $-dF/dr$ (N/mm)")
+    handles += right.semilogy(grid, law.stiffness(grid), "C3-.", lw=1.2, label="stiffness $-dF/dr$ (right)")
+    separate(ax[0], right, np.append(samples, law.force(grid)), law.stiffness(grid))
+    ax[0].legend(handles=handles, fontsize="small", loc="center left")
     for n in SHOWN:
         ax[1].plot(traj.t, traj.v[:, n], lw=0.8, label=f"n = {n + 1}")
         ax[2].plot(traj.t, traj.a[:, n], lw=0.8, label=f"n = {n + 1}")
-    ax[1].set(title="(b, c) velocity (model)", xlabel="t (ms)", ylabel="v (m/s)")
-    ax[2].set(title="(d) acceleration (model)", xlabel="t (ms)", ylabel="a (m/s$^2$)")
+    ax[1].set(title="velocity (model; the paper's (b, c))", xlabel="t (ms)", ylabel="v (m/s)")
+    ax[2].set(title="acceleration (model; the paper's (d))", xlabel="t (ms)", ylabel="a (m/s$^2$)")
     ax[1].legend(fontsize="small")
     ax[2].legend(fontsize="small")
-    return StudyResult(NAME, numbers, tables=tables, figure=fig, quick=quick)
+    style_figure(fig, "Fig. 2: the force law; magnets 2 and 8 of the 21-magnet experiment (model)", quick=quick,
+                 stand_in=STAND_IN)
+    return StudyResult(NAME, numbers | {"stand_in_impact": STAND_IN}, tables=tables, figure=fig, quick=quick)

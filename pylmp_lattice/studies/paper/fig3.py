@@ -25,6 +25,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 200.0 if quick else 600.0
     case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
     traj = simulate(case, out / NAME / case.name, overwrite=True)
-    result = analyse(NAME, traj, case, VI, duration, quick)
+    result = analyse(NAME, f"Fig. 3: long lattice, constant $V_I$ = {VI:g} m/s, no friction, {duration:g} ms", traj,
+                     case, VI, duration, quick)
     result.numbers["paper"] = PAPER
     return result

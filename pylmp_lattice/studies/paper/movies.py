@@ -8,17 +8,20 @@ the transition zone between them is seen to grow. Quick: 6 frames, and 100 ms of
 
 from __future__ import annotations
 
+import logging
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from ... import measures
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ...run_folder import simulate
 from ..output import StudyResult
-from ..scaffold import experiment_case, paper_case
+from ..scaffold import EXPERIMENT_STAND_IN, experiment_case, paper_case
 
 NAME = "movies"
+log = logging.getLogger(__name__)
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
@@ -49,8 +52,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     files["S2"] = _save(anim, out / f"movie_S2.{fmt}", fmt, fps)
     stills.append(fig)
 
-    still = stills[1]  # the last frame of S2 stands for the movies in NAME.png
-    numbers = {"format": fmt, "frames": frames, "fps": fps, "movie_files": {k: p.name for k, p in files.items()},
+    # the last frame of S2 stands for the movies in NAME.png
+    still = style_figure(stills[1], "Movie S2 (last frame)", quick=quick, letters="")
+    numbers = {"stand_in_impact_S1": EXPERIMENT_STAND_IN,
+               "format": fmt, "frames": frames, "fps": fps, "movie_files": {k: p.name for k, p in files.items()},
                "ffmpeg_available": fmt == "mp4"}
     return StudyResult(NAME, numbers, figure=still, quick=quick)
 
@@ -64,9 +69,36 @@ def _save(anim, path: Path, fmt: str, fps: int) -> Path:
 
     writer = animation.FFMpegWriter(fps=fps) if fmt == "mp4" else animation.PillowWriter(fps=fps)
     tmp = path.with_name(f".{path.name}.partial.{fmt}")
-    anim.save(tmp, writer=writer, dpi=80)
+    with _progress(path.name) as step:
+        anim.save(tmp, writer=writer, dpi=80, progress_callback=step)
     tmp.replace(path)
     return path
+
+
+class _progress:
+    """Frames drawn so far: a bar on a terminal (tqdm), else a log line at each quarter, so a
+    log file gets plain lines and no carriage returns."""
+
+    def __init__(self, name: str):
+        self.name, self.bar, self.said = name, None, 0
+
+    def __enter__(self):
+        return self.step
+
+    def step(self, frame: int, total: int) -> None:
+        if sys.stderr.isatty():
+            if self.bar is None:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=total, desc=f"movie {self.name}", unit="frame", file=sys.stderr, leave=False)
+            self.bar.update(frame + 1 - self.bar.n)
+        elif 4 * (frame + 1) >= (self.said + 1) * total:
+            self.said = 4 * (frame + 1) // total
+            log.info("movie %s: %d/%d frames", self.name, frame + 1, total)
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _movie_s1(plt, traj, frames):
@@ -85,7 +117,7 @@ def _movie_s1(plt, traj, frames):
     def draw(i):
         dots.set_offsets(np.column_stack([x[i], np.zeros(x.shape[1])]))
         dots.set_array(traj.v[i])
-        label.set_text(f"Movie S1 (model): 21 magnets, t = {traj.t[i]:.1f} ms")
+        label.set_text(f"Movie S1 (model, stand-in impact): 21 magnets, t = {traj.t[i]:.1f} ms")
         return dots, label
 
     anim = animation.FuncAnimation(fig, draw, frames=frames, blit=False)
@@ -102,8 +134,8 @@ def _movie_s2(plt, traj, vi, arrival, onset, frames):
     (line,) = ax.plot(n[:last], traj.v[0, :last], lw=0.8)
     front = ax.axvline(0, color="C3", lw=1, label="front")
     settled = ax.axvline(0, color="C2", lw=1, label="settled (steady oscillation)")
-    ax.axhline(vi, color="k", ls=":", lw=0.8)
-    ax.set(xlim=(1, last), ylim=(-0.2, 2.2 * vi), xlabel="particle n", ylabel="v (m/s)")
+    ax.axhline(vi, color="k", ls=":", lw=0.8, label="$V_I$")
+    ax.set(xlim=(1, last), ylim=(-0.2, 2.2 * vi), xlabel="magnet n", ylabel="v (m/s)")
     ax.legend(loc="upper right", fontsize="small")
     label = ax.set_title("")
 
@@ -115,7 +147,8 @@ def _movie_s2(plt, traj, vi, arrival, onset, frames):
         front.set_xdata([reached[-1] + 1 if reached.size else 0] * 2)
         settled.set_xdata([done[-1] + 1 if done.size else 0] * 2)
         width = (reached[-1] - done[-1]) if reached.size and done.size else 0
-        label.set_text(f"Movie S2 (model): long lattice, V_I = {vi:g} m/s, t = {t:.0f} ms, transition zone {width} magnets")
+        label.set_text(f"Movie S2 (model): long lattice, $V_I$ = {vi:g} m/s, t = {t:.0f} ms, "
+                       f"transition zone {width} magnets")
         return line, front, settled, label
 
     anim = animation.FuncAnimation(fig, draw, frames=frames, blit=False)

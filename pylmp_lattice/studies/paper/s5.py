@@ -39,7 +39,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 200.0 if quick else 600.0
     case = linear_case(duration)
     traj = simulate(case, out / NAME / case.name, overwrite=True)
-    result = analyse(NAME, traj, case, VI, duration, quick, zone=False)
+    result = analyse(NAME, f"Fig. S5: linear lattice, constant $V_I$ = {VI:g} m/s, {duration:g} ms", traj, case, VI,
+                     duration, quick, zone=False)
     # eta of particle 10 in successive windows of about two periods after its front, measured
     # and exact (the same measure on the exact semi-infinite chain's velocity)
     k = float(case.force.k)
@@ -66,7 +67,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     ax = result.figure.axes[5]  # the transition-zone panel: a linear chain has none; its decay instead
     ax.semilogy(mid, eta, "o", label="LAMMPS")
     ax.semilogy(mid, eta_exact, "-", label="exact chain")
-    ax.set(title=f"(f) decay: eta of magnet {PARTICLE + 1}", ylabel=r"$\eta$")
+    ax.set(title=f"decay: $\\eta$ of magnet {PARTICLE + 1}", ylabel=r"$\eta$")
     ax.legend(fontsize="small")
     return result
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import measures
-from ...plots import pyplot
+from ...plots import accepted_velocity, pyplot, style_figure
 from ...run_folder import RunFolder
 from ..output import StudyResult
 from ..scaffold import FRICTION, done_runs, paper_dict, sweep_runs
@@ -33,14 +33,16 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     rows, table = [], {}
     for r, row in done_runs(runs, rows, "mu", "friction.mu"):
         mu = row["mu"]
-        vp = RunFolder(r.folder).front().propagation_velocity
+        vp = accepted_velocity(RunFolder(r.folder).front())
         best = int(np.nanargmax(vp))
         row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
                 "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}
         table[f"V_P_mu_{mu:g}_m_per_s"] = vp
         ax.plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$\\mu$ = {mu:g}")
-    ax.set(xlabel="gap n", ylabel="$V_P$ (m/s)", title=f"$V_I$ = {VI:g} m/s, p = {FRICTION['p']:g}")
-    ax.legend(fontsize="small")
+    ax.set(xlabel="gap n (magnets n and n+1)", ylabel="$V_P$ (m/s)", title="propagation velocity along the chain")
+    ax.legend(fontsize="small", title="friction")
+    style_figure(fig, f"Fig. S6: long lattice, constant $V_I$ = {VI:g} m/s, friction p = {FRICTION['p']:g}, "
+                 f"{duration:g} ms", quick=quick, letters="")
     size = max((len(v) for v in table.values()), default=0)
     table = {"gap": np.arange(1, size + 1)} | {k: np.pad(v, (0, size - len(v)), constant_values=np.nan)
                                               for k, v in table.items()}

@@ -1,0 +1,38 @@
+"""`pylmp-lattice study dsw --quick` end to end: the paper's chain at V_I = 0.5 V* and 1.5 V*
+for 17 linear periods (400 ms), through the CLI, the sweep layer and the study writer; the
+full numbers are in docs/literature.md."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pylmp_lattice import theory
+from pylmp_lattice.cli import main
+from pylmp_lattice.forcelaw import PowerLaw
+
+pytestmark = pytest.mark.lammps
+
+
+def test_dsw_quick(tmp_path):
+    assert main(["study", "dsw", "--quick", "-o", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "dsw.json").read_text())
+    assert data["quick"] is True and "quick" in data["title"]
+    assert {p.name for p in tmp_path.iterdir()} >= {"dsw.png", "dsw.pdf", "dsw_runs.csv", "dsw_chains.csv"}
+    chain = data["chains"]["magnet q=3"]
+    v_star = theory.critical_velocity(PowerLaw(), 1.084, 12.0)
+    assert chain["V_star_theory_m_per_s"] == pytest.approx(0.880652, rel=1e-6) == v_star
+    below, above = data["runs"]
+    assert below["V_I_m_per_s"] == pytest.approx(0.5 * v_star, rel=1e-5) and below["status"] == "done"
+    assert below["lead_speed_m_per_s"] == pytest.approx(theory.predict(PowerLaw(), 1.084, 12.0,
+                                                                       below["V_I_m_per_s"]).lead_speed, rel=1e-12)
+    # below V*: V_P (its A - C/n limit) within 0.5 % (measured -0.13 %), f within 1 % (-0.76 %
+    # after 400 ms; it closes in as the wake decays), the wake next to the piston within 0.1 %
+    assert abs(below["V_P_limit_vs_lead"]) < 0.005
+    assert abs(below["f_vs_theory"]) < 0.01
+    assert abs(below["mean_gap_vs_theory"]) < 1e-3 and abs(below["mean_force_vs_theory"]) < 1e-3
+    assert below["wake"] == "decays" and above["wake"] == "persists"
+    assert chain["largest_decaying_V_I_m_per_s"] < v_star < chain["smallest_persisting_V_I_m_per_s"]
+    # first peaks approach 2 V_I: the limit of A - C/n within 1 %
+    assert below["first_peak_limit_over_V_I"] == pytest.approx(2.0, rel=0.01)

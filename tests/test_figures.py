@@ -1,0 +1,151 @@
+"""The package's figures, each rendered at low resolution and checked against the figure style
+(`plots.style_figure`): panel letters in reading order, every axis labelled with its unit (time
+in ms, lengths in mm), symbols in mathtext, a title that says the case and whether the figure
+is a quick version, finite axis ranges, and no range set by a flagged measure.
+
+Every study's quick version (run once per session, shared with tests/test_studies.py), and the
+run figure of a constant drive, a half-sine pulse, a ramp and a constant drive with friction.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.plots import panels
+from pylmp_lattice.run_folder import RunFolder, simulate
+from pylmp_lattice.studies import STUDIES
+
+SYMBOLS = ("V_I", "V_P", "V_0", "u_p", "f_0", "T_s", "T_r", "r_1")  # names that belong in $...$
+LETTERS = "abcdefghijkl"
+
+
+def texts(fig) -> list[str]:
+    """Every text a reader sees: the title, panel titles, axis labels and legend entries."""
+    out = [fig._suptitle.get_text()] if fig._suptitle else []
+    for ax in fig.axes:
+        out += [ax.get_title(loc) for loc in ("left", "center", "right")] + [ax.get_xlabel(), ax.get_ylabel()]
+        legend = ax.get_legend()
+        if legend is not None:
+            out += [t.get_text() for t in legend.get_texts()] + [legend.get_title().get_text()]
+        out += [t.get_text() for t in ax.texts]
+    return [t for t in out if t]
+
+
+def check_figure(fig, quick: bool | None = None, letters: str | None = None):
+    """The figure style; returns the panels in reading order."""
+    main = panels(fig)
+    found = [ax.get_title(loc="left") for ax in main]
+    if len(main) > 1:
+        assert all(re.fullmatch(r"\([a-l]\)", t) for t in found), f"panel letters: {found}"
+        order = [LETTERS.index(t[1]) for t in found]
+        assert order == list(range(order[0], order[0] + len(order))), f"panel letters not in reading order: {found}"
+        if letters is not None:
+            assert "".join(t[1] for t in found) == letters
+    for ax in fig.axes:
+        if ax.get_label() == "<colorbar>" or not ax.get_visible():
+            continue
+        assert ax.get_xlabel() or ax not in main, f"panel {ax.get_title(loc='left')} has no x label"
+        assert ax.get_ylabel() or not ax.get_yticks().size, f"panel {ax.get_title(loc='left')} has no y label"
+        for label in (ax.get_xlabel(), ax.get_ylabel()):
+            assert "(s)" not in label or label.startswith("wall time"), f"time in s, not ms: {label!r}"
+            assert "(m)" not in label and "(cm)" not in label, f"length not in mm: {label!r}"
+        for lo, hi in (ax.get_xlim(), ax.get_ylim()):
+            assert np.isfinite(lo) and np.isfinite(hi) and lo != hi  # (an axis may run downwards)
+    for text in texts(fig):
+        plain = re.sub(r"\$[^$]*\$", "", text)
+        for symbol in SYMBOLS:
+            assert symbol not in plain, f"{symbol} outside mathtext in {text!r}"
+    title = fig._suptitle.get_text() if fig._suptitle else ""
+    assert title, "no figure title"
+    if quick is not None:
+        assert ("quick" in title) == quick, title
+    fig.savefig(io.BytesIO(), format="png", dpi=30)  # renders (mathtext included) at low resolution
+    return main
+
+
+# ---------------------------------------------------------------------------------------------
+# Every study's figure (quick versions)
+# ---------------------------------------------------------------------------------------------
+
+PAPER_LETTERS = {"fig1": "bc", "s4": "cd", "s7": "bcd", "s8": "bcd"}  # the paper's own panel letters
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [n for n in STUDIES if n != "all"])
+def test_study_figure(quick_studies, name):
+    result = quick_studies(name)
+    check_figure(result.figure, quick=True, letters=PAPER_LETTERS.get(name))
+    assert result.to_dict()["quick"] is True
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_stand_in_impact_is_said(quick_studies):
+    for name in ("fig1", "fig2"):
+        result = quick_studies(name)
+        assert "stand-in impact" in result.figure._suptitle.get_text()
+        assert "half-sine" in result.numbers["stand_in_impact"]
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_quick_figures_say_what_they_cannot_show(quick_studies):
+    """A quick study keeps the full study's trends or says which panel it cannot show."""
+    assert "eta_by_time_ms" in quick_studies("s9").numbers["quick_cannot_show"]
+    assert "quick_cannot_show" in quick_studies("fig4").numbers
+
+
+@pytest.mark.lammps
+def test_all_figure(tmp_path, monkeypatch):
+    import pylmp_lattice.studies as studies
+
+    monkeypatch.setattr(studies, "STUDIES", {"fig2": studies.STUDIES["fig2"], "all": studies.STUDIES["all"]})
+    result = studies.run_study("all", tmp_path, quick=True)
+    check_figure(result.figure, quick=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# The run figure (Fig. 3(a-d) of one run)
+# ---------------------------------------------------------------------------------------------
+
+DRIVES = {
+    "constant": ({"profile": "constant", "velocity": 2.0}, {}),
+    # 40 ms: the impactor peaks (t = 20 ms) after magnet 2 (14.8 ms), so gap 1 is crossed out of
+    # order and its "V_P" is -2.3 m/s
+    "pulse": ({"profile": "sine", "velocity": 2.0, "duration": 40.0}, {}),
+    "ramp": ({"profile": "ramp", "velocity": 2.0, "ramp_time": 20.0}, {}),
+    "friction": ({"profile": "constant", "velocity": 2.0}, {"friction": {"mu": 0.285, "p": 0.012}}),
+}
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("drive", list(DRIVES))
+def test_run_figure(tmp_path, case_factory, drive):
+    impactor, sections = DRIVES[drive]
+    case = case_factory(particles=30, duration=60.0, impactor=impactor, **sections)
+    simulate(case, tmp_path)
+    run = RunFolder(tmp_path)
+    fig = run.figure()
+    a, b, c, d = check_figure(fig, letters="abcd")
+    assert case.name in fig._suptitle.get_text()
+    # (b): no gap crossed out of order is drawn, nor sets the range
+    vp = run.front().propagation_velocity
+    drawn = np.concatenate([line.get_ydata() for line in b.get_lines() if len(line.get_ydata()) == len(vp)])
+    assert np.all(drawn[np.isfinite(drawn)] > 0)
+    assert b.get_ylim()[0] > 0
+    if drive == "pulse":
+        assert vp[0] < 0  # the flagged point exists, and is left out
+        assert any("out of order" in t.get_text() for t in b.get_legend().get_texts())
+    # (c): the 2 V_I line only where the first peaks saturate there: a steady drive, no friction
+    saturation = [line for line in c.get_lines() if "2 $V_I$" in str(line.get_label())]
+    assert bool(saturation) == (drive in ("constant", "ramp"))
+    # (c): twin axes kept apart: the velocity in the upper part of the panel, the acceleration below
+    right = next(ax for ax in fig.axes if ax is not c and ax.bbox.bounds == c.bbox.bounds)
+    v_top = c.transData.transform((0, np.nanmin(run.front().peaks.peak_velocity)))[1]
+    a_top = right.transData.transform((0, np.nanmax(run.front().peaks.peak_acceleration)))[1]
+    assert a_top < v_top
