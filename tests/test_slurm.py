@@ -11,6 +11,7 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 import subprocess
 import sys
+import tempfile
 import time
 import tomllib
 from pathlib import Path
@@ -195,3 +196,18 @@ def test_a_job_killed_mid_sweep_loses_only_its_running_member(tmp_path, slurm, m
     assert jobs[killed]["JobState"] == "CANCELLED", jobs
     finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
     assert len(finished) == 60 and sum(n - 1 for n in finished.values()) <= 1, finished  # the killed job's
+
+
+@pytest.mark.slurm
+def test_a_daemon_that_cannot_start_is_named_with_the_end_of_its_log(slurm):
+    """The fixture's skip reason: which daemon stopped, before what, and its own words."""
+    from slurm_cluster import LocalSlurm, SlurmUnavailable
+
+    broken = LocalSlurm(Path(tempfile.mkdtemp(prefix="pylmp-slurm-", dir="/tmp")))
+    try:
+        broken._configure()
+        (broken.folder / "munge" / "munge.key").chmod(0o644)  # munged refuses a key others can read
+        with pytest.raises(SlurmUnavailable, match=r"^munged exited with \d+ before munged answers: .*key"):
+            broken._start()
+    finally:
+        broken.stop()
