@@ -26,10 +26,9 @@ table shows the best. The run time at size N is --atom-steps / N steps, at least
 to LAMMPS's arrays, so a run of 100 steps would measure mostly that), but never so long that
 the front (bounded by V0 + 2 V_I) reaches the held end; max |v - v_C| is over all magnets at
 the end. Then: the accuracy check of issue 7 (default path against the C loop, N = 10^4 after
-10^4 steps; required <= 1e-9 m/s), 1 against 2 MPI ranks (runner.run_executable with nprocs),
-and a small ensemble of 21-magnet replicas, one LAMMPS instance each (write_run_folder +
+10^4 steps; required <= 1e-9 m/s) and a small ensemble of 21-magnet replicas, one LAMMPS instance each (write_run_folder +
 run_embedded, wall time with start-up, extrapolated per replica), against batched replicas
-when the package has them.
+when the package has them. MPI ranks: benchmarks/bench_mpi.py.
 
     python benchmarks/bench_engine.py            # the full table (about 10 minutes)
     python benchmarks/bench_engine.py --quick    # sizes up to 10^4, about a minute
@@ -336,27 +335,6 @@ def print_size(n: int, rows: list[Row]) -> None:
               f"{cpu:>9} {x_cpu:>6} {dv:>8}  {row.note}")
 
 
-def mpi_rows(bench: Bench) -> None:
-    """1 against 2 ranks on the default path, interleaved; final velocities of both compared."""
-    n = bench.args.mpi_n
-    steps = bench.steps_for(n)
-    case = paper_case(n, steps)
-    # a folder each: a run's trajectory file is made from its binary dump once, when first read
-    folders = {ranks: simulation.RunFolder.create(case, bench.tmp / f"mpi_{n}_{ranks}").path for ranks in (1, 2)}
-    best, cpu_use = dict.fromkeys(folders, math.inf), {}
-    for _ in range(bench.args.repeat):
-        for ranks, folder in folders.items():
-            took = run_lammps(folder, nprocs=ranks)
-            if took.wall < best[ranks]:
-                best[ranks], cpu_use[ranks] = took.wall, took.cpu / took.wall  # NaN: loop too short
-    v = {ranks: simulation.RunFolder(folder).trajectory().v[-1] for ranks, folder in folders.items()}
-    print(f"\nMPI: {bench.label('default')}, N = {n}, {steps} steps, runner.run_executable(nprocs); wall time")
-    print(f"{'ranks':>6} {'wall [s]':>9} {'atom-st/s':>10} {'speed-up':>9} {'CPU use per rank':>17}")
-    for ranks, seconds in best.items():
-        print(f"{ranks:>6} {seconds:>9.4g} {n * steps / seconds:>10.3g} {best[1] / seconds:>9.2f} {cpu_use[ranks]:>17.0%}")
-    print(f"max |v(2 ranks) - v(1 rank)| = {np.max(np.abs(v[2] - v[1])):.1e} m/s (0: bit-identical)")
-
-
 def replica_rows(bench: Bench) -> None:
     """21-magnet replicas: one LAMMPS instance each (simulation.simulate; a sample, extrapolated)
     against all of them in one instance (simulation.simulate_replicas, when the package has it).
@@ -412,15 +390,13 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, help="runs of each way per size, best kept (default 3)")
     parser.add_argument("--scipy-max-n", type=int, default=1000, help="largest N for solve_ivp")
     parser.add_argument("--scipy-max-steps", type=int, default=10_000, help="solve_ivp integrates at most this many dt")
-    parser.add_argument("--mpi-n", type=int, help="N for 1 vs 2 ranks, 0 to skip (default 1000000)")
     parser.add_argument("--replicas", type=int, default=1000, help="replicas of the 21-magnet chain")
     parser.add_argument("--replica-sample", type=int, help="replicas timed one instance each (default 20)")
     parser.add_argument("--check-n", type=int, default=10_000, help="accuracy check: N (issue 7: 10^4)")
     parser.add_argument("--check-steps", type=int, default=10_000, help="accuracy check: steps (issue 7: 10^4)")
     args = parser.parse_args()
-    quick = {"sizes": [21, 1000, 10_000], "atom_steps": 1e7, "repeat": 2, "mpi_n": 100_000, "replica_sample": 5}
-    full = {"sizes": [21, 1000, 10_000, 100_000, 1_000_000], "atom_steps": 1e8, "repeat": 3, "mpi_n": 1_000_000,
-            "replica_sample": 20}
+    quick = {"sizes": [21, 1000, 10_000], "atom_steps": 1e7, "repeat": 2, "replica_sample": 5}
+    full = {"sizes": [21, 1000, 10_000, 100_000, 1_000_000], "atom_steps": 1e8, "repeat": 3, "replica_sample": 20}
     for key, value in (quick if args.quick else full).items():
         if getattr(args, key) is None:
             setattr(args, key, value)
@@ -445,8 +421,6 @@ def main() -> None:
             verdict = "meets" if dv <= CHECK_TOLERANCE else "FAILS"
             print(f"\nAccuracy: {bench.label('default')}, N = {args.check_n}, {args.check_steps} steps: "
                   f"max |v - v_C| = {dv:.1e} m/s ({verdict} issue 7's <= {CHECK_TOLERANCE:g} m/s)")
-        if args.mpi_n:
-            mpi_rows(bench)
         if args.replica_sample:
             replica_rows(bench)
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores, shared machine)")

@@ -1,27 +1,22 @@
-"""Sweep throughput with 1 and 2 workers, and the sweep's overhead per member.
+"""A thermal ensemble of the paper's 21-magnet experiment: the sweep end to end against a plain
+C loop doing the same integrations on the same number of workers, in one run.
 
-1. Throughput: the paper's long-lattice case (inputs/paper_long_lattice.toml) with a fixed far
-   end, --particles magnets and --duration ms, swept over --members impactor velocities from
-   1.0 to 2.0 m/s: members of equal cost (same N, steps and frames), about a second or more
-   each. The same sweep runs with --workers 1 and 2 into fresh folders; wall time from the call
-   to the finished table.
-2. Overhead per member: the paper's 21-magnet experiment (inputs/paper_experiment.toml),
-   --small members over impactor velocity, as a sweep with one worker. Each member's
-   `run.run_case` times itself (summary.json wall_time_s); overhead = sweep wall time /
-   members - mean run_case time: process pool, task transfer, status and provenance writes,
-   and rewriting results.csv/.parquet after every member, measured within the same sweep.
+1. Sweep: `pylmp-lattice sweep` (a fresh Python process, so start-up counts) of --members
+   replicas of inputs/paper_experiment.toml (60 ms, dt = 12.5 us: 4800 steps of 21 magnets)
+   with thermal motion (chain.thermal_velocity = --thermal m/s), keep = "measures",
+   --workers 2, from the command to its exit. Start-up: the command to the first member's
+   start (its status.json "started"). Each member gets its front measures and summary.
+   Two variants: the case as shipped (Coulomb friction on the rod), and without friction.
+2. Loop: benchmarks/ensemble_loop.c (gcc -O3): the same chains from the same initial states
+   (each member's positions, thermal velocities, masses), the same velocity Verlet, drive and
+   Coulomb stick-slip kick, split over --workers processes started together; from launching
+   them to the last one's exit (state files written before). No measures, no output.
+   Check: member 0 run alone with its trajectory kept; its final velocities must equal the
+   loop's chain 0 to 1e-9 m/s (same equations, same operations).
 
-0. Control: a CPU-bound pure-Python loop in 1 and 2 processes, "cores used" = CPU time / wall
-   time. On an idle 2-core machine it is 1.0 and 2.0; on a shared one it shows the share the
-   kernel gives this session (Linux autogroup scheduling shares CPU between sessions, not
-   processes, so a busy machine gives a session about the same share with 1 or 2 workers).
-   The sweep's speed-up cannot exceed the control's ratio.
+Ratio = sweep wall time / loop wall time (the issue's target: at most 3).
 
-Everything runs in one session after a warm-up (the pool's fork server started, the engine and
-scipy loaded once), the ways being compared interleaved (1, 2, 1, 2, ...) so that load from
-other users hits them alike; best of --repeat.
-
-    python benchmarks/bench_sweep.py [--members 6] [--particles 300] [--duration 600] [--small 20] [--repeat 2]
+    python benchmarks/bench_sweep.py [--members 1000] [--workers 2] [--thermal 0.02] [--variants friction,frictionless]
 """
 
 from __future__ import annotations
@@ -29,103 +24,160 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
+import resource
+import subprocess
+import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+import tomllib
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 
-from pylmp_lattice.case import load_case
-from pylmp_lattice.run_folder import run_case
-from pylmp_lattice.run_folder.layout import SUMMARY
-from pylmp_lattice.sweep import Sweep, run_sweep
-from pylmp_lattice.sweep.store import STATUS
-
-INPUTS = Path(__file__).resolve().parent.parent / "inputs"
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "inputs" / "paper_experiment.toml"
+LOOP = Path(__file__).resolve().parent / "ensemble_loop.c"
 
 
-def _burn(n: int) -> float:
-    start = time.process_time()
-    x = 0
-    for i in range(n):
-        x += i * i
-    return time.process_time() - start
+def write_sweep(folder: Path, members: int, thermal: float, friction: bool) -> Path:
+    base = tomllib.loads(CASE.read_text())
+    if not friction:
+        del base["friction"]
+    (folder / "base.toml").write_text(tomli_w.dumps(base))
+    path = folder / "sweep.toml"
+    path.write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
+                    f'[set]\n"chain.thermal_velocity" = {thermal}\n')
+    return path
 
 
-def control(processes: int, loops: int = 3_000_000) -> float:
-    """Cores used by `processes` CPU-bound Python processes, 2 tasks each."""
-    start = time.perf_counter()
-    with ProcessPoolExecutor(processes) as pool:
-        cpu = sum(pool.map(_burn, [loops] * (2 * processes)))
-    return cpu / (time.perf_counter() - start)
+def children_cpu() -> float:
+    """CPU seconds of this process's finished children (and theirs, once waited for)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
-def timed_sweep(sweep: Sweep, workers: int) -> tuple[float, float, float, float]:
-    """Into a fresh folder: (sweep wall time, total member wall time, total member CPU time,
-    total run_case time), seconds."""
-    with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        table = run_sweep(sweep, tmp, workers=workers, progress=False)
-        wall = time.perf_counter() - start
-        folders = [Path(tmp) / f for f in table["folder"]]
-        cpu = sum(json.loads((f / STATUS).read_text())["cpu_time_s"] for f in folders)
-        run_case_wall = sum(json.loads((f / SUMMARY).read_text())["wall_time_s"] for f in folders)
-    assert set(table["status"]) == {"done"}, table["error"].dropna().tolist()
-    return wall, float(table["wall_time_s"].sum()), cpu, run_case_wall
+def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
+    """The sweep as a user runs it: wall time, start-up, first result, the table written, and
+    CPU (the coordinator's, and the workers' in their tasks), seconds."""
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", str(workers),
+           "--quiet"]
+    cpu = children_cpu()
+    start = time.time()
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.time() - start
+    cpu = children_cpu() - cpu
+    if done.returncode != 0:
+        raise SystemExit(f"sweep failed ({done.returncode}): {done.stderr}")
+    records = [json.loads(p.read_text()) for p in (out / "members").glob("*/status.json")]
+    assert all(r["status"] == "done" for r in records)
+    stamp = lambda key: min(datetime.fromisoformat(r[key]).timestamp() for r in records)  # noqa: E731
+    batched = sum("batch" in r for r in records)
+    tasks = sum(r["cpu_time_s"] for r in records)  # each member's share of its task's CPU
+    # LAMMPS's own loop time of every batch (or member run alone), summed over the workers
+    logs = [*(out / "batches").glob("*/log.lammps"), *(out / "members").glob("*/log.lammps")]
+    engine = sum(float(re.search(r"Loop time of (\S+)", p.read_text()).group(1)) for p in logs) / workers
+    return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
+            "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks, "engine": engine,
+            "members": len(records), "batched": batched}
+
+
+def loop_states(sweep_path: Path):
+    """Initial positions (m), velocities (m/s), masses (kg) of every member, and the first case."""
+    from pylmp_lattice.sweep import load_sweep
+    from pylmp_lattice.units import to_engine
+
+    cases = [m.case for m in load_sweep(sweep_path).members()]
+    x = np.array([to_engine(c.chain.positions(), "length") for c in cases])
+    v = np.array([to_engine(c.chain.velocities(), "velocity") for c in cases])
+    m = np.array([to_engine(c.chain.masses(), "mass") for c in cases])
+    return cases, x, v, m
+
+
+def run_loop(exe: Path, tmp: Path, cases, x, v, m, workers: int) -> tuple[float, float, np.ndarray]:
+    """The C loop over all chains on `workers` processes; (wall time, CPU time, final velocities)."""
+    from pylmp_lattice.units import to_engine
+
+    case = cases[0]
+    fr = case.friction
+    law = case.force
+    args = [str(case.run.steps()), repr(to_engine(case.run.dt, "time")),
+            repr(law.K * to_engine(1.0, "length") ** law.q), repr(to_engine(law.b, "length")), repr(law.q),
+            repr(to_engine(case.impactor.velocity, "velocity")), repr(to_engine(case.impactor.duration, "time")),
+            repr(fr.mu if fr else 0.0), repr(fr.p if fr else 0.0), repr(to_engine(fr.g, "acceleration") if fr else 0.0)]
+    parts = np.array_split(np.arange(len(cases)), workers)
+    files = []
+    for k, part in enumerate(parts):
+        state, final = tmp / f"state{k}.bin", tmp / f"final{k}.bin"
+        state.write_bytes(np.concatenate([x[part].ravel(), v[part].ravel(), m[part].ravel()]).astype("<f8").tobytes())
+        files.append((part, state, final))
+    cpu = children_cpu()
+    start = time.time()
+    procs = [subprocess.Popen([str(exe), str(len(part)), str(x.shape[1]), *args, str(state), str(final)],
+                              stdout=subprocess.PIPE, text=True) for part, state, final in files]
+    for p in procs:
+        p.communicate()
+        assert p.returncode == 0
+    wall = time.time() - start
+    final = np.concatenate([np.fromfile(f, "<f8").reshape(len(part), -1) for part, _, f in files])
+    return wall, children_cpu() - cpu, final
+
+
+def check_member_zero(case, final_v: np.ndarray, tmp: Path) -> float:
+    """Largest |v| difference, m/s, between member 0 run alone (trajectory kept) and the loop."""
+    import dataclasses
+
+    from pylmp_lattice.run_folder import simulate
+
+    kept = dataclasses.replace(case, output=dataclasses.replace(case.output, format="h5md"))
+    traj = simulate(kept, tmp / "member0")
+    return float(np.max(np.abs(traj.v[-1, 1:-1] - final_v[1:-1])))
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--members", type=int, default=6)
-    p.add_argument("--particles", type=int, default=300, help="magnets of a throughput member")
-    p.add_argument("--duration", type=float, default=600.0, help="ms, throughput members")
-    p.add_argument("--small", type=int, default=20, help="members of the 21-magnet overhead sweep")
-    p.add_argument("--repeat", type=int, default=2)
+    p.add_argument("--members", type=int, default=1000)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
+    p.add_argument("--variants", default="friction,frictionless")
+    p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
     args = p.parse_args()
 
-    small = load_case(INPUTS / "paper_experiment.toml")
-    with tempfile.TemporaryDirectory() as tmp:  # warm-up
-        run_case(small, Path(tmp) / "warm", figure=False)
-        timed_sweep(Sweep(base=small), 2)
+    with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_sweep.") as tmp:
+        tmp = Path(tmp)
+        exe = tmp / "ensemble_loop"
+        subprocess.run(["gcc", "-O3", "-o", str(exe), str(LOOP), "-lm"], check=True)
+        rows = []
+        for variant in args.variants.split(","):
+            folder = tmp / variant
+            folder.mkdir()
+            path = write_sweep(folder, args.members, args.thermal, friction=variant == "friction")
+            load_before = os.getloadavg()[0]
+            sweep = run_sweep_command(path, folder / "out", args.workers)
+            cases, x, v, m = loop_states(path)
+            loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+            error = check_member_zero(cases[0], final[0], folder)
+            assert error < 1e-9, f"the loop and the engine differ by {error} m/s"
+            rows.append((variant, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
-    base = load_case(INPUTS / "paper_long_lattice.toml", [f"run.duration={args.duration}", "chain.far_end=fixed",
-                                                           f"chain.particles={args.particles}"])
-    velocities = [float(v) for v in np.linspace(1.0, 2.0, args.members)]
-    long_sweep = Sweep(base=base, grid={"impactor.velocity": velocities})
-    runs, controls = {1: [], 2: []}, {1: [], 2: []}
-    for _ in range(args.repeat):
-        for workers in (1, 2):
-            controls[workers].append(control(workers))
-            runs[workers].append(timed_sweep(long_sweep, workers))
-
-    small_v = [float(v) for v in np.linspace(1.5, 2.8, args.small)]
-    small_sweep = Sweep(base=small, grid={"impactor.velocity": small_v})
-    small_wall, _, _, run_case_wall = min(timed_sweep(small_sweep, 1) for _ in range(args.repeat))
-
-    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end "
-          "(shared with other users: ratios only)")
-    print(f"\n0. control, CPU-bound Python (best of {args.repeat}): cores used with 1 process "
-          f"{max(controls[1]):.2f}, with 2 processes {max(controls[2]):.2f}")
-    print(f"\n1. throughput: {args.members} members, N = {base.chain.particles}, {base.run.steps()} steps, "
-          f"{base.run.steps() // base.run.steps('output_interval')} frames each (best of {args.repeat})")
-    print("| workers | sweep wall (s) | members/s | members running at once | cores used | speed-up |")
-    print("|---|---|---|---|---|---|")
-    best = {w: min(runs[w]) for w in runs}  # the run with the shortest wall time
-    for w in (1, 2):
-        wall, member_wall, cpu, _ = best[w]
-        print(f"| {w} | {wall:.2f} | {args.members / wall:.3f} | {member_wall / wall:.2f} | {cpu / wall:.2f} | "
-              f"{best[1][0] / wall:.2f}x |")
-    print("members running at once = sum of member wall times / sweep wall time; "
-          "cores used = CPU time of all members / sweep wall time")
-    per_sweep, per_run = small_wall / args.small, run_case_wall / args.small
-    print(f"\n2. overhead per member: {args.small} members of the 21-magnet experiment "
-          f"({small.run.steps()} steps, friction), 1 worker (best of {args.repeat})")
-    print("| per member | wall (s) |")
-    print("|---|---|")
-    print(f"| sweep wall / members | {per_sweep:.3f} |")
-    print(f"| run_case (the run itself: deck, LAMMPS, measures, summary) | {per_run:.3f} |")
-    print(f"| overhead of the sweep | {per_sweep - per_run:.3f} ({(per_sweep - per_run) / per_sweep:.0%}) |")
+    print(f"machine: {os.cpu_count()} cores; {args.members} members of the 21-magnet experiment "
+          f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
+    print("| variant | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
+          "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
+          "| C loop CPU (s) | sweep / loop, CPU | loop vs engine, member 0 (m/s) | load before, after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for variant, s, loop_wall, loop_cpu, error, before, after in rows:
+        print(f"| {variant} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
+              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {s['engine']:.2f} | {loop_wall:.3f} | "
+              f"{s['engine'] / loop_wall:.1f}x | "
+              f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
+              f"{error:.1e} | {before:.1f}, {after:.1f} |")
+    print("start-up: the command to the first member's start; table written: the command to results.parquet "
+          "(the command then writes the replica statistics and figure). Engine: LAMMPS's loop time of every "
+          "instance (log.lammps), summed, over the workers. Sweep CPU: the coordinator's and the workers' in "
+          "their tasks (not the fork server's imports).")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import tomllib
 import warnings
 from collections.abc import Iterator
 from dataclasses import MISSING, dataclass, fields, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -514,9 +514,8 @@ class Case:
         k2_max)/m), k_max + k2_max takes the place of k_max.
         """
         lo, hi = self.table_range()
-        r = np.linspace(lo, hi, 20001)
         with np.errstate(all="ignore"):  # extreme parameters: judged by the result below
-            k_max = float(np.max(self.force.stiffness(r)))
+            k_max = _max_stiffness(self.force, lo, hi)
             if self.second_neighbour is not None:
                 r2 = np.linspace(*self.second_table_range(), 20001)
                 k_max += float(np.max(np.abs(self.second_neighbour.stiffness(r2))))
@@ -845,9 +844,27 @@ def case_id(case: Case) -> str:
 
 
 def identity_hash(data: dict) -> str:
-    """16 hex digits of a hash of a resolved case dict (keys sorted, so the order never matters)."""
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    """16 hex digits of a hash of a resolved case dict (keys sorted, so the order never matters;
+    numbers normalised, so that 1 and 1.0 are one value)."""
+    text = json.dumps(_normalised(data), sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _normalised(value):
+    """A whole float as an int (1.0 -> 1), in nested dicts and lists: one text per number."""
+    if isinstance(value, dict):
+        return {k: _normalised(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_normalised(v) for v in value]
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+@lru_cache(maxsize=64)
+def _max_stiffness(law, lo: float, hi: float) -> float:
+    """Largest stiffness of `law` on [lo, hi] mm, N/mm, sampled (cached: sweeps ask it per member)."""
+    return float(np.max(law.stiffness(np.linspace(lo, hi, 20001))))
 
 
 def _steps(field: str, interval: float, dt: float) -> int:

@@ -118,6 +118,8 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--jobs", type=int, metavar="N", help="batch jobs with --cluster (default 1)")
     sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.add_argument("--overwrite", action="store_true", help="make DIR this sweep's when it holds a different one (its table is replaced)")
+    sweep.add_argument("--yes", action="store_true", help="run a sweep of over 100000 members")
     sweep.set_defaults(func=_sweep)
 
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
@@ -252,24 +254,32 @@ def _export(args) -> int:
 
 def _sweep(args) -> int:
     try:
-        from .sweep import load_sweep, run_sweep, write_replica_stats
+        if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile
+            from .sweep.pool import start_forkserver
+
+            start_forkserver()
+        from .sweep import load_sweep, run_sweep
         from .sweep.cluster import sweep_workers
 
         sweep = load_sweep(args.sweep)
         _folder(args.output)
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
-            table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet, **where)
+            table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
+                              overwrite=args.overwrite, yes=args.yes, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
               "run the same command to resume", file=sys.stderr)
         return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
-    failed = int((table["status"] == "failed").sum())
-    print(f"{len(table)} members: {len(table) - failed} done, {failed} failed; table {args.output / 'results.csv'}",
-          file=sys.stderr)
+    failed, interrupted = (int((table["status"] == s).sum()) for s in ("failed", "interrupted"))
+    print(f"{len(table)} members: {len(table) - failed - interrupted} done, {failed} failed"
+          + (f", {interrupted} interrupted (a worker was lost; run the same command to finish)" if interrupted else "")
+          + f"; table {args.output / 'results.csv'}", file=sys.stderr)
     if sweep.replicas > 1:
+        from .sweep import write_replica_stats  # loads matplotlib: only now
+
         write_replica_stats(args.output, table)
         print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
-    return EXIT_RUN_ERROR if failed else 0
+    return EXIT_RUN_ERROR if failed or interrupted else 0
 
 
 def _study_names() -> list[str]:

@@ -9,6 +9,8 @@ Engine units are LAMMPS `units si`; every user value passes through `units.to_en
 from __future__ import annotations
 
 import dataclasses
+import re
+from functools import lru_cache
 from collections.abc import Sequence
 
 import numpy as np
@@ -18,7 +20,7 @@ from .case import Case, check_name
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
-from .run_folder.layout import (BIN_COLUMNS, CONTACT_MARK, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+from .run_folder.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -53,7 +55,7 @@ def piston_text(imp: Measured) -> str:
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
 
-def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
+def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str]:
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
@@ -62,8 +64,16 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
     chains (no fine output, no front record); read it back with run_folder.split_replicas.
+    With `front` it writes no per-frame output, only the front record of every atom (one
+    front.bin; replica r's rows are its atoms), as each case alone would with output.format
+    = "none".
     """
     first = cases[0]
+    decks = [deck_text(case) for case in cases] if front else []  # each chain's deck alone
+    for r, text in enumerate(decks):
+        if _without_levels(text) != _without_levels(decks[0]):
+            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file "
+                                          "and the front record's levels")
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
@@ -71,12 +81,52 @@ def render_replicas(cases: Sequence[Case]) -> dict[str, str]:
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
-    # one text dump of all chains (the H5MD conversion and the front record are per chain)
-    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, format="text", fine=(), front=False))
+    # one text dump of all chains (the H5MD conversion and the front record are per chain), or
+    # with `front` the front record alone (the fix's record is per atom)
+    output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
+    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
     files = render(batch)
-    files[DECK] = deck_text(batch, replicas=len(cases))
+    files[DECK] = deck_text(batch, replicas=len(cases)) + (_chain_work_lines(len(cases)) if front and first.friction else "")
     files[DATA] = _stack_data([data_text(case) for case in cases])
+    if front:
+        # each chain's own levels, as its deck alone gives them (they may follow its draw's noise):
+        # one row per chain for fix lattice/front's `levels` file, when they differ
+        rows = [_FRONT_FIX.search(text).groups() for text in decks]
+        if len(set(rows)) > 1:
+            files[FRONT_LEVELS] = "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
+                f"{start} {level} {drop} {pulse} {floor or '0.0'}\n" for start, level, drop, pulse, floor in rows)
+            files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
+                                                   f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
+
+
+# fix lattice/front's line in a deck, its levels as groups (pulse_floor optional)
+_FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S+) drop (\S+) pulse_drop (\S+)"
+                        r"(?: pulse_floor (\S+))?", re.MULTILINE)
+
+
+def batch_key(case: Case) -> str:
+    """What chains batched with the front record must share: the case's deck, but for the front
+    record's levels (each chain gets its own, see render_replicas)."""
+    return _without_levels(deck_text(case))
+
+
+def _without_levels(deck: str) -> str:
+    return _FRONT_FIX.sub("fix front", deck)
+
+
+def _chain_work_lines(replicas: int) -> str:
+    """After a batched run with friction: each chain's friction work (J, the fix's vector entry
+    2 + chain), one line per chain in CHAIN_WORK."""
+    return f"""
+# ---- 7. Each chain's friction work (J), one line per chain
+variable        chain loop {replicas}
+label           chain_work
+variable        work equal f_chain[$(v_chain+2)]
+print           "$(v_work:%.17g)" append {in_deck(CHAIN_WORK)} screen no
+next            chain
+jump            SELF chain_work
+"""
 
 
 def _stack_data(texts: list[str]) -> str:
@@ -322,6 +372,14 @@ def _output_lines(case: Case) -> str:
 
 def chain_noise(case: Case) -> float:
     """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
+    try:  # cached: a sweep's batch asks it per chain for the deck, the levels and the record
+        return _chain_noise(case)
+    except TypeError:  # a case built with arrays is not hashable: computed each time
+        return _chain_noise.__wrapped__(case)
+
+
+@lru_cache(maxsize=4096)
+def _chain_noise(case: Case) -> float:
     chain = case.chain
     free = np.ones(chain.particles, bool)
     free[[0, *case.held()]] = False

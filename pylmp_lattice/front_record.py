@@ -39,22 +39,35 @@ class FrontRecord:
 def read_front_record(case: Case, path: str | Path, arrival_method: str = "level") -> FrontRecord:
     """The record in `path` (a run's front.bin); arrival by `arrival_method`, "level" or
     "velocity_peak" (see measures.arrival)."""
+    return read_front_records([case], path, arrival_method)[0]
+
+
+def read_front_records(cases, path: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
+    """The record in `path` of a batch of equal chains (deck.render_replicas with `front`): one
+    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     frame = open_dump(path).read()
-    record = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(FRONT_FIELDS)}
+    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     end = float(from_engine(frame.time[-1], "time"))
-    imp, vi, noise = case.impactor, case.impactor.peak_velocity(), chain_noise(case)
+    case = cases[0]
+    imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]
-    drive = measures.first_peaks(t, v, a, vi, noise=noise)
-    peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
-                                  for f in fields(measures.FirstPeaks)))
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
-    arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method, noise=noise), record[column][1:]])
-    front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks, arrival_method,
-                           noise, slowest_linear_speed(case))
-    return FrontRecord(front, record["max_speed"], end)
+    n, out = case.chain.particles, []
+    for r, case in enumerate(cases):  # the drive's measures use each chain's own noise level
+        record = {name: values[r * n:(r + 1) * n] for name, values in columns.items()}
+        noise = chain_noise(case)
+        drive = measures.first_peaks(t, v, a, vi, noise=noise)
+        peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
+                                      for f in fields(measures.FirstPeaks)))
+        arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method, noise=noise),
+                                  record[column][1:]])
+        front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks,
+                               arrival_method, noise, slowest_linear_speed(case))
+        out.append(FrontRecord(front, record["max_speed"].copy(), end))
+    return out
 
 
 def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.Front:

@@ -46,14 +46,6 @@ def panels(fig) -> list:
     return sorted(main, key=lambda ax: (-round(ax.get_position().y1 * 20), ax.get_position().x0))
 
 
-def accepted_velocity(front: measures.Front) -> np.ndarray:
-    """V_P over each gap with the gaps the front crossed out of order (magnet n+1 reached no
-    later than magnet n, e.g. a pulse's impactor peaking after magnet 2) as NaN: such a value
-    is not a front's speed, so it is neither drawn nor allowed to set an axis range."""
-    with np.errstate(invalid="ignore"):
-        return np.where(np.diff(front.arrival) > 0, front.propagation_velocity, np.nan)
-
-
 def twin_axis(ax, label: str, color: str = "C3"):
     """A right-hand axis for a second quantity, its label and ticks in `color`."""
     right = ax.twinx()
@@ -94,13 +86,14 @@ def velocity_profiles(t, v, particles, ax=None):
 
 def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0):
     """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1); NaN
-    gaps are left out; `flagged`: how many were left out as flagged (`accepted_velocity`),
-    said in the legend."""
+    gaps are left out; `flagged`: how many were left out as flagged (`Front.accepted_velocity`:
+    crossed out of order, or slower than any linear wave), said in the legend."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
     ax.plot(n, vp, ".", ms=3, label="$V_P$ over gap n")
     if flagged:
-        ax.plot([], [], " ", label=f"{flagged} gap{'s' if flagged > 1 else ''} crossed out of order: not drawn")
+        ax.plot([], [], " ", label=f"{flagged} flagged gap{'s' if flagged > 1 else ''} (out of order or too slow): "
+                                   "not drawn")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")
@@ -153,7 +146,7 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     profiles: a Trajectory of the chosen particles (their 0-based numbers in `particles`) for
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
     front: the run's front measures for panels (b) and (c), gaps crossed out of order left out
-    (`accepted_velocity`); saturation: the first peaks' limit (2 V_I for a constant drive
+    (`Front.accepted_velocity`); saturation: the first peaks' limit (2 V_I for a constant drive
     without friction; None: no such line, e.g. for a pulse)."""
     from matplotlib.figure import Figure
 
@@ -168,7 +161,7 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
     else:
         velocity_profiles(profiles.t, profiles.v, particles, axes[0, 0])
         oscillation_peaks(profiles.t, profiles.v, particles, drive_velocity, axes[1, 1])
-    shown = accepted_velocity(front)
+    shown = front.accepted_velocity
     propagation_velocity(shown, v0, axes[0, 1], int(np.sum(np.isnan(shown) & np.isfinite(front.propagation_velocity))))
     first_peaks(front.peaks, axes[1, 0], saturation=saturation)
     for letter, ax in zip("abcd", axes.flat):

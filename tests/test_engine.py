@@ -1,4 +1,4 @@
-"""The chain engine (fix lattice/chain) against the stock path it replaces, on 1 and 2 ranks."""
+"""The chain engine (fix lattice/chain) against the stock path it replaces, on 1, 2 and 3 ranks."""
 
 from __future__ import annotations
 
@@ -7,8 +7,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from pylmp_lattice.bindump import open_dump
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.deck import render_replicas
+from pylmp_lattice.run_folder.layout import DATA
 from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
@@ -99,17 +101,28 @@ def test_contact_is_reported_at_the_step_of_a_step_by_step_guard(tmp_path):
 
 
 @pytest.mark.lammps
-def test_one_and_two_ranks_give_bit_identical_trajectories(tmp_path):
-    """200 magnets with friction on 1 and 2 MPI ranks (full doubles in the binary dumps):
-    identical x, v, f (each bond's force comes from the same two positions in the same order;
-    on one rank the drift joins the force pass, on two it does not: the same operations)."""
-    case = make_case(particles=200, velocity=2.0, duration=40.0, interval=1.0, friction=FRICTION)
-    runs = {n: simulate(case, tmp_path / f"np{n}", runner="lmp", nprocs=n) for n in (1, 2)}
-    assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
-    one, two = runs[1], runs[2]
-    assert np.max(np.abs(one.v)) > 1.0
-    for name in ("x0", "u", "v", "a"):
-        assert np.array_equal(getattr(one, name), getattr(two, name)), name
+def test_one_two_and_three_ranks_give_bit_identical_trajectories_and_front_records(tmp_path):
+    """700 magnets with friction and a pulse on 1, 2 and 3 MPI ranks (full doubles in the
+    binary dumps): the chain fix owns the state on every rank (its log says so) and exchanges
+    only the positions across the slab edges; x, v, f and the front record are identical bit
+    for bit (each bond's force comes from the same two positions in the same order)."""
+    case = make_case(particles=700, velocity=2.0, duration=50.0, interval=5.0, impactor=PROFILES["sine"],
+                     friction=FRICTION)
+    runs, fronts = {}, {}
+    for n in (1, 2, 3):
+        runs[n] = simulate(case, tmp_path / f"np{n}", runner="lmp", nprocs=n)
+        log = (tmp_path / f"np{n}" / "log.lammps").read_text()
+        assert f"owns the state (one pass per step, front record inside) on {n} rank" in log
+        if n > 1:
+            assert f"{n} by 1 by 1 MPI processor grid" in log
+        # the record's values (the file's chunks differ: one per rank)
+        fronts[n] = open_dump(tmp_path / f"np{n}" / "front.bin").read().data.view(np.uint64)
+    assert np.max(np.abs(runs[1].v)) > 1.0
+    assert np.sum(np.isfinite(read_front_record(case, tmp_path / "np1" / "front.bin").front.peaks.peak_velocity)) >= 5
+    for n in (2, 3):
+        for name in ("x0", "u", "v", "a"):
+            assert np.array_equal(getattr(runs[1], name), getattr(runs[n], name)), (n, name)
+        assert np.array_equal(fronts[n], fronts[1]), n
 
 
 def test_engine_field_is_validated_and_round_trips():
@@ -147,6 +160,87 @@ def test_batched_replicas_equal_their_single_runs(tmp_path):
     # the package's path: the same trajectories through simulate_replicas
     again = simulate_replicas(cases, tmp_path / "again")
     assert np.max(np.abs(again[2].v - batched[2].v)) < 1e-11
+
+
+def _run_printing_work(folder, entries):
+    """Run a written folder with `print` lines for f_chain entries after the run (17 digits)."""
+    deck = folder / "in.lattice"
+    prints = "".join(f'print "WORK {e} $(f_chain[{e}]:%.17g)"\n' for e in entries)
+    deck.write_text(deck.read_text() + "\n" + prints)
+    run_embedded(folder)
+    log = (folder / "log.lammps").read_text()
+    return {e: float(log.split(f"\nWORK {e} ")[1].split()[0]) for e in entries}
+
+
+@pytest.mark.lammps
+def test_batched_replicas_report_their_own_friction_work(tmp_path):
+    """Each chain's friction work (fix lattice/chain's vector entry 3 + c) is its single run's
+    (entry 1) bit for bit; entry 1 of the batch is their sum."""
+    cases = [make_case(particles=21, duration=30.0, interval=10.0, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
+             for r in range(3)]
+    batched = _run_printing_work(write_replicas_folder(cases, tmp_path / "batched"), [1, 3, 4, 5])
+    single = [_run_printing_work(RunFolder.create(c, tmp_path / f"single{r}").path, [1, 3])[1] for r, c in enumerate(cases)]
+    assert min(single) > 0 and len(set(single)) == 3
+    assert [batched[3 + r] for r in range(3)] == single
+    assert batched[1] == pytest.approx(sum(single), rel=1e-14)
+
+
+@pytest.mark.lammps
+def test_per_atom_masses_give_the_bits_of_per_type_masses(tmp_path):
+    """The same masses per atom (fix property/atom rmass, as a mass-disordered chain may use)
+    instead of per type: the chain fix, owning the state, gives the same x, v, f bit for bit."""
+    case = make_case(particles=300, duration=30.0, interval=5.0, impactor=PROFILES["sine"], friction=FRICTION)
+    runs = {}
+    for name in ("type", "atom"):
+        folder = RunFolder.create(case, tmp_path / name).path
+        if name == "atom":
+            mass = (folder / DATA).read_text().split("Masses")[1].split()[1]  # type 1's, as written
+            deck = folder / "in.lattice"
+            deck.write_text(deck.read_text().replace(
+                "\ngroup           none empty",
+                f"\nfix masses all property/atom rmass\nset group all mass {mass}\ngroup           none empty", 1))
+        run_embedded(folder)
+        assert "owns the state" in (folder / "log.lammps").read_text()
+        runs[name] = RunFolder(folder).trajectory()
+    assert "set group all mass" in (tmp_path / "atom" / "in.lattice").read_text()
+    assert np.max(np.abs(runs["type"].v)) > 1.0
+    for name in ("u", "v", "a"):
+        assert np.array_equal(getattr(runs["type"], name), getattr(runs["atom"], name)), name
+
+
+@pytest.mark.lammps
+def test_batched_replicas_record_their_fronts_with_their_own_levels(tmp_path):
+    """fix lattice/front with per-chain levels (length n levels FILE), as members whose noise
+    sets their levels need: each chain's front record is its single run's with its levels, bit
+    for bit (the chain fix samples it inside its pass)."""
+    cases = [make_case(particles=21, duration=30.0, interval=10.0, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
+             for r in range(3)]
+    levels = [f"{0.02 + 0.01 * r!r} {0.8 + 0.1 * r!r} 0.1 {0.1 + 0.05 * r!r} {0.01 * r!r}" for r in range(3)]
+    records = {}
+    for name, folder in [(r, RunFolder.create(c, tmp_path / f"single{r}").path) for r, c in enumerate(cases)] + \
+            [("batched", write_replicas_folder(cases, tmp_path / "batched"))]:
+        deck = folder / "in.lattice"
+        lines = deck.read_text().splitlines()
+        if name == "batched":  # its deck has no record: the single runs' lines, with the levels file
+            (folder / "levels.txt").write_text("# start front drop pulse_drop pulse_floor\n" + "\n".join(levels) + "\n")
+            single = (tmp_path / "single0" / "in.lattice").read_text().splitlines()
+            k = next(i for i, line in enumerate(lines) if line.startswith("run "))
+            lines[k:k + 1] = [next(line for line in single if " lattice/front " in line) +
+                              " length 21 levels ${dir}/levels.txt", lines[k],
+                              next(line for line in single if "front.bin" in line)]
+        else:
+            k = next(i for i, line in enumerate(lines) if " lattice/front " in line)
+            start, front, drop, pulse_drop, floor = levels[name].split()
+            lines[k] = (f"fix front all lattice/front start {start} front {front} drop {drop} pulse_drop {pulse_drop} "
+                        f"pulse_floor {floor}")
+        deck.write_text("\n".join(lines) + "\n")
+        run_embedded(folder)
+        assert "front record inside" in (folder / "log.lammps").read_text()
+        records[name] = open_dump(folder / "front.bin").read().data[-1].view(np.uint64)
+    for r in range(3):
+        member = records["batched"][21 * r:21 * (r + 1), 1:]
+        assert np.array_equal(member, records[r][:, 1:]), r
+    assert not np.array_equal(records[0][:, 1:], records[1][:, 1:])
 
 
 def test_replicas_may_differ_only_in_their_chain():

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pylmp_lattice import piston
 from pylmp_lattice.engine import plugin_styles
 from pylmp_lattice.plugin import plugin_file
 
@@ -414,3 +415,59 @@ run 100
     done = run_lmp(deck, tmp_path, check=False)
     assert done.returncode != 0
     assert "ERROR: Fix lattice/piston" in done.stdout and message in done.stdout
+
+
+# ---------------------------------------------------------------- one home for the drive and the law
+
+# pylmp_lattice.piston's profiles (user units: m/s, ms) and the same motion as the plugin's
+# drive arguments (SI), shared by fix lattice/piston and fix lattice/chain (impactor_drive.h)
+_T_SERIES = np.arange(0.0, 20.0 + 1e-9, 0.125)    # ms
+DRIVES = {
+    "constant": (piston.Constant(2.0), "constant 2.0"),
+    "ramp": (piston.Ramp(2.0, 7.3), "ramp 2.0 0.0073"),
+    "sine": (piston.SinePulse(2.0, 7.3), "sine 2.0 0.0073"),
+    "rest": (piston.Rest(), "rest"),
+    "measured": (piston.Measured(tuple(_T_SERIES), tuple(piston.SinePulse(2.0, 10.0).displacement_at(_T_SERIES)),
+                                 "u", "hold"), "measured file series.txt column u after hold"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(DRIVES))
+def test_plugin_drive_is_the_python_piston(tmp_path, name):
+    """fix lattice/piston with each drive moves the impactor as pylmp_lattice.piston says, over
+    30 ms (past a ramp's and a pulse's end): x to 1e-12 m, v to 1e-12 m/s (round-off; the
+    measured series: two not-a-knot splines of the same samples, 1e-9)."""
+    imp, args = DRIVES[name]
+    if name == "measured":
+        lines = "".join(f"{float(t) * 1e-3!r} {float(u) * 1e-3!r}\n" for t, u in zip(imp.t, imp.values))
+        (tmp_path / "series.txt").write_text(lines)
+        args = args.replace("series.txt", str(tmp_path / "series.txt"))
+    rows = piston_run(tmp_path, f"fix push impactor lattice/piston {args}", steps=3000)
+    t = DUMP_EVERY * 1e-5 * np.arange(len(rows))    # s
+    tol = 1e-9 if name == "measured" else 1e-12
+    np.testing.assert_allclose(rows[:, 0, 0], 1e-3 * imp.displacement_at(1e3 * t), rtol=0, atol=tol)
+    np.testing.assert_allclose(rows[:, 0, 1], imp.velocity_at(1e3 * t), rtol=0, atol=tol)
+
+
+# laws each fix must refuse, and one it must accept (fix lattice/friction used to accept q > 0)
+BAD_LAWS = ["power 4e-7 3.9e-3 1", "power 4e-7 3.9e-3 0.5", "power 0 3.9e-3 3", "power 4e-7 -1e-3 3",
+            "linear 0 0.012", "linear 1000 0", "table missing.table FORCE"]
+
+
+@pytest.mark.parametrize("law", BAD_LAWS + ["power 4e-7 3.9e-3 1.5"])
+def test_friction_and_chain_fixes_accept_and_refuse_the_same_laws(tmp_path, law):
+    data = tmp_path / "chain.data"
+    write_chain(data, 12e-3 * np.arange(5))
+    bonds = write_table(tmp_path / "magnet.table", 1e-3, 40e-3, 2000, 12e-3)
+    errors = {}
+    for fix in ("friction", "chain"):
+        line = (f"fix f all lattice/friction {MU} {P} {G} law {law}" if fix == "friction"
+                else f"fix f all lattice/chain law {law} impactor rest")
+        (tmp_path / fix).mkdir()
+        done = run_lmp(header(data, bonds, 1e-5) + line + "\nrun 0 post no\n", tmp_path / fix, check=False)
+        error = [s for s in done.stdout.splitlines() if s.startswith("ERROR")]
+        errors[fix] = error[0].split(f"Fix lattice/{fix}: ")[-1].split(" (")[0] if error else None
+    if law in BAD_LAWS:
+        assert errors["friction"] and errors["friction"] == errors["chain"], errors
+    else:
+        assert errors == {"friction": None, "chain": None}

@@ -306,11 +306,14 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
     path = write_sweep(tmp_path, SIX)
     out = tmp_path / "out"
     out.mkdir()
-    with open(out / "sweep.lock", "w") as held:
+    held = os.open(out, os.O_RDONLY)  # the lock is on the folder itself: no lock file left behind
+    try:
         fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
         assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+    finally:
+        os.close(held)
     assert "-o: another sweep is running in" in capsys.readouterr().err
-    assert not list((out / "members").iterdir())
+    assert list(out.iterdir()) == []
 
 
 def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypatch):
@@ -329,21 +332,230 @@ def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypat
     assert [p.name for p in tmp_path.iterdir()] == [STATUS]  # no temporary file left behind
 
 
+# ----------------------------------------------------------------------------- batched members
+
+THERMAL = """\
+base = "base.toml"
+replicas = {replicas}
+seed = 5
+keep = "measures"
+[set]
+"chain.thermal_velocity" = 0.02
+"""
+
+
 @pytest.mark.lammps
-@pytest.mark.slow
-def test_ctrl_c_stops_the_sweep_and_leaves_running_members_unfinished_not_failed(tmp_path):
-    cmd, out, proc = start_sweep(tmp_path, duration=50.0, stderr=subprocess.PIPE)
+@pytest.mark.parametrize("friction", [False, True])
+def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, monkeypatch, friction):
+    """Five thermal replicas run as one batch (one LAMMPS instance, one front record); each
+    member's summary equals, bit for bit, the summary of its case run alone with run_case
+    (with friction: its friction work too, the fix's entry for its chain)."""
+    from concurrent.futures import ThreadPoolExecutor
 
-    def statuses():
-        return list(member_statuses(out).values())
+    from pylmp_lattice.run_folder import run_case
+    from pylmp_lattice.sweep import batch
+    from pylmp_lattice.sweep.table import scalar_measures
 
-    deadline = time.time() + 120
-    while not ("done" in statuses() and "running" in statuses()) and time.time() < deadline:
-        time.sleep(0.02)
-    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C does: to the whole foreground group
-    err = proc.communicate(timeout=60)[1]
-    assert proc.returncode == 130
-    assert err.strip().splitlines()[-1].startswith("pylmp-lattice: interrupted; finished members are kept in")
-    assert "failed" not in statuses() and len(statuses()) < 6
-    assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
-    assert set(load_results(out)["status"]) == {"done"}
+    monkeypatch.setattr(batch, "FRICTION_PER_CHAIN", True)
+    monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
+    text = THERMAL.format(replicas=5) + ('"friction.mu" = 0.285\n"friction.p" = 0.012\n"friction.g" = 9.81\n' if friction else "")
+    sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=40.0))
+    with ThreadPoolExecutor(1) as pool:  # in this process: the plugin's abilities show in batch's flags
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert set(table["status"]) == {"done"} and len(table) == 5
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    if "batch" not in records[0] and not (batch.FRICTION_PER_CHAIN and batch.LEVELS_PER_CHAIN):
+        pytest.skip("this plugin build lacks each chain's friction work or front levels: members ran alone")
+    assert len({r["batch"] for r in records}) == 1  # one instance ran them all
+    assert table["particles_reached_by_front"].min() >= 8  # the front crossed most of the chain
+    for member in sweep.members()[:3]:
+        alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
+        batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
+        assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
+        assert ("friction_dissipated_energy_mJ" in batched) == friction
+    assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
+
+
+def test_tasks_are_sized_to_the_workers_and_the_first_ones_are_small(tmp_path):
+    from pylmp_lattice.sweep.execute import FIRST_TASK, _Coordinator, _StopSignals
+    from pylmp_lattice.sweep.pool import Pool
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=200), particles=12, duration=20.0))
+    coordinator = _Coordinator(sweep, tmp_path, Pool(None, 2), _StopSignals(), False, False, sweep.count())
+    tasks = list(coordinator._tasks())
+    sizes = [len(t.members) for t in tasks]
+    assert sizes == [FIRST_TASK, FIRST_TASK, 84, 84]  # then the rest shared evenly by the 2 workers
+    assert [m.index for t in tasks for m in t.members] == list(range(200))
+
+
+# ----------------------------------------------------------------------------- integrity
+
+def test_one_and_one_point_zero_are_one_member(tmp_path):
+    write_sweep(tmp_path, "")
+    members = Sweep(base=tmp_path / "base.toml", grid={"impactor.velocity": [1, 1.0, 2]}).members()
+    assert [m.params["impactor.velocity"] for m in members] == [1, 2]
+
+
+@pytest.mark.parametrize("text, message", [
+    ('[set]\n"impactor.velocity" = 1.0\n[grid]\n"impactor.velocity" = [1.0, 2.0]\n',
+     "grid.impactor.velocity: also given in [set] as 'impactor.velocity'; a field is set or swept, not both"),
+    ('[set]\nimpactor = {velocity = 1.0}\n[zip]\n"impactor.velocity" = [1.0]\n', "zip.impactor.velocity: also given in [set]"),
+    ('[grid]\n"impactor.velocity" = [1.0, nan]\n', "grid.impactor.velocity: got nan; expected a finite number"),
+    ('[set]\n"chain.thermal_velocity" = inf\n', "set.chain.thermal_velocity: got inf; expected a finite number"),
+])
+def test_a_field_set_and_swept_or_a_non_finite_value_is_refused(tmp_path, capsys, text, message):
+    path = write_sweep(tmp_path, 'base = "base.toml"\n' + text)
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {message}"), err
+
+
+def test_a_grid_over_1e5_members_needs_yes_and_is_counted_before_enumeration(tmp_path, capsys, monkeypatch):
+    from pylmp_lattice.sweep import spec
+
+    values = ", ".join(f"{1 + i * 1e-3}" for i in range(400))
+    path = write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{values}]\n'
+                                 f'"run.duration" = [{values.replace("1.", "10.")}]\n')
+    built, original = [], spec.Sweep._member
+    monkeypatch.setattr(spec.Sweep, "_member", lambda self, *a: built.append(a) or original(self, *a))
+    assert load_sweep(path).count() == 160_000
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "160000 members" in err and "error: --yes: the sweep has 160000 members (over 100000); pass --yes" in err
+    assert len(built) <= 1  # the estimate looks at the first member only
+
+
+def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, capsys):
+    path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 1  # one invalid member: failed
+    other = tmp_path / "other.toml"
+    other.write_text('base = "base.toml"\n[grid]\n"impactor.velocity" = [-3.0]\n')
+    capsys.readouterr()
+    assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pylmp-lattice: error: -o: {out} holds a different sweep (sweep.json)") and err.count("\n") == 1
+    assert list(load_results(out)["impactor.velocity"]) == [-1.0]  # untouched
+    assert main(["sweep", str(other), "-o", str(out), "--quiet", "--overwrite"]) == 1
+    assert list(load_results(out)["impactor.velocity"]) == [-3.0]  # the table is this sweep's
+    assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 1  # the same sweep resumes
+
+
+def test_a_done_member_without_a_summary_that_parses_is_run_again(tmp_path, monkeypatch):
+    """The coordinator trusts `done` only with a summary that parses (no engine: the run is faked)."""
+
+    ran = []
+
+    def fake_run_case(case, folder, **kwargs):
+        ran.append(Path(folder).name)
+        summary = {"case": case.name, "V": case.impactor.velocity}
+        (Path(folder) / "summary.json").write_text(json.dumps(summary))
+        return summary
+
+    monkeypatch.setattr("pylmp_lattice.run_folder.run_case", fake_run_case)
+    path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [1.0, 2.0, 3.0]\n')
+    sweep, out = load_sweep(path), tmp_path / "out"
+    from concurrent.futures import ThreadPoolExecutor
+
+    def run():
+        with ThreadPoolExecutor(1) as pool:  # in this process, so that the fake applies
+            return run_sweep(sweep, out, executor=pool, slots=1, progress=False)
+
+    assert list(run()["V"]) == [1.0, 2.0, 3.0] and len(ran) == 3
+    folders = [out / "members" / m.id for m in sweep.members()]
+    (folders[0] / "summary.json").unlink()
+    (folders[1] / "summary.json").write_text("{not json")
+    table = run()
+    assert ran[3:] == [folders[0].name, folders[1].name]  # the third stays done
+    assert list(table["status"]) == ["done"] * 3 and list(table["V"]) == [1.0, 2.0, 3.0]
+
+
+def test_errors_name_member_folders_relative_to_the_sweep(tmp_path):
+    from pylmp_lattice.errors import RunError
+    from pylmp_lattice.sweep.batch import one_line
+
+    err = RunError("Bond length > table outer cutoff", tmp_path / "members" / "abc")
+    assert one_line(err, tmp_path) == "Bond length > table outer cutoff (files kept in members/abc)"
+
+
+def test_git_commit_is_read_from_the_clone_pip_installed_from(tmp_path, monkeypatch):
+    from pylmp_lattice.sweep import store
+
+    clone = Path(__file__).resolve().parents[1]
+    if not (clone / ".git").exists():
+        pytest.skip("not a git checkout")
+    monkeypatch.setattr(store, "__file__", str(tmp_path / "site-packages" / "pylmp_lattice" / "sweep" / "store.py"))
+
+    class Dist:
+        def read_text(self, name):
+            return json.dumps({"url": clone.as_uri(), "dir_info": {}}) if name == "direct_url.json" else None
+
+    monkeypatch.setattr(store.importlib.metadata, "distribution", lambda name: Dist())
+    head = subprocess.run(["git", "-C", str(clone), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    assert store._git_commit().startswith(head)
+
+
+@pytest.mark.lammps
+def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
+    """A batch that stops (e.g. one chain's magnets touch) gives each member its own outcome:
+    its members run again one by one (here the batch is made to fail; the runs alone succeed)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice import runner
+    from pylmp_lattice.errors import ContactError
+
+    original = runner.run_embedded
+
+    def batch_fails(folder, **kwargs):
+        if "batches" in Path(folder).parts:
+            raise ContactError((3, 4), 1.0, -0.01, Path(folder))
+        return original(folder, **kwargs)
+
+    monkeypatch.setattr(runner, "run_embedded", batch_fails)
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    with ThreadPoolExecutor(1) as pool:  # in this process, so that the failing runner applies
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert list(table["status"]) == ["done"] * 3
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    assert not any("batch" in r for r in records)  # each ran alone
+    assert all((tmp_path / "out" / f / "log.lammps").exists() for f in table["folder"])
+
+
+@pytest.mark.lammps
+def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
+    """Front levels that depend on each chain (here: scaled by its seed; in the package: by its
+    noise) go to fix lattice/front's per-chain levels file; each batched member's summary still
+    equals its run alone, whose deck has its own levels."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice import deck
+    from pylmp_lattice.run_folder import run_case
+    from pylmp_lattice.sweep import batch
+    from pylmp_lattice.sweep.table import scalar_measures
+
+    original = deck._output_lines
+
+    def own_levels(case):  # the start level 1.0 to 1.9 times the usual, by seed
+        text = original(case)
+        start = deck._FRONT_FIX.search(text)
+        if start is None:
+            return text
+        scaled = float(start.group(1)) * (1 + (case.chain.seed or 0) % 10 / 10)
+        return text.replace(f"start {start.group(1)} ", f"start {deck._num(scaled)} ", 1)
+
+    monkeypatch.setattr(deck, "_output_lines", own_levels)
+    monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=40.0))
+    levels = {deck._FRONT_FIX.search(deck.deck_text(m.case)).group(1) for m in sweep.members()}
+    assert len(levels) > 1
+    files = deck.render_replicas([m.case for m in sweep.members()], front=True)
+    assert "front_levels.txt" in files and " length 12 levels ${dir}/front_levels.txt" in files["in.lattice"]
+    with ThreadPoolExecutor(1) as pool:  # in this process, so that the levels apply
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    if "batch" not in records[0]:
+        pytest.skip("this plugin build has no per-chain front levels: members ran alone")
+    for member in sweep.members():
+        alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
+        batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
+        assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))

@@ -23,7 +23,7 @@ def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
     assert "thermal" in STUDIES
     result = run_study("thermal", tmp_path, quick=True)
     data = json.loads((tmp_path / "thermal.json").read_text())
-    assert data["quick"] is True and result.figure.get_suptitle().endswith("(quick)")
+    assert data["quick"] is True and "[quick version]" in result.figure.get_suptitle()
     assert data["members"] == data["members_done"] == 1 + 2 * 2 + 2  # the noise-free point runs once
 
     # the shipped long lattice, as long as the quick study, writing magnet 10 finely

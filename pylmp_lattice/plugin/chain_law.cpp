@@ -39,13 +39,13 @@ void UniformSpline::fit(double first, double step, const std::vector<double> &y,
   }
 }
 
-int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg)
+int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::string &who)
 {
   Error *error = lmp->error;
-  if (iarg >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain law", error);
+  if (iarg >= narg) utils::missing_cmd_args(FLERR, who + " law", error);
   const std::string style = arg[iarg];
   auto need = [&](int count) {
-    if (iarg + count >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain law " + style, error);
+    if (iarg + count >= narg) utils::missing_cmd_args(FLERR, who + " law " + style, error);
   };
   if (style == "power") {
     need(3);
@@ -53,7 +53,7 @@ int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg)
     b = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
     q = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
     if (K <= 0.0 || b < 0.0 || q <= 1.0)
-      error->all(FLERR, "Fix lattice/chain: law power needs K > 0, b >= 0, q > 1");
+      error->all(FLERR, "{}: law power needs K > 0, b >= 0, q > 1", who);
     qint = (q == std::floor(q) && q <= 8.0) ? static_cast<int>(q) : 0;
     kind = POWER;
     return iarg + 4;
@@ -64,30 +64,31 @@ int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg)
     k = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
     r_free = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
     if (k <= 0.0 || r_free <= 0.0)
-      error->all(FLERR, "Fix lattice/chain: law linear needs k > 0, r_free > 0");
+      error->all(FLERR, "{}: law linear needs k > 0, r_free > 0", who);
     return iarg + 3;
   }
   if (style == "table") {
     need(2);
     kind = TABLE;
-    read_table(lmp, arg[iarg + 1], arg[iarg + 2]);
+    read_table(lmp, arg[iarg + 1], arg[iarg + 2], who);
     return iarg + 3;
   }
-  error->all(FLERR, "Fix lattice/chain: unknown law '{}'; expected power, linear or table", style);
+  error->all(FLERR, "{}: unknown law '{}'; expected power, linear or table", who, style);
   return narg;
 }
 
 /* The section KEYWORD of a bond_style table file: "N n FP lo hi ..." then n lines
    "index r U F" on a uniform grid (as pylmp_lattice writes it). Every rank reads it. */
 
-void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::string &keyword)
+void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::string &keyword,
+                          const std::string &who)
 {
   Error *error = lmp->error;
   std::ifstream in(file);
-  if (!in) error->all(FLERR, "Fix lattice/chain: cannot open table file {}", file);
+  if (!in) error->all(FLERR, "{}: cannot open table file {}", who, file);
   std::string line;
   while (std::getline(in, line) && utils::trim(utils::trim_comment(line)) != keyword) {}
-  if (!in) error->all(FLERR, "Fix lattice/chain: no section {} in {}", keyword, file);
+  if (!in) error->all(FLERR, "{}: no section {} in {}", who, keyword, file);
   std::getline(in, line);
   auto words = utils::split_words(line);
   int n = 0;
@@ -102,25 +103,25 @@ void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::strin
     }
   }
   if (n < 4 || !have_fp)
-    error->all(FLERR, "Fix lattice/chain: {} section {} needs 'N n' (n >= 4) and 'FP lo hi'", file,
+    error->all(FLERR, "{}: {} section {} needs 'N n' (n >= 4) and 'FP lo hi'", who, file,
                keyword);
   std::vector<double> r, u, f;
   while ((int) r.size() < n && std::getline(in, line)) {
     auto row = utils::split_words(utils::trim_comment(line));
     if (row.empty()) continue;
     if (row.size() != 4)
-      error->all(FLERR, "Fix lattice/chain: {}: expected 'index r U F', got '{}'", file, line);
+      error->all(FLERR, "{}: {}: expected 'index r U F', got '{}'", who, file, line);
     r.push_back(std::stod(row[1]));
     u.push_back(std::stod(row[2]));
     f.push_back(std::stod(row[3]));
   }
   if ((int) r.size() != n)
-    error->all(FLERR, "Fix lattice/chain: {} section {} has {} rows; expected {}", file, keyword,
+    error->all(FLERR, "{}: {} section {} has {} rows; expected {}", who, file, keyword,
                r.size(), n);
   const double step = (r[n - 1] - r[0]) / (n - 1);
   for (int i = 1; i < n; i++)
     if (std::fabs(r[i] - (r[0] + i * step)) > 1.0e-9 * std::fabs(r[n - 1]))
-      error->all(FLERR, "Fix lattice/chain: {} must sample r on a uniform grid", file);
+      error->all(FLERR, "{}: {} must sample r on a uniform grid", who, file);
   tf.fit(r[0], step, f, fp_lo, fp_hi);
   tu.fit(r[0], step, u, -f[0], -f[n - 1]);
 }

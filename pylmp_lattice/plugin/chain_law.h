@@ -1,4 +1,5 @@
-/* Nearest-neighbour force laws of fix lattice/chain: the one place where laws are defined.
+/* Nearest-neighbour force laws of the pylmp_lattice fixes (lattice/chain, and lattice/friction's
+   analytic laws): the one place where laws are defined and their parameters checked.
    Part of pylmp_lattice, GPL-2.0.
 
    A law gives the repulsive force F(r) > 0 and the potential U(r) (F = -dU/dr) of the
@@ -75,8 +76,8 @@ struct ChainLaw {
   UniformSpline tf, tu;                // table: F and U
 
   /* parse "power K b q" | "linear k r_free" | "table FILE KEYWORD" at arg[iarg]; returns
-     the index after the law's arguments */
-  int parse(class LAMMPS *lmp, int narg, char **arg, int iarg);
+     the index after the law's arguments; errors start with `who` (e.g. "Fix lattice/chain") */
+  int parse(class LAMMPS *lmp, int narg, char **arg, int iarg, const std::string &who);
 
   /* call f(law) with the law as one of the value types above */
   template <class F> void dispatch(F &&f) const
@@ -122,7 +123,8 @@ struct ChainLaw {
   }
 
  private:
-  void read_table(class LAMMPS *lmp, const std::string &file, const std::string &keyword);
+  void read_table(class LAMMPS *lmp, const std::string &file, const std::string &keyword,
+                  const std::string &who);
 };
 
 }    // namespace LAMMPS_NS

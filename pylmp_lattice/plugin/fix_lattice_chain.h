@@ -1,4 +1,12 @@
-/* The chain-specialised engine of pylmp_lattice; see fix_lattice_chain.cpp for the syntax. */
+/* The chain-specialised engine of pylmp_lattice; see fix_lattice_chain.cpp for the syntax.
+   The class is spread over one file per concept:
+     fix_lattice_chain.cpp   syntax, arguments, the fix's hooks and outputs
+     chain_layout.cpp        where the atoms are: blocks, chain ends, slab edges between ranks,
+                             the fix's own per-atom state
+     chain_step.cpp          the two step paths (LAMMPS's arrays; the owned one pass)
+     chain_front.cpp         the front record sampled inside the owned pass
+     chain_checks.cpp        gaps, contacts, energy
+   and the impactor's motion in impactor_drive.h, the laws in chain_law.h. */
 
 #ifndef PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 #define PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
@@ -6,7 +14,7 @@
 #include "chain_law.h"
 #include "coulomb.h"
 #include "fix.h"
-#include "measured_motion.h"
+#include "impactor_drive.h"
 
 #include <vector>
 
@@ -31,85 +39,125 @@ class FixLatticeChain : public Fix {
   double compute_scalar() override;
   double compute_vector(int) override;
 
+  double memory_usage() override;
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+
  private:
+  // blocks of at most BLOCK atoms, so that their bond forces (and, owning the state, the
+  // velocities between the kicks) stay in the L1 cache between the loops that compute and use them
+  static constexpr int BLOCK = 256;
+
+  // ---- the arguments (fix_lattice_chain.cpp)
   ChainLaw law;
+  ImpactorDrive drive;
   bigint length;                 // atoms per chain: chain c holds IDs c*length+1 .. (c+1)*length
   bigint nchains;
   double range_lo, range_hi;     // allowed separations; r <= 0 is a contact
   bool friction;
   double mu, p, g;
-  enum { CONSTANT, RAMP, SINE, REST, MEASURED } profile;
-  double drive_v, drive_t;       // peak velocity and ramp time or pulse length
-  MeasuredMotion measured;
   bigint time_origin;            // step at which the fix was defined: the drive's t = 0
   std::vector<double> x0;        // each chain's impactor position then
 
-  // per-type constants, set in init(): half-kick dt/(2m), m, m g
+  // per mass slot: half-kick dt/(2m), m, m g; a slot is the atom's type (set in init()) or,
+  // with per-atom masses (atom->rmass), its local index (set in build_lists())
   std::vector<double> dtfm, mass_of, weight;
+  std::vector<int> local_index;    // per-atom masses: 0, 1, ..., nlocal - 1
+  bool one_type;                   // one mass for all atoms, slot 1
+  double dtf;                      // dt/2 in force-to-velocity units
   bool fused;                    // the second half kick is done in post_force (no other fix needs f first)
-  bool own_allowed, in_order;    // see init() and build_lists()
-  bool own;                      // this run: the fix owns the state (shadow arrays, see the header)
+  bool own_allowed;              // see init()
+  bool own;                      // this run: the fix owns the state (see the header)
   bool clear_forces;             // LAMMPS does not clear the forces (neigh_modify include)
   class FixLatticeFront *front;  // the front record this fix samples while it owns the state
+  double drive_u, drive_ud;      // the drive's displacement and velocity at the current step
 
-  // own: each local atom's x, v, f along x (index = local index); the atom arrays are written
-  // from them only when something may read them
-  std::vector<double> xs, vs, fs;
-  std::vector<double> impactor_v;    // own: each chain's impactor velocity of the previous step
-  // own, with a front record: each block's (runs[b]) active and waiting atoms
+  // ---- the state while the fix owns it: each atom's x, v, f along x (per-atom arrays that
+  // move with their atoms between ranks; the atom arrays are written from them only when
+  // something may read them). Ghost entries of xs: the slab-edge neighbours (below).
+  double *xs, *vs, *fs;
+  int nmax_state;
+  std::vector<double> impactor_v;    // each chain's impactor velocity of the previous step
+
+  // ---- the layout (chain_layout.cpp), rebuilt at every reneighbouring. Blocks: runs of up to
+  // BLOCK free atoms that follow each other in memory with consecutive IDs, in ID order, with
+  // the local/ghost index of the atom left of the first and right of the last
+  struct Run {
+    int first, last, left, right, chain;
+  };
+  std::vector<Run> runs;
+  struct End {
+    int i, other, chain;    // impactor: its right neighbour; held end: its left neighbour
+  };
+  std::vector<End> impactors, held;
+  bool in_order;                 // every free local neighbour of a block is in the block next to it
+  // slab edges: the ghosts, neighbours of this rank's atoms, whose x the rank left (0) or right (1)
+  // in x sends at every owned step, and the local atoms whose x this rank sends it
+  struct Edge {
+    int rank;                    // the neighbouring rank, or MPI_PROC_NULL
+    std::vector<int> send, recv;
+    std::vector<double> out, in;
+  } edges[2];
+  bool edges_ok;                 // every such ghost is owned by the rank next in x (on all ranks)
+  std::vector<double> bond_force;    // scratch: the forces of one block's bonds
+  std::vector<double> scratch;       // scratch: positions of a block (AoS), velocities (own)
+
+  // ---- the front record inside the owned pass (chain_front.cpp): each block's active and
+  // waiting atoms
   struct BlockFront {
     int active, waiting;
   };
   std::vector<BlockFront> block_front;
 
-  // local layout, rebuilt at every reneighbouring: runs of up to BLOCK free atoms that follow
-  // each other in memory with consecutive IDs, with the local/ghost index of the atom left
-  // of the first and right of the last; the chain ends held apart
-  struct Run {
-    int first, last, left, right;
-    bool operator==(const Run &o) const
-    {
-      return first == o.first && last == o.last && left == o.left && right == o.right;
-    }
-  };
-  std::vector<Run> runs;
-  struct End {
-    int i, other, chain;    // impactor: its right neighbour; held end: its left neighbour
-    bool operator==(const End &o) const { return i == o.i && other == o.other && chain == o.chain; }
-  };
-  std::vector<End> impactors, held;
-  std::vector<double> bond_force;    // scratch: the forces of one run's bonds
-  std::vector<double> scratch;       // scratch: positions of two runs (AoS), velocities (own)
-  double drive_u, drive_ud;      // the drive's displacement and velocity at the current step
-
-  double work_done, work_pending;    // friction work (see coulomb.h)
+  // ---- checks and energy (chain_checks.cpp)
+  // friction work of each chain on this rank (see coulomb.h): done, due at the next step, and
+  // this step's sums (each chain's runs add to it in ID order, as a one-chain run does)
+  std::vector<double> work_done, work_pending;
+  std::vector<CoulombWork> works;
   bigint energy_step;                // step at which pe_cached and gap_cached were computed
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
 
-  // x, v or f along x: the shadow arrays while the fix owns the state, else the atom arrays
+  // owning the state on several ranks, this run: this rank's CPU time in its passes and wall
+  // time in the exchanges (slab edges, contact flag), reported at the end (benchmarks/bench_mpi.py)
+  double pass_cpu, exchange_wall, exchange_min;    // exchange_min: the fastest step's
+  bigint owned_steps;
+
+  // x, v or f along x: the fix's arrays while it owns the state, else the atom arrays
   struct Column {
     double *p;
     int stride;
     double &operator[](int i) const { return p[stride * i]; }
   };
-  Column column(double **a, std::vector<double> &s) const { return own ? Column{s.data(), 1} : Column{a[0], 3}; }
+  Column column(double **a, double *s) const { return own ? Column{s, 1} : Column{a[0], 3}; }
 
+  // chain_layout.cpp
   void build_lists();
-  void drive(bigint step);
+  void find_edges();
+  void send_edges();
+  bool is_free(int i) const;
+  const int *slots() const;
+  // fix_lattice_chain.cpp
   void place_impactors(bool set_x);
+  void gather();
+  void scatter();
+  void clear();
+  // chain_step.cpp
   void forces(double kick, bool setup_kick, bool kick_v);
+  void own_pass();
   void end_forces();
+  void settle_work(double kick, bool setup_kick);
   template <bool FRICTION>
   double total_force(double left, double right, int t, double kick, double &v, CoulombWork &work) const;
   template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   template <bool FRICTION, bool FRONT, class Law> void own_step(const Law law, int &bad);
+  // chain_front.cpp
   void sample_front_block(int b, const double *v_before);
-  void summarise_front();
   void sample_front_ends();
-  void gather();
-  void clear();
-  void scatter();
+  void summarise_front();
+  // chain_checks.cpp
   void check_gaps(int bad);
   void bond_scan(double &pe, double &gap_min, tagint &tag_min, double &gap_max, tagint &tag_max);
   void energies();

@@ -9,12 +9,15 @@ Syntax
    p  = share of the neighbour repulsion that presses on the rod (unitless)
    g  = gravitational acceleration (force/mass units, 9.81 in units si)
    zero or more keyword/args pairs may be appended
-     law args = bond [btype] or power K b q or linear k r_free
+     law args = bond [btype] or power K b q or linear k r_free or table file keyword
        bond [btype] = the force law of bond type btype (default 1), through the bond style
-       power K b q = F(r) = K / (r + b)^q
+       power K b q = F(r) = K / (r + b)^q, K > 0, b >= 0, q > 1
          K = force*distance^q units, b = distance units, q = exponent (unitless)
-       linear k r_free = F(r) = k (r_free - r)
+       linear k r_free = F(r) = k (r_free - r), k > 0, r_free > 0
          k = force/distance units, r_free = distance units
+       table file keyword = a bond_style table file's section, by its clamped spline
+       (power, linear, table: the laws of fix lattice/chain, from the same code, chain_law.h,
+       so both fixes accept and refuse the same parameters)
      bond value = btype: the same as law bond btype (the syntax before law existed)
 
 Examples
@@ -118,8 +121,8 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), law(BOND), btype(1), K(0.0), b(0.0), q(0.0), qint(0), k(0.0),
-    r_free(0.0), work_done(0.0), work_pending(0.0), periodic(false)
+    Fix(lmp, narg, arg), from_bond(true), btype(1), work_done(0.0), work_pending(0.0),
+    periodic(false)
 {
   if (narg < 6) utils::missing_cmd_args(FLERR, "fix lattice/friction", error);
   mu = utils::numeric(FLERR, arg[3], false, lmp);
@@ -132,7 +135,7 @@ FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
   for (int iarg = 6; iarg < narg;) {
     if (strcmp(arg[iarg], "bond") == 0) {    // the syntax from before the law keyword
       if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction bond", error);
-      law = BOND;
+      from_bond = true;
       btype = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
       iarg += 2;
       continue;
@@ -140,34 +143,20 @@ FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
     if (strcmp(arg[iarg], "law") != 0)
       error->all(FLERR, "Fix lattice/friction: unknown keyword '{}'; expected 'law'", arg[iarg]);
     if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law", error);
-    const char *style = arg[iarg + 1];
-    if (strcmp(style, "bond") == 0) {
-      law = BOND;
+    if (strcmp(arg[iarg + 1], "bond") == 0) {
+      from_bond = true;
       btype = 1;
       iarg += 2;
       if (iarg < narg && utils::is_integer(arg[iarg]))
         btype = utils::inumeric(FLERR, arg[iarg++], false, lmp);
-    } else if (strcmp(style, "power") == 0) {
-      if (iarg + 4 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law power", error);
-      law = POWER;
-      K = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
-      b = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
-      q = utils::numeric(FLERR, arg[iarg + 4], false, lmp);
-      if (K <= 0.0 || b < 0.0 || q <= 0.0)
-        error->all(FLERR, "Fix lattice/friction: law power needs K > 0, b >= 0, q > 0");
-      qint = (q == std::floor(q) && q <= 8.0) ? static_cast<int>(q) : 0;
-      iarg += 5;
-    } else if (strcmp(style, "linear") == 0) {
-      if (iarg + 3 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/friction law linear", error);
-      law = LINEAR;
-      k = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
-      r_free = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
-      if (k <= 0.0 || r_free <= 0.0)
-        error->all(FLERR, "Fix lattice/friction: law linear needs k > 0, r_free > 0");
-      iarg += 4;
-    } else
-      error->all(FLERR, "Fix lattice/friction: unknown law '{}'; expected bond, power or linear",
-                 style);
+    } else {
+      const char *style = arg[iarg + 1];
+      if (strcmp(style, "power") && strcmp(style, "linear") && strcmp(style, "table"))
+        error->all(FLERR, "Fix lattice/friction: unknown law '{}'; expected bond, power, linear or table",
+                   style);
+      from_bond = false;
+      iarg = law.parse(lmp, narg, arg, iarg + 1, "Fix lattice/friction");
+    }
   }
 
   scalar_flag = 1;
@@ -183,7 +172,7 @@ int FixLatticeFriction::setmask()
 
 void FixLatticeFriction::init()
 {
-  if (law == BOND) {
+  if (from_bond) {
     if (!force->bond) error->all(FLERR, "Fix lattice/friction law bond needs a bond style");
     if (btype < 1 || btype > atom->nbondtypes)
       error->all(FLERR, "Fix lattice/friction: bond type {} out of range 1..{}", btype,
@@ -240,15 +229,9 @@ inline double FixLatticeFriction::bond_force(int i, int j)
   const double dy = x[i][1] - x[j][1];
   const double dz = x[i][2] - x[j][2];
   const double rsq = dx * dx + dy * dy + dz * dz;
-  if (law == BOND) return bond_style_force(i, j, rsq);
+  if (from_bond) return bond_style_force(i, j, rsq);
   // on the chain's axis r = |dx| (the same bits as sqrt(rsq)), saving the sqrt
-  const double r = (dy == 0.0 && dz == 0.0) ? fabs(dx) : sqrt(rsq);
-  if (law == LINEAR) return k * (r_free - r);
-  const double s = r + b;
-  if (qint == 0) return K * pow(s, -q);
-  double sq = s;    // s^q by multiplication: several times cheaper than pow
-  for (int n = 1; n < qint; n++) sq *= s;
-  return K / sq;
+  return law.force((dy == 0.0 && dz == 0.0) ? fabs(dx) : sqrt(rsq));
 }
 
 /* law bond, kept out of bond_force: with the single() call in it, GCC did not inline
@@ -293,7 +276,7 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     // law power (F > 0): at rest and held by its weight alone, it sticks whatever the
     // neighbour forces add to the limit (also in rounding), so they are not needed; this
     // is the stuck branch below. m is not kept for later: that slowed law bond by 4%.
-    if (v0 == 0.0 && law == POWER) {
+    if (v0 == 0.0 && !from_bond && law.kind == ChainLaw::POWER) {
       const double weight = (rmass ? rmass[i] : mass[type[i]]) * g;
       if (fabs(fx) <= mu * weight) {
         v[i][0] = 0.0;

@@ -3,6 +3,7 @@
 #ifndef PYLMP_LATTICE_FIX_LATTICE_FRICTION_H
 #define PYLMP_LATTICE_FIX_LATTICE_FRICTION_H
 
+#include "chain_law.h"
 #include "fix.h"
 
 namespace LAMMPS_NS {
@@ -18,11 +19,9 @@ class FixLatticeFriction : public Fix {
 
  private:
   double mu, p, g;
-  enum { BOND, POWER, LINEAR } law;    // force law of the neighbour forces
+  bool from_bond;                      // F from the bond style (law bond), else from `law`
   int btype;                           // law bond: bond type whose single() gives F
-  double K, b, q;                      // law power: F = K / (r + b)^q
-  int qint;                            // q if it is an integer 1..8, else 0
-  double k, r_free;                    // law linear: F = k (r_free - r)
+  ChainLaw law;                        // an analytic or tabulated law (chain_law.h)
   double work_done;                    // this rank's friction work up to the current step (J)
   double work_pending;                 // work of the current kick's second half, due at the next step
   bool periodic;                       // any periodic dimension: pick the closest image of neighbours

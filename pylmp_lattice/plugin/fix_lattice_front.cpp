@@ -3,12 +3,15 @@
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
-   fix ID group-ID lattice/front start S front L drop D pulse_drop R [pulse_floor P]
+   fix ID group-ID lattice/front start S front L drop D pulse_drop R [pulse_floor P] [length n levels FILE]
 
    S, L, D = velocity levels (velocity units, m/s in units si), 0 < S <= L, D > 0
    R = relative fall that confirms a pulse's maximum, 0 < R < 1
    P = least absolute fall that confirms a pulse's maximum (velocity units), P >= 0, default 0
    (pylmp_lattice sets S, L, D and P against V_I and the chain's noise: measures/levels.py)
+   length n levels FILE = per-chain levels for several chains in one run (batched replicas,
+     as fix lattice/chain's length): FILE has one row "S L D R P" per chain of n atoms
+     (chain c: IDs c n + 1 .. c n + n), used for its atoms instead of the levels above
 
 Example
    fix front all lattice/front start 0.02 front 1.0 drop 0.1 pulse_drop 0.1
@@ -51,7 +54,7 @@ Implementation
    copied from the hot state when something may read the record: at output steps, at the end
    of a run, and at every step if any fix other than lattice/chain and lattice/front runs
    during steps (it might read f_ID at any step). When fix lattice/chain owns the whole time
-   step (one rank, no other per-step fix; see its header) it applies the same rules inside
+   step (no other per-step fix; on any number of ranks; see its header) it applies the same rules inside
    its force pass and this fix's end_of_step only refreshes the output.
 
 Restrictions
@@ -69,6 +72,8 @@ Restrictions
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <string>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
@@ -86,9 +91,9 @@ bool same_bits(double a, double b)
 
 FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), rec(nullptr), mark(nullptr), vprev(nullptr), phase(nullptr), shown(nullptr), rows(0),
-    refresh_every_step(true), t_prev(0.0), step_prev(-1)
+    length(0), refresh_every_step(true), t_prev(0.0), step_prev(-1)
 {
-  if (narg != 11 && narg != 13)
+  if (narg < 11)
     utils::missing_cmd_args(FLERR, "fix lattice/front start S front L drop D pulse_drop R [pulse_floor P]", error);
   const char *keys[4] = {"start", "front", "drop", "pulse_drop"};
   double *values[4] = {&levels.start, &levels.front, &levels.drop, &levels.pulse_drop};
@@ -97,25 +102,66 @@ FixLatticeFront::FixLatticeFront(LAMMPS *lmp, int narg, char **arg) :
       error->all(FLERR, "Fix lattice/front: expected '{}', got '{}'", keys[k], arg[3 + 2 * k]);
     *values[k] = utils::numeric(FLERR, arg[4 + 2 * k], false, lmp);
   }
-  if (!(levels.start > 0.0 && levels.start <= levels.front))
-    error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", levels.start,
-               levels.front);
-  if (!(levels.drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", levels.drop);
-  if (narg == 13) {
-    if (strcmp(arg[11], "pulse_floor") != 0)
-      error->all(FLERR, "Fix lattice/front: expected 'pulse_floor', got '{}'", arg[11]);
-    levels.pulse_floor = utils::numeric(FLERR, arg[12], false, lmp);
-    if (!(levels.pulse_floor >= 0.0))
-      error->all(FLERR, "Fix lattice/front: need pulse_floor >= 0, got {}", levels.pulse_floor);
+  std::string file;
+  for (int iarg = 11; iarg < narg; iarg += 2) {
+    const std::string key = arg[iarg];
+    if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/front " + key, error);
+    if (key == "pulse_floor") levels.pulse_floor = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    else if (key == "length") length = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+    else if (key == "levels") file = arg[iarg + 1];
+    else error->all(FLERR, "Fix lattice/front: unknown keyword '{}'; expected pulse_floor, length or levels", key);
   }
-  if (!(levels.pulse_drop > 0.0 && levels.pulse_drop < 1.0))
-    error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", levels.pulse_drop);
+  check(levels);
+  if (!file.empty()) read_levels(file);
+  else if (length) error->all(FLERR, "Fix lattice/front: length needs levels FILE");
 
   peratom_flag = 1;
   size_peratom_cols = NOUT;
   peratom_freq = 1;
+  maxexchange = NPACK;
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
+}
+
+void FixLatticeFront::check(const Levels &L)
+{
+  if (!(L.start > 0.0 && L.start <= L.front))
+    error->all(FLERR, "Fix lattice/front: need 0 < start <= front, got start {} front {}", L.start, L.front);
+  if (!(L.drop > 0.0)) error->all(FLERR, "Fix lattice/front: need drop > 0, got {}", L.drop);
+  if (!(L.pulse_floor >= 0.0))
+    error->all(FLERR, "Fix lattice/front: need pulse_floor >= 0, got {}", L.pulse_floor);
+  if (!(L.pulse_drop > 0.0 && L.pulse_drop < 1.0))
+    error->all(FLERR, "Fix lattice/front: need 0 < pulse_drop < 1, got {}", L.pulse_drop);
+}
+
+/* per-chain levels: one row "start front drop pulse_drop pulse_floor" per chain of `length`
+   atoms (chain c: IDs c length + 1 .. (c + 1) length), '#' comments; every rank reads it */
+
+void FixLatticeFront::read_levels(const std::string &file)
+{
+  if (length < 1 || atom->natoms % length)
+    error->all(FLERR, "Fix lattice/front: levels needs length n dividing the {} atoms", atom->natoms);
+  std::ifstream in(file);
+  if (!in) error->all(FLERR, "Fix lattice/front: cannot open levels file {}", file);
+  std::string line;
+  while (std::getline(in, line)) {
+    auto row = utils::split_words(utils::trim_comment(line));
+    if (row.empty()) continue;
+    if (row.size() != 5)
+      error->all(FLERR, "Fix lattice/front: {}: expected 'start front drop pulse_drop pulse_floor', got '{}'",
+                 file, line);
+    Levels L;
+    L.start = std::stod(row[0]);
+    L.front = std::stod(row[1]);
+    L.drop = std::stod(row[2]);
+    L.pulse_drop = std::stod(row[3]);
+    L.pulse_floor = std::stod(row[4]);
+    check(L);
+    per_chain.push_back(L);
+  }
+  if ((bigint) per_chain.size() != atom->natoms / length)
+    error->all(FLERR, "Fix lattice/front: {} has {} rows; expected one per chain, {}", file, per_chain.size(),
+               atom->natoms / length);
 }
 
 FixLatticeFront::~FixLatticeFront()
@@ -198,13 +244,8 @@ void FixLatticeFront::sample()
     const double vi = v[i][0];
     mark[i] = mark_max(mark[i], vi);
     if (phase[i] == FINISHED) continue;
-    const bool waiting = phase[i] == WAITING;
-    if (waiting && !starts(phase[i], vi, levels)) {
-      vprev[i] = vi;
-      continue;
-    }
-    const double ai = f[i][0] / (rmass ? rmass[i] : mass[type[i]]);
-    advance(rec[i], phase[i], vi, waiting ? vprev[i] : rec[i][V_PREV], ai, levels, s);
+    sample_row(i, vi, f[i][0], rmass ? rmass[i] : mass[type[i]], vprev[i]);
+    if (phase[i] == WAITING) vprev[i] = vi;
   }
   end_sample();
 }

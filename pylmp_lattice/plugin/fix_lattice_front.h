@@ -3,8 +3,12 @@
 #ifndef PYLMP_LATTICE_FIX_LATTICE_FRONT_H
 #define PYLMP_LATTICE_FIX_LATTICE_FRONT_H
 
+#include "atom.h"
 #include "fix.h"
 #include "front_rules.h"
+
+#include <string>
+#include <vector>
 
 namespace LAMMPS_NS {
 
@@ -29,6 +33,12 @@ class FixLatticeFront : public Fix {
   // returns false if this step was sampled already. After its last sample the owner hands the
   // waiting atoms' previous velocities back with set_previous_velocities.
   FrontRecord::Levels levels;
+  // chain c's levels (keywords length and levels; else `levels` for all)
+  const FrontRecord::Levels &chain_levels(bigint c) const { return per_chain.empty() ? levels : per_chain[c]; }
+  const FrontRecord::Levels &levels_of(int i) const
+  {
+    return per_chain.empty() ? levels : per_chain[(atom->tag[i] - 1) / length];
+  }
   double **rec;                              // rows: outputs, then running state
   double *mark, *vprev;                      // hot state; vprev: waiting atoms' last v
   unsigned char *phase;
@@ -37,8 +47,25 @@ class FixLatticeFront : public Fix {
   const FrontRecord::Sample &current_sample() const { return current; }
   void set_previous_velocities(const double *v, int stride);
 
+  /* The one per-atom sampling routine past the hot part (mark_max), for this fix's own pass and
+     fix lattice/chain's: the row of atom i if it is active or reaches the start level now, with
+     its v, f along x and mass at this sample, and v_waiting, its v at the previous sample (used
+     only if it was waiting). Returns its phase before. */
+  unsigned char sample_row(int i, double v, double f, double m, double v_waiting)
+  {
+    using namespace FrontRecord;
+    unsigned char &now = phase[i];
+    const unsigned char before = now;
+    const Levels &L = levels_of(i);
+    if (before == ACTIVE || starts(before, v, L))
+      advance(rec[i], now, v, before == WAITING ? v_waiting : rec[i][V_PREV], f / m, L, current);
+    return before;
+  }
+
  private:
   int rows;                                  // per-atom arrays allocated
+  bigint length;                             // atoms per chain, with per-chain levels
+  std::vector<FrontRecord::Levels> per_chain;
   double *shown;                             // what the rows' V_ABS_MAX column holds
   bool refresh_every_step;                   // another fix might read the record at any step
   double t_prev;                             // time of the previous sample
@@ -47,6 +74,8 @@ class FixLatticeFront : public Fix {
 
   void sample();
   void refresh();
+  void check(const FrontRecord::Levels &);
+  void read_levels(const std::string &file);
 };
 
 }    // namespace LAMMPS_NS

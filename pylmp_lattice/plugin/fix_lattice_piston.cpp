@@ -1,11 +1,16 @@
 /* ----------------------------------------------------------------------
-   fix lattice/piston: impactor moved along x by a measured time series
+   fix lattice/piston: impactor moved along x by a prescribed motion
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
+   fix ID group-ID lattice/piston constant V | ramp V T | sine V T | rest |
+                                  measured file path column u|v after hold|stop
    fix ID group-ID lattice/piston file path column u|v keyword value ...
 
    group-ID must contain exactly one atom (the impactor)
+   constant, ramp, sine, rest, measured: the motions of fix lattice/chain's impactor keyword,
+     from the same code (impactor_drive.h); V velocity units, T time units
+   the second form is `measured` with its defaults:
    path = text file with two columns, time and value, one sample a line
    u = the value is the displacement (distance units, m in units si)
    v = the value is the velocity (velocity units, m/s in units si)
@@ -15,11 +20,15 @@ Syntax
        stop = stop the run with an error if it goes past the last sample
 
 Examples
+   fix drive impactor lattice/piston ramp 2.0 7.3e-3
    fix drive impactor lattice/piston file impactor_u.txt column u after hold
    fix drive impactor lattice/piston file impactor_v.csv column v
 
 Description
-   Columns may be separated by blanks or commas; '#' starts a comment. At least 4
+   constant: u = V t; ramp: v = V t / T up to T, then V; sine: v = V sin(pi t / T) up to T,
+   then at rest; rest: held where it is. t counts from the step at which the fix is defined.
+
+   Measured: columns may be separated by blanks or commas; '#' starts a comment. At least 4
    samples are needed and times must increase strictly. The first sample's time is
    the moment the fix is defined, and the displacement is counted from the first
    sample, so the atom starts where it is: x(t) = x0 + u(t0 + t) - u(t0), where x0
@@ -47,32 +56,36 @@ Restrictions
 #include "update.h"
 
 #include <cstring>
+#include <string>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
 
-FixLatticePiston::FixLatticePiston(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), given_velocity(false), hold_after(false)
+FixLatticePiston::FixLatticePiston(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
 {
-  if (narg < 7) utils::missing_cmd_args(FLERR, "fix lattice/piston", error);
-  if (strcmp(arg[3], "file") != 0)
-    error->all(FLERR, "Fix lattice/piston: expected 'file <path>', got '{}'", arg[3]);
-  path = arg[4];
-  if (strcmp(arg[5], "column") != 0)
-    error->all(FLERR, "Fix lattice/piston: expected 'column u|v', got '{}'", arg[5]);
-  if (strcmp(arg[6], "v") == 0) given_velocity = true;
-  else if (strcmp(arg[6], "u") != 0)
-    error->all(FLERR, "Fix lattice/piston: column '{}' unknown; choose one of 'u', 'v'", arg[6]);
-
-  for (int iarg = 7; iarg < narg; iarg += 2) {
-    if (strcmp(arg[iarg], "after") != 0)
-      error->all(FLERR, "Fix lattice/piston: unknown keyword '{}'; expected 'after'", arg[iarg]);
-    if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/piston after", error);
-    if (strcmp(arg[iarg + 1], "hold") == 0) hold_after = true;
-    else if (strcmp(arg[iarg + 1], "stop") == 0) hold_after = false;
-    else
-      error->all(FLERR, "Fix lattice/piston: after '{}' unknown; choose one of 'hold', 'stop'",
-                 arg[iarg + 1]);
+  if (narg < 4) utils::missing_cmd_args(FLERR, "fix lattice/piston", error);
+  if (strcmp(arg[3], "file") != 0) {
+    if (drive.parse(lmp, narg, arg, 3, "Fix lattice/piston") != narg)
+      error->all(FLERR, "Fix lattice/piston: unexpected arguments after the motion");
+  } else {    // file PATH column u|v [after hold|stop]
+    if (narg < 7) utils::missing_cmd_args(FLERR, "fix lattice/piston file", error);
+    if (strcmp(arg[5], "column") != 0)
+      error->all(FLERR, "Fix lattice/piston: expected 'column u|v', got '{}'", arg[5]);
+    const std::string column = arg[6];
+    if (column != "u" && column != "v")
+      error->all(FLERR, "Fix lattice/piston: column '{}' unknown; choose one of 'u', 'v'", column);
+    bool hold_after = false;
+    for (int iarg = 7; iarg < narg; iarg += 2) {
+      if (strcmp(arg[iarg], "after") != 0)
+        error->all(FLERR, "Fix lattice/piston: unknown keyword '{}'; expected 'after'", arg[iarg]);
+      if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/piston after", error);
+      if (strcmp(arg[iarg + 1], "hold") == 0) hold_after = true;
+      else if (strcmp(arg[iarg + 1], "stop") == 0) hold_after = false;
+      else
+        error->all(FLERR, "Fix lattice/piston: after '{}' unknown; choose one of 'hold', 'stop'",
+                   arg[iarg + 1]);
+    }
+    drive.load_measured(arg[4], column == "v", hold_after, lmp, "Fix lattice/piston");
   }
 
   if (group->count(igroup) != 1)
@@ -88,8 +101,6 @@ FixLatticePiston::FixLatticePiston(LAMMPS *lmp, int narg, char **arg) :
     if (atom->mask[i] & groupbit)
       for (int d = 0; d < 3; d++) mine[d] = atom->x[i][d];
   MPI_Allreduce(mine, x0, 3, MPI_DOUBLE, MPI_SUM, world);
-
-  spline.load(path, given_velocity, hold_after, error, "Fix lattice/piston");
 }
 
 int FixLatticePiston::setmask()
@@ -108,8 +119,7 @@ void FixLatticePiston::init()
 void FixLatticePiston::place(bool set_x)
 {
   double u, ud;
-  // a run meant to end on the last sample may overshoot it by round-off
-  spline.at((update->ntimestep - time_origin) * update->dt, 1.0e-6 * update->dt, u, ud);
+  drive.at((update->ntimestep - time_origin) * update->dt, update->dt, u, ud);
   double **x = atom->x;
   double **v = atom->v;
   for (int i = 0; i < atom->nlocal; i++) {

@@ -1,12 +1,10 @@
-/* Impactor driven by a measured time series; see fix_lattice_piston.cpp for the syntax. */
+/* Impactor moved by a prescribed motion (impactor_drive.h); see fix_lattice_piston.cpp for the syntax. */
 
 #ifndef PYLMP_LATTICE_FIX_LATTICE_PISTON_H
 #define PYLMP_LATTICE_FIX_LATTICE_PISTON_H
 
 #include "fix.h"
-#include "measured_motion.h"
-
-#include <string>
+#include "impactor_drive.h"
 
 namespace LAMMPS_NS {
 
@@ -20,13 +18,9 @@ class FixLatticePiston : public Fix {
   void final_integrate() override;
 
  private:
-  std::string path;
-  bool given_velocity;    // the file's column is v (else u)
-  bool hold_after;        // past the data: hold the last position (else stop the run)
-  bigint time_origin;     // step at which the fix was defined: file time t[0]
-  double x0[3];           // the atom's position then
-
-  MeasuredMotion spline;    // the file's motion
+  ImpactorDrive drive;
+  bigint time_origin;    // step at which the fix was defined: the drive's t = 0
+  double x0[3];          // the atom's position then
 
   void place(bool set_x);
 };

@@ -18,6 +18,7 @@ DATA = "chain.data"
 TABLE = "force.table"
 SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
 PISTON = "piston.txt"  # a measured impactor's samples
+FRONT_LEVELS = "front_levels.txt"  # a batch of chains: each chain's front record levels, a row each
 CASE = "case.toml"  # the case, user units; a folder with it and MARKER holds a run
 REPLICAS = "replicas.toml"  # the cases of a batched-replica folder
 MARKER = "run.json"  # the package's record of the folder: version, state, where a run stopped
@@ -29,6 +30,7 @@ FINE_DUMP = "fine.dump"  # output.format = "text": the output.fine magnets
 TRAJ_BIN = "traj.bin"  # output.format = "h5md": binary dumps, converted into H5MD after the run
 FINE_BIN = "fine.bin"
 FRONT_BIN = "front.bin"  # fix lattice/front's record, written at the end of the run
+CHAIN_WORK = "chain_work.txt"  # a batch of chains with friction: each chain's friction work (J), a line each
 
 # ---- written after the run
 H5MD = "traj.h5md"
@@ -37,8 +39,8 @@ FIGURE = "shock.png"
 LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
 
 # Every name a run of this package may write: a folder holding any of them but no run is refused.
-RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
-             FINE_BIN, FRONT_BIN, H5MD, H5MD + ".part", SUMMARY, FIGURE, MARKER, LOCK)
+RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
+             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", SUMMARY, FIGURE, MARKER, LOCK)
 
 # ---- columns
 DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"  # text dumps

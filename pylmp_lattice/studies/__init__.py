@@ -3,9 +3,9 @@
 
 Layout: `paper/` (one module per figure of the paper: fig1-4, s3-s9, movies), `literature/`
 (harmonic, toda, hugoniot, dsw), `ensembles/` (replicas of random chains: thermal), on one
-scaffold: `scaffold` (the paper's constants, the chains as cases, runs of many cases), `long_lattice` (Fig. 3's measures and panels, shared by fig3 and
-s5), `output` (the one writer). Studies call measures (`pylmp_lattice.measures`) and the
-scaffold, never each other.
+scaffold: `scaffold` (the paper's constants, the chains as cases, runs of many cases),
+`long_lattice` (Fig. 3's measures and panels, shared by fig3 and s5), `output` (the one writer).
+Studies call measures (`pylmp_lattice.measures`) and the scaffold, never each other.
 
 `pylmp-lattice study NAME [-o DIR] [--quick]` runs a study and writes, through the one writer
 `write_study`: DIR/NAME.json (its numbers, units in the keys, strict JSON), DIR/NAME_<table>.csv

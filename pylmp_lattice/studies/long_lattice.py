@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import measures
-from ..plots import accepted_velocity, pyplot, separate, style_figure, twin_axis
+from ..plots import pyplot, separate, style_figure, twin_axis
 from .output import StudyResult
 from .scaffold import linear_constants, particles_reached, pick
 
@@ -104,7 +104,7 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     ax[0, 0].set(title="velocity profile", xlabel="t (ms)", ylabel="v (m/s)")
     ax[0, 0].legend(fontsize="small", loc="upper left")
     n = np.arange(1, len(front.arrival) + 1)
-    ax[0, 1].plot(n[:-1] + 0.5, accepted_velocity(front), ".", ms=3, label="per gap")
+    ax[0, 1].plot(n[:-1] + 0.5, front.accepted_velocity, ".", ms=3, label="per gap")
     ax[0, 1].plot(n, centred, "-", lw=0.8, label="centred")
     ax[0, 1].axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     ax[0, 1].set(title="propagation velocity", xlabel="magnet n", ylabel="$V_P$ (m/s)", xlim=(0, reached + 1))

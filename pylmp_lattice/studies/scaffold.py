@@ -149,7 +149,8 @@ def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> li
     `sweep.Sweep`) in `root` through the sweep layer (parallel, resumable: members already done
     are not run again); its members in sweep order."""
     sweep = Sweep(base=base, **spec)
-    table = run_sweep(sweep, root, workers=workers, progress=False).set_index("id")
+    # overwrite: a study run again with other values (quick, full) makes `root` this sweep's
+    table = run_sweep(sweep, root, workers=workers, progress=False, overwrite=True).set_index("id")
     runs = []
     for m in sweep.members():
         row = table.loc[m.id]
@@ -176,7 +177,7 @@ def run_cases(cases: list[Case], root: Path, workers: int | None = None) -> list
     dicts = [case_to_dict(c) for c in cases]
     sections = [s for s in SECTIONS if any(s in d for d in dicts)]
     sweep = Sweep(base=dicts[0], zip={s: [d[s] for d in dicts] for s in sections} if len(cases) > 1 else {})
-    table = run_sweep(sweep, root, workers=workers, progress=False)
+    table = run_sweep(sweep, root, workers=workers, progress=False, overwrite=True)  # as in sweep_runs
     failed = table[table["status"] != DONE]
     if len(failed):
         raise LatticeError(f"study run failed: {failed['error'].iloc[0]} (in {Path(root) / failed['folder'].iloc[0]})")

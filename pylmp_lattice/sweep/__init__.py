@@ -9,10 +9,17 @@
 `pylmp-lattice sweep SWEEP.toml -o DIR` does the same from a sweep file (`spec` documents it).
 """
 
-from .execute import run_sweep
-from .spec import Member, Sweep, load_sweep, member_id, member_seed
-from .stats import plot_replica_stats, replica_stats, write_replica_stats
-from .table import load_results
+# Loaded on first use (PEP 562): `pylmp_lattice.sweep.pool` can start the workers' fork server
+# before numpy, pandas and the engine are loaded here.
+_WHERE = {"run_sweep": "execute", "Member": "spec", "Sweep": "spec", "load_sweep": "spec", "member_id": "spec",
+          "member_seed": "spec", "load_results": "table", "replica_stats": "stats", "plot_replica_stats": "stats",
+          "write_replica_stats": "stats"}
+__all__ = list(_WHERE)
 
-__all__ = ["Member", "Sweep", "load_sweep", "member_id", "member_seed", "run_sweep", "load_results",
-           "replica_stats", "plot_replica_stats", "write_replica_stats"]
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        from importlib import import_module
+
+        return getattr(import_module(f".{_WHERE[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,298 +1,343 @@
-"""Running a sweep's members: one code path for a local process pool and a Dask cluster.
+"""Running a sweep: the coordinator. One code path for a local process pool and any
+`concurrent.futures` executor (a Dask cluster's `get_executor()`, a batch system's).
 
-Both are `concurrent.futures` executors (`ProcessPoolExecutor`, or a `distributed.Client`'s
-`get_executor()`); `run_member` runs in the worker and writes everything to the member's
-folder, so results live on disk, not in worker memory. The coordinator (this process) skips
-members that are done, collects the rest as they finish, and rewrites the table after each.
+The coordinator counts the members and estimates the run before enumerating them, claims the
+folder (one coordinator per DIR, DIR/sweep.json names the sweep it holds), then enumerates the
+members lazily: a member done on disk (status done, summary that parses) is skipped, the others
+are grouped into tasks, consecutive members of one parameter point, sized to the workers
+(`_Blocks`), and run by `batch.run_task` in the workers, whose results live on disk. At most one
+task per worker is in flight, so a stop never finds members queued. The table is kept in
+memory (O(1) per member), written every few seconds and at the end.
+
+Stopping (SIGINT, SIGTERM): no further task is sent, the local workers are told to stop (their
+engines stop at the next step, their members become "interrupted"), the table is written, and
+`Interrupted` is raised, within about a second; a second signal kills the workers at once.
+A local worker exits by itself when the coordinator dies (it watches a pipe, which closes
+whether or not the dead coordinator is reaped). A lost worker (killed, out of memory) breaks
+the pool: every member in flight is read back from its folder, "done" if it finished there,
+else "interrupted", and the sweep stops; running the command again completes it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
-import multiprocessing
+import importlib
+import logging
+import math
 import os
-import resource
-import shutil
 import signal
 import sys
 import threading
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import pandas as pd
-
-from ..case import Case
-from ..errors import Interrupted
+from ..errors import ConfigError, Interrupted
+from . import batch
+from .batch import Task
+from .pool import GRACE, Pool, executor_pool
+from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, member_folder, now, provenance, read_status, write_status
-from .table import member_row, write_table
+from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, outcome, read_json
+from .table import Table, member_row
 
-LOCK = "sweep.lock"
+log = logging.getLogger(__name__)
 
-
-@dataclass(frozen=True)
-class Task:
-    """What a worker needs to run one member (small and picklable)."""
-
-    folder: str
-    id: str
-    index: int
-    params: dict
-    case: Case
-    runner: str
-
-
-def run_member(task: Task) -> dict:
-    """Run one member in its folder; return {"record": status record, "summary": summary or None}.
-
-    Any earlier unfinished attempt in the folder is removed first (it never counted as done).
-    Every error of the run becomes the member's one-line error; the status is written last.
-    """
-    from ..run_folder import run_case
-
-    folder = Path(task.folder)
-    if folder.exists():
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True)
-    start, cpu = time.perf_counter(), _cpu_time()
-    record = {"id": task.id, "index": task.index, "params": task.params, "status": RUNNING, "error": None,
-              "started": now(), "provenance": provenance()}
-    write_status(folder, record)
-    summary = None
-    try:
-        # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
-        summary = run_case(task.case, folder, runner=task.runner, figure=False, yes=True)
-        record["status"] = DONE
-    except Interrupted:  # Ctrl-C or SIGTERM: unfinished, not failed; on disk it stays "running"
-        return {"record": record | {"status": INTERRUPTED}, "summary": None}
-    except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
-        record |= {"status": FAILED, "error": one_line(err)}
-    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
-               "cpu_time_s": round(_cpu_time() - cpu, 3)}
-    write_status(folder, record)
-    return {"record": record, "summary": summary}
-
-
-def _cpu_time() -> float:
-    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + children.ru_utime + children.ru_stime
-
-
-def one_line(err: BaseException) -> str:
-    """An exception as one line; our own errors speak for themselves, others get their type."""
-    from ..errors import LatticeError
-
-    lines = str(err).strip().splitlines()
-    text = lines[0] if lines else ""
-    return text if isinstance(err, LatticeError) and text else f"{type(err).__name__}: {text}".rstrip(": ")
+# A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
+MANY_MEMBERS = 100_000
+# A task's members: at most this many atoms, atom-steps (about a second of engine time) and
+# atom types (LAMMPS keeps some per-type-pair tables) in one instance; the first task of each
+# worker is small, so that the first members start at once.
+MAX_ATOMS = 200_000
+MAX_ATOM_STEPS = 5e7
+MAX_TYPES = 1024
+FIRST_TASK = 16
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
-              retry_failed: bool = False, progress: bool = True) -> pd.DataFrame:
-    """Run every member not yet done; return the table (also in root/results.{csv,parquet}).
+              retry_failed: bool = False, progress: bool = True, executor: Executor | None = None,
+              slots: int | None = None, overwrite: bool = False, yes: bool = False):
+    """Run every member not yet done; return the table (a pandas DataFrame, also in
+    root/results.{csv,parquet}).
 
     workers: local processes (default: one per core); scheduler: a Dask scheduler address
-    (tcp://HOST:PORT), whose workers must see `root` on a shared file system.
-    Members that failed before are skipped unless `retry_failed`.
+    (tcp://HOST:PORT), whose workers must see `root` on a shared file system; or executor: any
+    `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
+    Members that failed before are skipped unless `retry_failed`. A folder that holds a
+    different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
+    MANY_MEMBERS members needs `yes`.
+    Raises Interrupted on SIGINT or SIGTERM, after writing the table.
     """
-    root = Path(root)
-    members = sweep.members()
-    (root / MEMBERS).mkdir(parents=True, exist_ok=True)
-    with _lock(root):
-        return _run(sweep, root, members, workers, scheduler, retry_failed, progress)
+    root = Path(root).resolve()
+    total = sweep.count()
+    if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
+        raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+    log.info("%s: %d members (%s)", root.name, total, _estimate(sweep, total, slots or workers or os.cpu_count() or 1))
+    if total > MANY_MEMBERS and not yes:
+        raise ConfigError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
+                          "to run them, or sweep fewer values")
+    root.mkdir(parents=True, exist_ok=True)
+    with _lock(root), _StopSignals() as stop:
+        _claim(root, sweep, overwrite)
+        (root / MEMBERS).mkdir(exist_ok=True)
+        with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
+            stop.on_signal = pool.on_signal
+            return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
 
 
-def _run(sweep: Sweep, root: Path, members: list[Member], workers, scheduler, retry_failed, progress) -> pd.DataFrame:
-    rows: dict[int, dict] = {}
-    todo: list[Member] = []
-    for m in members:
-        folder = member_folder(root, m.id)
-        record = read_status(folder)
-        finished = record is not None and record.get("id") == m.id and record["status"] in (DONE, FAILED)
-        if finished and (record["status"] == DONE or not retry_failed):
-            rows[m.index] = _row(m, record, _summary(folder) if record["status"] == DONE else None)
-        elif m.case is None:  # invalid parameters: failed without running
-            folder.mkdir(parents=True, exist_ok=True)
-            record = {"id": m.id, "index": m.index, "params": m.params, "status": FAILED, "error": m.error,
-                      "started": now(), "ended": now(), "wall_time_s": 0.0, "provenance": provenance()}
-            write_status(folder, record)
-            rows[m.index] = _row(m, record, None)
-        else:
-            todo.append(m)
-    table = write_table(root, [rows[i] for i in sorted(rows)])
-    bar = _Progress(len(members), rows, progress)
-    with _executor(workers, scheduler, sweep.runner) as (executor, slots):
-        bar.slots = slots
-        futures = {executor.submit(run_member, _task(root, m, sweep)): m for m in todo}
-        bar.show(running=len(futures))
+# ----------------------------------------------------------------------------- the coordinator
+
+class _Coordinator:
+    def __init__(self, sweep: Sweep, root: Path, pool: Pool, stop: _StopSignals, retry_failed: bool,
+                 progress: bool, total: int):
+        self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
+        self.retry_failed = retry_failed
+        self.table = Table(root)
+        self.blocks = _Blocks(total, pool.slots)
+        self.bar = _Progress(total, progress)
+        self.lost = False
+        self.pandas = None
+        self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
+
+    def run(self):
+        tasks = self._tasks()
+        running: dict[Future, Task] = {}
         try:
-            for future in as_completed(futures):
-                # dropped once handled: a Dask future kept would keep the result in a worker's
-                # memory, and a worker retiring (its lifetime) would have the member run again
-                m = futures.pop(future)
-                try:
-                    result = future.result()
-                except Exception as err:  # noqa: BLE001 - the worker itself was lost (killed, crashed)
-                    result = _lost(root, m, err)
-                del future
-                if result["record"]["status"] == INTERRUPTED:
-                    continue
-                rows[m.index] = _row(m, result["record"], result["summary"])
-                table = write_table(root, [rows[i] for i in sorted(rows)])
-                bar.advance(running=len(futures))
-        except (KeyboardInterrupt, Interrupted):
-            # queued members never start; running ones are stopped (pool) and re-run on resume
-            for future in futures:
-                future.cancel()
-            _interrupt_workers(executor)
-            bar.close()
-            raise
-    bar.close()
-    return table
+            ready: list[Task] = []  # the next tasks, enumerated while the workers run
+            while True:
+                stopping = self.stop.signals or self.lost
+                while not stopping and len(running) < self.pool.slots and (ready or self._more(tasks, ready)):
+                    task = ready.pop(0)
+                    running[self.pool.submit(task)] = task
+                    self.bar.show(len(running))
+                if self.pandas is None:
+                    # the table needs pandas (a second or more to import): loaded while the first members run
+                    self.pandas = threading.Thread(target=importlib.import_module, args=("pandas",), daemon=True)
+                    self.pandas.start()
+                if not running:
+                    break
+                busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
+                done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
+                for future in done:
+                    self._collect(running.pop(future), future)
+                if (self.stop.signals or self.lost) and running:
+                    self._wind_down(running)
+                self.table.flush()
+            if self.broken:
+                self.pool.kill()
+                for task in self.broken:
+                    self._from_disk(task)
+        finally:
+            self.bar.close()
+            table = self.table.write()
+        if self.stop.signals:
+            raise Interrupted(self.stop.signals[0])
+        return table
 
+    def _more(self, tasks, ready: list[Task]) -> bool:
+        """Enumerate the next task into `ready`; whether there was one."""
+        task = next(tasks, None)
+        if task is not None:
+            ready.append(task)
+        return task is not None
+
+    def _tasks(self):
+        """Tasks of members not done, in sweep order (members are enumerated as tasks are needed)."""
+        group: list[Member] = []
+        key = size = None
+        for m in self.sweep.iter_members():
+            if self._finished(m):
+                continue
+            point = _point(m)
+            if group and (point != key or len(group) >= size):
+                yield Task(str(self.root), tuple(group), self.sweep.runner)
+                group = []
+            if not group:
+                key, size = point, self.blocks.next_size(m)
+            group.append(m)
+        if group:
+            yield Task(str(self.root), tuple(group), self.sweep.runner)
+
+    def _finished(self, m: Member) -> bool:
+        """Whether the member's outcome on disk stands (its row is set from it)."""
+        self.blocks.seen += 1
+        found = outcome(self.root, m.id)
+        if found is None or (found["record"]["status"] == FAILED and self.retry_failed):
+            return False
+        self._row(m, found["record"], found["summary"])
+        return True
+
+    def _collect(self, task: Task, future: Future) -> None:
+        try:
+            results = future.result()
+        except Exception as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
+            if not (self.stop.signals or self.lost):
+                log.warning("a worker was lost (%s); the members in flight are read back from their folders",
+                            batch.one_line(err))
+                self.lost = True
+            self.broken.append(task)
+            return
+        for m, result in zip(task.members, results):
+            self._row(m, result["record"], result["summary"])
+
+    def _from_disk(self, task: Task) -> None:
+        for m in task.members:
+            result = _from_disk(self.root, m)
+            self._row(m, result["record"], result["summary"])
+
+    def _wind_down(self, running: dict[Future, Task]) -> None:
+        """After a stop signal or a lost worker: the workers' reports for GRACE seconds, then
+        the workers are killed and what they did not report is read from the disk."""
+        deadline = time.monotonic() + GRACE
+        while running and time.monotonic() < deadline and len(self.stop.signals) < 2:
+            done, _ = wait(running, timeout=0.05, return_when=FIRST_COMPLETED)
+            for future in done:
+                self._collect(running.pop(future), future)
+        self.broken += running.values()
+        running.clear()
+
+    def _row(self, m: Member, record: dict, summary: dict | None) -> None:
+        self.table.set(m.index, member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary))
+        self.bar.advance(record["status"])
+
+
+def _from_disk(root: Path, m: Member) -> dict:
+    """A member whose worker did not report: as it stands on disk, else interrupted."""
+    return outcome(root, m.id) or {"record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
+                                              "error": None}, "summary": None}
+
+
+def _point(m: Member) -> str:
+    """The member's parameter point: members of one point differ only in their seed."""
+    return identity_hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
+
+
+@dataclass
+class _Blocks:
+    """Task sizes: the first task of each worker small (a quick start), then the members left
+    shared evenly among the workers, within what one instance should hold (MAX_*)."""
+
+    total: int
+    slots: int
+    seen: int = 0
+    sized: int = 0
+    even: int = 0
+    limits: dict = field(default_factory=dict)
+
+    def next_size(self, m: Member) -> int:
+        """The size of the task that starts with member `m` (the `seen`-th enumerated)."""
+        cap = self._cap(m)
+        self.sized += 1
+        if self.sized <= self.slots:
+            return min(cap, FIRST_TASK)
+        if not self.even:
+            self.even = math.ceil((self.total - self.seen + 1) / self.slots)
+        return max(1, min(cap, self.even))
+
+    def _cap(self, m: Member) -> int:
+        """Members of this point one instance may hold (1 if they cannot be batched)."""
+        point = _point(m)
+        if point not in self.limits:
+            case = m.case
+            if case is None or not batch.batchable(case):
+                self.limits[point] = 1
+            else:
+                n, chain = case.chain.particles, case.chain
+                types = n if (chain.mass_disorder or not isinstance(chain.mass, (int, float))) else 2
+                self.limits[point] = max(1, min(MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps())),
+                                                MAX_TYPES // types))
+        return self.limits[point]
+
+
+def _estimate(sweep: Sweep, total: int, workers: int) -> str:
+    """The sweep's engine time, from the first member's case (preflight's model)."""
+    from ..preflight import SECONDS_PER_ATOM_STEP, _duration
+
+    first = next(sweep.iter_members(), None)
+    if first is None or first.case is None:
+        return "no estimate"
+    case = first.case
+    seconds = SECONDS_PER_ATOM_STEP * case.chain.particles * case.run.steps() * total / workers
+    return f"about {_duration(seconds)} of engine time on {workers} workers, if all are like the first"
+
+
+# ----------------------------------------------------------------------------- the folder
 
 @contextlib.contextmanager
 def _lock(root: Path):
-    """One coordinator per sweep folder (the kernel drops the lock if the coordinator dies)."""
-    from ..errors import ConfigError
-
-    with open(root / LOCK, "a+") as f:
+    """One coordinator per sweep folder: a lock on the folder itself (no lock file to leave
+    behind; the kernel drops it when the coordinator dies)."""
+    fd = os.open(root, os.O_RDONLY)
+    try:
         try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError as err:
             raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
         yield
-
-
-def _task(root: Path, m: Member, sweep: Sweep) -> Task:
-    return Task(str(member_folder(root, m.id).resolve()), m.id, m.index, m.params, m.case, sweep.runner)
-
-
-def _row(m: Member, record: dict, summary: dict | None) -> dict:
-    return member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary)
-
-
-def _summary(folder: Path) -> dict | None:
-    from ..run_folder import RunFolder
-
-    return RunFolder(folder).summary
-
-
-def _lost(root: Path, m: Member, err: BaseException) -> dict:
-    """A member whose worker died: recorded as failed (re-run with --retry-failed)."""
-    folder = member_folder(root, m.id)
-    record = (read_status(folder) or {"id": m.id, "index": m.index, "params": m.params, "started": None})
-    record |= {"status": FAILED, "error": f"worker lost: {one_line(err)}", "ended": now(), "wall_time_s": None}
-    folder.mkdir(parents=True, exist_ok=True)
-    write_status(folder, record)
-    return {"record": record, "summary": None}
-
-
-@contextlib.contextmanager
-def _executor(workers: int | None, scheduler: str | None, runner: str):
-    """(executor, number of worker slots): a local process pool, or a Dask cluster's executor.
-
-    The embedded runner changes the worker's working directory while LAMMPS runs, so it
-    needs one member at a time per process: pool processes are, Dask workers must be."""
-    from ..errors import ConfigError
-
-    if workers is not None and not (isinstance(workers, int) and workers >= 1):
-        raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
-    if scheduler is None:
-        workers = workers or os.cpu_count() or 1
-        # forkserver: workers are forked from a clean server process (never from a coordinator
-        # that may hold threads or an initialised MPI), which imports the package once and
-        # stays up for later sweeps of the same Python session.
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pylmp_lattice.sweep.execute", "pylmp_lattice.run_folder.execution", "pylmp_lattice.summary"])
-        _start_forkserver()
-        with ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
-                                 initargs=(os.getpid(),)) as pool:
-            yield pool, workers
-        return
-    if workers is not None:
-        raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
-    from distributed import Client
-
-    try:
-        client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as err:
-        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err})") from err
-    try:
-        threads = client.nthreads()
-        if runner == "embedded" and any(n > 1 for n in threads.values()):
-            raise ConfigError("runner", "the embedded runner needs Dask workers with one thread each "
-                              "(dask worker --nthreads 1); or set runner = \"lmp\" in the sweep file")
-        executor: Executor = client.get_executor(pure=False)
-        yield executor, max(1, sum(threads.values()))
     finally:
-        client.close()
+        os.close(fd)
 
 
-def _interrupt_workers(executor: Executor) -> None:
-    """Ask a local pool's workers to stop their members (the engine stops at the next step).
-    A Dask cluster's running members finish on their own; their results stay on disk."""
-    if isinstance(executor, ProcessPoolExecutor):
-        for process in list((executor._processes or {}).values()):  # no public list of workers
-            with contextlib.suppress(ProcessLookupError, TypeError):
-                os.kill(process.pid, signal.SIGINT)
+def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
+    """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`, which
+    makes DIR this sweep's (its table is replaced; member folders are named by their case, so
+    those of identical cases are reused and the others stay on disk, out of the table)."""
+    import json
+
+    identity = sweep.identity()
+    held = read_json(root / SWEEP_FILE)
+    if held is not None and held.get("identity") != identity and not overwrite:
+        raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
+                          "or pass --overwrite to replace it")
+    if held is None or held.get("identity") != identity:
+        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n")
 
 
-def _start_forkserver() -> None:
-    """Start the fork server with Ctrl-C ignored (inherited): it and its workers are left to the
-    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
-    from multiprocessing import forkserver
+# ----------------------------------------------------------------------------- signals
 
-    if threading.current_thread() is not threading.main_thread():
-        return  # signal handlers can only be set from the main thread
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        forkserver.ensure_running()
-    finally:
-        signal.signal(signal.SIGINT, previous)
+class _StopSignals:
+    """SIGINT and SIGTERM recorded (in the main thread; elsewhere the process's handling stays):
+    the first asks the workers to stop, the second kills them (`on_signal(count)`)."""
 
+    def __init__(self):
+        self.signals: list[int] = []
+        self.on_signal = lambda count: None
+        self.previous = {}
 
-def _pool_worker_init(coordinator: int) -> None:
-    """A pool worker: Ctrl-C is for the coordinator, and the worker ends when the sweep does.
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
+        return self
 
-    Without this watch, the workers of a coordinator killed with SIGKILL would wait for work
-    forever (and keep the fork server alive).
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    def _handle(self, signum, frame):
+        self.signals.append(signum)
+        self.on_signal(len(self.signals))
 
-    def watch():
-        while True:
-            time.sleep(1.0)
-            try:
-                os.kill(coordinator, 0)
-            except ProcessLookupError:
-                os._exit(1)  # the member in hand stays "running" on disk and is re-run on resume
-
-    threading.Thread(target=watch, daemon=True).start()
+    def __exit__(self, *exc):
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
 
 
 class _Progress:
-    """A progress bar on stderr: members finished of all, failed, running, and time left."""
+    """A progress bar on stderr (terminals only): members finished of all, failed, running."""
 
-    def __init__(self, total: int, rows: dict, enabled: bool):
+    def __init__(self, total: int, enabled: bool):
         from tqdm import tqdm
 
-        self.rows, self.slots = rows, 1
-        self.bar = tqdm(total=total, initial=len(rows), file=sys.stderr, disable=not enabled,
-                        unit="member", dynamic_ncols=True)
+        self.failed = self.running = 0
+        self.bar = tqdm(total=total, file=sys.stderr, disable=None if enabled else True, unit="member",
+                        dynamic_ncols=True, mininterval=0.5)
 
-    def show(self, running: int, refresh: bool = True) -> None:
-        failed = sum(r["status"] == FAILED for r in self.rows.values())
-        self.bar.set_postfix_str(f"done {len(self.rows) - failed}, failed {failed}, running {min(self.slots, running)}",
-                                 refresh=refresh)
+    def show(self, running: int) -> None:
+        self.running = running
+        self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
 
-    def advance(self, running: int) -> None:
-        self.show(running, refresh=False)
-        self.bar.update(1)
+    def advance(self, status: str) -> None:
+        self.failed += status == FAILED
+        if status != INTERRUPTED:
+            self.bar.update(1)
 
     def close(self) -> None:
         self.bar.close()

@@ -25,7 +25,12 @@ Members are the grid product (keys in file order, the zip as one more axis), eac
 `replicas` times (innermost), numbered from 0 in that order. A member whose chain is random
 (thermal velocities or disorder) gets chain.seed derived from the sweep seed and its number,
 unless the sweep itself sets chain.seed. A member is identified by the hash of its resolved
-case (`case.case_id`); two members with the same case are one member.
+case (`case.case_id`, numbers normalised: 1 and 1.0 are one value); two members with the same
+case are one member. A field is set or swept, not both; swept numbers must be finite.
+
+Enumeration is lazy where it can be: the first replica of each parameter point is validated
+when enumerated; the others differ from it only in chain.seed, so their identity is derived
+from its resolved case and each is built and validated (`Member.case`) by whoever runs it.
 """
 
 from __future__ import annotations
@@ -33,7 +38,10 @@ from __future__ import annotations
 import copy
 import itertools
 import logging
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -56,15 +64,35 @@ class Member:
     """One run of the sweep.
 
     params: the swept fields (dotted key -> value), with "replica" and "chain.seed" where the
-    sweep sets them; case: the resolved case, or None when its parameters are invalid
-    (then `error` says why, and the member is recorded as failed without running).
+    sweep sets them; data: the case as a dict (TOML form), resolved for all but the first
+    replica of a point (whose case the sweep built to validate it). `case` is built on first
+    use: None when the parameters are invalid (then `error` says why, and the member is
+    recorded as failed without running).
     """
 
     index: int
     id: str
     params: dict
-    case: Case | None
-    error: str | None = None
+    data: dict = field(repr=False)
+    base_dir: Path = field(default=Path("."), repr=False)
+    built: Case | None = field(default=None, repr=False, compare=False)  # the case, when already built
+
+    @cached_property
+    def _case(self) -> tuple[Case | None, str | None]:
+        if self.built is not None:
+            return self.built, None
+        try:
+            return case_from_dict(self.data, base_dir=self.base_dir), None
+        except ConfigError as err:
+            return None, str(err)
+
+    @property
+    def case(self) -> Case | None:
+        return self._case[0]
+
+    @property
+    def error(self) -> str | None:
+        return self._case[1]
 
 
 @dataclass(frozen=True)
@@ -97,6 +125,14 @@ class Sweep:
                 if not values:
                     raise ConfigError(f"{table}.{key}", "empty list; expected at least one value")
             object.__setattr__(self, table, flat)
+        for table in ("set", "grid", "zip"):
+            for key, value in getattr(self, table).items():
+                _check_finite(f"{table}.{key}", value)
+        for table in ("grid", "zip"):
+            for key in getattr(self, table):
+                clash = next((k for k in self.set if _overlap(k, key)), None)
+                if clash is not None:
+                    raise ConfigError(f"{table}.{key}", f"also given in [set] as {clash!r}; a field is set or swept, not both")
         lengths = {key: len(v) for key, v in self.zip.items()}
         if len(set(lengths.values())) > 1:
             first = next(iter(lengths))
@@ -113,52 +149,89 @@ class Sweep:
             raise ConfigError("keep", f"got {self.keep!r}; choose one of {', '.join(KEEP)}")
         if self.runner not in RUNNERS:
             raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+        if self.replicas > 1 and not self._may_be_random():
+            raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
+                              f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
+
+    def _may_be_random(self) -> bool:
+        """Whether some member's chain is random: the base with [set], or a swept chain value."""
+        data = copy.deepcopy(self.base)
+        for key, value in self.set.items():
+            _assign(data, key, value)
+        if _is_random(data):
+            return True
+        swept = [(k, v) for table in (self.grid, self.zip) for k, values in table.items() for v in values]
+        return any(_is_random({"chain": v} if k == "chain" else {"chain": {k[6:]: v}})
+                   for k, v in swept if k == "chain" or k.startswith("chain."))
+
+    def describe(self) -> dict:
+        """The sweep as plain data (what DIR/sweep.json records)."""
+        return {"base": self.base, "set": self.set, "grid": self.grid, "zip": self.zip, "replicas": self.replicas,
+                "seed": self.seed, "keep": self.keep}
+
+    def identity(self) -> str:
+        """A hash of everything that decides the members (not how they run): two sweeps with the
+        same identity have the same members."""
+        return identity_hash(self.describe())
+
+    def count(self) -> int:
+        """Members before identical cases are merged: known without enumerating them."""
+        points = math.prod(len(v) for v in self.grid.values()) * (len(next(iter(self.zip.values()))) if self.zip else 1)
+        return points * self.replicas
 
     def members(self) -> list[Member]:
         """All members, numbered in sweep order; invalid parameter sets give failed members.
 
         A key that names no case field is an error of the sweep file (ConfigError naming it)."""
+        return list(self.iter_members())
+
+    def iter_members(self) -> Iterator[Member]:
+        """The members one by one (see `members`): the first ones are ready before the last are made."""
         axes = [[{k: v} for v in values] for k, values in self.grid.items()]
         if self.zip:
             axes.append([dict(zip(self.zip, row)) for row in zip(*self.zip.values())])
-        members, seen, any_random = [], set(), False
+        seen = set()
         index = 0
         for combo in itertools.product(*axes):
             point = {k: v for part in combo for k, v in part.items()}
+            data = copy.deepcopy(self.base)
+            if self.keep == "measures":  # no per-frame output: the engine records the front measures
+                data.setdefault("output", {})["format"] = "none"
+            for key, value in self.set.items():
+                _assign(data, key, value)
+            for key, value in point.items():
+                _assign(data, key, value)
+            random = _is_random(data)
+            seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
+            first = None
             for replica in range(self.replicas):
-                data = copy.deepcopy(self.base)
-                if self.keep == "measures":  # no per-frame output: the engine records the front measures
-                    data.setdefault("output", {})["format"] = "none"
-                for key, value in self.set.items():
-                    _assign(data, key, value)
-                for key, value in point.items():
-                    _assign(data, key, value)
                 params = dict(point)
                 if self.replicas > 1:
                     params["replica"] = replica
-                random = _is_random(data)
-                any_random |= random
-                if random and "chain.seed" not in self.set and "chain.seed" not in point:
-                    params["chain.seed"] = data.setdefault("chain", {})["seed"] = member_seed(self.seed, index)
-                member = self._member(index, data, params)
+                if seeded:
+                    params["chain.seed"] = member_seed(self.seed, index)
+                if first is None or first.case is None or not seeded:
+                    if seeded:
+                        data.setdefault("chain", {})["seed"] = params["chain.seed"]
+                    member = first = self._member(index, copy.deepcopy(data), params)
+                else:  # the point's resolved case with this replica's seed: validated when built
+                    resolved = copy.deepcopy(first.data)
+                    resolved["chain"]["seed"] = params["chain.seed"]
+                    member = Member(index, _case_id(resolved), params, resolved, self.base_dir)
                 index += 1
                 if member.id in seen:
                     log.info("member %d is the same case as an earlier one (id %s); run once", member.index, member.id)
                     continue
                 seen.add(member.id)
-                members.append(member)
-        if self.replicas > 1 and not any_random:
-            raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
-                              f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
-        return members
+                yield member
 
     def _member(self, index: int, data: dict, params: dict) -> Member:
         try:
             case = case_from_dict(data, base_dir=self.base_dir)
         except ConfigError as err:
             self._check_known(err)
-            return Member(index, identity_hash({k: v for k, v in data.items() if k != "name"}), params, None, str(err))
-        return Member(index, case_id(case), params, case)
+            return Member(index, _case_id(data), params, data, self.base_dir)
+        return Member(index, member_id(case), params, case_to_dict(case), self.base_dir, built=case)
 
     def _check_known(self, err: ConfigError) -> None:
         """Re-raise an unknown field or section named by the sweep as an error of the sweep file."""
@@ -197,6 +270,28 @@ def load_sweep(path: str | Path) -> Sweep:
 def member_seed(sweep_seed: int, index: int) -> int:
     """The seed of member `index`: independent streams for every (sweep seed, index) pair."""
     return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
+
+
+def _case_id(data: dict) -> str:
+    """`case.case_id` of a resolved case dict."""
+    return identity_hash({k: v for k, v in data.items() if k != "name"})
+
+
+def _check_finite(key: str, value) -> None:
+    """A swept or set number must be finite (NaN or inf is no case)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_finite(f"{key}.{k}", v)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            _check_finite(key, v)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(key, f"got {value}; expected a finite number")
+
+
+def _overlap(a: str, b: str) -> bool:
+    """Whether two dotted keys name the same field (a section covers its fields)."""
+    return a == b or a.startswith(b + ".") or b.startswith(a + ".")
 
 
 def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:

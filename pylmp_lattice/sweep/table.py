@@ -2,18 +2,18 @@
 
 Columns: `id`; the swept fields by dotted key (a section swept as a whole gives one column per
 field, "force.law", "force.q", ...; "replica" and "chain.seed" where the sweep sets them);
-`status` ("done" or "failed"); `error` (one line); `folder` (relative to DIR); `wall_time_s`;
-then the member's scalar measures from its summary.json, nested keys joined by "."
-(e.g. "shock_velocity_plateau_m_per_s.mean"). Both files are replaced atomically.
+`status` ("done", "failed" or "interrupted"); `error` (one line, paths relative to DIR);
+`folder` (relative to DIR); `wall_time_s`; then the member's scalar measures from its
+summary.json, nested keys joined by "." (e.g. "shock_velocity_plateau_m_per_s.mean"). Both
+files are replaced atomically. Members that never started have no row.
 """
 
 from __future__ import annotations
 
 import io
 import json
+import time
 from pathlib import Path
-
-import pandas as pd
 
 from .store import atomic_write
 
@@ -59,8 +59,10 @@ def scalar_measures(summary: dict, prefix: str = "") -> dict:
     return out
 
 
-def frame(rows: list[dict]) -> pd.DataFrame:
+def frame(rows: list[dict]):
     """Rows (in member order) as a DataFrame: id, swept fields, status .. wall_time_s, measures."""
+    import pandas as pd
+
     params, measures = {}, {}
     for row in rows:
         keys = list(row)
@@ -73,7 +75,7 @@ def frame(rows: list[dict]) -> pd.DataFrame:
     return df
 
 
-def write_table(root: str | Path, rows: list[dict]) -> pd.DataFrame:
+def write_table(root: str | Path, rows: list[dict]):
     """Write results.csv and results.parquet in `root` atomically; return the table."""
     df = frame(rows)
     root = Path(root)
@@ -84,8 +86,36 @@ def write_table(root: str | Path, rows: list[dict]) -> pd.DataFrame:
     return df
 
 
-def load_results(root: str | Path) -> pd.DataFrame:
+class Table:
+    """The rows of a running sweep by member index: a row is set in O(1), and the files are
+    rewritten at most every `every` seconds (`flush`) and at the end (`write`)."""
+
+    def __init__(self, root: str | Path, every: float = 30.0):
+        self.root, self.every = Path(root), every
+        self.rows: dict[int, dict] = {}
+        self.written = time.monotonic()
+        self.dirty = False
+
+    def set(self, index: int, row: dict) -> None:
+        self.rows[index] = row
+        self.dirty = True
+
+    def flush(self) -> None:
+        """Write the files if rows changed and the last write is `every` seconds old."""
+        if self.dirty and time.monotonic() - self.written >= self.every:
+            self.write()
+
+    def write(self):
+        """Write the files now; return the table."""
+        df = write_table(self.root, [self.rows[i] for i in sorted(self.rows)])
+        self.written, self.dirty = time.monotonic(), False
+        return df
+
+
+def load_results(root: str | Path):
     """A sweep's table as a pandas DataFrame (from results.parquet; results.csv if that is missing)."""
+    import pandas as pd
+
     root = Path(root)
     if (root / PARQUET).exists():
         return pd.read_parquet(root / PARQUET)

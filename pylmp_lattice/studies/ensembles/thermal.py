@@ -21,7 +21,7 @@ import pandas as pd
 
 from ... import measures
 from ...deck import chain_noise
-from ...plots import pyplot
+from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
 from ...sweep import replica_stats
 from ..output import StudyResult
@@ -122,8 +122,6 @@ def _figure(thermal, mass, quiet, v0, quick):
             if name == PEAK:
                 a.axhline(2 * VI, color="C3", ls="--", lw=0.8, label="$2 V_I$")
             a.set(xlabel=xlabel, ylabel=ylabel)
-            a.set_title(f"({'abcdef'[3 * i + j]})", loc="left")
             a.legend(fontsize="x-small")
-    fig.suptitle(f"Long lattice, $V_I$ = {VI:g} m/s ($V_0$ = {v0:.3f} m/s): thermal motion and mass disorder"
-                 + (" (quick)" if quick else ""))
-    return fig
+    return style_figure(fig, f"Long lattice, $V_I$ = {VI:g} m/s ($V_0$ = {v0:.3f} m/s): thermal motion and mass "
+                        "disorder", quick=quick)

@@ -23,7 +23,7 @@ import numpy as np
 from ... import measures
 from ...case import SecondNeighbour, case_from_dict, case_to_dict
 from ...forcelaw import PowerLaw
-from ...plots import accepted_velocity, pyplot, style_figure
+from ...plots import pyplot, style_figure
 from ...run_folder import simulate
 from ..output import StudyResult
 from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case, particles_reached
@@ -89,7 +89,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             store[label] = front
             if vi == STRONG:
                 n = np.arange(1, len(front.arrival) + 1)
-                left.plot(n[:-1] + 0.5, accepted_velocity(front), ".", ms=3, label=label)
+                left.plot(n[:-1] + 0.5, front.accepted_velocity, ".", ms=3, label=label)
                 right.plot(n, front.peaks.peak_velocity, ".", ms=3, label=label)
         reached = particles_reached(store[label].arrival)
     left.set(title=f"propagation velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="$V_P$ (m/s)",

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import measures
-from ...plots import accepted_velocity, pyplot, style_figure
+from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
 from ..output import StudyResult
 from ..scaffold import FRICTION, done_runs, paper_dict, sweep_runs
@@ -33,7 +33,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     rows, table = [], {}
     for r, row in done_runs(runs, rows, "mu", "friction.mu"):
         mu = row["mu"]
-        vp = accepted_velocity(RunFolder(r.folder).front())
+        vp = RunFolder(r.folder).front().accepted_velocity
         best = int(np.nanargmax(vp))
         row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
                 "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}

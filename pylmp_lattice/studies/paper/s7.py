@@ -14,7 +14,7 @@ import numpy as np
 
 from ... import measures
 from ...case import case_from_dict
-from ...plots import accepted_velocity, pyplot, style_figure
+from ...plots import pyplot, style_figure
 from ..output import StudyResult
 from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
@@ -35,7 +35,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         tr = row["T_r_ms"]
         traj = r.trajectory()
         front = measures.front(traj.t, traj.v, traj.a, VI, r.member.case.chain.gaps())
-        vp = accepted_velocity(front)  # a long ramp's first gaps are crossed out of order
+        vp = front.accepted_velocity  # a long ramp's first gaps are crossed out of order
         steady = measures.steady_oscillation(traj.t, traj.v[:, PARTICLE], VI, (0.8 * duration, duration))
         row |= {"V_P_plateau": measures.trailing_plateau(vp), "steady_oscillation": steady,
                 "f_over_f0": steady.frequency / f0}

@@ -1,0 +1,269 @@
+/* fix lattice/chain: the two step paths (see the header of fix_lattice_chain.cpp).
+   Part of pylmp_lattice, GPL-2.0.
+
+   In LAMMPS's arrays: the force pass (run_forces), after the drift of initial_integrate.
+   Owning the state: the whole step in one pass over the fix's arrays (own_step), after the
+   slab edges are exchanged on several ranks. Both do the same operations in the same order,
+   so they give the same bits. */
+
+#include "fix_lattice_chain.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "fix_lattice_front.h"
+#include "output.h"
+#include "update.h"
+
+#include <cmath>
+#include <ctime>
+#include <limits>
+#include <type_traits>
+
+using namespace LAMMPS_NS;
+
+/* all forces of the step in the atom arrays; `kick` is the length of the velocity kick they
+   will make (for the friction), kick_v applies its second half here */
+
+void FixLatticeChain::forces(double kick, bool setup_kick, bool kick_v)
+{
+  int bad = 0;
+  law.dispatch([&](auto F) {
+    if (friction) {
+      if (kick_v) run_forces<true, true>(F, kick, setup_kick, bad);
+      else run_forces<true, false>(F, kick, setup_kick, bad);
+    } else {
+      if (kick_v) run_forces<false, true>(F, kick, setup_kick, bad);
+      else run_forces<false, false>(F, kick, setup_kick, bad);
+    }
+  });
+  end_forces();
+  check_gaps(bad);
+}
+
+/* the impactors' push and the held ends' zero force */
+
+void FixLatticeChain::end_forces()
+{
+  const Column x = column(atom->x, xs), f = column(atom->f, fs);
+  for (const End &e : impactors) f[e.i] = -law.force(x[e.other] - x[e.i]);
+  for (const End &e : held) f[e.i] = 0.0;
+}
+
+/* each chain's friction work of this step's kicks, settled (see coulomb.h) */
+
+void FixLatticeChain::settle_work(double kick, bool setup_kick)
+{
+  for (bigint c = 0; c < nchains; c++) {
+    works[c].settle(kick, setup_kick, work_done[c], work_pending[c]);
+    works[c] = CoulombWork();
+  }
+}
+
+/* one free atom's total force from its bonds' forces left and right, with friction the exact
+   stick-slip kick: v (after the first half kick) becomes 0 if the atom sticks */
+
+template <bool FRICTION>
+inline double FixLatticeChain::total_force(double left, double right, int t, double kick, double &v,
+                                           CoulombWork &work) const
+{
+  const double fx = left - right;
+  if constexpr (!FRICTION) {
+    return fx;
+  } else {
+    const double m = mass_of[t];
+    const double normal = weight[t] + p * (left + right);
+    const double limit = normal > 0.0 ? mu * normal : 0.0;
+    const double dvdf = kick / m;
+    const double v0 = v;
+    bool stuck;
+    const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
+    if (stuck) work.stuck(v0, m, kick, fx), v = 0.0;
+    else work.slip(v0, fx, ftot, dvdf);
+    return ftot;
+  }
+}
+
+/* the force pass in the atom arrays (KICK: with the second half kick) */
+
+template <bool FRICTION, bool KICK, class Law>
+void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, int &bad)
+{
+  // restrict: stores to v, f and the bond forces cannot change the law's coefficients
+  double *__restrict x = atom->x[0];
+  double *__restrict v = atom->v[0];
+  double *__restrict f = atom->f[0];
+  double *__restrict F = bond_force.data();
+  const int *__restrict type = slots();
+  const double *__restrict dtfm_of = dtfm.data();
+  const double half_kick = one_type ? dtfm_of[1] : 0.0;
+  // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
+  // right neighbour
+  double *__restrict X = scratch.data();
+  // the smallest and largest separation and a NaN probe, as vectorised reductions
+  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
+  for (const Run &run : runs) {
+    const int first = run.first, len = run.last - first + 1;
+    CoulombWork work;
+    if constexpr (FRICTION) work = works[run.chain];
+    for (int k = 0; k < len; k++) X[1 + k] = x[3 * (first + k)];
+    X[0] = x[3 * run.left];
+    X[len + 1] = x[3 * run.right];
+    // the bond forces, F[k] left of atom first + k
+#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
+    for (int k = 0; k <= len; k++) {
+      const double r = X[k + 1] - X[k];
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      F[k] = law(r);
+    }
+    double *__restrict fr = f + 3 * first;
+    double *__restrict vr = v + 3 * first;
+    for (int k = 0; k < len; k++) {
+      const int t = FRICTION || !one_type ? type[first + k] : 1;
+      const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vr[3 * k], work);
+      fr[3 * k] = ftot;
+      if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[t]) * ftot;
+    }
+    if constexpr (FRICTION) works[run.chain] = work;
+  }
+  if (FRICTION) settle_work(kick, setup_kick);
+  // r <= 0 is a contact
+  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+}
+
+/* Owning the state, the whole step in one pass over the fix's arrays (see the header): the
+   same operations as initial_integrate, run_forces<KICK> and the front record's sample. */
+
+template <bool FRICTION, bool FRONT, class Law>
+void FixLatticeChain::own_step(const Law law, int &bad)
+{
+  double *__restrict x = xs;
+  double *__restrict v = vs;
+  double *__restrict f = fs;
+  double *__restrict F = bond_force.data();
+  double *__restrict mark = FRONT ? front->mark : nullptr;
+  const int *__restrict type = slots();
+  const double *__restrict dtfm_of = dtfm.data();
+  const double half_kick = one_type ? dtfm_of[1] : 0.0;
+  const double dtv = update->dt, kick = update->dt;
+  // per block in flight (two): the velocities after the first half kick, and before it
+  double *__restrict half[2] = {scratch.data(), scratch.data() + BLOCK};
+  double *__restrict before[2] = {scratch.data() + 2 * BLOCK, scratch.data() + 3 * BLOCK};
+  // velocity Verlet's first half kick and drift, with last step's forces
+  auto drift = [&](const Run &run, double *__restrict vh, double *__restrict v0) {
+    for (int i = run.first, k = 0; i <= run.last; i++, k++) {
+      v0[k] = v[i];
+      vh[k] = v[i] + (one_type ? half_kick : dtfm_of[type[i]]) * f[i];
+      x[i] += dtv * vh[k];
+    }
+  };
+  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
+  if (!runs.empty()) drift(runs[0], half[0], before[0]);
+  for (size_t b = 0; b < runs.size(); b++) {
+    const Run &run = runs[b];
+    const int first = run.first, last = run.last, len = last - first + 1;
+    CoulombWork work;
+    if constexpr (FRICTION) work = works[run.chain];
+    if (b + 1 < runs.size()) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
+    double *__restrict vh = half[b % 2];
+    // the bond forces, F[k] left of atom first + k: the two end bonds, then the inner ones
+    // from consecutive positions
+    auto bond = [&](double r) {
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      return law(r);
+    };
+    F[0] = bond(x[first] - x[run.left]);
+    F[len] = bond(x[run.right] - x[last]);
+    const double *__restrict xb = x + first;
+#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
+    for (int k = 1; k < len; k++) {
+      const double r = xb[k] - xb[k - 1];
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      F[k] = law(r);
+    }
+    // the forces and the second half kick
+    double *__restrict fb = f + first;
+    double *__restrict vb = v + first;
+    // the front record's largest |v| of every atom (it may change at every step: atoms ahead
+    // of the front feel round-off forces from unequal gaps), and how many atoms are at or
+    // above the start level (a count as a double: an int would keep the loop from vectorising)
+    double *__restrict mb = FRONT ? mark + first : nullptr;
+    double at_start = 0.0;
+    const double start = FRONT ? front->chain_levels(run.chain).start : 0.0;
+    // one loop for one atom type and one for several (a test inside would keep the loop from
+    // vectorising)
+    auto kick_loop = [&](auto one_type_) {
+      constexpr bool ONE_TYPE = decltype(one_type_)::value;
+      for (int k = 0; k < len; k++) {
+        const int t = FRICTION || !ONE_TYPE ? type[first + k] : 1;
+        const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vh[k], work);
+        const double vn = vh[k] + (ONE_TYPE ? half_kick : dtfm_of[t]) * ftot;
+        fb[k] = ftot;
+        vb[k] = vn;
+        if constexpr (FRONT) {
+          mb[k] = FrontRecord::mark_max(mb[k], vn);
+          at_start += vn >= start ? 1.0 : 0.0;
+        }
+      }
+    };
+    if (one_type) kick_loop(std::true_type{});
+    else kick_loop(std::false_type{});
+    if constexpr (FRICTION) works[run.chain] = work;
+    // the rows only of blocks where an atom is active or may reach the start level now
+    if (FRONT && (block_front[b].active > 0 || (block_front[b].waiting > 0 && at_start > 0.0)))
+      sample_front_block(b, before[b % 2]);
+  }
+  if (FRICTION) settle_work(kick, false);
+  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+}
+
+/* owning the state: the step's one pass, with the front record sampled inside it */
+
+/* CPU time of this thread (several ranks only: a system call) */
+static double thread_cpu()
+{
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+void FixLatticeChain::own_pass()
+{
+  const bool ranks = comm->nprocs > 1;
+  const double w0 = ranks ? MPI_Wtime() : 0.0;
+  if (ranks) send_edges();
+  const double w1 = ranks ? MPI_Wtime() : 0.0, c1 = ranks ? thread_cpu() : 0.0;
+  FrontRecord::Sample sample;
+  const bool record = front && front->begin_sample(sample);
+  if (record && block_front.size() != runs.size()) summarise_front();
+  int bad = 0;
+  law.dispatch([&](auto F) {
+    if (friction) {
+      if (record) own_step<true, true>(F, bad);
+      else own_step<true, false>(F, bad);
+    } else {
+      if (record) own_step<false, true>(F, bad);
+      else own_step<false, false>(F, bad);
+    }
+  });
+  end_forces();
+  if (record) {
+    sample_front_ends();
+    front->end_sample();
+  }
+  const double c2 = ranks ? thread_cpu() : 0.0, w2 = ranks ? MPI_Wtime() : 0.0;
+  check_gaps(bad);
+  if (ranks) {
+    pass_cpu += c2 - c1;
+    const double exchange = (w1 - w0) + (MPI_Wtime() - w2);
+    exchange_wall += exchange;
+    exchange_min = exchange < exchange_min ? exchange : exchange_min;
+    owned_steps++;
+  }
+  if (update->ntimestep == output->next) scatter();
+}

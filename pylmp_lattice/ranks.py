@@ -1,0 +1,51 @@
+"""Whether more MPI ranks will make a run faster: the warnings behind `--np`.
+
+The chain engine (fix lattice/chain) splits a chain into one slab of magnets per rank and, at
+every step, exchanges only the positions across the slab edges and one global flag. A rank's
+step then costs about `ATOM_STEP_SECONDS` per magnet it owns plus `EXCHANGE_SECONDS` of
+communication, so ranks stop paying once a slab is so short that the exchange costs as much
+as the work: below `MIN_MAGNETS_PER_RANK` magnets a rank (benchmarks/bench_mpi.py measures both
+costs and docs/performance.md has the numbers). Ranks beyond the cores this process may run on
+share cores and only add exchanges.
+"""
+
+from __future__ import annotations
+
+import os
+
+# Measured on the project's 2-core machine (docs/performance.md, "Chain engine on several MPI
+# ranks", 2026-11-24): the owned one-pass step with the front record, CPU time per magnet and
+# step at 10^4 magnets (benchmarks/bench_engine.py: 0.2636 s for 10^8 magnet-steps), and the
+# exchanges of a step on 2 ranks (slab edges and the contact flag) at their fastest step, when
+# both ranks had a core (benchmarks/bench_mpi.py: 3.37 and 3.52 us in two runs).
+ATOM_STEP_SECONDS = 2.6e-9
+EXCHANGE_SECONDS = 3.5e-6
+# A slab shorter than this spends more than a tenth of its step exchanging (about 13 000).
+MIN_MAGNETS_PER_RANK = round(10 * EXCHANGE_SECONDS / ATOM_STEP_SECONDS)
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS has one, else all)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[str]:
+    """One line per reason why `nprocs` ranks will not run `magnets` magnets (per chain, as
+    slabs cut every chain of a batched run) faster than fewer ranks; empty if they should."""
+    if nprocs <= 1:
+        return []
+    cores = usable_cores() if cores is None else cores
+    warnings = []
+    if nprocs > cores:
+        warnings.append(f"--np {nprocs} is more than the {cores} cores this run may use: ranks will share "
+                        f"cores and run slower than --np {cores}")
+    per_rank = magnets // nprocs
+    if per_rank < MIN_MAGNETS_PER_RANK:
+        best = max(1, magnets // MIN_MAGNETS_PER_RANK)
+        warnings.append(f"--np {nprocs}: {magnets} magnets give {per_rank} a rank, fewer than the "
+                        f"{MIN_MAGNETS_PER_RANK} below which the slab-edge exchange costs over a tenth of a "
+                        f"step and more ranks gain little; use --np {best} or fewer")
+    return warnings

@@ -1,0 +1,271 @@
+"""A sweep's work in the worker: members alone, or batched, many chains in one LAMMPS instance.
+
+A task is a few members of one parameter point (they differ only in chain.seed, see `spec`).
+Those the chain engine can hold together (keep = "measures": no per-frame output, a front
+record; decks equal but for the data file) run as one deck (`deck.render_replicas(front=True)`)
+in DIR/batches/<id of the first>/: its chains are the members' chains bit for bit, and the fix's
+front record is per atom, so chain r's rows are member r's record (with friction, the fix also
+reports each chain's friction work). Each member folder then gets case.toml, run.json (finished,
+in that batch), summary.json and status.json: the summary a run alone would write (O(1) files
+per member).
+If the batch fails (a contact, an engine error), its members run alone, so that each gets its
+own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
+
+Stopping: SIGINT or SIGTERM soft-stops the engine (runner) and sets this process's stop flag;
+with the flag set no further member starts: the task returns its unstarted and stopped
+members as "interrupted".
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import shutil
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import tomli_w
+
+from ..case import Case, case_to_dict
+from ..errors import Interrupted, LatticeError
+from .spec import Member
+from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, outcome, provenance, write_status
+
+BATCHES = "batches"
+# Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
+# for chain c); a build without it makes the batch deck fail at the end, and from then on this
+# process runs members with friction one per instance.
+FRICTION_PER_CHAIN = True
+NO_CHAIN_WORK = "fix vector is accessed out-of-range"
+# Likewise for fix lattice/front's per-chain levels (`length n levels FILE`): a build without
+# them refuses the batch deck, and from then on chains batch only with equal levels.
+LEVELS_PER_CHAIN = True
+# Set by a stop signal (see pool._pool_worker_init); read before each start.
+STOP = threading.Event()
+# In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
+EXIT_AFTER_STOP: float | None = None
+# Whether this process is inside run_task (a pool worker's signal handler stops it there).
+IN_TASK = threading.Event()
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a worker needs to run some members (small and picklable): the sweep folder
+    (absolute), the members, the runner."""
+
+    root: str
+    members: tuple[Member, ...]
+    runner: str
+
+
+def run_task(task: Task) -> list[dict]:
+    """Run the task's members; one result per member, in order: {"id", "record", "summary"}.
+    Every member's outcome is on disk (its status written last) before it is returned."""
+    IN_TASK.set()
+    try:
+        return _run_task(task)
+    finally:
+        IN_TASK.clear()
+
+
+def _run_task(task: Task) -> list[dict]:
+    root = Path(task.root)
+    results: dict[str, dict] = {}
+    for m in task.members:  # a task run again (e.g. by Dask after its worker died) keeps what is done
+        found = outcome(root, m.id)
+        if found is not None and found["record"]["status"] == DONE:
+            results[m.id] = {"id": m.id} | found
+    todo = [m for m in task.members if m.id not in results]
+    cases = [m.case for m in todo]
+    for m, case in zip(todo, cases):
+        if case is None:  # invalid parameters (a replica's own draw): failed without running
+            results[m.id] = _invalid(root, m)
+    valid = [(m, c) for m, c in zip(todo, cases) if c is not None]
+    for group in _batches(valid):
+        started = now()  # before the look at STOP: a member never starts after a stop signal
+        if STOP.is_set():
+            break
+        if len(group) > 1:
+            results |= _run_batch(root, group, task.runner, started)
+        else:
+            results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
+    return [results.get(m.id) or _interrupted(m) for m in task.members]
+
+
+def stopping(signum: int) -> None:
+    """A stop signal arrived: no member starts from now on; a pool worker exits soon after."""
+    STOP.set()
+    if EXIT_AFTER_STOP is not None:
+        threading.Timer(EXIT_AFTER_STOP, os._exit, (128 + signum,)).start()
+
+
+def batchable(case: Case) -> bool:
+    """Whether the case can share an instance: chain engine, no per-frame output, a front record."""
+    from ..deck import records_front, uses_chain_engine
+
+    return (uses_chain_engine(case) and case.output.format == "none" and records_front(case)
+            and (case.friction is None or FRICTION_PER_CHAIN))
+
+
+def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
+    """Members that can run together, in order: equal decks but for the data file and the front
+    record's levels (each chain gets its own), N and table range (see deck.render_replicas)."""
+    from ..deck import batch_key, deck_text
+
+    groups: dict[tuple, list] = {}
+    for i, (m, case) in enumerate(valid):
+        shared = batch_key(case) if LEVELS_PER_CHAIN else deck_text(case)
+        key = (case.chain.particles, case.table_range(), shared) if batchable(case) else ("alone", i)
+        groups.setdefault(key, []).append((m, case))
+    return list(groups.values())
+
+
+def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> dict:
+    """Run one member alone in its folder (`run_case`); any earlier attempt there is removed first."""
+    from ..run_folder import run_case
+
+    folder = _fresh(member_folder(root, m.id))
+    start, cpu = time.perf_counter(), _cpu_time()
+    record = _record(m, started)
+    write_status(folder, record)
+    try:
+        # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
+        summary = run_case(case, folder, runner=runner, figure=False, yes=True)
+        record["status"] = DONE
+    except Interrupted as err:
+        stopping(err.signum)
+        return _stopped([(m, case)], root, [record])[m.id]
+    except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
+        summary = None
+        record |= {"status": FAILED, "error": one_line(err, root)}
+    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
+               "cpu_time_s": round(_cpu_time() - cpu, 3)}
+    write_status(folder, record)
+    return {"id": m.id, "record": record, "summary": summary}
+
+
+def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
+    """Run the group as one batch; on a failed batch, each member alone."""
+    from .. import deck
+    from ..run_folder import RunFolder, layout
+    from ..run_folder.folder import FINISHED
+    from ..runner import run_embedded, run_executable
+    from ..serialize import dumps
+
+    start, cpu = time.perf_counter(), _cpu_time()
+    cases = [case for _, case in group]
+    batch = _fresh(root / BATCHES / group[0][0].id)
+    files = deck.render_replicas(cases, front=True)
+    for name, text in files.items():
+        (batch / name).write_text(text)
+    # the members' folders are written after the run (a killed batch leaves none: not started)
+    records = [_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"} for m, _ in group]
+    try:
+        (run_embedded if runner == "embedded" else run_executable)(batch)
+    except Interrupted as err:
+        stopping(err.signum)
+        shutil.rmtree(batch, ignore_errors=True)
+        return {m.id: {"id": m.id, "record": record | {"status": INTERRUPTED, "ended": now()}, "summary": None}
+                for (m, _), record in zip(group, records)}
+    except LatticeError as err:  # a contact or an engine error in some chain: each member gets its own outcome
+        global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
+        if NO_CHAIN_WORK in str(err):
+            FRICTION_PER_CHAIN = False
+        if layout.FRONT_LEVELS in files and "lattice/front" in str(err):
+            LEVELS_PER_CHAIN = False
+        out = {}
+        for m, case in group:
+            started = now()
+            if STOP.is_set():
+                break
+            out[m.id] = run_member(root, m, case, runner, started)
+        return out
+    summaries = _summaries(cases, batch)
+    wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
+    out = {}
+    for (m, case), record, summary in zip(group, records, summaries):
+        # a run folder (case.toml, run.json: finished in the batch, summary.json), then status.json
+        # last (atomically): the member is done
+        folder = _fresh(member_folder(root, m.id))
+        (folder / layout.CASE).write_text(tomli_w.dumps(case_to_dict(case)))
+        log = f"../../{BATCHES}/{batch.name}/{layout.LOG}"
+        RunFolder(folder).record(FINISHED, batch=f"{BATCHES}/{batch.name}", chain=len(out))
+        summary |= {"status": FINISHED, "files": {"folder": str(folder), "log": log}, "wall_time_s": round(wall, 4)}
+        (folder / layout.SUMMARY).write_text(dumps(summary) + "\n")
+        record |= {"status": DONE, "ended": now(), "wall_time_s": round(wall, 4), "cpu_time_s": round(cpu, 4)}
+        write_status(folder, record)
+        out[m.id] = {"id": m.id, "record": record, "summary": summary}
+    return out
+
+
+def _summaries(cases: list[Case], batch: Path) -> list[dict]:
+    """Each chain's summary from the batch's front record, as its run alone would write it."""
+    from .. import measures
+    from ..front_record import read_front_records
+    from ..run_folder import layout
+    from ..summary import summarize
+
+    method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
+    records = read_front_records(cases, batch / layout.FRONT_BIN, method)
+    summaries = [summarize(case, r.front, r.max_speed) for case, r in zip(cases, records)]
+    if cases[0].friction is not None:
+        from ..units import from_engine
+
+        # as a run alone reads it from its log: the thermo column's 8 significant digits
+        works = (batch / layout.CHAIN_WORK).read_text().split()
+        for summary, work in zip(summaries, works, strict=True):
+            summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
+    return summaries
+
+
+def _record(m: Member, started: str | None = None) -> dict:
+    return {"id": m.id, "index": m.index, "params": m.params, "status": RUNNING, "error": None,
+            "started": started or now(), "pid": os.getpid(), "provenance": provenance()}
+
+
+def _invalid(root: Path, m: Member) -> dict:
+    folder = _fresh(member_folder(root, m.id))
+    record = _record(m) | {"status": FAILED, "error": m.error, "ended": now(), "wall_time_s": 0.0}
+    write_status(folder, record)
+    return {"id": m.id, "record": record, "summary": None}
+
+
+def _stopped(group, root: Path, records: list[dict]) -> dict[str, dict]:
+    """Members stopped by a signal: "interrupted" on disk too (redone on resume)."""
+    out = {}
+    for (m, _), record in zip(group, records):
+        record |= {"status": INTERRUPTED, "ended": now()}
+        write_status(member_folder(root, m.id), record)
+        out[m.id] = {"id": m.id, "record": record, "summary": None}
+    return out
+
+
+def _interrupted(m: Member) -> dict:
+    """A member the task did not start (a stop came first)."""
+    return {"id": m.id, "record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
+                                   "error": None}, "summary": None}
+
+
+def _fresh(folder: Path) -> Path:
+    """An empty folder: an earlier unfinished attempt never counted as done."""
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    return folder
+
+
+def _cpu_time() -> float:
+    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
+def one_line(err: BaseException, root: Path | None = None) -> str:
+    """An exception as one line; our own errors speak for themselves, others get their type.
+    Paths under the sweep folder `root` are given relative to it."""
+    lines = str(err).strip().splitlines()
+    text = lines[0] if lines else ""
+    text = text if isinstance(err, LatticeError) and text else f"{type(err).__name__}: {text}".rstrip(": ")
+    return text.replace(f"{root}/", "") if root is not None else text

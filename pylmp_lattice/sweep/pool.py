@@ -1,0 +1,140 @@
+"""The workers of a sweep: any `concurrent.futures` executor, or a local process pool whose
+workers are forked from a fork server that loads the engine once.
+
+This module imports nothing heavy, so that `start_forkserver` can start the server (and its
+imports) while the command still loads the sweep.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import threading
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+
+from ..errors import ConfigError, Interrupted
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Seconds a local worker lives on after a stop signal (to stop its engine and report).
+GRACE = 1.0
+# What the fork server imports once for all workers.
+PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.folder",
+           "pylmp_lattice.summary", "pylmp_lattice.engine"]
+
+
+class Pool:
+    """An executor, its number of worker slots, and how to stop its workers (local pools only)."""
+
+    def __init__(self, executor: Executor | None, slots: int):
+        self.executor, self.slots = executor, slots
+
+    def submit(self, task) -> Future:
+        from .batch import run_task
+
+        return self.executor.submit(run_task, task)
+
+    def on_signal(self, count: int) -> None:
+        """First signal: the workers stop their engines; second: they are killed."""
+        self.kill() if count > 1 else self._signal(signal.SIGINT)
+
+    def kill(self) -> None:
+        self._signal(signal.SIGKILL)
+
+    def _signal(self, signum: int) -> None:
+        if isinstance(self.executor, ProcessPoolExecutor):
+            for process in list((self.executor._processes or {}).values()):  # no public list of workers
+                with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
+                    os.kill(process.pid, signum)
+
+
+@contextlib.contextmanager
+def executor_pool(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None,
+                  slots: int | None):
+    """A `Pool`: the given executor, a local process pool, or a Dask cluster's executor.
+
+    A process holds one LAMMPS (and MPI) instance at a time, so the embedded runner needs one
+    task at a time per process: pool processes are, Dask workers must be (one thread each)."""
+    if executor is not None:
+        if workers is not None or scheduler is not None:
+            raise ConfigError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
+        yield Pool(executor, slots or 1)
+        return
+    if scheduler is None:
+        yield from _local_pool(workers or os.cpu_count() or 1)
+        return
+    if workers is not None:
+        raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
+    from distributed import Client
+
+    try:
+        client = Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as err:
+        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err})") from err
+    try:
+        threads = client.nthreads()
+        if runner == "embedded" and any(n > 1 for n in threads.values()):
+            raise ConfigError("runner", "the embedded runner needs Dask workers with one thread each "
+                              "(dask worker --nthreads 1); or set runner = \"lmp\" in the sweep file")
+        yield Pool(client.get_executor(pure=False), max(1, sum(threads.values())))
+    finally:
+        client.close()
+
+
+def _local_pool(workers: int):
+    """Worker processes forked from a clean fork server (never from a coordinator that may hold
+    threads or an initialised MPI), which imports the package once and stays up for later
+    sweeps of the same Python session. Each worker holds the read end of a pipe whose write
+    end only this process holds: when it closes (this process died), the worker exits."""
+    context = start_forkserver()
+    alive_r, alive_w = context.Pipe(duplex=False)
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init, initargs=(alive_r,))
+    try:
+        yield Pool(pool, workers)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        alive_w.close()
+        alive_r.close()
+
+
+def start_forkserver():
+    """The forkserver context, its server started (at once: it loads PRELOAD while the caller
+    goes on), with Ctrl-C ignored in it (inherited): it and its workers are left to the
+    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
+    from multiprocessing import forkserver
+
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    if threading.current_thread() is not threading.main_thread():
+        forkserver.ensure_running()
+        return context
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    return context
+
+
+def _pool_worker_init(alive) -> None:
+    """A pool worker: a stop signal stops its member and any later start, and the worker exits
+    GRACE seconds later; it exits at once when the coordinator is gone."""
+    from . import batch
+
+    def stop(signum, frame):
+        batch.stopping(signum)
+        if batch.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
+            raise Interrupted(signum)
+        os._exit(128 + signum)  # between tasks: nothing in hand
+
+    batch.EXIT_AFTER_STOP = GRACE
+    for s in STOP_SIGNALS:
+        signal.signal(s, stop)
+
+    def watch():
+        with contextlib.suppress(EOFError, OSError):
+            alive.recv()  # nothing is ever sent: returns when the coordinator's end closes
+        os._exit(1)  # the members in hand stay unfinished on disk and are run again on resume
+
+    threading.Thread(target=watch, daemon=True).start()
