@@ -20,6 +20,7 @@ import pandas as pd
 import pytest
 from dask_jobqueue.pbs import PBSJob
 from dask_jobqueue.slurm import SLURMJob
+from distributed import Client
 from test_sweep import SIX, write_sweep
 
 from pylmp_lattice.cli import main
@@ -145,8 +146,6 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
     sweep starts 10 s after they joined, so both retire 1-3 s into it (its 80 members take
     longer, at 0.1-0.5 s each): new jobs replace them, no job meets its walltime, and results
     already handed over are never computed again."""
-    from distributed import Client
-
     monkeypatch.setattr(cluster, "LIFETIME", 0.2)
     monkeypatch.setattr(cluster, "STAGGER", 0.02)
     monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
@@ -154,10 +153,11 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     spec = ClusterSpec(memory="1GiB", walltime="00:01:00")
     with cluster.batch_cluster("slurm", 2, spec, tmp_path / "out") as batch:
-        with Client(batch.scheduler_address) as client:
+        with Client(batch) as client:
             client.wait_for_workers(2, timeout=120)
-        time.sleep(10.0)
-        table = run_sweep(sweep, tmp_path / "out", scheduler=batch.scheduler_address, progress=False)
+            time.sleep(10.0)
+            table = run_sweep(sweep, tmp_path / "out", executor=client.get_executor(pure=False), slots=2,
+                              progress=False)
         log = list(batch.scheduler.transition_log)  # (key, start, finish, ...)
     assert len(table) == 80 and set(table["status"]) == {"done"}, table["error"].dropna().unique()
 
@@ -182,14 +182,15 @@ def test_a_job_killed_mid_sweep_loses_only_its_running_member(tmp_path, slurm, m
     velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     out = tmp_path / "out"
-    with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch:
-        with ThreadPoolExecutor(1) as coordinator:
-            result = coordinator.submit(run_sweep, sweep, out, scheduler=batch.scheduler_address, progress=False)
-            while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
-                time.sleep(0.1)
-            killed = slurm.queued()[0]
-            subprocess.run(["scancel", killed], env=slurm.env, check=True)
-            table = result.result(timeout=300)
+    with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch, \
+            Client(batch) as client, ThreadPoolExecutor(1) as coordinator:
+        result = coordinator.submit(run_sweep, sweep, out, executor=client.get_executor(pure=False), slots=2,
+                                    progress=False)
+        while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
+            time.sleep(0.1)
+        killed = slurm.queued()[0]
+        subprocess.run(["scancel", killed], env=slurm.env, check=True)
+        table = result.result(timeout=300)
         log = list(batch.scheduler.transition_log)
     assert len(table) == 60 and set(table["status"]) == {"done"}
     jobs = {j["JobId"]: j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())}
