@@ -11,6 +11,7 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 import subprocess
 import sys
+import tempfile
 import time
 import tomllib
 from pathlib import Path
@@ -19,6 +20,7 @@ import pandas as pd
 import pytest
 from dask_jobqueue.pbs import PBSJob
 from dask_jobqueue.slurm import SLURMJob
+from distributed import Client
 from test_sweep import SIX, write_sweep
 
 from pylmp_lattice.cli import main
@@ -142,10 +144,8 @@ def test_sweep_on_slurm_gives_the_local_pools_table_in_two_jobs(tmp_path, slurm)
 def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_path, slurm, monkeypatch):
     """Workers live 12 +- 1.2 s of a 1 min walltime here (LIFETIME 0.2 instead of 0.9), and the
     sweep starts 10 s after they joined, so both retire 1-3 s into it (its 80 members take
-    longer, at 0.1-0.5 s each): new jobs replace them, no job meets its walltime, and no
-    finished member runs again (only one its worker was running)."""
-    from distributed import Client
-
+    longer, at 0.1-0.5 s each): new jobs replace them, no job meets its walltime, and results
+    already handed over are never computed again."""
     monkeypatch.setattr(cluster, "LIFETIME", 0.2)
     monkeypatch.setattr(cluster, "STAGGER", 0.02)
     monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
@@ -153,19 +153,22 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     spec = ClusterSpec(memory="1GiB", walltime="00:01:00")
     with cluster.batch_cluster("slurm", 2, spec, tmp_path / "out") as batch:
-        with Client(batch.scheduler_address) as client:
+        with Client(batch) as client:
             client.wait_for_workers(2, timeout=120)
-        time.sleep(10.0)
-        table = run_sweep(sweep, tmp_path / "out", scheduler=batch.scheduler_address, progress=False)
+            time.sleep(10.0)
+            table = run_sweep(sweep, tmp_path / "out", executor=client.get_executor(pure=False), slots=2,
+                              progress=False)
         log = list(batch.scheduler.transition_log)  # (key, start, finish, ...)
-    assert len(table) == 80 and set(table["status"]) == {"done"}
+    assert len(table) == 80 and set(table["status"]) == {"done"}, table["error"].dropna().unique()
 
     jobs = [j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())]
     retired = [j for j in jobs if j["JobState"] == "COMPLETED"]  # the worker left; the job script ended
     assert len(retired) >= 2 and len(jobs) >= 4, [(j["JobId"], j["JobState"]) for j in jobs]
     assert {j["JobState"] for j in jobs} <= {"COMPLETED", "CANCELLED"}  # no TIMEOUT
+    # A result still on a worker when it leaves is computed again elsewhere (Dask runs a task at
+    # least once); handled results are released at once, so that is at most one per retired job.
     finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
-    assert len(finished) == 80 and max(finished.values()) == 1  # no finished member ran again
+    assert len(finished) == 80 and sum(n - 1 for n in finished.values()) <= len(retired), finished
 
 
 @pytest.mark.slurm
@@ -174,22 +177,38 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
 def test_a_job_killed_mid_sweep_loses_only_its_running_member(tmp_path, slurm, monkeypatch):
     """scancel ends a job as its walltime does (SIGTERM, then SIGKILL): the sweep goes on with
     the other worker (a new job replaces the killed one once Dask gives the worker up, after
-    15 s), and every member is done once (none finished is run again)."""
+    15 s), and every member is done; at most the killed worker's last result is computed again."""
     monkeypatch.setenv("SLURM_CONF", slurm.env["SLURM_CONF"])
     velocities = ", ".join(f"{0.5 + 0.02 * i:.2f}" for i in range(60))
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     out = tmp_path / "out"
-    with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch:
-        with ThreadPoolExecutor(1) as coordinator:
-            result = coordinator.submit(run_sweep, sweep, out, scheduler=batch.scheduler_address, progress=False)
-            while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
-                time.sleep(0.1)
-            killed = slurm.queued()[0]
-            subprocess.run(["scancel", killed], env=slurm.env, check=True)
-            table = result.result(timeout=300)
+    with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch, \
+            Client(batch) as client, ThreadPoolExecutor(1) as coordinator:
+        result = coordinator.submit(run_sweep, sweep, out, executor=client.get_executor(pure=False), slots=2,
+                                    progress=False)
+        while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
+            time.sleep(0.1)
+        killed = slurm.queued()[0]
+        subprocess.run(["scancel", killed], env=slurm.env, check=True)
+        table = result.result(timeout=300)
         log = list(batch.scheduler.transition_log)
     assert len(table) == 60 and set(table["status"]) == {"done"}
     jobs = {j["JobId"]: j for j in slurm.jobs() if j["Name"] == "pylmp-sweep" and j["WorkDir"] == str(Path.cwd())}
     assert jobs[killed]["JobState"] == "CANCELLED", jobs
     finished = Counter(key for key, start, finish, *_ in log if finish == "memory")
-    assert len(finished) == 60 and max(finished.values()) == 1
+    assert len(finished) == 60 and sum(n - 1 for n in finished.values()) <= 1, finished  # the killed job's
+
+
+@pytest.mark.slurm
+def test_a_daemon_that_cannot_start_is_named_with_the_end_of_its_log(slurm):
+    """The fixture's skip reason: which daemon stopped, before what, and its own words."""
+    from slurm_cluster import LocalSlurm, SlurmUnavailable
+
+    broken = LocalSlurm(Path(tempfile.mkdtemp(prefix="pylmp-slurm-", dir="/tmp")))
+    try:
+        broken._configure()
+        (broken.folder / "munge" / "munge.key").chmod(0o644)  # munged refuses a key others can read
+        with pytest.raises(SlurmUnavailable, match=r"^munged exited with \d+ before munged answers: .*key"):
+            broken._start()
+    finally:
+        broken.stop()

@@ -10,7 +10,8 @@
 `pylmp-lattice sweep SWEEP.toml -o DIR --cluster slurm --jobs N` submits N jobs (SLURM's sbatch
 or PBS's qsub), each one Dask worker with one thread: a worker runs one member at a time (the
 embedded runner needs that; a member's `lmp` runner may use the job's other cores). The sweep
-then runs through the same executor path as `--scheduler`. Job scripts and logs go to
+then runs through `run_sweep`'s executor path (a Dask client's executor, one task in flight per
+job, whether or not its worker has started yet). Job scripts and logs go to
 DIR/cluster/. dask-jobqueue's own configuration (~/.config/dask/jobqueue.yaml: interface,
 account, ...) still applies where this section says nothing.
 
@@ -141,14 +142,18 @@ def sweep_workers(sweep_file: str | Path, folder: str | Path, kind: str | None, 
     for option, value in (("--scheduler", scheduler), ("--workers", workers)):
         if value is not None:
             raise ConfigError(option, "the batch cluster has its own workers; leave it out with --cluster")
-    with batch_cluster(kind, 1 if jobs is None else jobs, spec, folder) as cluster:
-        yield {"scheduler": cluster.scheduler_address}
+    from distributed import Client
+
+    jobs = 1 if jobs is None else jobs
+    with batch_cluster(kind, jobs, spec, folder) as cluster, Client(cluster) as client:
+        # one task in flight per job, whether or not its worker has started yet
+        yield {"executor": client.get_executor(pure=False), "slots": jobs}
 
 
 @contextlib.contextmanager
 def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path):
     """Keep `jobs` batch jobs of one Dask worker each while the block runs; yield the jobqueue
-    cluster (its `scheduler_address` for `run_sweep`). Leaving the block cancels the jobs."""
+    cluster (a `distributed.Client` connects to it). Leaving the block cancels the jobs."""
     if kind not in KINDS:
         raise ConfigError("--cluster", f"got {kind!r}; choose one of {', '.join(KINDS)}")
     if not (isinstance(jobs, int) and jobs >= 1):
