@@ -18,6 +18,8 @@ members as "interrupted".
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import os
 import resource
 import shutil
@@ -72,6 +74,17 @@ def run_task(task: Task) -> list[dict]:
 
 def _run_task(task: Task) -> list[dict]:
     root = Path(task.root)
+    # Dask runs a task at least once: the copy of a task whose worker retires may start while
+    # the first still runs. The copies take turns on the task's lock (released by the kernel
+    # if a worker is killed), and the later one finds the members done on disk.
+    (root / BATCHES).mkdir(exist_ok=True)
+    name = hashlib.sha256(" ".join(m.id for m in task.members).encode()).hexdigest()[:16]
+    with open(root / BATCHES / f"task-{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return _run_members(root, task)
+
+
+def _run_members(root: Path, task: Task) -> list[dict]:
     results: dict[str, dict] = {}
     for m in task.members:  # a task run again (e.g. by Dask after its worker died) keeps what is done
         found = outcome(root, m.id)
