@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from functools import lru_cache
 from collections.abc import Sequence
 
 import numpy as np
 
-from . import measures
 from .case import Case, check_name
+from .case_levels import front_levels
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
@@ -398,27 +397,6 @@ def _output_lines(case: Case) -> str:
                   "fix             front all lattice/front start {} front {} drop {} pulse_drop {}{}".format(
                       *map(_num, levels), _num(lv.pulse_drop), floor)]
     return "\n".join(lines) if lines else "# no per-frame output (output.format = 'none')"
-
-
-def chain_noise(case: Case) -> float:
-    """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
-    try:  # cached: a sweep's batch asks it per chain for the deck, the levels and the record
-        return _chain_noise(case)
-    except TypeError:  # a case built with arrays is not hashable: computed each time
-        return _chain_noise.__wrapped__(case)
-
-
-@lru_cache(maxsize=4096)
-def _chain_noise(case: Case) -> float:
-    chain = case.chain
-    free = np.ones(chain.particles, bool)
-    free[[0, *case.held()]] = False
-    return measures.noise_velocity(chain.masses(), chain.velocities(), chain.gaps(), case.force.energy, free)
-
-
-def front_levels(case: Case) -> measures.FrontLevels:
-    """The front measures' levels for this case (m/s): the fix's arguments, and the array measures'."""
-    return measures.front_levels(case.impactor.peak_velocity(), chain_noise(case))
 
 
 def _front_dump_line(case: Case) -> str:

@@ -7,7 +7,7 @@ so its measures come from its profile sampled at the same steps, as `RunFolder.t
 acceleration from the profile.
 
 Both the record and the array measures of a trajectory (`case_front`) are interpreted here
-with the case's levels (`deck.front_levels`: against V_I and the chain's noise velocity) and
+with the case's levels (`case_levels.front_levels`: against V_I and the chain's noise velocity) and
 its slowest linear speed, below which a gap's V_P is flagged (`measures.Front`).
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 from . import measures
 from .bindump import open_dump
 from .case import Case
-from .deck import chain_noise
+from .case_levels import chain_noise
 from .run_folder.layout import FRONT_FIELDS
 from .units import from_engine
 

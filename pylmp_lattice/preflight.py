@@ -22,11 +22,10 @@ import numpy as np
 
 from .case import Case
 from .errors import ConfigError
-from .deck import per_atom_masses, records_front
+from .deck import per_atom_masses, records_front, uses_chain_engine
 from .exact import weak_shock
 from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
-from .deck import uses_chain_engine
 from .ranks import rank_warnings
 from .table import bond_table
 from .units import to_engine

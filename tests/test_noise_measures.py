@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.deck import chain_noise, render
+from pylmp_lattice.case_levels import chain_noise
+from pylmp_lattice.deck import render
 from pylmp_lattice.front_record import case_front, read_front_record
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.run_folder import simulate
