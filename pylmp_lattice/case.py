@@ -22,7 +22,6 @@ from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
 from .errors import ConfigError
 from .exact import weak_shock

@@ -21,7 +21,6 @@ import os
 import re
 import shutil
 from contextlib import contextmanager, suppress
-from functools import cached_property
 from pathlib import Path
 
 import numpy as np
