@@ -151,6 +151,8 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
         stopping(err.signum)
         return _stopped([(m, case)], root, [record])[m.id]
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
+        if STOP.is_set():  # it broke while the sweep was being stopped (a second signal): redone on resume
+            return _stopped([(m, case)], root, [record])[m.id]
         summary = None
         record |= {"status": FAILED, "error": one_line(err, root)}
     record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
