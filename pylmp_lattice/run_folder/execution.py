@@ -10,7 +10,6 @@ H5MD, so that Ctrl-C returns at once.
 
 from __future__ import annotations
 
-import logging
 import time
 from pathlib import Path
 
@@ -22,14 +21,13 @@ from ..deck import render_replicas
 from ..dump import read_dump, trajectory_from_dump
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
-from ..runner import deck_dir, run_embedded, run_executable
+from ..runner import deck_dir, run_deck
 from ..trajectory import Trajectory
 from ..units import to_engine
 from . import layout
 from .folder import CONTACT, FAILED, FINISHED, INTERRUPTED, RunFolder
 
 RUNNERS = ("embedded", "lmp")
-log = logging.getLogger(__name__)
 
 
 def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
@@ -50,10 +48,7 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
     run = RunFolder.create(case, folder, overwrite=overwrite)
     try:
         with run.running(), progress_bar(case, progress) as on_step:
-            if runner == "embedded":
-                run_embedded(run.path, echo=echo, on_step=on_step)
-            else:
-                run_executable(run.path, nprocs=nprocs, echo=echo, on_step=on_step)
+            run_deck(run.path, runner, nprocs=nprocs, echo=echo, on_step=on_step)
     except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
         run.record(INTERRUPTED, time_ms=err.time_ms)
         raise
@@ -62,7 +57,7 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
         run.convert()
         raise
     except RunError as err:
-        run.record(FAILED, error=str(err).split(" (files kept")[0])
+        run.record(FAILED, error=err.message)
         run.convert()
         raise
     except BaseException:
@@ -95,11 +90,7 @@ def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nproc
                       echo: bool = False) -> list[Trajectory]:
     """Run equal-length chains batched in one LAMMPS instance (see deck.render_replicas);
     return one trajectory per case, each the same as its own `simulate` run's."""
-    folder = write_replicas_folder(cases, folder)
-    if runner == "embedded":
-        run_embedded(folder, echo=echo)
-    else:
-        run_executable(folder, nprocs=nprocs, echo=echo)
+    folder = run_deck(write_replicas_folder(cases, folder), runner, nprocs=nprocs, echo=echo)
     dt = to_engine(cases[0].run.dt, "time")
     return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP, dt=dt)))
 

@@ -166,7 +166,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     from .. import deck
     from ..run_folder import RunFolder, layout
     from ..run_folder.folder import FINISHED
-    from ..runner import run_embedded, run_executable
+    from ..runner import run_deck
     from ..serialize import dumps
 
     start, cpu = time.perf_counter(), _cpu_time()
@@ -178,7 +178,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     # the members' folders are written after the run (a killed batch leaves none: not started)
     records = [_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"} for m, _ in group]
     try:
-        (run_embedded if runner == "embedded" else run_executable)(batch)
+        run_deck(batch, runner)
     except Interrupted as err:
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
