@@ -416,6 +416,17 @@ def _thermo_style(case: Case) -> str:
     )
 
 
+def _processors(replicas: int) -> str:
+    """How several ranks split the chains: one chain into slabs along x (neighbouring slabs
+    exchange their edge positions every step); a batch by whole chains (stacked in y), so
+    that no rank exchanges anything but the contact flag."""
+    if replicas > 1:
+        return ("# domains along y only: each rank owns whole chains; no reverse communication of forces\n"
+                "processors      1 * 1")
+    return ("# domains along x only; no reverse communication of forces (every force is set by its owner)\n"
+            "processors      * 1 1")
+
+
 def _chain_sections(case: Case, replicas: int, per_atom: bool) -> str:
     """Sections 1-4 of the chain engine: one fix lattice/chain does the whole time step.
 
@@ -435,8 +446,7 @@ def _chain_sections(case: Case, replicas: int, per_atom: bool) -> str:
     return f"""\
 # ---- 1. The chain{"s: " + str(replicas) + " chains of" if replicas > 1 else ":"} {n} magnets on the x axis
 {_SYSTEM}
-# domains along x only; no reverse communication of forces (every force is set by its owner)
-processors      * 1 1
+{_processors(replicas)}
 newton          off
 {_read_data(per_atom)}
 # Ghosts must reach across the longest separation on several ranks.

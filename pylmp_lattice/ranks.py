@@ -1,6 +1,6 @@
 """Whether more MPI ranks will make a run faster: the warnings behind `--np`.
 
-The chain engine (fix lattice/chain) splits a chain into one slab of magnets per rank and, at
+The chain engine (fix lattice/chain) splits one chain into a slab of magnets per rank and, at
 every step, exchanges only the positions across the slab edges and one global flag. A rank's
 step then costs about `ATOM_STEP_SECONDS` per magnet it owns plus `EXCHANGE_SECONDS` of
 communication, so ranks stop paying once a slab is so short that the exchange costs as much
@@ -33,8 +33,9 @@ def usable_cores() -> int:
 
 
 def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[str]:
-    """One line per reason why `nprocs` ranks will not run `magnets` magnets (per chain, as
-    slabs cut every chain of a batched run) faster than fewer ranks; empty if they should."""
+    """One line per reason why `nprocs` ranks will not run one chain of `magnets` magnets
+    faster than fewer ranks; empty if they should. (A batch of chains is split by whole chains
+    instead, with no exchanges: it gains from every rank up to one chain a rank.)"""
     if nprocs <= 1:
         return []
     cores = usable_cores() if cores is None else cores

@@ -15,7 +15,7 @@ from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.dump import read_dump, trajectory_from_dump
-from pylmp_lattice.runner import run_embedded
+from pylmp_lattice.runner import run_deck, run_embedded
 from pylmp_lattice.front_record import read_front_record
 from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
 
@@ -134,12 +134,30 @@ def test_engine_field_is_validated_and_round_trips():
         case_from_dict(data)
 
 
-def _run_with_17_digits(folder):
-    """Run a written folder with its text dump at 17 digits (every double exactly)."""
+def _run_with_17_digits(folder, nprocs=1):
+    """Run a written folder with its text dump at 17 digits (every double exactly), on `nprocs`
+    ranks of `lmp` or (1) in-process."""
     deck = folder / "in.lattice"
     deck.write_text(deck.read_text().replace("format float %.12g", "format float %.17g"))
-    run_embedded(folder)
+    run_deck(folder, "lmp" if nprocs > 1 else "embedded", nprocs=nprocs)
     return trajectory_from_dump(read_dump(folder / "traj.dump", dt=1e-5))  # make_case: dt = 0.01 ms
+
+
+@pytest.mark.lammps
+def test_a_batch_on_several_ranks_is_split_by_whole_chains_bit_for_bit(tmp_path):
+    """Five 21-magnet chains with friction on 1, 2 and 3 ranks: each rank owns whole chains
+    (a 1 by P by 1 grid; the log says so), nothing crosses a rank, and the trajectories are
+    those of one rank bit for bit."""
+    cases = [make_case(particles=21, duration=30.0, interval=0.5, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r},
+                       output={"format": "text"}) for r in range(5)]
+    runs = {n: _run_with_17_digits(write_replicas_folder(cases, tmp_path / f"np{n}"), n) for n in (1, 2, 3)}
+    assert np.max(np.abs(runs[1].v)) > 1.0
+    for n in (2, 3):
+        log = (tmp_path / f"np{n}" / "log.lammps").read_text()
+        assert f"1 by {n} by 1 MPI processor grid" in log
+        assert f"owns the state (one pass per step) on {n} ranks, whole chains on each rank" in log
+        for name in ("x0", "u", "v", "a"):
+            assert np.array_equal(getattr(runs[1], name), getattr(runs[n], name)), (n, name)
 
 
 @pytest.mark.lammps

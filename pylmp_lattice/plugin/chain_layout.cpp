@@ -106,8 +106,18 @@ void FixLatticeChain::build_lists()
   find_edges();
 }
 
+/* Several ranks own the state only in a brick of slabs along x (each slab edge has one
+   neighbouring rank) or of whole chains stacked along y (no chain crosses a rank). */
+
+bool FixLatticeChain::split_by_slabs_or_chains() const
+{
+  return comm->nprocs == 1 || (comm->style == Comm::BRICK && comm->procgrid[2] == 1 &&
+                               (comm->procgrid[1] == 1 || comm->procgrid[0] == 1));
+}
+
 /* The slab edges: each ghost that this rank reads (a neighbour of a block or a chain end) is
-   asked for, by ID, from the rank next in x on its side; that rank must own it. */
+   asked for, by ID, from the rank next in x on its side; that rank must own it. With whole
+   chains on each rank there is none. */
 
 void FixLatticeChain::find_edges()
 {
@@ -118,7 +128,7 @@ void FixLatticeChain::find_edges()
   }
   edges_ok = true;
   if (comm->nprocs == 1) return;
-  int ok = comm->style == Comm::BRICK && comm->procgrid[1] == 1 && comm->procgrid[2] == 1;
+  int ok = split_by_slabs_or_chains();
   if (ok) {
     if (comm->myloc[0] > 0) edges[0].rank = comm->procneigh[0][0];
     if (comm->myloc[0] < comm->procgrid[0] - 1) edges[1].rank = comm->procneigh[0][1];
@@ -134,6 +144,7 @@ void FixLatticeChain::find_edges()
     for (const End &e : impactors) need(e.other);
     for (const End &e : held) need(e.other);
     for (Edge &e : edges) {
+      if (!e.recv.empty() && e.rank == MPI_PROC_NULL) ok = 0;    // a neighbour no rank next in x owns
       std::sort(e.recv.begin(), e.recv.end());
       e.recv.erase(std::unique(e.recv.begin(), e.recv.end()), e.recv.end());
     }

@@ -44,8 +44,9 @@ How a step is done
    largest |v|; the record row only for the few atoms at the front (per block counts of the
    atoms that are active or still wait for the start level say where to look).
 
-   Owning the state on several ranks. Each rank owns the atoms of its slab of x (`processors
-   * 1 1`). The only values it needs from another rank are the positions of the atoms just
+   Owning the state on several ranks. A batch of chains is split by whole chains (`processors
+   1 * 1`: the chains are stacked in y), so a rank reads no other rank's atoms. One chain is
+   split into slabs: each rank owns the atoms of its slab of x (`processors * 1 1`). The only values it needs from another rank are the positions of the atoms just
    across its slab edges (one per chain and edge), at the current step, before its pass. So at
    every step each rank first computes the new positions of its own edge atoms (the same
    operations as the drift in the pass, so the same bits), sends them to the rank left and
@@ -282,10 +283,7 @@ void FixLatticeChain::init()
   }
   const bool other_forces = force->pair || force->kspace || force->bond || force->angle ||
       force->dihedral || force->improper;
-  // several ranks: a brick of slabs along x only, so that each slab edge has one neighbour
-  const bool slabs = comm->nprocs == 1 ||
-      (comm->style == Comm::BRICK && comm->procgrid[1] == 1 && comm->procgrid[2] == 1);
-  own_allowed = fused && alone && slabs && !other_forces && atom->sortfreq == 0 &&
+  own_allowed = fused && alone && split_by_slabs_or_chains() && !other_forces && atom->sortfreq == 0 &&
       neighbor->dist_check == 0;
   // LAMMPS clears the forces of `neigh_modify include` group atoms only (see the header)
   clear_forces = neighbor->includegroup != 0;
@@ -367,7 +365,9 @@ void FixLatticeChain::setup(int /*vflag*/)
   owned_steps = 0;
   if (comm->me == 0) {
     const std::string ranks = fmt::format(" on {} rank{}", comm->nprocs, comm->nprocs > 1 ? "s" : "");
-    const std::string edges = comm->nprocs > 1 ? ", slab edges exchanged every step" : "";
+    const std::string edges = comm->nprocs == 1 ? ""
+        : comm->procgrid[0] == 1 ? ", whole chains on each rank"
+                                 : ", slab edges exchanged every step";
     utils::logmesg(lmp, "Fix lattice/chain: {}\n",
                    own ? std::string("owns the state (one pass per step") +
                            (front ? ", front record inside)" : ")") + ranks + edges

@@ -136,6 +136,7 @@ class FixLatticeChain : public Fix {
   // chain_layout.cpp
   void build_lists();
   void find_edges();
+  bool split_by_slabs_or_chains() const;
   void send_edges();
   bool is_free(int i) const;
   const int *slots() const;
