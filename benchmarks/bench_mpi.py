@@ -26,6 +26,11 @@ is read before every run and printed beside the best.
    memory bandwidth (on one node, ranks share the memory bus: a slab of N/P magnets, 32 bytes
    each with the front record, leaves the last-level cache at large N/P). Scaling stops where
    the exchange costs as much as the work: efficiency 50%.
+4. A batch of chains (an ensemble's members in one instance): --batch chains of the paper's 21
+   magnets, --batch-steps steps, front record on, as a sweep writes them
+   (deck.render_replicas(front=True)), on 1 rank and on 2 ranks split two ways: by whole chains
+   (the deck's `processors 1 * 1`: no exchanges) and by slabs of every chain (`processors * 1 1`,
+   as for one long chain: every chain crosses the slab edge).
 
     python benchmarks/bench_mpi.py                    # about 3 minutes on an idle 2-core machine
     python benchmarks/bench_mpi.py --n 100000 --repeat 2
@@ -45,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_engine import paper_case, run_lammps
+from pylmp_lattice.deck import render_replicas
 from pylmp_lattice.run_folder import RunFolder
 
 
@@ -93,6 +99,31 @@ def owned_on_all_ranks(folder: Path, ranks: int) -> bool:
         (folder / "log.lammps").read_text()
 
 
+def batch_split(args) -> None:
+    """Part 4: a batch of short chains on 1 rank and on 2, by whole chains and by slabs."""
+    cases = [paper_case(21, args.batch_steps)] * args.batch
+    splits = {"1 rank": (1, None), "2 ranks, whole chains": (2, None),
+              "2 ranks, slabs of every chain": (2, ("processors      1 * 1", "processors      * 1 1"))}
+    with tempfile.TemporaryDirectory(prefix="bench_mpi_batch_") as tmp:
+        folders = {}
+        for name, (ranks, swap) in splits.items():
+            folder = Path(tmp) / str(len(folders))
+            folder.mkdir()
+            for file, text in render_replicas(cases, front=True).items():
+                (folder / file).write_text(text.replace(*swap) if swap and file == "in.lattice" else text)
+            folders[name] = (ranks, folder)
+        best = {name: math.inf for name in splits}
+        for _ in range(args.repeat):
+            for name, (ranks, folder) in folders.items():
+                best[name] = min(best[name], run_lammps(folder, nprocs=ranks).wall)
+        print(f"\n4. A batch of {args.batch} chains of 21 magnets, {args.batch_steps} steps, front record on")
+        print(f"{'split':>30} {'loop [s]':>9} {'speed-up':>9}  path")
+        for name, (ranks, folder) in folders.items():
+            log = (folder / "log.lammps").read_text()
+            path = re.search(r"Fix lattice/chain: (.*)", log).group(1)
+            print(f"{name:>30} {best[name]:>9.4g} {best['1 rank'] / best[name]:>9.2f}  {path}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=1_000_000, help="magnets of the long chain (10^6)")
@@ -100,6 +131,8 @@ def main() -> None:
     parser.add_argument("--slab", type=int, default=10_000, help="magnets per rank for the cost of a rank (10^4)")
     parser.add_argument("--comm-steps", type=int, default=20_000, help="steps for the cost of a rank (20000)")
     parser.add_argument("--repeat", type=int, default=5, help="runs of each, best kept (5)")
+    parser.add_argument("--batch", type=int, default=500, help="chains of 21 magnets in the batch (500)")
+    parser.add_argument("--batch-steps", type=int, default=4800, help="the batch's steps (4800: 60 ms at 12.5 us)")
     args = parser.parse_args()
 
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -167,6 +200,7 @@ def main() -> None:
     print(f"magnets a rank at which the exchange costs a tenth of the work: {10 * t_fast / t_slab:.0f} "
           f"(t_comm at the fastest step, {1e9 * t_slab:.2f} ns a magnet-step at {args.slab} magnets; "
           "pylmp_lattice.ranks.MIN_MAGNETS_PER_RANK)")
+    batch_split(args)
     print(f"\nload average {os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores, shared machine)")
 
 
