@@ -27,10 +27,11 @@ trajectories take the file as it is. `MDAnalysis.Universe("traj.h5md")` opens it
 reader knows only some units (hence nm and ps), infers the atoms from the group
 "trajectory" and reads the first group by name (hence the names), and takes every
 observable of a frame into `ts.data`, where `dt` is the frame interval it reports (hence
-observables at the frames, and dt in ps, its time unit). It reads no masses: import
-`pylmp_lattice.mdanalysis` first, which registers a topology parser for H5MD files, and the
-Universe has the file's masses (in u) and species (as types), and MDAnalysis warns about
-nothing. The datasets are chunked by blocks of frames and particles, one component a chunk,
+observables at the frames, and dt in ps, its time unit). It reads no masses (no topology):
+`Universe("topology.psf", "traj.h5md")`, with the PSF file written beside this one (`psf`),
+has them (in u) with plain MDAnalysis; so has `Universe("traj.h5md")` once
+`pylmp_lattice.mdanalysis` is imported, which registers a topology parser for H5MD files.
+Either way MDAnalysis warns about nothing. The datasets are chunked by blocks of frames and particles, one component a chunk,
 and compressed with byte shuffling (output.compression: lzf, h5py's fast filter, by
 default; gzip for readers that use the HDF5 library without h5py); a few particles read back
 without decompressing the others.
@@ -45,10 +46,12 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
+from . import psf
 from .bindump import BinaryDump
 from .case import Case, case_to_dict
 from .dump import read_log
 from .errors import LatticeError
+from .run_folder.layout import TOPOLOGY
 from .trajectory import Trajectory
 from .units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
@@ -66,11 +69,14 @@ _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 fra
 def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
     """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
     "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
-    `log` (LAMMPS's log file) as observables. The dumps are left as they are."""
+    `log` (LAMMPS's log file) as observables, and beside it the chain's topology (`psf`,
+    layout.TOPOLOGY). The dumps are left as they are."""
     import h5py
 
     masses = case.chain.masses()
-    species = np.unique(masses, return_inverse=True)[1] + 1
+    species = psf.species(masses)
+    # beside it, its topology: what plain MDAnalysis needs for masses (see `psf`)
+    (Path(target).parent / TOPOLOGY).write_text(psf.psf_text(case.name, masses))
     with h5py.File(target, "w") as h5:
         _write_header(h5, tomli_w.dumps(case_to_dict(case)))
         for group, dump in dumps.items():

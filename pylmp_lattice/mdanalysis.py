@@ -1,10 +1,16 @@
-"""MDAnalysis reads a run's traj.h5md with its masses and species: importing this module
-registers a topology parser for H5MD files.
+"""MDAnalysis reads a run's traj.h5md alone with its masses and species: importing this
+module registers a topology parser for H5MD files.
 
 MDAnalysis's H5MD reader reads positions, velocities, forces, times and observables, but no
 topology: without a parser, `Universe("traj.h5md")` has no masses and warns twice while it
-fails to guess them. MDAnalysis registers every `TopologyReaderBase` subclass under its
-`format`, so this class becomes the parser of every H5MD file once this module is imported:
+fails to guess them. With MDAnalysis alone, give it the run's topology file (`psf`, written
+beside traj.h5md):
+
+    u = mda.Universe("runs/NAME/topology.psf", "runs/NAME/traj.h5md")
+
+With this package installed, the file alone does. MDAnalysis registers every
+`TopologyReaderBase` subclass under its `format`, so this class becomes the parser of every
+H5MD file once this module is imported:
 
     import MDAnalysis as mda
     import pylmp_lattice.mdanalysis  # noqa: F401 (registers the parser)

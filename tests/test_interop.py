@@ -74,6 +74,39 @@ def test_mdanalysis_opens_h5md_without_warnings_with_masses_species_and_dt(h5md_
     assert_array_equal(u.atoms.ids, np.arange(1, 21))
 
 
+PLAIN_MDANALYSIS = """
+import json, sys, warnings
+warnings.simplefilter("error")  # any warning fails the script
+import MDAnalysis as mda
+u = mda.Universe(sys.argv[1], sys.argv[2])
+times = [ts.time for ts in u.trajectory]
+bare = mda.Universe(sys.argv[2], to_guess=())  # the trajectory alone: no masses, and nothing guessed
+assert "pylmp_lattice" not in sys.modules
+print(json.dumps({"masses": u.atoms.masses.tolist(), "types": u.atoms.types.tolist(), "dt": u.trajectory.dt,
+                  "times": times, "bonds": u.bonds.indices.tolist(), "bare_atoms": len(bare.atoms),
+                  "bare_has_masses": hasattr(bare.atoms, "masses")}))
+"""
+
+
+@lammps
+def test_plain_mdanalysis_opens_the_h5md_with_the_topology_beside_it(h5md_run):
+    """MDAnalysis alone (a process that never imports pylmp_lattice, warnings as errors) reads
+    topology.psf + traj.h5md with the masses in u, the species as types, the chain's bonds and
+    dt the output interval."""
+    case, folder = h5md_run
+    out = subprocess.run([sys.executable, "-c", PLAIN_MDANALYSIS, str(folder / "topology.psf"),
+                          str(folder / "traj.h5md")], capture_output=True, text=True, check=True)
+    assert out.stderr == ""
+    got = json.loads(out.stdout)
+    # 1.084 g = 6.528e23 u, by the CODATA atomic mass constant (MDAnalysis's own is CODATA 2010's)
+    assert_allclose(got["masses"], case.chain.masses() * 1e-3 / KG_PER_U, rtol=1e-8)
+    assert got["types"] == ["1"] * 4 + ["2"] + ["1"] * 15
+    assert got["bonds"] == [[n, n + 1] for n in range(19)]  # MDAnalysis's 0-based atom indices
+    assert got["dt"] == pytest.approx(INTERVAL * PS_PER_MS, rel=1e-12)
+    assert_allclose(got["times"], np.arange(41) * INTERVAL * PS_PER_MS, rtol=1e-12)
+    assert got["bare_atoms"] == 20 and got["bare_has_masses"] is False
+
+
 @lammps
 def test_h5md_observables_are_the_thermo_of_every_frame(h5md_run):
     """Energies and the smallest gap at each frame, checked against the frame's own x and v."""

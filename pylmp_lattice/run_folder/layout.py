@@ -34,13 +34,14 @@ CHAIN_WORK = "chain_work.txt"  # a batch of chains with friction: each chain's f
 
 # ---- written after the run
 H5MD = "traj.h5md"
+TOPOLOGY = "topology.psf"  # traj.h5md's topology (masses in u) for MDAnalysis, VMD: `psf`
 SUMMARY = "summary.json"
 FIGURE = "shock.png"
 LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
 
 # Every name a run of this package may write: a folder holding any of them but no run is refused.
 RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
-             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", SUMMARY, FIGURE, MARKER, LOCK)
+             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", TOPOLOGY, SUMMARY, FIGURE, MARKER, LOCK)
 
 # ---- columns
 DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"  # text dumps
