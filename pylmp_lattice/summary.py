@@ -1,4 +1,8 @@
-"""The short summary of a run: the paper's headline shock measures, with units in the keys."""
+"""The short summary of a run: the paper's headline shock measures, with units in the keys.
+
+Magnets and gaps are numbered as the paper counts (`numbering`): magnet 1 is the impactor, gap
+n lies between magnets n and n+1, and ranges are inclusive (first_gap 145, last_gap 193: gaps
+145 through 193)."""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ import numpy as np
 
 from . import measures
 from .case import Case
+from .numbering import number
 
 log = logging.getLogger(__name__)
 # A long lattice is valid while the last free particle stays (nearly) at rest.
@@ -33,13 +38,13 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
         return out
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speed = measures.trailing_plateau(vp)
-    first_peak = measures.trailing_plateau(front.peaks.peak_velocity[1:])  # particle 0 is the drive
+    first_peak = measures.trailing_plateau(front.peaks.driven_peak_velocity, over="magnet")
     out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
-        "shock_velocity_plateau_m_per_s": _plateau(speed, "gaps"),
+        "shock_velocity_plateau_m_per_s": _plateau(speed),
         # with friction V_P peaks early and decays (Fig. S6): where and how high
         "shock_velocity_max_m_per_s": _maximum(vp),
-        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, "particles", offset=1),
+        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
         "front_flags": _flags(front),
     }
@@ -48,8 +53,8 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
         last = float(max_speed[last_free])
         out["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, front.noise))
         if not out["far_end_quiet"]:
-            log.warning("long lattice too short: particle %d moved at %.3g m/s; results may include a reflection",
-                        last_free + 1, last)
+            log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
+                        number(last_free), last)
     return out
 
 
@@ -62,10 +67,10 @@ def linear_chain(case: Case) -> tuple[float, float]:
 
 
 def _maximum(vp: np.ndarray) -> dict | None:
-    """Largest V_P and the gap (1-based, gap n between magnets n and n+1) where it occurs."""
+    """Largest V_P and the gap where it occurs (gap n between magnets n and n+1)."""
     if not np.any(np.isfinite(vp)):
         return None
-    return {"value": round(float(np.nanmax(vp)), 5), "gap": int(np.nanargmax(vp)) + 1}
+    return {"value": round(float(np.nanmax(vp)), 5), "gap": number(np.nanargmax(vp))}
 
 
 def _flags(front: measures.Front) -> dict:
@@ -75,11 +80,11 @@ def _flags(front: measures.Front) -> dict:
             **{k: round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
 
 
-def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
-    """A plateau as JSON, over "gaps" or "particles" numbered 1-based as in the paper (gap n lies
-    between magnets n and n+1). trend: "steady" when converged (drift within 1 %, or 3 standard
-    errors), else "decaying" (e.g. V_P with friction) or "growing": a drifting mean is not a
-    plateau. Null, like the numbers, when the series has too few values."""
+def _plateau(p: measures.Plateau) -> dict:
+    """A plateau as JSON, its window as first_gap, last_gap (or first_magnet, last_magnet).
+    trend: "steady" when converged (drift within 1 %, or 3 standard errors), else "decaying"
+    (e.g. V_P with friction) or "growing": a drifting mean is not a plateau. Null, like the
+    numbers, when the series has too few values."""
     defined = bool(np.isfinite(p.mean))
     trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
     return {
@@ -89,5 +94,6 @@ def _plateau(p: measures.Plateau, over: str, offset: int = 0) -> dict:
         "relative_drift_stderr": round(p.drift_stderr, 5),
         "converged": defined and p.converged(),
         "trend": trend,
-        over: [p.start + offset + 1, p.stop + offset] if defined else None,
+        f"first_{p.over}": p.first,
+        f"last_{p.over}": p.last,
     }

@@ -24,14 +24,15 @@ def test_wake_state_of_a_synthetic_oscillation():
     gaps = np.tile((10.0 + 0.5 * np.cos(w * t))[:, None], (1, 5))
     v = np.tile((1.0 + 0.2 * np.sin(w * t))[:, None], (1, 6))
     law = LinearSpring(k=2.0, r_free=20.0)
-    s = wake_state(t, v, gaps, law, 3.0, (1, 4), (0.0, 100.0))
+    s = wake_state(t, v, gaps, law, 3.0, (2, 4), (0.0, 100.0))  # gaps 2, 3, 4
+    assert (s.first_gap, s.last_gap) == (2, 4)
     assert s.mean_gap == pytest.approx(10.0, abs=1e-6) and s.mean_velocity == pytest.approx(1.0, abs=1e-6)
     assert s.kinetic == pytest.approx(3.0 * 0.02 / 2, rel=1e-4)
     assert s.potential == pytest.approx(2.0 * 0.125 / 2, rel=1e-4)
     assert s.mean_force == pytest.approx(law.force(10.0), rel=1e-9)
     assert s.oscillation_energy == pytest.approx(s.kinetic + s.potential)
-    with pytest.raises(ValueError, match="gap_window"):
-        wake_state(t, v, gaps, law, 3.0, (3, 9), (0.0, 1.0))
+    with pytest.raises(ValueError, match="gap_range"):
+        wake_state(t, v, gaps, law, 3.0, (4, 9), (0.0, 1.0))
 
 
 @pytest.mark.lammps

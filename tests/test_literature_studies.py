@@ -21,7 +21,7 @@ def test_harmonic_study(tmp_path, monkeypatch):
     run_study("harmonic", tmp_path, quick=True)
     data = json.loads((tmp_path / "harmonic.json").read_text())
     row = data["runs"][0]
-    assert row["max_error_particles_1_30_over_u_p"] < 1e-5
+    assert row["max_error_magnets_2_31_over_u_p"] < 1e-5
     assert row["front_speed_V_P_m_per_s"] == pytest.approx(data["c0_m_per_s"], rel=0.02)
     assert {p.name for p in tmp_path.iterdir()} >= {"harmonic.png", "harmonic.pdf", "harmonic_runs.csv"}
     assert (tmp_path / "harmonic" / "results.csv").exists()  # it ran through the sweep layer

@@ -127,9 +127,11 @@ def test_shape_errors_say_what_was_got_and_expected():
 def test_trailing_plateau_of_a_converging_series():
     n = np.arange(200, dtype=float)
     values = 3.9 * (1.0 - np.exp(-n / 10.0))
-    values[150:] = np.nan  # the front stopped at particle 150
+    values[150:] = np.nan  # the front stopped at gap 150
     plateau = trailing_plateau(values)
-    assert (plateau.start, plateau.stop) == (112, 150)  # last ceil(150/4) = 38 finite values
+    # the last ceil(150/4) = 38 finite values, values[112:150]: gaps 113 to 150, numbered from 1
+    assert (plateau.first, plateau.last) == (113, 150)
+    assert json.loads(dumps(plateau))["first_gap"] == 113 and json.loads(dumps(plateau))["last_gap"] == 150
     assert_allclose(plateau.mean, 3.9, rtol=1e-4)
     assert plateau.converged(rtol=1e-4)
 
@@ -290,7 +292,7 @@ def test_harmonic_chain_front_speed_tends_to_v0(chain):
     assert_allclose(deficit[50:135] * n[50:135] ** (2 / 3), -z_star / 6, atol=2e-3)  # 0.0683
 
     plateau = trailing_plateau(vp)
-    assert 130 <= plateau.stop <= 145  # the front reached ~140 particles
+    assert 130 <= plateau.last <= 145  # the front reached ~140 magnets
     assert_allclose(plateau.mean, v0, rtol=4e-3)  # the n^(-2/3) deficit is 0.3 % there
     assert plateau.converged(rtol=1e-3)
 
@@ -370,9 +372,11 @@ def test_centred_velocity_is_exact_for_a_quadratic_front():
     mid = 0.5 * (x[1:] + x[:-1])
     assert_allclose(propagation_velocity(arrival, R0), 1 / (1 / c0 + 2 * beta * mid), rtol=1e-12)
     # a straight line through an accelerating front leaves residuals; a window keeps it local
-    whole, local = fit_propagation_velocity(arrival, x), fit_propagation_velocity(arrival, x, 30, 33)
+    whole, local = fit_propagation_velocity(arrival, x), fit_propagation_velocity(arrival, x, 31, 33)
     assert whole.residual_rms > 100 * local.residual_rms
+    # magnets 31, 32, 33: x[30:33]; the slope of a parabola through three points is its middle's
     assert_allclose(local.velocity, 1 / (1 / c0 + 2 * beta * x[31]), rtol=1e-12)
+    assert (local.first_magnet, local.last_magnet, local.n_points) == (31, 33, 3)
 
 
 def test_short_pulse_arrival_by_first_velocity_and_acceleration_peak():
@@ -512,10 +516,11 @@ def test_transition_zone_grows_as_constructed():
     assert np.all((after >= 0) & (after <= 2.5 + 0.01))  # the next extremum: within half a period
     arrival = arrival_times(t, v, vi, fraction=0.01)
     zone = transition_zone([31.0, 61.0, 100.0, 140.0], arrival, onset)
-    assert_allclose(zone.front_index, [10, 20, 24, 24])  # floor(T / 3), capped by the 25 particles
-    assert_allclose(zone.steady_index, [4, 8, 14, 19], atol=1)  # about floor(T / 7)
+    # magnet numbers, from 1: index n is magnet n + 1
+    assert_allclose(zone.front_magnet, [11, 21, 25, 25])  # floor(T / 3) + 1, capped by the 25 magnets
+    assert_allclose(zone.settled_magnet, [5, 9, 15, 20], atol=1)  # about floor(T / 7) + 1
     assert zone.width[1] > zone.width[0] + 3  # T (1/3 - 1/7): 5.7 and 11.4
-    assert json.loads(dumps(zone))["width_particles"][0] == pytest.approx(zone.width[0])
+    assert json.loads(dumps(zone))["width_magnets"][0] == pytest.approx(zone.width[0])
 
 
 def test_phase_portrait_of_an_ellipse():
@@ -523,9 +528,12 @@ def test_phase_portrait_of_an_ellipse():
     w = 2.0  # 1/ms
     x = np.column_stack([np.zeros_like(t), 12.0 + 0.5 * np.sin(w * t), np.full_like(t, 24.0)])
     v = np.column_stack([np.zeros_like(t), 0.5 * w * np.cos(w * t), np.zeros_like(t)])
-    portrait = phase_portrait(t, x, v, particle=1)
+    portrait = phase_portrait(t, x, v, magnet=2)
     assert_allclose((portrait.gap - 12.0) ** 2 / 0.25 + portrait.velocity**2 / 1.0, 1.0, rtol=1e-12)
     ranges = portrait.ranges((0.0, 10.0))
     assert_allclose([ranges["gap_min_mm"], ranges["gap_max_mm"]], [11.5, 12.5], atol=1e-4)
+    assert portrait.magnet == 2
+    # the same magnet among columns that start at magnet 2
+    assert_allclose(phase_portrait(t, x[:, 1:], v[:, 1:], magnet=2, first_magnet=2).gap, portrait.gap, rtol=0)
     with pytest.raises(ValueError, match="it needs a next one"):
-        phase_portrait(t, x, v, particle=2)
+        phase_portrait(t, x, v, magnet=3)

@@ -28,6 +28,12 @@ class FirstPeaks:
     peak_acceleration: np.ndarray
 
     @property
+    def driven_peak_velocity(self) -> np.ndarray:
+        """peak_velocity with magnet 1's left out (NaN): magnet 1 is the impactor, whose motion
+        is the drive, not the chain's response (plateaus of it keep the magnets' numbers)."""
+        return np.concatenate(([np.nan], self.peak_velocity[1:]))
+
+    @property
     def rise_time(self) -> np.ndarray:
         """Duration from the start of motion to the first velocity peak, ms."""
         return self.peak_time - self.start_time

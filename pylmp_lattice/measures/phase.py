@@ -1,5 +1,6 @@
 """The phase portrait of one magnet: its velocity against the gap to the next magnet (paper
-Fig. S9), r_n = x_{n+1} - x_n."""
+Fig. S9), r_n = x_{n+1} - x_n. Magnets are numbered from 1 (the impactor), as the paper
+counts (`numbering`)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ from ._common import check_history
 
 @dataclass(frozen=True)
 class PhasePortrait:
-    """particle: n (0-based); time (ms), gap r_n (mm), velocity v_n (m/s), shape (n_frames,)."""
+    """magnet: n (1-based); time (ms), gap r_n (mm), velocity v_n (m/s), shape (n_frames,)."""
 
-    particle: int
+    magnet: int
     time: np.ndarray
     gap: np.ndarray
     velocity: np.ndarray
@@ -27,16 +28,19 @@ class PhasePortrait:
                 "velocity_min_m_per_s": v.min(), "velocity_max_m_per_s": v.max()}
 
     def to_dict(self) -> dict:
-        return {"particle": self.particle, "time_ms": self.time, "gap_mm": self.gap, "velocity_m_per_s": self.velocity}
+        return {"magnet": self.magnet, "time_ms": self.time, "gap_mm": self.gap, "velocity_m_per_s": self.velocity}
 
 
-def phase_portrait(t, x, v, particle: int) -> PhasePortrait:
-    """Velocity of `particle` (0-based) against its gap to the next one; t (n_frames,) ms,
-    x positions (n_frames, N) mm, v velocities (n_frames, N) m/s."""
+def phase_portrait(t, x, v, magnet: int, first_magnet: int = 1) -> PhasePortrait:
+    """Velocity of magnet number `magnet` against its gap to the next one; t (n_frames,) ms,
+    x positions and v velocities (n_frames, K), mm and m/s, of magnets first_magnet ..
+    first_magnet + K - 1 (default: the whole chain, column i magnet i + 1)."""
     t, v = check_history(t, v)
     x = np.asarray(x, dtype=float)
     if x.shape != v.shape:
         raise ValueError(f"x: got shape {x.shape}; expected {v.shape}, the shape of v")
-    if not 0 <= particle < v.shape[1] - 1:
-        raise ValueError(f"particle: got {particle}; expected 0 <= particle < {v.shape[1] - 1} (it needs a next one)")
-    return PhasePortrait(particle, t, x[:, particle + 1] - x[:, particle], v[:, particle].copy())
+    last = first_magnet + v.shape[1] - 1
+    if not first_magnet <= magnet < last:
+        raise ValueError(f"magnet: got {magnet}; expected {first_magnet} <= magnet < {last} (it needs a next one)")
+    i = magnet - first_magnet
+    return PhasePortrait(magnet, t, x[:, i + 1] - x[:, i], v[:, i].copy())

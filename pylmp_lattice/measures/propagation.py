@@ -1,7 +1,9 @@
 """Propagation velocity of the front V_P: per gap, centred per particle, fitted over a window,
 and its plateau (or drift, for a series that does not settle).
 
-Arrival times in ms and positions/gaps in mm give velocities in mm/ms = m/s.
+Arrival times in ms and positions/gaps in mm give velocities in mm/ms = m/s. Arrays are
+0-based (entry i of V_P is gap i + 1); the magnet and gap numbers in results objects are
+1-based and ranges inclusive, as the paper counts (`numbering`).
 """
 
 from __future__ import annotations
@@ -10,7 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numbering import entries, number
 from ._common import NAN
+
+OVER = ("gap", "magnet")  # what a per-entry series is over: entry i is gap i + 1, or magnet i + 1
 
 
 def propagation_velocity(arrival, spacing) -> np.ndarray:
@@ -47,33 +52,38 @@ def centred_propagation_velocity(arrival, spacing) -> np.ndarray:
 @dataclass(frozen=True)
 class FrontFit:
     """A straight line through the arrival times t_n against the initial positions x_n of
-    particles start..stop-1 (see `fit_propagation_velocity`).
+    magnets first_magnet .. last_magnet (1-based, inclusive; see `fit_propagation_velocity`).
 
     velocity: V_P = 1/slope, m/s; velocity_stderr: its standard error from the fit, m/s;
     residual_rms: rms of t_n about the line, ms (large for a front that accelerates);
-    start, stop: the particles used; n_points: how many had an arrival time.
+    first_magnet, last_magnet: the magnets used; n_points: how many had an arrival time.
     """
 
     velocity: float
     velocity_stderr: float
     residual_rms: float
-    start: int
-    stop: int
+    first_magnet: int
+    last_magnet: int
     n_points: int
 
 
-def fit_propagation_velocity(arrival, positions, start: int = 0, stop: int | None = None) -> FrontFit:
-    """V_P fitted over a window of particles: least squares t_n = t_0 + x_n / V_P over the
-    particles start..stop-1 that have an arrival (ms), x_n their initial positions (mm)."""
+def fit_propagation_velocity(arrival, positions, first_magnet: int = 1, last_magnet: int | None = None) -> FrontFit:
+    """V_P fitted over a window of magnets: least squares t_n = t_0 + x_n / V_P over magnets
+    first_magnet .. last_magnet (1-based, inclusive; default all) that have an arrival (ms),
+    x_n their initial positions (mm); arrival and positions of shape (N,), entry i magnet i + 1."""
     arrival = _arrival(arrival)
     positions = np.asarray(positions, dtype=float)
     if positions.shape != arrival.shape:
         raise ValueError(f"positions: got shape {positions.shape}; expected {arrival.shape}")
-    stop = arrival.size if stop is None else stop
-    t, x = arrival[start:stop], positions[start:stop]
+    last_magnet = arrival.size if last_magnet is None else last_magnet
+    if not 1 <= first_magnet <= last_magnet <= arrival.size:
+        raise ValueError(f"first_magnet, last_magnet: got {first_magnet}, {last_magnet}; "
+                         f"expected 1 <= first_magnet <= last_magnet <= {arrival.size}")
+    window = entries(first_magnet, last_magnet)
+    t, x = arrival[window], positions[window]
     keep = np.isfinite(t)
     if keep.sum() < 3:
-        return FrontFit(NAN, NAN, NAN, start, stop, int(keep.sum()))
+        return FrontFit(NAN, NAN, NAN, first_magnet, last_magnet, int(keep.sum()))
     from scipy import stats  # here: importing scipy.stats costs ~0.3 s, and most runs never fit
 
     line = stats.linregress(x[keep], t[keep])
@@ -82,30 +92,34 @@ def fit_propagation_velocity(arrival, positions, start: int = 0, stop: int | Non
         velocity=float(1.0 / line.slope),
         velocity_stderr=float(line.stderr / line.slope**2),
         residual_rms=float(np.sqrt(np.mean(residual**2))),
-        start=start,
-        stop=stop,
+        first_magnet=first_magnet,
+        last_magnet=last_magnet,
         n_points=int(keep.sum()),
     )
 
 
 @dataclass(frozen=True)
 class Plateau:
-    """Level of a per-particle series over its trailing window (see `trailing_plateau`).
+    """Level of a per-gap or per-magnet series over its trailing window (see `trailing_plateau`).
 
     mean, std: of the finite values in the window; drift: the relative change across the window
-    of the least-squares line through them, slope * (stop - 1 - start) / mean; drift_stderr: its
-    standard error from the scatter of the values (0 for values on a line, NaN for 2 values); values[start:stop] is the
-    window. All NaN (and start == stop) when there are too few finite values. A series whose
-    drift exceeds the tolerance, and three standard errors, is not a plateau: `converged()` is
-    False, and `to_dict` reports it with `converged: false` beside its drift.
+    of the least-squares line through them, slope * (last - first) / mean; drift_stderr: its
+    standard error from the scatter of the values (0 for values on a line, NaN for 2 values);
+    over: "gap" or "magnet", what the series' entries are; first, last: the window, as the
+    1-based, inclusive numbers of its first and last gap (or magnet), e.g. gaps 145 .. 193 =
+    values[144:193] (`to_dict` names them first_gap, last_gap or first_magnet, last_magnet).
+    The numbers NaN, and first, last None, when there are too few finite values. A series
+    whose drift exceeds the tolerance, and three standard errors, is not a plateau:
+    `converged()` is False, and `to_dict` reports it with `converged: false` beside its drift.
     """
 
     mean: float
     std: float
     drift: float
-    start: int
-    stop: int
+    first: int | None
+    last: int | None
     drift_stderr: float = 0.0
+    over: str = "gap"
 
     def converged(self, rtol: float = 0.01) -> bool:
         """True if the series changes by at most rtol (relative) across the window, or by no more
@@ -117,19 +131,23 @@ class Plateau:
 
     def to_dict(self, rtol: float = 0.01) -> dict:
         return {"mean": self.mean, "std": self.std, "relative_drift": self.drift,
-                "relative_drift_stderr": self.drift_stderr, "start": self.start,
-                "stop": self.stop, "converged": self.converged(rtol), "converged_rtol": rtol}
+                "relative_drift_stderr": self.drift_stderr, f"first_{self.over}": self.first,
+                f"last_{self.over}": self.last, "converged": self.converged(rtol), "converged_rtol": rtol}
 
 
-def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3) -> Plateau:
-    """Plateau of a per-particle series (e.g. V_P) over the last particles that have a value.
-
-    The window is the last ceil(fraction * n_finite) finite entries (at least min_points), where
-    n_finite counts finite entries: for V_P, the last quarter of the gaps the front crossed.
+def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3, over: str = "gap") -> Plateau:
+    """Plateau of a per-gap series (e.g. V_P, shape (N-1,), entry i gap i + 1) or, with
+    over="magnet", a per-magnet one (shape (N,), entry i magnet i + 1), over its last entries
+    that have a value: the last ceil(fraction * n_finite) finite entries (at least min_points),
+    where n_finite counts finite entries. For V_P, the last quarter of the gaps the front
+    crossed. Leave out an entry (the impactor's, say) by making it NaN: the numbers stay
+    the magnets'.
     """
     values = np.asarray(values, dtype=float)
     if values.ndim != 1:
         raise ValueError(f"values: got shape {values.shape}; expected (N,)")
+    if over not in OVER:
+        raise ValueError(f"over: got {over!r}; choose one of {', '.join(OVER)}")
     if not 0 < fraction <= 1:
         raise ValueError(f"fraction: got {fraction}; expected in (0, 1]")
     if min_points < 2:
@@ -137,7 +155,7 @@ def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3) -> Pla
     finite = np.flatnonzero(np.isfinite(values))
     count = max(int(np.ceil(fraction * finite.size)), min_points)
     if finite.size < count:
-        return Plateau(NAN, NAN, NAN, values.size, values.size, NAN)
+        return Plateau(NAN, NAN, NAN, None, None, NAN, over)
     index = finite[-count:]
     window = values[index]
     mean = float(window.mean())
@@ -149,7 +167,7 @@ def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3) -> Pla
     tail = values[finite[-2 * count:]]
     scatter = np.sqrt(np.mean(np.diff(tail, 2) ** 2) / 6) if tail.size > 2 else NAN
     stderr = float(scatter / abs(mean) * (count - 1) * np.sqrt(12 / (count * (count**2 - 1))))
-    return Plateau(mean, float(window.std()), drift, int(index[0]), int(index[-1]) + 1, stderr)
+    return Plateau(mean, float(window.std()), drift, number(index[0]), number(index[-1]), stderr, over)
 
 
 def _arrival(arrival):

@@ -1,6 +1,7 @@
 """The disordered transition zone behind a strong shock (paper Fig. 3(d), Movie S2): between the
-front and the particles that have settled into the steady oscillation. Its width, front index
-minus the index of the deepest settled particle, grows with time.
+front and the magnets that have settled into the steady oscillation. Its width, the deepest
+magnet the front reached minus the deepest settled magnet, grows with time. Magnets are
+numbered from 1 (the impactor), as the paper counts (`numbering`).
 """
 
 from __future__ import annotations
@@ -52,35 +53,36 @@ def steady_onset_times(
 
 @dataclass(frozen=True)
 class TransitionZone:
-    """Front and settled indices against time (see `transition_zone`); arrays of shape
-    (n_times,). time: ms; front_index: the deepest particle the front reached; steady_index: the
-    deepest particle settled by then (NaN while none has); width: their difference, particles."""
+    """The front and the settled magnets against time (see `transition_zone`); arrays of shape
+    (n_times,). time: ms; front_magnet: the deepest magnet the front reached (1-based magnet
+    number, as every magnet number here; NaN before it reached any); settled_magnet: the deepest
+    magnet settled by then (NaN while none has); width: their difference, magnets."""
 
     time: np.ndarray
-    front_index: np.ndarray
-    steady_index: np.ndarray
+    front_magnet: np.ndarray
+    settled_magnet: np.ndarray
 
     @property
     def width(self) -> np.ndarray:
-        return self.front_index - self.steady_index
+        return self.front_magnet - self.settled_magnet
 
     def to_dict(self) -> dict:
-        return {"time_ms": self.time, "front_index": self.front_index, "steady_index": self.steady_index,
-                "width_particles": self.width}
+        return {"time_ms": self.time, "front_magnet": self.front_magnet, "settled_magnet": self.settled_magnet,
+                "width_magnets": self.width}
 
 
 def transition_zone(times, arrival, onset) -> TransitionZone:
-    """Transition-zone width at the given times (ms) from the particles' front arrival times and
-    steady onset times (both ms, shape (N,), NaN where never)."""
+    """Transition-zone width at the given times (ms) from the magnets' front arrival times and
+    steady onset times (both ms, shape (N,), entry i magnet i + 1, NaN where never)."""
     times = np.asarray(times, dtype=float)
     arrival, onset = np.asarray(arrival, dtype=float), np.asarray(onset, dtype=float)
     if arrival.shape != onset.shape or arrival.ndim != 1:
         raise ValueError(f"onset: got shape {onset.shape}; expected {arrival.shape}, the shape of arrival")
-    index = np.arange(arrival.size, dtype=float)
+    magnet = np.arange(1, arrival.size + 1, dtype=float)
 
     def deepest(event):
         with np.errstate(invalid="ignore"):
             done = event[None, :] <= times[:, None]  # NaN compares False
-        return np.where(done.any(axis=1), np.max(np.where(done, index, -1.0), axis=1), NAN)
+        return np.where(done.any(axis=1), np.max(np.where(done, magnet, 0.0), axis=1), NAN)
 
     return TransitionZone(times, deepest(arrival), deepest(onset))

@@ -4,7 +4,8 @@ Behind a dispersive shock the chain does not settle: it oscillates about a mean 
 jump conditions (exact.jump, exact.wake_energy) speak of the mean state; `wake_state` measures
 it over a window of gaps and times, with the energy of the oscillation about it, the paper's
 analogue of the temperature behind a molecular shock. User units: t in ms, v in m/s, gaps in
-mm, mass in g, energies in mJ per particle.
+mm, mass in g, energies in mJ per particle. Gaps are numbered as the paper counts
+(`numbering`): gap n lies between magnets n and n+1, magnet 1 the impactor.
 """
 
 from __future__ import annotations
@@ -13,10 +14,13 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..numbering import entries
+
 
 @dataclass(frozen=True)
 class WakeState:
-    """Means over gaps [gap_start, gap_stop) and times [t_start, t_end] behind the front.
+    """Means over gaps first_gap .. last_gap (1-based, inclusive) and times [t_start, t_end]
+    behind the front.
 
     mean_gap (mm), mean_force (N, the mean of F(r), not F(mean r)), mean_velocity (m/s, of
     the particles that follow the gaps); kinetic (mJ): m <(v - <v>)^2> / 2, the oscillation's
@@ -24,8 +28,8 @@ class WakeState:
     potential energy per particle beyond the mean state's.
     """
 
-    gap_start: int
-    gap_stop: int
+    first_gap: int
+    last_gap: int
     t_start: float
     t_end: float
     mean_gap: float
@@ -43,26 +47,26 @@ class WakeState:
         return asdict(self) | {"oscillation_energy": self.oscillation_energy}
 
 
-def wake_state(t, v, gaps, law, mass: float, gap_window: tuple[int, int], t_window: tuple[float, float]) -> WakeState:
+def wake_state(t, v, gaps, law, mass: float, gap_range: tuple[int, int], t_window: tuple[float, float]) -> WakeState:
     """The mean state and oscillation energy in a window of a run.
 
-    t (n_frames,) ms; v (n_frames, N) m/s; gaps (n_frames, N-1) mm, gap n between particles n
-    and n+1; law: a forcelaw object; gap_window: [start, stop) gap indices; t_window: ms.
-    The velocities are those of particles start+1 .. stop (the right end of each gap), never
-    the driven particle 0.
+    t (n_frames,) ms; v (n_frames, N) m/s, column i magnet i + 1; gaps (n_frames, N-1) mm,
+    column i gap i + 1 (between magnets i + 1 and i + 2); law: a forcelaw object; gap_range:
+    (first_gap, last_gap), 1-based and inclusive; t_window: ms. The velocities are those of
+    magnets first_gap + 1 .. last_gap + 1 (the right end of each gap), never the impactor.
     """
     t, v, gaps = np.asarray(t, float), np.asarray(v, float), np.asarray(gaps, float)
-    lo, hi = gap_window
-    if not (0 <= lo < hi <= gaps.shape[1]):
-        raise ValueError(f"gap_window: got {gap_window}; expected 0 <= start < stop <= {gaps.shape[1]}")
+    first, last = gap_range
+    if not (1 <= first <= last <= gaps.shape[1]):
+        raise ValueError(f"gap_range: got {gap_range}; expected 1 <= first_gap <= last_gap <= {gaps.shape[1]}")
     frames = (t >= t_window[0]) & (t <= t_window[1])
     if not np.any(frames):
         raise ValueError(f"t_window: got {t_window} ms; no frame in it (run spans {t[0]}..{t[-1]} ms)")
-    r = gaps[frames, lo:hi]
-    u = v[frames, lo + 1:hi + 1]
+    r = gaps[frames, entries(first, last)]
+    u = v[frames, entries(first + 1, last + 1)]
     mean_gap, mean_v = float(np.mean(r)), float(np.mean(u))
     return WakeState(
-        gap_start=lo, gap_stop=hi, t_start=float(t[frames][0]), t_end=float(t[frames][-1]),
+        first_gap=first, last_gap=last, t_start=float(t[frames][0]), t_end=float(t[frames][-1]),
         mean_gap=mean_gap, mean_force=float(np.mean(law.force(r))), mean_velocity=mean_v,
         kinetic=0.5 * mass * float(np.mean((u - mean_v) ** 2)),
         potential=float(np.mean(law.energy(r)) - law.energy(mean_gap)),

@@ -4,7 +4,8 @@
 (a) a typical velocity profile; (b) propagation velocity V_P along the chain (per gap and
 centred); (c) first peak velocity and acceleration; (d) velocity maxima and minima against time
 for several particles; (e) the oscillation frequency from them; and (f, ours) the width of the
-disordered transition zone against time.
+disordered transition zone against time. Magnets and gaps are numbered from 1, as the paper
+counts (`numbering`); arrays are 0-based (column n - 1 is magnet n).
 """
 
 from __future__ import annotations
@@ -12,13 +13,14 @@ from __future__ import annotations
 import numpy as np
 
 from .. import measures
+from ..numbering import number
 from ..plots import pyplot, separate, style_figure, twin_axis
 from .output import StudyResult
 from .scaffold import linear_constants, particles_reached, pick
 
-TRACKED = (1, 4, 9, 24, 49, 99, 149)  # 0-based: particles n = 2, 5, 10, 25, 50, 100, 150
-STEADY = (4, 9, 19)  # 0-based: particles n = 5, 10, 20, well behind the front at the end
-# how close (in V_I) a particle's extrema must stay to particle 10's steady ones to count as
+TRACKED = (2, 5, 10, 25, 50, 100, 150)  # magnets whose extrema are drawn
+STEADY = (5, 10, 20)  # magnets well behind the front at the end
+# how close (in V_I) a magnet's extrema must stay to magnet 10's steady ones to count as
 # settled: the zone's growth rate depends on it, so it is reported for each
 TOLERANCES = (0.2, 0.1, 0.05, 0.02)
 TOLERANCE = 0.1  # the one drawn and tabled
@@ -26,7 +28,7 @@ TOLERANCE = 0.1  # the one drawn and tabled
 
 def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResult:
     """Fig. 3's measures and figure for a constant-drive run (also the linear lattice's, S5);
-    `zone`: measure the transition zone (settling into particle 10's steady oscillation)."""
+    `zone`: measure the transition zone (settling into magnet 10's steady oscillation)."""
     v0, f0 = linear_constants(case)
     t, v, a = traj.t, traj.v, traj.a
     gaps = case.chain.gaps()
@@ -34,16 +36,17 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
     reached = particles_reached(front.arrival)
     centred = measures.centred_propagation_velocity(front.arrival, gaps)
     plateau = measures.trailing_plateau(front.propagation_velocity)
-    fit = measures.fit_propagation_velocity(front.arrival, case.chain.positions(), plateau.start, plateau.stop + 1)
+    # gaps first .. last lie between magnets first .. last + 1
+    fit = measures.fit_propagation_velocity(front.arrival, case.chain.positions(), plateau.first, plateau.last + 1)
     peaks = front.peaks
-    first_peak = measures.trailing_plateau(peaks.peak_velocity[1:])
+    first_peak = measures.trailing_plateau(peaks.driven_peak_velocity, over="magnet")
     window = (0.8 * duration, duration)
-    steady = {n: measures.steady_oscillation(t, v[:, n], vi, window) for n in STEADY}
+    steady = {n: measures.steady_oscillation(t, v[:, n - 1], vi, window) for n in STEADY}
     tracked = pick(TRACKED, reached)
-    osc = {n: measures.oscillations(t, v[:, n], vi) for n in tracked}
+    osc = {n: measures.oscillations(t, v[:, n - 1], vi) for n in tracked}
 
-    # transition zone: settled = within a tolerance of particle 10's steady maxima and minima
-    ref = steady[9]
+    # transition zone: settled = within a tolerance of magnet 10's steady maxima and minima
+    ref = steady[10]
     zones = {}
     if zone and ref.measured:
         # up to 0.9 T: a particle settling later cannot show the extrema that confirm it
@@ -66,10 +69,10 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
         "first_peak_max_m_per_s": float(np.nanmax(peaks.peak_velocity[1:])),
         "first_peak_plateau_m_per_s": first_peak,
         "first_peak_plateau_over_V_I": first_peak.mean / vi,
-        "first_particle_with_first_peak_at_least_3.87_m_per_s": _first_at_least(peaks.peak_velocity, 3.87),
+        "first_particle_with_first_peak_at_least_3.87_m_per_s": _first_at_least(peaks.driven_peak_velocity, 3.87),
         "first_peak_acceleration_max_m_per_s2": float(np.nanmax(peaks.peak_acceleration[1:])),
         "steady_oscillation_window_ms": list(window),
-        "steady_oscillation": {f"n={n + 1}": s.to_dict() | {"f_over_f0": s.frequency / f0} for n, s in steady.items()},
+        "steady_oscillation": {f"n={n}": s.to_dict() | {"f_over_f0": s.frequency / f0} for n, s in steady.items()},
         "transition_zone_tolerance_over_V_I": TOLERANCE,
         "transition_zone": zone,
         "transition_zone_growth_particles_per_ms": _growth(zone),
@@ -88,8 +91,7 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
         "extrema": _extrema_table(osc),
     }
     if zone is not None:
-        tables["transition_zone"] = {"time_ms": zone.time, "front_index": zone.front_index,
-                                     "steady_index": zone.steady_index, "width_particles": zone.width}
+        tables["transition_zone"] = zone.to_dict()
     fig = figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick)
     return StudyResult(name, numbers, tables=tables, figure=fig, quick=quick)
 
@@ -117,9 +119,9 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     separate(ax[0, 2], right, peaks.peak_velocity, peaks.peak_acceleration)
     ax[0, 2].legend(handles=left, fontsize="small", loc="center right")
     for k, (p, o) in enumerate(osc.items()):
-        ax[1, 0].plot(o.max_time, o.max_velocity, "^", ms=2.5, color=f"C{k}", label=f"n = {p + 1}")
+        ax[1, 0].plot(o.max_time, o.max_velocity, "^", ms=2.5, color=f"C{k}", label=f"n = {p}")
         ax[1, 0].plot(o.min_time, o.min_velocity, "v", ms=2.5, color=f"C{k}")
-        ax[1, 1].plot(o.frequency_time, o.frequency / f0, ".-", ms=2.5, lw=0.6, color=f"C{k}", label=f"n = {p + 1}")
+        ax[1, 1].plot(o.frequency_time, o.frequency / f0, ".-", ms=2.5, lw=0.6, color=f"C{k}", label=f"n = {p}")
     ax[1, 0].plot([], [], "^", color="0.4", label="maxima")
     ax[1, 0].plot([], [], "v", color="0.4", label="minima")
     ax[1, 0].set(title="velocity maxima and minima", xlabel="t (ms)", ylabel="peak velocity (m/s)")
@@ -128,8 +130,8 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     ax[1, 1].legend(fontsize="x-small", ncol=2)
     if zones:
         zone = zones[TOLERANCE]
-        ax[1, 2].plot(zone.time, zone.front_index + 1, label="front")
-        ax[1, 2].plot(zone.time, zone.steady_index + 1, label=f"settled (within {TOLERANCE:g} $V_I$)")
+        ax[1, 2].plot(zone.time, zone.front_magnet, label="front")
+        ax[1, 2].plot(zone.time, zone.settled_magnet, label=f"settled (within {TOLERANCE:g} $V_I$)")
         ax[1, 2].plot(zone.time, zone.width, label=f"width (settled within {TOLERANCE:g} $V_I$)")
         for k, (tol, other) in enumerate((t, z) for t, z in zones.items() if t != TOLERANCE):
             ax[1, 2].plot(other.time, other.width, ls=(0, (1, 1 + k)), lw=0.9, color="C2",
@@ -140,8 +142,9 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
 
 
 def _first_at_least(values, level):
-    hit = np.flatnonzero(values[1:] >= level)
-    return int(hit[0]) + 2 if hit.size else None  # 1-based particle number
+    """The number of the first magnet whose value reaches `level` (None if none)."""
+    hit = np.flatnonzero(values >= level)
+    return number(hit[0]) if hit.size else None
 
 
 def _growth(zone):
@@ -153,7 +156,7 @@ def _growth(zone):
 
 
 def _extrema_table(osc):
-    rows = [(p + 1, kind, tt, vv) for p, o in osc.items()
+    rows = [(p, kind, tt, vv) for p, o in osc.items()
             for kind, ts, vs in (("max", o.max_time, o.max_velocity), ("min", o.min_time, o.min_velocity))
             for tt, vv in zip(ts, vs)]
     rows.sort(key=lambda r: (r[0], r[2]))

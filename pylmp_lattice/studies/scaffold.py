@@ -114,9 +114,9 @@ def particles_reached(arrival) -> int:
     return int(np.sum(np.isfinite(arrival)))
 
 
-def pick(candidates, limit: int) -> list[int]:
-    """The 0-based particle indices among `candidates` below `limit`."""
-    return [n for n in candidates if n < limit]
+def pick(candidates, reached: int) -> list[int]:
+    """The magnet numbers among `candidates` that the front reached (magnets 1 .. reached)."""
+    return [n for n in candidates if n <= reached]
 
 
 @dataclass(frozen=True)

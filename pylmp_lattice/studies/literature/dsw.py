@@ -49,7 +49,7 @@ QUICK = {"chains": ("magnet q=3",), "fractions": (0.5, 1.5), "periods": 17.0}
 PAPER_T0 = 23.53  # ms, about 1/f0 of the paper's chain (23.520): the time step scales from it
 PARTICLE = 9  # 0-based: magnet 10, where eta and f are measured (as Fig. 4)
 FINE = tuple(range(1, 13))  # magnets written at the fine interval: the piston's neighbours
-WAKE_GAPS = (1, 11)  # gaps 2-11 (0-based 1..10), next to the piston
+WAKE_GAPS = (2, 11)  # gaps 2-11 (inclusive), next to the piston
 PROMINENCE = 1e-3  # of V_I, for eta and f: follows weak oscillations too
 WINDOW_PERIODS = 3.5  # the steady window spans at least this many T0
 DECAYS, PERSISTS = 0.25, 0.5  # eta(T)/eta(T/2): below, the wake decays; above, it persists
@@ -143,7 +143,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     numbers = {
         "title": STUDIES[NAME] + (" (quick version)" if quick else ""),
         "method": "El, Chaos 15, 037103 (2005); El & Hoefer, Physica D 333, 11 (2016); pylmp_lattice.theory",
-        "run_length_periods_T0": periods, "particle": PARTICLE + 1, "wake_gaps": [WAKE_GAPS[0] + 1, WAKE_GAPS[1]],
+        "run_length_periods_T0": periods, "particle": PARTICLE + 1, "wake_gaps": list(WAKE_GAPS),
         "eta_prominence_over_V_I": PROMINENCE, "eta_ratio_decays_below": DECAYS, "eta_ratio_persists_above": PERSISTS,
         "chains": per_chain, "runs": rows,
     }

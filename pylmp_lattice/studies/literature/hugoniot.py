@@ -47,7 +47,7 @@ def measure(chain: str, u_p: float, case, summary: dict, traj) -> dict:
     force, r0, mass, _ = CHAINS[chain]
     law = case.force
     reached = summary["particles_reached_by_front"]
-    gaps = (max(1, reached // 10), max(reached // 3, 3))
+    gaps = (max(1, reached // 10) + 1, max(reached // 3, 3))  # first and last gap (1-based, inclusive)
     duration = case.run.duration
     state = wake_state(traj.t, traj.v, traj.gaps(), law, mass, gaps, (0.75 * duration, duration))
     rh = jump(law, r0, mass, state.mean_gap, state.mean_force)
@@ -55,7 +55,7 @@ def measure(chain: str, u_p: float, case, summary: dict, traj) -> dict:
     row = {
         "chain": chain, "u_p_m_per_s": u_p, "U_s_m_per_s": vp["mean"], "U_s_converged": vp["converged"],
         "first_peak_over_u_p": summary["first_peak_velocity_over_V_I"],
-        "particles_reached": reached, "wake_gaps": list(gaps),
+        "particles_reached": reached, "wake_gaps": [state.first_gap, state.last_gap],
         "mean_gap_mm": state.mean_gap, "mean_force_N": state.mean_force, "mean_velocity_m_per_s": state.mean_velocity,
         "rankine_hugoniot_D_m_per_s": float(rh.D), "rankine_hugoniot_u_p_m_per_s": float(rh.u_p),
         "wake_kinetic_mJ": state.kinetic, "wake_oscillation_energy_mJ": state.oscillation_energy,

@@ -1,13 +1,15 @@
 """The Toda lattice (m = A = B = 1: g, N, 1/mm, so time in ms): one soliton and the piston.
 
-Soliton: an exact soliton enters a chain through particle 0, which follows the
-exact solution (a measured impactor), and crosses gaps 10-40; its speed, from the time
+Soliton: an exact soliton enters a chain through magnet 1, which follows the
+exact solution (a measured impactor), and crosses gaps 11-41; its speed, from the time
 centroids of exp(-r_n) - 1 (for the exact soliton exactly kappa (n - n0) / sinh kappa), against
 sinh(kappa)/kappa for kappa = 0.25 ... 2.5 (dt = 0.005 ms from kappa = 2).
 Piston (x_0 = u_p t, 200 time units): the mean state next to the piston against the uniform
 wake exp(-r) = (1 + u_p/2)^2 below the critical speed 2; the period-two (staggered) amplitude
 |r_(n+1) - r_n| at t = 100 and 200 on both sides of it; the front speed and height against the
 lead soliton, cosh(kappa) = 1 + u_p. Quick: three kappa, three u_p, 100 time units.
+Magnets and gaps are numbered from 1 (`numbering`); the exact solutions' site index n is the
+magnet number minus 1.
 """
 
 from __future__ import annotations
@@ -26,19 +28,20 @@ NAME = "toda"
 KAPPAS = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5)
 PISTON_SPEEDS = (0.25, 0.5, 1.0, 1.5, 1.8, 1.9, 2.1, 2.2, 2.5, 3.0, 4.0)
 A_GAP = CHAINS["toda"][0]["a"]  # mm, where F = 0: r = gap - a
-SOLITON_GAPS = (10, 40)  # the gaps where the soliton's speed is measured
+SOLITON_GAPS = (11, 41)  # the gaps where the soliton's speed is measured (inclusive)
 STAGGER_GAPS = 6  # the gaps next to the piston where period two is looked for
 QUICK = ((0.5, 1.0, 2.0), (1.0, 1.9, 2.1), 100.0)  # kappas, piston speeds, piston run length
 
 
 def soliton_case(kappa: float, dt: float = 0.01, output: float = 0.05):
-    """An exact soliton entering the chain through particle 0 (its centre 10/kappa sites behind
+    """An exact soliton entering the chain through magnet 1 (its centre 10/kappa sites behind
     it at t = 0, so the chain starts at rest to ~1e-8); the run ends once the pulse has passed
     gap SOLITON_GAPS[1] (15 / sinh(kappa) later, when its centre is 15/kappa sites beyond), and
     the held end is far enough that its reflection stays 15/kappa sites away from that gap."""
     n0, beta = -10.0 / kappa, np.sinh(kappa)
-    particles = int(SOLITON_GAPS[1] + 30.0 / kappa) + 10
-    duration = np.ceil((kappa * (SOLITON_GAPS[1] - n0) + 15) / beta / output) * output
+    site = SOLITON_GAPS[1] - 1  # the exact solution's index of the last gap
+    particles = int(site + 30.0 / kappa) + 10
+    duration = np.ceil((kappa * (site - n0) + 15) / beta / output) * output
     t = np.arange(0.0, duration + dt / 2, dt)
     x, _, _ = toda_soliton([0], t, kappa, n0)
     _, _, r0 = toda_soliton(np.arange(particles - 1), [0.0], kappa, n0)
@@ -78,9 +81,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         uniform = float(toda_piston_wake(u_p))
         mean_r = float(np.mean(r[late, :10]))
         pistons.append({
-            "u_p": u_p, "mean_r_gaps_0_9": mean_r, "uniform_wake_r": uniform,
+            "u_p": u_p, "mean_r_gaps_1_10": mean_r, "uniform_wake_r": uniform,
             "relative_error_exp_minus_r": float(np.exp(-mean_r) / np.exp(-uniform) - 1) if u_p < 2 else None,
-            "mean_v_particles_1_10": float(np.mean(traj.v[late, 1:11])),
+            "mean_v_magnets_2_11": float(np.mean(traj.v[late, 1:11])),
             "staggered_t_half": staggered_amplitude(t, r, duration / 2, STAGGER_GAPS),
             "staggered_t_end": staggered_amplitude(t, r, duration, STAGGER_GAPS),
             "front_speed_sites_per_ms": speed, "lead_soliton_speed": float(lead),
@@ -96,14 +99,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     u = np.array([p["u_p"] for p in pistons])
     u_line = np.linspace(0.0, max(u) * 1.05, 200)
     axes[0, 1].plot(u_line, np.where(u_line < 2, (1 + u_line / 2) ** 2, np.nan), "k-", lw=0.8, label="$(1 + u_p/2)^2$")
-    axes[0, 1].plot(u, [np.exp(-p["mean_r_gaps_0_9"]) for p in pistons], "o", label="LAMMPS, gaps 0-9, last 10 units")
+    axes[0, 1].plot(u, [np.exp(-p["mean_r_gaps_1_10"]) for p in pistons], "o", label="LAMMPS, gaps 1-10, last 10 units")
     axes[0, 1].axvline(2.0, color="k", ls=":", lw=0.8, label="critical speed 2")
     axes[0, 1].set(xlabel="piston speed $u_p$ (m/s)", ylabel="mean $\\exp(-r)$ next to the piston", title="the wake")
     axes[0, 1].legend(fontsize="small")
     axes[1, 0].semilogy(u, [p["staggered_t_half"] for p in pistons], "s", label=f"t = {duration / 2:g} ms")
     axes[1, 0].semilogy(u, [p["staggered_t_end"] for p in pistons], "o", label=f"t = {duration:g} ms")
     axes[1, 0].axvline(2.0, color="k", ls=":", lw=0.8, label="critical speed 2")
-    axes[1, 0].set(xlabel="piston speed $u_p$ (m/s)", ylabel="max $|r_{n+1} - r_n|$, gaps 0-5 (mm)",
+    axes[1, 0].set(xlabel="piston speed $u_p$ (m/s)", ylabel="max $|r_{n+1} - r_n|$, gaps 1-6 (mm)",
                    title="period two: relaxes below 2, persists above")
     axes[1, 0].legend(fontsize="small")
     axes[1, 1].plot(u_line[1:], toda_lead_soliton(u_line[1:])[1], "k-", lw=0.8,

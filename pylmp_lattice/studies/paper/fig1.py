@@ -29,7 +29,7 @@ PAPER = {"rise_time_n1_ms": 23.9, "rise_time_n6_ms": 4.9, "V_P_m_per_s": 6.42}
 PROFILES = (0, 1, 3, 5, 7, 11, 15)  # 0-based: magnets n = 1, 2, 4, 6, 8, 12, 16
 # 0-based magnet ranges for the front speed: the front accelerates, so its speed depends on where
 # it is read; the paper does not say where its red arrow was drawn.
-FITS = {"n=2..12": (1, 12), "n=6..18": (5, 18)}
+FITS = {"n=2..12": (2, 12), "n=6..18": (6, 18)}  # first and last magnet
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:

@@ -106,7 +106,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     law = PAPER_LAW
     k1, k2 = float(law.stiffness(R0)), float(attractive.stiffness(2 * R0))
     plateau = {k: measures.trailing_plateau(f.propagation_velocity) for k, f in strong.items()}
-    peaks = {k: measures.trailing_plateau(f.peaks.peak_velocity[1:]) for k, f in strong.items()}
+    peaks = {k: measures.trailing_plateau(f.peaks.driven_peak_velocity, over="magnet") for k, f in strong.items()}
     weak_vp = {k: measures.trailing_plateau(f.propagation_velocity) for k, f in weak.items()}
     base = "nearest only"
     numbers = {

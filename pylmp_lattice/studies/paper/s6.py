@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import measures
+from ...numbering import number
 from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
 from ..output import StudyResult
@@ -35,7 +36,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         mu = row["mu"]
         vp = RunFolder(r.folder).front().accepted_velocity
         best = int(np.nanargmax(vp))
-        row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": best + 1, "V_P_last_quarter": measures.trailing_plateau(vp),
+        row |= {"V_P_max_m_per_s": vp[best], "V_P_max_gap": number(best), "V_P_last_quarter": measures.trailing_plateau(vp),
                 "V_P_last_m_per_s": vp[np.isfinite(vp)][-1], "gaps_crossed": int(np.sum(np.isfinite(vp)))}
         table[f"V_P_mu_{mu:g}_m_per_s"] = vp
         ax.plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$\\mu$ = {mu:g}")

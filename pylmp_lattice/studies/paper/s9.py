@@ -43,7 +43,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         # magnets 10 and 11 only: the 3 s run has 30001 frames of ~800 magnets
         pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", (PARTICLE, PARTICLE + 1))
         t, v = pair.t, pair.v[:, 0]
-        portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, 0)
+        portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, PARTICLE + 1, first_magnet=PARTICLE + 1)
         steady = measures.steady_oscillation(t, v, vi, window)
         reference = (steady.max_velocity, steady.min_velocity) if steady.measured else (vi, vi)
         onset = measures.steady_onset_times(t, pair.v[:, :1], vi, reference)[0]
