@@ -2,7 +2,9 @@
 
 Conventions (user units, see `units`): time t in ms, particle velocity v in m/s (= mm/ms),
 acceleration a in m/s^2, lengths in mm, mass in g, stiffness in N/mm, frequency in Hz.
-A history has shape (n_frames, N): particles in chain order, particle 0 the impactor. The
+A history has shape (n_frames, N): magnets in chain order, column 0 magnet 1, the impactor.
+Results objects number magnets and gaps from 1 as the paper does (gap n between magnets n and
+n+1), with inclusive ranges named `first_gap`, `last_gap`, ... (`numbering`). The
 shock runs towards increasing index and drives particles with positive velocities; the drive
 (impactor) velocity V_I > 0 sets the scale of every threshold, given as a fraction of V_I, and
 in a noisy chain each is also at least a multiple of its noise velocity (`levels`).
@@ -20,7 +22,7 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
 
     t_front = arrival_times(tr.t, tr.v, vi)
     vp = propagation_velocity(t_front, np.diff(tr.x0))
-    speed = trailing_plateau(vp)             # speed.mean, speed.drift, speed.converged()
+    speed = trailing_plateau(vp)             # speed.mean over gaps speed.first..speed.last, speed.converged()
     peaks = first_peaks(tr.t, tr.v, tr.a, vi)
     steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
 """
