@@ -172,14 +172,14 @@ class Chain:
                 raise ConfigError("chain.defect_index", f"got {self.defect_index!r}; expected an integer in [1, {top}]")
         if self.thermal_velocity and n < 4:
             raise ConfigError("chain.thermal_velocity", f"needs at least 2 free magnets; got particles = {n}")
-        for name, low in (("mass_disorder", self.mass_range[0]), ("r0_disorder", self.gap_range[0])):
-            if not low > 0:
-                raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; a draw gave a value <= 0, "
-                                  "expected a smaller disorder or disorder = 'uniform'")
 
     def random(self) -> bool:
         """Whether the chain has random fields (thermal velocities or disorder)."""
         return bool(self.thermal_velocity or self.mass_disorder or self.r0_disorder)
+
+    def draws(self) -> int:
+        """Random numbers the masses and gaps take (their disorder): what mass_range and gap_range draw."""
+        return self.particles * bool(self.mass_disorder) + (self.particles - 1) * bool(self.r0_disorder)
 
     def _streams(self) -> list[np.random.Generator]:
         # Independent streams for masses, gaps and velocities: turning one on does not change
@@ -219,20 +219,27 @@ class Chain:
 
     @cached_property
     def mass_range(self) -> tuple[float, float]:
-        """Smallest and largest mass, g, in bounded time and memory at any N (see _range)."""
-        return self._range(self.mass, self.mass_disorder, self.defect_mass, self._masses)
+        """Smallest and largest mass, g, in bounded memory at any N (see _range); ConfigError
+        naming chain.mass_disorder if a draw gave a mass <= 0."""
+        return self._range("mass_disorder", self.mass, self.defect_mass, self._masses)
 
     @cached_property
     def gap_range(self) -> tuple[float, float]:
-        """Smallest and largest initial separation, mm, in bounded time and memory at any N."""
-        return self._range(self.r0, self.r0_disorder, self.defect_r0, self._gaps)
+        """Smallest and largest initial separation, mm, in bounded memory at any N; ConfigError
+        naming chain.r0_disorder if a draw gave a gap <= 0."""
+        return self._range("r0_disorder", self.r0, self.defect_r0, self._gaps)
 
-    @staticmethod
-    def _range(nominal, width, defect, chunks) -> tuple[float, float]:
+    def _range(self, name: str, nominal, defect, chunks) -> tuple[float, float]:
+        width = getattr(self, name)
         if not width and np.isscalar(nominal):  # no draws: the value and the defect (N >= 3 keeps one of each)
             values = [float(nominal)] + ([defect] if defect is not None else [])
             return min(values), max(values)
-        return _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
+        low, high = _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
+        # nominal and defect are > 0: only a draw can be <= 0 (never a uniform one, whose width is < 1/sqrt(3))
+        if not low > 0:
+            raise ConfigError(f"chain.{name}", f"got {width}; a draw gave a value <= 0, "
+                              "expected a smaller disorder or disorder = 'uniform'")
+        return low, high
 
     def velocities(self) -> np.ndarray:
         """Initial velocities, m/s, shape (N,): `velocity` if given, else thermal velocities,
@@ -402,6 +409,9 @@ class SecondNeighbour:
 
 @dataclass(frozen=True)
 class Case:
+    """One simulation, checked when built (ConfigError naming the field); with a disordered
+    chain of many magnets, the checks that need every draw wait for the preflight (`_extremes`)."""
+
     chain: Chain
     force: ForceLaw
     impactor: Impactor
@@ -418,17 +428,44 @@ class Case:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
             self._drop_fine_beyond_chain()
-        lo, hi = self.table_range()
+        # the chain engine's fix handles nearest neighbours only
+        if self.second_neighbour is not None and self.run.engine != "stock":
+            raise ConfigError("run.engine", f"got {self.run.engine!r}; second neighbours need run.engine = 'stock'")
+        if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
+            raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
+                              f"{self.impactor.duration()} ms (impactor.after = 'stop')")
+        n = self.chain.particles
+        if any(not 1 <= k <= n for k in self.output.fine):
+            raise ConfigError("output.fine", f"got {list(self.output.fine)}; expected magnet numbers in [1, {n}]")
+        if self.output.fine:
+            _steps("output.fine_interval", self.fine_interval(), self.run.dt)
+        if self.chain.draws() <= CHUNK:  # else at first use, after the preflight has seen N (see _extremes)
+            self.check_draws()
+
+    def check_draws(self) -> None:
+        """Refuse (ConfigError) a case whose drawn masses or gaps do not fit it (see `_extremes`);
+        run once, when the case is built or at the first need of its table range."""
+        self._extremes
+
+    @cached_property
+    def _extremes(self) -> tuple[float, float, float]:
+        """The smallest and widest initial gap (mm) and the smallest mass (g), with the checks
+        that need them: every mass and gap > 0, a table that covers every gap within the law's
+        range, and dt below the stability limit of the lightest magnet.
+
+        With mass or gap disorder they take a draw per magnet. Up to CHUNK draws (a few ms),
+        they run when the case is built; beyond, at their first use: `preflight.check` after it
+        has refused from N a case this machine cannot run, and `table_range`, which every deck
+        needs, so that no deck is written and no run starts without them."""
+        lightest = self.chain.mass_range[0]
         smallest, widest = self.chain.gap_range
+        lo, hi = self.table_range(widest)
         if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
             raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
         if not math.isfinite(hi):
             raise ConfigError("table.r_max", f"got {hi} mm; expected a finite table range")
         if self.second_neighbour is not None:
-            self._check_second_neighbour()
-            # the chain engine's fix handles nearest neighbours only
-            if self.run.engine != "stock":
-                raise ConfigError("run.engine", f"got {self.run.engine!r}; second neighbours need run.engine = 'stock'")
+            self._check_second_neighbour(lo, hi)
         d = self.force.domain()
         if not hi > lo:
             raise ConfigError("table.r_max", f"got {hi} mm; expected > {lo} mm (the table's start)")
@@ -444,17 +481,10 @@ class Case:
                                              "(the table must cover every separation of the run)")
         if d[1] < hi:
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
-        if getattr(self.impactor, "after", None) == "stop" and self.run.duration > self.impactor.duration():
-            raise ConfigError("run.duration", f"got {self.run.duration} ms; the measured impactor data end at "
-                              f"{self.impactor.duration()} ms (impactor.after = 'stop')")
-        n = self.chain.particles
-        if any(not 1 <= k <= n for k in self.output.fine):
-            raise ConfigError("output.fine", f"got {list(self.output.fine)}; expected magnet numbers in [1, {n}]")
-        if self.output.fine:
-            _steps("output.fine_interval", self.fine_interval(), self.run.dt)
-        dt_max = self.stability_limit()
+        dt_max = self._stability_limit(lo, hi, lightest)
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
+        return smallest, widest, lightest
 
     def _drop_fine_beyond_chain(self):
         """A long lattice's N follows from run.duration: a shorter run makes a shorter chain, and
@@ -471,14 +501,19 @@ class Case:
         """Interval of the fine output, ms (default: every time step)."""
         return self.output.fine_interval if self.output.fine_interval is not None else self.run.dt
 
-    def table_range(self) -> tuple[float, float]:
-        """Separations covered by the potential table, mm."""
+    def table_range(self, widest: float | None = None) -> tuple[float, float]:
+        """Separations covered by the potential table, mm: table.r_min (default: the start of the
+        law's range) to table.r_max (default: 3 times the widest initial gap). `widest`: the
+        widest gap (mm) to size the table for instead of the chain's, which are drawn and
+        checked first (see `_extremes`); the preflight passes a sample's."""
+        if widest is None:
+            widest = self._extremes[1]
         r_min = self.table.r_min if self.table.r_min is not None else self.force.domain()[0]
-        r_max = self.table.r_max if self.table.r_max is not None else 3 * self.chain.gap_range[1]
+        r_max = self.table.r_max if self.table.r_max is not None else 3 * widest
         return r_min, r_max
 
-    def _check_second_neighbour(self):
-        lo2, hi2 = self.second_table_range()
+    def _check_second_neighbour(self, lo: float, hi: float):
+        lo2, hi2 = self.second_table_range((lo, hi))
         law = self.second_neighbour.law
         d = law.domain()
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -487,10 +522,10 @@ class Case:
             raise ConfigError("second_neighbour", f"the law must be finite on [{lo2}, {hi2}] mm (twice the nearest "
                               f"table's range); its range is [{d[0]}, {d[1]}] mm")
 
-    def second_table_range(self) -> tuple[float, float]:
+    def second_table_range(self, nearest: tuple[float, float] | None = None) -> tuple[float, float]:
         """Separations d = x_(n+2) - x_n covered by the second-neighbour table, mm: twice the
-        nearest table's range (both gaps within it)."""
-        lo, hi = self.table_range()
+        nearest table's range (both gaps within it); `nearest`: that range (default: table_range())."""
+        lo, hi = nearest or self.table_range()
         return 2 * lo, 2 * hi
 
     def held(self) -> list[int]:
@@ -512,16 +547,18 @@ class Case:
         With second neighbours of stiffness |k2| <= k2_max (Gershgorin: omega^2 <= 4 (k_max +
         k2_max)/m), k_max + k2_max takes the place of k_max.
         """
-        lo, hi = self.table_range()
+        return self._stability_limit(*self.table_range(), self._extremes[2])
+
+    def _stability_limit(self, lo: float, hi: float, lightest: float) -> float:
         with np.errstate(all="ignore"):  # extreme parameters: judged by the result below
             k_max = _max_stiffness(self.force, lo, hi)
             if self.second_neighbour is not None:
-                r2 = np.linspace(*self.second_table_range(), 20001)
+                r2 = np.linspace(*self.second_table_range((lo, hi)), 20001)
                 k_max += float(np.max(np.abs(self.second_neighbour.stiffness(r2))))
         if not (0 < k_max < math.inf):
             raise ConfigError("force", f"largest stiffness {k_max:g} N/mm on the table [{lo:g}, {hi:g}] mm; "
                                        "expected finite and > 0 (a chain that carries waves)")
-        return math.sqrt(self.chain.mass_range[0] / k_max)
+        return math.sqrt(lightest / k_max)
 
 
 def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, duration: float) -> int:

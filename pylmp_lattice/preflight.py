@@ -130,7 +130,7 @@ def file_bytes(case: Case) -> dict[str, float]:
     dump is converted, both exist). Keys are the run's file names; "small files" for the rest."""
     n, fmt = case.chain.particles, case.output.format
     chain = _ChainSample(case)
-    lo, hi = case.table_range()
+    lo, hi = case.table_range(chain.widest)  # not every gap: N draws would come before a refusal
     files = {DATA: chain.data_bytes(), TABLE: _table_bytes(case.force, lo, hi, case.table.points),
              "small files": SMALL_FILES_BYTES}
     if case.second_neighbour is not None:
@@ -162,6 +162,7 @@ class _ChainSample:
         self.n = n = chain.particles
         k = min(n, SAMPLE)
         gaps = next(chain._gaps(k - 1))
+        self.widest = float(gaps.max())  # mm
         self.x = to_engine(np.concatenate([[0.0], np.cumsum(gaps)]), "length")  # m, as in the data file
         self.mass = to_engine(next(chain._masses(k)), "mass")  # kg
         self.per_atom = per_atom_masses(case)
@@ -281,7 +282,8 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
                                  "(fewer particles, a shorter run or a longer run.output_interval)")
     if est.seconds > LONG_RUN_SECONDS and not yes:
         raise ConfigError("run", f"estimated {est}; pass --yes (yes=True) to start a run this long")
-    coarse_dt_warning(case)  # after the refusals: it builds the chain's arrays
+    case.check_draws()  # after the refusals, which need N alone: N draws for a disordered chain
+    coarse_dt_warning(case)  # it builds the chain's arrays
     return est
 
 

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 
 from pylmp_lattice import deck, preflight
-from pylmp_lattice.case import case_from_dict, case_to_dict
+from pylmp_lattice.case import Chain, case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas
 from pylmp_lattice.run_folder import layout
@@ -76,6 +77,67 @@ def test_ten_to_the_eight_magnets_refused_in_under_2_s_and_300_MB(tmp_path):
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert seconds < 2.0 and peak < 300e6, (seconds, peak)
+
+
+def test_a_disordered_chain_of_10_to_the_8_is_refused_before_its_draws(monkeypatch, tmp_path):
+    """The refusal needs N alone: of 2 x 10^8 masses and gaps, only the preflight's sample of
+    each series (SAMPLE) is drawn before it (counted where every draw is made)."""
+    drawn = []
+    series = Chain._series
+
+    def counted(self, nominal, count, width, *args):
+        for part in series(self, nominal, count, width, *args):
+            drawn.append(len(part))
+            yield part
+
+    monkeypatch.setattr(Chain, "_series", counted)
+    data = case_to_dict(make_case(particles=10, duration=10.0))
+    data["chain"] |= {"particles": 10**8, "mass_disorder": 0.01, "r0_disorder": 0.01, "seed": 1}
+    with pytest.raises(ConfigError, match=r"^run: too large for this machine: 101 frames"):
+        preflight.check(case_from_dict(data), tmp_path)
+    assert 0 < sum(drawn) <= 2 * preflight.SAMPLE, sum(drawn)
+
+
+# A chain beyond CHUNK draws is checked at first use; CHUNK = 8 makes these 30-magnet chains so.
+DEFERRED = [({"r0_disorder": 0.6, "seed": 2}, {}, "chain.r0_disorder", "a draw gave a value <= 0"),
+            # dt under the nominal mass's limit (0.4534 ms), over the lightest drawn mass's (0.2018 ms)
+            ({"mass_disorder": 0.3, "seed": 1}, {"dt": 0.25, "interval": 0.5}, "run.dt", "expected < 0.2018 ms")]
+
+
+@pytest.mark.parametrize("chain, run, field, message", DEFERRED)
+def test_deferred_draw_checks_refuse_before_anything_is_written(monkeypatch, tmp_path, capsys, chain, run, field,
+                                                                message):
+    """A case whose drawn masses or gaps do not fit is built, but never reaches a deck or a
+    run: the preflight, the deck writer and the CLI refuse it (one line, exit 2), and a run
+    folder it was to overwrite stays as it was."""
+    from pylmp_lattice import case as case_module
+    from pylmp_lattice.cli import main
+    from pylmp_lattice.run_folder import execute
+
+    monkeypatch.setattr(case_module, "CHUNK", 8)
+    make = lambda: make_case(chain=chain, **run)  # noqa: E731
+    case = make()  # built: the checks of its draws wait
+    with pytest.raises(ConfigError) as info:
+        preflight.check(case, tmp_path)
+    assert info.value.field == field and message in str(info.value)
+    with pytest.raises(ConfigError, match=field):
+        execute(make(), tmp_path / "new")
+    assert not (tmp_path / "new").exists()
+    old = RunFolder.create(make_case(), tmp_path / "old").path
+    before = {f.name: f.read_bytes() for f in old.iterdir()}
+    with pytest.raises(ConfigError, match=field):
+        RunFolder.create(make(), old, overwrite=True)
+    assert {f.name: f.read_bytes() for f in old.iterdir()} == before
+    case_file = tmp_path / "case.toml"
+    case_file.write_text(tomli_w.dumps(case_to_dict(make())))
+    for command in (["run", str(case_file), "-o", str(tmp_path / "cli")],
+                    ["deck", str(case_file), "-o", str(old), "--overwrite"]):
+        capsys.readouterr()
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}: "), err
+    assert not (tmp_path / "cli").exists()
+    assert {f.name: f.read_bytes() for f in old.iterdir()} == before
 
 
 def test_disordered_chain_is_validated_in_bounded_memory():

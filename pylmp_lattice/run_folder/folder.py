@@ -68,10 +68,11 @@ class RunFolder:
         that holds no run (one with files a run would write, but no run, is refused).
         """
         path = Path(path)
+        files = render(case)  # first: a case the deck refuses (see Case._extremes) leaves the folder as it was
         if check_target(path, overwrite):
             shutil.rmtree(path)
         path.mkdir(parents=True, exist_ok=True)
-        for name, text in render(case).items():
+        for name, text in files.items():
             (path / name).write_text(text)
         (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
         folder = cls(path)
