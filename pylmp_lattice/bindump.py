@@ -1,7 +1,7 @@
 """Reading LAMMPS binary dumps (`dump custom` into a *.bin file), in blocks of frames.
 
 The deck writes its frames this way (fwrite of full doubles, no text formatting) and
-`RunFolder.convert` (`h5md.write_file`) turns them into the run's H5MD file. A frame, as LAMMPS 2025 writes it
+`run_folder.convert` (`h5md.write_file`) turns them into the run's H5MD file. A frame, as LAMMPS 2025 writes it
 (dump custom, format revision 2; see LAMMPS's tools/binary2txt.cpp), is, little-endian:
 
     int64 -10, char[10] "DUMPCUSTOM", int32 endian (1), int32 revision (2),

@@ -195,7 +195,7 @@ def _run(args) -> int:
 def _dry_run(case, folder: Path, args) -> int:
     """The estimate as JSON on stdout; exit 2 if the run would be refused."""
     from . import preflight
-    from .run_folder.folder import check_target
+    from .run_folder.write import check_target
 
     est = preflight.estimate(case, args.np)
     try:

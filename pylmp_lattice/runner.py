@@ -2,7 +2,7 @@
 
 Two runners produce the same files in the folder (see `run_folder.layout`): `run_embedded` (the
 LAMMPS Python module, in this process; the default) and `run_executable` (the `lmp` program,
-optionally under `mpiexec`). Writing the folder and reading it back is `run.RunFolder`'s job.
+optionally under `mpiexec`). Writing the folder is `run_folder.write`'s job, reading it back `RunFolder`'s.
 
 Both stop cleanly on SIGINT or SIGTERM and raise `Interrupted`, keeping the files written so
 far. The embedded run calls LAMMPS from a worker thread: a C call holds the thread, and Python
@@ -34,8 +34,8 @@ from pathlib import Path
 
 from .dump import find_contact
 from .engine import new_lammps
-from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, RunError
-from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_safe
+from .errors import ContactError, DumpFormatError, Interrupted, RunError
+from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -170,17 +170,6 @@ def _die_with_parent() -> None:
     and lmp stops even if the parent is killed outright (Linux's PR_SET_PDEATHSIG)."""
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1 = PR_SET_PDEATHSIG
-
-
-def deck_dir(folder: Path) -> str:
-    """The folder as the deck's `dir` variable: relative to here if that is shorter and safe."""
-    relative = os.path.relpath(folder)
-    for path in (relative, str(folder)):
-        if deck_safe(path):
-            return path
-    raise ConfigError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
-                                "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
-                                "or use --runner lmp")
 
 
 def _signal_group(proc: subprocess.Popen, signum: int) -> None:

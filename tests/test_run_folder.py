@@ -108,12 +108,94 @@ def _import_graph() -> dict[str, set[str]]:
             for p in PACKAGE.rglob("*.py")}
 
 
+# Modules the run path calls for values, as often as it needs one: the case and the laws it is
+# made of, pure functions of values (units, the deck's text, the summary's dict, the measures,
+# the figure, the progress bar's callback) and the formats of single files (binary and text
+# dumps, H5MD, the front record, run.json and the lock). They call only each other, never a
+# stage (asserted below), as numpy or h5py would. Every other module is a stage of the run and
+# is entered once.
+HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks",
+           "table", "deck", "case_levels", "summary", "plots", "progress", "measures",
+           "bindump", "dump", "h5md", "front_record", "run_folder", "run_folder.layout", "run_folder.marker"}
+
+
+def _helper(module: str) -> bool:
+    name = module.removeprefix("pylmp_lattice.")
+    return name in HELPERS or name.split(".")[0] == "measures"
+
+
+def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], list[str]]:
+    """Run `main(argv)` under sys.setprofile (this thread; the embedded runner's LAMMPS thread
+    runs inside one call to runner.run_deck) and return its entries, (caller module, callee
+    module, function) for each call into a package module from another one, and its stays in
+    the stages (helper frames count as their caller's).
+
+    Every package module is imported before (a lazy import would run module code: frames named
+    '<module>' are ignored anyway); a generator or context manager resumed is the same call."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import pylmp_lattice
+
+    for info in pkgutil.walk_packages(pylmp_lattice.__path__, "pylmp_lattice."):
+        if "plugin." not in info.name:  # the plugin's compiled module is not Python
+            importlib.import_module(info.name)
+    entries, stays, started = [], [], set()
+
+    def package(frame):
+        name = frame.f_globals.get("__name__", "")
+        return name if name.startswith("pylmp_lattice") and frame.f_code.co_name != "<module>" else None
+
+    def outer(frame, stage_only=False):
+        while frame is not None and not ((m := package(frame)) and not (stage_only and _helper(m))):
+            frame = frame.f_back
+        return frame
+
+    def profile(frame, event, arg):
+        callee = package(frame) if event in ("call", "return") else None
+        if callee is None:
+            return
+        if event == "call" and frame not in started:
+            if frame.f_code.co_flags & inspect.CO_GENERATOR:
+                started.add(frame)
+            caller = outer(frame.f_back)
+            if caller is None or package(caller) != callee:
+                entries.append((caller and package(caller), callee, frame.f_code.co_name))
+        stage = outer(frame if event == "call" else frame.f_back, stage_only=True)
+        if stage is not None and (not stays or stays[-1] != package(stage)):
+            stays.append(package(stage))
+
+    sys.setprofile(profile)
+    try:
+        assert main(argv) == 0
+    finally:
+        sys.setprofile(None)
+    return entries, stays
+
+
 @lammps
-def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
-    """From `pylmp-lattice run` to its summary, no call between two of the package's modules
-    climbs: the callee never imports the caller, directly or not (on 88ad055 the same path
-    climbed back 7 times, e.g. from bindump to simulation). The orchestrator,
-    run_folder.execution, is entered once."""
+def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, monkeypatch):
+    """From `pylmp-lattice run` to its summary: each stage (cli, run_folder.execution,
+    preflight, run_folder.write, runner, run_folder.convert, run_folder.folder) is entered
+    once, helpers call only helpers, and no call climbs (the callee never imports the
+    caller). On befcb15 the path entered run_folder.folder 5 times from execution (create,
+    running, record, convert, summarize) and runner twice; on 88ad055 it climbed back 7 times,
+    e.g. from bindump to simulation."""
+    monkeypatch.chdir(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=40, duration=20.0))
+    entries, stays = trace_module_entries(["run", str(case), "-o", "r", "--quiet"])
+    short = lambda m: m and m.removeprefix("pylmp_lattice.")  # noqa: E731
+    counts: dict[str, int] = {}
+    for _, callee, _ in entries:
+        counts[short(callee)] = counts.get(short(callee), 0) + 1
+    report = (f"stays in the stages: {' -> '.join(map(short, stays))}\nentries: {counts}\n"
+              + "\n".join(f"  {short(a)} -> {short(b)}.{f}" for a, b, f in entries if not _helper(b)))
+    stages = {m: k for m, k in counts.items() if not _helper(m)}
+    assert stages == dict.fromkeys(["cli", "run_folder.execution", "preflight", "run_folder.write", "runner",
+                                    "run_folder.convert", "run_folder.folder"], 1), report
+    upward = [(a, b, f) for a, b, f in entries if a and _helper(a) and not _helper(b)]
+    assert not upward, report
     graph = _import_graph()
 
     def below(module, seen=None):
@@ -124,25 +206,13 @@ def test_the_cli_run_path_only_calls_down_the_layers(tmp_path, monkeypatch):
                 below(nxt, seen)
         return seen
 
-    calls = []
-
-    def profile(frame, event, arg):
-        if event == "call" and frame.f_back is not None:
-            callee, caller = frame.f_globals.get("__name__", ""), frame.f_back.f_globals.get("__name__", "")
-            if callee != caller and callee.startswith("pylmp_lattice") and caller.startswith("pylmp_lattice"):
-                calls.append((caller, callee, frame.f_code.co_name))
-
-    monkeypatch.chdir(tmp_path)
-    case = write_case(tmp_path / "case.toml", make_case(particles=40, duration=20.0))
-    sys.setprofile(profile)
-    try:
-        assert main(["run", str(case), "-o", "r", "--quiet"]) == 0
-    finally:
-        sys.setprofile(None)
-    climbs = [c for c in calls if c[0] in below(c[1])]
-    assert not climbs and len(calls) > 20
-    assert [c for c in calls if c[1] == "pylmp_lattice.run_folder.execution"] == [
-        ("pylmp_lattice.cli", "pylmp_lattice.run_folder.execution", "run_case")]
+    climbs = [(a, b, f) for a, b, f in entries if a and a in below(b)]
+    assert not climbs, (climbs, report)
+    assert stays == ["pylmp_lattice.cli", "pylmp_lattice.run_folder.execution", "pylmp_lattice.preflight",
+                     "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.write",
+                     "pylmp_lattice.run_folder.execution", "pylmp_lattice.runner", "pylmp_lattice.run_folder.execution",
+                     "pylmp_lattice.run_folder.convert", "pylmp_lattice.run_folder.execution",
+                     "pylmp_lattice.run_folder.folder", "pylmp_lattice.run_folder.execution", "pylmp_lattice.cli"], report
 
 
 def test_run_file_names_are_written_in_the_layout_module_only():

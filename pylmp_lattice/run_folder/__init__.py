@@ -1,6 +1,12 @@
-"""Run folders: the one home of a run's files (`layout`), the `RunFolder` that writes, reads and
-summarizes one (`folder`), and `execute`/`run_case`/`simulate` (`execution`), the one way a case
-becomes a run.
+"""Run folders: the one home of a run's files.
+
+- `layout`: the names of its files and columns (the only module that names them);
+- `write`: a case into a folder (deck, input files, case.toml, run.json);
+- `execution`: `execute`/`run_case`/`simulate`, the one way a case becomes a run (preflight,
+  write, run LAMMPS, record how it ended, convert, summarize);
+- `marker`: the folder's state (run.json, the runner's lock, how the run stands);
+- `convert`: binary dumps into traj.h5md, by the writer after a run or by the reader later;
+- `folder`: `RunFolder`, which reads, caches, measures and summarizes any run folder.
 
 Names are imported on first use: the deck writer and the readers import `run_folder.layout` alone,
 without the layers above them.
@@ -8,7 +14,7 @@ without the layers above them.
 
 from importlib import import_module
 
-_API = {"RunFolder": "folder", "execute": "execution", "run_case": "execution", "simulate": "execution",
+_API = {"RunFolder": "folder", "write_folder": "write", "execute": "execution", "run_case": "execution", "simulate": "execution",
         "simulate_replicas": "execution", "split_replicas": "execution", "write_replicas_folder": "execution",
         "RUNNERS": "execution"}
 __all__ = list(_API)

@@ -1,11 +1,12 @@
 """Executing a case into a run folder: the one way a case becomes a run.
 
 `execute` checks the case against this machine (`preflight`), writes the folder
-(`RunFolder.create`), runs LAMMPS in it (`runner`) and records how the run ended; `run_case`
-adds the summary (`RunFolder.summarize`); `simulate` returns the trajectory. Nothing of the
-folder is lost when a run fails, stops on a contact or is interrupted: its files stay, run.json
-says how it stopped, and an interrupted run's binary dumps wait for the next read to become
-H5MD, so that Ctrl-C returns at once.
+(`write.write_folder`), runs LAMMPS in it (`runner`), records how the run ended (`marker`)
+and turns its binary dumps into H5MD (`convert`); `run_case` then hands the folder to the
+reader for its summary (`folder.summarize`); `simulate` returns the trajectory. Each of these
+modules is entered once on the way. Nothing of the folder is lost when a run fails, stops on a
+contact or is interrupted: its files stay, run.json says how it stopped, and an interrupted
+run's binary dumps wait for the next read to become H5MD, so that Ctrl-C returns at once.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from ..deck import render_replicas
 from ..dump import read_dump, trajectory_from_dump
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
-from ..runner import deck_dir, run_deck
+from ..runner import run_deck
 from ..trajectory import Trajectory
 from ..units import to_engine
-from . import layout
-from .folder import CONTACT, FAILED, FINISHED, INTERRUPTED, RunFolder
+from . import layout, marker
+from .convert import convert_dumps
+from .folder import RunFolder, summarize
+from .write import write_folder
 
 RUNNERS = ("embedded", "lmp")
 
@@ -38,34 +41,7 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
     (with mpiexec for nprocs > 1). `progress` draws a bar on stderr (terminals only); `echo`
     shows LAMMPS's screen output on stderr.
     """
-    if runner not in RUNNERS:
-        raise ConfigError("runner", f"got {runner!r}; choose one of {', '.join(RUNNERS)}")
-    if nprocs > 1 and runner != "lmp":
-        raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
-    preflight.check(case, folder, nprocs, yes=yes)
-    if runner == "embedded":
-        deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
-    run = RunFolder.create(case, folder, overwrite=overwrite)
-    try:
-        with run.running(), progress_bar(case, progress) as on_step:
-            run_deck(run.path, runner, nprocs=nprocs, echo=echo, on_step=on_step)
-    except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
-        run.record(INTERRUPTED, time_ms=err.time_ms)
-        raise
-    except ContactError as err:
-        run.record(CONTACT, time_ms=err.time_ms)
-        run.convert()
-        raise
-    except RunError as err:
-        run.record(FAILED, error=err.message)
-        run.convert()
-        raise
-    except BaseException:
-        run.record(INTERRUPTED)
-        raise
-    run.record(FINISHED)
-    run.convert()
-    return run
+    return RunFolder(_execute(case, folder, runner, nprocs, echo, overwrite, progress, yes))
 
 
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
@@ -75,9 +51,41 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
     summary.json is written after the run ended: a folder with it holds a finished run (or one
     that stopped, as its "stopped" entry says)."""
     start = time.perf_counter()
-    run = execute(case, folder, runner=runner, nprocs=nprocs, echo=echo, overwrite=overwrite,
-                  progress=progress, yes=yes)
-    return run.summarize(figure=figure, wall_time=time.perf_counter() - start)
+    path = _execute(case, folder, runner, nprocs, echo, overwrite, progress, yes)
+    return summarize(path, figure=figure, wall_time=time.perf_counter() - start)
+
+
+def _execute(case: Case, folder: str | Path, runner: str, nprocs: int, echo: bool, overwrite: bool, progress: bool,
+             yes: bool) -> Path:
+    """`execute`, up to the folder's path: the writer's side."""
+    if runner not in RUNNERS:
+        raise ConfigError("runner", f"got {runner!r}; choose one of {', '.join(RUNNERS)}")
+    if nprocs > 1 and runner != "lmp":
+        raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
+    preflight.check(case, folder, nprocs, yes=yes)
+    if runner == "embedded":
+        layout.deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
+    path = write_folder(case, folder, overwrite=overwrite)
+    try:
+        with marker.running(path), progress_bar(case, progress) as on_step:
+            run_deck(path, runner, nprocs=nprocs, echo=echo, on_step=on_step)
+    except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
+        marker.record(path, marker.INTERRUPTED, time_ms=err.time_ms)
+        raise
+    except ContactError as err:
+        marker.record(path, marker.CONTACT, time_ms=err.time_ms)
+        convert_dumps(path, case)
+        raise
+    except RunError as err:
+        marker.record(path, marker.FAILED, error=err.message)
+        convert_dumps(path, case)
+        raise
+    except BaseException:
+        marker.record(path, marker.INTERRUPTED)
+        raise
+    marker.record(path, marker.FINISHED)
+    convert_dumps(path, case)
+    return path
 
 
 def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,

@@ -1,49 +1,39 @@
-"""`RunFolder`: one run folder, written, read and summarized through one object.
+"""`RunFolder`: one run folder, read, measured and summarized through one object.
 
-    folder = RunFolder.create(case, "runs/x")   # the deck, its inputs, case.toml, run.json
-    ...                                          # LAMMPS runs it (run_folder.execution, or lmp -in by hand)
     folder = RunFolder("runs/x")                 # any run folder, finished or not
     folder.case, folder.status, folder.trajectory(), folder.front(), folder.summarize()
 
-What it reads, it caches (a folder that changes on disk is read again: the cache is keyed by
-the files' sizes and times). It never destroys: binary dumps become traj.h5md only when no
-LAMMPS process can still write them (no runner holds the folder's lock, and the log is ended
-or the package recorded how the run stopped), and only after the H5MD file is verified. A
-folder still being written is read as it stands, and says so.
+The reader side of a run folder: `run_folder.write` writes one, `run_folder.execution` runs it
+(or LAMMPS by hand, `lmp -in in.lattice`), and both sides share `layout` (its files), `marker`
+(its state) and `convert` (binary dumps into H5MD). What it reads, it caches (a folder that
+changes on disk is read again: the cache is keyed by the files' sizes and times). It never
+destroys: a folder still being written is read as it stands, and says so.
 """
 
 from __future__ import annotations
 
-import fcntl
 import json
 import logging
-import os
-import re
-import shutil
-from contextlib import contextmanager, suppress
+from contextlib import suppress
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
 from .. import measures
 from ..bindump import open_dump, read_trajectory
-from ..case import Case, case_to_dict, load_case
-from ..deck import render
-from ..dump import Contact, find_contact, log_ended, read_dump, read_log, trajectory_from_dump
+from ..case import Case, load_case
+from ..dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
 from ..front_record import case_front, read_front_record
 from ..serialize import dumps
 from ..trajectory import Trajectory
-from ..units import from_engine, to_engine, to_h5md
-from . import layout
+from ..units import from_engine, to_engine
+from . import layout, marker
+from .convert import convert_dumps
+from .marker import CONTACT, FAILED, FINISHED, INTERRUPTED, RUNNING  # noqa: F401 (FINISHED: sweep.batch's)
+from .write import write_folder
 
 log = logging.getLogger(__name__)
-
-PACKAGE = "pylmp_lattice"
-# How a run ended, as run.json records it; "written" until a runner of this package ran it.
-WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
-    "written", "running", "finished", "interrupted", "contact", "failed")
 
 
 class RunFolder:
@@ -56,62 +46,16 @@ class RunFolder:
     def __repr__(self) -> str:
         return f"RunFolder({str(self.path)!r})"
 
-    # ---- writing
-
     @classmethod
     def create(cls, case: Case, path: str | Path, overwrite: bool = False) -> RunFolder:
-        """Write the deck, its input files, case.toml and run.json into `path`.
-
-        A folder holding a run of this package (case.toml and run.json) is refused unless
-        `overwrite`; then it is removed first, so nothing of the earlier run stays beside the new
-        one. Never removed: the working directory, a parent of it, runs/ itself, or a folder
-        that holds no run (one with files a run would write, but no run, is refused).
-        """
-        path = Path(path)
-        files = render(case)  # first: a case the deck refuses (see Case._extremes) leaves the folder as it was
-        if check_target(path, overwrite):
-            shutil.rmtree(path)
-        path.mkdir(parents=True, exist_ok=True)
-        for name, text in files.items():
-            (path / name).write_text(text)
-        (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
-        folder = cls(path)
-        folder.record(WRITTEN)
-        return folder
+        """Write `case` into `path` (`write.write_folder`) and open the folder."""
+        return cls(write_folder(case, path, overwrite))
 
     def record(self, state: str, **details) -> None:
-        """Write run.json (atomically): the package, its version, the state and its details."""
-        from .. import __version__
-
-        data = {"package": PACKAGE, "version": __version__, "state": state, **details}
-        tmp = self.path / (layout.MARKER + ".tmp")
-        tmp.write_text(json.dumps(data, indent=2) + "\n")
-        os.replace(tmp, self.path / layout.MARKER)
-
-    @contextmanager
-    def running(self):
-        """Hold the folder's lock while LAMMPS runs in it (readers then leave its dumps alone)."""
-        with (self.path / layout.LOCK).open("w") as handle:
-            fcntl.flock(handle, fcntl.LOCK_EX)
-            self.record(RUNNING)
-            try:
-                yield
-            finally:
-                fcntl.flock(handle, fcntl.LOCK_UN)
-                (self.path / layout.LOCK).unlink(missing_ok=True)
+        """Write run.json (`marker.record`): a runner other than `execution` says how a run ended."""
+        marker.record(self.path, state, **details)
 
     # ---- what the folder is
-
-    def is_run(self) -> bool:
-        """Whether the folder holds a run of this package (case.toml and run.json)."""
-        return (self.path / layout.CASE).is_file() and self.marker() is not None
-
-    def marker(self) -> dict | None:
-        try:
-            data = json.loads((self.path / layout.MARKER).read_text())
-        except (OSError, ValueError):
-            return None
-        return data if isinstance(data, dict) and data.get("package") == PACKAGE else None
 
     @property
     def case(self) -> Case:
@@ -123,45 +67,13 @@ class RunFolder:
 
     @property
     def status(self) -> str:
-        """"running" while a runner of this package or, by its log, LAMMPS writes the folder;
-        else how the run ended ("finished", "interrupted", "contact", "failed"), or "written"
-        for a deck never run."""
-        if self._locked():
-            return RUNNING
-        state = (self.marker() or {}).get("state", WRITTEN)
-        if state not in (WRITTEN, RUNNING):
-            return state
-        text = self.log_text()
-        if text is None:
-            return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
-        if not log_ended(text):
-            return RUNNING if state == WRITTEN else INTERRUPTED  # by hand: LAMMPS may still be writing
-        return CONTACT if find_contact(text) else FAILED if re.search(r"^ERROR", text, re.MULTILINE) else FINISHED
-
-    def being_written(self) -> bool:
-        return self.status == RUNNING
-
-    def _locked(self) -> bool:
-        try:
-            with (self.path / layout.LOCK).open("r") as handle:
-                try:
-                    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                except BlockingIOError:
-                    return True
-                fcntl.flock(handle, fcntl.LOCK_UN)
-        except FileNotFoundError:
-            pass
-        return False
-
-    def log_text(self) -> str | None:
-        try:
-            return (self.path / layout.LOG).read_text(errors="replace")
-        except FileNotFoundError:
-            return None
+        """How the run stands: "running", "finished", "interrupted", "contact", "failed" or
+        "written" (see `marker.status`)."""
+        return marker.status(self.path)
 
     def contact(self) -> Contact | None:
         """Where two magnets touched, if the run stopped so."""
-        text = self.log_text()
+        text = marker.log_text(self.path)
         return find_contact(text) if text else None
 
     def friction_work(self) -> float:
@@ -179,35 +91,11 @@ class RunFolder:
     # ---- trajectories
 
     def convert(self) -> bool:
-        """Turn the binary dumps into traj.h5md when safe (see the module); whether it did.
-
-        The dumps are removed only after the H5MD file holds every frame they hold, with the
-        same last frame."""
-        from .. import h5md
-
-        case = self.case
-        if case.output.format != "h5md" or self.being_written():
-            return False
-        sources = {group: open_dump(self.path / name) for group, name in _BINARIES.items()
-                   if (self.path / name).is_file()}
-        sources = {group: dump for group, dump in sources.items() if dump.frames}
-        if not sources:
-            return False
-        frames = sum(d.frames for d in sources.values())
-        log.info("%s: converting %d frames to %s", self.path, frames, layout.H5MD)
-        target, partial = self.path / layout.H5MD, self.path / (layout.H5MD + ".part")
-        h5md.write_file(partial, case, sources, self.path / layout.LOG)
-        for group, dump in sources.items():
-            count, last = h5md.frame_count(partial, group)
-            expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
-            if count != dump.frames or not np.allclose(last, expected, rtol=1e-12, atol=0):
-                partial.unlink()
-                raise LatticeError(f"{self.path}: the H5MD conversion of {dump.path.name} did not verify; kept it")
-        os.replace(partial, target)
-        for dump in sources.values():
-            dump.path.unlink()
-        self._cache.clear()
-        return True
+        """Turn the binary dumps into traj.h5md when safe (`convert.convert_dumps`); whether it did."""
+        done = convert_dumps(self.path, self.case)
+        if done:
+            self._cache.clear()
+        return done
 
     def trajectory(self, group: str = "chain", particles=None) -> Trajectory:
         """The trajectory in user units: group "chain" (every magnet) or "fine" (the output.fine
@@ -218,15 +106,15 @@ class RunFolder:
         its motion, and the force on it in the file is the chain's push, not m a."""
         from .. import h5md
 
-        if group not in _BINARIES:
-            raise ConfigError("group", f"got {group!r}; choose one of {', '.join(_BINARIES)}")
+        if group not in layout.BINARY_GROUPS:
+            raise ConfigError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")
         case = self.case
         key = ("trajectory", group, None if particles is None else tuple(particles), self._stamp())
         if key in self._cache:
             return self._cache[key]
-        binary, text = self.path / _BINARIES[group], self.path / _TEXTS[group]
+        binary, text = self.path / layout.BINARY_GROUPS[group], self.path / layout.TEXT_GROUPS[group]
         if binary.is_file() and not self.convert() and binary.is_file():
-            if self.being_written():
+            if self.status == RUNNING:
                 log.warning("%s is still being written: read the %d frames it has so far", self.path,
                             open_dump(binary).frames)
             traj = read_trajectory(binary, self._masses(group), particles)
@@ -339,10 +227,10 @@ class RunFolder:
             c = self.contact()
             return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
         if status in (INTERRUPTED, RUNNING, FAILED):
-            marker = self.marker() or {}
+            record = marker.read(self.path) or {}
             return {"reason": "interrupted" if status != FAILED else "failed",
-                    "time_ms": marker.get("time_ms", self._last_time()),
-                    **({"error": marker["error"]} if "error" in marker else {})}
+                    "time_ms": record.get("time_ms", self._last_time()),
+                    **({"error": record["error"]} if "error" in record else {})}
         return None
 
     def _last_time(self) -> float | None:
@@ -376,32 +264,9 @@ class RunFolder:
         return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
-_BINARIES = {"chain": layout.TRAJ_BIN, "fine": layout.FINE_BIN}
-_TEXTS = {"chain": layout.DUMP, "fine": layout.FINE_DUMP}
-
-
-def check_target(path: Path, overwrite: bool) -> bool:
-    """Whether `path` holds a run to replace; ConfigError if it may not be written (see `create`)."""
-    path = Path(path)
-    resolved, here = path.resolve(), Path.cwd().resolve()
-    if resolved == here or resolved in here.parents or resolved == here / "runs":
-        raise ConfigError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
-                                    "choose a new folder for the run")
-    if path.exists() and not path.is_dir():
-        raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")
-    folder = RunFolder(path)
-    if folder.is_run():
-        if not overwrite:
-            raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
-                                        "replace it, or choose another --name or -o")
-        if folder.being_written():
-            raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
-        return True
-    clash = sorted(name for name in layout.RUN_FILES if (path / name).exists())
-    if clash:
-        raise ConfigError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
-                                    "choose an empty or new folder")
-    return False
+def summarize(path: str | Path, figure: bool = True, wall_time: float | None = None) -> dict:
+    """`RunFolder(path).summarize(...)` in one call: the writer's hand-over of a run it ended."""
+    return RunFolder(path).summarize(figure=figure, wall_time=wall_time)
 
 
 def _select(traj: Trajectory, particles) -> Trajectory:

@@ -10,9 +10,13 @@ calling process never changes its working directory.
 
 from __future__ import annotations
 
+import os
 import re
+from pathlib import Path
 
-# ---- written before the run (deck.render, RunFolder.create)
+from ..errors import ConfigError
+
+# ---- written before the run (deck.render, write.write_folder)
 DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
@@ -43,6 +47,11 @@ LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in 
 RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
              FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", TOPOLOGY, SUMMARY, FIGURE, MARKER, LOCK)
 
+# The particle groups of a trajectory ("chain": every magnet; "fine": the output.fine magnets)
+# and their files, binary (output.format = "h5md", until converted) and text.
+BINARY_GROUPS = {"chain": TRAJ_BIN, "fine": FINE_BIN}
+TEXT_GROUPS = {"chain": DUMP, "fine": FINE_DUMP}
+
 # ---- columns
 DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"  # text dumps
 BIN_COLUMNS = "id x vx fx"  # binary dumps: y, z stay 0, so a 1D frame is x, v and f along x
@@ -70,3 +79,14 @@ def in_deck(name: str) -> str:
 def deck_safe(path: str) -> bool:
     """Whether a folder path can be given to the deck as its `dir` variable."""
     return bool(_DECK_SAFE.fullmatch(path))
+
+
+def deck_dir(folder: Path) -> str:
+    """The folder as the deck's `dir` variable: relative to here if that is shorter and safe."""
+    relative = os.path.relpath(folder)
+    for path in (relative, str(folder)):
+        if deck_safe(path):
+            return path
+    raise ConfigError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
+                                "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
+                                "or use --runner lmp")

@@ -1,0 +1,50 @@
+"""Turning a run's binary dumps into traj.h5md: by the writer once LAMMPS has ended
+(`run_folder.execution`), or by the reader on its first read of a folder that still holds them
+(`RunFolder.trajectory`, e.g. after an interrupt or `lmp -in` by hand).
+
+It never destroys: nothing happens while LAMMPS may still write the folder (see
+`marker.status`), and the dumps are removed only after the H5MD file holds every frame they
+hold, with the same last frame.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..bindump import open_dump
+from ..case import Case
+from ..errors import LatticeError
+from ..units import to_h5md
+from . import layout, marker
+
+log = logging.getLogger(__name__)
+
+
+def convert_dumps(folder: Path, case: Case) -> bool:
+    """Convert the folder's binary dumps into traj.h5md when safe; whether it did."""
+    from .. import h5md  # h5py on first need
+
+    if case.output.format != "h5md" or marker.status(folder) == marker.RUNNING:
+        return False
+    sources = {group: open_dump(folder / name) for group, name in layout.BINARY_GROUPS.items()
+               if (folder / name).is_file()}
+    sources = {group: dump for group, dump in sources.items() if dump.frames}
+    if not sources:
+        return False
+    log.info("%s: converting %d frames to %s", folder, sum(d.frames for d in sources.values()), layout.H5MD)
+    target, partial = folder / layout.H5MD, folder / (layout.H5MD + ".part")
+    h5md.write_file(partial, case, sources, folder / layout.LOG)
+    for group, dump in sources.items():
+        count, last = h5md.frame_count(partial, group)
+        expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
+        if count != dump.frames or not np.allclose(last, expected, rtol=1e-12, atol=0):
+            partial.unlink()
+            raise LatticeError(f"{folder}: the H5MD conversion of {dump.path.name} did not verify; kept it")
+    os.replace(partial, target)
+    for dump in sources.values():
+        dump.path.unlink()
+    return True
