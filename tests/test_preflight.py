@@ -147,6 +147,7 @@ def test_disordered_chain_is_validated_in_bounded_memory():
     data["chain"] |= {"particles": 3 * 10**6, "mass_disorder": 0.05, "r0_disorder": 0.05, "seed": 7}
     tracemalloc.start()
     case = case_from_dict(data)
+    case.check_draws()  # 6e6 draws: beyond CHUNK, checked on demand
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 100e6  # the two arrays would take 48 MB each, with their copies more
