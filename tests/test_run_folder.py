@@ -111,12 +111,12 @@ def _import_graph() -> dict[str, set[str]]:
 # Modules the run path calls for values, as often as it needs one: the case and the laws it is
 # made of, pure functions of values (units, the deck's text, the summary's dict, the measures,
 # the figure, the progress bar's callback) and the formats of single files (binary and text
-# dumps, H5MD, the front record, run.json and the lock). They call only each other, never a
-# stage (asserted below), as numpy or h5py would. Every other module is a stage of the run and
-# is entered once.
-HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks",
+# dumps, H5MD and its PSF topology, the front record, run.json and the lock). They call only
+# each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
+# stage of the run and is entered once: a new module on the path is a stage until listed here.
+HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
            "table", "deck", "case_levels", "summary", "plots", "progress", "measures",
-           "bindump", "dump", "h5md", "front_record", "run_folder", "run_folder.layout", "run_folder.marker"}
+           "bindump", "dump", "h5md", "psf", "front_record", "run_folder", "run_folder.layout", "run_folder.marker"}
 
 
 def _helper(module: str) -> bool:
