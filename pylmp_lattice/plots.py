@@ -73,12 +73,12 @@ def separate(left, right, left_values, right_values, overlap: float = -0.2):
         ax.set_ylim(*(10**limits if log else limits))
 
 
-def velocity_profiles(t, v, particles, ax=None):
-    """Fig. 3(a): v_n(t) of the chosen particles (0-based numbers; column k of v is particle
-    particles[k]), m/s against ms."""
+def velocity_profiles(t, v, magnets, ax=None):
+    """Fig. 3(a): v_n(t) of the chosen magnets (column k of v is magnet number magnets[k],
+    1 .. N), m/s against ms."""
     ax = ax or pyplot().gca()
-    for k, n in enumerate(particles):
-        ax.plot(t, v[:, k], lw=0.8, label=f"n = {n + 1}")
+    for k, n in enumerate(magnets):
+        ax.plot(t, v[:, k], lw=0.8, label=f"n = {n}")
     ax.set(xlabel="t (ms)", ylabel="v (m/s)")
     ax.legend(fontsize="small")
     return ax
@@ -123,13 +123,13 @@ def first_peaks(peaks: measures.FirstPeaks, ax=None, saturation: float | None = 
     return ax
 
 
-def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
+def oscillation_peaks(t, v, magnets, drive_velocity, ax=None):
     """Fig. 3(d): velocity maxima (up triangles) and minima (down triangles) behind the front
     against time (columns of v as in `velocity_profiles`)."""
     ax = ax or pyplot().gca()
-    for k, n in enumerate(particles):
+    for k, n in enumerate(magnets):
         osc = measures.oscillations(t, v[:, k], drive_velocity)
-        ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n + 1}")
+        ax.plot(osc.max_time, osc.max_velocity, "^", ms=3, color=f"C{k}", label=f"n = {n}")
         ax.plot(osc.min_time, osc.min_velocity, "v", ms=3, color=f"C{k}")
     # marker key: grey stand-ins for the two marker shapes
     ax.plot([], [], "^", ms=4, color="0.4", label="maxima")
@@ -139,11 +139,11 @@ def oscillation_peaks(t, v, particles, drive_velocity, ax=None):
     return ax
 
 
-def shock_figure(profiles, particles, drive_velocity: float, front: measures.Front, v0: float | None = None,
+def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front, v0: float | None = None,
                  title: str | None = None, saturation: float | None = None):
     """The four panels of Fig. 3(a-d), lettered, under `title`; returns the Figure.
 
-    profiles: a Trajectory of the chosen particles (their 0-based numbers in `particles`) for
+    profiles: a Trajectory of the chosen magnets (their numbers, 1 .. N, in `magnets`) for
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
     front: the run's front measures for panels (b) and (c), gaps crossed out of order left out
     (`Front.accepted_velocity`); saturation: the first peaks' limit (2 V_I for a constant drive
@@ -159,8 +159,8 @@ def shock_figure(profiles, particles, drive_velocity: float, front: measures.Fro
             ax.text(0.5, 0.5, "no trajectory written\n(output.format = 'none')", ha="center", va="center",
                     transform=ax.transAxes)
     else:
-        velocity_profiles(profiles.t, profiles.v, particles, axes[0, 0])
-        oscillation_peaks(profiles.t, profiles.v, particles, drive_velocity, axes[1, 1])
+        velocity_profiles(profiles.t, profiles.v, magnets, axes[0, 0])
+        oscillation_peaks(profiles.t, profiles.v, magnets, drive_velocity, axes[1, 1])
     shown = front.accepted_velocity
     propagation_velocity(shown, v0, axes[0, 1], int(np.sum(np.isnan(shown) & np.isfinite(front.propagation_velocity))))
     first_peaks(front.peaks, axes[1, 0], saturation=saturation)

@@ -15,12 +15,15 @@ from numpy.testing import assert_allclose
 
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
+from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.numbering import entries, number
-from pylmp_lattice.run_folder import run_case
+from pylmp_lattice.run_folder import execute, run_case
 from pylmp_lattice.run_folder.folder import RunFolder
 from pylmp_lattice.studies.long_lattice import analyse
 from pylmp_lattice.studies.output import write_study
 from pylmp_lattice.summary import _maximum
+
+from conftest import make_case
 
 MAIN_CASE = Path(__file__).resolve().parents[1] / "inputs" / "paper_long_lattice.toml"
 R0 = 12.0  # mm
@@ -85,3 +88,20 @@ def test_the_main_job_summary_api_and_study_agree_on_gaps_145_to_193(tmp_path):
     for gap in (1, 145, 193):  # row n holds V_P over gap n, between magnets n and n+1
         assert float(rows[gap]["V_P_gap_n_to_n+1_m_per_s"]) == pytest.approx(vp[gap - 1], rel=1e-12)
     assert float(rows[1]["arrival_ms"]) == pytest.approx(0.0, abs=1e-9)  # magnet 1, the impactor, moves first
+
+
+@pytest.mark.lammps
+def test_a_trajectory_is_selected_by_magnet_number(tmp_path):
+    """RunFolder.trajectory(magnets=...) takes the paper's numbers: magnet n is column n - 1 of
+    the whole chain, and in the fine group the column of magnet n among output.fine."""
+    case = make_case(particles=30, duration=5.0, interval=0.5, output={"fine": [2, 7, 12], "fine_interval": 0.1})
+    run = execute(case, tmp_path / "r")
+    whole, fine = run.trajectory(), run.trajectory("fine")
+    pair = run.trajectory("chain", magnets=[2, 12])
+    assert np.array_equal(pair.v, whole.v[:, [1, 11]]) and np.array_equal(pair.x0, whole.x0[[1, 11]])
+    assert np.array_equal(run.trajectory("fine", magnets=[7]).v, fine.v[:, [1]])
+    assert np.max(np.abs(pair.v[:, 0])) > 0.5  # magnet 2, next to the impactor (2 m/s), moves
+    assert pair.x0[1] - pair.x0[0] == pytest.approx(10 * 12.0)  # magnets 2 and 12: 10 gaps of r0
+    for group, bad in (("chain", [0]), ("chain", [31]), ("chain", [12, 7]), ("fine", [3])):
+        with pytest.raises(ConfigError, match=r"^magnets: got"):
+            run.trajectory(group, magnets=bad)

@@ -17,7 +17,7 @@ def test_shock_figure_plots_the_measured_propagation_velocity():
     behind = t[:, None] - n * 12.0 / c  # time since the front passed particle n
     v = 2.0 * (1 + np.tanh(behind / 0.5)) / 2 * (1 + 0.3 * np.sin(behind))
     traj = Trajectory(t=t, x0=12.0 * n, u=np.zeros_like(v), v=v, a=np.gradient(v, t, axis=0) * 1e3)
-    fig = shock_figure(traj, list(n), 2.0, measures.front(t, v, traj.a, 2.0, 12.0), v0=1.6)
+    fig = shock_figure(traj, list(n + 1), 2.0, measures.front(t, v, traj.a, 2.0, 12.0), v0=1.6)
     assert len(fig.axes) == 5  # four panels and the acceleration axis
     line = fig.axes[1].lines[0]
     expected = measures.propagation_velocity(measures.arrival_times(t, v, 2.0), 12.0)
@@ -34,7 +34,7 @@ def test_shock_figure_is_labelled():
     v = 2.0 * (1 + np.tanh(behind / 0.5)) / 2 * (1 + 0.3 * np.sin(behind))
     traj = Trajectory(t=t, x0=12.0 * n, u=np.zeros_like(v), v=v, a=np.gradient(v, t, axis=0) * 1e3)
     front = measures.front(t, v, traj.a, 2.0, 12.0)
-    fig = shock_figure(traj, list(n), 2.0, front, v0=1.6, title="demo: V_I = 2 m/s, N = 40", saturation=4.0)
+    fig = shock_figure(traj, list(n + 1), 2.0, front, v0=1.6, title="demo: V_I = 2 m/s, N = 40", saturation=4.0)
     a, b, c, d = fig.axes[:4]
     assert fig._suptitle.get_text() == "demo: V_I = 2 m/s, N = 40"
     assert [ax.get_title(loc="left") for ax in (a, b, c, d)] == ["(a)", "(b)", "(c)", "(d)"]
@@ -46,5 +46,5 @@ def test_shock_figure_is_labelled():
     for ax in (b, c):
         ticks = ax.xaxis.get_major_locator()()
         assert np.all(ticks == np.round(ticks))
-    pulse = shock_figure(traj, list(n), 2.0, front, v0=1.6, title="pulse")
+    pulse = shock_figure(traj, list(n + 1), 2.0, front, v0=1.6, title="pulse")
     assert not any(str(line.get_label()).startswith("2 $V_I$") for line in pulse.axes[2].lines)

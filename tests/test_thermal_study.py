@@ -13,7 +13,7 @@ from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.studies import STUDIES, run_study
-from pylmp_lattice.studies.ensembles.thermal import PARTICLE, VI, WINDOW_PERIODS
+from pylmp_lattice.studies.ensembles.thermal import MAGNET, VI, WINDOW_PERIODS
 
 INPUTS = Path(__file__).parent.parent / "inputs"
 
@@ -28,7 +28,7 @@ def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
 
     # the shipped long lattice, as long as the quick study, writing magnet 10 finely
     case = load_case(INPUTS / "paper_long_lattice.toml",
-                     ["run.duration=150", f"output.fine=[{PARTICLE + 1}]", "output.fine_interval=0.1"])
+                     ["run.duration=150", f"output.fine=[{MAGNET}]", "output.fine_interval=0.1"])
     summary = run_case(case, tmp_path / "plain", figure=False)
     traj = RunFolder(tmp_path / "plain").trajectory("fine")
     span = max(0.2 * 150, WINDOW_PERIODS * 1e3 / summary["linear_frequency_f0_Hz"])

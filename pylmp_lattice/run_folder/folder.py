@@ -25,6 +25,7 @@ from ..case import Case, load_case
 from ..dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
 from ..front_record import case_front, read_front_record
+from ..numbering import number
 from ..serialize import dumps
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
@@ -97,9 +98,10 @@ class RunFolder:
             self._cache.clear()
         return done
 
-    def trajectory(self, group: str = "chain", particles=None) -> Trajectory:
+    def trajectory(self, group: str = "chain", magnets=None) -> Trajectory:
         """The trajectory in user units: group "chain" (every magnet) or "fine" (the output.fine
-        magnets at output.fine_interval); `particles`: 0-based indices into the group, increasing.
+        magnets at output.fine_interval); `magnets`: only these magnets of the group, by number
+        (1 .. N, as the paper counts), increasing. Column k holds magnets[k].
 
         From traj.h5md, the binary dumps (converted first when safe, else read as they stand)
         or the text dump. The impactor's acceleration comes from its profile: the piston imposes
@@ -109,7 +111,8 @@ class RunFolder:
         if group not in layout.BINARY_GROUPS:
             raise ConfigError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")
         case = self.case
-        key = ("trajectory", group, None if particles is None else tuple(particles), self._stamp())
+        columns = self._columns(group, magnets)
+        key = ("trajectory", group, columns, self._stamp())
         if key in self._cache:
             return self._cache[key]
         binary, text = self.path / layout.BINARY_GROUPS[group], self.path / layout.TEXT_GROUPS[group]
@@ -117,15 +120,15 @@ class RunFolder:
             if self.status == RUNNING:
                 log.warning("%s is still being written: read the %d frames it has so far", self.path,
                             open_dump(binary).frames)
-            traj = read_trajectory(binary, self._masses(group), particles)
+            traj = read_trajectory(binary, self._masses(group), columns)
         elif (self.path / layout.H5MD).is_file():
-            traj = h5md.read_group(self.path / layout.H5MD, group, particles)
+            traj = h5md.read_group(self.path / layout.H5MD, group, columns)
         elif text.is_file():
-            traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), particles)
+            traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), columns)
         else:
             raise LatticeError(f"{self.path}: no {group} trajectory (output.format = {case.output.format!r})")
         numbers = self._numbers(group)
-        numbers = numbers if particles is None else numbers[list(particles)]
+        numbers = numbers if columns is None else numbers[list(columns)]
         traj.a[:, numbers == 0] = case.impactor.acceleration_at(traj.t)[:, None]
         self._cache[key] = traj
         return traj
@@ -134,6 +137,17 @@ class RunFolder:
         """0-based magnet numbers of a group's columns (in id order)."""
         case = self.case
         return np.arange(case.chain.particles) if group == "chain" else np.sort(case.output.fine) - 1
+
+    def _columns(self, group: str, magnets) -> tuple[int, ...] | None:
+        """The 0-based columns of a group that hold `magnets` (numbers 1 .. N), or None for all."""
+        if magnets is None:
+            return None
+        held = list(self._numbers(group) + 1)
+        wanted = [int(m) for m in magnets]
+        if any(m not in held for m in wanted) or wanted != sorted(set(wanted)):
+            where = f"1 .. {held[-1]}" if group == "chain" else f"the output.fine magnets {held}"
+            raise ConfigError("magnets", f"got {list(magnets)}; expected increasing magnet numbers in {where}")
+        return tuple(held.index(m) for m in wanted)
 
     def _masses(self, group: str) -> np.ndarray:
         return to_engine(self.case.chain.masses()[self._numbers(group)], "mass")
@@ -254,12 +268,12 @@ class RunFolder:
         if case.output.format == "none":
             return shock_figure(None, [], vi, front, v0, title=title, saturation=saturation)
         if case.output.fine:
-            chosen = sorted(n - 1 for n in case.output.fine)
+            chosen = sorted(case.output.fine)
             profiles = self.trajectory("fine")
-        else:
+        else:  # magnet 2 and three the front reached, the last of them just behind it
             reached = np.flatnonzero(np.isfinite(front.arrival))
-            last = int(reached[-1]) if reached.size else 0
-            chosen = sorted({1, max(1, last // 4), max(1, last // 2), max(1, last - 1)})
+            last = number(reached[-1]) if reached.size else 1
+            chosen = sorted({2, max(2, (last - 1) // 4 + 1), max(2, (last - 1) // 2 + 1), max(2, last - 1)})
             profiles = self.trajectory("chain", chosen)
         return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
@@ -269,8 +283,8 @@ def summarize(path: str | Path, figure: bool = True, wall_time: float | None = N
     return RunFolder(path).summarize(figure=figure, wall_time=wall_time)
 
 
-def _select(traj: Trajectory, particles) -> Trajectory:
-    if particles is None:
+def _select(traj: Trajectory, columns) -> Trajectory:
+    if columns is None:
         return traj
-    cols = list(particles)
+    cols = list(columns)
     return Trajectory(traj.t, traj.x0[cols], traj.u[:, cols], traj.v[:, cols], traj.a[:, cols])

@@ -29,7 +29,7 @@ from ..scaffold import linear_constants, paper_dict, sweep_runs
 
 NAME = "thermal"
 VI = 2.0  # m/s
-PARTICLE = 9  # 0-based: magnet 10, whose wake oscillation gives eta (as in Fig. 4)
+MAGNET = 10  # whose wake oscillation gives eta (as in Fig. 4)
 WINDOW_PERIODS = 3.5  # the steady window spans at least this many linear periods 1/f0
 THERMAL, DISORDER = "chain.thermal_velocity", "chain.mass_disorder"
 VP, PEAK, ETA = "V_P_m_per_s", "first_peak_m_per_s", "eta"
@@ -41,7 +41,7 @@ def base_case(duration: float) -> dict:
     """The paper's long lattice at V_I = 2 m/s (inputs/paper_long_lattice.toml), writing magnet 10
     every 0.1 ms for eta and the whole chain only every 10 ms."""
     return paper_dict(NAME, {"profile": "constant", "velocity": VI}, duration, output_interval=10.0,
-                      output={"fine": [PARTICLE + 1], "fine_interval": 0.1})
+                      output={"fine": [MAGNET], "fine_interval": 0.1})
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
@@ -62,7 +62,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     mass = pd.concat([quiet.to_frame().T, stats[stats[DISORDER] > 0]]).sort_values(DISORDER)
     v0, f0 = linear_constants(runs[0].member.case)
     numbers = {
-        "V_I_m_per_s": VI, "duration_ms": duration, "replicas": replicas, "particle_for_eta": PARTICLE + 1,
+        "V_I_m_per_s": VI, "duration_ms": duration, "replicas": replicas, "particle_for_eta": MAGNET,
         "V0_m_per_s": v0, "f0_Hz": f0, "members": len(runs), "members_done": int(sum(r.done for r in runs)),
         "noise_free": {VP: quiet[f"{VP}.mean"], PEAK: quiet[f"{PEAK}.mean"], ETA: quiet[f"{ETA}.mean"]},
         "against_thermal_rms": _points(thermal, THERMAL), "against_mass_disorder": _points(mass, DISORDER),

@@ -47,7 +47,7 @@ FRACTIONS = (0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0)  # V_I / V*
 PERIODS = 40.0  # run length in linear periods T0 = 1/f0
 QUICK = {"chains": ("magnet q=3",), "fractions": (0.5, 1.5), "periods": 17.0}
 PAPER_T0 = 23.53  # ms, about 1/f0 of the paper's chain (23.520): the time step scales from it
-PARTICLE = 9  # 0-based: magnet 10, where eta and f are measured (as Fig. 4)
+MAGNET = 10  # where eta and f are measured (as Fig. 4)
 FINE = tuple(range(1, 13))  # magnets written at the fine interval: the piston's neighbours
 WAKE_GAPS = (2, 11)  # gaps 2-11 (inclusive), next to the piston
 PROMINENCE = 1e-3  # of V_I, for eta and f: follows weak oscillations too
@@ -91,7 +91,7 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
     steady = {}
     for end in (duration / 2, duration):
         span = max(0.2 * end, WINDOW_PERIODS * t0)
-        steady[end] = measures.steady_oscillation(fine.t, fine.v[:, PARTICLE], vi, (end - span, end),
+        steady[end] = measures.steady_oscillation(fine.t, fine.v[:, FINE.index(MAGNET)], vi, (end - span, end),
                                                   prominence=PROMINENCE)
     wake = measures.wake_state(fine.t, fine.v, fine.gaps(), law, mass, WAKE_GAPS, (0.8 * duration, duration))
     eta_half, eta_end = steady[duration / 2].energy_ratio, steady[duration].energy_ratio
@@ -143,7 +143,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     numbers = {
         "title": STUDIES[NAME] + (" (quick version)" if quick else ""),
         "method": "El, Chaos 15, 037103 (2005); El & Hoefer, Physica D 333, 11 (2016); pylmp_lattice.theory",
-        "run_length_periods_T0": periods, "particle": PARTICLE + 1, "wake_gaps": list(WAKE_GAPS),
+        "run_length_periods_T0": periods, "particle": MAGNET, "wake_gaps": list(WAKE_GAPS),
         "eta_prominence_over_V_I": PROMINENCE, "eta_ratio_decays_below": DECAYS, "eta_ratio_persists_above": PERSISTS,
         "chains": per_chain, "runs": rows,
     }

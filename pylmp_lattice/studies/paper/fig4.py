@@ -36,7 +36,7 @@ from ..output import StudyResult
 from ..scaffold import MASS, PAPER_FORCE, PAPER_LAW, R0, linear_constants, paper_case, paper_dict, sweep_runs
 
 NAME = "fig4"
-PARTICLE = 9  # 0-based: magnet 10
+MAGNET = 10
 PROMINENCE = 1e-3  # of V_I, for eta: follows weak oscillations too
 WINDOW_PERIODS = 3.5  # the steady window spans at least this many linear periods 1/f0
 PAPER = {"V_star_over_V0": 0.5}
@@ -76,7 +76,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     by_q, q_rows, common = _against_q(root / "q", qs, fractions, q_periods, f0)
     table = _v_star_table(v0, final, by_q)
     numbers = {
-        "duration_ms": duration, "particle": PARTICLE + 1, "eta_prominence_over_V_I": PROMINENCE,
+        "duration_ms": duration, "particle": MAGNET, "eta_prominence_over_V_I": PROMINENCE,
         "V_I_values": len(rows), "V0_m_per_s": v0, "f0_Hz": f0,
         "contact_limit": limit,
         "runs": rows,
@@ -193,7 +193,7 @@ def _measure(run, ends) -> dict:
     plateau = run.summary["shock_velocity_plateau_m_per_s"]
     f0 = run.summary["linear_frequency_f0_Hz"]
     span = max(0.2 * ends[-1], WINDOW_PERIODS * 1e3 / f0)  # ms: enough for weak oscillations near f0
-    steady = {end: measures.steady_oscillation(traj.t, traj.v[:, PARTICLE], vi, (end - span, end), prominence=PROMINENCE)
+    steady = {end: measures.steady_oscillation(traj.t, traj.v[:, MAGNET - 1], vi, (end - span, end), prominence=PROMINENCE)
               for end in ends}
     last = steady[ends[-1]]
     return row | {

@@ -25,7 +25,7 @@ from ..scaffold import MAGNET_STIFFNESS, MASS, PAPER_LAW, R0, paper_case
 
 NAME = "s5"
 VI = 0.5  # m/s
-PARTICLE = 9  # 0-based: n = 10
+MAGNET = 10
 DECAY_PROMINENCE = 1e-3  # of V_I
 
 
@@ -44,30 +44,30 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     # eta of particle 10 in successive windows of about two periods after its front, measured
     # and exact (the same measure on the exact semi-infinite chain's velocity)
     k = float(case.force.k)
-    t0 = float(measures.arrival_times(traj.t, traj.v[:, PARTICLE : PARTICLE + 1], VI)[0])
+    t0 = float(measures.arrival_times(traj.t, traj.v[:, MAGNET - 1 : MAGNET], VI)[0])
     span = 2.2e3 / result.numbers["f0_Hz"]  # ms: two periods at f0, the band edge, and a margin
     edges = np.arange(t0 + 0.2 * (duration - t0), duration, span)
     windows = list(zip(edges, edges[1:]))
-    exact_v = harmonic_piston_velocity(PARTICLE, traj.t, VI, np.sqrt(k / MASS))[:, 0]
+    exact_v = harmonic_piston_velocity(MAGNET - 1, traj.t, VI, np.sqrt(k / MASS))[:, 0]
     eta, eta_exact = (np.array([measures.steady_oscillation(traj.t, vv, VI, w, prominence=DECAY_PROMINENCE).energy_ratio
-                                for w in windows]) for vv in (traj.v[:, PARTICLE], exact_v))
+                                for w in windows]) for vv in (traj.v[:, MAGNET - 1], exact_v))
     mid = 0.5 * (edges[1:] + edges[:-1])
     result.numbers |= {
         "spring_k_N_per_mm": k,
         "V0_exact_m_per_s": R0 * np.sqrt(k / MASS),
-        "decay_particle": PARTICLE + 1,
+        "decay_particle": MAGNET,
         "decay_window_mid_ms": mid,
         "decay_eta": eta,
         "decay_eta_exact": eta_exact,
         "decay_eta_relative_difference_max": float(np.nanmax(np.abs(eta / eta_exact - 1))) if len(windows) else None,
-        "max_velocity_error_vs_exact_over_V_I": float(np.max(np.abs(traj.v[:, PARTICLE] - exact_v))) / VI,
+        "max_velocity_error_vs_exact_over_V_I": float(np.max(np.abs(traj.v[:, MAGNET - 1] - exact_v))) / VI,
         "first_peak_acceleration_falls_with_n": bool(np.all(np.diff(_finite(result)) < 0)),
     }
     result.tables["decay"] = {"window_mid_ms": mid, "eta": eta, "eta_exact": eta_exact}
     ax = result.figure.axes[5]  # the transition-zone panel: a linear chain has none; its decay instead
     ax.semilogy(mid, eta, "o", label="LAMMPS")
     ax.semilogy(mid, eta_exact, "-", label="exact chain")
-    ax.set(title=f"decay: $\\eta$ of magnet {PARTICLE + 1}", ylabel=r"$\eta$")
+    ax.set(title=f"decay: $\\eta$ of magnet {MAGNET}", ylabel=r"$\eta$")
     ax.legend(fontsize="small")
     return result
 

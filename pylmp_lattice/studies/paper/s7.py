@@ -20,7 +20,7 @@ from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
 NAME = "s7"
 VI = 2.0
-PARTICLE = 9  # 0-based: magnet 10
+MAGNET = 10
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
@@ -36,7 +36,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         traj = r.trajectory()
         front = measures.front(traj.t, traj.v, traj.a, VI, r.member.case.chain.gaps())
         vp = front.accepted_velocity  # a long ramp's first gaps are crossed out of order
-        steady = measures.steady_oscillation(traj.t, traj.v[:, PARTICLE], VI, (0.8 * duration, duration))
+        steady = measures.steady_oscillation(traj.t, traj.v[:, MAGNET - 1], VI, (0.8 * duration, duration))
         row |= {"V_P_plateau": measures.trailing_plateau(vp), "steady_oscillation": steady,
                 "f_over_f0": steady.frequency / f0}
         ax[0].plot(np.arange(1, vp.size + 1), vp, ".", ms=2.5, label=f"$T_r$ = {tr:g} ms")
@@ -45,10 +45,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     ax[0].set(xlabel="gap n (magnets n and n+1)", ylabel="$V_P$ (m/s)", title="propagation velocity")
     ax[0].legend(fontsize="small")
     ax[1].plot(x, [row["steady_oscillation"].amplitude for row in done], "o-")
-    ax[1].set(xlabel="$T_r$ (ms)", ylabel="amplitude (m/s)", title=f"steady amplitude, magnet {PARTICLE + 1}",
+    ax[1].set(xlabel="$T_r$ (ms)", ylabel="amplitude (m/s)", title=f"steady amplitude, magnet {MAGNET}",
               xscale="log")
     ax[2].plot(x, [row["f_over_f0"] for row in done], "o-")
-    ax[2].set(xlabel="$T_r$ (ms)", ylabel="$f/f_0$", title=f"steady frequency, magnet {PARTICLE + 1}", xscale="log")
+    ax[2].set(xlabel="$T_r$ (ms)", ylabel="$f/f_0$", title=f"steady frequency, magnet {MAGNET}", xscale="log")
     for a in ax[1:]:
         _at_least_percent(a, 2.0)
     style_figure(fig, f"Fig. S7: long lattice, ramp to $V_I$ = {VI:g} m/s in $T_r$, no friction, {duration:g} ms",
@@ -57,7 +57,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         ("V_P_plateau", lambda row: row["V_P_plateau"].mean),
         ("amplitude", lambda row: row["steady_oscillation"].amplitude),
         ("frequency", lambda row: row["steady_oscillation"].frequency))}
-    numbers = {"V_I_m_per_s": VI, "duration_ms": duration, "f0_Hz": f0, "particle": PARTICLE + 1, "runs": rows,
+    numbers = {"V_I_m_per_s": VI, "duration_ms": duration, "f0_Hz": f0, "particle": MAGNET, "runs": rows,
                "relative_spread_over_T_r": spread}
     table = {"T_r_ms": x, "V_P_plateau_m_per_s": [row["V_P_plateau"].mean for row in done],
              "amplitude_m_per_s": [row["steady_oscillation"].amplitude for row in done],

@@ -25,7 +25,7 @@ from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
 NAME = "s8"
 VI = 2.0
-PARTICLE = 9  # 0-based: magnet 10
+MAGNET = 10
 SHOWN_TS = 100.0  # ms, the paper's Fig. S8(c, d)
 
 
@@ -51,14 +51,14 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                 "gaps_crossed": int(np.sum(np.isfinite(front.propagation_velocity)))}
         if ts == SHOWN_TS:
             traj = r.trajectory()
-            osc = measures.oscillations(traj.t, traj.v[:, PARTICLE], VI)
+            osc = measures.oscillations(traj.t, traj.v[:, MAGNET - 1], VI)
             ax[1].plot(osc.max_time, osc.max_velocity, "^", ms=3, label="maxima")
             ax[1].plot(osc.min_time, osc.min_velocity, "v", ms=3, label="minima")
-            ax[1].set(title=f"extrema, magnet {PARTICLE + 1}, $T_s$ = {ts:g} ms", xlabel="t (ms)",
+            ax[1].set(title=f"extrema, magnet {MAGNET}, $T_s$ = {ts:g} ms", xlabel="t (ms)",
                       ylabel="peak velocity (m/s)")
             ax[1].legend(fontsize="small")
             ax[2].plot(osc.frequency_time, osc.frequency / f0, "o-", ms=3)
-            ax[2].set(title=f"frequency, magnet {PARTICLE + 1}, $T_s$ = {ts:g} ms", xlabel="t (ms)", ylabel="$f/f_0$")
+            ax[2].set(title=f"frequency, magnet {MAGNET}, $T_s$ = {ts:g} ms", xlabel="t (ms)", ylabel="$f/f_0$")
             shown = {"T_s_ms": ts, "oscillations": osc}
     done = [row for row in rows if row["status"] == "done"]
     x = np.array([row["T_s_over_T0"] for row in done])

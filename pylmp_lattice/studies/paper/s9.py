@@ -25,7 +25,7 @@ from ..scaffold import paper_case
 
 NAME = "s9"
 VELOCITIES = (0.01, 0.1, 1.0, 2.0)  # m/s
-PARTICLE = 9  # 0-based: magnet 10, and the gap to magnet 11
+MAGNET = 10  # magnet 10, and the gap to magnet 11
 DURATION, LONG, QUICK = 600.0, 3000.0, 200.0  # ms
 SLOW = 1.0  # m/s: the V_I whose oscillation needs LONG to settle
 WINDOW = 120.0  # ms, the steady window (the last fifth of 600 ms)
@@ -41,9 +41,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         window = (duration - WINDOW, duration)
         case = paper_case(f"s9_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration)
         # magnets 10 and 11 only: the 3 s run has 30001 frames of ~800 magnets
-        pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", (PARTICLE, PARTICLE + 1))
+        pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", (MAGNET, MAGNET + 1))
         t, v = pair.t, pair.v[:, 0]
-        portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, PARTICLE + 1, first_magnet=PARTICLE + 1)
+        portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, MAGNET, first_magnet=MAGNET)
         steady = measures.steady_oscillation(t, v, vi, window)
         reference = (steady.max_velocity, steady.min_velocity) if steady.measured else (vi, vi)
         onset = measures.steady_onset_times(t, pair.v[:, :1], vi, reference)[0]
@@ -67,7 +67,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         ax.set(title=f"$V_I$ = {vi:g} m/s", xlabel="gap $r_{10}$ (mm)", ylabel="$v_{10}$ (m/s)")
         ax.legend(fontsize="x-small", loc="upper right")
     style_figure(fig, "Fig. S9: long lattice, constant drive, no friction: magnet 10", quick=quick)
-    numbers = {"particle": PARTICLE + 1, "window_length_ms": WINDOW, "runs": rows}
+    numbers = {"particle": MAGNET, "window_length_ms": WINDOW, "runs": rows}
     if quick:
         numbers["quick_cannot_show"] = {"eta_by_time_ms": f"the settling at V_I = {SLOW:g} m/s, which needs "
                                                           f"{LONG:g} ms"}
