@@ -316,6 +316,55 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
     assert list(out.iterdir()) == []
 
 
+def test_copies_of_a_task_take_turns_on_its_lock_and_no_lock_file_stays(tmp_path):
+    """As Dask may run a task twice: copy B waits for copy A; A removes the lock file as it lets
+    go, and a copy C that came after the removal holds a new file: B, woken on the removed file,
+    waits for C rather than running beside it. A lock file that no one holds (its worker was
+    killed) is removed at the end of a sweep; one still held is left to its holder."""
+    import fcntl
+    import threading
+
+    from pylmp_lattice.sweep import store
+
+    path_of = lambda: list((tmp_path / "batches").glob("task-*.lock"))  # noqa: E731
+    log, release_a = [], threading.Event()
+
+    def copy(name, until=None):
+        with store.task_lock(tmp_path, ["m1", "m2"]):
+            log.append(f"{name} in")
+            if until is not None:
+                until.wait(10)
+            log.append(f"{name} out")
+
+    a = threading.Thread(target=copy, args=("A", release_a))
+    a.start()
+    while log != ["A in"]:
+        time.sleep(0.01)
+    b = threading.Thread(target=copy, args=("B",))
+    b.start()
+    time.sleep(0.3)  # B waits on A's file
+    [lock] = path_of()
+    lock.unlink()  # as A does when it lets go; then C takes a new file before B wakes
+    c = os.open(lock, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(c, fcntl.LOCK_EX)
+    release_a.set()
+    a.join()
+    time.sleep(0.3)
+    assert log == ["A in", "A out"]  # B woke on the removed file and now waits for C
+    lock.unlink()
+    os.close(c)
+    b.join(10)
+    assert log == ["A in", "A out", "B in", "B out"] and path_of() == []
+
+    stale, held = tmp_path / "batches" / "task-0.lock", tmp_path / "batches" / "task-1.lock"
+    stale.touch()
+    fd = os.open(held, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    store.remove_stale_locks(tmp_path)
+    os.close(fd)
+    assert path_of() == [held]
+
+
 def test_atomic_write_leaves_old_content_or_new_never_a_part(tmp_path, monkeypatch):
     from pylmp_lattice.sweep import store
 

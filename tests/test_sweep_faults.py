@@ -90,6 +90,7 @@ def assert_table_matches_disk(out: Path) -> None:
             assert row.status == "interrupted" and (record is None or record["status"] in ("running", "interrupted"))
     finished = {i for i, r in disk.items() if r["status"] == "done"}
     assert finished <= set(table.id[table.status == "done"])  # every member done on disk is done in the table
+    assert not list(out.glob("batches/task-*.lock"))  # no stale lock, even of a killed worker's task
 
 
 def test_sigint_exits_within_2_s_starts_nothing_after_and_a_rerun_finishes(tmp_path):
@@ -155,6 +156,7 @@ def test_workers_exit_when_the_coordinator_is_killed_and_not_reaped(tmp_path):
     proc.wait()
     assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
     assert set(load_results(out)["status"]) == {"done"} and len(load_results(out)) == 6
+    assert not list(out.glob("batches/task-*.lock"))  # the killed workers' locks went with the re-run
 
 
 def test_a_killed_worker_leaves_a_table_that_matches_the_disk_and_a_rerun_finishes(tmp_path):

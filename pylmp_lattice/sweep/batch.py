@@ -18,8 +18,6 @@ members as "interrupted".
 
 from __future__ import annotations
 
-import fcntl
-import hashlib
 import os
 import resource
 import shutil
@@ -33,9 +31,9 @@ import tomli_w
 from ..case import Case, case_to_dict
 from ..errors import Interrupted, LatticeError
 from .spec import Member
-from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, outcome, provenance, write_status
+from .store import (BATCHES, DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, outcome, provenance, task_lock,
+                    write_status)
 
-BATCHES = "batches"
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
 # for chain c); a build without it makes the batch deck fail at the end, and from then on this
 # process runs members with friction one per instance.
@@ -73,15 +71,8 @@ def run_task(task: Task) -> list[dict]:
 
 
 def _run_task(task: Task) -> list[dict]:
-    root = Path(task.root)
-    # Dask runs a task at least once: the copy of a task whose worker retires may start while
-    # the first still runs. The copies take turns on the task's lock (released by the kernel
-    # if a worker is killed), and the later one finds the members done on disk.
-    (root / BATCHES).mkdir(exist_ok=True)
-    name = hashlib.sha256(" ".join(m.id for m in task.members).encode()).hexdigest()[:16]
-    with open(root / BATCHES / f"task-{name}.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        return _run_members(root, task)
+    with task_lock(task.root, [m.id for m in task.members]):  # copies of a task (Dask) take turns
+        return _run_members(Path(task.root), task)
 
 
 def _run_members(root: Path, task: Task) -> list[dict]:

@@ -40,7 +40,7 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, outcome, read_json
+from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, outcome, read_json, remove_stale_locks
 from .table import Table, member_row
 
 log = logging.getLogger(__name__)
@@ -82,9 +82,12 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     with _lock(root), _StopSignals() as stop:
         _claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
-        with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
-            stop.on_signal = pool.on_signal
-            return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
+        try:
+            with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
+                stop.on_signal = pool.on_signal
+                return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
+        finally:
+            remove_stale_locks(root)  # those of tasks whose worker was killed
 
 
 # ----------------------------------------------------------------------------- the coordinator
