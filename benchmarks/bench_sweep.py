@@ -5,7 +5,7 @@ C loop doing the same integrations on the same number of workers, in one run.
    replicas of inputs/paper_experiment.toml (60 ms, dt = 12.5 us: 4800 steps of 21 magnets)
    with thermal motion (chain.thermal_velocity = --thermal m/s), keep = "measures",
    --workers 2, from the command to its exit. Start-up: the command to the first member's
-   start (its status.json "started"). Each member gets its front measures and summary.
+   start (its record's "started", in members.json of its batch or its status.json). Each member gets its front measures and summary.
    Two variants: the case as shipped (Coulomb friction on the rod), and without friction.
 2. Loop: benchmarks/ensemble_loop.c (gcc -O3): the same chains from the same initial states
    (each member's positions, thermal velocities, masses), the same velocity Verlet, drive and
@@ -22,7 +22,6 @@ Ratio = sweep wall time / loop wall time (the issue's target: at most 3).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import resource
@@ -71,7 +70,11 @@ def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
     cpu = children_cpu() - cpu
     if done.returncode != 0:
         raise SystemExit(f"sweep failed ({done.returncode}): {done.stderr}")
-    records = [json.loads(p.read_text()) for p in (out / "members").glob("*/status.json")]
+    from pylmp_lattice.sweep import load_results
+    from pylmp_lattice.sweep.store import Outcomes
+
+    disk = Outcomes(out)
+    records = [disk.get(i)["record"] for i in load_results(out)["id"]]
     assert all(r["status"] == "done" for r in records)
     stamp = lambda key: min(datetime.fromisoformat(r[key]).timestamp() for r in records)  # noqa: E731
     batched = sum("batch" in r for r in records)

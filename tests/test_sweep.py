@@ -18,7 +18,7 @@ from pylmp_lattice.cli import main
 from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
                                  write_replica_stats)
-from pylmp_lattice.sweep.store import STATUS
+from pylmp_lattice.sweep.store import STATUS, Outcomes
 
 BASE = """\
 name = "small"
@@ -412,14 +412,16 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
     with ThreadPoolExecutor(1) as pool:  # in this process: the plugin's abilities show in batch's flags
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
     assert set(table["status"]) == {"done"} and len(table) == 5
-    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    disk = Outcomes(tmp_path / "out")
+    records = [disk.get(i)["record"] for i in table["id"]]
     if "batch" not in records[0] and not (batch.FRICTION_PER_CHAIN and batch.LEVELS_PER_CHAIN):
         pytest.skip("this plugin build lacks each chain's friction work or front levels: members ran alone")
     assert len({r["batch"] for r in records}) == 1  # one instance ran them all
+    assert set(table["folder"]) == {records[0]["batch"]} and not list((tmp_path / "out" / "members").glob("*"))
     assert table["particles_reached_by_front"].min() >= 8  # the front crossed most of the chain
     for member in sweep.members()[:3]:
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
-        batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
+        batched = disk.get(member.id)["summary"]
         assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
         assert ("friction_dissipated_energy_mJ" in batched) == friction
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
@@ -571,6 +573,31 @@ def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
 
 
 @pytest.mark.lammps
+def test_members_of_a_batch_file_that_does_not_parse_are_run_again(tmp_path):
+    """Batched members are done only with the batch's members.json that parses, as a member
+    alone only with its summary.json: a damaged file makes them run again, with equal measures."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    out = tmp_path / "out"
+
+    def run():
+        with ThreadPoolExecutor(1) as pool:
+            return run_sweep(sweep, out, executor=pool, slots=1, progress=False)
+
+    first = run()
+    [path] = list(out.glob("batches/*/members.json"))
+    if set(first["folder"]) != {f"batches/{path.parent.name}"}:
+        pytest.skip("this plugin build cannot batch these members: they ran alone")
+    ended = json.loads(path.read_text())["ended"]
+    path.write_text(path.read_text()[:-100])  # cut, as a full disk would leave it (were it not atomic)
+    assert Outcomes(out).get(first["id"][0]) is None
+    again = run()
+    assert json.loads(path.read_text())["ended"] > ended  # run again, not taken from the damaged file
+    pd.testing.assert_frame_equal(_comparable(again), _comparable(first))
+
+
+@pytest.mark.lammps
 def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     """Front levels that depend on each chain (here: scaled by its seed; in the package: by its
     noise) go to fix lattice/front's per-chain levels file; each batched member's summary still
@@ -601,10 +628,10 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     assert "front_levels.txt" in files and " length 12 levels ${dir}/front_levels.txt" in files["in.lattice"]
     with ThreadPoolExecutor(1) as pool:  # in this process, so that the levels apply
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
-    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
-    if "batch" not in records[0]:
+    disk = Outcomes(tmp_path / "out")
+    if "batch" not in disk.get(table["id"][0])["record"]:
         pytest.skip("this plugin build has no per-chain front levels: members ran alone")
     for member in sweep.members():
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
-        batched = json.loads((tmp_path / "out" / "members" / member.id / "summary.json").read_text())
+        batched = disk.get(member.id)["summary"]
         assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))

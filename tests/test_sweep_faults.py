@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from pylmp_lattice.sweep import load_results
-from pylmp_lattice.sweep.store import STATUS
+from pylmp_lattice.sweep.store import STATUS, Outcomes
 from test_sweep import BASE
 
 pytestmark = [pytest.mark.lammps, pytest.mark.slow]
@@ -79,16 +79,19 @@ def alive(pid: int) -> bool:
 
 
 def assert_table_matches_disk(out: Path) -> None:
+    """Done in the table is done on disk (with a summary), and the other way round; the rest is
+    interrupted in the table, and running, interrupted or not started on disk."""
     table = load_results(out)
-    disk = statuses(out)
+    disk, found = statuses(out), Outcomes(out)
     for row in table.itertuples():
-        record = disk.get(row.id)
-        summary = out / row.folder / "summary.json"
+        outcome = found.get(row.id)
         if row.status == "done":
-            assert record["status"] == "done" and json.loads(summary.read_text())
+            assert outcome["record"]["status"] == "done" and outcome["summary"]
         else:
-            assert row.status == "interrupted" and (record is None or record["status"] in ("running", "interrupted"))
-    finished = {i for i, r in disk.items() if r["status"] == "done"}
+            record = disk.get(row.id)
+            assert row.status == "interrupted" and outcome is None
+            assert record is None or record["status"] in ("running", "interrupted")
+    finished = {i for i in [*disk, *table.id] if (found.get(i) or {"record": {}})["record"].get("status") == "done"}
     assert finished <= set(table.id[table.status == "done"])  # every member done on disk is done in the table
     assert not list(out.glob("batches/task-*.lock"))  # no stale lock, even of a killed worker's task
 

@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pylmp_lattice.run_folder.layout import SUMMARY
 from pylmp_lattice.sweep import Sweep, load_sweep, replica_stats, run_sweep
+from pylmp_lattice.sweep.store import Outcomes
 
 INPUTS = Path(__file__).parent.parent / "inputs"
 VP, PEAK = "shock_velocity_plateau_m_per_s", "first_peak_velocity_plateau_m_per_s"
@@ -38,9 +38,11 @@ def test_shipped_thermal_example_measures_every_member_and_its_replica_means(tmp
     assert table[f"{VP}.converged"].sum() >= 9
     numeric = table.select_dtypes("number").to_numpy(float)
     assert not np.isinf(numeric).any()
-    for folder in table["folder"]:  # strict JSON agrees with the table
-        summary = json.loads((tmp_path / "noisy" / folder / SUMMARY).read_text())
-        row = table[table["folder"] == folder].iloc[0]
+    for path in (tmp_path / "noisy").glob("*/*/*.json"):  # strict JSON: no NaN or Infinity token
+        json.loads(path.read_text(), parse_constant=lambda token: pytest.fail(f"{token} in {path}"))
+    disk = Outcomes(tmp_path / "noisy")
+    for _, row in table.iterrows():  # strict JSON on disk agrees with the table
+        summary = disk.get(row["id"])["summary"]
         assert summary[VP]["mean"] == row[f"{VP}.mean"]
         assert summary["shock_velocity_max_m_per_s"]["value"] == row["shock_velocity_max_m_per_s.value"]
     stats = replica_stats(table).set_index("impactor.velocity")

@@ -27,7 +27,7 @@ from ..errors import LatticeError
 from ..forcelaw import PowerLaw
 from ..run_folder import RunFolder
 from ..sweep import Member, Sweep, member_id, run_sweep
-from ..sweep.store import DONE, member_folder
+from ..sweep.store import DONE, Outcomes, member_folder
 from ..trajectory import Trajectory
 
 # The paper's lattice (main text): m, r0 and the magnet law F = K/(r+b)^q.
@@ -151,11 +151,11 @@ def sweep_runs(base: dict, root: Path, workers: int | None = None, **spec) -> li
     sweep = Sweep(base=base, **spec)
     # overwrite: a study run again with other values (quick, full) makes `root` this sweep's
     table = run_sweep(sweep, root, workers=workers, progress=False, overwrite=True).set_index("id")
-    runs = []
+    runs, disk = [], Outcomes(root)
     for m in sweep.members():
         row = table.loc[m.id]
-        folder = member_folder(root, m.id)
-        summary = RunFolder(folder).summary if row["status"] == DONE else None
+        folder = Path(root) / row["folder"]  # a batched member's: its batch's
+        summary = disk.get(m.id)["summary"] if row["status"] == DONE else None
         error = row["error"] if isinstance(row["error"], str) else None
         runs.append(SweepRun(m, row["status"], error, folder, summary))
     return runs

@@ -5,9 +5,8 @@ Those the chain engine can hold together (keep = "measures": no per-frame output
 record; decks equal but for the data file) run as one deck (`deck.render_replicas(front=True)`)
 in DIR/batches/<id of the first>/: its chains are the members' chains bit for bit, and the fix's
 front record is per atom, so chain r's rows are member r's record (with friction, the fix also
-reports each chain's friction work). Each member folder then gets case.toml, run.json (finished,
-in that batch), summary.json and status.json: the summary a run alone would write (O(1) files
-per member).
+reports each chain's friction work). The batch's members.json then records every member's
+outcome with the summary a run alone would write (`store.write_batch`: no file per member).
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
 own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
 
@@ -26,13 +25,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import tomli_w
-
-from ..case import Case, case_to_dict
+from ..case import Case
 from ..errors import Interrupted, LatticeError
 from .spec import Member
-from .store import (BATCHES, DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, outcome, provenance, task_lock,
-                    write_status)
+from .store import (BATCHES, DONE, FAILED, INTERRUPTED, RUNNING, Outcomes, member_folder, now, provenance, task_lock,
+                    write_batch, write_status)
 
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
 # for chain c); a build without it makes the batch deck fail at the end, and from then on this
@@ -77,8 +74,11 @@ def _run_task(task: Task) -> list[dict]:
 
 def _run_members(root: Path, task: Task) -> list[dict]:
     results: dict[str, dict] = {}
-    for m in task.members:  # a task run again (e.g. by Dask after its worker died) keeps what is done
-        found = outcome(root, m.id)
+    # a task run again (e.g. by Dask after its worker died) keeps what is done: its batches are
+    # named by their first member
+    done = Outcomes(root, batches=[m.id for m in task.members])
+    for m in task.members:
+        found = done.get(m.id)
         if found is not None and found["record"]["status"] == DONE:
             results[m.id] = {"id": m.id} | found
     todo = [m for m in task.members if m.id not in results]
@@ -95,7 +95,7 @@ def _run_members(root: Path, task: Task) -> list[dict]:
             results |= _run_batch(root, group, task.runner, started)
         else:
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
-    return [results.get(m.id) or _interrupted(m) for m in task.members]
+    return [results.get(m.id) or unstarted(m) for m in task.members]
 
 
 def stopping(signum: int) -> None:
@@ -155,10 +155,9 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
-    from ..run_folder import RunFolder, layout
+    from ..run_folder import layout
     from ..run_folder.folder import FINISHED
     from ..runner import run_deck
-    from ..serialize import dumps
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
@@ -166,15 +165,13 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     files = deck.render_replicas(cases, front=True)
     for name, text in files.items():
         (batch / name).write_text(text)
-    # the members' folders are written after the run (a killed batch leaves none: not started)
-    records = [_record(m, started) | {"batch": f"{BATCHES}/{batch.name}"} for m, _ in group]
     try:
         run_deck(batch, runner)
-    except Interrupted as err:
+    except Interrupted as err:  # nothing was recorded: the members were not started
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
-        return {m.id: {"id": m.id, "record": record | {"status": INTERRUPTED, "ended": now()}, "summary": None}
-                for (m, _), record in zip(group, records)}
+        return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
+                for m, _ in group}
     except LatticeError as err:  # a contact or an engine error in some chain: each member gets its own outcome
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
@@ -190,20 +187,18 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         return out
     summaries = _summaries(cases, batch)
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
-    out = {}
-    for (m, case), record, summary in zip(group, records, summaries):
-        # a run folder (case.toml, run.json: finished in the batch, summary.json), then status.json
-        # last (atomically): the member is done
-        folder = _fresh(member_folder(root, m.id))
-        (folder / layout.CASE).write_text(tomli_w.dumps(case_to_dict(case)))
-        log = f"../../{BATCHES}/{batch.name}/{layout.LOG}"
-        RunFolder(folder).record(FINISHED, batch=f"{BATCHES}/{batch.name}", chain=len(out))
-        summary |= {"status": FINISHED, "files": {"folder": str(folder), "log": log}, "wall_time_s": round(wall, 4)}
-        (folder / layout.SUMMARY).write_text(dumps(summary) + "\n")
-        record |= {"status": DONE, "ended": now(), "wall_time_s": round(wall, 4), "cpu_time_s": round(cpu, 4)}
-        write_status(folder, record)
-        out[m.id] = {"id": m.id, "record": record, "summary": summary}
-    return out
+    record = {"status": DONE, "error": None, "started": started, "ended": now(), "pid": os.getpid(),
+              "provenance": provenance(), "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
+              "cpu_time_s": round(cpu, 4)}
+    where = {"folder": str(batch), "log": str(batch / layout.LOG)}
+    members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data,
+                "summary": summary | {"status": FINISHED, "files": where, "wall_time_s": round(wall, 4)}}
+               for r, ((m, _), summary) in enumerate(zip(group, summaries))]
+    outcomes = write_batch(batch, record, members)  # last: the members are done
+    for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
+        if member_folder(root, m.id).exists():
+            shutil.rmtree(member_folder(root, m.id))
+    return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
 
 
 def _summaries(cases: list[Case], batch: Path) -> list[dict]:
@@ -248,8 +243,8 @@ def _stopped(group, root: Path, records: list[dict]) -> dict[str, dict]:
     return out
 
 
-def _interrupted(m: Member) -> dict:
-    """A member the task did not start (a stop came first)."""
+def unstarted(m: Member) -> dict:
+    """A member not started (a stop came first), or whose worker was lost before it finished."""
     return {"id": m.id, "record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
                                    "error": None}, "summary": None}
 

@@ -40,7 +40,7 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, atomic_write, outcome, read_json, remove_stale_locks
+from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
 from .table import Table, member_row
 
 log = logging.getLogger(__name__)
@@ -98,6 +98,7 @@ class _Coordinator:
         self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
         self.retry_failed = retry_failed
         self.table = Table(root)
+        self.disk = Outcomes(root)
         self.blocks = _Blocks(total, pool.slots)
         self.bar = _Progress(total, progress)
         self.lost = False
@@ -166,7 +167,7 @@ class _Coordinator:
     def _finished(self, m: Member) -> bool:
         """Whether the member's outcome on disk stands (its row is set from it)."""
         self.blocks.seen += 1
-        found = outcome(self.root, m.id)
+        found = self.disk.get(m.id)
         if found is None or (found["record"]["status"] == FAILED and self.retry_failed):
             return False
         self._row(m, found["record"], found["summary"])
@@ -186,8 +187,9 @@ class _Coordinator:
             self._row(m, result["record"], result["summary"])
 
     def _from_disk(self, task: Task) -> None:
+        disk = Outcomes(self.root, batches=[m.id for m in task.members])  # as it stands now
         for m in task.members:
-            result = _from_disk(self.root, m)
+            result = disk.get(m.id) or batch.unstarted(m)
             self._row(m, result["record"], result["summary"])
 
     def _wind_down(self, running: dict[Future, Task]) -> None:
@@ -202,14 +204,9 @@ class _Coordinator:
         running.clear()
 
     def _row(self, m: Member, record: dict, summary: dict | None) -> None:
-        self.table.set(m.index, member_row(m.id, m.params, f"{MEMBERS}/{m.id}", record, summary))
+        folder = record.get("batch") or f"{MEMBERS}/{m.id}"  # a batched member's outcome is its batch's
+        self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
-
-
-def _from_disk(root: Path, m: Member) -> dict:
-    """A member whose worker did not report: as it stands on disk, else interrupted."""
-    return outcome(root, m.id) or {"record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
-                                              "error": None}, "summary": None}
 
 
 def _point(m: Member) -> str:

@@ -1,13 +1,18 @@
-"""A sweep on disk: DIR/members/<id>/ per member, its status written last and atomically.
+"""A sweep on disk: a member's outcome written last and atomically, in its own folder or, for
+members run together as a batch, in the batch's one file.
 
-A member folder holds the run's files (case.toml, deck, log, trajectory unless keep =
-"measures", summary.json; a batched member: case.toml and summary.json, its deck and log in
-DIR/batches/) and `status.json`: status ("running", "done", "failed" or "interrupted"), the
-one-line error, the swept parameters, wall and CPU time and provenance (package version and git
-commit, LAMMPS version, plugin build, Python and numpy versions, host, start and end times).
-A member counts as done only when status.json says so and its summary.json parses, and
-status.json is replaced in one step (`write_status`) after everything else is written: a
-member killed half-way is re-run. DIR/sweep.json names the sweep the folder holds.
+A member run alone has DIR/members/<id>/: the run's files (case.toml, deck, log, trajectory
+unless keep = "measures", summary.json) and `status.json`: status ("running", "done", "failed"
+or "interrupted"), the one-line error, the swept parameters, wall and CPU time and provenance
+(package version and git commit, LAMMPS version, plugin build, Python and numpy versions, host,
+start and end times). Members batched in one instance (keep = "measures") share
+DIR/batches/<id of the first>/: the deck, data, log and front record, and `members.json`, their
+outcomes (`write_batch`): the record above once (status "done", times and provenance), and per
+member its id, index, parameters, chain number in the batch, case and summary; O(1) files for
+the batch instead of five per member.
+A member counts as done only when its record says so and its summary parses; status.json and
+members.json are each replaced in one step after everything else is written: a member killed
+half-way is re-run. DIR/sweep.json names the sweep the folder holds.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import numpy as np
 
 MEMBERS = "members"
 BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
+BATCH_FILE = "members.json"  # in a batch's folder: its members' outcomes
 STATUS = "status.json"
 SWEEP_FILE = "sweep.json"
 DONE, FAILED, RUNNING = "done", "failed", "running"
@@ -71,9 +77,57 @@ def read_status(folder: Path) -> dict | None:
     return read_json(Path(folder) / STATUS)
 
 
+class Outcomes:
+    """The members' outcomes on disk, {"record", "summary"}, if they stand (see `get`).
+
+    batches: the names of the batch folders that may hold them (default: all in DIR/batches/,
+    read once, at the first `get`)."""
+
+    def __init__(self, root: str | Path, batches: list[str] | None = None):
+        self.root, self.batches = Path(root), batches
+        self._batched: dict[str, dict] | None = None
+
+    def get(self, member_id: str) -> dict | None:
+        """The member's outcome: done in a batch, else from its folder (`outcome`)."""
+        if self._batched is None:
+            folder = self.root / BATCHES
+            files = ([folder / name / BATCH_FILE for name in self.batches] if self.batches is not None
+                     else folder.glob(f"*/{BATCH_FILE}"))
+            self._batched = {}
+            for path in files:
+                self._batched |= read_batch(path)
+        return self._batched.get(member_id) or outcome(self.root, member_id)
+
+
+def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, dict]:
+    """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
+    they share: status, times, provenance) and `members` ({id, index, params, chain, case,
+    summary} each), written last and atomically. Returns the outcomes as `read_batch` gives them."""
+    from ..serialize import dumps
+
+    data = {**record, "members": members}
+    atomic_write(Path(folder) / BATCH_FILE, dumps(data, indent=None) + "\n", sync=False)
+    return _batch_outcomes(data)
+
+
+def read_batch(path: Path) -> dict[str, dict]:
+    """The outcomes in a batch's members.json by member id; none if it is missing or does not parse."""
+    data = read_json(path)
+    try:
+        return _batch_outcomes(data) if data is not None and data["status"] == DONE else {}
+    except (KeyError, TypeError, AttributeError):
+        return {}
+
+
+def _batch_outcomes(data: dict) -> dict[str, dict]:
+    record = {k: v for k, v in data.items() if k != "members"}
+    return {m["id"]: {"record": record | {k: m[k] for k in ("id", "index", "params", "chain")}, "summary": m["summary"]}
+            for m in data["members"] if isinstance(m["summary"], dict)}
+
+
 def outcome(root: str | Path, member_id: str) -> dict | None:
-    """The member's outcome on disk, {"record", "summary"}, if it stands: "done" with a summary
-    that parses, or "failed"; else None (never run, unfinished, or done without a summary)."""
+    """The outcome in the member's own folder, {"record", "summary"}, if it stands: "done" with a
+    summary that parses, or "failed"; else None (never run, unfinished, or done without a summary)."""
     from ..run_folder import RunFolder
 
     folder = member_folder(root, member_id)
