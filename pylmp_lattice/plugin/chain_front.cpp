@@ -17,8 +17,9 @@ void FixLatticeChain::sample_front_block(int b, const double *v_before)
   const Run &run = runs[b];
   BlockFront &bf = block_front[b];
   const int *type = slots();
+  const Levels &L = front->chain_levels(run.chain);    // a block lies in one chain
   for (int i = run.first, k = 0; i <= run.last; i++, k++) {
-    const unsigned char before = front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_before[k]);
+    const unsigned char before = front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_before[k], L);
     const unsigned char now = front->phase[i];
     bf.waiting -= before == WAITING && now != WAITING;
     bf.active += (now == ACTIVE) - (before == ACTIVE);
@@ -43,10 +44,11 @@ void FixLatticeChain::summarise_front()
 void FixLatticeChain::sample_front_ends()
 {
   const int *type = slots();
-  auto sample = [&](int i, double v_prev) {
+  auto sample = [&](const End &e, double v_prev) {
+    const int i = e.i;
     front->mark[i] = mark_max(front->mark[i], vs[i]);
-    front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_prev);
+    front->sample_row(i, vs[i], fs[i], mass_of[type[i]], v_prev, front->chain_levels(e.chain));
   };
-  for (const End &e : impactors) sample(e.i, impactor_v[e.chain]);
-  for (const End &e : held) sample(e.i, vs[e.i]);
+  for (const End &e : impactors) sample(e, impactor_v[e.chain]);
+  for (const End &e : held) sample(e, vs[e.i]);
 }

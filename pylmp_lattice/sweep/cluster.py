@@ -37,8 +37,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from dask.utils import parse_bytes
-
 from ..case import read_toml
 from ..errors import ConfigError
 
@@ -72,6 +70,8 @@ class ClusterSpec:
             raise ConfigError("cluster.queue", f"got {self.queue!r}; expected a name of letters, digits, _ . @ -")
         if not (isinstance(self.cores, int) and not isinstance(self.cores, bool) and 1 <= self.cores <= 4096):
             raise ConfigError("cluster.cores", f"got {self.cores!r}; expected an integer in 1..4096")
+        from dask.utils import parse_bytes  # dask takes a quarter of a second to load: only with a [cluster]
+
         if not (isinstance(self.memory, str) and _MEMORY.fullmatch(self.memory)) or parse_bytes(self.memory) < 2**20:
             raise ConfigError("cluster.memory", f"got {self.memory!r}; expected at least 1 MiB with a unit, "
                               "e.g. \"2GiB\" or \"500MB\"")
@@ -120,6 +120,7 @@ def job_options(kind: str, spec: ClusterSpec, log_directory: str | Path) -> dict
     }
     if kind == "slurm":
         return options | {"walltime": spec.walltime, "job_cpu": spec.cores}
+    from dask.utils import parse_bytes
     from dask_jobqueue.pbs import pbs_format_bytes_ceil
 
     hours, rest = divmod(spec.seconds, 3600)
@@ -133,8 +134,9 @@ def sweep_workers(sweep_file: str | Path, folder: str | Path, kind: str | None, 
     """The command line's choice of workers as keyword arguments of `run_sweep`: a batch cluster
     (`kind`, `jobs`) kept for the block, else the given `workers` or `scheduler`.
     The sweep file's [cluster] section is checked in every case."""
-    spec = read_cluster(sweep_file)
     if kind is None:
+        if "cluster" in read_toml(Path(sweep_file), "sweep"):  # (without one, dask is not loaded)
+            read_cluster(sweep_file)
         if jobs is not None:
             raise ConfigError("--jobs", "counts batch jobs; use it with --cluster (or --workers for local processes)")
         yield {"workers": workers, "scheduler": scheduler}
@@ -145,7 +147,7 @@ def sweep_workers(sweep_file: str | Path, folder: str | Path, kind: str | None, 
     from distributed import Client
 
     jobs = 1 if jobs is None else jobs
-    with batch_cluster(kind, jobs, spec, folder) as cluster, Client(cluster) as client:
+    with batch_cluster(kind, jobs, read_cluster(sweep_file), folder) as cluster, Client(cluster) as client:
         # one task in flight per job, whether or not its worker has started yet
         yield {"executor": client.get_executor(pure=False), "slots": jobs}
 

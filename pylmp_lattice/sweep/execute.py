@@ -102,7 +102,7 @@ class _Coordinator:
         self.blocks = _Blocks(total, pool.slots)
         self.bar = _Progress(total, progress)
         self.lost = False
-        self.pandas = None
+        self.preload = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
 
     def run(self):
@@ -116,10 +116,9 @@ class _Coordinator:
                     task = ready.pop(0)
                     running[self.pool.submit(task)] = task
                     self.bar.show(len(running))
-                if self.pandas is None:
-                    # the table needs pandas (a second or more to import): loaded while the first members run
-                    self.pandas = threading.Thread(target=importlib.import_module, args=("pandas",), daemon=True)
-                    self.pandas.start()
+                if self.preload is None:  # what the end needs, loaded while the first members run
+                    self.preload = threading.Thread(target=_preload, args=(self.sweep,), daemon=True)
+                    self.preload.start()
                 if not running:
                     break
                 busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
@@ -207,6 +206,16 @@ class _Coordinator:
         folder = record.get("batch") or f"{MEMBERS}/{m.id}"  # a batched member's outcome is its batch's
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
+
+
+def _preload(sweep: Sweep) -> None:
+    """Import what the end of the sweep needs: the table's pandas and parquet writer (about a
+    second), and with replicas the figure of their statistics (which the command draws)."""
+    modules = ["pandas", "pyarrow.parquet"]
+    if sweep.replicas > 1:
+        modules += ["matplotlib.figure", "matplotlib.backends.backend_agg"]
+    for name in modules:
+        importlib.import_module(name)
 
 
 def _point(m: Member) -> str:
