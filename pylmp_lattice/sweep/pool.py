@@ -19,9 +19,9 @@ from ..errors import ConfigError, Interrupted
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds a local worker lives on after a stop signal (to stop its engine and report).
 GRACE = 1.0
-# What the fork server imports once for all workers.
+# What the fork server imports once for all workers (`forkserver`: the engine's libraries).
 PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.folder",
-           "pylmp_lattice.summary", "pylmp_lattice.engine"]
+           "pylmp_lattice.summary", "pylmp_lattice.engine", "pylmp_lattice.sweep.forkserver"]
 
 
 class Pool:
