@@ -573,6 +573,22 @@ def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
 
 
 @pytest.mark.lammps
+def test_members_whose_decks_differ_beyond_the_chain_run_alone(tmp_path):
+    """A task's members share a parameter point, so they are batched by N and table range alone;
+    members that still differ elsewhere (here the drive, in a task made by hand) are refused by
+    the batch's deck and each runs alone, with the outcome of its own run."""
+    from pylmp_lattice.sweep.batch import Task, run_task
+
+    text = THERMAL.format(replicas=2) + '[grid]\n"impactor.velocity" = [1.0, 1.5]\n'
+    sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=10.0))
+    (tmp_path / "out" / "members").mkdir(parents=True)
+    results = run_task(Task(str(tmp_path / "out"), tuple(sweep.members()), sweep.runner))
+    assert [r["record"]["status"] for r in results] == ["done"] * 4
+    assert not any("batch" in r["record"] for r in results)  # each ran alone
+    assert all((tmp_path / "out" / "members" / r["id"] / "summary.json").exists() for r in results)
+
+
+@pytest.mark.lammps
 def test_members_of_a_batch_file_that_does_not_parse_are_run_again(tmp_path):
     """Batched members are done only with the batch's members.json that parses, as a member
     alone only with its summary.json: a damaged file makes them run again, with equal measures."""

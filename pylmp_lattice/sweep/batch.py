@@ -114,13 +114,15 @@ def batchable(case: Case) -> bool:
 
 
 def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
-    """Members that can run together, in order: equal decks but for the data file and the front
-    record's levels (each chain gets its own), N and table range (see deck.render_replicas)."""
-    from ..deck import batch_key, deck_text
+    """Members that can run together, in order: N and table range equal (see
+    deck.render_replicas), and, a task being one parameter point, decks equal but for the data
+    file and the front record's levels (each chain gets its own): `_run_batch` checks that as it
+    renders the batch (its members run alone if not). Without per-chain levels, equal decks."""
+    from ..deck import deck_text
 
     groups: dict[tuple, list] = {}
     for i, (m, case) in enumerate(valid):
-        shared = batch_key(case) if LEVELS_PER_CHAIN else deck_text(case)
+        shared = None if LEVELS_PER_CHAIN else deck_text(case)
         key = (case.chain.particles, case.table_range(), shared) if batchable(case) else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
@@ -162,17 +164,18 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
     batch = _fresh(root / BATCHES / group[0][0].id)
-    files = deck.render_replicas(cases, front=True)
-    for name, text in files.items():
-        (batch / name).write_text(text)
+    files = {}
     try:
+        files = deck.render_replicas(cases, front=True)  # ConfigError if their decks differ
+        for name, text in files.items():
+            (batch / name).write_text(text)
         run_deck(batch, runner)
     except Interrupted as err:  # nothing was recorded: the members were not started
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
         return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
                 for m, _ in group}
-    except LatticeError as err:  # a contact or an engine error in some chain: each member gets its own outcome
+    except LatticeError as err:  # unequal decks, a contact or an engine error in some chain: each member alone
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
             FRICTION_PER_CHAIN = False

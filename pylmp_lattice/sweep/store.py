@@ -86,27 +86,33 @@ class Outcomes:
     def __init__(self, root: str | Path, batches: list[str] | None = None):
         self.root, self.batches = Path(root), batches
         self._batched: dict[str, dict] | None = None
+        self._folders: set[str] = set()
 
     def get(self, member_id: str) -> dict | None:
         """The member's outcome: done in a batch, else from its folder (`outcome`)."""
-        if self._batched is None:
+        if self._batched is None:  # what is on disk now: the batch files and the member folders
             folder = self.root / BATCHES
             files = ([folder / name / BATCH_FILE for name in self.batches] if self.batches is not None
                      else folder.glob(f"*/{BATCH_FILE}"))
             self._batched = {}
             for path in files:
                 self._batched |= read_batch(path)
-        return self._batched.get(member_id) or outcome(self.root, member_id)
+            with contextlib.suppress(FileNotFoundError):
+                self._folders = set(os.listdir(self.root / MEMBERS))  # one listing, not a look per member
+        found = self._batched.get(member_id)
+        return found if found is not None or member_id not in self._folders else outcome(self.root, member_id)
 
 
 def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, dict]:
     """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
     summary} each), written last and atomically. Returns the outcomes as `read_batch` gives them."""
-    from ..serialize import dumps
+    from ..serialize import jsonable
 
-    data = {**record, "members": members}
-    atomic_write(Path(folder) / BATCH_FILE, dumps(data, indent=None) + "\n", sync=False)
+    # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
+    # are TOML values, finite by validation)
+    data = {**record, "members": [m | {"summary": jsonable(m["summary"])} for m in members]}
+    atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False) + "\n", sync=False)
     return _batch_outcomes(data)
 
 
