@@ -158,7 +158,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
     from ..run_folder import layout
-    from ..run_folder.folder import FINISHED
+    from ..run_folder.marker import FINISHED
     from ..runner import run_deck
 
     start, cpu = time.perf_counter(), _cpu_time()
