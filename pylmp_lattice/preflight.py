@@ -249,7 +249,7 @@ def _table_bytes(law, lo: float, hi: float, points: int) -> float:
     """The table's size from a 1000-point rendering of it: header plus the measured line length."""
     k = min(points, 1000)
     text = bond_table(law, lo, hi, k, lo)
-    header = text.index(f"\n1 ") + 1
+    header = text.index("\n1 ") + 1
     return header + (len(text) - header) * points / k
 
 

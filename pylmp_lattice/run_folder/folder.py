@@ -31,7 +31,7 @@ from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
 from . import layout, marker
 from .convert import convert_dumps
-from .marker import CONTACT, FAILED, FINISHED, INTERRUPTED, RUNNING  # noqa: F401 (FINISHED: sweep.batch's)
+from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
 from .write import write_folder
 
 log = logging.getLogger(__name__)
