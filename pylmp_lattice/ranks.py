@@ -42,11 +42,11 @@ def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[s
     warnings = []
     if nprocs > cores:
         warnings.append(f"--np {nprocs} is more than the {cores} cores this run may use: ranks will share "
-                        f"cores and run slower than --np {cores}")
+                        f"cores and wait for each other at every step, many times slower than --np {cores}")
     per_rank = magnets // nprocs
     if per_rank < MIN_MAGNETS_PER_RANK:
         best = max(1, magnets // MIN_MAGNETS_PER_RANK)
         warnings.append(f"--np {nprocs}: {magnets} magnets give {per_rank} a rank, fewer than the "
                         f"{MIN_MAGNETS_PER_RANK} below which the slab-edge exchange costs over a tenth of a "
-                        f"step and more ranks gain little; use --np {best} or fewer")
+                        f"step and more ranks gain little; use --np {best}{'' if best == 1 else ' or fewer'}")
     return warnings

@@ -33,7 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from .dump import find_contact
-from .engine import new_lammps
+from .engine import ONE_INSTANCE, new_lammps
 from .errors import ContactError, DumpFormatError, Interrupted, RunError
 from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
 from .units import from_engine
@@ -101,20 +101,21 @@ class _Engine:
         self.time = 0.0  # s, simulated time reached
 
     def run(self) -> None:
-        try:
-            with self.lock:
-                self.lmp = new_lammps(self.args)
-                if self.stopped:  # a signal came before the instance existed
-                    self.lmp.force_timeout()
-            self.lmp.file(self.deck)
-        except Exception as err:  # the module raises a bare Exception carrying LAMMPS's message
-            self.failure = err
-        finally:
-            with self.lock:
-                if self.lmp is not None:
-                    self.time = self.lmp.extract_global("ntimestep") * self.lmp.extract_global("dt")
-                    self.lmp.close()  # flushes and closes the log and the dump
-                    self.lmp = None
+        with ONE_INSTANCE:  # runs in other threads of this process wait (see engine.ONE_INSTANCE)
+            try:
+                with self.lock:
+                    self.lmp = new_lammps(self.args)
+                    if self.stopped:  # a signal came before the instance existed
+                        self.lmp.force_timeout()
+                self.lmp.file(self.deck)
+            except Exception as err:  # the module raises a bare Exception carrying LAMMPS's message
+                self.failure = err
+            finally:
+                with self.lock:
+                    if self.lmp is not None:
+                        self.time = self.lmp.extract_global("ntimestep") * self.lmp.extract_global("dt")
+                        self.lmp.close()  # flushes and closes the log and the dump
+                        self.lmp = None
 
     def step(self) -> int:
         with self.lock:

@@ -23,7 +23,7 @@ def test_a_chain_too_short_for_its_ranks_is_warned_with_the_ranks_that_help():
     assert f"{n} magnets give {n // 4} a rank" in line and line.endswith("use --np 3 or fewer")
     assert ranks.rank_warnings(n, 3, cores=8) == []
     (line,) = ranks.rank_warnings(301, 2, cores=8)
-    assert line.endswith("use --np 1 or fewer")
+    assert line.endswith("use --np 1")
 
 
 def test_usable_cores_counts_this_process_affinity():

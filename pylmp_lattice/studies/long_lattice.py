@@ -109,7 +109,7 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     ax[0, 1].plot(n[:-1] + 0.5, front.accepted_velocity, ".", ms=3, label="per gap")
     ax[0, 1].plot(n, centred, "-", lw=0.8, label="centred")
     ax[0, 1].axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
-    ax[0, 1].set(title="propagation velocity", xlabel="magnet n", ylabel="$V_P$ (m/s)", xlim=(0, reached + 1))
+    ax[0, 1].set(title="propagation velocity", xlabel="magnet n (gap n at n + 1/2)", ylabel="$V_P$ (m/s)", xlim=(0, reached + 1))
     ax[0, 1].legend(fontsize="small")
     peaks = front.peaks
     left = ax[0, 2].plot(n, peaks.peak_velocity, "o", ms=2.5, color="C0", label="velocity (left)")
