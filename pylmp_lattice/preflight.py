@@ -73,10 +73,13 @@ BLOCK_BYTES = 64e6
 TRAJECTORY_BYTES_PER_ATOM_FRAME = 4 * 8.0
 # Python, numpy, LAMMPS and matplotlib loaded: 151 MB.
 BASE_MEMORY_BYTES = 151e6
-# Engine 1.3e-7 s per atom-step (the front record included; under load); each written
+# Engine: 2e-6 s a step plus 6e-9 s per atom-step, the front record included. Measured (LAMMPS
+# Loop time, 2026-11-25 22:15 UTC, load 2.5): 1.27 us a step for 21 magnets, 4.2-4.7 ns per
+# atom-step for 3000 and 10^5 magnets; the constants add a third for load. Each written
 # atom-frame costs 3.3e-6 s as text (writing, reading back) and 5e-7 s as H5MD (conversion);
 # plus 1.2 s of start-up, measures and figure.
-SECONDS_PER_ATOM_STEP = 1.3e-7
+SECONDS_PER_STEP = 2e-6
+SECONDS_PER_ATOM_STEP = 6e-9
 SECONDS_PER_ATOM_FRAME = {"text": 3.3e-6, "h5md": 5e-7, "none": 0.0}
 BASE_SECONDS = 1.2
 # Runs estimated to take longer need an explicit yes.
@@ -262,9 +265,15 @@ def estimate(case: Case, nprocs: int = 1) -> Estimate:
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
     if not case.output.front:
         memory += TRAJECTORY_BYTES_PER_ATOM_FRAME * atom_frames(case)
-    seconds = BASE_SECONDS + SECONDS_PER_ATOM_STEP * n * steps / max(1, min(nprocs, os.cpu_count() or 1))
+    seconds = BASE_SECONDS + engine_seconds(n, steps, nprocs)
     seconds += SECONDS_PER_ATOM_FRAME[fmt] * atom_frames(case)
     return Estimate(frames(case), files, memory, seconds)
+
+
+def engine_seconds(magnets: int, steps: int, nprocs: int = 1) -> float:
+    """The engine's time for a chain of `magnets` over `steps` steps on `nprocs` ranks (s)."""
+    ranks = max(1, min(nprocs, os.cpu_count() or 1))
+    return steps * (SECONDS_PER_STEP + SECONDS_PER_ATOM_STEP * magnets / ranks)
 
 
 def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) -> Estimate:

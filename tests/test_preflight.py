@@ -221,9 +221,9 @@ def test_run_larger_than_the_free_disk_is_refused_before_anything_is_written(tmp
 
 
 def test_run_longer_than_an_hour_needs_yes(tmp_path):
-    # 10^5 magnets for 6e6 steps: 6e11 atom-steps at 1.3e-7 s each, about 21.7 h; output 61 frames
-    case = make_case(particles=100_000, duration=60_000.0, interval=1000.0)
-    with pytest.raises(ConfigError, match=r"estimated .*time 21\.\d+ h; pass --yes"):
+    # 10^5 magnets for 6e7 steps: 6e7 (2e-6 + 10^5 x 6e-9) s, about 10.0 h; output 61 frames
+    case = make_case(particles=100_000, duration=600_000.0, interval=10_000.0)
+    with pytest.raises(ConfigError, match=r"estimated .*time 10 h; pass --yes"):
         preflight.check(case, tmp_path)
     assert preflight.check(case, tmp_path, yes=True).seconds > 3600
 

@@ -262,13 +262,13 @@ class _Blocks:
 
 def _estimate(sweep: Sweep, total: int, workers: int) -> str:
     """The sweep's engine time, from the first member's case (preflight's model)."""
-    from ..preflight import SECONDS_PER_ATOM_STEP, _duration
+    from ..preflight import _duration, engine_seconds
 
     first = next(sweep.iter_members(), None)
     if first is None or first.case is None:
         return "no estimate"
     case = first.case
-    seconds = SECONDS_PER_ATOM_STEP * case.chain.particles * case.run.steps() * total / workers
+    seconds = engine_seconds(case.chain.particles, case.run.steps()) * total / workers
     return f"about {_duration(seconds)} of engine time on {workers} workers, if all are like the first"
 
 
