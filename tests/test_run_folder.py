@@ -19,8 +19,9 @@ import tomli_w
 
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
+from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder, run_case
-from pylmp_lattice.run_folder import layout
+from pylmp_lattice.run_folder import layout, marker
 from pylmp_lattice.serialize import dumps
 
 from conftest import make_case
@@ -269,6 +270,38 @@ def test_a_folder_with_a_runs_file_names_but_no_run_is_refused(tmp_path, monkeyp
     assert (tmp_path / "mine" / "chain.data").read_text() == "a user's own data file"
 
 
+def test_overwrite_removes_the_runs_files_and_never_the_users(tmp_path, monkeypatch):
+    """`run -o DIR --overwrite` twice used to delete DIR whole (shutil.rmtree): the user's files
+    beside the run, their folders, and the case file being read."""
+    monkeypatch.chdir(tmp_path)
+    proj = tmp_path / "proj"
+    (proj / "notes").mkdir(parents=True)
+    (proj / "notes" / "notes.txt").write_text("mine")
+    (proj / "thesis.tex").write_text("precious")
+    case = write_case(proj / "mycase.toml", make_case(particles=10, duration=1.0))  # read from DIR itself
+    assert main(["deck", str(case), "-o", "proj", "--overwrite"]) == 0  # no run there yet: written beside
+    for stale in (layout.SUMMARY, layout.FIGURE, layout.MARKER + ".tmp", layout.H5MD + ".part"):
+        (proj / stale).write_text("of the earlier run")
+    assert main(["deck", str(case), "-o", "proj", "--overwrite"]) == 0
+    left = {p.relative_to(proj).as_posix() for p in proj.rglob("*")}
+    assert left == {"notes", "notes/notes.txt", "thesis.tex", "mycase.toml", layout.DECK, layout.DATA, layout.TABLE,
+                    layout.CASE, layout.MARKER}
+    assert (proj / "thesis.tex").read_text() == "precious" and (proj / "notes" / "notes.txt").read_text() == "mine"
+
+
+@lammps
+def test_a_study_run_again_keeps_the_users_notes_in_its_run_folder(tmp_path):
+    """Studies run their cases with overwrite=True (as `study NAME -o DIR` does): a note the
+    user left in a run folder survives, and the run's own files are the new run's."""
+    folder = tmp_path / "fig" / "case"
+    run_case(make_case(particles=10, duration=1.0), folder, figure=False)
+    (folder / "notes.txt").write_text("mine")
+    (folder / layout.FIGURE).write_text("stale")  # the second run draws none: the old one must go
+    run_case(make_case(particles=10, duration=2.0), folder, figure=False, overwrite=True)
+    assert (folder / "notes.txt").read_text() == "mine" and not (folder / layout.FIGURE).exists()
+    assert RunFolder(folder).case.run.duration == 2.0 and RunFolder(folder).status == "finished"
+
+
 # ---- summarize any folder
 
 
@@ -311,6 +344,9 @@ def test_reading_while_lmp_writes_loses_nothing(tmp_path):
         during = RunFolder(folder)
         assert during.status == "running" and lmp.poll() is None, "lmp finished too soon for this test"
         early = during.trajectory()
+        # summarizing would write partial numbers: refused, nothing written (it used to write them)
+        assert main(["summarize", str(folder)]) == 2 and lmp.poll() is None, "lmp finished too soon for this test"
+        assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
         assert (folder / layout.TRAJ_BIN).exists() and not (folder / layout.H5MD).exists()
     finally:
         assert lmp.wait(timeout=120) == 0
@@ -318,6 +354,26 @@ def test_reading_while_lmp_writes_loses_nothing(tmp_path):
     assert len(after.t) == 401 and 1 <= len(early.t) <= len(after.t)
     np.testing.assert_array_equal(after.v[: len(early.t)], early.v)
     assert (folder / layout.H5MD).exists() and not (folder / layout.TRAJ_BIN).exists()
+
+
+def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
+    """The CLI and RunFolder.summarize refuse while a runner of this package holds the lock, or
+    while a hand-run log has no end yet; one line, exit 2, nothing written."""
+    case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
+    folder = tmp_path / "d"
+    assert main(["deck", str(case), "-o", str(folder)]) == 0
+    capsys.readouterr()
+    expected = f"pylmp-lattice: error: {folder}: still being written by LAMMPS; summarize it when the run ends"
+    with marker.running(folder):
+        assert main(["summarize", str(folder)]) == 2
+        assert capsys.readouterr().err.splitlines() == [expected]
+        with pytest.raises(ConfigError, match="still being written by LAMMPS"):
+            RunFolder(folder).summarize()
+    marker.record(folder, marker.WRITTEN)  # as `deck` left it; then `lmp -in` by hand, not ended yet
+    (folder / layout.LOG).write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
+    assert main(["summarize", str(folder)]) == 2
+    assert capsys.readouterr().err.splitlines() == [expected]
+    assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
 
 
 @lammps

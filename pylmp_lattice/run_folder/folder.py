@@ -200,12 +200,15 @@ class RunFolder:
 
     def summarize(self, figure: bool = True, wall_time: float | None = None) -> dict:
         """Write summary.json (strict JSON: an undefined measure is null), then the figure; return
-        the summary. Works for any run folder: finished, run by hand, stopped by a contact or
-        interrupted (measured up to where it stopped; `stopped` says where). A figure that fails
-        is a warning: the summary is already written."""
+        the summary. Works for any run folder LAMMPS no longer writes: finished, run by hand,
+        stopped by a contact or interrupted (measured up to where it stopped; `stopped` says
+        where). A folder still being written is refused (ConfigError): its numbers would be
+        partial. A figure that fails is a warning: the summary is already written."""
         from ..summary import summarize
 
         case, status = self.case, self.status
+        if status == RUNNING:
+            raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
         front, max_speed = self.measures()
         summary = summarize(case, front, max_speed)
         summary["status"] = status
@@ -236,11 +239,11 @@ class RunFolder:
 
     def _stopped(self, status: str) -> dict | None:
         """Where a run that did not finish stopped: a contact (pair, time, gap) or the last time
-        it wrote (an interrupt, or a run still going)."""
+        it wrote (an interrupt)."""
         if status == CONTACT:
             c = self.contact()
             return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
-        if status in (INTERRUPTED, RUNNING, FAILED):
+        if status in (INTERRUPTED, FAILED):
             record = marker.read(self.path) or {}
             return {"reason": "interrupted" if status != FAILED else "failed",
                     "time_ms": record.get("time_ms", self._last_time()),

@@ -43,9 +43,11 @@ SUMMARY = "summary.json"
 FIGURE = "shock.png"
 LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
 
-# Every name a run of this package may write: a folder holding any of them but no run is refused.
+# Every name a run of this package may write (with its temporary files): a folder holding any of
+# them but no run is refused, and overwriting a run removes these and nothing else.
 RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
-             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", TOPOLOGY, SUMMARY, FIGURE, MARKER, LOCK)
+             FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", TOPOLOGY, SUMMARY, FIGURE, MARKER,
+             MARKER + ".tmp", LOCK)
 
 # The particle groups of a trajectory ("chain": every magnet; "fine": the output.fine magnets)
 # and their files, binary (output.format = "h5md", until converted) and text.
