@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
+from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
                                  write_replica_stats)
@@ -490,6 +491,24 @@ def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, ca
     assert main(["sweep", str(other), "-o", str(out), "--quiet", "--overwrite"]) == 1
     assert list(load_results(out)["impactor.velocity"]) == [-3.0]  # the table is this sweep's
     assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 1  # the same sweep resumes
+
+
+@pytest.mark.parametrize("target", [".", "runs", "a_run", "base.toml"])
+def test_the_sweep_folder_follows_the_run_folder_rules(tmp_path, monkeypatch, capsys, target):
+    """`sweep -o` used to accept the working directory, runs/ itself and a run's folder, which
+    `run -o` refuses: one line naming the output folder, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0]\n')
+    (tmp_path / "runs").mkdir()
+    assert main(["deck", "base.toml", "-o", "a_run"]) == 0
+    before = sorted(tmp_path.rglob("*"))
+    capsys.readouterr()
+    assert main(["sweep", str(path), "-o", target, "--quiet", "--overwrite"]) == 2
+    line, = capsys.readouterr().err.splitlines()
+    assert line.startswith("pylmp-lattice: error: output: ") and (target in line), line
+    assert sorted(tmp_path.rglob("*")) == before
+    with pytest.raises(ConfigError, match="^output: "):
+        run_sweep(load_sweep(path), target)
 
 
 def test_a_done_member_without_a_summary_that_parses_is_run_again(tmp_path, monkeypatch):

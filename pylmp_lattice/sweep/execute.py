@@ -70,6 +70,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     MANY_MEMBERS members needs `yes`.
     Raises Interrupted on SIGINT or SIGTERM, after writing the table.
     """
+    check_folder(root)
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
@@ -287,6 +288,17 @@ def _lock(root: Path):
         yield
     finally:
         os.close(fd)
+
+
+def check_folder(root: str | Path) -> None:
+    """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), and
+    not a run's folder."""
+    from ..run_folder import marker
+    from ..run_folder.write import check_place
+
+    check_place(Path(root), "sweep")
+    if marker.is_run(Path(root)):
+        raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
 
 
 def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
