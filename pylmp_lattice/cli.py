@@ -266,7 +266,7 @@ def _sweep(args) -> int:
         from .sweep.execute import check_folder
 
         sweep = load_sweep(args.sweep)
-        check_folder(args.output)  # before the cluster's jobs write into it
+        check_folder(_folder(args.output))  # before the cluster's jobs write into it
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
                               overwrite=args.overwrite, yes=args.yes, **where)

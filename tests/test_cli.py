@@ -113,10 +113,13 @@ def test_different_overrides_keep_both_runs_and_a_finished_run_is_not_overwritte
     assert "already holds a run" in err and "--overwrite" in err
     assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in folders[0].iterdir()} == before
 
-    # --overwrite replaces it, and nothing of the earlier run stays beside the new one
-    (folders[0] / "stale.png").write_text("from an earlier run")
+    # --overwrite replaces it: no file of the earlier run stays beside the new one, and the
+    # user's own files stay
+    (folders[0] / "fine.dump").write_text("from an earlier run")
+    (folders[0] / "mine.png").write_text("the user's")
     assert main(["run", str(case), "--set", f"impactor.velocity={velocity}", "--overwrite"]) == 0
-    assert not (folders[0] / "stale.png").exists() and (folders[0] / "summary.json").exists()
+    assert not (folders[0] / "fine.dump").exists() and (folders[0] / "summary.json").exists()
+    assert (folders[0] / "mine.png").read_text() == "the user's"
 
     # --name names the run and its folder
     assert main(["run", str(case), "--name", "my_run"]) == 0

@@ -493,7 +493,7 @@ def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, ca
     assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 1  # the same sweep resumes
 
 
-@pytest.mark.parametrize("target", [".", "runs", "a_run", "base.toml"])
+@pytest.mark.parametrize("target", [".", "runs", "a_run"])
 def test_the_sweep_folder_follows_the_run_folder_rules(tmp_path, monkeypatch, capsys, target):
     """`sweep -o` used to accept the working directory, runs/ itself and a run's folder, which
     `run -o` refuses: one line naming the output folder, exit 2, nothing written."""
