@@ -323,6 +323,9 @@ def test_deck_run_by_hand_then_summarize_equals_the_cli_run(tmp_path):
     for key in a:
         assert b[key] == pytest.approx(a[key], rel=1e-12, abs=0), key
     assert (tmp_path / "hand" / layout.FIGURE).exists()
+    # the summary names the trajectory file that stays: the dumps became traj.h5md first
+    assert hand["files"]["trajectory"] == cli["files"]["trajectory"] == layout.H5MD
+    assert not (tmp_path / "hand" / layout.TRAJ_BIN).exists()
 
 
 @lammps

@@ -209,6 +209,8 @@ class RunFolder:
         case, status = self.case, self.status
         if status == RUNNING:
             raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
+        if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
+            self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
         front, max_speed = self.measures()
         summary = summarize(case, front, max_speed)
         summary["status"] = status
