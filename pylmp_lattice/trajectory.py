@@ -32,5 +32,7 @@ class Trajectory:
                 raise ValueError(f"Trajectory.{name}: got shape {shape}; expected {(n_frames, n)}")
 
     def gaps(self) -> np.ndarray:
-        """Separations r_n = x_{n+1} - x_n, mm, shape (n_frames, N-1)."""
+        """Separations of consecutive columns x[:, k+1] - x[:, k], mm, shape (n_frames, columns - 1):
+        the gaps r_n = x_{n+1} - x_n of a whole chain or of consecutive magnets; of a selection
+        such as magnets [3, 7], the distance x_7 - x_3 spanning gaps 3 .. 6, not one gap."""
         return np.diff(self.x0 + self.u, axis=1)

@@ -102,6 +102,9 @@ def test_a_trajectory_is_selected_by_magnet_number(tmp_path):
     assert np.array_equal(run.trajectory("fine", magnets=[7]).v, fine.v[:, [1]])
     assert np.max(np.abs(pair.v[:, 0])) > 0.5  # magnet 2, next to the impactor (2 m/s), moves
     assert pair.x0[1] - pair.x0[0] == pytest.approx(10 * 12.0)  # magnets 2 and 12: 10 gaps of r0
-    for group, bad in (("chain", [0]), ("chain", [31]), ("chain", [12, 7]), ("fine", [3])):
+    # the separation of the selected columns: magnets 2 and 12, 10 gaps of r0 = 12 mm at rest
+    assert pair.gaps().shape == (len(pair.t), 1) and pair.gaps()[0, 0] == pytest.approx(10 * 12.0)
+    for group, bad in (("chain", [0]), ("chain", [31]), ("chain", [12, 7]), ("fine", [3]), ("chain", 10),
+                       ("chain", [1.5]), ("chain", "12"), ("chain", [True])):
         with pytest.raises(ConfigError, match=r"^magnets: got"):
             run.trajectory(group, magnets=bad)

@@ -142,11 +142,12 @@ class RunFolder:
         """The 0-based columns of a group that hold `magnets` (numbers 1 .. N), or None for all."""
         if magnets is None:
             return None
-        held = list(self._numbers(group) + 1)
-        wanted = [int(m) for m in magnets]
-        if any(m not in held for m in wanted) or wanted != sorted(set(wanted)):
-            where = f"1 .. {held[-1]}" if group == "chain" else f"the output.fine magnets {held}"
-            raise ConfigError("magnets", f"got {list(magnets)}; expected increasing magnet numbers in {where}")
+        held = [int(m) for m in self._numbers(group) + 1]
+        where = f"1 .. {held[-1]}" if group == "chain" else f"the output.fine magnets {held}"
+        wanted = list(magnets) if isinstance(magnets, (list, tuple, np.ndarray)) else None
+        if wanted is None or not all(isinstance(m, (int, np.integer)) and not isinstance(m, bool) for m in wanted) \
+                or any(m not in held for m in wanted) or wanted != sorted(set(wanted)):
+            raise ConfigError("magnets", f"got {magnets!r}; expected a list of increasing integer magnet numbers in {where}")
         return tuple(held.index(m) for m in wanted)
 
     def _masses(self, group: str) -> np.ndarray:
