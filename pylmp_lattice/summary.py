@@ -39,14 +39,16 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speed = measures.trailing_plateau(vp)
     first_peak = measures.trailing_plateau(front.peaks.driven_peak_velocity, over="magnet")
+    resolution = _resolution(front)
     out |= {
         "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
-        "shock_velocity_plateau_m_per_s": _plateau(speed),
+        "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
         # with friction V_P peaks early and decays (Fig. S6): where and how high
         "shock_velocity_max_m_per_s": _maximum(vp),
-        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak),
+        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
         "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
         "front_flags": _flags(front),
+        "front_resolution": resolution,
     }
     if chain.far_end == "long" and max_speed is not None:
         last_free = min(case.held()) - 1  # 0-based
@@ -80,19 +82,34 @@ def _flags(front: measures.Front) -> dict:
             **{k: round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
 
 
-def _plateau(p: measures.Plateau) -> dict:
+def _resolution(front: measures.Front) -> dict:
+    """`Front.resolution`, rounded, with a warning when the frames are too coarse for the gaps."""
+    res = front.resolution()
+    if not res["resolved"]:
+        log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
+                    "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
+                    "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
+                    res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
+    return {k: round(v, 6) if isinstance(v, float) else v for k, v in res.items()}
+
+
+def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
     """A plateau as JSON, its window as first_gap, last_gap (or first_magnet, last_magnet).
-    trend: "steady" when converged (drift within 1 %, or 3 standard errors), else "decaying"
-    (e.g. V_P with friction) or "growing": a drifting mean is not a plateau. Null, like the
+    trend: "steady" when converged (drift within 1 %, or 3 standard errors up to 3 %, and values
+    within 5 % of the mean), else "decaying" (e.g. V_P with friction) or "growing": a drifting
+    mean is not a plateau; "unresolved" (never converged) when the arrival times come from
+    frames too coarse for the gaps (`resolved` False; see `front_resolution`). Null, like the
     numbers, when the series has too few values."""
     defined = bool(np.isfinite(p.mean))
-    trend = None if not defined else "steady" if p.converged() else "decaying" if p.drift < 0 else "growing"
+    converged = defined and resolved and p.converged()
+    trend = (None if not defined else "unresolved" if not resolved else "steady" if converged
+             else "decaying" if p.drift < 0 else "growing")
     return {
         "mean": round(p.mean, 5),
         "std": round(p.std, 5),
         "relative_drift": round(p.drift, 5),
         "relative_drift_stderr": round(p.drift_stderr, 5),
-        "converged": defined and p.converged(),
+        "converged": converged,
         "trend": trend,
         f"first_{p.over}": p.first,
         f"last_{p.over}": p.last,

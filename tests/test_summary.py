@@ -10,7 +10,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
-from pylmp_lattice.summary import _plateau
+from pylmp_lattice.summary import _plateau, summarize
 
 from conftest import make_case
 
@@ -62,3 +62,33 @@ def test_friction_dissipated_energy_is_in_the_summary(tmp_path):
     traj = RunFolder(tmp_path / "rig").trajectory()
     energy = case.force.energy(traj.gaps()).sum(axis=1) + 0.5 * np.sum(case.chain.masses() * traj.v ** 2, axis=1)
     assert summary["friction_dissipated_energy_mJ"] == pytest.approx(energy[0] - energy[-1], rel=1e-5)
+
+
+def _frames_of_a_steady_front(case, interval: float):
+    """A front at 4 m/s (12 mm gaps: 3 ms each) that sets each magnet moving at 2 m/s within
+    ~0.5 ms, seen in frames every `interval` ms: the measures from those frames."""
+    t = np.arange(0.0, 3.0 * case.chain.particles + interval, interval)
+    arrival = 3.0 * np.arange(case.chain.particles)
+    v = 1.0 + np.tanh((t[:, None] - arrival) / 0.25)
+    return measures.front(t, v, np.gradient(v, t, axis=0), 2.0, case.chain.gaps(), slowest_linear_speed=1.6)
+
+
+def test_v_p_from_frames_too_coarse_for_the_gaps_is_flagged_not_converged(caplog):
+    """Frames every 0.25 ms resolve a 3 ms gap crossing: V_P 4 m/s within 0.1 %, converged.
+    Frames every 10 ms (0.3 per gap, as the main job with run.output_interval = 10 and no
+    engine record gave 7.24 m/s 'converged' for 3.91) do not: the summary says so, the plateau
+    is not converged, and a warning names run.output_interval and output.front."""
+    case = make_case(particles=60)
+    fine = summarize(case, _frames_of_a_steady_front(case, 0.25))
+    plateau = fine["shock_velocity_plateau_m_per_s"]
+    assert plateau["mean"] == pytest.approx(4.0, rel=1e-3) and plateau["converged"] is True
+    assert fine["front_resolution"]["resolved"] is True and fine["front_resolution"]["frames_per_gap"] == pytest.approx(12)
+    with caplog.at_level("WARNING"):
+        coarse = summarize(case, _frames_of_a_steady_front(case, 10.0))
+    plateau = coarse["shock_velocity_plateau_m_per_s"]
+    assert (plateau["converged"], plateau["trend"]) == (False, "unresolved")
+    res = coarse["front_resolution"]
+    assert res["resolved"] is False and res["frames_per_gap"] == pytest.approx(0.3, rel=0.05)
+    assert res["max_sample_interval_ms"] == pytest.approx(1.5, rel=0.05)
+    assert "run.output_interval" in caplog.text and "output.front" in caplog.text
+    json.loads(dumps(coarse), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))
