@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pylmp_lattice.sweep import plot_replica_stats, replica_stats
+from pylmp_lattice.sweep import plot_replica_stats, replica_stats, write_replica_stats
 from pylmp_lattice.sweep.stats import label
 
 VP = "shock_velocity_plateau_m_per_s"
@@ -39,6 +39,21 @@ def test_only_converged_plateaus_of_done_members_count_and_inputs_are_left_out()
     np.testing.assert_allclose(stats[f"{PEAK}.mean.mean"], [1.7 * 1.5 + 0.015, 1.7 * 2 + 0.015], rtol=1e-12)
     for inp in ("particles", "impactor_peak_velocity_m_per_s", "linear_wave_speed_V0_m_per_s", "linear_frequency_f0_Hz"):
         assert not any(c.startswith(inp) for c in stats.columns)
+
+
+def test_a_sweep_where_no_member_is_done_has_nothing_to_average(tmp_path):
+    """Every member failed (a bad grid value, say): each point is reported with n = 0, counts 0
+    and no mean, and writing the statistics does not fail (it raised ValueError: 'n' is not
+    in list)."""
+    table = _table().assign(status="failed")
+    stats = replica_stats(table)
+    assert stats["impactor.velocity"].tolist() == [1.5, 2.0] and stats["n"].tolist() == [0, 0]
+    assert stats[f"{VP}.mean.count"].tolist() == [0, 0] and stats[f"{VP}.mean.mean"].isna().all()
+    written = write_replica_stats(tmp_path, table)
+    assert written["n"].tolist() == [0, 0] and not (tmp_path / "replica_stats.png").exists()
+    assert pd.read_csv(tmp_path / "replica_stats.csv")["n"].tolist() == [0, 0]
+    empty = replica_stats(table.iloc[:0])
+    assert len(empty) == 0 and "n" in empty.columns and f"{VP}.mean.count" in empty.columns
 
 
 def test_a_table_read_back_from_csv_gives_the_same_statistics(tmp_path):

@@ -52,18 +52,19 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
     `n` (done members), and for each measure `<measure>.mean`, `<measure>.sem` (standard error of
     the mean, std with ddof=1 over sqrt(count); NaN for a single value) and `<measure>.count`,
     the number of values used: finite, and, for a plateau (a measure `X.mean` beside a column
-    `X.converged`), from members where it converged.
+    `X.converged`), from members where it converged. A point with no done member has n = 0,
+    counts 0 and NaN means: nothing to average.
 
     measures: columns to summarise (default: those of `MEASURES` in the table).
     """
-    done = table[table["status"] == "done"]
     start = list(table.columns).index("status")
     point = [c for c in table.columns[1:start] if c not in REPLICA_COLUMNS]
     if measures is None:
         measures = [c for c in MEASURES if c in table.columns]
-    groups = done.groupby(point, sort=False, dropna=False) if point else [((), done)]
+    groups = table.groupby(point, sort=False, dropna=False) if point else [((), table)]
     rows = []
-    for key, group in groups:
+    for key, members in groups:
+        group = members[members["status"] == "done"]
         row = dict(zip(point, key if isinstance(key, tuple) else (key,)))
         row["n"] = len(group)
         for name in measures:
@@ -77,7 +78,8 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
             row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
             row[f"{name}.count"] = len(values)
         rows.append(row)
-    return pd.DataFrame(rows)
+    columns = point + ["n"] + [f"{name}.{s}" for name in measures for s in ("mean", "sem", "count")]
+    return pd.DataFrame(rows, columns=columns)
 
 
 def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwargs):
