@@ -146,6 +146,12 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('[grid]\n"impactor.velocity" = [1.0]\n', "base: missing"),
         ('base = "base.toml"\nreplicas = 3\n', "replicas: got 3; no member has a random chain"),
         ('base = "base.toml"\nkeep = "nothing"\n', "keep: got 'nothing'; choose one of all, measures"),
+        # a bad [set] value would fail every member: refused before any starts
+        ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = "0.02 m/s"\n"chain.seed" = 1\n',
+         "set.chain.thermal_velocity: got '0.02 m/s'; expected a number"),
+        ('base = "base.toml"\n[set]\n"impactor.velocity" = -1.0\n[grid]\n"run.duration" = [10.0, 20.0]\n',
+         "set.impactor.velocity: got -1.0 m/s; expected > 0"),
+        ('base = "base.toml"\n[set]\n"run.dt" = 0.3\n', "set: makes the base case invalid (run.duration: got 10.0 ms"),
     ],
 )
 def test_bad_sweep_file_is_one_line_naming_the_field_exit_2(tmp_path, capsys, text, field):
@@ -153,6 +159,7 @@ def test_bad_sweep_file_is_one_line_naming_the_field_exit_2(tmp_path, capsys, te
     assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}"), err
+    assert not (tmp_path / "out").exists()  # no member started
 
 
 def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_path, capsys):

@@ -26,7 +26,10 @@ Members are the grid product (keys in file order, the zip as one more axis), eac
 (thermal velocities or disorder) gets chain.seed derived from the sweep seed and its number,
 unless the sweep itself sets chain.seed. A member is identified by the hash of its resolved
 case (`case.case_id`, numbers normalised: 1 and 1.0 are one value); two members with the same
-case are one member. A field is set or swept, not both; swept numbers must be finite.
+case are one member. A field is set or swept, not both; swept numbers must be finite. The [set]
+values and the base are checked once, on the first point's case, before any member runs (a bad
+one is an error of the sweep file, naming set.<key>, set or base); a grid or zip value that makes some members' cases invalid
+fails those members only (recorded as failed, with the error).
 
 Enumeration is lazy where it can be: the first replica of each parameter point is validated
 when enumerated; the others differ from it only in chain.seed, so their identity is derived
@@ -152,6 +155,7 @@ class Sweep:
         if self.replicas > 1 and not self._may_be_random():
             raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
                               f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
+        self._check_fixed()
 
     def _may_be_random(self) -> bool:
         """Whether some member's chain is random: the base with [set], or a swept chain value."""
@@ -194,13 +198,7 @@ class Sweep:
         index = 0
         for combo in itertools.product(*axes):
             point = {k: v for part in combo for k, v in part.items()}
-            data = copy.deepcopy(self.base)
-            if self.keep == "measures":  # no per-frame output: the engine records the front measures
-                data.setdefault("output", {})["format"] = "none"
-            for key, value in self.set.items():
-                _assign(data, key, value)
-            for key, value in point.items():
-                _assign(data, key, value)
+            data = self._data(point)
             random = _is_random(data)
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
             first = None
@@ -224,6 +222,45 @@ class Sweep:
                     continue
                 seen.add(member.id)
                 yield member
+
+    def _data(self, point: dict, fixed: bool = True) -> dict:
+        """The case dict of a parameter point: the base, [set] (if `fixed`), then the point's values."""
+        data = copy.deepcopy(self.base)
+        if self.keep == "measures":  # no per-frame output: the engine records the front measures
+            data.setdefault("output", {})["format"] = "none"
+        for key, value in ((self.set if fixed else {}) | point).items():
+            _assign(data, key, value)
+        return data
+
+    def _check_fixed(self) -> None:
+        """Build the first point's case before any member runs: a bad [set] value, or a bad base
+        field that nothing sweeps, would fail every member alike, so it is an error of the sweep
+        file (ConfigError naming set.<key>, set or base). A swept value that is bad for some
+        members only fails those members."""
+        point = {k: v[0] for table in (self.grid, self.zip) for k, v in table.items()}
+        err = self._error(self._data(point))
+        if err is None or any(_overlap(k, err.field) for k in point):
+            return
+        message = str(err).split(": ", 1)[1]
+        key = next((k for k in self.set if _overlap(k, err.field)), None)
+        if key is not None:
+            raise ConfigError(f"set.{key}", message) from err
+        base = self._error(self._data({}, fixed=False))
+        if base is not None and str(base) == str(err):
+            raise ConfigError("base", f"the base case is invalid ({err})") from err
+        if base is None and self._error(self._data({})) is not None:
+            raise ConfigError("set", f"makes the base case invalid ({err})") from err
+
+    def _error(self, data: dict) -> ConfigError | None:
+        """Why a case dict is no case (None if it is one); an unknown field is the sweep's error."""
+        if _is_random(data):
+            data.setdefault("chain", {}).setdefault("seed", member_seed(self.seed, 0))
+        try:
+            case_from_dict(data, base_dir=self.base_dir)
+        except ConfigError as err:
+            self._check_known(err)
+            return err
+        return None
 
     def _member(self, index: int, data: dict, params: dict) -> Member:
         try:
