@@ -95,8 +95,8 @@ def _resolution(front: measures.Front) -> dict:
 
 def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
     """A plateau as JSON, its window as first_gap, last_gap (or first_magnet, last_magnet).
-    trend: "steady" when converged (drift within 1 %, or 3 standard errors up to 3 %, and values
-    within 5 % of the mean), else "decaying" (e.g. V_P with friction) or "growing": a drifting
+    trend: "steady" when converged (drift within 1 %, or 3 standard errors, and a scatter within
+    20 % of the mean), else "decaying" (e.g. V_P with friction) or "growing": a drifting
     mean is not a plateau; "unresolved" (never converged) when the arrival times come from
     frames too coarse for the gaps (`resolved` False; see `front_resolution`). Null, like the
     numbers, when the series has too few values."""

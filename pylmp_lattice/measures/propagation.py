@@ -16,10 +16,10 @@ from ..numbering import entries, number
 from ._common import NAN
 
 OVER = ("gap", "magnet")  # what a per-entry series is over: entry i is gap i + 1, or magnet i + 1
-# A plateau's values scatter by at most this fraction of their mean (V_P in a thermal chain: about
-# 1 %; from frames two per gap crossing: 12 %), and a noisy one drifts by at most this fraction.
-SCATTER_LIMIT = 0.05
-NOISY_DRIFT = 0.03
+# A plateau's values scatter by at most this fraction of their mean: V_P per gap scatters by about
+# 1 % in a chain with thermal RMS 1 % of V_I, 8.5 % at 10 % (study thermal, quick); from frames
+# every 10 ms on the main job (0.3 per gap crossing) by 90 % about a wrong mean.
+SCATTER_LIMIT = 0.2
 
 
 def propagation_velocity(arrival, spacing) -> np.ndarray:
@@ -113,9 +113,9 @@ class Plateau:
     1-based, inclusive numbers of its first and last gap (or magnet), e.g. gaps 145 .. 193 =
     values[144:193] (`to_dict` names them first_gap, last_gap or first_magnet, last_magnet).
     The numbers NaN, and first, last None, when there are too few finite values. A series
-    whose drift exceeds the tolerance (and three standard errors, at most NOISY_DRIFT), or whose
-    values scatter by more than SCATTER_LIMIT of their mean, is not a plateau: `converged()` is
-    False, and `to_dict` reports it with `converged: false` beside its drift.
+    whose drift exceeds the tolerance and three standard errors, or whose values scatter by
+    more than SCATTER_LIMIT of their mean, is not a plateau: `converged()` is False, and
+    `to_dict` reports it with `converged: false` beside its drift.
     """
 
     mean: float
@@ -129,11 +129,12 @@ class Plateau:
     def converged(self, rtol: float = 0.01) -> bool:
         """True if the values scatter by at most SCATTER_LIMIT of their mean and the series changes
         by at most rtol (relative) across the window, or by no more than three standard errors of
-        its drift up to NOISY_DRIFT: a noisy series (e.g. V_P in a thermal chain, which scatters by
-        about 1 % per gap) is not called drifting for a trend its scatter makes (three: a steady
-        series with Gaussian scatter is called drifting 0.3 % of the time), but a scatter that
-        large is no level (e.g. arrival times from frames too coarse for the gaps)."""
-        noisy = min(3.0 * self.drift_stderr, NOISY_DRIFT) if np.isfinite(self.drift_stderr) else 0.0
+        its drift: a noisy series (e.g. V_P in a thermal chain, which scatters by about 1 % per
+        gap) is not called drifting for a trend its scatter makes (three: a steady series with
+        Gaussian scatter is called drifting 0.3 % of the time), but a series that scatters by
+        about its mean has no level, whatever its drift (e.g. arrival times read from frames far
+        coarser than a gap's crossing; `Front.resolution` says when they are)."""
+        noisy = 3.0 * self.drift_stderr if np.isfinite(self.drift_stderr) else 0.0
         return bool(abs(self.drift) <= max(rtol, noisy) and self.std <= SCATTER_LIMIT * abs(self.mean))
 
     def to_dict(self, rtol: float = 0.01) -> dict:
