@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.summary import summarize
