@@ -171,3 +171,14 @@ def test_info_and_an_lmp_run_leave_no_log_in_the_working_directory(tmp_path, mon
     assert main(["run", str(case), "-o", "r", "--runner", "lmp", "--quiet"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "r"]
     assert "Total wall time:" in (tmp_path / "r" / "log.lammps").read_text()
+
+
+def test_export_of_a_folder_without_a_trajectory_is_one_line_and_exit_2(tmp_path, capsys):
+    """A deck never run has no trajectory: export says so in one line naming the folder, exit 2."""
+    case = write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0))
+    assert main(["deck", str(case), "-o", str(tmp_path / "d")]) == 0
+    capsys.readouterr()
+    assert main(["export", str(tmp_path / "d"), "-o", str(tmp_path / "f.extxyz")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds no chain trajectory (status written" in err[0]
+    assert not (tmp_path / "f.extxyz").exists()

@@ -179,6 +179,19 @@ def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_pat
     assert pd.read_csv(out / "results.csv")["error"][1] == "impactor.velocity: got -2.0 m/s; expected > 0"
 
 
+
+def test_a_resumed_sweep_says_how_many_members_it_kept(tmp_path, caplog):
+    """Members whose outcome is on disk are kept, and the run says how many (no engine needed:
+    the members fail on their parameters)."""
+    path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0, -2.0]\n')
+    caplog.set_level("INFO", logger="pylmp_lattice")
+    run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
+    assert "were done before this run" not in caplog.text
+    caplog.clear()
+    run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
+    assert "out: 2 of 2 members were done before this run: kept, not run again" in caplog.text
+
+
 # ----------------------------------------------------------------------------- statistics
 
 def test_replica_stats_mean_and_standard_error(tmp_path):

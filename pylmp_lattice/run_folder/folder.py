@@ -126,7 +126,8 @@ class RunFolder:
         elif text.is_file():
             traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), columns)
         else:
-            raise LatticeError(f"{self.path}: no {group} trajectory (output.format = {case.output.format!r})")
+            raise ConfigError(str(self.path), f"holds no {group} trajectory (status {self.status}, "
+                                              f"output.format = {case.output.format!r})")
         numbers = self._numbers(group)
         numbers = numbers if columns is None else numbers[list(columns)]
         traj.a[:, numbers == 0] = case.impactor.acceleration_at(traj.t)[:, None]

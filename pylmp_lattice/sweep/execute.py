@@ -105,6 +105,7 @@ class _Coordinator:
         self.lost = False
         self.preload = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
+        self.kept = 0  # members whose outcome on disk stood (a resumed sweep's)
 
     def run(self):
         tasks = self._tasks()
@@ -136,6 +137,9 @@ class _Coordinator:
         finally:
             self.bar.close()
             table = self.table.write()
+            if self.kept:
+                log.info("%s: %d of %d members were done before this run: kept, not run again",
+                         self.root.name, self.kept, len(table))
         if self.stop.signals:
             raise Interrupted(self.stop.signals[0])
         return table
@@ -171,6 +175,7 @@ class _Coordinator:
         if found is None or (found["record"]["status"] == FAILED and self.retry_failed):
             return False
         self._row(m, found["record"], found["summary"])
+        self.kept += 1
         return True
 
     def _collect(self, task: Task, future: Future) -> None:
