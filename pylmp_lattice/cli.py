@@ -301,12 +301,11 @@ def _study(args) -> int:
 
 
 def _info(args) -> int:
-    from .engine import new_lammps, plugin_styles
+    from .engine import instance, plugin_styles
 
-    lmp = new_lammps()
-    print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
-    print("packages: " + " ".join(lmp.installed_packages))
-    lmp.close()
+    with instance() as lmp:
+        print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
+        print("packages: " + " ".join(lmp.installed_packages))
     try:
         from .plugin import plugin_file
 

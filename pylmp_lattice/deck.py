@@ -119,12 +119,6 @@ _FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S
                         r"(?: pulse_floor (\S+))?", re.MULTILINE)
 
 
-def batch_key(case: Case) -> str:
-    """What chains batched with the front record must share: the case's deck, but for the front
-    record's levels (each chain gets its own, see render_replicas)."""
-    return _without_levels(deck_text(case))
-
-
 def _without_levels(deck: str) -> str:
     return _FRONT_FIX.sub("fix front", deck)
 

@@ -287,6 +287,10 @@ def test_overwrite_removes_the_runs_files_and_never_the_users(tmp_path, monkeypa
     assert left == {"notes", "notes/notes.txt", "thesis.tex", "mycase.toml", layout.DECK, layout.DATA, layout.TABLE,
                     layout.CASE, layout.MARKER}
     assert (proj / "thesis.tex").read_text() == "precious" and (proj / "notes" / "notes.txt").read_text() == "mine"
+    # a folder where a run writes a file: refused before anything is removed (it stopped half-way)
+    (proj / layout.SUMMARY).mkdir()
+    assert main(["deck", str(case), "-o", "proj", "--overwrite"]) == 2
+    assert (proj / layout.CASE).is_file() and (proj / layout.DECK).is_file()
 
 
 @lammps

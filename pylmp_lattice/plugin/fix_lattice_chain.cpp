@@ -334,8 +334,8 @@ void FixLatticeChain::pre_neighbor()
   if (!own) return;
   block_front.clear();    // the blocks changed: summarised again at the next sample
   if (!in_order || !edges_ok)    // in_order is this rank's: error->one
-    error->one(FLERR, "Fix lattice/chain: an atom's chain neighbour is no longer on the next rank "
-                      "in x (a slab narrower than a gap); run on fewer ranks");
+    error->one(FLERR, "Fix lattice/chain: an atom's chain neighbour is no longer on this rank or the "
+                      "next in x (a slab narrower than a gap, or a chain across a rank); run on fewer ranks");
 }
 
 /* the impactors on the drive's path at the current step */

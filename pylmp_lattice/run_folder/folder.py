@@ -98,7 +98,7 @@ class RunFolder:
             self._cache.clear()
         return done
 
-    def trajectory(self, group: str = "chain", magnets=None) -> Trajectory:
+    def trajectory(self, group: str = "chain", *, magnets=None) -> Trajectory:
         """The trajectory in user units: group "chain" (every magnet) or "fine" (the output.fine
         magnets at output.fine_interval); `magnets`: only these magnets of the group, by number
         (1 .. N, as the paper counts), increasing. Column k holds magnets[k].
@@ -281,7 +281,7 @@ class RunFolder:
             reached = np.flatnonzero(np.isfinite(front.arrival))
             last = number(reached[-1]) if reached.size else 1
             chosen = sorted({2, max(2, (last - 1) // 4 + 1), max(2, (last - 1) // 2 + 1), max(2, last - 1)})
-            profiles = self.trajectory("chain", chosen)
+            profiles = self.trajectory("chain", magnets=chosen)
         return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 

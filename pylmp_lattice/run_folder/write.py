@@ -48,6 +48,9 @@ def check_target(path: Path, overwrite: bool) -> bool:
                                         "replace it, or choose another --name or -o")
         if marker.status(path) == marker.RUNNING:
             raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
+        odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_file()]
+        if odd:  # checked before anything is removed: an overwrite never stops half-way
+            raise ConfigError("output", f"{path / odd[0]} is not a file; a run writes a file there")
         return True
     clash = sorted(name for name in layout.RUN_FILES if (path / name).exists())
     if clash:

@@ -41,7 +41,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         window = (duration - WINDOW, duration)
         case = paper_case(f"s9_VI_{vi:g}", {"profile": "constant", "velocity": vi}, duration)
         # magnets 10 and 11 only: the 3 s run has 30001 frames of ~800 magnets
-        pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", (MAGNET, MAGNET + 1))
+        pair = execute(case, out / NAME / case.name, overwrite=True).trajectory("chain", magnets=(MAGNET, MAGNET + 1))
         t, v = pair.t, pair.v[:, 0]
         portrait = measures.phase_portrait(t, pair.x0 + pair.u, pair.v, MAGNET, first_magnet=MAGNET)
         steady = measures.steady_oscillation(t, v, vi, window)
