@@ -448,16 +448,24 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
 
 
-def test_tasks_are_sized_to_the_workers_and_the_first_ones_are_small(tmp_path):
-    from pylmp_lattice.sweep.execute import FIRST_TASK, _Coordinator, _StopSignals
+def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
+    from pylmp_lattice.sweep import execute
     from pylmp_lattice.sweep.pool import Pool
 
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=200), particles=12, duration=20.0))
-    coordinator = _Coordinator(sweep, tmp_path, Pool(None, 2), _StopSignals(), False, False, sweep.count())
-    tasks = list(coordinator._tasks())
-    sizes = [len(t.members) for t in tasks]
-    assert sizes == [FIRST_TASK, FIRST_TASK, 84, 84]  # then the rest shared evenly by the 2 workers
-    assert [m.index for t in tasks for m in t.members] == list(range(200))
+
+    def sizes(slots):
+        coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, slots), execute._StopSignals(), False, False,
+                                           sweep.count())
+        tasks = list(coordinator._tasks())
+        assert [m.index for t in tasks for m in t.members] == list(range(200))
+        return [len(t.members) for t in tasks]
+
+    assert sizes(2) == [100, 100]
+    assert sizes(3) == [67, 67, 66]
+    # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
+    monkeypatch.setattr(execute, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
+    assert sizes(2) == [25] * 8
 
 
 # ----------------------------------------------------------------------------- integrity

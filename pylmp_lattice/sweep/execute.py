@@ -47,13 +47,12 @@ log = logging.getLogger(__name__)
 
 # A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
 MANY_MEMBERS = 100_000
-# A task's members: at most this many atoms, atom-steps (about a second of engine time) and
-# atom types (LAMMPS keeps some per-type-pair tables) in one instance; the first task of each
-# worker is small, so that the first members start at once.
+# A task's members: at most this many atoms, atom-steps (about two seconds of engine time) and
+# atom types (LAMMPS keeps some per-type-pair tables) in one instance. Each instance costs
+# about 0.05 s to set up, so tasks are as large as these allow, shared evenly by the workers.
 MAX_ATOMS = 200_000
-MAX_ATOM_STEPS = 5e7
+MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024
-FIRST_TASK = 16
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -118,12 +117,13 @@ class _Coordinator:
                     task = ready.pop(0)
                     running[self.pool.submit(task)] = task
                     self.bar.show(len(running))
-                if self.preload is None:  # what the end needs, loaded while the first members run
-                    self.preload = threading.Thread(target=_preload, args=(self.sweep,), daemon=True)
-                    self.preload.start()
                 if not running:
                     break
                 busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
+                if self.preload is None and not busy:  # what the end needs, loaded while members run
+                    # (not earlier: its imports hold the GIL, and the workers wait for the tasks)
+                    self.preload = threading.Thread(target=_preload, args=(self.sweep,), daemon=True)
+                    self.preload.start()
                 done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(running.pop(future), future)
@@ -170,7 +170,6 @@ class _Coordinator:
 
     def _finished(self, m: Member) -> bool:
         """Whether the member's outcome on disk stands (its row is set from it)."""
-        self.blocks.seen += 1
         found = self.disk.get(m.id)
         if found is None or (found["record"]["status"] == FAILED and self.retry_failed):
             return False
@@ -231,25 +230,17 @@ def _point(m: Member) -> str:
 
 @dataclass
 class _Blocks:
-    """Task sizes: the first task of each worker small (a quick start), then the members left
-    shared evenly among the workers, within what one instance should hold (MAX_*)."""
+    """Task sizes: a point's members in as few tasks as one instance allows (MAX_*), their number
+    a multiple of the workers, so that every worker gets an equal share."""
 
     total: int
     slots: int
-    seen: int = 0
-    sized: int = 0
-    even: int = 0
     limits: dict = field(default_factory=dict)
 
     def next_size(self, m: Member) -> int:
-        """The size of the task that starts with member `m` (the `seen`-th enumerated)."""
-        cap = self._cap(m)
-        self.sized += 1
-        if self.sized <= self.slots:
-            return min(cap, FIRST_TASK)
-        if not self.even:
-            self.even = math.ceil((self.total - self.seen + 1) / self.slots)
-        return max(1, min(cap, self.even))
+        """The size of the task that starts with member `m`."""
+        tasks = self.slots * math.ceil(self.total / (self.slots * self._cap(m)))
+        return max(1, math.ceil(self.total / tasks))
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""
