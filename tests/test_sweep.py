@@ -463,6 +463,16 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
 
     assert sizes(2) == [100, 100]
     assert sizes(3) == [67, 67, 66]
+    # resumed with the first 180 done on disk: the 20 left, shared by both workers
+    coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
+                                       sweep.count())
+
+    def finished(m):  # as _Coordinator._finished does for a member done on disk
+        coordinator.kept += m.index < 180
+        return m.index < 180
+
+    coordinator._finished = finished
+    assert [len(t.members) for t in coordinator._tasks()] == [10, 10]
     # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
     monkeypatch.setattr(execute, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
     assert sizes(2) == [25] * 8

@@ -163,7 +163,7 @@ class _Coordinator:
                 yield Task(str(self.root), tuple(group), self.sweep.runner)
                 group = []
             if not group:
-                key, size = point, self.blocks.next_size(m)
+                key, size = point, self.blocks.next_size(m, self.kept)
             group.append(m)
         if group:
             yield Task(str(self.root), tuple(group), self.sweep.runner)
@@ -237,10 +237,11 @@ class _Blocks:
     slots: int
     limits: dict = field(default_factory=dict)
 
-    def next_size(self, m: Member) -> int:
-        """The size of the task that starts with member `m`."""
-        tasks = self.slots * math.ceil(self.total / (self.slots * self._cap(m)))
-        return max(1, math.ceil(self.total / tasks))
+    def next_size(self, m: Member, kept: int) -> int:
+        """The size of the task that starts with member `m`, `kept` members (done before) skipped so far."""
+        todo = max(1, self.total - kept)
+        tasks = self.slots * math.ceil(todo / (self.slots * self._cap(m)))
+        return max(1, math.ceil(todo / tasks))
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""
