@@ -69,7 +69,8 @@ def test_plots_are_labelled_with_names_and_units():
     ax = plot_replica_stats(stats, "impactor.velocity", f"{PEAK}.mean")
     assert ax.get_xlabel() == "impactor velocity $V_I$ (m/s)"
     assert ax.get_ylabel() == "first peak velocity, plateau (m/s)"
-    assert "4-4 values per point" in ax.get_title()
+    assert "4 values per point" in ax.get_title()
+    assert not ax.yaxis.get_major_formatter().get_useOffset()  # no "+4.634" above the axis
     plt.close(ax.figure)
     assert label("chain.thermal_velocity") == "thermal RMS velocity (m/s)" and label("some.field") == "some.field"
 
@@ -78,3 +79,23 @@ def test_plots_are_labelled_with_names_and_units():
 def test_inputs_can_still_be_asked_for_by_name(column):
     stats = replica_stats(_table(), [column])
     assert stats[f"{column}.count"].tolist() == [4, 4]
+
+
+def test_one_point_s_figure_shows_the_spread_over_the_replicas(tmp_path):
+    """A pure ensemble (one parameter point): each panel is the histogram of the values a mean
+    uses, its title the count of the done replicas and the mean with its standard error."""
+    from matplotlib.figure import Figure
+
+    from pylmp_lattice.sweep.stats import plot_replica_spread, used_values
+
+    table = _table()
+    one = table[table["impactor.velocity"] == 1.5]
+    done = one[one["status"] == "done"]
+    values = used_values(done, f"{VP}.mean")
+    np.testing.assert_allclose(np.sort(values), [3.0, 3.01, 3.02], rtol=1e-12)  # the unconverged replica is out
+    ax = plot_replica_spread(values, f"{VP}.mean", ax=Figure().add_subplot(), members=len(done))
+    assert ax.get_xlabel() == "shock velocity plateau $V_P$ (m/s)" and ax.get_ylabel() == "replicas"
+    assert ax.get_title() == "3 of 4 replicas; mean 3.01 ± 0.0058 (standard error)"
+    assert sum(bar.get_height() for bar in ax.containers[0]) == 3  # the histogram holds the 3 values
+    stats = write_replica_stats(tmp_path, one.drop(columns=["impactor.velocity"]))
+    assert len(stats) == 1 and (tmp_path / "replica_stats.png").stat().st_size > 0

@@ -13,7 +13,7 @@
 # before numpy, pandas and the engine are loaded here.
 _WHERE = {"run_sweep": "execute", "Member": "spec", "Sweep": "spec", "load_sweep": "spec", "member_id": "spec",
           "member_seed": "spec", "load_results": "table", "replica_stats": "stats", "plot_replica_stats": "stats",
-          "write_replica_stats": "stats"}
+          "write_replica_stats": "stats", "plot_replica_spread": "stats"}
 __all__ = list(_WHERE)
 
 

@@ -68,18 +68,29 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
         row = dict(zip(point, key if isinstance(key, tuple) else (key,)))
         row["n"] = len(group)
         for name in measures:
-            values = group[name].to_numpy(float)
-            keep = np.isfinite(values)
-            converged = name.removesuffix(".mean") + ".converged"
-            if name.endswith(".mean") and converged in group.columns:
-                keep &= group[converged].to_numpy() == True  # noqa: E712 (a column of True, False or NaN)
-            values = values[keep]
+            values = used_values(group, name)
             row[f"{name}.mean"] = values.mean() if len(values) else np.nan
             row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
             row[f"{name}.count"] = len(values)
         rows.append(row)
     columns = point + ["n"] + [f"{name}.{s}" for name in measures for s in ("mean", "sem", "count")]
     return pd.DataFrame(rows, columns=columns)
+
+
+def used_values(members: pd.DataFrame, name: str) -> np.ndarray:
+    """The values of column `name` that a mean uses: finite, and for a plateau (`X.mean` beside
+    `X.converged`) only where it converged. `members`: done members."""
+    values = members[name].to_numpy(float)
+    keep = np.isfinite(values)
+    converged = name.removesuffix(".mean") + ".converged"
+    if name.endswith(".mean") and converged in members.columns:
+        keep &= members[converged].to_numpy() == True  # noqa: E712 (a column of True, False or NaN)
+    return values[keep]
+
+
+def _counted(used: np.ndarray) -> str:
+    low, high = int(used.min()), int(used.max())
+    return f"{low} values" if low == high else f"{low}-{high} values"
 
 
 def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwargs):
@@ -95,8 +106,30 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
                 capsize=kwargs.pop("capsize", 3), **kwargs)
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
-    used = data[f"{measure}.count"].to_numpy()
-    ax.set_title(f"mean ± standard error; {used.min()}-{used.max()} values per point", fontsize="small")
+    ax.ticklabel_format(useOffset=False, axis="y")  # values as they are, not "1e-4 + 4.634"
+    ax.set_title(f"mean ± standard error; {_counted(data[f'{measure}.count'].to_numpy())} per point", fontsize="small")
+    return ax
+
+
+def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int | None = None):
+    """One parameter point: the histogram of a measure over its replicas (`used_values`, of
+    `members` done ones), the mean and its standard error marked, the axis labelled with name
+    and unit; returns the Axes."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        ax = plt.figure().add_subplot()
+    mean = values.mean()
+    sem = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
+    ax.hist(values, bins=min(30, max(5, len(values) // 10)), color="0.7")
+    ax.axvline(mean, color="C0")
+    if np.isfinite(sem):
+        ax.axvspan(mean - sem, mean + sem, color="C0", alpha=0.3, lw=0)
+    ax.ticklabel_format(useOffset=False, axis="x")
+    ax.set_xlabel(label(measure))
+    ax.set_ylabel("replicas")
+    used = f"{len(values)} of {members} replicas" if members is not None else f"{len(values)} values"
+    ax.set_title(f"{used}; mean {mean:.5g} ± {sem:.2g} (standard error)", fontsize="small")
     return ax
 
 
@@ -118,7 +151,8 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
                         panels: int = 6) -> pd.DataFrame:
     """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
     between replicas, against the first numeric swept field (or the point number), with
-    standard-error bars. Returns the statistics."""
+    standard-error bars; with one parameter point, each one's histogram over the replicas.
+    Returns the statistics."""
     from matplotlib.figure import Figure
 
     root = Path(root)
@@ -134,8 +168,13 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
     if shown:
         cols, rows = min(len(shown), 3), -(-len(shown) // 3)
         fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows))
+        done = table[table["status"] == "done"]
         for k, measure in enumerate(shown):
-            plot_replica_stats(stats, x, measure, ax=fig.add_axes(_panel(k // cols, k % cols, cols, rows)))
+            ax = fig.add_axes(_panel(k // cols, k % cols, cols, rows))
+            if len(stats) == 1:
+                plot_replica_spread(used_values(done, measure), measure, ax=ax, members=len(done))
+            else:
+                plot_replica_stats(stats, x, measure, ax=ax)
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=100)
         atomic_write(root / STATS_PNG, buffer.getvalue())
