@@ -117,7 +117,8 @@ def _import_graph() -> dict[str, set[str]]:
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
 HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
            "table", "deck", "case_levels", "summary", "plots", "progress", "measures",
-           "bindump", "dump", "h5md", "psf", "front_record", "run_folder", "run_folder.layout", "run_folder.marker"}
+           "bindump", "dump", "h5md", "psf", "front_record", "run_folder", "run_folder.layout", "run_folder.marker",
+           "file_lock"}
 
 
 def _helper(module: str) -> bool:
@@ -371,7 +372,7 @@ def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
     assert main(["deck", str(case), "-o", str(folder)]) == 0
     capsys.readouterr()
     expected = f"pylmp-lattice: error: {folder}: still being written by LAMMPS; summarize it when the run ends"
-    with marker.running(folder):
+    with marker.claimed(folder):
         assert main(["summarize", str(folder)]) == 2
         assert capsys.readouterr().err.splitlines() == [expected]
         with pytest.raises(ConfigError, match="still being written by LAMMPS"):

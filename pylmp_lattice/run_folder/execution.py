@@ -18,7 +18,7 @@ import tomli_w
 
 from .. import preflight
 from ..case import Case, case_to_dict
-from ..deck import render_replicas
+from ..deck import render, render_replicas
 from ..dump import read_dump, trajectory_from_dump
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
@@ -28,7 +28,7 @@ from ..units import to_engine
 from . import layout, marker
 from .convert import convert_dumps
 from .folder import RunFolder, summarize
-from .write import write_folder
+from .write import write_claimed
 
 RUNNERS = ("embedded", "lmp")
 
@@ -65,27 +65,38 @@ def _execute(case: Case, folder: str | Path, runner: str, nprocs: int, echo: boo
     preflight.check(case, folder, nprocs, yes=yes)
     if runner == "embedded":
         layout.deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
-    path = write_folder(case, folder, overwrite=overwrite)
+    path = Path(folder)
+    files = render(case)  # first: a case the deck refuses leaves the folder as it was
     try:
-        with marker.running(path), progress_bar(case, progress) as on_step:
+        with marker.claimed(path):  # its lock held from the check of the folder until the run ended
+            write_claimed(case, path, overwrite, files)
+            _run(case, path, runner, nprocs, echo, progress)
+    except (ContactError, RunError):  # what the run wrote up to there becomes H5MD
+        convert_dumps(path, case)
+        raise
+    convert_dumps(path, case)  # after the lock: a folder being written is never converted
+    return path
+
+
+def _run(case: Case, path: Path, runner: str, nprocs: int, echo: bool, progress: bool) -> None:
+    """Run the written folder; run.json says how it ended."""
+    marker.record(path, marker.RUNNING)
+    try:
+        with progress_bar(case, progress) as on_step:
             run_deck(path, runner, nprocs=nprocs, echo=echo, on_step=on_step)
     except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
         marker.record(path, marker.INTERRUPTED, time_ms=err.time_ms)
         raise
     except ContactError as err:
         marker.record(path, marker.CONTACT, time_ms=err.time_ms)
-        convert_dumps(path, case)
         raise
     except RunError as err:
         marker.record(path, marker.FAILED, error=err.message)
-        convert_dumps(path, case)
         raise
     except BaseException:
         marker.record(path, marker.INTERRUPTED)
         raise
     marker.record(path, marker.FINISHED)
-    convert_dumps(path, case)
-    return path
 
 
 def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,

@@ -41,7 +41,7 @@ H5MD = "traj.h5md"
 TOPOLOGY = "topology.psf"  # traj.h5md's topology (masses in u) for MDAnalysis, VMD: `psf`
 SUMMARY = "summary.json"
 FIGURE = "shock.png"
-LOCK = "run.lock"  # held (flock) while a runner of this package runs LAMMPS in the folder
+LOCK = "run.lock"  # held (flock) while a writer or runner of this package writes the folder (marker.claimed)
 
 # Every name a run of this package may write (with its temporary files): a folder holding any of
 # them but no run is refused, and overwriting a run removes these and nothing else.
@@ -92,3 +92,15 @@ def deck_dir(folder: Path) -> str:
     raise ConfigError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
                                 "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
                                 "or use --runner lmp")
+
+
+def check_place(path: Path, what: str) -> None:
+    """ConfigError unless `path` may be the output folder of a `what` ("run", "sweep"): never the
+    working directory, a parent of it or runs/ itself (they hold the user's files), nor a file."""
+    path = Path(path)
+    resolved, here = path.resolve(), Path.cwd().resolve()
+    if resolved == here or resolved in here.parents or resolved == here / "runs":
+        raise ConfigError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
+                                    f"choose a new folder for the {what} (-o)")
+    if path.exists() and not path.is_dir():
+        raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")

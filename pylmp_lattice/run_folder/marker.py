@@ -1,5 +1,5 @@
 """A run folder's state: the package's record of it (run.json), the lock a runner holds while
-LAMMPS writes it (run.lock), and how the run stands, read from both and from the log.
+LAMMPS writes it (run.lock, see `claimed`), and how the run stands, read from both and from the log.
 
 The format of two small files, as `bindump` is that of the binary dumps: the writer
 (`run_folder.write`, `run_folder.execution`) and the reader (`run_folder.folder`) share it.
@@ -7,7 +7,7 @@ The format of two small files, as `bindump` is that of the binary dumps: the wri
 
 from __future__ import annotations
 
-import fcntl
+import contextlib
 import json
 import os
 import re
@@ -15,6 +15,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..dump import find_contact, log_ended
+from ..errors import ConfigError
+from ..file_lock import Held, exclusive, is_held
 from . import layout
 
 PACKAGE = "pylmp_lattice"
@@ -48,30 +50,25 @@ def is_run(folder: Path) -> bool:
 
 
 @contextmanager
-def running(folder: Path):
-    """Hold the folder's lock while LAMMPS runs in it (readers then leave its dumps alone)."""
-    with (folder / layout.LOCK).open("w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        record(folder, RUNNING)
+def claimed(folder: Path):
+    """The folder made if missing (where a run may go: `layout.check_place`) and its lock
+    (run.lock) held, by a writer or runner of this package from before it looks at the folder
+    until its run ended: two cannot write one folder, and readers leave its dumps alone
+    meanwhile. ConfigError if another process holds it."""
+    layout.check_place(folder, "run")
+    folder.mkdir(parents=True, exist_ok=True)
+    with contextlib.ExitStack() as stack:
         try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-            (folder / layout.LOCK).unlink(missing_ok=True)
+            stack.enter_context(exclusive(folder / layout.LOCK, wait=False))
+        except Held as err:
+            raise ConfigError("output", f"{folder} holds a run that is still being written; wait for it or "
+                                        "stop it") from err
+        yield
 
 
 def locked(folder: Path) -> bool:
-    """Whether a runner of this package holds the folder's lock."""
-    try:
-        with (folder / layout.LOCK).open("r") as handle:
-            try:
-                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return True
-            fcntl.flock(handle, fcntl.LOCK_UN)
-    except FileNotFoundError:
-        pass
-    return False
+    """Whether a runner or writer of this package holds the folder's lock."""
+    return is_held(folder / layout.LOCK)
 
 
 def log_text(folder: Path) -> str | None:
@@ -81,11 +78,11 @@ def log_text(folder: Path) -> str | None:
         return None
 
 
-def status(folder: Path) -> str:
+def status(folder: Path, claimed_here: bool = False) -> str:
     """"running" while a runner of this package or, by its log, LAMMPS writes the folder; else
     how the run ended ("finished", "interrupted", "contact", "failed"), or "written" for a deck
-    never run."""
-    if locked(folder):
+    never run. claimed_here: this process holds the folder's lock (`claimed`)."""
+    if not claimed_here and locked(folder):
         return RUNNING
     state = (read(folder) or {}).get("state", WRITTEN)
     if state not in (WRITTEN, RUNNING):

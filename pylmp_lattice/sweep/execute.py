@@ -290,10 +290,9 @@ def _lock(root: Path):
 def check_folder(root: str | Path) -> None:
     """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), and
     not a run's folder."""
-    from ..run_folder import marker
-    from ..run_folder.write import check_place
+    from ..run_folder import layout, marker
 
-    check_place(Path(root), "sweep")
+    layout.check_place(Path(root), "sweep")
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
 

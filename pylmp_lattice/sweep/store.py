@@ -18,7 +18,6 @@ half-way is re-run. DIR/sweep.json names the sweep the folder holds.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import importlib.metadata
 import json
@@ -32,6 +31,8 @@ from functools import cache
 from pathlib import Path
 
 import numpy as np
+
+from ..file_lock import Held, exclusive
 
 MEMBERS = "members"
 BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
@@ -159,50 +160,20 @@ def task_lock(root: str | Path, member_ids):
 
     Dask runs a task at least once: the copy of a task whose worker retires may start while the
     first still runs. The copies take turns on the lock (which the kernel releases if a worker
-    is killed), and the later one finds the members done on disk. The holder removes the file
-    before it lets go, so none is left behind: a copy that waited on a removed file takes the
-    lock again on whatever file the path now names (the inode check), never two at once."""
+    is killed), and the later one finds the members done on disk (`file_lock.exclusive`: no
+    lock file is left behind)."""
     folder = Path(root) / BATCHES
     folder.mkdir(exist_ok=True)
-    path = folder / f"task-{hashlib.sha256(' '.join(member_ids).encode()).hexdigest()[:16]}.lock"
-    while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        if _names(path, fd):
-            break
-        os.close(fd)
-    try:
+    with exclusive(folder / f"task-{hashlib.sha256(' '.join(member_ids).encode()).hexdigest()[:16]}.lock"):
         yield
-    finally:
-        if _names(path, fd):
-            path.unlink()
-        os.close(fd)
 
 
 def remove_stale_locks(root: str | Path) -> None:
     """Remove the lock files of tasks whose worker was killed (none holds them); a lock still
     held (a copy of a task that Dask runs on) is left to its holder, which removes it."""
     for path in (Path(root) / BATCHES).glob("task-*.lock"):
-        try:
-            fd = os.open(path, os.O_RDWR)
-        except FileNotFoundError:  # removed by its holder meanwhile
-            continue
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            if _names(path, fd):
-                path.unlink()
-        except BlockingIOError:
+        with contextlib.suppress(Held), exclusive(path, wait=False):
             pass
-        finally:
-            os.close(fd)
-
-
-def _names(path: Path, fd: int) -> bool:
-    """Whether `path` still names the open file `fd` (it was not removed or replaced)."""
-    try:
-        return os.stat(path).st_ino == os.fstat(fd).st_ino
-    except FileNotFoundError:
-        return False
 
 
 def now() -> str:
