@@ -1,4 +1,5 @@
-"""What a run folder holds: the one place that names a run's files and the columns LAMMPS writes.
+"""What a run folder holds: the one place that names a run's files and the columns LAMMPS writes,
+and where a run (or sweep) folder may be (`check_place`).
 
 A run folder (see `folder.RunFolder`) is written by the package and run by LAMMPS, in-process
 or by `lmp -in in.lattice` by hand. Every other module takes these names from here.
