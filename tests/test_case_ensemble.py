@@ -67,6 +67,20 @@ def test_streams_are_independent_and_defects_sit_at_their_index():
     np.testing.assert_allclose(np.diff(defect.positions()), defect.gaps())
 
 
+def test_draws_come_from_the_children_of_the_seed_sequence():
+    """Masses, gaps and velocities draw from children 0, 1, 2 of SeedSequence(seed).spawn(3): the
+    numbers of every earlier release, though each stream is now made alone."""
+    chain = make_case(particles=8, chain={"thermal_velocity": 0.02, "mass_disorder": 0.1, "r0_disorder": 0.05,
+                                          "seed": 42}).chain
+    masses, gaps, z = (np.random.default_rng(s) for s in np.random.SeedSequence(42).spawn(3))
+    np.testing.assert_array_equal(chain.masses(), 1.084 * (1 + 0.1 * masses.standard_normal(8)))
+    np.testing.assert_array_equal(chain.gaps(), 12.0 * (1 + 0.05 * gaps.standard_normal(7)))
+    m = chain.masses()[1:-1]
+    c = math.sqrt(6 / (6 - 2 + 6 * float(np.sum(m**2)) / float(np.sum(m)) ** 2))
+    free = c * 0.02 * z.standard_normal(6)
+    np.testing.assert_array_equal(chain.velocities()[1:-1], free - np.sum(m * free) / float(np.sum(m)))
+
+
 def test_data_file_carries_disorder_and_velocities():
     case = make_case(particles=6, chain={"thermal_velocity": 0.1, "r0_disorder": 0.05, "mass_disorder": 0.05, "seed": 1})
     text = data_text(case)
