@@ -448,6 +448,28 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
 
 
+def test_member_cases_are_the_cases_of_their_dicts(tmp_path):
+    """A point's replicas take its first case with their own seed (spec.member_cases): the
+    same cases as built from their dicts, and a replica whose draw is invalid still fails."""
+    from pylmp_lattice.case import case_from_dict
+    from pylmp_lattice.sweep.spec import member_cases
+
+    text = THERMAL.format(replicas=30) + '"chain.mass_disorder" = 0.45\n[grid]\n"impactor.velocity" = [1.0, 1.5]\n'
+    members = load_sweep(write_sweep(tmp_path, text)).members()
+    fresh = load_sweep(tmp_path / "sweep.toml").members()[30:]  # the second point, its first invalid: none built
+    for group in (members, fresh):
+        cases = member_cases(group)
+        expected = []
+        for m in group:
+            try:
+                expected.append(case_from_dict(m.data))
+            except ConfigError:
+                expected.append(None)
+        assert cases == expected and [m.case for m in group] == cases
+        assert 0 < cases.count(None) < len(group) // 2  # a draw may give a mass <= 0 (1 % per magnet) or too small for dt
+        assert {m.error.split(":")[0] for m in group if m.case is None} <= {"chain.mass_disorder", "run.dt"}
+
+
 def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
     from pylmp_lattice.sweep import execute
     from pylmp_lattice.sweep.pool import Pool

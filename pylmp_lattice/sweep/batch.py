@@ -27,7 +27,7 @@ from pathlib import Path
 
 from ..case import Case
 from ..errors import Interrupted, LatticeError
-from .spec import Member
+from .spec import Member, member_cases
 from .store import (BATCHES, DONE, FAILED, INTERRUPTED, RUNNING, Outcomes, member_folder, now, provenance, task_lock,
                     write_batch, write_status)
 
@@ -82,7 +82,7 @@ def _run_members(root: Path, task: Task) -> list[dict]:
         if found is not None and found["record"]["status"] == DONE:
             results[m.id] = {"id": m.id} | found
     todo = [m for m in task.members if m.id not in results]
-    cases = [m.case for m in todo]
+    cases = member_cases(todo)
     for m, case in zip(todo, cases):
         if case is None:  # invalid parameters (a replica's own draw): failed without running
             results[m.id] = _invalid(root, m)

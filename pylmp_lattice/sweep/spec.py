@@ -43,7 +43,7 @@ import itertools
 import logging
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -96,6 +96,35 @@ class Member:
     @property
     def error(self) -> str | None:
         return self._case[1]
+
+
+def member_cases(members) -> list[Case | None]:
+    """`Member.case` of each member, built once per parameter point: a member whose case dict
+    differs from an earlier one's only in chain.seed (a replica) is that case with its own seed
+    (`dataclasses.replace` checks the chain and its draws again; the rest was checked when the
+    first was built, so its `case_from_dict` would give the same case, ~0.1 ms more)."""
+    points: list[tuple[dict, Case]] = []
+    out = []
+    for m in members:
+        seed, rest = _seed_and_rest(m.data)
+        case = next((c for d, c in points if d == rest), None)
+        if case is not None and "_case" not in m.__dict__ and m.built is None:
+            try:  # what the cached property `_case` would hold
+                m.__dict__["_case"] = (replace(case, chain=replace(case.chain, seed=seed)), None)
+            except ConfigError as err:
+                m.__dict__["_case"] = (None, str(err))
+        elif case is None and m.case is not None:
+            points.append((rest, m.case))
+        out.append(m.case)
+    return out
+
+
+def _seed_and_rest(data: dict) -> tuple:
+    """A case dict's chain.seed, and the dict without it."""
+    chain = data.get("chain")
+    if not isinstance(chain, dict):
+        return None, data
+    return chain.get("seed"), data | {"chain": {k: v for k, v in chain.items() if k != "seed"}}
 
 
 @dataclass(frozen=True)
