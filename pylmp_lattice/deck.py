@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .case import Case, check_name
-from .case_levels import front_levels
+from .case_levels import chain_front_levels, front_levels
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
@@ -44,12 +44,13 @@ def _num(x) -> str:
 
 
 def render(case: Case) -> dict[str, str]:
+    return {DECK: deck_text(case), DATA: data_text(case), **_tables(case)}
+
+
+def _tables(case: Case) -> dict[str, str]:
+    """The files besides the deck and the data file: the potential table(s), the measured drive."""
     lo, hi = case.table_range()
-    files = {
-        DECK: deck_text(case),
-        DATA: data_text(case),
-        TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0))),
-    }
+    files = {TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0)))}
     if isinstance(case.impactor, Measured):
         files[PISTON] = piston_text(case.impactor)
     if case.second_neighbour is not None:
@@ -78,18 +79,13 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     chains (no fine output, no front record); read it back with run_folder.split_replicas.
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
-    = "none".
+    = "none", each chain with its own levels (`case_levels.chain_front_levels`).
     """
     first = cases[0]
-    decks = [deck_text(case) for case in cases] if front else []  # each chain's deck alone
-    for r, text in enumerate(decks):
-        if _without_levels(text) != _without_levels(decks[0]):
-            raise ConfigError("replicas", f"replica {r}: its deck differs from replica 0's beyond the data file "
-                                          "and the front record's levels")
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
-        if dataclasses.replace(case, chain=first.chain, name=first.name) != first:
+        if any(getattr(case, name) != getattr(first, name) for name in _OUTSIDE_CHAIN):
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
@@ -97,30 +93,36 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
     batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
-    files = render(batch)
     per_atom = any(per_atom_masses(case) for case in cases)
-    files[DECK] = (deck_text(batch, replicas=len(cases), per_atom=per_atom)
-                   + (_chain_work_lines(len(cases)) if front and first.friction else ""))
-    files[DATA] = _stack_data([data_text(case, per_atom) for case in cases])
-    if front:
-        # each chain's own levels, as its deck alone gives them (they may follow its draw's noise):
-        # one row per chain for fix lattice/front's `levels` file, when they differ
-        rows = [_FRONT_FIX.search(text).groups() for text in decks]
-        if len(set(rows)) > 1:
-            files[FRONT_LEVELS] = "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
-                f"{start} {level} {drop} {pulse} {floor or '0.0'}\n" for start, level, drop, pulse, floor in rows)
-            files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
-                                                   f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
+    files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
+                    + (_chain_work_lines(len(cases)) if front and first.friction else "")),
+             DATA: chains_data_text(cases, per_atom), **_tables(batch)}
+    levels = front_levels_file(cases) if front and records_front(batch) else None
+    if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
+        files[FRONT_LEVELS] = levels
+        files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
+                                               f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
 
 
+# What of a case reaches its deck beyond the data file and the front levels: everything but the
+# chain, whose N and table range render_replicas checks (its name is in comments only).
+_OUTSIDE_CHAIN = tuple(f.name for f in dataclasses.fields(Case) if f.name not in ("chain", "name"))
 # fix lattice/front's line in a deck, its levels as groups (pulse_floor optional)
 _FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S+) drop (\S+) pulse_drop (\S+)"
                         r"(?: pulse_floor (\S+))?", re.MULTILINE)
 
 
-def _without_levels(deck: str) -> str:
-    return _FRONT_FIX.sub("fix front", deck)
+def front_levels_file(cases: Sequence[Case]) -> str | None:
+    """fix lattice/front's levels file for a batch of chains, one row per chain, each the levels
+    its deck alone passes the fix (`_output_lines`); None when all chains have the same levels."""
+    lv = chain_front_levels(cases)
+    speeds = [to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop)]
+    rows = np.stack([*speeds, np.full(len(cases), lv.pulse_drop), to_engine(lv.pulse_floor, "velocity")], axis=1)
+    if np.all(rows == rows[0]):
+        return None
+    return "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
+        f"{a!r} {b!r} {c!r} {d!r} {e!r}\n" for a, b, c, d, e in rows.tolist())
 
 
 def _chain_work_lines(replicas: int) -> str:
@@ -137,70 +139,6 @@ jump            SELF chain_work
 """
 
 
-def _stack_data(texts: list[str]) -> str:
-    """Data files of equal chains as one: IDs in blocks, types by mass, replica r at y + r height."""
-    parsed = [_data_sections(text) for text in texts]
-    masses = sorted({m for _, sections in parsed for m in (float(line.split()[1]) for line in sections["Masses"])})
-    type_of = {m: i + 1 for i, m in enumerate(masses)}
-    header = parsed[0][0]
-    xs = [_bounds(h, "x") for h, _ in parsed]
-    (xlo, xhi), (ylo, yhi), (zlo, zhi) = (min(a for a, _ in xs), max(b for _, b in xs)), _bounds(header, "y"), _bounds(header, "z")
-    height = yhi - ylo
-    natoms = len(parsed[0][1]["Atoms"])
-    nbonds = len(parsed[0][1].get("Bonds", []))
-    out = {"Atoms": [], "Velocities": [], MAGNET_MASSES: [], "Bonds": []}
-    for r, (_, sections) in enumerate(parsed):
-        local_type = {line.split()[0]: type_of[float(line.split()[1])] for line in sections["Masses"]}
-        for line in sections["Atoms"]:
-            i, _, t, x, y, *rest = line.split()
-            out["Atoms"].append(" ".join([str(int(i) + r * natoms), str(r + 1), str(local_type[t]), x,
-                                          _num(float(y) + r * height), *rest]))
-        for name in ("Velocities", MAGNET_MASSES):
-            for line in sections.get(name, []):
-                i, *rest = line.split()
-                out[name].append(" ".join([str(int(i) + r * natoms), *rest]))
-        for line in sections.get("Bonds", []):
-            i, t, a, b = line.split()
-            out["Bonds"].append(f"{int(i) + r * nbonds} {t} {int(a) + r * natoms} {int(b) + r * natoms}")
-    lines = [
-        f"# {len(texts)} replicas of a {natoms}-magnet chain (LAMMPS units si)", "",
-        f"{natoms * len(texts)} atoms", f"{nbonds * len(texts)} bonds", f"{len(masses)} atom types",
-        *(line for line in header if line.endswith("bond types")), "",
-        f"{_num(xlo)} {_num(xhi)} xlo xhi",
-        f"{_num(ylo)} {_num(ylo + len(texts) * height)} ylo yhi",
-        f"{_num(zlo)} {_num(zhi)} zlo zhi", "",
-        "Masses", "", *(f"{type_of[m]} {_num(m)}" for m in masses), "",
-        "Atoms # bond", "", *out["Atoms"],
-    ]
-    for name in ("Velocities", "Bonds", MAGNET_MASSES):
-        if out[name]:
-            lines += ["", name, "", *out[name]]
-    return "\n".join(lines) + "\n"
-
-
-def _bounds(header: list[str], axis: str) -> tuple[float, float]:
-    line = next(line for line in header if line.endswith(f"{axis}lo {axis}hi"))
-    low, high = line.split()[:2]
-    return float(low), float(high)
-
-
-def _data_sections(text: str) -> tuple[list[str], dict[str, list[str]]]:
-    """A data file's header lines and its sections' lines (section names without comments)."""
-    header, sections, current = [], {}, None
-    for line in text.splitlines()[1:]:
-        line = line.strip()
-        if not line:
-            continue
-        if line[0].isalpha():
-            current = line.split("#")[0].strip()
-            sections[current] = []
-        elif current is None:
-            header.append(line)
-        else:
-            sections[current].append(line)
-    return header, sections
-
-
 def data_text(case: Case, per_atom: bool | None = None) -> str:
     """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg); for the stock
     engine bonds i-(i+1) of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
@@ -208,32 +146,52 @@ def data_text(case: Case, per_atom: bool | None = None) -> str:
     Positions and masses include the chain's disorder and defect; a chain with thermal motion
     gets a Velocities section (m/s) for its free magnets. With per-atom masses (default
     `per_atom_masses(case)`) every magnet is type 1 and its mass is in the MAGNET_MASSES section."""
-    x = to_engine(case.chain.positions(), "length")
-    per_atom = per_atom_masses(case) if per_atom is None else per_atom
-    each = case.chain.masses()
-    masses, types = (each[:1], np.zeros(len(each), int)) if per_atom else np.unique(each, return_inverse=True)
-    magnet_masses = ["", MAGNET_MASSES, "", *(f"{i + 1} {_num(to_engine(m, 'mass'))}" for i, m in enumerate(each))]
-    v = to_engine(case.chain.velocities(), "velocity")
-    velocities = ["", "Velocities", "", *(f"{i + 1} {_num(vi)} 0 0" for i, vi in enumerate(v))] if np.any(v) else []
-    n = len(x)
+    return chains_data_text([case], per_atom)
+
+
+def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None) -> str:
+    """The data file of R chains of equal N (one case: `data_text`), written from their arrays:
+    chain r has atom IDs r N + 1 .. r N + N and molecule r + 1, and sits at y = r times the box
+    height (its x values are those of its run alone). Atom types are the distinct masses of all
+    chains; with per-atom masses, the distinct masses of their first magnets."""
+    first, chains = cases[0], len(cases)
+    n = first.chain.particles
+    per_atom = per_atom_masses(first) if per_atom is None else per_atom
+    x = to_engine(np.stack([case.chain.positions() for case in cases]), "length")
+    each = np.stack([case.chain.masses() for case in cases])
+    masses, types = np.unique(each[:, :1] if per_atom else each, return_inverse=True)
+    types = np.broadcast_to(types.reshape(chains, -1), (chains, n))
+    v = to_engine(np.stack([case.chain.velocities() for case in cases]), "velocity")
+    ids = np.arange(1, n * chains + 1).reshape(chains, n).tolist()
     # The chain engine finds neighbours by atom ID: bonds would only make LAMMPS warn that no
     # bond style is set.
-    pairs = [] if uses_chain_engine(case) else [(i, i + 1, 1) for i in range(n - 1)]
-    if case.second_neighbour is not None:
+    pairs = [] if uses_chain_engine(first) else [(i, i + 1, 1) for i in range(n - 1)]
+    if first.second_neighbour is not None:
         pairs += [(i, i + 2, 2) for i in range(n - 2)]
-    bonds = ["", "Bonds", "", *(f"{k + 1} {kind} {i + 1} {j + 1}" for k, (i, j, kind) in enumerate(pairs))] if pairs else []
-    # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z.
-    half = to_engine(case.table_range()[1], "length")
+    # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z;
+    # the chains lie one box height apart in y
+    half = to_engine(first.table_range()[1], "length")
+    height = half - -half
+    atoms, bonds, magnet_masses, velocities = [], [], [], []
+    for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
+                                                         to_engine(each, "mass").tolist())):
+        y = _num(r * height) if r else "0"
+        atoms += [f"{i} {r + 1} {t} {xi!r} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
+        bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
+        magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
+        velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if any(vs) else []
+    name = check_name(first.name)
     lines = [
-        f"# {check_name(case.name)}: {n} magnets on the x axis (LAMMPS units si)",
+        f"# {name}: {n} magnets on the x axis (LAMMPS units si)" if chains == 1 else
+        f"# {name}: {chains} chains of {n} magnets on the x axis (LAMMPS units si)",
         "",
-        f"{n} atoms",
-        f"{len(pairs)} bonds",
+        f"{n * chains} atoms",
+        f"{len(bonds)} bonds",
         f"{len(masses)} atom types",
         f"{pairs[-1][2] if pairs else 0} bond types",
         "",
-        f"{_num(x[0] - half)} {_num(x[-1] + half)} xlo xhi",
-        f"{_num(-half)} {_num(half)} ylo yhi",
+        f"{_num(np.min(x[:, 0]) - half)} {_num(np.max(x[:, -1]) + half)} xlo xhi",
+        f"{_num(-half)} {_num(-half + chains * height)} ylo yhi",
         f"{_num(-half)} {_num(half)} zlo zhi",
         "",
         "Masses",
@@ -242,11 +200,11 @@ def data_text(case: Case, per_atom: bool | None = None) -> str:
         "",
         "Atoms # bond",
         "",
-        *(f"{i + 1} 1 {t + 1} {_num(xi)} 0 0" for i, (t, xi) in enumerate(zip(types, x))),
-        *bonds,
-        *(magnet_masses if per_atom else []),
-        *velocities,
+        *atoms,
     ]
+    for section, section_lines in (("Bonds", bonds), (MAGNET_MASSES, magnet_masses), ("Velocities", velocities)):
+        if section_lines:
+            lines += ["", section, "", *section_lines]
     return "\n".join(lines) + "\n"
 
 

@@ -21,7 +21,7 @@ import numpy as np
 from . import measures
 from .bindump import open_dump
 from .case import Case
-from .case_levels import chain_noise
+from .case_levels import chain_noise, chain_noises
 from .run_folder.layout import FRONT_FIELDS
 from .units import from_engine
 
@@ -42,32 +42,42 @@ def read_front_record(case: Case, path: str | Path, arrival_method: str = "level
     return read_front_records([case], path, arrival_method)[0]
 
 
-def read_front_records(cases, path: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
+def read_front_records(cases, path: str | Path, arrival_method: str = "level", noise=None) -> list[FrontRecord]:
     """The record in `path` of a batch of equal chains (deck.render_replicas with `front`): one
-    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
+    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step.
+    noise: their noise velocities, m/s, shape (R,), if known (else `case_levels.chain_noises`).
+
+    One batch, one pass: the drive's measures once per distinct noise velocity (the drive is the
+    same, its levels are not), and each chain's rows as a row of (R, N) arrays; a run alone is a
+    batch of one."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     frame = open_dump(path).read()
-    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity) for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     end = float(from_engine(frame.time[-1], "time"))
-    case = cases[0]
+    case, n, chains = cases[0], cases[0].chain.particles, len(cases)
+    # (R, N): chain r's magnets in row r
+    rows = {name: from_engine(frame.data[-1, :, k + 1], quantity).reshape(chains, n)
+            for k, (name, quantity) in enumerate(FRONT_FIELDS)}
+    noise = chain_noises(cases) if noise is None else np.asarray(noise, dtype=float)
+    sigma, level_of = np.unique(noise, return_inverse=True)
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
-    v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]
+    v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]  # one signal, its measures per sigma
+    drive = measures.first_peaks(t, v, a, vi, noise=sigma)
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
-    n, out = case.chain.particles, []
-    for r, case in enumerate(cases):  # the drive's measures use each chain's own noise level
-        record = {name: values[r * n:(r + 1) * n] for name, values in columns.items()}
-        noise = chain_noise(case)
-        drive = measures.first_peaks(t, v, a, vi, noise=noise)
-        peaks = measures.FirstPeaks(*(np.concatenate([getattr(drive, f.name), record[f.name][1:]])
-                                      for f in fields(measures.FirstPeaks)))
-        arrival = np.concatenate([measures.arrival_times(t, v, vi, method=arrival_method, noise=noise),
-                                  record[column][1:]])
-        front = measures.Front(arrival, measures.propagation_velocity(arrival, case.chain.gaps()), peaks,
-                               arrival_method, noise, slowest_linear_speed(case))
-        out.append(FrontRecord(front, record["max_speed"].copy(), end))
-    return out
+    arrival = rows[column].copy()
+    arrival[:, 0] = measures.arrival_times(t, v, vi, method=arrival_method, noise=sigma)[level_of]
+    peaks = {}
+    for f in fields(measures.FirstPeaks):  # magnet 1's are the drive's
+        peaks[f.name] = rows[f.name].copy()
+        peaks[f.name][:, 0] = getattr(drive, f.name)[level_of]
+    gaps = np.stack([c.chain.gaps() for c in cases])
+    velocity = measures.propagation_velocity(arrival, gaps)
+    slowest = slowest_linear_speeds(cases, gaps)
+    return [FrontRecord(measures.Front(arrival[r], velocity[r], measures.FirstPeaks(**{k: x[r] for k, x in peaks.items()}),
+                                       arrival_method, float(noise[r]), float(slowest[r])),
+                        rows["max_speed"][r].copy(), end)
+            for r in range(chains)]
 
 
 def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.Front:
@@ -79,5 +89,10 @@ def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.F
 
 def slowest_linear_speed(case: Case) -> float:
     """The chain's slowest local linear wave speed, m/s (`measures.slowest_linear_speed`)."""
-    gaps = case.chain.gaps()
-    return measures.slowest_linear_speed(case.force.stiffness(gaps), case.chain.masses(), gaps)
+    return float(slowest_linear_speeds([case], case.chain.gaps()[None])[0])
+
+
+def slowest_linear_speeds(cases, gaps: np.ndarray) -> np.ndarray:
+    """`slowest_linear_speed` of each of R cases of one law, gaps (R, N-1) mm: shape (R,)."""
+    masses = np.stack([c.chain.masses() for c in cases])
+    return measures.slowest_linear_speed(cases[0].force.stiffness(gaps), masses, gaps)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.case_levels import chain_noise
+from pylmp_lattice.case_levels import chain_noise, chain_noises
 from pylmp_lattice.deck import render
 from pylmp_lattice.front_record import case_front, read_front_record
 from pylmp_lattice.serialize import dumps
@@ -50,6 +50,22 @@ def test_noise_velocity_of_a_harmonic_chain_is_its_energy_above_rest():
     expected = np.sqrt((np.sum(m * v**2) + k * np.sum((r - r.mean()) ** 2)) / m[free].sum())
     assert measures.noise_velocity(m, v, r, energy, free) == pytest.approx(expected, rel=1e-12)
     assert measures.noise_velocity(m, 0 * v, np.full(11, 10.0), energy, free) == 0.0  # mass disorder alone
+
+
+@pytest.mark.parametrize("law", [None, {"law": "toda", "A": 1.0, "B": 0.5, "a": 12.0}])
+def test_noise_velocities_of_a_batch_are_those_of_each_chain_alone(law):
+    """chain_noises over 40 disordered thermal chains gives each chain's chain_noise bit for bit
+    (rows of C-ordered arrays, each reduced as a 1-D array), and the levels of each, as arrays."""
+    cases = [make_case(particles=300, chain={"thermal_velocity": 0.02, "r0_disorder": 0.05, "mass_disorder": 0.05,
+                                             "seed": seed}, **({"force": law} if law else {})) for seed in range(40)]
+    batch = chain_noises(cases)
+    alone = np.array([chain_noise(case) for case in cases])
+    assert batch.view(np.uint64).tolist() == alone.view(np.uint64).tolist() and len(set(alone)) == 40
+    levels = measures.front_levels(2.0, batch)
+    for k in (0, 17):
+        one = measures.front_levels(2.0, alone[k])
+        assert [levels.start[k], levels.front[k], levels.drop[k], levels.pulse_floor[k]] == \
+            [one.start, one.front, one.drop, one.pulse_floor]
 
 
 def test_noise_velocity_of_a_thermal_chain_is_its_rms_velocity():
@@ -164,3 +180,31 @@ def test_record_equals_the_array_measures_on_noisy_runs(tmp_path, sections, meth
     blind = measures.first_peaks(traj.t, traj.v, traj.a, 2.0)
     assert np.sum(blind.start_time[1:] == traj.t[0]) > 10
     assert not np.any(record.peaks.start_time[1:] == traj.t[0])
+
+
+@pytest.mark.parametrize("signal", ["sine", "noisy", "ramp", "quiet"])
+def test_one_signal_against_many_noise_levels_is_each_column_alone(signal):
+    """A drive shared by C chains is measured once against their C noise velocities (one
+    column, searchsorted crossings, grouped falls): bit for bit each column of the general
+    (n_frames, C) path, for every arrival method and the first peaks."""
+    rng = np.random.default_rng(11)
+    t = np.arange(4001) * 0.0125
+    v = {"sine": 2.0 * np.sin(np.pi * t / 30.0) * (t < 30.0),
+         "noisy": np.sin(np.pi * t / 20.0) + 0.3 * np.sin(7 * t) + 0.05 * rng.standard_normal(t.size),
+         "ramp": np.minimum(t / 5.0, 1.0) * 2.0,
+         "quiet": 0.01 * np.sin(t)}[signal]
+    a = np.gradient(v, t) * 1e3
+    noise = np.concatenate([[0.0, 0.0], rng.uniform(0, 0.6, 40), [0.02, 0.02]])
+    wide = np.ascontiguousarray(np.repeat(v[:, None], noise.size, axis=1)), np.repeat(a[:, None], noise.size, axis=1)
+    one = measures.first_peaks(t, v[:, None], a[:, None], 2.0, noise=noise)
+    each = measures.first_peaks(t, *wide, 2.0, noise=noise)
+    for name in ("start_time", "peak_time", "peak_velocity", "peak_acceleration"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(each, name), err_msg=name)
+    for method in measures.ARRIVAL_METHODS:
+        np.testing.assert_array_equal(measures.arrival_times(t, v[:, None], 2.0, method=method, a=a[:, None], noise=noise),
+                                      measures.arrival_times(t, wide[0], 2.0, method=method, a=wide[1], noise=noise),
+                                      err_msg=method)
+    found = {"sine": one.peak_time, "noisy": one.peak_time, "ramp": one.start_time, "quiet": one.start_time}[signal]
+    # levels above the signal (5 sigma > 2 m/s) find nothing: both kinds of column are checked
+    count = np.isfinite(found).sum()
+    assert count == 0 if signal == "quiet" else 10 < count < noise.size

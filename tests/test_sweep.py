@@ -694,9 +694,9 @@ def test_members_of_a_batch_file_that_does_not_parse_are_run_again(tmp_path):
 
 @pytest.mark.lammps
 def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
-    """Front levels that depend on each chain (here: scaled by its seed; in the package: by its
-    noise) go to fix lattice/front's per-chain levels file; each batched member's summary still
-    equals its run alone, whose deck has its own levels."""
+    """Front levels that depend on each chain (its noise: 5 sigma is above 1 % of V_I here) go to
+    fix lattice/front's per-chain levels file, each row the levels of the chain's deck alone;
+    each batched member's summary still equals its run alone."""
     from concurrent.futures import ThreadPoolExecutor
 
     from pylmp_lattice import deck
@@ -704,23 +704,14 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     from pylmp_lattice.sweep import batch
     from pylmp_lattice.sweep.table import scalar_measures
 
-    original = deck._output_lines
-
-    def own_levels(case):  # the start level 1.0 to 1.9 times the usual, by seed
-        text = original(case)
-        start = deck._FRONT_FIX.search(text)
-        if start is None:
-            return text
-        scaled = float(start.group(1)) * (1 + (case.chain.seed or 0) % 10 / 10)
-        return text.replace(f"start {start.group(1)} ", f"start {deck._num(scaled)} ", 1)
-
-    monkeypatch.setattr(deck, "_output_lines", own_levels)
     monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=40.0))
-    levels = {deck._FRONT_FIX.search(deck.deck_text(m.case)).group(1) for m in sweep.members()}
-    assert len(levels) > 1
+    alone = [deck._FRONT_FIX.search(deck.deck_text(m.case)).groups() for m in sweep.members()]
+    assert len({row[0] for row in alone}) == 4
     files = deck.render_replicas([m.case for m in sweep.members()], front=True)
     assert "front_levels.txt" in files and " length 12 levels ${dir}/front_levels.txt" in files["in.lattice"]
+    rows = [tuple(line.split()) for line in files["front_levels.txt"].splitlines()[1:]]
+    assert rows == [row[:4] + (row[4] or "0.0",) for row in alone]
     with ThreadPoolExecutor(1) as pool:  # in this process, so that the levels apply
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
     disk = Outcomes(tmp_path / "out")

@@ -24,6 +24,17 @@ def check_history(t, v, single=False):
     return t, v
 
 
+def check_noise(noise, columns: int):
+    """The noise velocity sigma (m/s) as one value, or as one per column of a history (N,);
+    with one column, any number of them (C,): that signal's measures against each."""
+    if np.ndim(noise) == 0:
+        return noise
+    noise = np.asarray(noise, dtype=float)
+    if noise.ndim != 1 or (columns != 1 and noise.shape != (columns,)):
+        raise ValueError(f"noise: got shape {noise.shape}; expected one value or ({columns},), one per column")
+    return noise
+
+
 def require_positive(**values):
     for name, value in values.items():
         if not value > 0:
@@ -31,12 +42,20 @@ def require_positive(**values):
 
 
 def first_crossing(t, v, level):
-    """Per column of v: index of the first sample with v >= level (len(t) if none) and the
-    crossing time, linearly interpolated from the previous sample (NaN if none)."""
-    above = v >= level
-    cols = np.arange(v.shape[1])
-    i = np.argmax(above, axis=0)
-    reached = above[i, cols]
+    """Per column of v (n_frames, N), level scalar or (N,): index of the first sample with
+    v >= level (len(t) if none) and the crossing time, linearly interpolated from the previous
+    sample (NaN if none). One column (n_frames, 1) against levels (C,): per level, shape (C,)."""
+    level = np.asarray(level, dtype=float)
+    if _one_signal(v):
+        # the first sample >= level is the first where the running maximum is (same index)
+        i = np.searchsorted(np.maximum.accumulate(v[:, 0]), np.atleast_1d(level), side="left")
+        reached = i < len(t)
+        i, cols = np.where(reached, i, 0), 0
+    else:
+        above = v >= level
+        cols = np.arange(v.shape[1])
+        i = np.argmax(above, axis=0)
+        reached = above[i, np.arange(above.shape[1])]
     before = np.maximum(i - 1, 0)
     v0, v1 = v[before, cols], v[i, cols]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -50,7 +69,30 @@ def first_confirmed_maximum(y, i_from, drop, relative=False, floor=0.0):
     """Per column of y (n_frames, N): the first maximum at or after sample i_from[col] that is
     confirmed by a later fall of `drop` below it (absolute, or `drop` times the maximum if
     `relative`, but at least `floor`) before y exceeds it. Returns (index, confirmed): the index
-    of the largest sample between i_from and the confirming fall, and whether a fall was found."""
+    of the largest sample between i_from and the confirming fall, and whether a fall was found.
+    One column (n_frames, 1) against C sets of i_from, drop, floor (arrays (C,)): per set."""
+    if not _one_signal(y):
+        return _confirmed(y, i_from, drop, relative, floor)[:2]
+    i_from, drop, floor = np.broadcast_arrays(i_from, drop, floor)
+    index, confirmed = np.zeros(i_from.shape, int), np.zeros(i_from.shape, bool)
+    for start in np.unique(i_from):
+        # A larger fall is confirmed no earlier: the group's smallest confirms at i_drop, and a
+        # set whose own fall is also reached there has the group's maximum; the others alone.
+        group = np.flatnonzero(i_from == start)
+        i_max, found, i_drop, running_max = _confirmed(y, start, drop[group].min(), relative, floor[group].min())
+        if not found[0]:  # no fall at all: none of the group is confirmed (index 0, as below)
+            continue
+        peak, top = y[i_drop[0], 0], running_max[i_drop[0], 0]
+        fall = np.maximum(drop[group] * np.abs(top), floor[group]) if relative else drop[group]
+        same = peak <= top - fall
+        index[group[same]], confirmed[group[same]] = i_max[0], True
+        for k in group[~same]:
+            index[k], confirmed[k] = (x[0] for x in _confirmed(y, start, drop[k], relative, floor[k])[:2])
+    return index, confirmed
+
+
+def _confirmed(y, i_from, drop, relative, floor):
+    """first_confirmed_maximum column by column; also the confirming fall's index and the running maximum."""
     rows = np.arange(y.shape[0])[:, None]
     behind = np.where(rows >= i_from, y, -np.inf)
     running_max = np.maximum.accumulate(behind, axis=0)  # -inf before i_from
@@ -58,7 +100,28 @@ def first_confirmed_maximum(y, i_from, drop, relative=False, floor=0.0):
     dropped = (y <= running_max - fall) & np.isfinite(running_max)
     confirmed = dropped.any(axis=0)
     i_drop = np.argmax(dropped, axis=0)
-    return np.argmax(np.where(rows < i_drop, behind, -np.inf), axis=0), confirmed
+    return np.argmax(np.where(rows < i_drop, behind, -np.inf), axis=0), confirmed, i_drop, running_max
+
+
+def window_argmax(y, lo, hi):
+    """Per column of y (n_frames, N): the index of the largest sample from lo to hi (inclusive;
+    0 for an empty window), lo and hi arrays (N,). One column (n_frames, 1) against windows (C,):
+    per window."""
+    if not _one_signal(y):
+        rows = np.arange(y.shape[0])[:, None]
+        return np.argmax(np.where((rows >= lo) & (rows <= hi), y, -np.inf), axis=0)
+    lo, hi = np.broadcast_arrays(lo, hi)
+    out = np.zeros(lo.shape, int)
+    for a, b in set(zip(lo.tolist(), hi.tolist())):
+        window = y[a:b + 1, 0]
+        if window.size and window.max() > -np.inf:  # else all -inf, as outside: index 0
+            out[(lo == a) & (hi == b)] = a + np.argmax(window)  # the first of equal maxima
+    return out
+
+
+def _one_signal(v) -> bool:
+    """Whether v is one column without NaN (whose levels may be many: see first_crossing)."""
+    return v.shape[1] == 1 and not np.isnan(v).any()
 
 
 def prominent_maxima(y, min_prominence):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from ._common import check_history, check_noise, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
 from .levels import FRONT_FRACTION, PULSE_DROP, START_FRACTION, front_levels
 
 ARRIVAL_METHODS = ("level", "velocity_peak", "acceleration_peak")
@@ -51,11 +51,12 @@ def arrival_times(
     method "level": first time v_n >= fraction * V_I (t[0] if already there);
     "velocity_peak" / "acceleration_peak": time of the first confirmed maximum of v_n / a_n
     after the start of motion (see the module docstring).
-    noise: the chain's noise velocity sigma, m/s (`levels.noise_velocity`; 0 for a chain at rest).
+    noise: the chain's noise velocity sigma, m/s (`levels.noise_velocity`; 0 for a chain at rest),
+    or one per column (shape (N,)); for one column, any number (C,): arrival times against each, (C,).
     """
     t, v = check_history(t, v)
     require_positive(drive_velocity=drive_velocity, fraction=fraction, start_fraction=start_fraction, drop=drop)
-    levels = front_levels(drive_velocity, noise, start_fraction, fraction, pulse_drop=drop)
+    levels = front_levels(drive_velocity, check_noise(noise, v.shape[1]), start_fraction, fraction, pulse_drop=drop)
     if method == "level":
         return first_crossing(t, v, levels.front)[1]
     if method not in ARRIVAL_METHODS:

@@ -40,36 +40,41 @@ class FrontLevels:
 
     start: start of motion; front: arrival for a sustained drive, and where the first-peak
     search begins; drop: the fall that confirms a first peak; pulse_drop: the relative fall (of
-    the maximum) that confirms a pulse's maximum, at least pulse_floor (m/s)."""
+    the maximum) that confirms a pulse's maximum, at least pulse_floor (m/s). Floats for one
+    noise velocity; arrays of its shape for an array of them (one per magnet, or per chain)."""
 
-    start: float
-    front: float
-    drop: float
+    start: float | np.ndarray
+    front: float | np.ndarray
+    drop: float | np.ndarray
     pulse_drop: float
-    pulse_floor: float
+    pulse_floor: float | np.ndarray
 
 
-def level(fraction: float, drive_velocity: float, noise: float = 0.0, multiple: float = NOISE_LEVEL) -> float:
-    """The larger of fraction * V_I and multiple * sigma, m/s."""
-    return max(fraction * drive_velocity, multiple * noise)
+def level(fraction: float, drive_velocity: float, noise=0.0, multiple: float = NOISE_LEVEL):
+    """The larger of fraction * V_I and multiple * sigma, m/s (an array for an array of sigma)."""
+    out = np.maximum(fraction * drive_velocity, multiple * np.asarray(noise, dtype=float))
+    return float(out) if out.ndim == 0 else out
 
 
-def front_levels(drive_velocity: float, noise: float = 0.0, start_fraction: float = START_FRACTION,
+def front_levels(drive_velocity: float, noise=0.0, start_fraction: float = START_FRACTION,
                  front_fraction: float = FRONT_FRACTION, prominence: float = PROMINENCE,
                  pulse_drop: float = PULSE_DROP) -> FrontLevels:
-    """The levels for drive velocity V_I (m/s) and noise velocity sigma (m/s)."""
-    if not (np.isfinite(noise) and noise >= 0):
+    """The levels for drive velocity V_I (m/s) and noise velocity sigma (m/s; or an array of
+    them, e.g. one per column of a history: each column's levels)."""
+    sigma = np.asarray(noise, dtype=float)
+    if not np.all(np.isfinite(sigma) & (sigma >= 0)):
         raise ValueError(f"noise: got {noise}; expected a velocity >= 0 (m/s)")
+    floor = NOISE_FALL * sigma
     return FrontLevels(
-        start=level(start_fraction, drive_velocity, noise),
-        front=level(front_fraction, drive_velocity, noise),
-        drop=level(prominence, drive_velocity, noise, NOISE_FALL),
+        start=level(start_fraction, drive_velocity, sigma),
+        front=level(front_fraction, drive_velocity, sigma),
+        drop=level(prominence, drive_velocity, sigma, NOISE_FALL),
         pulse_drop=pulse_drop,
-        pulse_floor=NOISE_FALL * noise,
+        pulse_floor=float(floor) if floor.ndim == 0 else floor,
     )
 
 
-def noise_velocity(masses, velocities, gaps, energy, free) -> float:
+def noise_velocity(masses, velocities, gaps, energy, free):
     """The chain's noise velocity sigma, m/s: the RMS velocity its free magnets would have,
     undriven, if all the energy of its initial state above the uniform chain at rest were kinetic:
 
@@ -83,13 +88,21 @@ def noise_velocity(masses, velocities, gaps, energy, free) -> float:
     m v^2 and U are both mJ.
 
     masses, velocities (N,); gaps (N-1,); energy: U(r) of the nearest-neighbour law, vectorised;
-    free (N,) bool: the magnets that move freely (not the impactor, not the held end)."""
-    masses, velocities, gaps = (np.asarray(x, dtype=float) for x in (masses, velocities, gaps))
+    free (N,) bool: the magnets that move freely (not the impactor, not the held end).
+    For R chains at once (a batch), masses and velocities (R, N) and gaps (R, N-1) give sigma of
+    each, shape (R,): one chain is a batch of one, and each row's sums are those of the row alone
+    (numpy reduces each row of a C-contiguous array along its last axis as it reduces a 1-D array)."""
+    single = np.ndim(masses) == 1
+    masses, velocities, gaps = (np.atleast_2d(np.asarray(x, dtype=float, order="C")) for x in (masses, velocities, gaps))
     free = np.asarray(free, dtype=bool)
+    # C order, so that each row is reduced as a 1-D array is (boolean indexing gives F order)
+    m, v = (np.ascontiguousarray(x[:, free]) for x in (masses, velocities))
     # masses relative to the largest, so that sums of huge masses cannot overflow
-    scale = float(np.max(masses[free])) if np.any(free) else 1.0
-    relative = masses[free] / scale
-    kinetic = float(np.sum(relative * velocities[free] ** 2))
+    scale = np.max(m, axis=1, keepdims=True) if m.shape[1] else np.ones((len(m), 1))
+    relative = m / scale
+    kinetic = np.sum(relative * v**2, axis=1)
     # exactly 0 for equal gaps (the sum would leave rounding errors)
-    disorder = float(np.sum(energy(gaps)) - gaps.size * energy(np.mean(gaps))) if np.ptp(gaps) > 0 else 0.0
-    return float(np.sqrt(max(kinetic + 2.0 * max(disorder, 0.0) / scale, 0.0) / np.sum(relative)))
+    mean = np.mean(gaps, axis=1, keepdims=True)
+    disorder = np.where(np.ptp(gaps, axis=1) > 0, np.sum(energy(gaps), axis=1) - gaps.shape[1] * energy(mean)[:, 0], 0.0)
+    sigma = np.sqrt(np.maximum(kinetic + 2.0 * np.maximum(disorder, 0.0) / scale[:, 0], 0.0) / np.sum(relative, axis=1))
+    return float(sigma[0]) if single else sigma

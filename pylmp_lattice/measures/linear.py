@@ -27,11 +27,13 @@ def linear_frequency(stiffness: float, mass: float) -> float:
     return np.sqrt(stiffness / mass) / np.pi * HZ_PER_INV_MS
 
 
-def slowest_linear_speed(stiffness, masses, gaps) -> float:
+def slowest_linear_speed(stiffness, masses, gaps):
     """The slowest local linear wave speed of a chain, m/s: min over gaps n of
     r_n sqrt(k_n / max(m_n, m_(n+1))), k_n = -dF/dr at r_n (N/mm), masses (N,) g, gaps (N-1,)
     mm. For a uniform chain it is V0; no front of a compressive wave is slower (a gap
-    measured slower was crossed by something else, e.g. noise, and is flagged)."""
+    measured slower was crossed by something else, e.g. noise, and is flagged).
+    For R chains, stiffness and gaps (R, N-1) and masses (R, N): one speed per chain, (R,)."""
     stiffness, masses, gaps = (np.asarray(x, dtype=float) for x in (stiffness, masses, gaps))
     require_positive(smallest_stiffness=stiffness.min(), smallest_mass=masses.min(), smallest_gap=gaps.min())
-    return float(np.min(gaps * np.sqrt(stiffness / np.maximum(masses[:-1], masses[1:]))))
+    speed = np.min(gaps * np.sqrt(stiffness / np.maximum(masses[..., :-1], masses[..., 1:])), axis=-1)
+    return float(speed) if speed.ndim == 0 else speed

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import check_history, first_confirmed_maximum, first_crossing, refine_maxima, require_positive
+from ._common import (check_history, check_noise, first_confirmed_maximum, first_crossing, refine_maxima,
+                      require_positive, window_argmax)
 from .levels import FRONT_FRACTION, PROMINENCE, START_FRACTION, front_levels
 
 _BLOCK_ELEMENTS = 1 << 22  # first_peaks works on column blocks of about this many samples
@@ -72,7 +73,9 @@ def first_peaks(
       start_fraction * V_I so that a numerically tiny precursor does not count.
 
     noise: the chain's noise velocity sigma, m/s (`levels`): the start and front levels are at
-    least 5 sigma, the confirming fall at least 3 sigma, so thermal motion is not a start.
+    least 5 sigma, the confirming fall at least 3 sigma, so thermal motion is not a start. One
+    value, or one per column (shape (N,)); for one column (n_frames, 1), any number (C,): the
+    measures of that one signal against each, shape (C,) (a drive shared by C chains).
     """
     t, v = check_history(t, v)
     a = np.asarray(a, dtype=float)
@@ -81,24 +84,25 @@ def first_peaks(
     require_positive(drive_velocity=drive_velocity, start_fraction=start_fraction, prominence=prominence)
     if not start_fraction <= front_fraction:
         raise ValueError(f"front_fraction: got {front_fraction}; expected >= start_fraction = {start_fraction}")
-    lv = front_levels(drive_velocity, noise, start_fraction, front_fraction, prominence)
-    levels = (lv.start, lv.front, lv.drop)
+    lv = front_levels(drive_velocity, check_noise(noise, v.shape[1]), start_fraction, front_fraction, prominence)
+    if v.shape[1] == 1:  # one signal, against one or many noise velocities (see check_noise)
+        return FirstPeaks(*_first_peaks_block(t, v, a, lv.start, lv.front, lv.drop))
+    levels = [np.broadcast_to(x, v.shape[1:]) for x in (lv.start, lv.front, lv.drop)]
     width = max(1, _BLOCK_ELEMENTS // len(t))  # bounds the temporaries for long chains
     blocks = [
-        _first_peaks_block(t, v[:, j : j + width], a[:, j : j + width], *levels)
+        _first_peaks_block(t, v[:, j : j + width], a[:, j : j + width], *(x[j : j + width] for x in levels))
         for j in range(0, v.shape[1], width)
     ]
     return FirstPeaks(*(np.concatenate(column) for column in zip(*blocks)))
 
 
 def _first_peaks_block(t, v, a, start_level, front_level, drop):
-    rows = np.arange(len(t))[:, None]
     i_start, t_start = first_crossing(t, v, start_level)
     i_front, _ = first_crossing(t, v, front_level)
     i_peak, confirmed = first_confirmed_maximum(v, i_front, drop)
     cols = np.arange(v.shape[1])
     t_peak, v_peak = refine_maxima(t, v, i_peak, cols)
-    i_acc = np.argmax(np.where((rows >= i_start) & (rows <= i_peak), a, -np.inf), axis=0)
+    i_acc = window_argmax(a, i_start, i_peak)
     # Refine only a maximum inside the window, where both neighbours belong to the rise.
     inside = (i_acc > i_start) & (i_acc < i_peak)
     a_peak = np.where(inside, refine_maxima(t, a, i_acc, cols)[1], a[i_acc, cols])

@@ -28,11 +28,17 @@ def propagation_velocity(arrival, spacing) -> np.ndarray:
     V_P[n] = r0_n / (t_arrival[n+1] - t_arrival[n]) with r0_n the initial gap between particles
     n and n+1 in mm (a scalar or an array of shape (N-1,)), arrival times in ms. NaN where either
     particle was never reached; inf where both arrived at once (e.g. both moving at t[0]).
+    R chains at once: arrival (R, N) and spacing (R, N-1) give (R, N-1), row r chain r's.
     """
-    arrival = _arrival(arrival)
+    arrival = np.asarray(arrival, dtype=float)
+    if arrival.ndim == 2:
+        _arrival(arrival[0])
+    else:
+        arrival = _arrival(arrival)
     spacing = np.asarray(spacing, dtype=float)
-    if spacing.ndim != 0 and spacing.shape != (arrival.size - 1,):
-        raise ValueError(f"spacing: got shape {spacing.shape}; expected () or ({arrival.size - 1},)")
+    gaps = arrival.shape[:-1] + (arrival.shape[-1] - 1,)
+    if spacing.ndim != 0 and spacing.shape != gaps:
+        raise ValueError(f"spacing: got shape {spacing.shape}; expected () or {gaps}")
     with np.errstate(divide="ignore"):
         return spacing / np.diff(arrival)
 
