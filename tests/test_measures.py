@@ -140,6 +140,30 @@ def test_trailing_plateau_of_a_converging_series():
     assert np.isnan(trailing_plateau([1.0, np.nan]).mean)
 
 
+def test_plateaus_of_rows_are_those_of_each_row_and_the_line_is_least_squares():
+    """trailing_plateaus over 60 noisy series with different gaps missing (windows of several
+    lengths, up to 500 values) gives each row's trailing_plateau bit for bit; the drift's
+    closed-form line is numpy's least-squares fit (polyfit) to 1e-12."""
+    from pylmp_lattice.measures import trailing_plateaus
+
+    rng = np.random.default_rng(3)
+    values = 3.9 + 0.05 * rng.standard_normal((60, 2000)) + np.linspace(0, 0.02, 2000)
+    values[rng.random(values.shape) < 0.1] = np.nan
+    for r, end in enumerate(rng.integers(3, 2000, 60)):
+        values[r, end:] = np.nan
+    values[7, :] = np.nan
+    rows = trailing_plateaus(values)
+    assert len({p.last - p.first for p in rows if p.first}) > 20 and np.isnan(rows[7].mean)
+    for row, plateau in zip(values, rows):
+        alone = trailing_plateau(row)
+        assert dumps(alone) == dumps(plateau)
+        if alone.first is not None:
+            index = np.flatnonzero(np.isfinite(row))[-(alone.last - alone.first + 1):]
+            index = index[index >= alone.first - 1]
+            slope = np.polyfit(index, row[index], 1)[0]
+            assert_allclose(alone.drift, slope * (index[-1] - index[0]) / alone.mean, rtol=1e-12, atol=1e-15)
+
+
 # ---------------------------------------------------------------------------------------------
 # First peaks
 # ---------------------------------------------------------------------------------------------

@@ -46,6 +46,7 @@ from .propagation import (
     fit_propagation_velocity,
     propagation_velocity,
     trailing_plateau,
+    trailing_plateaus,
 )
 from .pulse import centroid_speed, lead_pulse, staggered_amplitude
 from .transition import TransitionZone, steady_onset_times, transition_zone
@@ -59,6 +60,6 @@ __all__ = [
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",
     "front", "front_levels", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
     "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",
-    "trailing_plateau", "transition_zone",
+    "trailing_plateau", "trailing_plateaus", "transition_zone",
     "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",
 ]

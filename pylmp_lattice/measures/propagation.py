@@ -155,33 +155,63 @@ def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3, over: 
     that have a value: the last ceil(fraction * n_finite) finite entries (at least min_points),
     where n_finite counts finite entries. For V_P, the last quarter of the gaps the front
     crossed. Leave out an entry (the impactor's, say) by making it NaN: the numbers stay
-    the magnets'.
+    the magnets'. The drift is the slope of the least-squares line through the window's
+    values against their entry numbers (closed form).
     """
     values = np.asarray(values, dtype=float)
     if values.ndim != 1:
         raise ValueError(f"values: got shape {values.shape}; expected (N,)")
+    return trailing_plateaus(values[None], fraction, min_points, over)[0]
+
+
+def trailing_plateaus(values, fraction: float = 0.25, min_points: int = 3, over: str = "gap") -> list[Plateau]:
+    """`trailing_plateau` of each row of values (R, M), e.g. the V_P of R chains: row by row the
+    plateau of the row alone, bit for bit (the windows of equal length are gathered into a
+    C-ordered array, whose rows numpy reduces as it reduces a 1-D array)."""
+    values = np.ascontiguousarray(values, dtype=float)
+    if values.ndim != 2:
+        raise ValueError(f"values: got shape {values.shape}; expected (R, N)")
     if over not in OVER:
         raise ValueError(f"over: got {over!r}; choose one of {', '.join(OVER)}")
     if not 0 < fraction <= 1:
         raise ValueError(f"fraction: got {fraction}; expected in (0, 1]")
     if min_points < 2:
         raise ValueError(f"min_points: got {min_points}; expected >= 2 (a line is fitted)")
-    finite = np.flatnonzero(np.isfinite(values))
-    count = max(int(np.ceil(fraction * finite.size)), min_points)
-    if finite.size < count:
-        return Plateau(NAN, NAN, NAN, None, None, NAN, over)
-    index = finite[-count:]
-    window = values[index]
-    mean = float(window.mean())
-    line = np.polyfit(index, window, 1)
-    drift = float(line[0] * (index[-1] - index[0]) / mean)
+    finite = np.isfinite(values)
+    n_finite = finite.sum(axis=1)
+    count = np.maximum(np.ceil(fraction * n_finite).astype(int), min_points)
+    # rank of each finite entry from the row's end (1: its last finite entry)
+    rank = np.cumsum(finite[:, ::-1], axis=1)[:, ::-1]
+    out: list[Plateau | None] = [Plateau(NAN, NAN, NAN, None, None, NAN, over)] * len(values)
+    for c, tail in set(zip(count.tolist(), np.minimum(2 * count, n_finite).tolist())):
+        rows = np.flatnonzero((count == c) & (np.minimum(2 * count, n_finite) == tail) & (n_finite >= c))
+        if rows.size == 0:
+            continue
+        index = np.nonzero(finite[rows] & (rank[rows] <= c))[1].reshape(rows.size, c)
+        window = values[rows[:, None], index]
+        for r, plateau in zip(rows.tolist(), _plateaus(window, index, values[rows[:, None], np.nonzero(
+                finite[rows] & (rank[rows] <= tail))[1].reshape(rows.size, tail)], over)):
+            out[r] = plateau
+    return out
+
+
+def _plateaus(window, index, tail, over: str) -> list[Plateau]:
+    """Plateaus of windows (R, c) of values at entries index (R, c), with the tails (R, <= 2 c)
+    the scatter is estimated from (see trailing_plateau)."""
+    count = window.shape[1]
+    mean = window.mean(axis=1)
+    x = index.astype(float)
+    dx = x - x.mean(axis=1, keepdims=True)
+    slope = np.sum(dx * (window - mean[:, None]), axis=1) / np.sum(dx * dx, axis=1)
+    drift = slope * (index[:, -1] - index[:, 0]) / mean
     # The drift's standard error if each value scatters independently by s, estimated from the
     # second differences (variance 6 s^2) of the window and as many values before it; a smooth
     # series (any noise-free one) has s, hence the error, near 0.
-    tail = values[finite[-2 * count:]]
-    scatter = np.sqrt(np.mean(np.diff(tail, 2) ** 2) / 6) if tail.size > 2 else NAN
-    stderr = float(scatter / abs(mean) * (count - 1) * np.sqrt(12 / (count * (count**2 - 1))))
-    return Plateau(mean, float(window.std()), drift, number(index[0]), number(index[-1]), stderr, over)
+    scatter = np.sqrt(np.mean(np.diff(tail, 2) ** 2, axis=1) / 6) if tail.shape[1] > 2 else np.full(len(window), NAN)
+    stderr = scatter / np.abs(mean) * (count - 1) * np.sqrt(12 / (count * (count**2 - 1)))
+    std = window.std(axis=1)
+    return [Plateau(m, s, d, number(i[0]), number(i[-1]), e, over)
+            for m, s, d, e, i in zip(mean.tolist(), std.tolist(), drift.tolist(), stderr.tolist(), index.tolist())]
 
 
 def _arrival(arrival):
