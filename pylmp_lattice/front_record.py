@@ -29,7 +29,8 @@ from .units import from_engine
 @dataclass(frozen=True)
 class FrontRecord:
     """front: the run's `measures.Front`; max_speed (N,): largest |v| of each magnet, m/s;
-    end_time: when the record was written (the end of the run, or where it stopped), ms."""
+    end_time: when the record was written (the end of the run, or where it stopped), ms.
+    Of R chains (`read_front_batch`): the Front of R chains, max_speed (R, N)."""
 
     front: measures.Front
     max_speed: np.ndarray
@@ -42,14 +43,20 @@ def read_front_record(case: Case, path: str | Path, arrival_method: str = "level
     return read_front_records([case], path, arrival_method)[0]
 
 
-def read_front_records(cases, path: str | Path, arrival_method: str = "level", noise=None) -> list[FrontRecord]:
+def read_front_records(cases, path: str | Path, arrival_method: str = "level") -> list[FrontRecord]:
     """The record in `path` of a batch of equal chains (deck.render_replicas with `front`): one
-    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step.
-    noise: their noise velocities, m/s, shape (R,), if known (else `case_levels.chain_noises`).
+    per case, chain r from rows r N .. r N + N - 1. The cases share their drive and time step."""
+    batch = read_front_batch(cases, path, arrival_method)
+    return [FrontRecord(batch.front.row(r), batch.max_speed[r], batch.end_time) for r in range(len(cases))]
 
-    One batch, one pass: the drive's measures once per distinct noise velocity (the drive is the
-    same, its levels are not), and each chain's rows as a row of (R, N) arrays; a run alone is a
-    batch of one."""
+
+def read_front_batch(cases, path: str | Path, arrival_method: str = "level", noise=None) -> FrontRecord:
+    """`read_front_records` as one FrontRecord of R chains: its front a `measures.Front` of R
+    chains (`stack_fronts`), max_speed (R, N). noise: the cases' noise velocities, m/s, shape
+    (R,), if known (else `case_levels.chain_noises`).
+
+    One pass for the batch: the drive's measures once, against each distinct noise velocity
+    (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     frame = open_dump(path).read()
@@ -67,17 +74,14 @@ def read_front_records(cases, path: str | Path, arrival_method: str = "level", n
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
     arrival = rows[column].copy()
     arrival[:, 0] = measures.arrival_times(t, v, vi, method=arrival_method, noise=sigma)[level_of]
-    peaks = {}
+    peaks = []
     for f in fields(measures.FirstPeaks):  # magnet 1's are the drive's
-        peaks[f.name] = rows[f.name].copy()
-        peaks[f.name][:, 0] = getattr(drive, f.name)[level_of]
+        peaks.append(rows[f.name].copy())
+        peaks[-1][:, 0] = getattr(drive, f.name)[level_of]
     gaps = np.stack([c.chain.gaps() for c in cases])
-    velocity = measures.propagation_velocity(arrival, gaps)
-    slowest = slowest_linear_speeds(cases, gaps)
-    return [FrontRecord(measures.Front(arrival[r], velocity[r], measures.FirstPeaks(**{k: x[r] for k, x in peaks.items()}),
-                                       arrival_method, float(noise[r]), float(slowest[r])),
-                        rows["max_speed"][r].copy(), end)
-            for r in range(chains)]
+    front = measures.Front(arrival, measures.propagation_velocity(arrival, gaps), measures.FirstPeaks(*peaks),
+                           arrival_method, noise, slowest_linear_speeds(cases, gaps))
+    return FrontRecord(front, rows["max_speed"].copy(), end)
 
 
 def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.Front:

@@ -7,6 +7,7 @@ n lies between magnets n and n+1, and ranges are inclusive (first_gap 145, last_
 from __future__ import annotations
 
 import logging
+import warnings
 
 import numpy as np
 
@@ -25,38 +26,66 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
     front: the run's front measures (`RunFolder.measures`); None without a drive.
     max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
     end stayed at rest."""
-    chain, vi = case.chain, case.impactor.peak_velocity()
-    v0, f0 = linear_chain(case)
-    out = {
-        "case": case.name,
-        "particles": chain.particles,
-        "impactor_peak_velocity_m_per_s": vi,
-        "linear_wave_speed_V0_m_per_s": round(v0, 6),
-        "linear_frequency_f0_Hz": round(f0, 4),
-    }
     if front is None:  # no drive, no shock (e.g. the friction calibration rig)
-        return out
+        return _linear_part([case])[0]
+    return summaries([case], measures.stack_fronts([front]), None if max_speed is None else np.asarray(max_speed)[None])[0]
+
+
+def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None) -> list[dict]:
+    """`summarize` of each of R cases of one drive (a batch), from their fronts as one Front of R
+    chains (`measures.stack_fronts`) and max_speed (R, N): each the summary of the case alone,
+    bit for bit (`summarize` is a batch of one)."""
+    vi = cases[0].impactor.peak_velocity()
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
-    speed = measures.trailing_plateau(vp)
-    first_peak = measures.trailing_plateau(front.peaks.driven_peak_velocity, over="magnet")
-    resolution = _resolution(front)
-    out |= {
-        "particles_reached_by_front": int(np.sum(np.isfinite(front.arrival))),
-        "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
-        # with friction V_P peaks early and decays (Fig. S6): where and how high
-        "shock_velocity_max_m_per_s": _maximum(vp),
-        "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
-        "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
-        "front_flags": _flags(front),
-        "front_resolution": resolution,
-    }
-    if chain.far_end == "long" and max_speed is not None:
-        last_free = min(case.held()) - 1  # 0-based
-        last = float(max_speed[last_free])
-        out["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, front.noise))
-        if not out["far_end_quiet"]:
-            log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
-                        number(last_free), last)
+    speeds = measures.trailing_plateaus(vp)
+    first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
+    reached = np.isfinite(front.arrival).sum(axis=1).tolist()
+    any_vp = np.isfinite(vp).any(axis=1)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None below)
+        top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(any_vp[:, None], vp, 0.0), axis=1).tolist()
+    out = _linear_part(cases)
+    for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
+        resolution = _resolution(res)
+        speed, first_peak = speeds[r], first_peaks[r]
+        out[r] |= {
+            "particles_reached_by_front": reached[r],
+            "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
+            # with friction V_P peaks early and decays (Fig. S6): where and how high
+            "shock_velocity_max_m_per_s": {"value": round(top[r], 5), "gap": number(where[r])} if any_vp[r] else None,
+            "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
+            "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
+            "front_flags": _flags(flags),
+            "front_resolution": resolution,
+        }
+        if case.chain.far_end == "long" and max_speed is not None:
+            last_free = min(case.held()) - 1  # 0-based
+            last = float(max_speed[r, last_free])
+            noise = float(np.broadcast_to(front.noise, len(cases))[r])
+            out[r]["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, noise))
+            if not out[r]["far_end_quiet"]:
+                log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
+                            number(last_free), last)
+    return out
+
+
+def _linear_part(cases) -> list[dict]:
+    """The part of each summary without a front: the case, N, V_I and the linear V0 and f0
+    (computed once for chains of equal mean gap and mass)."""
+    done: dict[tuple, tuple[float, float]] = {}
+    out = []
+    for case in cases:
+        key = (float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses())), case.force)
+        if key not in done:
+            done[key] = linear_chain(case)
+        v0, f0 = done[key]
+        out.append({
+            "case": case.name,
+            "particles": case.chain.particles,
+            "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity(),
+            "linear_wave_speed_V0_m_per_s": round(v0, 6),
+            "linear_frequency_f0_Hz": round(f0, 4),
+        })
     return out
 
 
@@ -68,23 +97,14 @@ def linear_chain(case: Case) -> tuple[float, float]:
     return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
 
 
-def _maximum(vp: np.ndarray) -> dict | None:
-    """Largest V_P and the gap where it occurs (gap n between magnets n and n+1)."""
-    if not np.any(np.isfinite(vp)):
-        return None
-    return {"value": round(float(np.nanmax(vp)), 5), "gap": number(np.nanargmax(vp))}
-
-
-def _flags(front: measures.Front) -> dict:
-    """The gaps flagged (out of order, below the slowest linear speed), as counts and gap numbers."""
-    flags = front.flags()
+def _flags(flags: dict) -> dict:
+    """The flagged gaps (`Front.flags`: out of order, below the slowest linear speed), as counts and gap numbers."""
     return {"out_of_order": len(flags["out_of_order_gaps"]), "below_linear_speed": len(flags["below_linear_speed_gaps"]),
             **{k: round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
 
 
-def _resolution(front: measures.Front) -> dict:
+def _resolution(res: dict) -> dict:
     """`Front.resolution`, rounded, with a warning when the frames are too coarse for the gaps."""
-    res = front.resolution()
     if not res["resolved"]:
         log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
                     "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "

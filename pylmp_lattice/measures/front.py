@@ -3,7 +3,7 @@ the gaps whose V_P cannot be a front's: flagged, not averaged."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -33,14 +33,18 @@ class Front:
     A gap is flagged when the front crossed it out of order (`out_of_order`: magnet n+1 reached
     no later than magnet n) or slower than any linear wave of the chain can travel
     (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest linear speed);
-    `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and maxima average."""
+    `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and maxima average.
+
+    The fronts of R chains (a batch, `stack_fronts`) have arrays with a leading axis R (noise
+    and slowest_linear_speed (R,)); their properties are those of each chain, row by row, and
+    `resolutions`, `all_flags` and `row` give each chain's."""
 
     arrival: np.ndarray
     propagation_velocity: np.ndarray
     peaks: FirstPeaks
     arrival_method: str = "level"
-    noise: float = 0.0
-    slowest_linear_speed: float = NAN
+    noise: float | np.ndarray = 0.0
+    slowest_linear_speed: float | np.ndarray = NAN
     sample_interval: float = 0.0
 
     @property
@@ -50,8 +54,9 @@ class Front:
 
     @property
     def below_linear_speed(self) -> np.ndarray:
+        slowest = np.asarray(self.slowest_linear_speed)[..., None]  # a chain's, against its gaps
         with np.errstate(invalid="ignore"):
-            return ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * self.slowest_linear_speed)
+            return ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * slowest)
 
     @property
     def accepted_velocity(self) -> np.ndarray:
@@ -62,20 +67,53 @@ class Front:
         over the magnets it reached (ms), how many frames fall in it, and the longest frame
         interval that resolves it (ms); `resolved` is False below MIN_FRAMES_PER_GAP frames per
         gap, where V_P per gap and the first peaks are sampling artefacts."""
-        reached = np.flatnonzero(np.isfinite(self.arrival))
-        crossing = NAN
-        if reached.size > 1 and reached[-1] > reached[0]:
-            crossing = float((self.arrival[reached[-1]] - self.arrival[reached[0]]) / (reached[-1] - reached[0]))
-        frames = crossing / self.sample_interval if self.sample_interval > 0 else None
-        return {"sample_interval_ms": self.sample_interval, "gap_crossing_time_ms": crossing, "frames_per_gap": frames,
-                "max_sample_interval_ms": crossing / MIN_FRAMES_PER_GAP,
-                "resolved": frames is None or bool(frames >= MIN_FRAMES_PER_GAP)}
+        return self.resolutions()[0]
+
+    def resolutions(self) -> list[dict]:
+        """`resolution` of each chain (one for a single front)."""
+        arrival = np.atleast_2d(self.arrival)
+        reached = np.isfinite(arrival)
+        first, last = np.argmax(reached, axis=1), arrival.shape[1] - 1 - np.argmax(reached[:, ::-1], axis=1)
+        rows = np.arange(len(arrival))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            crossing = np.where((reached.sum(axis=1) > 1) & (last > first),
+                                (arrival[rows, last] - arrival[rows, first]) / (last - first), NAN)
+        out = []
+        for c in crossing.tolist():
+            frames = c / self.sample_interval if self.sample_interval > 0 else None
+            out.append({"sample_interval_ms": self.sample_interval, "gap_crossing_time_ms": c, "frames_per_gap": frames,
+                        "max_sample_interval_ms": c / MIN_FRAMES_PER_GAP,
+                        "resolved": frames is None or bool(frames >= MIN_FRAMES_PER_GAP)})
+        return out
 
     def flags(self) -> dict:
         """The flagged gaps (1-based, gap n between magnets n and n+1) and what they were set against."""
-        gaps = lambda mask: (np.flatnonzero(mask) + 1).tolist()  # noqa: E731
-        return {"out_of_order_gaps": gaps(self.out_of_order), "below_linear_speed_gaps": gaps(self.below_linear_speed),
-                "slowest_linear_speed_m_per_s": self.slowest_linear_speed, "noise_velocity_m_per_s": self.noise}
+        return self.all_flags()[0]
+
+    def all_flags(self) -> list[dict]:
+        """`flags` of each chain (one for a single front)."""
+        late, slow = np.atleast_2d(self.out_of_order), np.atleast_2d(self.below_linear_speed)
+        slowest, noise = (np.broadcast_to(x, len(late)).tolist() for x in (self.slowest_linear_speed, self.noise))
+        return [{"out_of_order_gaps": (np.flatnonzero(a) + 1).tolist(), "below_linear_speed_gaps": (np.flatnonzero(b) + 1).tolist(),
+                 "slowest_linear_speed_m_per_s": c, "noise_velocity_m_per_s": d}
+                for a, b, c, d in zip(late, slow, slowest, noise)]
+
+    def row(self, r: int) -> Front:
+        """Chain r's front, of the fronts of R chains."""
+        pick = lambda x: float(x[r]) if np.ndim(x) else x  # noqa: E731
+        return Front(self.arrival[r], self.propagation_velocity[r],
+                     FirstPeaks(*(getattr(self.peaks, f.name)[r] for f in fields(FirstPeaks))), self.arrival_method,
+                     pick(self.noise), pick(self.slowest_linear_speed), self.sample_interval)
+
+
+def stack_fronts(fronts) -> Front:
+    """The fronts of R chains (equal N, method and sample interval) as one Front (see `Front`)."""
+    first = fronts[0]
+    stack = lambda name: np.stack([getattr(f, name) for f in fronts])  # noqa: E731
+    return Front(stack("arrival"), stack("propagation_velocity"),
+                 FirstPeaks(*(np.stack([getattr(f.peaks, g.name) for f in fronts]) for g in fields(FirstPeaks))),
+                 first.arrival_method, np.array([f.noise for f in fronts], dtype=float),
+                 np.array([f.slowest_linear_speed for f in fronts], dtype=float), first.sample_interval)
 
 
 def front(t, v, a, drive_velocity: float, spacing, arrival_method: str = "level", noise: float = 0.0,

@@ -32,7 +32,9 @@ class FirstPeaks:
     def driven_peak_velocity(self) -> np.ndarray:
         """peak_velocity with magnet 1's left out (NaN): magnet 1 is the impactor, whose motion
         is the drive, not the chain's response (plateaus of it keep the magnets' numbers)."""
-        return np.concatenate(([np.nan], self.peak_velocity[1:]))
+        driven = np.array(self.peak_velocity, dtype=float)  # a copy (of each chain's, for R chains)
+        driven[..., 0] = np.nan
+        return driven
 
     @property
     def rise_time(self) -> np.ndarray:

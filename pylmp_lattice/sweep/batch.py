@@ -28,8 +28,8 @@ from pathlib import Path
 from ..case import Case
 from ..errors import Interrupted, LatticeError
 from .spec import Member, member_cases
-from .store import (BATCHES, DONE, FAILED, INTERRUPTED, RUNNING, Outcomes, member_folder, now, provenance, task_lock,
-                    write_batch, write_status)
+from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, provenance,
+                    task_lock, write_batch, write_status)
 
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
 # for chain c); a build without it makes the batch deck fail at the end, and from then on this
@@ -198,8 +198,9 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
                 "summary": summary | {"status": FINISHED, "files": where, "wall_time_s": round(wall, 4)}}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
     outcomes = write_batch(batch, record, members)  # last: the members are done
+    alone = set(os.listdir(root / MEMBERS)) if (root / MEMBERS).is_dir() else set()
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
-        if member_folder(root, m.id).exists():
+        if m.id in alone:
             shutil.rmtree(member_folder(root, m.id))
     return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
 
@@ -207,13 +208,13 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
 def _summaries(cases: list[Case], batch: Path) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it."""
     from .. import measures
-    from ..front_record import read_front_records
+    from ..front_record import read_front_batch
     from ..run_folder import layout
-    from ..summary import summarize
+    from ..summary import summaries as summarize
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
-    records = read_front_records(cases, batch / layout.FRONT_BIN, method)
-    summaries = [summarize(case, r.front, r.max_speed) for case, r in zip(cases, records)]
+    record = read_front_batch(cases, batch / layout.FRONT_BIN, method)
+    summaries = summarize(cases, record.front, record.max_speed)
     if cases[0].friction is not None:
         from ..units import from_engine
 

@@ -93,15 +93,22 @@ class Outcomes:
         """The member's outcome: done in a batch, else from its folder (`outcome`)."""
         if self._batched is None:  # what is on disk now: the batch files and the member folders
             folder = self.root / BATCHES
-            files = ([folder / name / BATCH_FILE for name in self.batches] if self.batches is not None
-                     else folder.glob(f"*/{BATCH_FILE}"))
+            names = _listing(folder)  # one listing, not a look per possible batch
+            files = [folder / name / BATCH_FILE for name in (names if self.batches is None else names & set(self.batches))]
             self._batched = {}
             for path in files:
                 self._batched |= read_batch(path)
-            with contextlib.suppress(FileNotFoundError):
-                self._folders = set(os.listdir(self.root / MEMBERS))  # one listing, not a look per member
+            self._folders = _listing(self.root / MEMBERS)  # one listing, not a look per member
         found = self._batched.get(member_id)
         return found if found is not None or member_id not in self._folders else outcome(self.root, member_id)
+
+
+def _listing(folder: Path) -> set[str]:
+    """The names in a folder (none if it does not exist)."""
+    try:
+        return set(os.listdir(folder))
+    except (FileNotFoundError, NotADirectoryError):
+        return set()
 
 
 def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, dict]:

@@ -1,0 +1,121 @@
+"""The worker's Python per batched member: one task of a thermal ensemble, in this process.
+
+A task of --members replicas of inputs/paper_experiment.toml (21 magnets, 60 ms, 4800 steps,
+chain.thermal_velocity = --thermal m/s, keep = "measures") runs as one batch through
+`sweep.batch.run_task`, as a pool worker runs it. Each stage is timed by wrapping the function
+that does it (wall time, perf_counter):
+
+    cases      spec.member_cases: the members' cases (a point's replicas share its first)
+    render     deck.render_replicas: the deck, the chains' data file and levels
+    engine     runner.run_deck: LAMMPS (its own Loop time from log.lammps beside it)
+    record     front_record.read_front_batch: the front record and the drive's measures
+    summaries  summary.summaries: every member's summary
+    store      store.write_batch: members.json
+    other      the task's wall time minus all of the above (folders, files, bookkeeping)
+
+Python = task - engine. A warm-up task of 5 members runs first (imports, caches: a pool worker
+has them after its first task). Both variants: the case as shipped (friction) and without.
+
+    python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import tempfile
+import time
+import tomllib
+from datetime import datetime, timezone
+from pathlib import Path
+
+import tomli_w
+
+from pylmp_lattice import deck, front_record, runner, summary
+from pylmp_lattice.sweep import batch, load_sweep, store
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "inputs" / "paper_experiment.toml"
+# (label, module, attribute): the functions timed, where the task looks them up
+STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"), ("engine", runner, "run_deck"),
+          ("record", front_record, "read_front_batch"), ("summaries", summary, "summaries"),
+          ("store", batch, "write_batch")]
+
+
+def task(folder: Path, members: int, thermal: float, friction: bool) -> batch.Task:
+    base = tomllib.loads(CASE.read_text())
+    if not friction:
+        del base["friction"]
+    folder.mkdir(parents=True)
+    (folder / "base.toml").write_text(tomli_w.dumps(base))
+    (folder / "sweep.toml").write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
+                                       f'[set]\n"chain.thermal_velocity" = {thermal}\n')
+    sweep = load_sweep(folder / "sweep.toml")
+    root = folder / "out"
+    (root / store.MEMBERS).mkdir(parents=True)
+    return batch.Task(str(root), tuple(sweep.iter_members()), sweep.runner)
+
+
+def timed_run(t: batch.Task) -> dict[str, float]:
+    """Run the task with its stages timed; seconds per stage, the task's and the engine's Loop."""
+    spent = {label: 0.0 for label, *_ in STAGES}
+    originals = [(module, name, getattr(module, name)) for _, module, name in STAGES]
+
+    def wrap(label, fn):
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[label] += time.perf_counter() - start
+        return timed
+
+    for (label, module, name), (_, _, fn) in zip(STAGES, originals):
+        setattr(module, name, wrap(label, fn))
+    try:
+        start = time.perf_counter()
+        results = batch.run_task(t)
+        spent["task"] = time.perf_counter() - start
+    finally:
+        for module, name, fn in originals:
+            setattr(module, name, fn)
+    assert {r["record"]["status"] for r in results} == {"done"} and "batch" in results[0]["record"], "not batched"
+    [log] = Path(t.root).glob(f"{store.BATCHES}/*/log.lammps")
+    spent["loop"] = float(re.search(r"Loop time of (\S+)", log.read_text())[1])
+    return spent
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--members", type=int, default=500)
+    parser.add_argument("--thermal", type=float, default=0.02)
+    parser.add_argument("--repeat", type=int, default=3, help="tasks per variant; the fastest is shown")
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="bench_batch_python_"))
+    try:
+        timed_run(task(work / "warm", 5, args.thermal, True))
+        rows = {}
+        for friction in (True, False):
+            runs = [timed_run(task(work / f"{friction}{k}", args.members, args.thermal, friction))
+                    for k in range(args.repeat)]
+            rows["friction" if friction else "frictionless"] = min(runs, key=lambda r: r["task"] - r["engine"])
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"# {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, load average {os.getloadavg()[0]:.2f}; "
+          f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s, fastest of {args.repeat}")
+    n = args.members
+    labels = [label for label, *_ in STAGES if label != "engine"]
+    print(f"{'variant':<13}" + "".join(f"{label:>10}" for label in labels)
+          + f"{'other':>9}{'Python':>9}  {'engine s':>9}{'(Loop)':>8}{'task s':>8}")
+    print(f"{'':<13}" + "".join(f"{'ms/member':>10}" for _ in labels) + f"{'':>9}{'ms/memb':>9}")
+    for variant, r in rows.items():
+        python = r["task"] - r["engine"]
+        other = python - sum(r[label] for label in labels)
+        print(f"{variant:<13}" + "".join(f"{1e3 * r[label] / n:>10.3f}" for label in labels)
+              + f"{1e3 * other / n:>9.3f}{1e3 * python / n:>9.3f}  {r['engine']:>9.3f}{r['loop']:>8.3f}{r['task']:>8.3f}")
+
+
+if __name__ == "__main__":
+    main()
