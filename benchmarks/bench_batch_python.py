@@ -15,6 +15,8 @@ that does it (wall time, perf_counter):
 
 Python = task - engine. A warm-up task of 5 members runs first (imports, caches: a pool worker
 has them after its first task). Both variants: the case as shipped (friction) and without.
+On an older tree (e.g. the reference commit, run with its own environment) the stages it lacks
+show "-" and count in "other".
 
     python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3]
 """
@@ -60,8 +62,9 @@ def task(folder: Path, members: int, thermal: float, friction: bool) -> batch.Ta
 
 def timed_run(t: batch.Task) -> dict[str, float]:
     """Run the task with its stages timed; seconds per stage, the task's and the engine's Loop."""
-    spent = {label: 0.0 for label, *_ in STAGES}
-    originals = [(module, name, getattr(module, name)) for _, module, name in STAGES]
+    stages = [(label, module, name) for label, module, name in STAGES if hasattr(module, name)]  # (an older tree)
+    spent = {label: 0.0 for label, *_ in stages}
+    originals = [(module, name, getattr(module, name)) for _, module, name in stages]
 
     def wrap(label, fn):
         def timed(*args, **kwargs):
@@ -72,7 +75,7 @@ def timed_run(t: batch.Task) -> dict[str, float]:
                 spent[label] += time.perf_counter() - start
         return timed
 
-    for (label, module, name), (_, _, fn) in zip(STAGES, originals):
+    for (label, module, name), (_, _, fn) in zip(stages, originals):
         setattr(module, name, wrap(label, fn))
     try:
         start = time.perf_counter()
@@ -112,8 +115,8 @@ def main() -> None:
     print(f"{'':<13}" + "".join(f"{'ms/member':>10}" for _ in labels) + f"{'':>9}{'ms/memb':>9}")
     for variant, r in rows.items():
         python = r["task"] - r["engine"]
-        other = python - sum(r[label] for label in labels)
-        print(f"{variant:<13}" + "".join(f"{1e3 * r[label] / n:>10.3f}" for label in labels)
+        other = python - sum(r.get(label, 0.0) for label in labels)
+        print(f"{variant:<13}" + "".join(f"{1e3 * r[label] / n:>10.3f}" if label in r else f"{'-':>10}" for label in labels)
               + f"{1e3 * other / n:>9.3f}{1e3 * python / n:>9.3f}  {r['engine']:>9.3f}{r['loop']:>8.3f}{r['task']:>8.3f}")
 
 
