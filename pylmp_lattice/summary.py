@@ -40,10 +40,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
     speeds = measures.trailing_plateaus(vp)
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = np.isfinite(front.arrival).sum(axis=1).tolist()
-    any_vp = np.isfinite(vp).any(axis=1)
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None below)
-        top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(any_vp[:, None], vp, 0.0), axis=1).tolist()
+    maxima = _maxima(vp)
     out = _linear_part(cases)
     for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
         resolution = _resolution(res)
@@ -52,7 +49,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
             "particles_reached_by_front": reached[r],
             "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
             # with friction V_P peaks early and decays (Fig. S6): where and how high
-            "shock_velocity_max_m_per_s": {"value": round(top[r], 5), "gap": number(where[r])} if any_vp[r] else None,
+            "shock_velocity_max_m_per_s": maxima[r],
             "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
             "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
             "front_flags": _flags(flags),
@@ -95,6 +92,16 @@ def linear_chain(case: Case) -> tuple[float, float]:
     k0 = float(case.force.stiffness(r0))
     m = float(np.mean(case.chain.masses()))
     return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
+
+
+def _maxima(vp: np.ndarray) -> list[dict | None]:
+    """Largest V_P of each chain, vp (R, N-1), and the gap where it occurs (gap n between magnets
+    n and n+1); None for a chain without any."""
+    found = np.isfinite(vp).any(axis=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None)
+        top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(found[:, None], vp, 0.0), axis=1).tolist()
+    return [{"value": round(v, 5), "gap": number(i)} if ok else None for v, i, ok in zip(top, where, found.tolist())]
 
 
 def _flags(flags: dict) -> dict:
