@@ -651,6 +651,27 @@ def test_a_failed_batch_runs_its_members_alone(tmp_path, monkeypatch):
     assert all((tmp_path / "out" / f / "log.lammps").exists() for f in table["folder"])
 
 
+def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, monkeypatch, caplog):
+    """A batch that ran but whose measures fail to read (a damaged front record, say) is not a
+    lost worker: its members run alone and are done, and the log says why."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice.sweep import batch
+
+    def damaged(cases, folder):
+        raise ValueError("front.bin: truncated")
+
+    monkeypatch.setattr(batch, "_summaries", damaged)
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    with ThreadPoolExecutor(1) as pool:  # in this process, so that the patch applies
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert list(table["status"]) == ["done"] * 3
+    assert table["shock_velocity_max_m_per_s.value"].notna().all()
+    records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
+    assert not any("batch" in r for r in records)  # each ran alone
+    assert "its measures could not be read (ValueError: front.bin: truncated); its members run alone" in caplog.text
+
+
 @pytest.mark.lammps
 def test_members_whose_decks_differ_beyond_the_chain_run_alone(tmp_path):
     """A task's members share a parameter point, so they are batched by N and table range alone;

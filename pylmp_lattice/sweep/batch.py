@@ -17,6 +17,7 @@ members as "interrupted".
 
 from __future__ import annotations
 
+import logging
 import os
 import resource
 import shutil
@@ -31,6 +32,7 @@ from .spec import Member, member_cases
 from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, provenance,
                     task_lock, write_batch, write_status)
 
+log = logging.getLogger(__name__)
 # Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
 # for chain c); a build without it makes the batch deck fail at the end, and from then on this
 # process runs members with friction one per instance.
@@ -170,13 +172,18 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         for name, text in files.items():
             (batch / name).write_text(text)
         run_deck(batch, runner)
+        summaries = _summaries(cases, batch)
     except Interrupted as err:  # nothing was recorded: the members were not started
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
         return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
                 for m, _ in group}
-    except LatticeError as err:  # unequal decks, a contact or an engine error in some chain: each member alone
+    except Exception as err:  # noqa: BLE001 - unequal decks, a contact or an engine error in some chain, or a
+        # record that cannot be read: each member alone, with its own outcome
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
+        if not isinstance(err, LatticeError):
+            log.warning("batch %s: its measures could not be read (%s); its members run alone", batch.name,
+                        one_line(err, root))
         if NO_CHAIN_WORK in str(err):
             FRICTION_PER_CHAIN = False
         if layout.FRONT_LEVELS in files and "lattice/front" in str(err):
@@ -188,7 +195,6 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
                 break
             out[m.id] = run_member(root, m, case, runner, started)
         return out
-    summaries = _summaries(cases, batch)
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
     record = {"status": DONE, "error": None, "started": started, "ended": now(), "pid": os.getpid(),
               "provenance": provenance(), "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
