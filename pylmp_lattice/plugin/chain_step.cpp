@@ -189,12 +189,6 @@ void FixLatticeChain::own_step(const Law law, int &bad)
     // the forces and the second half kick
     double *__restrict fb = f + first;
     double *__restrict vb = v + first;
-    // the front record's largest |v| of every atom (it may change at every step: atoms ahead
-    // of the front feel round-off forces from unequal gaps), and how many atoms are at or
-    // above the start level (a count as a double: an int would keep the loop from vectorising)
-    double *__restrict mb = FRONT ? mark + first : nullptr;
-    double at_start = 0.0;
-    const double start = FRONT ? front->chain_levels(run.chain).start : 0.0;
     // one loop for one atom type and one for several (a test inside would keep the loop from
     // vectorising)
     auto kick_loop = [&](auto one_type_) {
@@ -205,18 +199,27 @@ void FixLatticeChain::own_step(const Law law, int &bad)
         const double vn = vh[k] + (ONE_TYPE ? half_kick : dtfm_of[t]) * ftot;
         fb[k] = ftot;
         vb[k] = vn;
-        if constexpr (FRONT) {
-          mb[k] = FrontRecord::mark_max(mb[k], vn);
-          at_start += vn >= start ? 1.0 : 0.0;
-        }
       }
     };
     if (one_type) kick_loop(std::true_type{});
     else kick_loop(std::false_type{});
     if constexpr (FRICTION) works[run.chain] = work;
-    // the rows only of blocks where an atom is active or may reach the start level now
-    if (FRONT && (block_front[b].active > 0 || (block_front[b].waiting > 0 && at_start > 0.0)))
-      sample_front_block(b, before[b % 2]);
+    if constexpr (FRONT) {
+      // the front record's largest |v| of every atom (it may change at every step: atoms ahead
+      // of the front feel round-off forces from unequal gaps), and how many waiting atoms reach
+      // the start level now (a count as a double: an int would keep the loop from vectorising);
+      // a loop of its own, which vectorises also when the kicks (friction) do not
+      double *__restrict mb = mark + first;
+      const double *__restrict gate = start_gate.data() + first;
+      double starting = 0.0;
+#pragma omp simd reduction(+ : starting)
+      for (int k = 0; k < len; k++) {
+        mb[k] = FrontRecord::mark_max(mb[k], vb[k]);
+        starting += vb[k] >= gate[k] ? 1.0 : 0.0;
+      }
+      // the rows only of blocks where an atom is active or reaches the start level now
+      if (block_front[b].active > 0 || starting > 0.0) sample_front_block(b, before[b % 2], starting > 0.0);
+    }
   }
   if (FRICTION) settle_work(kick, false);
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;

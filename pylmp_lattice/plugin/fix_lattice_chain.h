@@ -104,12 +104,17 @@ class FixLatticeChain : public Fix {
   std::vector<double> bond_force;    // scratch: the forces of one block's bonds
   std::vector<double> scratch;       // scratch: positions of a block (AoS), velocities (own)
 
-  // ---- the front record inside the owned pass (chain_front.cpp): each block's active and
-  // waiting atoms
+  // ---- the front record inside the owned pass (chain_front.cpp): each block's active atoms
+  // (how many, and the span of local indices lo..hi that holds them; they follow the front, so
+  // the span is about as long as their number), and per local atom its start gate: its chain's
+  // start level while it waits, else infinity (so the pass finds the atoms that start now with
+  // one vectorised comparison)
   struct BlockFront {
-    int active, waiting;
+    int active, lo, hi;
   };
   std::vector<BlockFront> block_front;
+  std::vector<double> start_gate;
+  std::vector<End> held_moving;    // the held ends that are sampled (chain_front.cpp)
 
   // ---- checks and energy (chain_checks.cpp)
   // friction work of each chain on this rank (see coulomb.h): done, due at the next step, and
@@ -155,7 +160,7 @@ class FixLatticeChain : public Fix {
   template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   template <bool FRICTION, bool FRONT, class Law> void own_step(const Law law, int &bad);
   // chain_front.cpp
-  void sample_front_block(int b, const double *v_before);
+  void sample_front_block(int b, const double *v_before, bool starting);
   void sample_front_ends();
   void summarise_front();
   // chain_checks.cpp
