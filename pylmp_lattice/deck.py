@@ -98,7 +98,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
-                    + (_chain_work_lines(len(cases)) if front and first.friction else "")),
+                    + (_chain_work_lines() if front and first.friction else "")),
              DATA: chains_data_text(cases, per_atom), **_tables(batch, table=_law_args(first.force) is None)}
     levels = front_levels_file(cases) if front and records_front(batch) else None
     if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
@@ -128,17 +128,12 @@ def front_levels_file(cases: Sequence[Case]) -> str | None:
         f"{a!r} {b!r} {c!r} {d!r} {e!r}\n" for a, b, c, d, e in rows.tolist())
 
 
-def _chain_work_lines(replicas: int) -> str:
+def _chain_work_lines() -> str:
     """After a batched run with friction: each chain's friction work (J, the fix's vector entry
-    2 + chain), one line per chain in CHAIN_WORK."""
+    2 + chain), one line per chain in CHAIN_WORK, written by the fix in one command."""
     return f"""
 # ---- 7. Each chain's friction work (J), one line per chain
-variable        chain loop {replicas}
-label           chain_work
-variable        work equal f_chain[$(v_chain+2)]
-print           "$(v_work:%.17g)" append {in_deck(CHAIN_WORK)} screen no
-next            chain
-jump            SELF chain_work
+fix_modify      chain write_work {in_deck(CHAIN_WORK)}
 """
 
 

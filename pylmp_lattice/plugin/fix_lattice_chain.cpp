@@ -120,6 +120,12 @@ Output
    (extensive), [2] the smallest separation (intensive), [3 + c] chain c's friction work
    (c = 0 .. chains - 1, extensive; a chain's equals a one-chain run's bit for bit on one rank).
 
+   fix_modify ID write_work FILE
+     writes every chain's friction work so far (vector entries 3 + c), one line per chain in
+     chain order with 17 significant digits (so it reads back to the same double), to FILE
+     (replaced), at once: one command after a run of many chains, where a loop over
+     f_ID[3 + c] would be one `print` (and one re-reading of the input) per chain.
+
 Restrictions
    Group all, no periodic x, an atom map, per-type or per-atom masses (with per-atom masses,
    rmass, the same bits as types of those masses), units with ftm2v, not rRESPA.
@@ -141,6 +147,7 @@ Restrictions
 #include "timer.h"
 #include "update.h"
 
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -475,6 +482,23 @@ double FixLatticeChain::compute_scalar()
 {
   energies();
   return pe_cached;
+}
+
+/* fix_modify ID write_work FILE: each chain's friction work, a line each (see the header) */
+
+int FixLatticeChain::modify_param(int narg, char **arg)
+{
+  if (strcmp(arg[0], "write_work") != 0) return 0;
+  if (narg < 2) utils::missing_cmd_args(FLERR, "fix_modify lattice/chain write_work", error);
+  std::vector<double> all(nchains);
+  MPI_Allreduce(work_done.data(), all.data(), nchains, MPI_DOUBLE, MPI_SUM, world);
+  if (comm->me == 0) {
+    FILE *fp = fopen(arg[1], "w");
+    if (!fp) error->one(FLERR, "Fix lattice/chain: cannot open {} for write_work: {}", arg[1], utils::getsyserror());
+    for (double w : all) fprintf(fp, "%.17g\n", w);
+    fclose(fp);
+  }
+  return 2;
 }
 
 double FixLatticeChain::compute_vector(int n)

@@ -38,6 +38,7 @@ class FixLatticeChain : public Fix {
   void post_run() override;
   double compute_scalar() override;
   double compute_vector(int) override;
+  int modify_param(int, char **) override;
 
   double memory_usage() override;
   void grow_arrays(int) override;
