@@ -193,14 +193,19 @@ def _run_printing_work(folder, entries):
 @pytest.mark.lammps
 def test_batched_replicas_report_their_own_friction_work(tmp_path):
     """Each chain's friction work (fix lattice/chain's vector entry 3 + c) is its single run's
-    (entry 1) bit for bit; entry 1 of the batch is their sum."""
+    (entry 1) bit for bit; entry 1 of the batch is their sum. `fix_modify chain write_work FILE`
+    writes the same doubles, a line per chain."""
     cases = [make_case(particles=21, duration=30.0, interval=10.0, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
              for r in range(3)]
-    batched = _run_printing_work(write_replicas_folder(cases, tmp_path / "batched"), [1, 3, 4, 5])
+    folder = write_replicas_folder(cases, tmp_path / "batched")
+    deck = folder / "in.lattice"
+    deck.write_text(deck.read_text() + "\nfix_modify chain write_work ${dir}/work.txt\n")
+    batched = _run_printing_work(folder, [1, 3, 4, 5])
     single = [_run_printing_work(RunFolder.create(c, tmp_path / f"single{r}").path, [1, 3])[1] for r, c in enumerate(cases)]
     assert min(single) > 0 and len(set(single)) == 3
     assert [batched[3 + r] for r in range(3)] == single
     assert batched[1] == pytest.approx(sum(single), rel=1e-14)
+    assert [float(line) for line in (folder / "work.txt").read_text().splitlines()] == single
 
 
 @pytest.mark.lammps
