@@ -115,10 +115,6 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
 {
   using namespace detail;
   const double t = s.t, t_prev = s.t_prev;
-  fill_right(&r[BEST_V], v, t, t_prev);
-  fill_right(&r[PULSE_V], v, t, t_prev);
-  fill_right(&r[ARUN_A], a, t, t_prev);
-
   if (phase == WAITING) {
     r[T_START] = s.first ? t : crossing(L.start, t_prev, v_prev, t, v);
     r[TS_START] = t;
@@ -130,33 +126,39 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
     arrived_now = true;
   }
 
+  // which maxima move to this sample; the others get it as their right neighbour if their
+  // maximum was the previous sample (a moved maximum's block is rewritten whole)
   const bool started_now = t == r[TS_START];
-  const double v_before = s.first ? NaN : v_prev;
-  if (r[DONE] != 1.0 && (started_now || a > r[ARUN_A]))
-    set_maximum(&r[ARUN_A], a, t, started_now ? NaN : r[A_PREV], t_prev);
+  const bool arun_open = r[DONE] != 1.0, pulse_open = r[PULSE_DONE] != 1.0;
+  const bool best_open = arun_open && !std::isnan(r[T_ARRIVAL]);
+  const bool arun_new = arun_open && (started_now || a > r[ARUN_A]);
+  const bool pulse_new = pulse_open && (started_now || v > r[PULSE_V]);
+  const bool best_new = best_open && (arrived_now || v > r[BEST_V]);
+  if (!best_new) fill_right(&r[BEST_V], v, t, t_prev);
+  if (!pulse_new) fill_right(&r[PULSE_V], v, t, t_prev);
+  if (!arun_new) fill_right(&r[ARUN_A], a, t, t_prev);
 
-  if (r[PULSE_DONE] != 1.0) {
-    if (started_now || v > r[PULSE_V]) {
-      set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
-    } else if (v <= r[PULSE_V] - std::fmax(L.pulse_drop * std::fabs(r[PULSE_V]), L.pulse_floor)) {
-      r[PULSE_DONE] = 1.0;
-      double v_max;
-      refine(&r[PULSE_V], r[T_PULSE], v_max);
-    }
+  const double v_before = s.first ? NaN : v_prev;
+  if (arun_new) set_maximum(&r[ARUN_A], a, t, started_now ? NaN : r[A_PREV], t_prev);
+
+  if (pulse_new) {
+    set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
+  } else if (pulse_open && v <= r[PULSE_V] - std::fmax(L.pulse_drop * std::fabs(r[PULSE_V]), L.pulse_floor)) {
+    r[PULSE_DONE] = 1.0;
+    double v_max;
+    refine(&r[PULSE_V], r[T_PULSE], v_max);
   }
 
-  if (r[DONE] != 1.0 && !std::isnan(r[T_ARRIVAL])) {
-    if (arrived_now || v > r[BEST_V]) {
-      set_maximum(&r[BEST_V], v, t, v_before, t_prev);
-      std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
-    } else if (v <= r[BEST_V] - L.drop) {
-      r[DONE] = 1.0;
-      refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
-      const bool inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
-      double t_acc;
-      if (inside) refine(&r[ASNAP_A], t_acc, r[A_PEAK]);
-      else r[A_PEAK] = r[ASNAP_A];
-    }
+  if (best_new) {
+    set_maximum(&r[BEST_V], v, t, v_before, t_prev);
+    std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
+  } else if (best_open && v <= r[BEST_V] - L.drop) {
+    r[DONE] = 1.0;
+    refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
+    const bool inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
+    double t_acc;
+    if (inside) refine(&r[ASNAP_A], t_acc, r[A_PEAK]);
+    else r[A_PEAK] = r[ASNAP_A];
   }
   r[V_PREV] = v;
   r[A_PREV] = a;
