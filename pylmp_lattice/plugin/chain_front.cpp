@@ -76,6 +76,7 @@ void FixLatticeChain::summarise_front()
       bf.hi = i;
     }
   }
+  front_summarised = true;
 }
 
 /* the chain ends, hot part included (the impactor's previous velocity was kept in

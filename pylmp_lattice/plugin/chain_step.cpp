@@ -243,7 +243,7 @@ void FixLatticeChain::own_pass()
   const double w1 = ranks ? MPI_Wtime() : 0.0, c1 = ranks ? thread_cpu() : 0.0;
   FrontRecord::Sample sample;
   const bool record = front && front->begin_sample(sample);
-  if (record && block_front.size() != runs.size()) summarise_front();
+  if (record && !front_summarised) summarise_front();
   int bad = 0;
   law.dispatch([&](auto F) {
     if (friction) {

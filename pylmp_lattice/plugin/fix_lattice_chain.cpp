@@ -40,9 +40,13 @@ How a step is done
    of every run (post_run), so that dumps, thermo, computes and later commands see what
    they see on the general path. The fix's own energy and gap read its arrays. The front
    record (fix lattice/front) is then sampled inside the same pass, with the rules of
-   front_rules.h, where v and f are already in registers: per atom one read and write of its
-   largest |v|; the record row only for the few atoms at the front (per block counts of the
-   atoms that are active or still wait for the start level say where to look).
+   front_rules.h, while the block is in L1: per atom, in a vectorised loop after the block's
+   kicks, one read and write of its largest |v| and one comparison with its start gate (its
+   chain's start level while it waits, else infinity); the record row only for the atoms that
+   start now and the block's active atoms (a span of local indices kept per block, about as
+   long as their number: they follow the front), never a scan of the block's other atoms; a
+   held end only while its sample can change the record (it keeps its velocity while the fix
+   owns the state).
 
    Owning the state on several ranks. A batch of chains is split by whole chains (`processors
    1 * 1`: the chains are stacked in y), so a rank reads no other rank's atoms. One chain is
@@ -339,7 +343,7 @@ void FixLatticeChain::pre_neighbor()
 {
   build_lists();
   if (!own) return;
-  block_front.clear();    // the blocks changed: summarised again at the next sample
+  front_summarised = false;    // the blocks changed: summarised again at the next sample
   if (!in_order || !edges_ok)    // in_order is this rank's: error->one
     error->one(FLERR, "Fix lattice/chain: an atom's chain neighbour is no longer on this rank or the "
                       "next in x (a slab narrower than a gap, or a chain across a rank); run on fewer ranks");
@@ -365,7 +369,7 @@ void FixLatticeChain::setup(int /*vflag*/)
   forces(0.5 * update->dt, true, false);
   // decided once per run
   own = own_allowed && in_order && edges_ok;
-  block_front.clear();    // summarised at the first owned sample, after the record's own setup sample
+  front_summarised = false;    // summarised at the first owned sample, after the record's own setup sample
   if (own) gather();
   pass_cpu = exchange_wall = 0.0;
   exchange_min = std::numeric_limits<double>::infinity();

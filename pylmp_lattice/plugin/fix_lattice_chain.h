@@ -116,6 +116,7 @@ class FixLatticeChain : public Fix {
   std::vector<BlockFront> block_front;
   std::vector<double> start_gate;
   std::vector<End> held_moving;    // the held ends that are sampled (chain_front.cpp)
+  bool front_summarised = false;   // the three above are up to date (false after a reneighbouring)
 
   // ---- checks and energy (chain_checks.cpp)
   // friction work of each chain on this rank (see coulomb.h): done, due at the next step, and
