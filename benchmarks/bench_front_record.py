@@ -2,7 +2,8 @@
 
 The batch a sweep runs (sweep/batch.py): --members replicas of the 21-magnet experiment
 (inputs/paper_experiment.toml, 60 ms = 4800 steps, friction) with 0.02 m/s thermal velocities,
-as one deck (deck.render_replicas(cases, front=True)). Its deck is run in this process, best of
+as one deck (deck.render_replicas(cases, front=True)); --frictionless drops the [friction]
+section, as bench_sweep.py's variant does. Its deck is run in this process, best of
 --repeat, alternating:
   - with the front record (fix lattice/front, as the sweep runs it) and without it (the fix
     and the dump of its record removed): LAMMPS's Loop time and this thread's CPU time in
@@ -10,7 +11,7 @@ as one deck (deck.render_replicas(cases, front=True)). Its deck is run in this p
   - the whole deck through runner.run_deck, as the sweep calls it: its wall time beyond the
     Loop time (instance, read_data, setup, the record's dump, each chain's friction work).
 
-    python benchmarks/bench_front_record.py [--members 500] [--repeat 3]
+    python benchmarks/bench_front_record.py [--members 500] [--repeat 3] [--frictionless]
 """
 
 from __future__ import annotations
@@ -34,9 +35,12 @@ BASE = Path(__file__).resolve().parent.parent / "inputs" / "paper_experiment.tom
 THERMAL = 0.02  # m/s, the members' thermal velocity RMS
 
 
-def batch_files(members: int, tmp: Path) -> dict[str, str]:
+def batch_files(members: int, friction: bool, tmp: Path) -> dict[str, str]:
     """The files of the batch deck of `members` thermal replicas of the experiment."""
-    (tmp / "base.toml").write_text(tomli_w.dumps(tomllib.loads(BASE.read_text())))
+    base = tomllib.loads(BASE.read_text())
+    if not friction:
+        base.pop("friction")
+    (tmp / "base.toml").write_text(tomli_w.dumps(base))
     (tmp / "sweep.toml").write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
                                     f'[set]\n"chain.thermal_velocity" = {THERMAL}\n')
     cases = [member.case for member in load_sweep(tmp / "sweep.toml").iter_members()]
@@ -78,9 +82,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--members", type=int, default=500)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--frictionless", action="store_true")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        files = batch_files(args.members, Path(tmp))
+        files = batch_files(args.members, not args.frictionless, Path(tmp))
         full = files[decks.DECK]
         runs = {"with": full, "without": without_record(full)}
         best = {name: (float("inf"), float("inf")) for name in runs}
@@ -92,8 +97,8 @@ def main() -> None:
                 best[name] = (min(best[name][0], loop), min(best[name][1], cpu))
             rest = min(rest, outside_loop(write(files, Path(tmp) / f"run_deck-{rep}")))
     (loop_on, cpu_on), (loop_off, cpu_off) = best["with"], best["without"]
-    print(f"{args.members} chains x 21 magnets x 4800 steps, thermal {THERMAL} m/s, friction; "
-          f"best of {args.repeat}; load average {os.getloadavg()[0]:.2f}")
+    print(f"{args.members} chains x 21 magnets x 4800 steps, thermal {THERMAL} m/s, "
+          f"{'no friction' if args.frictionless else 'friction'}; best of {args.repeat}; load average {os.getloadavg()[0]:.2f}")
     print("| front record | Loop time (s) | CPU in run (s) |\n|---|---|---|")
     print(f"| without | {loop_off:.3f} | {cpu_off:.3f} |")
     print(f"| with | {loop_on:.3f} | {cpu_on:.3f} |")
