@@ -742,3 +742,18 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
         batched = disk.get(member.id)["summary"]
         assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
+
+
+@pytest.mark.lammps
+def test_an_older_plugin_s_refusal_of_write_work_is_recognised():
+    """A plugin built before `fix_modify chain write_work` refuses it with LAMMPS's message for an
+    unknown fix_modify keyword; batch.NO_CHAIN_WORK must match it (then friction members run one
+    per instance), as shown here on a stock fix that has no such keyword."""
+    from pylmp_lattice import engine
+    from pylmp_lattice.sweep import batch
+
+    with engine.instance(["-log", "none", "-screen", "none"]) as lmp:
+        with pytest.raises(Exception) as refused:
+            lmp.commands_string("units si\nregion b block 0 1 0 1 0 1\ncreate_box 1 b\nmass 1 1\n"
+                                "create_atoms 1 single 0.5 0.5 0.5\nfix chain all nve\nfix_modify chain write_work x")
+    assert batch.NO_CHAIN_WORK in str(refused.value)

@@ -33,11 +33,12 @@ from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcom
                     task_lock, write_batch, write_status)
 
 log = logging.getLogger(__name__)
-# Whether the plugin's fix lattice/chain reports each chain's friction work (vector entry 3 + c
-# for chain c); a build without it makes the batch deck fail at the end, and from then on this
-# process runs members with friction one per instance.
+# Whether the plugin's fix lattice/chain writes each chain's friction work (`fix_modify chain
+# write_work FILE`); an older build refuses that command at the end of the batch deck ("Fix chain
+# lattice/chain does not support fix_modify write_work command"), and from then on this process
+# runs members with friction one per instance.
 FRICTION_PER_CHAIN = True
-NO_CHAIN_WORK = "fix vector is accessed out-of-range"
+NO_CHAIN_WORK = "fix_modify write_work"
 # Likewise for fix lattice/front's per-chain levels (`length n levels FILE`): a build without
 # them refuses the batch deck, and from then on chains batch only with equal levels.
 LEVELS_PER_CHAIN = True
