@@ -171,13 +171,14 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None) -> str
     half = to_engine(first.table_range()[1], "length")
     height = half - -half
     atoms, bonds, magnet_masses, velocities = [], [], [], []
+    moving = bool(np.any(v))  # a Velocities section has a line for every atom, or is left out
     for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
                                                          to_engine(each, "mass").tolist())):
         y = _num(r * height) if r else "0"
         atoms += [f"{i} {r + 1} {t} {xi!r} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
         bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
         magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
-        velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if any(vs) else []
+        velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if moving else []
     name = check_name(first.name)
     lines = [
         f"# {name}: {n} magnets on the x axis (LAMMPS units si)" if chains == 1 else

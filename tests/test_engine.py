@@ -266,6 +266,50 @@ def test_batched_replicas_record_their_fronts_with_their_own_levels(tmp_path):
     assert not np.array_equal(records[0][:, 1:], records[1][:, 1:])
 
 
+@pytest.mark.lammps
+def test_replicas_at_rest_and_in_thermal_motion_share_a_batch(tmp_path):
+    """Replicas may differ in anything under [chain], thermal motion too: a chain at rest beside
+    a thermal one gets its zero velocities in the data file (a Velocities section has a line for
+    every atom; without them LAMMPS stopped: 'Unexpected end of data file'), and each replica's
+    trajectory is its own run's."""
+    cases = [make_case(particles=21, duration=10.0, interval=0.5, chain={"thermal_velocity": t, "seed": 3})
+             for t in (0.0, 0.02)]
+    batched = simulate_replicas(cases, tmp_path / "batched")
+    for r, case in enumerate(cases):
+        np.testing.assert_allclose(batched[r].v[0, 1:-1], case.chain.velocities()[1:-1], rtol=0, atol=1e-12)  # m/s, the text dump's 12 digits
+        single = simulate(case, tmp_path / f"single{r}")
+        assert np.max(np.abs(batched[r].v - single.v)) < 1e-11
+    assert not np.any(batched[0].v[0, 1:-1]) and np.any(batched[1].v[0, 1:-1])
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("friction", [True, False], ids=["friction", "frictionless"])
+def test_a_thermal_batch_s_front_record_is_the_general_path_s_bit_for_bit(tmp_path, friction):
+    """The record inside the owned pass (per block: only active atoms, starters by a start gate,
+    held ends only while they can change the record; rebuilt at every reneighbouring) against
+    the record the front fix samples itself when another fix runs during the steps: three
+    21-magnet chains with thermal motion of their own (so each has its own levels, a levels
+    file), 60 ms (48 reneighbourings): front.bin byte for byte."""
+    extra = {"friction": FRICTION} if friction else {}
+    cases = [make_case(particles=21, duration=60.0, dt=0.0125, interval=0.5, impactor=PROFILES["sine"],
+                       chain={"thermal_velocity": 0.02, "seed": s}, output={"format": "none"}, **extra)
+             for s in (1, 2, 3)]
+    fronts = {}
+    for name, other in (("owned", ""), ("general", "fix             other all print 1000000000 ''\n")):
+        folder = tmp_path / name
+        folder.mkdir()
+        for file, text in render_replicas(cases, front=True).items():
+            (folder / file).write_text(text.replace("\nrun ", f"\n{other}run ", 1) if file == "in.lattice" else text)
+        run_embedded(folder)
+        log = (folder / "log.lammps").read_text()
+        assert ("owns the state (one pass per step, front record inside)" in log) == (name == "owned")
+        assert "levels" in (folder / "in.lattice").read_text()  # each chain its own levels
+        fronts[name] = (folder / "front.bin").read_bytes()
+    record = open_dump(tmp_path / "owned" / "front.bin").read()
+    assert np.sum(np.isfinite(record.data[-1, :, 4])) >= 30  # first peaks found in half of the 63 magnets
+    assert fronts["owned"] == fronts["general"]
+
+
 def test_replicas_may_differ_only_in_their_chain():
     with pytest.raises(ConfigError, match="replica 1 differs from replica 0 outside"):
         render_replicas([make_case(), make_case(velocity=1.0)])
