@@ -11,26 +11,36 @@ from __future__ import annotations
 
 import fcntl
 import os
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
 
+# Seconds between tries while a lock is held (`exclusive` with a timeout).
+POLL = 0.01
+
+
 class Held(Exception):
-    """Another process holds the lock (raised by `exclusive(..., wait=False)`)."""
+    """Another process holds the lock (raised by `exclusive` with a timeout)."""
 
 
 @contextmanager
-def exclusive(path: str | Path, wait: bool = True):
+def exclusive(path: str | Path, timeout: float | None = None):
     """Hold the lock of `path` (created if missing) while the block runs; the file is removed at
-    the end. wait=False: raise `Held` at once if another process holds it."""
+    the end. timeout: seconds to wait for another holder (None: as long as it takes); then
+    `Held` is raised (0: at once)."""
     path = Path(path)
+    deadline = None if timeout is None else time.monotonic() + timeout
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+            fcntl.flock(fd, fcntl.LOCK_EX | (0 if deadline is None else fcntl.LOCK_NB))
         except BlockingIOError:
             os.close(fd)
-            raise Held(str(path)) from None
+            if time.monotonic() >= deadline:
+                raise Held(str(path)) from None
+            time.sleep(POLL)
+            continue
         if _names(path, fd):
             break
         os.close(fd)
@@ -43,13 +53,15 @@ def exclusive(path: str | Path, wait: bool = True):
 
 
 def is_held(path: str | Path) -> bool:
-    """Whether a process holds the lock of `path` (False if there is no such file)."""
+    """Whether a process holds the lock of `path` (False if there is no such file). The look
+    takes a shared lock for an instant: it never makes another look, or a holder's `exclusive`
+    with a timeout, fail."""
     try:
         fd = os.open(path, os.O_RDONLY)
     except FileNotFoundError:
         return False
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
     except BlockingIOError:
         return True
     finally:

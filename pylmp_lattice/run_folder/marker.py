@@ -20,6 +20,9 @@ from ..file_lock import Held, exclusive, is_held
 from . import layout
 
 PACKAGE = "pylmp_lattice"
+# Seconds a writer waits for the folder's lock: a reader's look at it (`locked`) holds it for an
+# instant; a writer or runner holds it for the whole run.
+CLAIM_WAIT = 0.5
 # How a run ended, as run.json records it; "written" until a runner of this package ran it.
 WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
     "written", "running", "finished", "interrupted", "contact", "failed")
@@ -59,7 +62,7 @@ def claimed(folder: Path):
     folder.mkdir(parents=True, exist_ok=True)
     with contextlib.ExitStack() as stack:
         try:
-            stack.enter_context(exclusive(folder / layout.LOCK, wait=False))
+            stack.enter_context(exclusive(folder / layout.LOCK, timeout=CLAIM_WAIT))
         except Held as err:
             raise ConfigError("output", f"{folder} holds a run that is still being written; wait for it or "
                                         "stop it") from err

@@ -179,7 +179,7 @@ def remove_stale_locks(root: str | Path) -> None:
     """Remove the lock files of tasks whose worker was killed (none holds them); a lock still
     held (a copy of a task that Dask runs on) is left to its holder, which removes it."""
     for path in (Path(root) / BATCHES).glob("task-*.lock"):
-        with contextlib.suppress(Held), exclusive(path, wait=False):
+        with contextlib.suppress(Held), exclusive(path, timeout=0):
             pass
 
 
