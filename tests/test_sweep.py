@@ -485,19 +485,17 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
 
     assert sizes(2) == [100, 100]
     assert sizes(3) == [67, 67, 66]
-    # resumed with the first 180 done on disk: the 20 left, shared by both workers
-    coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
-                                       sweep.count())
-
-    def finished(m):  # as _Coordinator._finished does for a member done on disk
-        coordinator.kept += m.index < 180
-        return m.index < 180
-
-    coordinator._finished = finished
-    assert [len(t.members) for t in coordinator._tasks()] == [10, 10]
     # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
     monkeypatch.setattr(execute, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
     assert sizes(2) == [25] * 8
+    # resumed with 180 done on disk, the first ones or the last ones: the 20 left, shared by both
+    # workers (the sizes come from what the folder holds, before any member is enumerated)
+    monkeypatch.setattr(execute.Outcomes, "at_most", lambda self: 180)  # what the folder holds
+    for done in (range(180), range(20, 200)):
+        coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
+                                           sweep.count())
+        coordinator._finished = lambda m, done=done: m.index in done
+        assert [len(t.members) for t in coordinator._tasks()] == [10, 10]
 
 
 # ----------------------------------------------------------------------------- integrity
@@ -757,3 +755,19 @@ def test_an_older_plugin_s_refusal_of_write_work_is_recognised():
             lmp.commands_string("units si\nregion b block 0 1 0 1 0 1\ncreate_box 1 b\nmass 1 1\n"
                                 "create_atoms 1 single 0.5 0.5 0.5\nfix chain all nve\nfix_modify chain write_work x")
     assert batch.NO_CHAIN_WORK in str(refused.value)
+
+
+def test_the_folder_says_at_most_how_many_members_are_done_before_any_is_read(tmp_path):
+    """Outcomes.at_most: members done in a batch file plus member folders (finished or not), each
+    counted once; it sizes a resumed sweep's tasks before enumerating its members."""
+    from pylmp_lattice.sweep.store import BATCHES, MEMBERS, Outcomes, write_batch
+
+    for name in ("a", "d"):
+        (tmp_path / MEMBERS / name).mkdir(parents=True)
+    batch = tmp_path / BATCHES / "a"
+    batch.mkdir(parents=True)
+    write_batch(batch, {"status": "done"}, [{"id": i, "index": k, "params": {}, "chain": k, "case": {},
+                                             "summary": {"particles": 21}} for k, i in enumerate("abc")])
+    disk = Outcomes(tmp_path)
+    assert disk.at_most() == 4  # a, b, c batched; d's own folder
+    assert disk.get("b")["summary"] == {"particles": 21} and disk.get("d") is None  # d never finished

@@ -29,8 +29,8 @@ from pathlib import Path
 from ..case import Case
 from ..errors import Interrupted, LatticeError
 from .spec import Member, member_cases
-from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, provenance,
-                    task_lock, write_batch, write_status)
+from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, listing, member_folder, now,
+                    provenance, task_lock, write_batch, write_status)
 
 log = logging.getLogger(__name__)
 # Whether the plugin's fix lattice/chain writes each chain's friction work (`fix_modify chain
@@ -205,7 +205,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
                 "summary": summary | {"status": FINISHED, "files": where, "wall_time_s": round(wall, 4)}}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
     outcomes = write_batch(batch, record, members)  # last: the members are done
-    alone = set(os.listdir(root / MEMBERS)) if (root / MEMBERS).is_dir() else set()
+    alone = listing(root / MEMBERS)
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
         if m.id in alone:
             shutil.rmtree(member_folder(root, m.id))

@@ -99,7 +99,7 @@ class _Coordinator:
         self.retry_failed = retry_failed
         self.table = Table(root)
         self.disk = Outcomes(root)
-        self.blocks = _Blocks(total, pool.slots)
+        self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots)  # a resumed sweep: what is left
         self.bar = _Progress(total, progress)
         self.lost = False
         self.preload = None
@@ -163,7 +163,7 @@ class _Coordinator:
                 yield Task(str(self.root), tuple(group), self.sweep.runner)
                 group = []
             if not group:
-                key, size = point, self.blocks.next_size(m, self.kept)
+                key, size = point, self.blocks.next_size(m)
             group.append(m)
         if group:
             yield Task(str(self.root), tuple(group), self.sweep.runner)
@@ -233,15 +233,14 @@ class _Blocks:
     """Task sizes: a point's members in as few tasks as one instance allows (MAX_*), their number
     a multiple of the workers, so that every worker gets an equal share."""
 
-    total: int
+    todo: int  # members to run (at least)
     slots: int
     limits: dict = field(default_factory=dict)
 
-    def next_size(self, m: Member, kept: int) -> int:
-        """The size of the task that starts with member `m`, `kept` members (done before) skipped so far."""
-        todo = max(1, self.total - kept)
-        tasks = self.slots * math.ceil(todo / (self.slots * self._cap(m)))
-        return max(1, math.ceil(todo / tasks))
+    def next_size(self, m: Member) -> int:
+        """The size of the task that starts with member `m`."""
+        tasks = self.slots * math.ceil(self.todo / (self.slots * self._cap(m)))
+        return max(1, math.ceil(self.todo / tasks))
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""

@@ -91,19 +91,28 @@ class Outcomes:
 
     def get(self, member_id: str) -> dict | None:
         """The member's outcome: done in a batch, else from its folder (`outcome`)."""
+        self._read()
+        found = self._batched.get(member_id)
+        return found if found is not None or member_id not in self._folders else outcome(self.root, member_id)
+
+    def at_most(self) -> int:
+        """How many members may have an outcome on disk (done in a batch, or a folder of their
+        own, finished or not): an upper bound, known without reading any member's folder."""
+        self._read()
+        return len(self._batched) + len(self._folders - set(self._batched))
+
+    def _read(self) -> None:
         if self._batched is None:  # what is on disk now: the batch files and the member folders
             folder = self.root / BATCHES
-            names = _listing(folder)  # one listing, not a look per possible batch
+            names = listing(folder)  # one listing, not a look per possible batch
             files = [folder / name / BATCH_FILE for name in (names if self.batches is None else names & set(self.batches))]
             self._batched = {}
             for path in files:
                 self._batched |= read_batch(path)
-            self._folders = _listing(self.root / MEMBERS)  # one listing, not a look per member
-        found = self._batched.get(member_id)
-        return found if found is not None or member_id not in self._folders else outcome(self.root, member_id)
+            self._folders = listing(self.root / MEMBERS)  # one listing, not a look per member
 
 
-def _listing(folder: Path) -> set[str]:
+def listing(folder: Path) -> set[str]:
     """The names in a folder (none if it does not exist)."""
     try:
         return set(os.listdir(folder))
