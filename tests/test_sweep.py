@@ -734,8 +734,9 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     with ThreadPoolExecutor(1) as pool:  # in this process, so that the levels apply
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
     disk = Outcomes(tmp_path / "out")
-    if "batch" not in disk.get(table["id"][0])["record"]:
+    if not batch.LEVELS_PER_CHAIN:  # set by the batch's refusal, in this process
         pytest.skip("this plugin build has no per-chain front levels: members ran alone")
+    assert all("batch" in disk.get(m)["record"] for m in table["id"])  # any other failure ran them alone
     for member in sweep.members():
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
         batched = disk.get(member.id)["summary"]

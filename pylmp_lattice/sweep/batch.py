@@ -169,33 +169,29 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     batch = _fresh(root / BATCHES / group[0][0].id)
     files = {}
     try:
-        files = deck.render_replicas(cases, front=True)  # ConfigError if their decks differ
+        files = deck.render_replicas(cases, front=True)  # ConfigError if they differ beyond [chain]
         for name, text in files.items():
             (batch / name).write_text(text)
         run_deck(batch, runner)
-        summaries = _summaries(cases, batch)
     except Interrupted as err:  # nothing was recorded: the members were not started
         stopping(err.signum)
         shutil.rmtree(batch, ignore_errors=True)
         return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
                 for m, _ in group}
-    except Exception as err:  # noqa: BLE001 - unequal decks, a contact or an engine error in some chain, or a
-        # record that cannot be read: each member alone, with its own outcome
+    except LatticeError as err:  # unequal cases, a contact or an engine error in some chain: each member alone
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
-        if not isinstance(err, LatticeError):
-            log.warning("batch %s: its measures could not be read (%s); its members run alone", batch.name,
-                        one_line(err, root))
         if NO_CHAIN_WORK in str(err):
             FRICTION_PER_CHAIN = False
         if layout.FRONT_LEVELS in files and "lattice/front" in str(err):
             LEVELS_PER_CHAIN = False
-        out = {}
-        for m, case in group:
-            started = now()
-            if STOP.is_set():
-                break
-            out[m.id] = run_member(root, m, case, runner, started)
-        return out
+        return _alone(root, group, runner)
+    try:
+        summaries = _summaries(cases, batch)
+    except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
+        # member alone, with its own outcome, and the reason in the log with its traceback
+        log.warning("batch %s: its measures could not be read (%s); its members run alone", batch.name,
+                    one_line(err, root), exc_info=True)
+        return _alone(root, group, runner)
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
     record = {"status": DONE, "error": None, "started": started, "ended": now(), "pid": os.getpid(),
               "provenance": provenance(), "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
@@ -212,24 +208,35 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
 
 
+def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[str, dict]:
+    """The members of a failed batch, each run alone (none starts after a stop signal)."""
+    out = {}
+    for m, case in group:
+        started = now()
+        if STOP.is_set():
+            break
+        out[m.id] = run_member(root, m, case, runner, started)
+    return out
+
+
 def _summaries(cases: list[Case], batch: Path) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it."""
     from .. import measures
     from ..front_record import read_front_batch
     from ..run_folder import layout
-    from ..summary import summaries as summarize
+    from ..summary import summaries
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
     record = read_front_batch(cases, batch / layout.FRONT_BIN, method)
-    summaries = summarize(cases, record.front, record.max_speed)
+    out = summaries(cases, record.front, record.max_speed)
     if cases[0].friction is not None:
         from ..units import from_engine
 
         # as a run alone reads it from its log: the thermo column's 8 significant digits
         works = (batch / layout.CHAIN_WORK).read_text().split()
-        for summary, work in zip(summaries, works, strict=True):
+        for summary, work in zip(out, works, strict=True):
             summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
-    return summaries
+    return out
 
 
 def _record(m: Member, started: str | None = None) -> dict:
