@@ -97,6 +97,18 @@ class Member:
     def error(self) -> str | None:
         return self._case[1]
 
+    def build_from(self, template: Case, seed) -> None:
+        """Build this member's case as `template` (a case of its parameter point) with chain.seed
+        `seed`, unless it is built already: `dataclasses.replace` checks the chain and its draws
+        again; the rest was checked when the template was built."""
+        if "_case" in self.__dict__ or self.built is not None:
+            return
+        try:
+            case = replace(template, chain=replace(template.chain, seed=seed)), None
+        except ConfigError as err:
+            case = None, str(err)
+        self.__dict__["_case"] = case  # where the cached property `_case` keeps its value
+
 
 def member_cases(members) -> list[Case | None]:
     """`Member.case` of each member, built once per parameter point: a member whose case dict
@@ -108,12 +120,9 @@ def member_cases(members) -> list[Case | None]:
     for m in members:
         seed, rest = _seed_and_rest(m.data)
         case = next((c for d, c in points if d == rest), None)
-        if case is not None and "_case" not in m.__dict__ and m.built is None:
-            try:  # what the cached property `_case` would hold
-                m.__dict__["_case"] = (replace(case, chain=replace(case.chain, seed=seed)), None)
-            except ConfigError as err:
-                m.__dict__["_case"] = (None, str(err))
-        elif case is None and m.case is not None:
+        if case is not None:
+            m.build_from(case, seed)
+        elif m.case is not None:
             points.append((rest, m.case))
         out.append(m.case)
     return out
