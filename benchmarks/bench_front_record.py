@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from datetime import datetime, timezone
 import re
 import tempfile
 import time
@@ -98,7 +99,8 @@ def main() -> None:
             rest = min(rest, outside_loop(write(files, Path(tmp) / f"run_deck-{rep}")))
     (loop_on, cpu_on), (loop_off, cpu_off) = best["with"], best["without"]
     print(f"{args.members} chains x 21 magnets x 4800 steps, thermal {THERMAL} m/s, "
-          f"{'no friction' if args.frictionless else 'friction'}; best of {args.repeat}; load average {os.getloadavg()[0]:.2f}")
+          f"{'no friction' if args.frictionless else 'friction'}; best of {args.repeat}; "
+          f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, load average {os.getloadavg()[0]:.2f}")
     print("| front record | Loop time (s) | CPU in run (s) |\n|---|---|---|")
     print(f"| without | {loop_off:.3f} | {cpu_off:.3f} |")
     print(f"| with | {loop_on:.3f} | {cpu_on:.3f} |")

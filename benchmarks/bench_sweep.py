@@ -36,7 +36,7 @@ import sys
 import tempfile
 import time
 import tomllib
-from datetime import datetime
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -168,6 +168,8 @@ def main() -> None:
     p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
     args = p.parse_args()
     sizes = [int(n) for n in args.members.split(",")]
+    if len(sizes) > 2 or sizes != sorted(set(sizes)) or sizes[0] < 1:
+        p.error(f"--members: got {args.members}; expected N or N1,N2 with 1 <= N1 < N2")
 
     with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_sweep.") as tmp:
         tmp = Path(tmp)
@@ -191,7 +193,7 @@ def main() -> None:
                 assert error < 1e-9, f"the loop and the engine differ by {error} m/s"
                 rows.append((variant, members, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
-    print(f"machine: {os.cpu_count()} cores; members of the 21-magnet experiment "
+    print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; machine: {os.cpu_count()} cores; members of the 21-magnet experiment "
           f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
     print("| variant | members | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
           "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "

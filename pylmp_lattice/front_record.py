@@ -50,10 +50,10 @@ def read_front_records(cases, path: str | Path, arrival_method: str = "level") -
     return [FrontRecord(batch.front.row(r), batch.max_speed[r], batch.end_time) for r in range(len(cases))]
 
 
-def read_front_batch(cases, path: str | Path, arrival_method: str = "level", noise=None) -> FrontRecord:
+def read_front_batch(cases, path: str | Path, arrival_method: str = "level") -> FrontRecord:
     """`read_front_records` as one FrontRecord of R chains: its front a `measures.Front` of R
-    chains (`stack_fronts`), max_speed (R, N). noise: the cases' noise velocities, m/s, shape
-    (R,), if known (else `case_levels.chain_noises`).
+    chains (`stack_fronts`), max_speed (R, N); each chain's levels from its noise velocity
+    (`case_levels.chain_noises`).
 
     One pass for the batch: the drive's measures once, against each distinct noise velocity
     (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
@@ -65,7 +65,7 @@ def read_front_batch(cases, path: str | Path, arrival_method: str = "level", noi
     # (R, N): chain r's magnets in row r
     rows = {name: from_engine(frame.data[-1, :, k + 1], quantity).reshape(chains, n)
             for k, (name, quantity) in enumerate(FRONT_FIELDS)}
-    noise = chain_noises(cases) if noise is None else np.asarray(noise, dtype=float)
+    noise = chain_noises(cases)
     sigma, level_of = np.unique(noise, return_inverse=True)
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt

@@ -23,7 +23,7 @@ def jsonable(obj):
     kind = type(obj)  # the common plain types first (a sweep's batch writes ~50 values a member)
     if kind is float:
         return obj if math.isfinite(obj) else None
-    if kind is dict:
+    if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if obj is None or isinstance(obj, (bool, str)):
         return obj
@@ -40,8 +40,6 @@ def jsonable(obj):
         return jsonable(obj.to_dict())
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return {f.name: jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple, np.ndarray)):
         return [jsonable(v) for v in obj]
     raise TypeError(f"cannot write {type(obj).__name__} as JSON")

@@ -561,3 +561,18 @@ def test_phase_portrait_of_an_ellipse():
     assert_allclose(phase_portrait(t, x[:, 1:], v[:, 1:], magnet=2, first_magnet=2).gap, portrait.gap, rtol=0)
     with pytest.raises(ValueError, match="it needs a next one"):
         phase_portrait(t, x, v, magnet=3)
+
+
+def test_fronts_of_different_sampling_are_not_stacked():
+    """stack_fronts keeps one method and one sample interval: fronts read from frames of
+    another spacing are refused, not given the first one's."""
+    import dataclasses
+
+    from pylmp_lattice.measures.front import stack_fronts
+
+    t = np.linspace(0.0, 10.0, 101)
+    v = np.clip(t[:, None] - np.arange(5), 0.0, 1.0)
+    one = measures.front(t, v, np.gradient(v, t, axis=0), 1.0, np.full(4, 10.0))
+    assert stack_fronts([one, one]).arrival.shape == (2, 5)
+    with pytest.raises(ValueError, match="a stack needs one of each"):
+        stack_fronts([one, dataclasses.replace(one, sample_interval=0.2)])

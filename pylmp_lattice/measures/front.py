@@ -109,6 +109,11 @@ class Front:
 def stack_fronts(fronts) -> Front:
     """The fronts of R chains (equal N, method and sample interval) as one Front (see `Front`)."""
     first = fronts[0]
+    odd = next((f for f in fronts if f.arrival_method != first.arrival_method
+                or not np.array_equal(f.sample_interval, first.sample_interval, equal_nan=True)), None)
+    if odd is not None:
+        raise ValueError(f"fronts: method {odd.arrival_method!r} every {odd.sample_interval} ms beside "
+                         f"{first.arrival_method!r} every {first.sample_interval} ms; a stack needs one of each")
     stack = lambda name: np.stack([getattr(f, name) for f in fronts])  # noqa: E731
     return Front(stack("arrival"), stack("propagation_velocity"),
                  FirstPeaks(*(np.stack([getattr(f.peaks, g.name) for f in fronts]) for g in fields(FirstPeaks))),

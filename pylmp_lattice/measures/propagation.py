@@ -182,7 +182,7 @@ def trailing_plateaus(values, fraction: float = 0.25, min_points: int = 3, over:
     count = np.maximum(np.ceil(fraction * n_finite).astype(int), min_points)
     # rank of each finite entry from the row's end (1: its last finite entry)
     rank = np.cumsum(finite[:, ::-1], axis=1)[:, ::-1]
-    out: list[Plateau | None] = [Plateau(NAN, NAN, NAN, None, None, NAN, over)] * len(values)
+    out: list[Plateau] = [Plateau(NAN, NAN, NAN, None, None, NAN, over)] * len(values)
     for c, tail in set(zip(count.tolist(), np.minimum(2 * count, n_finite).tolist())):
         rows = np.flatnonzero((count == c) & (np.minimum(2 * count, n_finite) == tail) & (n_finite >= c))
         if rows.size == 0:

@@ -125,7 +125,8 @@ Output
    (c = 0 .. chains - 1, extensive; a chain's equals a one-chain run's bit for bit on one rank).
 
    fix_modify ID write_work FILE
-     writes every chain's friction work so far (vector entries 3 + c), one line per chain in
+     writes every chain's friction work so far (vector entries 3 + c; energy units, J with
+     units si), one line per chain in
      chain order with 17 significant digits (so it reads back to the same double), to FILE
      (replaced), at once: one command after a run of many chains, where a loop over
      f_ID[3 + c] would be one `print` (and one re-reading of the input) per chain.

@@ -49,7 +49,7 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
 
 def check_target(path: Path, overwrite: bool, claimed_here: bool = False) -> bool:
     """Whether `path` holds a run to replace; ConfigError if it may not be written (see
-    `write_folder`). claimed_here: this process holds the folder's lock (`claim`)."""
+    `write_folder`). claimed_here: this process holds the folder's lock (`marker.claimed`)."""
     path = Path(path)
     layout.check_place(path, "run")
     if marker.is_run(path):

@@ -47,9 +47,11 @@ log = logging.getLogger(__name__)
 
 # A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
 MANY_MEMBERS = 100_000
-# A task's members: at most this many atoms, atom-steps (about two seconds of engine time) and
-# atom types (LAMMPS keeps some per-type-pair tables) in one instance. Each instance costs
-# about 0.05 s to set up, so tasks are as large as these allow, shared evenly by the workers.
+# A task's members: at most this many atoms, atom-steps (about 0.7 s of engine time: a batch of
+# the 21-magnet experiment with friction and the front record runs 5e7 atom-steps in 0.33 s,
+# docs/performance.md) and atom types (LAMMPS keeps some per-type-pair tables) in one instance.
+# Each instance costs about 0.05 s to set up, so tasks are as large as these allow, shared evenly
+# by the workers.
 MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024

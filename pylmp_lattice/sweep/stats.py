@@ -106,7 +106,7 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
                 capsize=kwargs.pop("capsize", 3), **kwargs)
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
-    ax.ticklabel_format(useOffset=False, axis="y")  # values as they are, not "1e-4 + 4.634"
+    _no_offset(ax.yaxis)
     ax.set_title(f"mean ± standard error; {_counted(data[f'{measure}.count'].to_numpy())} per point", fontsize="small")
     return ax
 
@@ -125,12 +125,23 @@ def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int 
     ax.axvline(mean, color="C0")
     if np.isfinite(sem):
         ax.axvspan(mean - sem, mean + sem, color="C0", alpha=0.3, lw=0)
-    ax.ticklabel_format(useOffset=False, axis="x")
+    _no_offset(ax.xaxis)
     ax.set_xlabel(label(measure))
     ax.set_ylabel("replicas")
     used = f"{len(values)} of {members} replicas" if members is not None else f"{len(values)} values"
-    ax.set_title(f"{used}; mean {mean:.5g} ± {sem:.2g} (standard error)", fontsize="small")
+    unit = MEASURES.get(measure, (None, None))[1]
+    spread = f" ± {sem:.2g}" if np.isfinite(sem) else ""
+    ax.set_title(f"{used}; mean {mean:.5g}{spread}{' ' + unit if unit else ''} (± standard error)", fontsize="small")
     return ax
+
+
+def _no_offset(axis) -> None:
+    """Tick labels as the values are, not "1e-4 + 4.634" (a linear axis; others have no offset)."""
+    from matplotlib.ticker import ScalarFormatter
+
+    formatter = axis.get_major_formatter()
+    if isinstance(formatter, ScalarFormatter):
+        formatter.set_useOffset(False)
 
 
 # A panel of the replica statistics figure, inches, and the margins of its axes in it (left,
