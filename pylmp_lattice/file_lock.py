@@ -5,12 +5,16 @@ file is left behind, and never do two processes hold one at once. A process that
 file and waits may get the lock on a file its holder has just removed; it then checks that the
 path still names the file it holds (the inode) and, if not, starts again on whatever the path
 names now. The kernel drops a lock when its holder dies.
+
+A lock is its holder thread's: taken again by that thread (a runner that converts its own
+dumps), it is simply held on; `is_held` speaks of other holders, threads or processes.
 """
 
 from __future__ import annotations
 
 import fcntl
 import os
+import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -18,6 +22,8 @@ from pathlib import Path
 
 # Seconds between tries while a lock is held (`exclusive` with a timeout).
 POLL = 0.01
+# The locks each thread holds (real paths).
+_HERE = threading.local()
 
 
 class Held(Exception):
@@ -30,6 +36,10 @@ def exclusive(path: str | Path, timeout: float | None = None):
     the end. timeout: seconds to wait for another holder (None: as long as it takes); then
     `Held` is raised (0: at once)."""
     path = Path(path)
+    key, mine = os.path.realpath(path), _mine()
+    if key in mine:  # this thread holds it already
+        yield
+        return
     deadline = None if timeout is None else time.monotonic() + timeout
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -44,18 +54,22 @@ def exclusive(path: str | Path, timeout: float | None = None):
         if _names(path, fd):
             break
         os.close(fd)
+    mine.add(key)
     try:
         yield
     finally:
+        mine.discard(key)
         if _names(path, fd):
             path.unlink()
         os.close(fd)
 
 
 def is_held(path: str | Path) -> bool:
-    """Whether a process holds the lock of `path` (False if there is no such file). The look
-    takes a shared lock for an instant: it never makes another look, or a holder's `exclusive`
-    with a timeout, fail."""
+    """Whether another thread or process holds the lock of `path` (False if there is no such
+    file). The look takes a shared lock for an instant: it never makes another look, or a
+    holder's `exclusive` with a timeout, fail."""
+    if os.path.realpath(path) in _mine():
+        return False
     try:
         fd = os.open(path, os.O_RDONLY)
     except FileNotFoundError:
@@ -67,6 +81,12 @@ def is_held(path: str | Path) -> bool:
     finally:
         os.close(fd)  # closing it lets go of a lock taken here
     return False
+
+
+def _mine() -> set[str]:
+    if not hasattr(_HERE, "locks"):
+        _HERE.locks = set()
+    return _HERE.locks
 
 
 def _names(path: Path, fd: int) -> bool:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import subprocess
+import sys
+
 import pytest
 
 from pylmp_lattice.case import case_from_dict
@@ -87,3 +91,20 @@ def slurm():
         yield cluster
     finally:
         cluster.stop()
+
+
+@contextlib.contextmanager
+def held_elsewhere(path):
+    """The lock of `path` (file_lock.exclusive) held by another process while the block runs
+    (a lock is its process's: inside the holder it is simply held on); that process lets go,
+    and removes the file, when the block ends."""
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys\nfrom pylmp_lattice.file_lock import exclusive\n"
+         f"with exclusive({str(path)!r}):\n    print('held', flush=True)\n    sys.stdin.read()\n"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        yield holder
+    finally:
+        holder.stdin.close()
+        holder.wait(10)

@@ -15,17 +15,23 @@ from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.file_lock import Held, exclusive, is_held
 from pylmp_lattice.run_folder import layout, marker, write_folder
 
-from conftest import make_case
+from conftest import held_elsewhere, make_case
 
 
 def test_the_holder_removes_the_file_and_a_second_holder_is_refused_or_waits(tmp_path):
     path = tmp_path / "x.lock"
-    with exclusive(path):
+    with held_elsewhere(path):
         assert path.exists() and is_held(path)
         with pytest.raises(Held):
             with exclusive(path, timeout=0):
                 pass
     assert not path.exists() and not is_held(path)
+    with exclusive(path):  # inside its holder, a lock is held on, and is no other process's
+        assert path.exists() and not is_held(path)
+        with exclusive(path, timeout=0):
+            assert path.exists()
+        assert path.exists()
+    assert not path.exists()
 
 
 def test_a_waiter_whose_file_was_removed_locks_the_file_the_path_names_now(tmp_path):
@@ -33,19 +39,17 @@ def test_a_waiter_whose_file_was_removed_locks_the_file_the_path_names_now(tmp_p
     on a removed file (then a third process could lock a new file at the path beside it)."""
     path = tmp_path / "x.lock"
     seen = {}
-    first = exclusive(path)
-    first.__enter__()
 
     def wait():
         with exclusive(path):
-            seen["exists"], seen["held"] = path.exists(), is_held(path)
+            seen["exists"] = path.exists()
 
-    waiter = threading.Thread(target=wait)
-    waiter.start()
-    _until_waiting(path)  # the waiter has opened the file and waits in flock
-    first.__exit__(None, None, None)
+    with held_elsewhere(path):
+        waiter = threading.Thread(target=wait)
+        waiter.start()
+        _until_waiting(path)  # the waiter has opened the file and waits in flock
     waiter.join(5)
-    assert seen == {"exists": True, "held": True}
+    assert seen == {"exists": True}
     assert not path.exists()
 
 
@@ -82,7 +86,7 @@ def test_a_folder_being_written_cannot_be_overwritten_meanwhile(tmp_path):
     case = make_case(particles=10, duration=1.0)
     folder = write_folder(case, tmp_path / "run")
     deck = (folder / layout.DECK).read_text()
-    with marker.claimed(folder):
+    with held_elsewhere(folder / layout.LOCK):
         with pytest.raises(ConfigError, match="still being written"):
             write_folder(case, folder, overwrite=True)
         assert (folder / layout.DECK).read_text() == deck and marker.status(folder) == marker.RUNNING

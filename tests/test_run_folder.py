@@ -24,7 +24,7 @@ from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.run_folder import layout, marker
 from pylmp_lattice.serialize import dumps
 
-from conftest import make_case
+from conftest import held_elsewhere, make_case
 
 ROOT = Path(__file__).parent.parent
 PACKAGE = ROOT / "pylmp_lattice"
@@ -372,7 +372,7 @@ def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
     assert main(["deck", str(case), "-o", str(folder)]) == 0
     capsys.readouterr()
     expected = f"pylmp-lattice: error: {folder}: still being written by LAMMPS; summarize it when the run ends"
-    with marker.claimed(folder):
+    with held_elsewhere(folder / layout.LOCK):  # a runner in another process
         assert main(["summarize", str(folder)]) == 2
         assert capsys.readouterr().err.splitlines() == [expected]
         with pytest.raises(ConfigError, match="still being written by LAMMPS"):
@@ -522,3 +522,31 @@ def _alive(pid: int) -> bool:
             return f.read().split(")")[-1].split()[0] != "Z"
     except FileNotFoundError:
         return False
+
+
+@pytest.mark.lammps
+def test_a_run_s_folder_is_its_own_until_its_summary_is_written(tmp_path, monkeypatch):
+    """After LAMMPS ends, the runner converts the dumps and writes the summary and figure with
+    the folder's lock still held: another process's overwrite (here `deck --overwrite`) is
+    refused, exit 2, and its `summarize` too, instead of deleting the dumps being converted or
+    writing the same traj.h5md.part (which crashed the run)."""
+    from pylmp_lattice.run_folder import execution
+
+    case = make_case(particles=10, duration=2.0)
+    toml = write_case(tmp_path / "case.toml", case)
+    others = []
+    original = execution.summarize
+
+    def summarize_while_others_try(path, **kwargs):
+        assert (path / layout.H5MD).is_file() and not (path / layout.TRAJ_BIN).exists()  # converted under the lock
+        for argv in (["deck", str(toml), "-o", str(path), "--overwrite"], ["summarize", str(path)]):
+            done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", *argv], capture_output=True, text=True)
+            others.append((argv[0], done.returncode, done.stderr.strip()))
+        return original(path, **kwargs)
+
+    monkeypatch.setattr(execution, "summarize", summarize_while_others_try)
+    summary = run_case(case, tmp_path / "run", figure=False)
+    assert [(name, code) for name, code, _ in others] == [("deck", 2), ("summarize", 2)], others
+    assert all("still being written" in err for _, _, err in others)
+    assert summary["particles"] == 10 and json.loads((tmp_path / "run" / layout.SUMMARY).read_text())["status"] == "finished"
+    assert not (tmp_path / "run" / layout.LOCK).exists()

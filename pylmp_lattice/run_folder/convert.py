@@ -25,11 +25,17 @@ log = logging.getLogger(__name__)
 
 
 def convert_dumps(folder: Path, case: Case) -> bool:
-    """Convert the folder's binary dumps into traj.h5md when safe; whether it did."""
-    from .. import h5md  # h5py on first need
-
+    """Convert the folder's binary dumps into traj.h5md when safe (no other process writes the
+    folder: its lock is held meanwhile); whether it did."""
     if case.output.format != "h5md" or marker.status(folder) == marker.RUNNING:
         return False
+    with marker.claimed(folder):  # one converter at a time (a runner holds it already)
+        return _convert(folder, case)
+
+
+def _convert(folder: Path, case: Case) -> bool:
+    from .. import h5md  # h5py on first need
+
     sources = {group: open_dump(folder / name) for group, name in layout.BINARY_GROUPS.items()
                if (folder / name).is_file()}
     sources = {group: dump for group, dump in sources.items() if dump.frames}

@@ -12,6 +12,7 @@ run's binary dumps wait for the next read to become H5MD, so that Ctrl-C returns
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import tomli_w
@@ -41,7 +42,8 @@ def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: in
     (with mpiexec for nprocs > 1). `progress` draws a bar on stderr (terminals only); `echo`
     shows LAMMPS's screen output on stderr.
     """
-    return RunFolder(_execute(case, folder, runner, nprocs, echo, overwrite, progress, yes))
+    with _ran(case, folder, runner, nprocs, echo, overwrite, progress, yes) as path:
+        return RunFolder(path)
 
 
 def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
@@ -51,13 +53,16 @@ def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: i
     summary.json is written after the run ended: a folder with it holds a finished run (or one
     that stopped, as its "stopped" entry says)."""
     start = time.perf_counter()
-    path = _execute(case, folder, runner, nprocs, echo, overwrite, progress, yes)
-    return summarize(path, figure=figure, wall_time=time.perf_counter() - start)
+    with _ran(case, folder, runner, nprocs, echo, overwrite, progress, yes) as path:
+        return summarize(path, figure=figure, wall_time=time.perf_counter() - start)
 
 
-def _execute(case: Case, folder: str | Path, runner: str, nprocs: int, echo: bool, overwrite: bool, progress: bool,
-             yes: bool) -> Path:
-    """`execute`, up to the folder's path: the writer's side."""
+@contextmanager
+def _ran(case: Case, folder: str | Path, runner: str, nprocs: int, echo: bool, overwrite: bool, progress: bool,
+         yes: bool):
+    """The writer's side: the folder written, run and its dumps converted; its path is yielded
+    with the folder's lock still held (from the check of the folder until the caller has read
+    it: no other process overwrites or converts it meanwhile)."""
     if runner not in RUNNERS:
         raise ConfigError("runner", f"got {runner!r}; choose one of {', '.join(RUNNERS)}")
     if nprocs > 1 and runner != "lmp":
@@ -67,15 +72,15 @@ def _execute(case: Case, folder: str | Path, runner: str, nprocs: int, echo: boo
         layout.deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
     path = Path(folder)
     files = render(case)  # first: a case the deck refuses leaves the folder as it was
-    try:
-        with marker.claimed(path):  # its lock held from the check of the folder until the run ended
-            write_claimed(case, path, overwrite, files)
+    with marker.claimed(layout.make_place(path)):
+        write_claimed(case, path, overwrite, files)
+        try:
             _run(case, path, runner, nprocs, echo, progress)
-    except (ContactError, RunError):  # what the run wrote up to there becomes H5MD
+        except (ContactError, RunError):  # what the run wrote up to there becomes H5MD
+            convert_dumps(path, case)
+            raise
         convert_dumps(path, case)
-        raise
-    convert_dumps(path, case)  # after the lock: a folder being written is never converted
-    return path
+        yield path
 
 
 def _run(case: Case, path: Path, runner: str, nprocs: int, echo: bool, progress: bool) -> None:

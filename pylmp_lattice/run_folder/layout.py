@@ -105,3 +105,10 @@ def check_place(path: Path, what: str) -> None:
                                     f"choose a new folder for the {what} (-o)")
     if path.exists() and not path.is_dir():
         raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")
+
+
+def make_place(path: Path) -> Path:
+    """The folder of a run, made if missing where a run may go (`check_place`); returned."""
+    check_place(path, "run")
+    path.mkdir(parents=True, exist_ok=True)
+    return path

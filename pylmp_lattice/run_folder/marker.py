@@ -54,12 +54,10 @@ def is_run(folder: Path) -> bool:
 
 @contextmanager
 def claimed(folder: Path):
-    """The folder made if missing (where a run may go: `layout.check_place`) and its lock
-    (run.lock) held, by a writer or runner of this package from before it looks at the folder
-    until its run ended: two cannot write one folder, and readers leave its dumps alone
-    meanwhile. ConfigError if another process holds it."""
-    layout.check_place(folder, "run")
-    folder.mkdir(parents=True, exist_ok=True)
+    """Hold the folder's lock (run.lock): a writer from before it looks at the folder until it
+    wrote it, a runner until its run is converted and summarised, a reader while it converts
+    the dumps. Two cannot write one folder, and others leave its files alone meanwhile; in the
+    thread that holds it (`file_lock`) it is simply held on. ConfigError if another holds it."""
     with contextlib.ExitStack() as stack:
         try:
             stack.enter_context(exclusive(folder / layout.LOCK, timeout=CLAIM_WAIT))

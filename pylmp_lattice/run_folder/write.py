@@ -28,7 +28,7 @@ def write_folder(case: Case, path: str | Path, overwrite: bool = False) -> Path:
     """
     path = Path(path)
     files = render(case)  # first: a case the deck refuses (see Case._extremes) leaves the folder as it was
-    with marker.claimed(path):
+    with marker.claimed(layout.make_place(path)):
         write_claimed(case, path, overwrite, files)
     return path
 
