@@ -271,8 +271,9 @@ def _sweep(args) -> int:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
                               overwrite=args.overwrite, yes=args.yes, **where)
     except (KeyboardInterrupt, Interrupted) as err:
-        print(f"pylmp-lattice: interrupted; finished members are kept in {args.output}; "
-              "run the same command to resume", file=sys.stderr)
+        where = (f"finished members are kept in {args.output}" if (args.output / "members").is_dir()
+                 else "no member had started")
+        print(f"pylmp-lattice: interrupted; {where}; run the same command to resume", file=sys.stderr)
         return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
     failed, interrupted = (int((table["status"] == s).sum()) for s in ("failed", "interrupted"))
     print(f"{len(table)} members: {len(table) - failed - interrupted} done, {failed} failed"
@@ -282,7 +283,8 @@ def _sweep(args) -> int:
         from .sweep import write_replica_stats  # loads matplotlib: only now
 
         write_replica_stats(args.output, table)
-        print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'} and .png", file=sys.stderr)
+        figure = " and .png" if (args.output / "replica_stats.png").exists() else " (no figure: no measure scatters)"
+        print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'}{figure}", file=sys.stderr)
     return EXIT_RUN_ERROR if failed or interrupted else 0
 
 

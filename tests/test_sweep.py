@@ -147,8 +147,13 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('base = "base.toml"\nreplicas = 3\n', "replicas: got 3; no member has a random chain"),
         ('base = "base.toml"\nkeep = "nothing"\n', "keep: got 'nothing'; choose one of all, measures"),
         # a bad [set] value would fail every member: refused before any starts
-        ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = "0.02 m/s"\n"chain.seed" = 1\n',
+        ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = "0.02 m/s"\n',
          "set.chain.thermal_velocity: got '0.02 m/s'; expected a number"),
+        # one seed for every replica: one chain, run once (the ensemble collapsed to a member)
+        ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = 0.02\n"chain.seed" = 5\n',
+         "set.chain.seed: with replicas = 2, every replica would have this seed"),
+        ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = 0.02\n[grid]\n"chain.seed" = [5, 6]\n',
+         "grid.chain.seed: with replicas = 2, every replica would have this seed"),
         ('base = "base.toml"\n[set]\n"impactor.velocity" = -1.0\n[grid]\n"run.duration" = [10.0, 20.0]\n',
          "set.impactor.velocity: got -1.0 m/s; expected > 0"),
         ('base = "base.toml"\n[set]\n"run.dt" = 0.3\n', "set: makes the base case invalid (run.duration: got 10.0 ms"),
@@ -186,10 +191,11 @@ def test_a_resumed_sweep_says_how_many_members_it_kept(tmp_path, caplog):
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0, -2.0]\n')
     caplog.set_level("INFO", logger="pylmp_lattice")
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
-    assert "were done before this run" not in caplog.text
+    assert "before this run" not in caplog.text
     caplog.clear()
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
-    assert "out: 2 of 2 members were done before this run: kept, not run again" in caplog.text
+    assert ("out: 2 of 2 members had an outcome before this run (0 done, 2 failed): kept, not run again "
+            "(--retry-failed runs the failed ones)") in caplog.text
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -772,3 +778,12 @@ def test_the_folder_says_at_most_how_many_members_are_done_before_any_is_read(tm
     disk = Outcomes(tmp_path)
     assert disk.at_most() == 4  # a, b, c batched; d's own folder
     assert disk.get("b")["summary"] == {"particles": 21} and disk.get("d") is None  # d never finished
+
+
+def test_sweep_files_are_readable_as_the_umask_says(tmp_path):
+    """Tables and records are written through a temporary file (mkstemp makes it the owner's
+    alone); they end with the mode a plain open() gives under the process's umask."""
+    from pylmp_lattice.sweep.store import UMASK, atomic_write
+
+    atomic_write(tmp_path / "results.csv", "id\n")
+    assert (tmp_path / "results.csv").stat().st_mode & 0o777 == 0o666 & ~UMASK

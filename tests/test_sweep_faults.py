@@ -107,6 +107,7 @@ def test_sigint_exits_within_2_s_starts_nothing_after_and_a_rerun_finishes(tmp_p
     assert proc.returncode == 130, err
     assert took < 2.0 + slack, f"exit {took:.2f} s after SIGINT (slack {slack:.2f} s)"
     assert err.strip().splitlines()[-1].startswith("pylmp-lattice: interrupted; finished members are kept in")
+    assert " members done" in err.split("stopped with ")[1].splitlines()[0]  # where it stopped
     records = statuses(out).values()
     assert all(datetime.fromisoformat(r["started"]).timestamp() <= sent for r in records), "a member started after SIGINT"
     assert len(records) < 6 and "failed" not in {r["status"] for r in records}

@@ -98,7 +98,7 @@ class _Coordinator:
     def __init__(self, sweep: Sweep, root: Path, pool: Pool, stop: _StopSignals, retry_failed: bool,
                  progress: bool, total: int):
         self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
-        self.retry_failed = retry_failed
+        self.retry_failed, self.total = retry_failed, total
         self.table = Table(root)
         self.disk = Outcomes(root)
         self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots)  # a resumed sweep: what is left
@@ -106,7 +106,7 @@ class _Coordinator:
         self.lost = False
         self.preload = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
-        self.kept = 0  # members whose outcome on disk stood (a resumed sweep's)
+        self.kept = self.kept_failed = 0  # members whose outcome on disk stood (a resumed sweep's), failed ones
 
     def run(self):
         tasks = self._tasks()
@@ -140,9 +140,13 @@ class _Coordinator:
             self.bar.close()
             table = self.table.write()
             if self.kept:
-                log.info("%s: %d of %d members were done before this run: kept, not run again",
-                         self.root.name, self.kept, len(table))
+                failed = self.kept_failed
+                log.info("%s: %d of %d members had an outcome before this run (%d done, %d failed): kept, not run "
+                         "again%s", self.root.name, self.kept, len(table), self.kept - failed, failed,
+                         " (--retry-failed runs the failed ones)" if failed else "")
         if self.stop.signals:
+            done = int((table["status"] == "done").sum()) if len(table) else 0
+            log.info("%s: stopped with %d of %d members done", self.root.name, done, self.total)
             raise Interrupted(self.stop.signals[0])
         return table
 
@@ -177,6 +181,7 @@ class _Coordinator:
             return False
         self._row(m, found["record"], found["summary"])
         self.kept += 1
+        self.kept_failed += found["record"]["status"] == FAILED
         return True
 
     def _collect(self, task: Task, future: Future) -> None:

@@ -190,6 +190,10 @@ class Sweep:
             raise ConfigError("keep", f"got {self.keep!r}; choose one of {', '.join(KEEP)}")
         if self.runner not in RUNNERS:
             raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+        seeded = [f"{table}.chain.seed" for table in ("set", "grid", "zip") if "chain.seed" in getattr(self, table)]
+        if self.replicas > 1 and seeded:
+            raise ConfigError(seeded[0], f"with replicas = {self.replicas}, every replica would have this seed (one "
+                              "chain, run once); leave chain.seed out: each replica gets its own from the sweep's seed")
         if self.replicas > 1 and not self._may_be_random():
             raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
                               f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")

@@ -189,4 +189,6 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=100)
         atomic_write(root / STATS_PNG, buffer.getvalue())
+    else:  # an earlier figure would no longer show this table
+        (root / STATS_PNG).unlink(missing_ok=True)
     return stats

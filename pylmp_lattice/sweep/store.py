@@ -47,6 +47,11 @@ def member_folder(root: str | Path, member_id: str) -> Path:
     return Path(root) / MEMBERS / member_id
 
 
+# The process's umask (read once, at import: reading it means setting it).
+UMASK = os.umask(0o022)
+os.umask(UMASK)
+
+
 def atomic_write(path: Path, data: bytes | str, sync: bool = True) -> None:
     """Write a file so that readers see the old or the new content, never a part.
 
@@ -55,6 +60,7 @@ def atomic_write(path: Path, data: bytes | str, sync: bool = True) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, 0o666 & ~UMASK)  # as open() would make it (mkstemp's are the owner's alone)
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode() if isinstance(data, str) else data)
             if sync:
