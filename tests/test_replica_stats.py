@@ -95,7 +95,7 @@ def test_one_point_s_figure_shows_the_spread_over_the_replicas(tmp_path):
     np.testing.assert_allclose(np.sort(values), [3.0, 3.01, 3.02], rtol=1e-12)  # the unconverged replica is out
     ax = plot_replica_spread(values, f"{VP}.mean", ax=Figure().add_subplot(), members=len(done))
     assert ax.get_xlabel() == "shock velocity plateau $V_P$ (m/s)" and ax.get_ylabel() == "replicas"
-    assert ax.get_title() == "3 of 4 replicas; mean 3.01 ± 0.0058 m/s (± standard error)"
+    assert ax.get_title() == "3 of 4 replicas\nmean 3.01 ± 0.0058 m/s (± standard error)"
     assert sum(bar.get_height() for bar in ax.containers[0]) == 3  # the histogram holds the 3 values
     stats = write_replica_stats(tmp_path, one.drop(columns=["impactor.velocity"]))
     assert len(stats) == 1 and (tmp_path / "replica_stats.png").stat().st_size > 0

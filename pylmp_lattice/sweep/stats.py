@@ -89,7 +89,7 @@ def used_values(members: pd.DataFrame, name: str) -> np.ndarray:
 
 
 def _counted(used: np.ndarray) -> str:
-    low, high = int(used.min()), int(used.max())
+    low, high = int(np.min(used)), int(np.max(used))
     return f"{low} values" if low == high else f"{low}-{high} values"
 
 
@@ -101,13 +101,16 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwa
 
         ax = plt.figure().add_subplot()
     data = stats.sort_values(x)
-    mean, sem = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem"))
-    ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=kwargs.pop("fmt", "o-"),
-                capsize=kwargs.pop("capsize", 3), **kwargs)
+    mean, sem, count = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem", "count"))
+    std = sem * np.sqrt(count)  # the replicas' own scatter
+    line = ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=kwargs.pop("fmt", "o-"),
+                       capsize=kwargs.pop("capsize", 3), **kwargs)
+    ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=line[0].get_color(), alpha=0.15, lw=0)
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
     _no_offset(ax.yaxis)
-    ax.set_title(f"mean ± standard error; {_counted(data[f'{measure}.count'].to_numpy())} per point", fontsize="small")
+    ax.set_title(f"mean ± standard error (bars), ± std of the replicas (band)\n"
+                 f"{_counted(count)} per point", fontsize="small")
     return ax
 
 
@@ -131,7 +134,7 @@ def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int 
     used = f"{len(values)} of {members} replicas" if members is not None else f"{len(values)} values"
     unit = MEASURES.get(measure, (None, None))[1]
     spread = f" ± {sem:.2g}" if np.isfinite(sem) else ""
-    ax.set_title(f"{used}; mean {mean:.5g}{spread}{' ' + unit if unit else ''} (± standard error)", fontsize="small")
+    ax.set_title(f"{used}\nmean {mean:.5g}{spread}{' ' + unit if unit else ''} (± standard error)", fontsize="small")
     return ax
 
 
