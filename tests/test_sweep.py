@@ -491,6 +491,11 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
 
     assert sizes(2) == [100, 100]
     assert sizes(3) == [67, 67, 66]
+    # three points of 40 on 2 workers: each point in two tasks (3 tasks: one worker would run 80)
+    grid = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=40) + '[grid]\n"impactor.velocity" = [1.5, 2.0, 2.5]\n',
+                                  particles=12, duration=20.0))
+    coordinator = execute._Coordinator(grid, tmp_path, Pool(None, 2), execute._StopSignals(), False, False, grid.count())
+    assert [len(t.members) for t in coordinator._tasks()] == [20] * 6
     # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
     monkeypatch.setattr(execute, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
     assert sizes(2) == [25] * 8

@@ -101,7 +101,8 @@ class _Coordinator:
         self.retry_failed, self.total = retry_failed, total
         self.table = Table(root)
         self.disk = Outcomes(root)
-        self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots)  # a resumed sweep: what is left
+        self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots,  # a resumed sweep: what is left
+                              max(1, total // sweep.replicas), sweep.replicas)
         self.bar = _Progress(total, progress)
         self.lost = False
         self.preload = None
@@ -237,17 +238,24 @@ def _point(m: Member) -> str:
 
 @dataclass
 class _Blocks:
-    """Task sizes: a point's members in as few tasks as one instance allows (MAX_*), their number
-    a multiple of the workers, so that every worker gets an equal share."""
+    """Task sizes: the members in as few tasks as one instance allows (MAX_*), their number a
+    multiple of the workers, so that every worker gets an equal share; a task holds one point's
+    members, so the few points of a sweep are split in equal parts (3 points on 2 workers: 6
+    tasks, not 3 of which one worker would run 2)."""
 
     todo: int  # members to run (at least)
     slots: int
+    points: int = 1  # parameter points
+    replicas: int = 1  # members per point
     limits: dict = field(default_factory=dict)
 
     def next_size(self, m: Member) -> int:
         """The size of the task that starts with member `m`."""
         tasks = self.slots * math.ceil(self.todo / (self.slots * self._cap(m)))
-        return max(1, math.ceil(self.todo / tasks))
+        # parts per point: until the tasks fill the workers evenly, or are too many to matter
+        parts = next(k for k in range(1, self.slots + 1)
+                     if (self.points * k) % self.slots == 0 or self.points * k >= 4 * self.slots)
+        return max(1, min(math.ceil(self.todo / tasks), math.ceil(self.replicas / parts)))
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""
