@@ -68,7 +68,7 @@ def claimed(folder: Path):
 
 
 def locked(folder: Path) -> bool:
-    """Whether a runner or writer of this package holds the folder's lock."""
+    """Whether another runner or writer of this package (a process, or another thread) holds the folder's lock."""
     return is_held(folder / layout.LOCK)
 
 
@@ -79,11 +79,11 @@ def log_text(folder: Path) -> str | None:
         return None
 
 
-def status(folder: Path, claimed_here: bool = False) -> str:
+def status(folder: Path) -> str:
     """"running" while a runner of this package or, by its log, LAMMPS writes the folder; else
     how the run ended ("finished", "interrupted", "contact", "failed"), or "written" for a deck
-    never run. claimed_here: this process holds the folder's lock (`claimed`)."""
-    if not claimed_here and locked(folder):
+    never run. A lock this thread holds is no other runner's (`file_lock`)."""
+    if locked(folder):
         return RUNNING
     state = (read(folder) or {}).get("state", WRITTEN)
     if state not in (WRITTEN, RUNNING):

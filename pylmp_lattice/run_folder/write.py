@@ -37,7 +37,7 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
     """`write_folder` in a folder whose lock this process holds (`marker.claimed`; a runner holds
     it until its run ended), so that the check and the removal of an earlier run cannot race
     another writer. files: the case's deck (`deck.render`)."""
-    if check_target(path, overwrite, claimed_here=True):
+    if check_target(path, overwrite):
         for name in layout.RUN_FILES:
             if name != layout.LOCK:  # ours, held
                 (path / name).unlink(missing_ok=True)
@@ -47,22 +47,22 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
     marker.record(path, marker.WRITTEN)
 
 
-def check_target(path: Path, overwrite: bool, claimed_here: bool = False) -> bool:
+def check_target(path: Path, overwrite: bool) -> bool:
     """Whether `path` holds a run to replace; ConfigError if it may not be written (see
-    `write_folder`). claimed_here: this process holds the folder's lock (`marker.claimed`)."""
+    `write_folder`). Under this thread's own claim of the folder, its lock is no other runner's."""
     path = Path(path)
     layout.check_place(path, "run")
     if marker.is_run(path):
         if not overwrite:
             raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
                                         "replace it, or choose another --name or -o")
-        if marker.status(path, claimed_here) == marker.RUNNING:
+        if marker.status(path) == marker.RUNNING:
             raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
         odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_file()]
         if odd:  # checked before anything is removed: an overwrite never stops half-way
             raise ConfigError("output", f"{path / odd[0]} is not a file; a run writes a file there")
         return True
-    # a lock file alone is no run's (a writer's, ours when claimed_here, or left by a killed one)
+    # a lock file alone is no run's (a writer's, this thread's own, or left by a killed one)
     clash = sorted(name for name in layout.RUN_FILES if (path / name).exists() and name != layout.LOCK)
     if clash:
         raise ConfigError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
