@@ -27,7 +27,7 @@ _HERE = threading.local()
 
 
 class Held(Exception):
-    """Another process holds the lock (raised by `exclusive` with a timeout)."""
+    """Another process or thread holds the lock (raised by `exclusive` with a timeout)."""
 
 
 @contextmanager

@@ -1,5 +1,6 @@
-"""A run folder's state: the package's record of it (run.json), the lock a runner holds while
-LAMMPS writes it (run.lock, see `claimed`), and how the run stands, read from both and from the log.
+"""A run folder's state: the package's record of it (run.json), the lock a writer or runner holds
+while it writes the folder (run.lock, see `claimed`), and how the run stands, read from both and
+from the log.
 
 The format of two small files, as `bindump` is that of the binary dumps: the writer
 (`run_folder.write`, `run_folder.execution`) and the reader (`run_folder.folder`) share it.

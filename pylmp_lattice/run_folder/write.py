@@ -34,9 +34,9 @@ def write_folder(case: Case, path: str | Path, overwrite: bool = False) -> Path:
 
 
 def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]) -> None:
-    """`write_folder` in a folder whose lock this process holds (`marker.claimed`; a runner holds
-    it until its run ended), so that the check and the removal of an earlier run cannot race
-    another writer. files: the case's deck (`deck.render`)."""
+    """`write_folder` in a folder whose lock this thread holds (`marker.claimed`; a runner holds
+    it until its run is converted and summarised), so that the check and the removal of an
+    earlier run cannot race another writer. files: the case's deck (`deck.render`)."""
     if check_target(path, overwrite):
         for name in layout.RUN_FILES:
             if name != layout.LOCK:  # ours, held
