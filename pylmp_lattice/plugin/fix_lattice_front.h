@@ -50,21 +50,19 @@ class FixLatticeFront : public Fix {
   /* The one per-atom sampling routine past the hot part (mark_max), for this fix's own pass and
      fix lattice/chain's: the row of atom i if it is active or reaches the start level now, with
      its v, f along x and mass at this sample, and v_waiting, its v at the previous sample (used
-     only if it was waiting), and L, the levels of its chain (levels_of). Returns its phase before. */
-  unsigned char sample_row(int i, double v, double f, double m, double v_waiting, const FrontRecord::Levels &L)
+     only if it was waiting), and L, the levels of its chain (levels_of). */
+  void sample_row(int i, double v, double f, double m, double v_waiting, const FrontRecord::Levels &L)
   {
     using namespace FrontRecord;
     unsigned char &now = phase[i];
     const unsigned char before = now;
     if (before == ACTIVE || starts(before, v, L))
       advance(rec[i], now, v, before == WAITING ? v_waiting : rec[i][V_PREV], f / m, L, current);
-    return before;
   }
   // the same, the levels looked up (a division by the chain length: only for an atom not finished)
-  unsigned char sample_row(int i, double v, double f, double m, double v_waiting)
+  void sample_row(int i, double v, double f, double m, double v_waiting)
   {
-    const unsigned char before = phase[i];
-    return before == FrontRecord::FINISHED ? before : sample_row(i, v, f, m, v_waiting, levels_of(i));
+    if (phase[i] != FrontRecord::FINISHED) sample_row(i, v, f, m, v_waiting, levels_of(i));
   }
 
  private:
