@@ -18,9 +18,13 @@ Ratio = sweep wall time / loop wall time (the issue's target: at most 3).
 
 With two sizes (--members 1000,4000) it also prints the marginal cost: the extra sweep time per
 extra member against the loop's, (sweep(N2) - sweep(N1)) / (loop(N2) - loop(N1)), which leaves
-out what every sweep pays once. Part of that fixed cost is measured in the same run: a fresh
-Python importing what the command needs (the package, the engine's library, pandas and pyarrow
-for the table, matplotlib for the replica figure), as CPU seconds.
+out what every sweep pays once.
+
+A floor, in the same run: the CPU that a sweep command of this design cannot avoid, over the
+machine's cores. That is the engine's own CPU (LAMMPS's loop time x its CPU use) plus the imports
+of the command's process (the package, pandas and pyarrow for the table, matplotlib for the
+replica figure) and of the workers' fork server (the package, the engine's libraries), each
+measured in a fresh Python. The work on the cases, files, table and figure is left out.
 
     python benchmarks/bench_sweep.py [--members 1000[,4000]] [--workers 2] [--thermal 0.02] [--variants friction,frictionless]
 """
@@ -87,10 +91,12 @@ def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
     tasks = sum(r["cpu_time_s"] for r in records)  # each member's share of its task's CPU
     # LAMMPS's own loop time of every batch (or member run alone), summed over the workers
     logs = [*(out / "batches").glob("*/log.lammps"), *(out / "members").glob("*/log.lammps")]
-    engine = sum(float(re.search(r"Loop time of (\S+)", p.read_text()).group(1)) for p in logs) / workers
+    loops = [re.search(r"Loop time of (\S+).*?\n\s*\n?([\d.]+)% CPU use", p.read_text(), re.S).groups() for p in logs]
+    engine = sum(float(t) for t, _ in loops) / workers
+    engine_cpu = sum(float(t) * float(use) / 100 for t, use in loops)  # the engine's own CPU, contention aside
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
             "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks, "engine": engine,
-            "members": len(records), "batched": batched}
+            "engine_cpu": engine_cpu, "members": len(records), "batched": batched}
 
 
 def loop_states(sweep_path: Path):
@@ -145,16 +151,18 @@ def check_member_zero(case, final_v: np.ndarray, tmp: Path) -> float:
     return float(np.max(np.abs(traj.v[-1, 1:-1] - final_v[1:-1])))
 
 
-IMPORTS = ("import pylmp_lattice.cli, pylmp_lattice.sweep.batch, lammps, pandas, pyarrow.parquet, "
-           "matplotlib.figure, matplotlib.backends.backend_agg")
+# What the command's process loads (the table's pandas and pyarrow, the figure's matplotlib), and
+# what the workers' fork server loads (pool.PRELOAD: the package and the engine's libraries).
+COORDINATOR = ("pylmp_lattice.cli", "pylmp_lattice.sweep.execute", "pandas", "pyarrow.parquet", "matplotlib.figure",
+               "matplotlib.backends.backend_agg")
 
 
-def import_cpu(repeat: int = 3) -> float:
-    """CPU seconds of a fresh Python that imports what a sweep command loads (best of `repeat`)."""
+def import_cpu(modules, repeat: int = 3) -> float:
+    """CPU seconds of a fresh Python that imports `modules` (best of `repeat`)."""
     best = float("inf")
     for _ in range(repeat):
         cpu = children_cpu()
-        subprocess.run([sys.executable, "-c", IMPORTS], check=True)
+        subprocess.run([sys.executable, "-c", "import " + ", ".join(modules)], check=True)
         best = min(best, children_cpu() - cpu)
     return best
 
@@ -175,7 +183,9 @@ def main() -> None:
         tmp = Path(tmp)
         exe = tmp / "ensemble_loop"
         subprocess.run(["gcc", "-O3", "-o", str(exe), str(LOOP), "-lm"], check=True)
-        imports = import_cpu()
+        from pylmp_lattice.sweep.pool import PRELOAD
+
+        imports = {"coordinator": import_cpu(COORDINATOR), "workers": import_cpu(PRELOAD)}
         warm = tmp / "warm-up"  # not reported: the first sweep of a session reads the libraries from disk
         warm.mkdir()
         run_sweep_command(write_sweep(warm, 2 * args.workers, args.thermal, friction=True), warm / "out", args.workers)
@@ -219,8 +229,19 @@ def main() -> None:
             print(f"| {variant} | {(s2['wall'] - s1['wall']) / (l2 - l1):.1f}x | {1e3 * (s2['wall'] - s1['wall']) / (n2 - n1):.3f} "
                   f"| {1e3 * (l2 - l1) / (n2 - n1):.3f} |")
     print()
-    print(f"Fixed cost in the same run: a fresh Python importing what a sweep command loads takes {imports:.2f} s of "
-          f"CPU (best of 3: {IMPORTS.removeprefix('import ')}).")
+    cores = os.cpu_count()
+    print(f"A floor in the same run: the CPU that no sweep command of this design can avoid, over the {cores} cores. "
+          f"Imports, best of 3 in a fresh Python: the command's {imports['coordinator']:.2f} s "
+          f"({', '.join(COORDINATOR)}), the workers' fork server's {imports['workers']:.2f} s (pool.PRELOAD). "
+          "Engine: each instance's Loop time x its CPU use (log.lammps). Left out: the cases, data files, "
+          "summaries, table and figure themselves.")
+    print()
+    print("| variant | members | engine CPU (s) | + imports (s) | floor, wall (s) | floor / loop | sweep / loop |")
+    print("|---|---|---|---|---|---|---|")
+    for variant, members, s, loop_wall, *_ in rows:
+        floor = (s["engine_cpu"] + imports["coordinator"] + imports["workers"]) / cores
+        print(f"| {variant} | {members} | {s['engine_cpu']:.2f} | {imports['coordinator'] + imports['workers']:.2f} | "
+              f"{floor:.2f} | {floor / loop_wall:.1f}x | {s['wall'] / loop_wall:.1f}x |")
 
 
 if __name__ == "__main__":
