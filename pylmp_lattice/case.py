@@ -916,16 +916,21 @@ def case_id(case: Case) -> str:
 def identity_hash(data: dict) -> str:
     """16 hex digits of a hash of a resolved case dict (keys sorted, so the order never matters;
     numbers normalised, so that 1 and 1.0 are one value)."""
-    text = json.dumps(_normalised(data), sort_keys=True, separators=(",", ":"), default=str)
+    return normalised_hash(normalised(data))
+
+
+def normalised_hash(data: dict) -> str:
+    """`identity_hash` of a dict that is `normalised` already."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _normalised(value):
+def normalised(value):
     """A whole float as an int (1.0 -> 1), in nested dicts and lists: one text per number."""
     if isinstance(value, dict):
-        return {k: _normalised(v) for k, v in value.items()}
+        return {k: normalised(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_normalised(v) for v in value]
+        return [normalised(v) for v in value]
     if isinstance(value, float) and value.is_integer():
         return int(value)
     return value

@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
+from pylmp_lattice.case import case_id
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
@@ -105,6 +106,7 @@ chain.thermal_velocity = 0.01
     assert [m.case.chain.seed for m in members] == [member_seed(9, i) for i in range(12)]
     assert len({m.id for m in members}) == 12
     assert [m.id for m in load_sweep(path).members()] == [m.id for m in members]  # the id is the case
+    assert [m.id for m in members] == [case_id(m.case) for m in members]  # replicas' ids are derived, not built
     other_seed = Sweep(base=tmp_path / "base.toml", set={"chain.thermal_velocity": 0.01}, replicas=2, seed=10)
     assert {m.id for m in other_seed.members()}.isdisjoint(m.id for m in members)
 

@@ -50,7 +50,8 @@ from typing import Any
 
 import numpy as np
 
-from ..case import Case, case_from_dict, case_id, case_to_dict, data_file, identity_hash, read_toml
+from ..case import (Case, case_from_dict, case_id, case_to_dict, data_file, identity_hash, normalised,
+                    normalised_hash, read_toml)
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -243,7 +244,7 @@ class Sweep:
             data = self._data(point)
             random = _is_random(data)
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
-            first = None
+            first = identity = None
             for replica in range(self.replicas):
                 params = dict(point)
                 if self.replicas > 1:
@@ -255,9 +256,12 @@ class Sweep:
                         data.setdefault("chain", {})["seed"] = params["chain.seed"]
                     member = first = self._member(index, copy.deepcopy(data), params)
                 else:  # the point's resolved case with this replica's seed: validated when built
-                    resolved = copy.deepcopy(first.data)
-                    resolved["chain"]["seed"] = params["chain.seed"]
-                    member = Member(index, _case_id(resolved), params, resolved, self.base_dir)
+                    # (its sections are shared with the first's: a case dict is read, never changed)
+                    resolved = first.data | {"chain": first.data["chain"] | {"seed": params["chain.seed"]}}
+                    if identity is None:  # the identity's normalised form, made once per point
+                        identity = normalised({k: v for k, v in first.data.items() if k != "name"})
+                    identity["chain"]["seed"] = params["chain.seed"]
+                    member = Member(index, normalised_hash(identity), params, resolved, self.base_dir)
                 index += 1
                 if member.id in seen:
                     log.info("member %d is the same case as an earlier one (id %s); run once", member.index, member.id)
