@@ -683,6 +683,24 @@ def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, mo
     assert "its measures could not be read (ValueError: front.bin: truncated); its members run alone" in caplog.text
 
 
+def test_members_a_lost_worker_never_started_have_no_folder_in_the_table(tmp_path):
+    """A task whose worker is lost before its members wrote anything: they are interrupted, and
+    their rows name no folder (none exists on disk), so that a script reading the table finds
+    every folder it names."""
+    from concurrent.futures import Executor, Future
+
+    class Lost(Executor):
+        def submit(self, fn, *args, **kwargs):
+            future = Future()
+            future.set_exception(RuntimeError("the worker died"))
+            return future
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    table = run_sweep(sweep, tmp_path / "out", executor=Lost(), slots=1, progress=False)
+    assert list(table["status"]) == ["interrupted"] * 3
+    assert table["folder"].isna().all(), list(table["folder"])
+
+
 @pytest.mark.lammps
 def test_members_whose_decks_differ_beyond_the_chain_run_alone(tmp_path):
     """A task's members share a parameter point, so they are batched by N and table range alone;

@@ -84,6 +84,7 @@ def assert_table_matches_disk(out: Path) -> None:
     table = load_results(out)
     disk, found = statuses(out), Outcomes(out)
     for row in table.itertuples():
+        assert not isinstance(row.folder, str) or (out / row.folder).is_dir(), f"{row.id}: no folder {row.folder}"
         outcome = found.get(row.id)
         if row.status == "done":
             assert outcome["record"]["status"] == "done" and outcome["summary"]

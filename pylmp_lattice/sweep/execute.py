@@ -217,6 +217,8 @@ class _Coordinator:
 
     def _row(self, m: Member, record: dict, summary: dict | None) -> None:
         folder = record.get("batch") or f"{MEMBERS}/{m.id}"  # a batched member's outcome is its batch's
+        if record["status"] == INTERRUPTED and not (self.root / folder).is_dir():
+            folder = None  # not started, or its batch stopped before it wrote anything
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
 

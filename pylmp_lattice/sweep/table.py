@@ -3,7 +3,7 @@
 Columns: `id`; the swept fields by dotted key (a section swept as a whole gives one column per
 field, "force.law", "force.q", ...; "replica" and "chain.seed" where the sweep sets them);
 `status` ("done", "failed" or "interrupted"); `error` (one line, paths relative to DIR);
-`folder` (relative to DIR); `wall_time_s`; then the member's scalar measures from its
+`folder` (relative to DIR; empty for an interrupted member that has none); `wall_time_s`; then the member's scalar measures from its
 summary.json, nested keys joined by "." (e.g. "shock_velocity_plateau_m_per_s.mean"). Both
 files are replaced atomically. Members that never started have no row.
 """
