@@ -74,7 +74,10 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
-    holds), with the same number of magnets N and the same table range. Replica r (from 0)
+    holds), with the same number of magnets N and, for a tabulated law, the same table range
+    (`replica_range`; with the exact law the fix guards every chain's gaps with the narrowest
+    of their ranges, so that no chain runs on past its own: a batch stopped there runs its
+    members alone, each to its own outcome). Replica r (from 0)
     has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
@@ -90,12 +93,13 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
         if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
                for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
-        if case.chain.particles != first.chain.particles or case.table_range() != first.table_range():
+        if case.chain.particles != first.chain.particles or replica_range(case) != replica_range(first):
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
     # one text dump of all chains (the H5MD conversion and the front record are per chain), or
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
-    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output))
+    table = dataclasses.replace(first.table, r_max=min(case.table_range()[1] for case in cases))
+    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output), table=table)
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines() if front and first.friction else "")),
@@ -106,6 +110,14 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
         files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
                                                f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
+
+
+def replica_range(case: Case) -> tuple[float, float] | None:
+    """The table range (mm) that chains batched with this case must share: its own when the law
+    is tabulated; None when fix lattice/chain has the law exactly (the range then only guards
+    the gaps, and a chain's widest drawn gap sets its upper end: gap disorder draws another
+    for every seed)."""
+    return case.table_range() if _law_args(case.force) is None else None
 
 
 # What of a case reaches its deck beyond the data file and the front levels: everything but the

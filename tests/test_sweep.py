@@ -423,11 +423,12 @@ keep = "measures"
 
 
 @pytest.mark.lammps
-@pytest.mark.parametrize("friction", [False, True])
-def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, monkeypatch, friction):
+@pytest.mark.parametrize("friction, gaps", [(False, False), (True, False), (False, True)])
+def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, monkeypatch, friction, gaps):
     """Five thermal replicas run as one batch (one LAMMPS instance, one front record); each
     member's summary equals, bit for bit, the summary of its case run alone with run_case
-    (with friction: its friction work too, the fix's entry for its chain)."""
+    (with friction: its friction work too, the fix's entry for its chain; with gap disorder,
+    chains whose table ranges differ: the exact law needs no table)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from pylmp_lattice.run_folder import run_case
@@ -437,7 +438,9 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
     monkeypatch.setattr(batch, "FRICTION_PER_CHAIN", True)
     monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
     text = THERMAL.format(replicas=5) + ('"friction.mu" = 0.285\n"friction.p" = 0.012\n"friction.g" = 9.81\n' if friction else "")
+    text += '"chain.r0_disorder" = 0.005\n' if gaps else ""
     sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=40.0))
+    assert len({m.case.table_range() for m in sweep.members()}) == (5 if gaps else 1)
     with ThreadPoolExecutor(1) as pool:  # in this process: the plugin's abilities show in batch's flags
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
     assert set(table["status"]) == {"done"} and len(table) == 5
@@ -681,6 +684,20 @@ def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, mo
     records = [json.loads((tmp_path / "out" / f / STATUS).read_text()) for f in table["folder"]]
     assert not any("batch" in r for r in records)  # each ran alone
     assert "its measures could not be read (ValueError: front.bin: truncated); its members run alone" in caplog.text
+
+
+@pytest.mark.parametrize("disorder", [{}, {"chain.mass_disorder": 0.01}, {"chain.r0_disorder": 0.005}])
+def test_a_thousand_replicas_on_two_workers_are_two_tasks_of_500(disorder):
+    """Tasks are as large as an instance allows (execute.MAX_*): 1000 members of the 21-magnet
+    experiment (2.1e4 atoms, 1.0e8 atom-steps) are one task of 500 per worker, with mass
+    disorder too (masses per magnet: at most one atom type per chain)."""
+    from pylmp_lattice.sweep.execute import _Blocks
+
+    root = Path(__file__).resolve().parents[1]
+    sweep = Sweep(base=root / "inputs" / "paper_experiment.toml", set={"chain.thermal_velocity": 0.02, **disorder},
+                  replicas=1000, seed=1, keep="measures")
+    first = next(sweep.iter_members())
+    assert _Blocks(1000, 2, 1, 1000).next_size(first) == 500
 
 
 def test_members_a_lost_worker_never_started_have_no_folder_in_the_table(tmp_path):

@@ -117,16 +117,17 @@ def batchable(case: Case) -> bool:
 
 
 def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]]:
-    """Members that can run together, in order: N and table range equal (see
-    deck.render_replicas), and, a task being one parameter point, decks equal but for the data
-    file and the front record's levels (each chain gets its own): `_run_batch` checks that as it
-    renders the batch (its members run alone if not). Without per-chain levels, equal decks."""
-    from ..deck import deck_text
+    """Members that can run together, in order: N and, for a tabulated law, the table range equal
+    (see deck.render_replicas), and, a task being one parameter point, decks equal but for the
+    data file, the front record's levels (each chain gets its own) and the gaps' guard:
+    `_run_batch` checks that as it renders the batch (its members run alone if not). Without
+    per-chain levels, equal decks."""
+    from ..deck import deck_text, replica_range
 
     groups: dict[tuple, list] = {}
     for i, (m, case) in enumerate(valid):
         shared = None if LEVELS_PER_CHAIN else deck_text(case)
-        key = (case.chain.particles, case.table_range(), shared) if batchable(case) else ("alone", i)
+        key = (case.chain.particles, replica_range(case), shared) if batchable(case) else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
 

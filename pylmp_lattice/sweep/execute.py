@@ -49,9 +49,10 @@ log = logging.getLogger(__name__)
 MANY_MEMBERS = 100_000
 # A task's members: at most this many atoms, atom-steps (about 0.7 s of engine time: a batch of
 # the 21-magnet experiment with friction and the front record runs 5e7 atom-steps in 0.33 s,
-# docs/performance.md) and atom types (LAMMPS keeps some per-type-pair tables) in one instance.
-# Each instance costs about 0.05 s to set up, so tasks are as large as these allow, shared evenly
-# by the workers.
+# docs/performance.md) and atom types (LAMMPS keeps some per-type-pair tables; with masses per
+# magnet each chain may add one, `deck.chains_data_text`, else the chains share theirs) in one
+# instance. Each instance costs about 0.05 s to set up, so tasks are as large as these allow,
+# shared evenly by the workers.
 MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024
@@ -267,10 +268,11 @@ class _Blocks:
             if case is None or not batch.batchable(case):
                 self.limits[point] = 1
             else:
-                n, chain = case.chain.particles, case.chain
-                types = n if (chain.mass_disorder or not isinstance(chain.mass, (int, float))) else 2
+                from ..deck import per_atom_masses
+
+                n = case.chain.particles
                 self.limits[point] = max(1, min(MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps())),
-                                                MAX_TYPES // types))
+                                                MAX_TYPES if per_atom_masses(case) else MAX_ATOMS))
         return self.limits[point]
 
 
