@@ -686,6 +686,20 @@ def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, mo
     assert "its measures could not be read (ValueError: front.bin: truncated); its members run alone" in caplog.text
 
 
+@pytest.mark.lammps
+def test_a_script_without_the_main_guard_is_told_why_its_workers_fail(tmp_path):
+    """The local workers import the calling script again (multiprocessing's forkserver): an
+    unguarded run_sweep there stops with the remedy, not with a second sweep on the folder."""
+    write_sweep(tmp_path, "", particles=8, duration=5.0)
+    script = tmp_path / "script.py"
+    script.write_text("from pylmp_lattice.sweep import Sweep, run_sweep\n"
+                      "sweep = Sweep(base='base.toml', set={'chain.thermal_velocity': 0.02}, replicas=2, keep='measures')\n"
+                      "run_sweep(sweep, 'out', workers=1, progress=False)\n")
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert "put the script's code under `if __name__ == \"__main__\":`" in done.stderr
+    assert "another sweep is running" not in done.stderr
+
+
 @pytest.mark.parametrize("disorder", [{}, {"chain.mass_disorder": 0.01}, {"chain.r0_disorder": 0.005}])
 def test_a_thousand_replicas_on_two_workers_are_two_tasks_of_500(disorder):
     """Tasks are as large as an instance allows (execute.MAX_*): 1000 members of the 21-magnet

@@ -7,7 +7,7 @@ members lazily: a member done on disk (status done, summary that parses) is skip
 are grouped into tasks, consecutive members of one parameter point, sized to the workers
 (`_Blocks`), and run by `batch.run_task` in the workers, whose results live on disk. At most one
 task per worker is in flight, so a stop never finds members queued. The table is kept in
-memory (O(1) per member), written every few seconds and at the end.
+memory (O(1) per member), written at most every 30 s (`Table`) and at the end.
 
 Stopping (SIGINT, SIGTERM): no further task is sent, the local workers are told to stop (their
 engines stop at the next step, their members become "interrupted"), the table is written, and
@@ -70,8 +70,12 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
     different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
     MANY_MEMBERS members needs `yes`.
-    Raises Interrupted on SIGINT or SIGTERM, after writing the table.
+    Raises Interrupted on SIGINT or SIGTERM, after writing the table. A script that calls it
+    needs the `if __name__ == "__main__":` guard: the local workers import it again.
     """
+    if _from_worker_import():
+        raise RuntimeError("run_sweep was called while a sweep worker imported the main script again (as Python's "
+                           "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
     check_folder(root)
     root = Path(root).resolve()
     total = sweep.count()
@@ -222,6 +226,15 @@ class _Coordinator:
             folder = None  # not started, or its batch stopped before it wrote anything
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
+
+
+def _from_worker_import() -> bool:
+    """Whether the caller is a script that a process-pool worker is importing again (as the
+    module "__mp_main__"): without the main guard it would start a sweep of its own there."""
+    frame = sys._getframe(1)
+    while frame is not None and frame.f_globals.get("__name__") != "__mp_main__":
+        frame = frame.f_back
+    return frame is not None
 
 
 def _preload(sweep: Sweep) -> None:
