@@ -66,6 +66,18 @@ def latency() -> float:
     return time.monotonic() - start
 
 
+def grandchildren(pid: int) -> list[int]:
+    """The processes whose parent's parent is `pid` (a sweep's workers: the fork server's children)."""
+    parents = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parents[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):  # gone meanwhile
+            pass
+    children = {p for p, parent in parents.items() if parent == pid}
+    return [p for p, parent in parents.items() if parent in children]
+
+
 def running(out: Path) -> list[dict]:
     return [r for r in statuses(out).values() if r["status"] == "running"]
 
@@ -116,6 +128,23 @@ def test_sigint_exits_within_2_s_starts_nothing_after_and_a_rerun_finishes(tmp_p
     assert_table_matches_disk(out)
     assert subprocess.run(cmd, stderr=subprocess.DEVNULL).returncode == 0
     assert set(load_results(out)["status"]) == {"done"} and len(load_results(out)) == 6
+
+
+def test_a_sigint_during_start_up_starts_no_member(tmp_path):
+    """The signal comes while the coordinator waits for its first worker (the fork server still
+    loads the engine): the worker that the pool starts afterwards stops too."""
+    slack = latency()
+    cmd, out, proc = start(tmp_path, workers=2)
+    wait_for(lambda: grandchildren(proc.pid), proc)  # the fork server forked the first worker: it starts up
+    sent = time.time()
+    os.killpg(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    took = time.time() - sent
+    assert proc.returncode == 130, err
+    assert took < 2.0 + slack, f"exit {took:.2f} s after SIGINT (slack {slack:.2f} s)"
+    records = statuses(out).values()
+    assert all(datetime.fromisoformat(r["started"]).timestamp() <= sent for r in records), "a member started after SIGINT"
+    assert_table_matches_disk(out)
 
 
 def start_two(tmp_path: Path):

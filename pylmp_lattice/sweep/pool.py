@@ -25,10 +25,11 @@ PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "p
 
 
 class Pool:
-    """An executor, its number of worker slots, and how to stop its workers (local pools only)."""
+    """An executor, its number of worker slots, and how to stop its workers (local pools only:
+    `stop` tells every worker, also one the pool starts later, to stop)."""
 
-    def __init__(self, executor: Executor | None, slots: int):
-        self.executor, self.slots = executor, slots
+    def __init__(self, executor: Executor | None, slots: int, stop=None):
+        self.executor, self.slots, self._stop = executor, slots, stop
 
     def submit(self, task) -> Future:
         from .batch import run_task
@@ -37,16 +38,16 @@ class Pool:
 
     def on_signal(self, count: int) -> None:
         """First signal: the workers stop their engines; second: they are killed."""
-        self.kill() if count > 1 else self._signal(signal.SIGINT)
+        if count > 1:
+            self.kill()
+        elif self._stop is not None:
+            self._stop()
 
     def kill(self) -> None:
-        self._signal(signal.SIGKILL)
-
-    def _signal(self, signum: int) -> None:
         if isinstance(self.executor, ProcessPoolExecutor):
             for process in list((self.executor._processes or {}).values()):  # no public list of workers
                 with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
-                    os.kill(process.pid, signum)
+                    os.kill(process.pid, signal.SIGKILL)
 
 
 @contextlib.contextmanager
@@ -85,17 +86,21 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
 def _local_pool(workers: int):
     """Worker processes forked from a clean fork server (never from a coordinator that may hold
     threads or an initialised MPI), which imports the package once and stays up for later
-    sweeps of the same Python session. Each worker holds the read end of a pipe whose write
-    end only this process holds: when it closes (this process died), the worker exits."""
+    sweeps of the same Python session. Each worker holds the read ends of two pipes whose write
+    ends only this process holds: when "stop" closes (a stop signal), the worker stops, also
+    one that the pool starts after the signal; when "alive" closes (this process died), the
+    worker exits."""
     context = start_forkserver()
     alive_r, alive_w = context.Pipe(duplex=False)
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init, initargs=(alive_r,))
+    stop_r, stop_w = context.Pipe(duplex=False)
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
+                               initargs=(alive_r, stop_r))
     try:
-        yield Pool(pool, workers)
+        yield Pool(pool, workers, stop=stop_w.close)
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
-        alive_w.close()
-        alive_r.close()
+        for end in (alive_w, alive_r, stop_w, stop_r):
+            end.close()
 
 
 def start_forkserver():
@@ -117,12 +122,15 @@ def start_forkserver():
     return context
 
 
-def _pool_worker_init(alive) -> None:
-    """A pool worker: a stop signal stops its member and any later start, and the worker exits
-    GRACE seconds later; it exits at once when the coordinator is gone."""
+def _pool_worker_init(alive, stop) -> None:
+    """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
+    any later start, and the worker exits GRACE seconds later; it exits at once when the
+    coordinator is gone."""
     from . import batch
 
-    def stop(signum, frame):
+    def on_signal(signum, frame):
+        if batch.STOP.is_set():  # stopping already (Ctrl-C reaches this worker and its coordinator both)
+            return
         batch.stopping(signum)
         if batch.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
             raise Interrupted(signum)
@@ -130,11 +138,14 @@ def _pool_worker_init(alive) -> None:
 
     batch.EXIT_AFTER_STOP = GRACE
     for s in STOP_SIGNALS:
-        signal.signal(s, stop)
+        signal.signal(s, on_signal)
 
-    def watch():
+    def watch(end, then):
         with contextlib.suppress(EOFError, OSError):
-            alive.recv()  # nothing is ever sent: returns when the coordinator's end closes
-        os._exit(1)  # the members in hand stay unfinished on disk and are run again on resume
+            end.recv()  # nothing is ever sent: returns when the coordinator's end closes
+        then()
 
-    threading.Thread(target=watch, daemon=True).start()
+    # the coordinator is gone: the members in hand stay unfinished on disk and run again on resume
+    threading.Thread(target=watch, args=(alive, lambda: os._exit(1)), daemon=True).start()
+    # the coordinator was told to stop: as if this worker got the signal itself (the handler above)
+    threading.Thread(target=watch, args=(stop, lambda: os.kill(os.getpid(), signal.SIGINT)), daemon=True).start()
