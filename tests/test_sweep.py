@@ -159,6 +159,16 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('base = "base.toml"\n[set]\n"impactor.velocity" = -1.0\n[grid]\n"run.duration" = [10.0, 20.0]\n',
          "set.impactor.velocity: got -1.0 m/s; expected > 0"),
         ('base = "base.toml"\n[set]\n"run.dt" = 0.3\n', "set: makes the base case invalid (run.duration: got 10.0 ms"),
+        # two values for one field in one member: one would be dropped silently
+        ('base = "base.toml"\n[grid]\nfriction = [{mu = 0.1, p = 0.0, g = 9.81}]\n"friction.mu" = [0.2, 0.3]\n',
+         "grid.friction.mu: also swept as grid.friction; a field can be swept once"),
+        ('base = "base.toml"\n[grid]\n"impactor.velocity" = [1.0]\n[zip]\n"impactor.velocity" = [2.0]\n',
+         "zip.impactor.velocity: also swept as grid.impactor.velocity"),
+        # keep = "measures" means no trajectories: a format asking for them contradicts it
+        ('base = "base.toml"\nkeep = "measures"\n[set]\n"output.format" = "h5md"\n',
+         'set.output.format: keep = "measures" sets output.format = "none"'),
+        ('base = "base.toml"\nkeep = "measures"\n[grid]\noutput = [{format = "text"}]\n',
+         'grid.output: keep = "measures" sets output.format = "none"'),
     ],
 )
 def test_bad_sweep_file_is_one_line_naming_the_field_exit_2(tmp_path, capsys, text, field):
@@ -167,6 +177,14 @@ def test_bad_sweep_file_is_one_line_naming_the_field_exit_2(tmp_path, capsys, te
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}"), err
     assert not (tmp_path / "out").exists()  # no member started
+
+
+@pytest.mark.parametrize("address", ["file:///etc/passwd", "tcp://;rm -rf x"])
+def test_a_scheduler_address_that_is_none_is_one_line_exit_2(tmp_path, capsys, address):
+    path = write_sweep(tmp_path, SIX)
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out"), "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: --scheduler: cannot reach {address}"), err
 
 
 def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_path, capsys):

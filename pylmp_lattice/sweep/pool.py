@@ -71,8 +71,8 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
 
     try:
         client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as err:
-        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err})") from err
+    except (OSError, TimeoutError, ValueError) as err:  # ValueError: not an address (no scheme, no port)
+        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err}); expected tcp://HOST:PORT") from err
     try:
         threads = client.nthreads()
         if runner == "embedded" and any(n > 1 for n in threads.values()):

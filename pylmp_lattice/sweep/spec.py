@@ -180,9 +180,19 @@ class Sweep:
             first = next(iter(lengths))
             odd = next(k for k, n in lengths.items() if n != lengths[first])
             raise ConfigError(f"zip.{odd}", f"got {lengths[odd]} values; expected {lengths[first]} like zip.{first}")
-        both = set(self.grid) & set(self.zip)
-        if both:
-            raise ConfigError(f"zip.{sorted(both)[0]}", "also in [grid]; a field can be swept once")
+        swept = [(table, key) for table in ("grid", "zip") for key in getattr(self, table)]
+        for i, (table, key) in enumerate(swept):  # a field, or a section and one of its fields
+            other = next((f"{t}.{k}" for t, k in swept[:i] if _overlap(k, key)), None)
+            if other is not None:
+                raise ConfigError(f"{table}.{key}", f"also swept as {other}; a field can be swept once")
+        if self.keep == "measures":
+            values = [(f"{t}.{k}", v if t == "set" else None) for t in ("set", "grid", "zip") for k, v in getattr(self, t).items()]
+            values += [(f"{t}.{k}", v) for t in ("grid", "zip") for k, vs in getattr(self, t).items() for v in vs]
+            given = next((key for key, v in values if key.endswith(".output.format")
+                          or (key.endswith(".output") and isinstance(v, dict) and "format" in v)), None)
+            if given is not None:
+                raise ConfigError(given, 'keep = "measures" sets output.format = "none" (no trajectories); '
+                                  'leave it out, or set keep = "all"')
         if not (_is_int(self.replicas) and self.replicas >= 1):
             raise ConfigError("replicas", f"got {self.replicas!r}; expected an integer >= 1")
         if not (_is_int(self.seed) and 0 <= self.seed < 2**63):
