@@ -276,15 +276,21 @@ def _sweep(args) -> int:
         print(f"pylmp-lattice: interrupted; {where}; run the same command to resume", file=sys.stderr)
         return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
     failed, interrupted = (int((table["status"] == s).sum()) for s in ("failed", "interrupted"))
-    print(f"{len(table)} members: {len(table) - failed - interrupted} done, {failed} failed"
-          + (f", {interrupted} interrupted (a worker was lost; run the same command to finish)" if interrupted else "")
+    # members not in the table were never enumerated: a lost worker stopped the sweep first
+    unstarted = f", {sweep.count() - len(table)} not started" if interrupted else ""
+    print(f"{len(table) if not interrupted else sweep.count()} members: {len(table) - failed - interrupted} done, "
+          f"{failed} failed" + (f", {interrupted} interrupted{unstarted} (a worker was lost; run the same command to "
+                                 "finish)" if interrupted else "")
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)
-    if sweep.replicas > 1:
-        from .sweep import write_replica_stats  # loads matplotlib: only now
+    from .sweep import stats  # loads matplotlib: only now
 
-        write_replica_stats(args.output, table)
-        figure = " and .png" if (args.output / "replica_stats.png").exists() else " (no figure: no measure scatters)"
-        print(f"mean and standard error over replicas: {args.output / 'replica_stats.csv'}{figure}", file=sys.stderr)
+    if sweep.replicas > 1:
+        stats.write_replica_stats(args.output, table)
+        figure = " and .png" if (args.output / stats.STATS_PNG).exists() else " (no figure: no measure scatters)"
+        print(f"mean and standard error over replicas: {args.output / stats.STATS_CSV}{figure}", file=sys.stderr)
+    else:  # those of a sweep with replicas that this one replaced (--overwrite) would describe another table
+        for name in (stats.STATS_CSV, stats.STATS_PNG):
+            (args.output / name).unlink(missing_ok=True)
     return EXIT_RUN_ERROR if failed or interrupted else 0
 
 

@@ -187,6 +187,18 @@ def test_a_scheduler_address_that_is_none_is_one_line_exit_2(tmp_path, capsys, a
     assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: --scheduler: cannot reach {address}"), err
 
 
+@pytest.mark.lammps
+def test_overwrite_by_a_sweep_without_replicas_leaves_no_replica_statistics(tmp_path):
+    """The replica statistics of the sweep that --overwrite replaced describe another table."""
+    write_sweep(tmp_path, THERMAL.format(replicas=2), particles=8, duration=5.0)
+    (tmp_path / "single.toml").write_text('base = "base.toml"\nkeep = "measures"\n[grid]\n"impactor.velocity" = [1.0]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(tmp_path / "sweep.toml"), "-o", str(out), "--quiet"]) == 0
+    assert (out / "replica_stats.csv").exists()
+    assert main(["sweep", str(tmp_path / "single.toml"), "-o", str(out), "--quiet", "--overwrite"]) == 0
+    assert not list(out.glob("replica_stats.*"))
+
+
 def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_path, capsys):
     """Bad parameters fail their members without running (no engine needed); others go on."""
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0, -2.0]\n')

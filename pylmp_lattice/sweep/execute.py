@@ -148,7 +148,7 @@ class _Coordinator:
             if self.kept:
                 failed = self.kept_failed
                 log.info("%s: %d of %d members had an outcome before this run (%d done, %d failed): kept, not run "
-                         "again%s", self.root.name, self.kept, len(table), self.kept - failed, failed,
+                         "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
         if self.stop.signals:
             done = int((table["status"] == "done").sum()) if len(table) else 0
@@ -338,7 +338,7 @@ def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
     held = read_json(root / SWEEP_FILE)
     if held is not None and held.get("identity") != identity and not overwrite:
         raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
-                          "or pass --overwrite to replace it")
+                          "or pass --overwrite (overwrite=True) to replace it")
     if held is None or held.get("identity") != identity:
         atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n")
 
