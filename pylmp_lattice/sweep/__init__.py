@@ -2,9 +2,10 @@
 
     from pylmp_lattice.sweep import Sweep, load_sweep, run_sweep, load_results, replica_stats
 
-    sweep = Sweep(base="inputs/paper_experiment.toml", grid={"impactor.velocity": [1.0, 2.0]})
-    table = run_sweep(sweep, "runs/my_sweep", workers=2)   # a pandas DataFrame, one row per member
-    table = load_results("runs/my_sweep")                   # the same table, later
+    if __name__ == "__main__":   # the workers' fork server imports this script again, as "spawn" does
+        sweep = Sweep(base="inputs/paper_experiment.toml", grid={"impactor.velocity": [1.0, 2.0]})
+        table = run_sweep(sweep, "runs/my_sweep", workers=2)   # a pandas DataFrame, one row per member
+        table = load_results("runs/my_sweep")                   # the same table, later
 
 `pylmp-lattice sweep SWEEP.toml -o DIR` does the same from a sweep file (`spec` documents it).
 """
