@@ -5,7 +5,8 @@ A member run alone has DIR/members/<id>/: the run's files (case.toml, deck, log,
 unless keep = "measures", summary.json) and `status.json`: status ("running", "done", "failed"
 or "interrupted"), the one-line error, the swept parameters, wall and CPU time and provenance
 (package version and git commit, LAMMPS version, plugin build, Python and numpy versions, host,
-start and end times). Members batched in one instance (keep = "measures") share
+start and end times). Members batched in one instance (keep = "measures", those of one
+parameter point the chain engine can hold together, see `batch`) share
 DIR/batches/<id of the first>/: the deck, data, log and front record, and `members.json`, their
 outcomes (`write_batch`): the record above once (status "done", times and provenance), and per
 member its id, index, parameters, chain number in the batch, case and summary; O(1) files for
