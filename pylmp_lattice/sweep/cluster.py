@@ -8,8 +8,10 @@
     directives = ["--account=abc"]     # further #SBATCH / #PBS lines, one option each
 
 `pylmp-lattice sweep SWEEP.toml -o DIR --cluster slurm --jobs N` submits N jobs (SLURM's sbatch
-or PBS's qsub), each one Dask worker with one thread: a worker runs one member at a time (the
-embedded runner needs that; a member's `lmp` runner may use the job's other cores). The sweep
+or PBS's qsub), each one Dask worker with one thread: a worker runs one task at a time (the
+embedded runner needs one LAMMPS instance at a time; a member's `lmp` runner may use the job's
+other cores). A task is one member, or many members of one parameter point batched in one
+instance (hundreds of small chains; see `execute` and `batch`). The sweep
 then runs through `run_sweep`'s executor path (a Dask client's executor, one task in flight per
 job, whether or not its worker has started yet). Job scripts and logs go to
 DIR/cluster/. dask-jobqueue's own configuration (~/.config/dask/jobqueue.yaml: interface,
@@ -17,8 +19,9 @@ account, ...) still applies where this section says nothing.
 
 A worker retires at a random time in 85-95 % of the walltime (dask's `--lifetime` with
 `--lifetime-stagger`), and a new job replaces it, so a job rarely meets its walltime; if one
-does, only its running member is lost (results are written to disk by the worker), and the
-scheduler runs that member again elsewhere; re-running the command resumes in any case.
+does, its running task is lost (the members of a batch are written together at its end; what
+finished before is on disk), and the scheduler runs that task again elsewhere; re-running the
+command resumes in any case.
 
 jobqueue writes these values into a job script that a shell runs, so every one is checked
 against a strict pattern (no spaces except one between a directive's option and its value, no
