@@ -1,10 +1,12 @@
 """Exclusive locks named by a file (flock), which the holder removes before it lets go.
 
-One rule for every lock of the package (a run folder's run.lock, a sweep task's lock): no lock
-file is left behind, and never do two processes hold one at once. A process that opened the
-file and waits may get the lock on a file its holder has just removed; it then checks that the
-path still names the file it holds (the inode) and, if not, starts again on whatever the path
-names now. The kernel drops a lock when its holder dies.
+One rule for every lock of the package (a run folder's run.lock, a sweep task's lock): a holder
+that lets go removes the file, and never do two processes hold one at once. A holder that is
+killed leaves its file behind, but the kernel drops its lock: the file blocks nothing, and the
+next `exclusive` on it takes it and removes it (`sweep.store.remove_stale_locks` does so for
+tasks). A process that opened the file and waits may get the lock on a file its holder has just
+removed; it then checks that the path still names the file it holds (the inode) and, if not,
+starts again on whatever the path names now.
 
 A lock is its holder thread's: taken again by that thread (a runner that converts its own
 dumps), it is simply held on; `is_held` speaks of other holders, threads or processes.
