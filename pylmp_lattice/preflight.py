@@ -1,10 +1,9 @@
 """Checks before a run starts: its output size, memory and time against this machine, the
 number of MPI ranks, and a time step that is stable but coarse.
 
-The estimates are linear models calibrated on this project's 2-core machine with the main case
-(301 magnets, 60 000 steps) at two output intervals (6001 and 601 frames), a 200 000-magnet
-chain and a 40-magnet chain in which every magnet moves (see README, "A run you can trust").
-They lean high, and are meant to catch runs that are off by orders of magnitude, not to
+The estimates are linear models calibrated on this project's 2-core machine: each constant
+below says on what (file sizes by `benchmarks/calibrate_preflight.py`); docs/guide.md, "A run
+you can trust", sums them up. They lean high, and are meant to catch runs that are off by orders of magnitude, not to
 predict to the second. `output_bytes` is the one place that knows what each output format
 costs on disk.
 """

@@ -184,7 +184,7 @@ def task_lock(root: str | Path, member_ids):
     Dask runs a task at least once: the copy of a task whose worker retires may start while the
     first still runs. The copies take turns on the lock (which the kernel releases if a worker
     is killed), and the later one finds the members done on disk (`file_lock.exclusive`: the
-    holder removes the file as it lets go; files killed workers leave, `remove_stale_locks`)."""
+    holder removes the file as it lets go; `remove_stale_locks` removes those killed workers leave)."""
     folder = Path(root) / BATCHES
     folder.mkdir(exist_ok=True)
     with exclusive(folder / f"task-{hashlib.sha256(' '.join(member_ids).encode()).hexdigest()[:16]}.lock"):
