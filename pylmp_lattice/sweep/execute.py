@@ -319,13 +319,16 @@ def _lock(root: Path):
 
 
 def check_folder(root: str | Path) -> None:
-    """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), and
-    not a run's folder."""
+    """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
+    a run's folder, and not inside another sweep's folder (whose members and batches it holds)."""
     from ..run_folder import layout, marker
 
     layout.check_place(Path(root), "sweep")
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
+    outer = next((p for p in Path(root).resolve().parents if (p / SWEEP_FILE).is_file()), None)
+    if outer is not None:
+        raise ConfigError("output", f"{root} is inside the sweep folder {outer}; choose a folder outside it (-o)")
 
 
 def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
