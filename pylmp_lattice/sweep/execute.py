@@ -56,6 +56,10 @@ MANY_MEMBERS = 100_000
 MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024
+# A member run alone beyond its engine and output: its instance, files and measures (CPU time of
+# 25 members of the 21-magnet experiment, keep = "measures", through batch.run_member: 0.051 s
+# each, of which 0.010 s engine; 2026-11-26 01:39 UTC).
+ALONE_SECONDS = 0.04
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -290,15 +294,23 @@ class _Blocks:
 
 
 def _estimate(sweep: Sweep, total: int, workers: int) -> str:
-    """The sweep's engine time, from the first member's case (preflight's model)."""
-    from ..preflight import _duration, engine_seconds
+    """The sweep's time in its workers, from the first member's case and preflight's model: a
+    batched member costs its atom-steps (the instance's cost per step is shared), one run alone
+    its engine, output and ALONE_SECONDS."""
+    from ..preflight import SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, _duration, atom_frames, engine_seconds
 
     first = next(sweep.iter_members(), None)
     if first is None or first.case is None:
         return "no estimate"
     case = first.case
-    seconds = engine_seconds(case.chain.particles, case.run.steps()) * total / workers
-    return f"about {_duration(seconds)} of engine time on {workers} workers, if all are like the first"
+    n, steps = case.chain.particles, case.run.steps()
+    if batch.batchable(case):
+        each, kind = SECONDS_PER_ATOM_STEP * n * steps, "batched"
+    else:
+        each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case) + ALONE_SECONDS
+        kind = "each run alone"
+    return (f"about {_duration(each * total / workers)} on {workers} worker{'s' if workers > 1 else ''} ({kind}), "
+            "if all are like the first")
 
 
 # ----------------------------------------------------------------------------- the folder
