@@ -99,3 +99,136 @@ def test_one_point_s_figure_shows_the_spread_over_the_replicas(tmp_path):
     assert sum(bar.get_height() for bar in ax.containers[0]) == 3  # the histogram holds the 3 values
     stats = write_replica_stats(tmp_path, one.drop(columns=["impactor.velocity"]))
     assert len(stats) == 1 and (tmp_path / "replica_stats.png").stat().st_size > 0
+
+
+def _two_field_table():
+    """A grid of V_I x friction (a section swept as a whole: mu and p vary together, g does
+    not) x pulse duration, 3 replicas per point; V_P = 2 V_I - mu + T_s / 100 + 0.01 r."""
+    rows = []
+    for vi in (1.0, 2.0):
+        for mu, p in ((0.285, 0.012), (0.0, 0.0)):
+            for ts in (30.0, 47.8):
+                for r in range(3):
+                    rows.append({"id": f"{vi}-{mu}-{ts}-{r}", "impactor.velocity": vi, "friction.mu": mu, "friction.p": p,
+                                 "friction.g": 9.81, "impactor.duration": ts, "replica": r, "chain.seed": r,
+                                 "status": "done", "error": None, "folder": "x", "wall_time_s": 0.1,
+                                 f"{VP}.mean": 2 * vi - mu + ts / 100 + 0.01 * r, f"{VP}.converged": True})
+    return pd.DataFrame(rows)
+
+
+def _lines_and_bands(ax):
+    """Per line drawn: its x and y, the lengths of its error bars and its band's y extent."""
+    from matplotlib.collections import PolyCollection
+
+    bands = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(bands) == len(ax.containers)
+    return [(bars.lines[0].get_xdata(), bars.lines[0].get_ydata(),
+             [s[1, 1] - s[0, 1] for s in bars.lines[2][0].get_segments()],
+             (band.get_paths()[0].vertices[:, 1].min(), band.get_paths()[0].vertices[:, 1].max()))
+            for bars, band in zip(ax.containers, bands)]
+
+
+def test_a_grid_over_several_fields_draws_one_line_per_combination_of_the_others():
+    """Points that differ in friction or T_s are never joined (they were, zig-zag at the same
+    V_I): one line (bars and band) per combination, against V_I, each named in the legend by
+    the fields that vary (friction.g does not: left out), with its own points' means, standard
+    errors (0.01 / sqrt(3)) and replica std (0.01)."""
+    from matplotlib.figure import Figure
+
+    stats = replica_stats(_two_field_table())
+    ax = plot_replica_stats(stats, "impactor.velocity", f"{VP}.mean", ax=Figure().add_subplot())
+    names = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert names == [r"friction $\mu$ 0.285, $p$ 0.012; pulse duration $T_s$ 30 ms",
+                     r"friction $\mu$ 0.285, $p$ 0.012; pulse duration $T_s$ 47.8 ms",
+                     r"friction $\mu$ 0, $p$ 0; pulse duration $T_s$ 30 ms",
+                     r"friction $\mu$ 0, $p$ 0; pulse duration $T_s$ 47.8 ms"]
+    drawn = _lines_and_bands(ax)
+    assert len(drawn) == 4
+    for (x, y, bars, band), (mu, ts) in zip(drawn, [(0.285, 30.0), (0.285, 47.8), (0.0, 30.0), (0.0, 47.8)]):
+        mean = [2 * vi - mu + ts / 100 + 0.01 for vi in (1.0, 2.0)]
+        np.testing.assert_array_equal(x, [1.0, 2.0])
+        np.testing.assert_allclose(y, mean, rtol=1e-12)
+        np.testing.assert_allclose(bars, [2 * 0.01 / np.sqrt(3)] * 2, rtol=1e-9)
+        np.testing.assert_allclose(band, (mean[0] - 0.01, mean[1] + 0.01), rtol=1e-9)
+    assert ax.get_title().endswith("3 values per point")
+
+
+def test_more_combinations_than_lines_draws_the_first_and_says_so():
+    from matplotlib.figure import Figure
+
+    stats = replica_stats(_two_field_table())
+    ax = plot_replica_stats(stats, "impactor.velocity", f"{VP}.mean", ax=Figure().add_subplot(), lines=3)
+    assert len(ax.containers) == 3 and ax.get_title().endswith("3 values per point; first 3 of 4 lines")
+    assert len(ax.get_legend().get_texts()) == 3
+
+
+def _drawn_figure(monkeypatch, tmp_path, table):
+    """write_replica_stats's figure, kept as it is saved."""
+    import matplotlib.figure
+
+    figures, save = [], matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda fig, *a, **k: (figures.append(fig), save(fig, *a, **k)))
+    write_replica_stats(tmp_path, table)
+    assert (tmp_path / "replica_stats.png").stat().st_size > 0
+    (fig,) = figures
+    return fig
+
+
+def test_the_sweep_figure_has_one_legend_under_its_panels(monkeypatch, tmp_path):
+    """Each panel draws the 4 lines without a legend of its own; one figure legend under the
+    panels names them, and the panels keep their size in inches."""
+    from pylmp_lattice.sweep.stats import MARGINS, PANEL
+
+    table = _two_field_table()
+    table["friction_dissipated_energy_mJ"] = table["friction.mu"] * (1 + 0.1 * table["replica"])  # a second panel
+    fig = _drawn_figure(monkeypatch, tmp_path, table)
+    assert len(fig.axes) == 2 and all(ax.get_legend() is None and len(ax.containers) == 4 for ax in fig.axes)
+    (legend,) = fig.legends
+    assert legend.get_texts()[3].get_text() == r"friction $\mu$ 0, $p$ 0; pulse duration $T_s$ 47.8 ms"
+    width, height = fig.get_size_inches()
+    assert width == 2 * PANEL[0] and height > PANEL[1]
+    for ax in fig.axes:
+        assert ax.get_position().height * height == pytest.approx(PANEL[1] - MARGINS[2] - MARGINS[3], rel=1e-9)
+    np.testing.assert_allclose(_lines_and_bands(fig.axes[0])[2][1], [2 - 0 + 0.3 + 0.01, 4 + 0.3 + 0.01], rtol=1e-12)
+
+
+@pytest.mark.parametrize("panels", [1, 2])
+def test_the_legend_fits_in_the_figure_under_the_axes(monkeypatch, tmp_path, panels):
+    """Long entries (three fields vary besides V_I; one panel is 4.5 inches wide): the legend,
+    one line per field where an entry would be wider than the figure, lies inside the figure
+    and below every axes with its labels (a fixed layout: the sizes are estimated, not measured)."""
+    table = _two_field_table()
+    table.insert(6, "run.duration", table["impactor.duration"] + 20)  # zipped with T_s, a swept column
+    if panels == 2:
+        table["friction_dissipated_energy_mJ"] = table["friction.mu"] * (1 + 0.1 * table["replica"])
+    fig = _drawn_figure(monkeypatch, tmp_path, table)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    (legend,) = fig.legends
+    box = legend.get_window_extent(renderer)
+    assert len(fig.axes) == panels and ("\n" in legend.get_texts()[0].get_text()) == (panels == 1)
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.x1 and 0 <= box.y0
+    assert all(box.y1 <= ax.get_tightbbox(renderer).y0 for ax in fig.axes)
+
+
+def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path):
+    """A pure ensemble: a histogram per panel (as before), no legend, panels of PANEL inches."""
+    from matplotlib.container import BarContainer
+
+    from pylmp_lattice.sweep.stats import PANEL
+
+    one = _table()
+    one = one[one["impactor.velocity"] == 1.5].drop(columns=["impactor.velocity"])
+    fig = _drawn_figure(monkeypatch, tmp_path, one)
+    assert tuple(fig.get_size_inches()) == (2 * PANEL[0], PANEL[1]) and not fig.legends
+    ax = fig.axes[0]
+    assert isinstance(ax.containers[0], BarContainer) and sum(bar.get_height() for bar in ax.containers[0]) == 3
+    assert ax.get_title() == "3 of 4 replicas\nmean 3.01 ± 0.0058 m/s (± standard error)"
+
+
+def test_a_measure_not_in_the_statistics_is_named_with_the_available_ones():
+    stats = replica_stats(_table())
+    with pytest.raises(ValueError, match=r"^measure 'shock_velocity_plateau': not in the statistics; available: "
+                                         rf"{VP}\.mean, {PEAK}\.mean, shock_velocity_max_m_per_s\.value$"):
+        plot_replica_stats(stats, "impactor.velocity", "shock_velocity_plateau")

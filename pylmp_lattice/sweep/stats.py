@@ -8,6 +8,7 @@ summary repeats (V_I, V0, f0, N). A plateau counts only from the members where i
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,8 @@ FIELDS = {
     "chain.r0_disorder": ("gap disorder (relative std)", None),
     "chain.particles": ("magnets N", None),
     "friction.mu": (r"friction $\mu$", None),
+    "friction.p": ("friction $p$", None),
+    "friction.g": ("friction $g$", "m/s^2"),
     "force.q": ("force law power q", None),
     "run.duration": ("run length", "ms"),
 }
@@ -93,25 +96,74 @@ def _counted(used: np.ndarray) -> str:
     return f"{low} values" if low == high else f"{low}-{high} values"
 
 
-def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, **kwargs):
-    """`measure` mean against column `x` with standard-error bars (as the paper's Fig. 4), both
-    axes labelled with name and unit; returns the Axes."""
+def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: list[str] | None = None,
+                       lines: int = 8, legend: bool = True, **kwargs):
+    """`measure` mean against column `x` with standard-error bars and the replicas' ± std as a
+    band (as the paper's Fig. 4), one line per combination of the columns `by`, both axes
+    labelled with name and unit; returns the Axes.
+
+    by: default, the other swept columns (those before `n`) that vary, when `x` is one of them;
+    points differing in one of these are never joined. Only the first `lines` combinations (in
+    the table's order) are drawn, the title says so. legend: name each line's values (when
+    there are several lines).
+    """
+    means = [c.removesuffix(".mean") for c in stats.columns if c.endswith(".mean") and c[:-5] + ".sem" in stats.columns]
+    if measure not in means:
+        raise ValueError(f"measure {measure!r}: not in the statistics; available: {', '.join(means) or 'none'}")
+    if x not in stats.columns:
+        raise ValueError(f"x {x!r}: not a column of the statistics; available: {', '.join(stats.columns)}")
     if ax is None:
         import matplotlib.pyplot as plt
 
         ax = plt.figure().add_subplot()
-    data = stats.sort_values(x)
-    mean, sem, count = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem", "count"))
-    std = sem * np.sqrt(count)  # the replicas' own scatter
-    line = ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=kwargs.pop("fmt", "o-"),
-                       capsize=kwargs.pop("capsize", 3), **kwargs)
-    ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=line[0].get_color(), alpha=0.15, lw=0)
+    if by is None:
+        swept = list(stats.columns[:list(stats.columns).index("n")]) if "n" in stats.columns else []
+        by = [c for c in swept if c != x and stats[c].nunique(dropna=False) > 1] if x in swept else []
+    groups = list(stats.groupby(by, sort=False, dropna=False)) if by else [((), stats)]
+    fmt, capsize, name = kwargs.pop("fmt", "o-"), kwargs.pop("capsize", 3), kwargs.pop("label", None)
+    names = _legend_names(by)
+    counts = []
+    for key, data in groups[:lines]:
+        data = data.sort_values(x)
+        mean, sem, count = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem", "count"))
+        std = sem * np.sqrt(count)  # the replicas' own scatter
+        values = dict(zip(by, key if isinstance(key, tuple) else (key,)))
+        line = ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=fmt, capsize=capsize,
+                           label=names(values) if by else name, **kwargs)
+        ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=line[0].get_color(), alpha=0.15, lw=0)
+        counts.append(count)
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
     _no_offset(ax.yaxis)
+    shown = f"; first {lines} of {len(groups)} lines" if len(groups) > lines else ""
     ax.set_title(f"mean ± standard error (bars), ± std of the replicas (band)\n"
-                 f"{_counted(count)} per point", fontsize="small")
+                 f"{_counted(np.concatenate(counts))} per point{shown}", fontsize="small")
+    if legend and len(groups) > 1:
+        ax.legend(fontsize="x-small")
     return ax
+
+
+def _legend_names(columns: list[str]):
+    """A function giving a line's legend entry from its values of `columns`: each field's name,
+    value and unit, e.g. "pulse duration $T_s$ 30 ms"; the columns of a section swept as a
+    whole under its name once, "friction $\\mu$ 0.285, $p$ 0.012"."""
+    sections: dict[str, list[str]] = {}
+    for column in columns:
+        sections.setdefault(column.split(".")[0], []).append(column)
+
+    def entry(column: str, values: dict, section: str | None = None) -> str:
+        name, unit = FIELDS.get(column) or (column.split(".", 1)[-1] if section else column, None)
+        if section and name.startswith(section + " "):
+            name = name[len(section) + 1:]
+        value = values[column]
+        text = f"{value:g}" if isinstance(value, (int, float, np.number)) and not isinstance(value, bool) else str(value)
+        return f"{name} {text}" + (f" {unit}" if unit else "")
+
+    def names(values: dict) -> str:
+        return "; ".join(entry(group[0], values) if len(group) == 1 else
+                         f"{section} " + ", ".join(entry(c, values, section) for c in group)
+                         for section, group in sections.items())
+    return names
 
 
 def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int | None = None):
@@ -152,21 +204,56 @@ def _no_offset(axis) -> None:
 # layout measures every text and would double the figure's cost (0.2-0.4 s).
 PANEL = (4.5, 3.2)
 MARGINS = (0.85, 0.15, 0.55, 0.5)
+# The legend below the panels (one for all: their lines are the same combinations), inches at
+# fontsize "small": a line of text, the space between entries, a character, the handle and the
+# margin under the legend (estimates from the font size, not measured: a fixed layout).
+LEGEND_LINE, LEGEND_GAP, LEGEND_CHAR, LEGEND_HANDLE, LEGEND_MARGIN = 0.15, 0.06, 0.065, 0.7, 0.2
 
 
-def _panel(row: int, col: int, cols: int, rows: int) -> list[float]:
-    """The axes rectangle of panel (row, col), as fractions of the figure."""
+def _panel(row: int, col: int, cols: int, rows: int, below: float = 0.0) -> list[float]:
+    """The axes rectangle of panel (row, col), as fractions of the figure; `below`: inches kept
+    free under the panels."""
     (w, h), (left, right, bottom, top) = PANEL, MARGINS
-    return [(col * w + left) / (cols * w), 1 - ((row + 1) * h - bottom) / (rows * h),
-            (w - left - right) / (cols * w), (h - bottom - top) / (rows * h)]
+    height = rows * h + below
+    return [(col * w + left) / (cols * w), 1 - ((row + 1) * h - bottom) / height,
+            (w - left - right) / (cols * w), (h - bottom - top) / height]
+
+
+def _legend_below(fig, axes: list, cols: int, rows: int) -> None:
+    """One legend for all panels under them, in as many columns as the entries' estimated width
+    allows (an entry wider than the figure on one line per field); the figure grows by its
+    height and the panels keep their size."""
+    handles, labels = axes[0].get_legend_handles_labels()
+    if len(labels) < 2:
+        return
+    width, lines = PANEL[0] * cols, 1
+    if _entry_width(labels) > width:
+        labels = [text.replace("; ", "\n") for text in labels]
+        lines = max(text.count("\n") + 1 for text in labels)
+    ncols = int(max(1, min(len(labels), width // _entry_width(labels))))
+    below = (LEGEND_LINE * lines + LEGEND_GAP) * -(-len(labels) // ncols) + LEGEND_MARGIN
+    height = PANEL[1] * rows + below
+    fig.set_size_inches(width, height)
+    for k, ax in enumerate(axes):
+        ax.set_position(_panel(k // cols, k % cols, cols, rows, below))
+    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, below / height), ncols=ncols,
+               fontsize="small", frameon=False)
+
+
+def _entry_width(labels: list[str]) -> float:
+    """Inches of the widest legend entry, estimated from its characters (mathtext's $, \\ and
+    braces left out)."""
+    chars = max(len(re.sub(r"[$\\{}_^]", "", line)) for text in labels for line in text.split("\n"))
+    return LEGEND_HANDLE + LEGEND_CHAR * chars
 
 
 def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
                         panels: int = 6) -> pd.DataFrame:
     """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
     between replicas, against the first numeric swept field (or the point number), with
-    standard-error bars; with one parameter point, each one's histogram over the replicas.
-    Returns the statistics."""
+    standard-error bars, one line per combination of the other swept fields that vary (the
+    first 8; one legend under the panels names them); with one parameter point, each one's
+    histogram over the replicas. Returns the statistics."""
     from matplotlib.figure import Figure
 
     root = Path(root)
@@ -183,12 +270,13 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
         cols, rows = min(len(shown), 3), -(-len(shown) // 3)
         fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows))
         done = table[table["status"] == "done"]
-        for k, measure in enumerate(shown):
-            ax = fig.add_axes(_panel(k // cols, k % cols, cols, rows))
+        axes = [fig.add_axes(_panel(k // cols, k % cols, cols, rows)) for k in range(len(shown))]
+        for ax, measure in zip(axes, shown):
             if len(stats) == 1:
                 plot_replica_spread(used_values(done, measure), measure, ax=ax, members=len(done))
             else:
-                plot_replica_stats(stats, x, measure, ax=ax)
+                plot_replica_stats(stats, x, measure, ax=ax, legend=False)
+        _legend_below(fig, axes, cols, rows)
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=100)
         atomic_write(root / STATS_PNG, buffer.getvalue())
