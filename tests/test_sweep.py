@@ -597,15 +597,16 @@ def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, ca
     assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 1  # the same sweep resumes
 
 
-@pytest.mark.parametrize("target", [".", "runs", "a_run", "a_sweep/members/new"])
+@pytest.mark.parametrize("target", [".", "runs", "a_run", "a_sweep/members/new", "a_sweep/batches/x/new"])
 def test_the_sweep_folder_follows_the_run_folder_rules(tmp_path, monkeypatch, capsys, target):
     """`sweep -o` used to accept the working directory, runs/ itself and a run's folder, which
-    `run -o` refuses, and a folder inside another sweep's: one line naming the output folder,
+    `run -o` refuses, and a folder inside another sweep's members: one line naming the output folder,
     exit 2, nothing written."""
     monkeypatch.chdir(tmp_path)
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0]\n')
     (tmp_path / "runs").mkdir()
-    (tmp_path / "a_sweep" / "members").mkdir(parents=True)
+    for sub in ("members", "batches/x"):
+        (tmp_path / "a_sweep" / sub).mkdir(parents=True)
     (tmp_path / "a_sweep" / "sweep.json").write_text("{}")
     assert main(["deck", "base.toml", "-o", "a_run"]) == 0
     before = sorted(tmp_path.rglob("*"))

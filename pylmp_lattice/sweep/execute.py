@@ -40,7 +40,7 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
+from .store import BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
 from .table import Table, member_row
 
 log = logging.getLogger(__name__)
@@ -332,15 +332,18 @@ def _lock(root: Path):
 
 def check_folder(root: str | Path) -> None:
     """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
-    a run's folder, and not inside another sweep's folder (whose members and batches it holds)."""
+    a run's folder, and not inside another sweep's members/ or batches/ (a study's sweeps may
+    sit side by side in one sweep's folder)."""
     from ..run_folder import layout, marker
 
     layout.check_place(Path(root), "sweep")
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
-    outer = next((p for p in Path(root).resolve().parents if (p / SWEEP_FILE).is_file()), None)
+    outer = next((p for p in Path(root).resolve().parents
+                  if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()), None)
     if outer is not None:
-        raise ConfigError("output", f"{root} is inside the sweep folder {outer}; choose a folder outside it (-o)")
+        raise ConfigError("output", f"{root} is inside {outer}, which holds a sweep's members; choose another "
+                          "folder (-o)")
 
 
 def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
