@@ -84,16 +84,19 @@ def velocity_profiles(t, v, magnets, ax=None):
     return ax
 
 
-def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0):
+def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0, drive_gap: bool = False):
     """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1); NaN
     gaps are left out; `flagged`: how many were left out as flagged (`Front.accepted_velocity`:
-    crossed out of order, or slower than any linear wave), said in the legend."""
+    crossed out of order, or slower than any linear wave), and `drive_gap`: whether gap 1 was
+    left out as the drive's (`Front.drive_gap`), said in the legend."""
     ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
     ax.plot(n, vp, ".", ms=3, label="$V_P$ over gap n")
     if flagged:
         ax.plot([], [], " ", label=f"{flagged} flagged gap{'s' if flagged > 1 else ''} (out of order or too slow): "
                                    "not drawn")
+    if drive_gap:
+        ax.plot([], [], " ", label="gap 1: no front speed (magnet 1's arrival is the drive's peak): not drawn")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")
@@ -145,9 +148,9 @@ def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front
 
     profiles: a Trajectory of the chosen magnets (their numbers, 1 .. N, in `magnets`) for
     panels (a) and (d), or None for a run without a trajectory (those panels then say so);
-    front: the run's front measures for panels (b) and (c), gaps crossed out of order left out
-    (`Front.accepted_velocity`); saturation: the first peaks' limit (2 V_I for a constant drive
-    without friction; None: no such line, e.g. for a pulse)."""
+    front: the run's front measures for panels (b) and (c), flagged gaps and the drive's gap
+    left out (`Front.accepted_velocity`); saturation: the first peaks' limit (2 V_I for a
+    constant drive without friction; None: no such line, e.g. for a pulse)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(11, 8))
@@ -161,8 +164,8 @@ def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front
     else:
         velocity_profiles(profiles.t, profiles.v, magnets, axes[0, 0])
         oscillation_peaks(profiles.t, profiles.v, magnets, drive_velocity, axes[1, 1])
-    shown = front.accepted_velocity
-    propagation_velocity(shown, v0, axes[0, 1], int(np.sum(np.isnan(shown) & np.isfinite(front.propagation_velocity))))
+    flagged = int(np.sum(front.out_of_order | front.below_linear_speed))
+    propagation_velocity(front.accepted_velocity, v0, axes[0, 1], flagged, bool(front.drive_gap[0]))
     first_peaks(front.peaks, axes[1, 0], saturation=saturation)
     for letter, ax in zip("abcd", axes.flat):
         ax.set_title(f"({letter})", loc="left", fontweight="bold", y=1.01)  # a fixed y: no search for the tick labels

@@ -139,8 +139,8 @@ def test_run_figure(tmp_path, case_factory, drive):
     assert np.all(drawn[np.isfinite(drawn)] > 0)
     assert b.get_ylim()[0] > 0
     if drive == "pulse":
-        assert vp[0] < 0  # the flagged point exists, and is left out
-        assert any("out of order" in t.get_text() for t in b.get_legend().get_texts())
+        assert vp[0] < 0  # magnet 2 peaks before the drive: gap 1, the drive's, is left out and said so
+        assert any("gap 1: no front speed" in t.get_text() for t in b.get_legend().get_texts())
     # (c): the 2 V_I line only where the first peaks saturate there: a steady drive, no friction
     saturation = [line for line in c.get_lines() if "2 $V_I$" in str(line.get_label())]
     assert bool(saturation) == (drive in ("constant", "ramp"))

@@ -1,5 +1,19 @@
 """The per-particle front measures of a run, computed once for the summary and the figure, and
-the gaps whose V_P cannot be a front's: flagged, not averaged."""
+the gaps whose V_P cannot be a front's: flagged, not averaged.
+
+Gap 1 (impactor to magnet 2) carries a front speed only with "level" arrivals. Magnet 1 is the
+drive: its arrival is a time of the prescribed profile, not of a wave. With a level it is the
+moment the drive's rise passes V_I/2 (t = 0 for a constant piston), and magnet 2 crosses the
+same level when that rise reaches it: gap 1's V_P continues the next gaps' (the long lattice
+at V_I = 2 m/s, a constant drive and ramps of 1 and 10 ms: 2.61-2.62, then 3.06-3.16 and
+3.37-3.54 m/s; the exact harmonic piston: 0.903 V0, then 0.923 and 0.953 V0). With peak arrivals (a pulse's default) magnet
+1's arrival is the drive's own maximum (T_s/2 for a half-sine), set by the profile, while
+magnet 2's first maximum is the chain's response, from 10 ms before to 8 ms after the drive's
+(the paper's experiment, V_I = 0.3-2.81 m/s, T_s = 30 and 47.8 ms): gap 1 gave up to 116 m/s,
+or magnet 2 first (out of order) in 3 of these 8 runs, beside 1.7-4.3 m/s over gaps 2-4; no
+wave of the chain exceeds 26.5 m/s (its linear speed at contact). So with peak arrivals gap 1
+is `drive_gap`: left out, neither averaged nor flagged (the engine's record keeps the raw
+arrivals; this is where both are interpreted)."""
 
 from __future__ import annotations
 
@@ -30,10 +44,13 @@ class Front:
     sample_interval: the time between the frames the arrival times were read from, ms (0: every
     step, the engine's record).
 
-    A gap is flagged when the front crossed it out of order (`out_of_order`: magnet n+1 reached
-    no later than magnet n) or slower than any linear wave of the chain can travel
-    (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest linear speed);
-    `accepted_velocity` is V_P with flagged gaps NaN, what plateaus and maxima average.
+    Gap 1 is `drive_gap` (not a front's transit, see the module docstring) unless the arrivals
+    are "level" ones. Any other gap is flagged when the front crossed it out of order
+    (`out_of_order`: magnet n+1 reached no later than magnet n) or slower than any linear wave
+    of the chain can travel (`below_linear_speed`: below (1 - LINEAR_LAG) times the slowest
+    linear speed);
+    `accepted_velocity` is V_P with the drive gap and flagged gaps NaN, what plateaus and
+    maxima average.
 
     The fronts of R chains (a batch, `stack_fronts`) have arrays with a leading axis R (noise
     and slowest_linear_speed (R,)); their properties are those of each chain, row by row, and
@@ -48,19 +65,27 @@ class Front:
     sample_interval: float = 0.0
 
     @property
+    def drive_gap(self) -> np.ndarray:
+        """True at gap 1 when magnet 1's arrival is the drive's own peak, not a front's (any
+        arrivals but "level"), shape of propagation_velocity."""
+        gap = np.zeros(np.shape(self.propagation_velocity), dtype=bool)
+        gap[..., 0] = self.arrival_method != "level"
+        return gap
+
+    @property
     def out_of_order(self) -> np.ndarray:
         with np.errstate(invalid="ignore"):
-            return np.diff(self.arrival) <= 0
+            return ~self.drive_gap & (np.diff(self.arrival) <= 0)
 
     @property
     def below_linear_speed(self) -> np.ndarray:
         slowest = np.asarray(self.slowest_linear_speed)[..., None]  # a chain's, against its gaps
         with np.errstate(invalid="ignore"):
-            return ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * slowest)
+            return ~self.drive_gap & ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * slowest)
 
     @property
     def accepted_velocity(self) -> np.ndarray:
-        return np.where(self.out_of_order | self.below_linear_speed, NAN, self.propagation_velocity)
+        return np.where(self.drive_gap | self.out_of_order | self.below_linear_speed, NAN, self.propagation_velocity)
 
     def resolution(self) -> dict:
         """Whether the arrival times resolve each gap's crossing: the front's mean time per gap
