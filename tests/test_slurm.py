@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import json
 from collections import Counter
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import tomllib
 from pathlib import Path
@@ -176,6 +177,21 @@ def test_workers_retire_before_the_walltime_and_new_jobs_finish_the_sweep(tmp_pa
     assert len(finished) == 80 and sum(n - 1 for n in finished.values()) <= len(retired), finished
 
 
+def in_background(fn, *args, **kwargs) -> Future:
+    """fn(*args, **kwargs) in a daemon thread, as a Future: a test that gives up waiting for it
+    fails, instead of waiting for it forever at exit as a ThreadPoolExecutor would."""
+    future = Future()
+
+    def run():
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as err:  # noqa: BLE001 - handed to the test
+            future.set_exception(err)
+
+    threading.Thread(target=run, daemon=True).start()
+    return future
+
+
 @pytest.mark.slurm
 @pytest.mark.lammps
 @pytest.mark.slow
@@ -188,9 +204,9 @@ def test_a_job_killed_mid_sweep_loses_only_its_running_member(tmp_path, slurm, m
     sweep = load_sweep(write_sweep(tmp_path, f'base = "base.toml"\n[grid]\n"impactor.velocity" = [{velocities}]\n'))
     out = tmp_path / "out"
     with cluster.batch_cluster("slurm", 2, ClusterSpec(memory="1GiB", walltime="00:10:00"), out) as batch, \
-            Client(batch) as client, ThreadPoolExecutor(1) as coordinator:
-        result = coordinator.submit(run_sweep, sweep, out, executor=client.get_executor(pure=False), slots=2,
-                                    progress=False)
+            Client(batch) as client:
+        result = in_background(run_sweep, sweep, out, executor=client.get_executor(pure=False), slots=2,
+                               progress=False)
         while len(list(out.glob(f"members/*/{STATUS}"))) < 10 and not result.done():
             time.sleep(0.1)
         killed = slurm.queued()[0]
