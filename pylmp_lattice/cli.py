@@ -276,8 +276,9 @@ def _sweep(args) -> int:
         print(f"pylmp-lattice: interrupted; {where}; run the same command to resume", file=sys.stderr)
         return err.exit_code if isinstance(err, Interrupted) else EXIT_INTERRUPTED
     failed, interrupted = (int((table["status"] == s).sum()) for s in ("failed", "interrupted"))
-    # members not in the table were never enumerated: a lost worker stopped the sweep first
-    unstarted = f", {sweep.count() - len(table)} not started" if interrupted else ""
+    # members not in the table were never enumerated: a lost worker stopped the sweep first (up to:
+    # the count is before identical cases are merged)
+    unstarted = f", up to {sweep.count() - len(table)} not started" if interrupted else ""
     print(f"{len(table) if not interrupted else sweep.count()} members: {len(table) - failed - interrupted} done, "
           f"{failed} failed" + (f", {interrupted} interrupted{unstarted} (a worker was lost; run the same command to "
                                  "finish)" if interrupted else "")
