@@ -153,6 +153,22 @@ def test_a_grid_over_several_fields_draws_one_line_per_combination_of_the_others
     assert ax.get_title().endswith("3 values per point")
 
 
+def test_a_field_zipped_with_x_goes_with_it_one_line():
+    """The guide's [zip] of pulse duration and run length, against T_s: the run length changes
+    with T_s only, so the points are one line (not one line per run length, of one point each)."""
+    from matplotlib.figure import Figure
+
+    rows = [{"id": f"{ts}-{r}", "impactor.duration": ts, "run.duration": ts + 30.0, "replica": r, "chain.seed": r,
+             "status": "done", "error": None, "folder": "x", "wall_time_s": 0.1, f"{VP}.mean": ts / 10 + 0.01 * r,
+             f"{VP}.converged": True} for ts in (30.0, 40.0, 50.0) for r in range(3)]
+    stats = replica_stats(pd.DataFrame(rows))
+    ax = plot_replica_stats(stats, "impactor.duration", f"{VP}.mean", ax=Figure().add_subplot())
+    (x, y, _, _), = _lines_and_bands(ax)
+    np.testing.assert_array_equal(x, [30.0, 40.0, 50.0])
+    np.testing.assert_allclose(y, [3.01, 4.01, 5.01], rtol=1e-12)
+    assert ax.get_legend() is None
+
+
 def test_more_combinations_than_lines_draws_the_first_and_says_so():
     from matplotlib.figure import Figure
 

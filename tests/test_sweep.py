@@ -597,7 +597,8 @@ def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, ca
     assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 1  # the same sweep resumes
 
 
-@pytest.mark.parametrize("target", [".", "runs", "a_run", "a_sweep/members/new", "a_sweep/batches/x/new"])
+@pytest.mark.parametrize("target", [".", "runs", "a_run", "a_sweep/members", "a_sweep/members/new", "a_sweep/batches",
+                                    "a_sweep/batches/x/new"])
 def test_the_sweep_folder_follows_the_run_folder_rules(tmp_path, monkeypatch, capsys, target):
     """`sweep -o` used to accept the working directory, runs/ itself and a run's folder, which
     `run -o` refuses, and a folder inside another sweep's members: one line naming the output folder,
@@ -734,6 +735,51 @@ def test_a_script_without_the_main_guard_is_told_why_its_workers_fail(tmp_path):
     assert "another sweep is running" not in done.stderr
 
 
+def _sleep_after_marking(path: str) -> str:
+    Path(path).touch()
+    time.sleep(30)
+    return "slept"
+
+
+def test_a_process_pool_the_caller_gave_gets_the_first_stop_as_sigint(tmp_path):
+    """Local pools are told through their stop pipe; a caller's ProcessPoolExecutor has none, so
+    its workers get SIGINT (their members stop at the engine's next step), not a kill later."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from pylmp_lattice.sweep.pool import Pool
+
+    marker = tmp_path / "started"
+    with ProcessPoolExecutor(1) as executor:
+        future = executor.submit(_sleep_after_marking, str(marker))
+        deadline = time.monotonic() + 30
+        while not marker.exists():
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        Pool(executor, 1).on_signal(1)
+        with pytest.raises(KeyboardInterrupt):
+            future.result(timeout=20)
+
+
+@pytest.mark.lammps
+def test_a_guarded_script_may_run_a_sweep_in_a_child_process(tmp_path):
+    """Only the child's import of the script is refused: a function of a guarded script that a
+    spawned child runs may call run_sweep (the reviewer's false positive)."""
+    write_sweep(tmp_path, "", particles=8, duration=5.0)
+    script = tmp_path / "script.py"
+    script.write_text(
+        "import sys\nfrom concurrent.futures import ThreadPoolExecutor\nfrom multiprocessing import get_context\n"
+        "from pylmp_lattice.sweep import Sweep, run_sweep\n\n"
+        "def job():\n"
+        "    sweep = Sweep(base='base.toml', grid={'impactor.velocity': [1.0]}, keep='measures')\n"
+        "    with ThreadPoolExecutor(1) as pool:\n"
+        "        assert list(run_sweep(sweep, 'out', executor=pool, progress=False)['status']) == ['done']\n\n"
+        "if __name__ == '__main__':\n"
+        "    child = get_context('spawn').Process(target=job)\n"
+        "    child.start()\n    child.join()\n    sys.exit(child.exitcode)\n")
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+
+
 @pytest.mark.parametrize("disorder", [{}, {"chain.mass_disorder": 0.01}, {"chain.r0_disorder": 0.005}])
 def test_a_thousand_replicas_on_two_workers_are_two_tasks_of_500(disorder):
     """Tasks are as large as an instance allows (execute.MAX_*): 1000 members of the 21-magnet
@@ -751,16 +797,20 @@ def test_a_thousand_replicas_on_two_workers_are_two_tasks_of_500(disorder):
 def test_the_estimate_counts_batched_members_by_their_atom_steps():
     """A batched member shares its instance's cost per step: 1000 members of the 21-magnet
     experiment are 1e8 atom-steps, about 0.6 s of engine time on one core (preflight's 6 ns per
-    atom-step; a 500-chain batch measured 0.33 s with friction, docs/performance.md), not the
-    10 s that 1000 instances would take; run alone, each pays ALONE_SECONDS more."""
+    atom-step; a 500-chain batch measured 0.33 s with friction, docs/performance.md) and 0.23 s
+    of the worker's Python, not the 10 s that 1000 instances would take; run alone (also a
+    batchable member that is its point's only one), each pays ALONE_SECONDS more."""
     from pylmp_lattice.sweep.execute import _estimate
 
     root = Path(__file__).resolve().parents[1]
     thermal = {"chain.thermal_velocity": 0.02}
     batched = Sweep(base=root / "inputs" / "paper_experiment.toml", set=thermal, replicas=1000, keep="measures")
-    assert _estimate(batched, 1000, 1) == "about 0.6 s on 1 worker (batched), if all are like the first"
+    assert _estimate(batched, 1000, 1) == "about 0.83 s on 1 worker (batched), if all are like the first"
     alone = Sweep(base=root / "inputs" / "paper_experiment.toml", set=thermal, replicas=10, keep="all")
     assert "(each run alone)" in _estimate(alone, 10, 1)
+    points = Sweep(base=root / "inputs" / "paper_experiment.toml", grid={"impactor.velocity": [1.0, 2.0]},
+                   keep="measures")  # batchable cases, but a task holds one point: each runs alone
+    assert "(each run alone)" in _estimate(points, 2, 1)
 
 
 def test_members_a_lost_worker_never_started_have_no_folder_in_the_table(tmp_path):
@@ -779,6 +829,58 @@ def test_members_a_lost_worker_never_started_have_no_folder_in_the_table(tmp_pat
     table = run_sweep(sweep, tmp_path / "out", executor=Lost(), slots=1, progress=False)
     assert list(table["status"]) == ["interrupted"] * 3
     assert table["folder"].isna().all(), list(table["folder"])
+
+
+@pytest.mark.lammps
+def test_a_stop_while_a_batch_is_measured_interrupts_its_members(tmp_path, monkeypatch, caplog):
+    """A stop signal after the batch's engine ended, while its record is read: its members are
+    interrupted (redone on resume), as when the stop comes during the run; no warning that its
+    measures could not be read, and none runs alone."""
+    import signal as signals
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice.errors import Interrupted
+    from pylmp_lattice.sweep import batch
+
+    def stopped(cases, folder):
+        raise Interrupted(signals.SIGINT)
+
+    monkeypatch.setattr(batch, "_summaries", stopped)
+    monkeypatch.setattr(batch, "STOP", threading.Event())  # this process's stop flag, for this test only
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    with ThreadPoolExecutor(1) as pool:
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert list(table["status"]) == ["interrupted"] * 3
+    assert "could not be read" not in caplog.text
+    assert not list((tmp_path / "out" / "batches").iterdir()) and not list((tmp_path / "out" / "members").iterdir())
+
+
+@pytest.mark.lammps
+def test_a_batch_stopped_by_its_narrowest_range_runs_its_members_alone(tmp_path, monkeypatch):
+    """Chains whose ranges differ (gap disorder) share the narrowest in a batch: a gap beyond it
+    stops the batch, and each member then runs alone, to the outcome of its own range (here the
+    batch's range is cut to 1.002 times the widest gap: a thermal chain's gap crosses it)."""
+    import re
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice import deck
+
+    original = deck.render_replicas
+
+    def narrow(cases, front=False):
+        files = original(cases, front)
+        files[deck.DECK] = re.sub(r"(range \S+ )(\S+)", lambda m: m.group(1) + repr(float(m.group(2)) / 2.995),
+                                  files[deck.DECK])
+        return files
+
+    monkeypatch.setattr(deck, "render_replicas", narrow)
+    text = THERMAL.format(replicas=3) + '"chain.r0_disorder" = 0.005\n'
+    sweep = load_sweep(write_sweep(tmp_path, text, particles=12, duration=40.0))
+    with ThreadPoolExecutor(1) as pool:
+        table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)
+    assert list(table["status"]) == ["done"] * 3
+    assert all(f.startswith("members/") for f in table["folder"])  # each alone, after the batch stopped
 
 
 @pytest.mark.lammps

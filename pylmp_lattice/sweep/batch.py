@@ -174,11 +174,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         for name, text in files.items():
             (batch / name).write_text(text)
         run_deck(batch, runner)
-    except Interrupted as err:  # nothing was recorded: the members were not started
-        stopping(err.signum)
-        shutil.rmtree(batch, ignore_errors=True)
-        return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
-                for m, _ in group}
+    except Interrupted as err:
+        return _batch_stopped(group, batch, started, err)
     except LatticeError as err:  # unequal cases, a contact or an engine error in some chain: each member alone
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
@@ -188,6 +185,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         return _alone(root, group, runner)
     try:
         summaries = _summaries(cases, batch)
+    except Interrupted as err:  # a stop while its measures were read: as one during the run
+        return _batch_stopped(group, batch, started, err)
     except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
         # member alone, with its own outcome, and the reason in the log with its traceback
         log.warning("batch %s: its measures could not be read (%s); its members run alone", batch.name,
@@ -207,6 +206,15 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         if m.id in alone:
             shutil.rmtree(member_folder(root, m.id))
     return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
+
+
+def _batch_stopped(group: list[tuple[Member, Case]], batch: Path, started: str, err: Interrupted) -> dict[str, dict]:
+    """A batch stopped by a signal before its members were recorded: interrupted, none of them
+    on disk (redone on resume)."""
+    stopping(err.signum)
+    shutil.rmtree(batch, ignore_errors=True)
+    return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
+            for m, _ in group}
 
 
 def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[str, dict]:

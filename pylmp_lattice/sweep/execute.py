@@ -56,10 +56,12 @@ MANY_MEMBERS = 100_000
 MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024
-# A member run alone beyond its engine and output: its instance, files and measures (CPU time of
-# 25 members of the 21-magnet experiment, keep = "measures", through batch.run_member: 0.051 s
-# each, of which 0.010 s engine; 2026-11-26 01:39 UTC).
+# A member beyond its engine and output, for the estimate: run alone, its instance, files and
+# measures (CPU time of 25 members of the 21-magnet experiment, keep = "measures", through
+# batch.run_member: 0.051 s each, of which 0.010 s engine; 2026-11-26 01:39 UTC); batched, its
+# share of the worker's Python (0.23 ms, docs/performance.md "Worker Python per batched member").
 ALONE_SECONDS = 0.04
+BATCHED_SECONDS = 2.3e-4
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -233,12 +235,12 @@ class _Coordinator:
 
 
 def _from_worker_import() -> bool:
-    """Whether the caller is a script that a process-pool worker is importing again (as the
-    module "__mp_main__"): without the main guard it would start a sweep of its own there."""
-    frame = sys._getframe(1)
-    while frame is not None and frame.f_globals.get("__name__") != "__mp_main__":
-        frame = frame.f_back
-    return frame is not None
+    """Whether this process is a multiprocessing child still importing its parent's main script
+    (the flag multiprocessing's own check reads): a script without the main guard would start
+    a sweep of its own there."""
+    import multiprocessing
+
+    return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
 
 
 def _preload(sweep: Sweep) -> None:
@@ -288,15 +290,17 @@ class _Blocks:
                 from ..deck import per_atom_masses
 
                 n = case.chain.particles
-                self.limits[point] = max(1, min(MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps())),
-                                                MAX_TYPES if per_atom_masses(case) else MAX_ATOMS))
+                caps = [MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps()))]
+                if per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
+                    caps.append(MAX_TYPES)
+                self.limits[point] = max(1, min(caps))
         return self.limits[point]
 
 
 def _estimate(sweep: Sweep, total: int, workers: int) -> str:
     """The sweep's time in its workers, from the first member's case and preflight's model: a
-    batched member costs its atom-steps (the instance's cost per step is shared), one run alone
-    its engine, output and ALONE_SECONDS."""
+    batched member (one of a point's replicas) costs its atom-steps (the instance's cost per
+    step is shared) and BATCHED_SECONDS, one run alone its engine, output and ALONE_SECONDS."""
     from ..preflight import SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, _duration, atom_frames, engine_seconds
 
     first = next(sweep.iter_members(), None)
@@ -304,8 +308,8 @@ def _estimate(sweep: Sweep, total: int, workers: int) -> str:
         return "no estimate"
     case = first.case
     n, steps = case.chain.particles, case.run.steps()
-    if batch.batchable(case):
-        each, kind = SECONDS_PER_ATOM_STEP * n * steps, "batched"
+    if sweep.replicas > 1 and batch.batchable(case):  # a task holds one point's members
+        each, kind = SECONDS_PER_ATOM_STEP * n * steps + BATCHED_SECONDS, "batched"
     else:
         each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case) + ALONE_SECONDS
         kind = "each run alone"
@@ -339,10 +343,11 @@ def check_folder(root: str | Path) -> None:
     layout.check_place(Path(root), "sweep")
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
-    outer = next((p for p in Path(root).resolve().parents
-                  if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()), None)
+    path = Path(root).resolve()
+    outer = next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
+                 None)
     if outer is not None:
-        raise ConfigError("output", f"{root} is inside {outer}, which holds a sweep's members; choose another "
+        raise ConfigError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
                           "folder (-o)")
 
 

@@ -37,17 +37,23 @@ class Pool:
         return self.executor.submit(run_task, task)
 
     def on_signal(self, count: int) -> None:
-        """First signal: the workers stop their engines; second: they are killed."""
+        """First signal: the workers stop their engines (a process pool the caller gave: those it
+        has now; a Dask cluster's run on); second: they are killed."""
         if count > 1:
             self.kill()
         elif self._stop is not None:
             self._stop()
+        else:
+            self._signal(signal.SIGINT)
 
     def kill(self) -> None:
+        self._signal(signal.SIGKILL)
+
+    def _signal(self, signum: int) -> None:
         if isinstance(self.executor, ProcessPoolExecutor):
             for process in list((self.executor._processes or {}).values()):  # no public list of workers
                 with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
-                    os.kill(process.pid, signal.SIGKILL)
+                    os.kill(process.pid, signum)
 
 
 @contextlib.contextmanager

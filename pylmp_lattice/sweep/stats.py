@@ -102,8 +102,9 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
     band (as the paper's Fig. 4), one line per combination of the columns `by`, both axes
     labelled with name and unit; returns the Axes.
 
-    by: default, the other swept columns (those before `n`) that vary, when `x` is one of them;
-    points differing in one of these are never joined. Only the first `lines` combinations (in
+    by: default, the other swept columns (those before `n`) that vary at some value of `x`,
+    when `x` is one of them (a column zipped with `x` goes with it); points differing in one of
+    these are never joined. Only the first `lines` combinations (in
     the table's order) are drawn, the title says so. legend: name each line's values (when
     there are several lines).
     """
@@ -116,9 +117,10 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
         import matplotlib.pyplot as plt
 
         ax = plt.figure().add_subplot()
-    if by is None:
+    if by is None:  # the swept columns that vary at some x (one zipped with x does not: it goes with x)
         swept = list(stats.columns[:list(stats.columns).index("n")]) if "n" in stats.columns else []
-        by = [c for c in swept if c != x and stats[c].nunique(dropna=False) > 1] if x in swept else []
+        by = [c for c in swept if c != x and stats.groupby(x, dropna=False)[c].nunique(dropna=False).max() > 1]
+        by = by if x in swept else []
     groups = list(stats.groupby(by, sort=False, dropna=False)) if by else [((), stats)]
     fmt, capsize, name = kwargs.pop("fmt", "o-"), kwargs.pop("capsize", 3), kwargs.pop("label", None)
     names = _legend_names(by)
