@@ -2,7 +2,9 @@
 
 Magnets and gaps are numbered as the paper counts (`numbering`): magnet 1 is the impactor, gap
 n lies between magnets n and n+1, and ranges are inclusive (first_gap 145, last_gap 193: gaps
-145 through 193)."""
+145 through 193). particles_reached_by_front is the number of the farthest magnet with an
+arrival: the front reached magnets 1 through it (`measures.particles_reached`; the driven
+magnet 1 counts from the start, also before a pulse's peak marks its arrival)."""
 
 from __future__ import annotations
 
@@ -18,6 +20,8 @@ from .numbering import number
 log = logging.getLogger(__name__)
 # A long lattice is valid while the last free particle stays (nearly) at rest.
 QUIET_FRACTION = 1e-3
+# Each number keeps its decimals, and at least this many significant figures when it is small.
+SIGNIFICANT = 3
 
 
 def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
@@ -39,7 +43,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speeds = measures.trailing_plateaus(vp)
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
-    reached = np.isfinite(front.arrival).sum(axis=1).tolist()
+    reached = measures.particles_reached(front.arrival).tolist()
     maxima = _maxima(vp)
     out = _linear_part(cases)
     for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
@@ -51,7 +55,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
             # with friction V_P peaks early and decays (Fig. S6): where and how high
             "shock_velocity_max_m_per_s": maxima[r],
             "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
-            "first_peak_velocity_over_V_I": round(first_peak.mean / vi, 4),
+            "first_peak_velocity_over_V_I": _round(first_peak.mean / vi, 4),
             "front_flags": _flags(flags),
             "front_resolution": resolution,
         }
@@ -80,8 +84,8 @@ def _linear_part(cases) -> list[dict]:
             "case": case.name,
             "particles": case.chain.particles,
             "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity(),
-            "linear_wave_speed_V0_m_per_s": round(v0, 6),
-            "linear_frequency_f0_Hz": round(f0, 4),
+            "linear_wave_speed_V0_m_per_s": _round(v0, 6),
+            "linear_frequency_f0_Hz": _round(f0, 4),
         })
     return out
 
@@ -101,23 +105,26 @@ def _maxima(vp: np.ndarray) -> list[dict | None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None)
         top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(found[:, None], vp, 0.0), axis=1).tolist()
-    return [{"value": round(v, 5), "gap": number(i)} if ok else None for v, i, ok in zip(top, where, found.tolist())]
+    return [{"value": _round(v, 5), "gap": number(i)} if ok else None for v, i, ok in zip(top, where, found.tolist())]
 
 
 def _flags(flags: dict) -> dict:
     """The flagged gaps (`Front.flags`: out of order, below the slowest linear speed), as counts and gap numbers."""
     return {"out_of_order": len(flags["out_of_order_gaps"]), "below_linear_speed": len(flags["below_linear_speed_gaps"]),
-            **{k: round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
+            **{k: _round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
 
 
 def _resolution(res: dict) -> dict:
-    """`Front.resolution`, rounded, with a warning when the frames are too coarse for the gaps."""
+    """`Front.resolution`, rounded, with its `source`: "engine record" (the engine's arrivals of
+    every step, sample_interval_ms 0) or "frames" (read from frames sample_interval_ms apart),
+    and a warning when the frames are too coarse for the gaps."""
     if not res["resolved"]:
         log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
                     "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
                     "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
                     res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
-    return {k: round(v, 6) if isinstance(v, float) else v for k, v in res.items()}
+    source = "engine record" if res["sample_interval_ms"] == 0 else "frames"
+    return {k: _round(v, 6) if isinstance(v, float) else v for k, v in res.items()} | {"source": source}
 
 
 def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
@@ -132,12 +139,20 @@ def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
     trend = (None if not defined else "unresolved" if not resolved else "steady" if converged
              else "decaying" if p.drift < 0 else "growing")
     return {
-        "mean": round(p.mean, 5),
-        "std": round(p.std, 5),
-        "relative_drift": round(p.drift, 5),
-        "relative_drift_stderr": round(p.drift_stderr, 5),
+        "mean": _round(p.mean, 5),
+        "std": _round(p.std, 5),
+        "relative_drift": _round(p.drift, 5),
+        "relative_drift_stderr": _round(p.drift_stderr, 5),
         "converged": converged,
         "trend": trend,
         f"first_{p.over}": p.first,
         f"last_{p.over}": p.last,
     }
+
+
+def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
+    """x to `decimals` decimals, or more where that would keep fewer than `significant` figures:
+    a small number (a drift's standard error of 1e-6) stays a number, not 0."""
+    if not np.isfinite(x) or x == 0:
+        return round(x, decimals)
+    return round(x, max(decimals, significant - 1 - int(np.floor(np.log10(abs(x))))))

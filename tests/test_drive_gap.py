@@ -4,6 +4,7 @@ first transit (`measures.front`, module docstring)."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.exact import harmonic_piston_velocity
-from pylmp_lattice.run_folder import run_case
+from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.summary import summarize
 
 from conftest import make_case
@@ -68,3 +69,44 @@ def test_pulse_in_the_paper_experiment_reports_no_drive_artefact_as_its_largest_
     top, plateau = summary["shock_velocity_max_m_per_s"], summary["shock_velocity_plateau_m_per_s"]["mean"]
     assert top["gap"] > 1 and top["value"] == pytest.approx(plateau, rel=0.05)
     assert summary["front_flags"]["out_of_order_gaps"] == []
+
+
+def test_gap_crossing_time_of_a_pulse_is_timed_from_magnet_2():
+    """The same 6 arrivals from frames every 1.9 ms: from magnet 1 (the drive's peak) the mean
+    gap crossing was (31.812 - 15.0)/5 = 3.362 ms, 1.77 frames per gap, "unresolved"; from
+    magnet 2 it is (31.812 - 15.103)/4 = 4.177 ms, 2.2 frames: resolved. Level arrivals keep
+    magnet 1 (3.362 ms)."""
+    pulse = dataclasses.replace(_front(PULSE_ARRIVAL, "velocity_peak"), sample_interval=1.9)
+    level = dataclasses.replace(_front(PULSE_ARRIVAL, "level"), sample_interval=1.9)
+    res = pulse.resolution()
+    assert res["gap_crossing_time_ms"] == pytest.approx(4.17725, rel=1e-9) and res["resolved"] is True
+    assert res["frames_per_gap"] == pytest.approx(4.17725 / 1.9, rel=1e-9)
+    assert level.resolution()["gap_crossing_time_ms"] == pytest.approx(3.3624, rel=1e-9)
+    assert level.resolution()["resolved"] is False
+    both = measures.stack_fronts([pulse, dataclasses.replace(pulse, arrival=np.r_[np.nan, PULSE_ARRIVAL[1:]])])
+    assert [r["gap_crossing_time_ms"] for r in both.resolutions()] == pytest.approx([4.17725, 4.17725], rel=1e-9)
+
+
+@pytest.mark.lammps
+def test_a_pulse_seen_before_its_drive_peaks_has_reached_magnets_1_to_the_farthest_arrival(tmp_path):
+    """The trial's 30 ms run of the paper's experiment (T_s = 47.8 ms): the drive's peak, magnet
+    1's arrival, is not yet confirmed (NaN) while magnets 2-6 have arrivals. Reached counted
+    finite arrivals, 5; it is the farthest magnet with one, 6 (magnets 1-6), as it is 60 ms
+    later when magnet 1's arrival is finite. The arrivals come from the engine's record,
+    marked as such beside sample_interval_ms 0."""
+    case = load_case(INPUTS / "paper_experiment.toml", ["run.duration=30"])
+    summary = run_case(case, tmp_path / "run", figure=False)
+    arrival = RunFolder(tmp_path / "run").front().arrival
+    assert np.isnan(arrival[0]) and np.isfinite(arrival[1:6]).all() and np.isnan(arrival[6:]).all()
+    assert summary["particles_reached_by_front"] == 6
+    assert summary["front_resolution"]["source"] == "engine record"
+    assert summary["front_resolution"]["sample_interval_ms"] == 0
+
+
+def test_particles_reached_is_the_farthest_magnet_with_an_arrival():
+    """Row by row: magnets 2-4 (magnet 1 not yet) -> 4; a gap in the arrivals does not shorten
+    it (magnets 1, 2 and 4 -> 4); none -> 0."""
+    nan = np.nan
+    arrival = np.array([[nan, 1.0, 2.0, 3.0, nan], [0.0, 1.0, nan, 3.0, nan], [nan] * 5])
+    np.testing.assert_array_equal(measures.particles_reached(arrival), [4, 4, 0])
+    assert measures.particles_reached(PULSE_ARRIVAL) == 6

@@ -45,6 +45,17 @@ def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
     assert (g["converged"], g["trend"]) == (False, "growing")
 
 
+def test_small_numbers_keep_three_significant_figures_and_others_their_decimals():
+    """The trial's thermal-free plateau: a drift's standard error of 1.09e-6 was written as 0.0
+    (5 decimals); it stays 1.09e-6 (3 significant figures), while a V_P of 3.9012345 m/s keeps
+    its 5 decimals (3.90123) as before."""
+    p = measures.Plateau(3.9012345, 4.2345e-6, 2.01e-4, 1, 50, drift_stderr=1.0912e-6)
+    d = _plateau(p)
+    assert d["relative_drift_stderr"] == pytest.approx(1.09e-6, rel=1e-12)
+    assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
+    assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123
+
+
 def test_summary_writer_writes_null_for_values_that_are_not_finite():
     text = dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": {"d": -float("inf")}, "e": 2})
     assert _strict(text) == {"a": None, "b": [1.0, None], "c": {"d": None}, "e": 2}
@@ -83,6 +94,7 @@ def test_v_p_from_frames_too_coarse_for_the_gaps_is_flagged_not_converged(caplog
     plateau = fine["shock_velocity_plateau_m_per_s"]
     assert plateau["mean"] == pytest.approx(4.0, rel=1e-3) and plateau["converged"] is True
     assert fine["front_resolution"]["resolved"] is True and fine["front_resolution"]["frames_per_gap"] == pytest.approx(12)
+    assert fine["front_resolution"]["source"] == "frames"
     with caplog.at_level("WARNING"):
         coarse = summarize(case, _frames_of_a_steady_front(case, 10.0))
     plateau = coarse["shock_velocity_plateau_m_per_s"]

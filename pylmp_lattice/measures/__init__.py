@@ -27,7 +27,7 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
     steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
 """
 
-from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method
+from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method, particles_reached
 from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front, stack_fronts
 from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion  # noqa: F401 (Fig. S4 calibration)
@@ -58,7 +58,7 @@ __all__ = [
     "Oscillations",
     "PhasePortrait", "Plateau", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_propagation_velocity",
-    "front", "front_levels", "stack_fronts", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
+    "front", "front_levels", "particles_reached", "stack_fronts", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
     "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",
     "trailing_plateau", "trailing_plateaus", "transition_zone",
     "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",

@@ -73,3 +73,13 @@ def arrival_times(
     i_peak, confirmed = first_confirmed_maximum(y, i_start, drop, relative=True, floor=floor)
     t_peak, _ = refine_maxima(t, y, i_peak, np.arange(v.shape[1]))
     return np.where(confirmed & (i_start < len(t)), t_peak, np.nan)
+
+
+def particles_reached(arrival) -> np.ndarray | int:
+    """The number of the farthest magnet with an arrival (1-based; 0 if none), along the last
+    axis of arrival (ms, NaN where none): the front reached magnets 1 .. it. Magnet 1, the
+    driven one, counts from the start: a pulse's peak arrival (T_s/2) lets it be NaN before."""
+    finite = np.isfinite(np.asarray(arrival, dtype=float))
+    last = finite.shape[-1] - np.argmax(finite[..., ::-1], axis=-1)
+    out = np.where(finite.any(axis=-1), last, 0)
+    return int(out) if out.ndim == 0 else out

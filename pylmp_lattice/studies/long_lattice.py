@@ -16,7 +16,7 @@ from .. import measures
 from ..numbering import number
 from ..plots import pyplot, separate, style_figure, twin_axis
 from .output import StudyResult
-from .scaffold import linear_constants, particles_reached, pick
+from .scaffold import linear_constants, pick
 
 TRACKED = (2, 5, 10, 25, 50, 100, 150)  # magnets whose extrema are drawn
 STEADY = (5, 10, 20)  # magnets well behind the front at the end
@@ -33,9 +33,9 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
     t, v, a = traj.t, traj.v, traj.a
     gaps = case.chain.gaps()
     front = measures.front(t, v, a, vi, gaps)
-    reached = particles_reached(front.arrival)
+    reached = measures.particles_reached(front.arrival)
     centred = measures.centred_propagation_velocity(front.arrival, gaps)
-    plateau = measures.trailing_plateau(front.propagation_velocity)
+    plateau = measures.trailing_plateau(front.accepted_velocity)
     # gaps first .. last lie between magnets first .. last + 1
     fit = measures.fit_propagation_velocity(front.arrival, case.chain.positions(), plateau.first, plateau.last + 1)
     peaks = front.peaks
@@ -65,7 +65,7 @@ def analyse(name, what, traj, case, vi, duration, quick, zone=True) -> StudyResu
         "f0_Hz": f0,
         "V_P_plateau_m_per_s": plateau,
         "V_P_fitted_over_plateau_window": fit,
-        "V_P_max_m_per_s": float(np.nanmax(front.propagation_velocity[np.isfinite(front.propagation_velocity)])),
+        "V_P_max_m_per_s": float(np.nanmax(front.accepted_velocity)),  # the front's: no drive gap, no flagged gap
         "first_peak_max_m_per_s": float(np.nanmax(peaks.peak_velocity[1:])),
         "first_peak_plateau_m_per_s": first_peak,
         "first_peak_plateau_over_V_I": first_peak.mean / vi,

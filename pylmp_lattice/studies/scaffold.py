@@ -109,13 +109,9 @@ def linear_constants(case: Case) -> tuple[float, float]:
     return measures.linear_wave_speed(k, m, r0), measures.linear_frequency(k, m)
 
 
-def particles_reached(arrival) -> int:
-    """How many particles the front reached (arrival finite)."""
-    return int(np.sum(np.isfinite(arrival)))
-
-
 def pick(candidates, reached: int) -> list[int]:
-    """The magnet numbers among `candidates` that the front reached (magnets 1 .. reached)."""
+    """The magnet numbers among `candidates` that the front reached (magnets 1 .. reached,
+    `measures.particles_reached`)."""
     return [n for n in candidates if n <= reached]
 
 

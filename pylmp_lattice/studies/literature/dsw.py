@@ -83,7 +83,7 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
     case, vi = run.member.case, run.member.params["impactor.velocity"]
     law, mass, duration = case.force, float(case.chain.mass), case.run.duration
     front = RunFolder(run.folder).front()
-    reached = int(np.sum(np.isfinite(front.arrival)))
+    reached = measures.particles_reached(front.arrival)
     later = np.arange(max(reached // 4, 1), reached - 1)  # gaps (0-based) and particles the front passed
     vp_limit = theory.first_peak_limit(later + 1, front.propagation_velocity[later])
     peak_limit = theory.first_peak_limit(later, front.peaks.peak_velocity[later] / vi)

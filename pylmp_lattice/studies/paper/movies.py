@@ -45,7 +45,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     case = paper_case("movie_long_lattice", {"profile": "constant", "velocity": vi}, duration)
     traj = simulate(case, out / NAME / case.name, overwrite=True)
     arrival = measures.arrival_times(traj.t, traj.v, vi)
-    reached = int(np.sum(np.isfinite(arrival)))
+    reached = measures.particles_reached(arrival)
     steady = measures.steady_oscillation(traj.t, traj.v[:, 9], vi, (0.8 * duration, duration))
     onset = measures.steady_onset_times(traj.t, traj.v[:, :reached], vi, (steady.max_velocity, steady.min_velocity))
     fig, anim = _movie_s2(plt, traj, vi, arrival[:reached], onset, _frames(traj.t, frames))

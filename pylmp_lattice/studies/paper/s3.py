@@ -26,7 +26,7 @@ from ...forcelaw import PowerLaw
 from ...plots import pyplot, style_figure
 from ...run_folder import simulate
 from ..output import StudyResult
-from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case, particles_reached
+from ..scaffold import MAGNET_LENGTH, PAPER_LAW, R0, paper_case
 
 NAME = "s3"
 FRACTION = 0.05  # |F2(2 r0)| / F(r0), paper Sec. S2
@@ -91,7 +91,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                 n = np.arange(1, len(front.arrival) + 1)
                 left.plot(n[:-1] + 0.5, front.accepted_velocity, ".", ms=3, label=label)
                 right.plot(n, front.peaks.peak_velocity, ".", ms=3, label=label)
-        reached = particles_reached(store[label].arrival)
+        reached = measures.particles_reached(store[label].arrival)
     left.set(title=f"propagation velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n", ylabel="$V_P$ (m/s)",
              xlim=(0, reached))
     right.set(title=f"first peak velocity, $V_I$ = {STRONG:g} m/s", xlabel="magnet n",

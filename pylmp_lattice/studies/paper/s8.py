@@ -3,7 +3,8 @@ layer, T_s from well below to well above the linear period T0 = 1/f0 (23.5 ms).
 
 The pulse's front is timed by its first velocity peak (a short pulse never reaches V_I/2 far
 out; see `measures.arrival`), and its steady propagation velocity is the V_P plateau over the
-last quarter of the gaps crossed. Limits: T_s << T0 gives V0; T_s >> T0 gives the constant
+last quarter of the gaps crossed (gap 1 is the drive's, `Front.drive_gap`, and flagged gaps
+are no front's: neither counts). Limits: T_s << T0 gives V0; T_s >> T0 gives the constant
 drive's V_P (a run with constant V_I in the same sweep). (c, d): velocity maxima and minima and
 the frequency of magnet 10 against time for T_s = 100 ms, decaying once the pulse has passed.
 Full: T_s / T0 = 0.1 .. 10 (9 values) and 100 ms over 400 ms; quick: 0.1 T0, 1 T0 and
@@ -47,8 +48,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     for r, row in done_runs(runs, rows, "T_s_ms", "impactor.duration"):
         ts = row["T_s_ms"]
         front = RunFolder(r.folder).front()
-        row |= {"T_s_over_T0": ts / t0, "V_P_plateau": measures.trailing_plateau(front.propagation_velocity),
-                "gaps_crossed": int(np.sum(np.isfinite(front.propagation_velocity)))}
+        vp = front.accepted_velocity  # gap 1 is the drive's (`Front.drive_gap`), flagged gaps no front's
+        row |= {"T_s_over_T0": ts / t0, "V_P_plateau": measures.trailing_plateau(vp),
+                "gaps_crossed": int(np.sum(np.isfinite(vp)))}
         if ts == SHOWN_TS:
             traj = r.trajectory()
             osc = measures.oscillations(traj.t, traj.v[:, MAGNET - 1], VI)
