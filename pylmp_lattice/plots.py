@@ -92,11 +92,11 @@ def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0, drive_gap: bool
     ax = ax or pyplot().gca()
     n = np.arange(1, len(vp) + 1)
     ax.plot(n, vp, ".", ms=3, label="$V_P$ over gap n")
+    # short entries: a legend wider than the axes covers their label
     if flagged:
-        ax.plot([], [], " ", label=f"{flagged} flagged gap{'s' if flagged > 1 else ''} (out of order or too slow): "
-                                   "not drawn")
-    if drive_gap:
-        ax.plot([], [], " ", label="gap 1: no front speed (magnet 1's arrival is the drive's peak): not drawn")
+        ax.plot([], [], " ", label=f"{flagged} flagged gap{'s' if flagged > 1 else ''}, not drawn")
+    if drive_gap:  # velocity or acceleration peak: either way magnet 1's is the drive's
+        ax.plot([], [], " ", label="gap 1: the drive's, not drawn")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
     ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")

@@ -64,6 +64,11 @@ def check_figure(fig, quick: bool | None = None, letters: str | None = None):
     if quick is not None:
         assert ("quick" in title) == quick, title
     fig.savefig(io.BytesIO(), format="png", dpi=30)  # renders (mathtext included) at low resolution
+    for ax in main:  # a legend wider than its panel covers the panel's axis label
+        legend = ax.get_legend()
+        if legend is not None and legend.get_visible():
+            width, panel = legend.get_window_extent().width, ax.get_window_extent().width
+            assert width <= panel, f"panel {ax.get_title(loc='left')}: legend {width:.0f} px, panel {panel:.0f} px"
     return main
 
 
@@ -140,7 +145,7 @@ def test_run_figure(tmp_path, case_factory, drive):
     assert b.get_ylim()[0] > 0
     if drive == "pulse":
         assert vp[0] < 0  # magnet 2 peaks before the drive: gap 1, the drive's, is left out and said so
-        assert any("gap 1: no front speed" in t.get_text() for t in b.get_legend().get_texts())
+        assert "gap 1: the drive's, not drawn" in [t.get_text() for t in b.get_legend().get_texts()]
     # (c): the 2 V_I line only where the first peaks saturate there: a steady drive, no friction
     saturation = [line for line in c.get_lines() if "2 $V_I$" in str(line.get_label())]
     assert bool(saturation) == (drive in ("constant", "ramp"))
