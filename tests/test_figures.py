@@ -154,3 +154,31 @@ def test_run_figure(tmp_path, case_factory, drive):
     v_top = c.transData.transform((0, np.nanmin(run.front().peaks.peak_velocity)))[1]
     a_top = right.transData.transform((0, np.nanmax(run.front().peaks.peak_acceleration)))[1]
     assert a_top < v_top
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_quick_figures_name_only_what_they_draw(quick_studies):
+    """s5 (d, e) and fig3 (d, e): a magnet's entry only with its extrema or frequencies drawn
+    (the quick s5 had "n = 25" with none); dsw (d): a knee's entry only with a knee drawn (the
+    quick dsw has no knee); fig3 (f): the widths at other tolerances each in a colour and a
+    marker of their own; s8 (b): V0 and the constant drive's V_P off the spines."""
+    for name in ("s5", "fig3"):
+        for ax in panels(quick_studies(name).figure)[3:5]:
+            drawn = {line.get_label() for line in ax.get_lines() if len(line.get_xdata())}
+            named = {t.get_text() for t in ax.get_legend().get_texts() if t.get_text().startswith("n = ")}
+            assert named and named <= drawn, (name, named - drawn)
+    d = panels(quick_studies("dsw").figure)[3]
+    knees = {line.get_marker() for line in d.get_lines() if len(line.get_xdata()) and line.get_linestyle() == "None"
+             and line.get_marker() in ("v", "^")}
+    entries = {t.get_text() for t in d.get_legend().get_texts()} if d.get_legend() else set()
+    assert ("two-line knee" in entries) == ("v" in knees) and ("kneedle knee" in entries) == ("^" in knees)
+    f = panels(quick_studies("fig3").figure)[5]
+    widths = [line for line in f.get_lines() if "within 0.2" in line.get_label() or "within 0.0" in line.get_label()]
+    assert len(widths) == 3 and len({(line.get_color(), line.get_marker()) for line in widths}) == 3
+    assert len({line.get_marker() for line in widths}) == 3
+    b = panels(quick_studies("s8").figure)[0]
+    numbers = quick_studies("s8").numbers
+    lo, hi = b.get_ylim()
+    for level in (numbers["V0_m_per_s"], numbers["V_P_constant_drive_m_per_s"]):
+        assert lo + 0.02 * (hi - lo) < level < hi - 0.02 * (hi - lo)

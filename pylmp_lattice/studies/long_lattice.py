@@ -118,10 +118,12 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
     left += right.plot(n, peaks.peak_acceleration, "s", ms=2, mfc="none", color="C3", label="acceleration (right)")
     separate(ax[0, 2], right, peaks.peak_velocity, peaks.peak_acceleration)
     ax[0, 2].legend(handles=left, fontsize="small", loc="center right")
-    for k, (p, o) in enumerate(osc.items()):
-        ax[1, 0].plot(o.max_time, o.max_velocity, "^", ms=2.5, color=f"C{k}", label=f"n = {p}")
-        ax[1, 0].plot(o.min_time, o.min_velocity, "v", ms=2.5, color=f"C{k}")
-        ax[1, 1].plot(o.frequency_time, o.frequency / f0, ".-", ms=2.5, lw=0.6, color=f"C{k}", label=f"n = {p}")
+    for k, (p, o) in enumerate(osc.items()):  # a magnet without extrema yet (a short run) has no entry
+        if len(o.max_time) or len(o.min_time):
+            ax[1, 0].plot(o.max_time, o.max_velocity, "^", ms=2.5, color=f"C{k}", label=f"n = {p}")
+            ax[1, 0].plot(o.min_time, o.min_velocity, "v", ms=2.5, color=f"C{k}")
+        if len(o.frequency_time):
+            ax[1, 1].plot(o.frequency_time, o.frequency / f0, ".-", ms=2.5, lw=0.6, color=f"C{k}", label=f"n = {p}")
     ax[1, 0].plot([], [], "^", color="0.4", label="maxima")
     ax[1, 0].plot([], [], "v", color="0.4", label="minima")
     ax[1, 0].set(title="velocity maxima and minima", xlabel="t (ms)", ylabel="peak velocity (m/s)")
@@ -134,7 +136,8 @@ def figure(traj, vi, v0, f0, front, centred, osc, zones, reached, what, quick):
         ax[1, 2].plot(zone.time, zone.settled_magnet, label=f"settled (within {TOLERANCE:g} $V_I$)")
         ax[1, 2].plot(zone.time, zone.width, label=f"width (settled within {TOLERANCE:g} $V_I$)")
         for k, (tol, other) in enumerate((t, z) for t, z in zones.items() if t != TOLERANCE):
-            ax[1, 2].plot(other.time, other.width, ls=(0, (1, 1 + k)), lw=0.9, color="C2",
+            # a colour and a marker each: told apart in print and in grey
+            ax[1, 2].plot(other.time, other.width, "--" + "osd"[k], ms=3, lw=0.9, color=f"C{3 + k}",
                           label=f"width (within {tol:g} $V_I$)")
         ax[1, 2].legend(fontsize="x-small")
     ax[1, 2].set(title="transition zone", xlabel="t (ms)", ylabel="magnet n, or width (magnets)")

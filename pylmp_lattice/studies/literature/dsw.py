@@ -232,13 +232,17 @@ def _figure(rows, per_chain, quick):
     keys = {  # what the markers and lines mean, in black
         (0, 0): [("o", "", "LAMMPS, A - C/n limit"), ("", "-", "lead speed (theory)"), ("", ":", "Rankine-Hugoniot")],
         (0, 1): [("o", "-", "A - C/n limit"), ("x", "", "plateau, last quarter")],
-        (1, 0): [("v", "", "two-line knee"), ("^", "", "kneedle knee")],
+        (1, 0): [("v", "", "two-line knee"), ("^", "", "kneedle knee")],  # those drawn only, below
         (1, 1): [("o", "-", "mean gap against $r_1$"), ("s", "--", "mean force against $F(r_1)$")],
         (1, 2): [("o", "", "A - C/n limit"), ("x", "", "plateau, last quarter")],
     }
+    drawn_knees = {m for c in per_chain.values() for m in ("two_line", "kneedle") if np.isfinite(c["knees"][m].value)}
+    keys[1, 0] = [e for e, m in zip(keys[1, 0], ("two_line", "kneedle")) if m in drawn_knees]
     for (i, j), entries in keys.items():
         handles = [ax[i, j].plot([], [], marker=m, ls=ls or "none", color="k", ms=4, label=label)[0]
                    for m, ls, label in entries]
+        if not handles:
+            continue
         if (i, j) == (0, 0):
             ax[i, j].add_artist(ax[i, j].get_legend())
             ax[i, j].legend(handles=handles, fontsize="x-small", loc="lower right")

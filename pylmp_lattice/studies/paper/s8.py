@@ -69,7 +69,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     ax[0].axhline(v0, color="k", ls=":", label=f"$V_0$ = {v0:.3f} m/s")
     ax[0].axhline(v_const, color="C3", ls="--",
                   label=f"$V_P$ = {v_const:.3f} m/s under a constant drive, $V_I$ = {VI:g} m/s")
-    ax[0].set(title="steady propagation velocity", xlabel="$T_s/T_0$", ylabel="$V_P$ (m/s)")
+    shown_values = np.r_[y, v0, v_const][np.isfinite(np.r_[y, v0, v_const])]
+    pad = 0.06 * np.ptp(shown_values)  # the reference lines off the spines
+    ax[0].set(title="steady propagation velocity", xlabel="$T_s/T_0$", ylabel="$V_P$ (m/s)",
+              ylim=(shown_values.min() - pad, shown_values.max() + pad))
     ax[0].legend(fontsize="small")
     style_figure(fig, f"Fig. S8: long lattice, half-sine pulse of peak $V_I$ = {VI:g} m/s and length $T_s$, "
                  f"no friction, {duration:g} ms", quick=quick, letters="bcd")
