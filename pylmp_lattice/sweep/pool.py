@@ -74,10 +74,19 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
     if workers is not None:
         raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
     from distributed import Client
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import backends
 
+    try:  # checked before a Client exists: one made of a bad address can hang in its finalizer
+        kind, where = parse_address(scheduler, strict=True)
+        parse_host_port(where)
+        if kind not in backends:
+            raise ValueError(f"unknown scheme {kind!r}")
+    except ValueError as err:
+        raise ConfigError("--scheduler", f"got {scheduler!r} ({err}); expected an address like tcp://HOST:PORT") from err
     try:
         client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError, ValueError) as err:  # ValueError: not an address (no scheme, no port)
+    except (OSError, TimeoutError, ValueError) as err:
         raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err}); expected tcp://HOST:PORT") from err
     try:
         threads = client.nthreads()
