@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 from contextlib import suppress
 from pathlib import Path
 
@@ -203,14 +204,18 @@ class RunFolder:
     def summarize(self, figure: bool = True, wall_time: float | None = None) -> dict:
         """Write summary.json (strict JSON: an undefined measure is null), then the figure; return
         the summary. Works for any run folder LAMMPS no longer writes: finished, run by hand,
-        stopped by a contact or interrupted (measured up to where it stopped; `stopped` says
-        where). A folder still being written is refused (ConfigError): its numbers would be
-        partial. A figure that fails is a warning: the summary is already written."""
+        stopped by a contact, failed or interrupted (measured up to where it stopped; `stopped`
+        says where). A folder still being written is refused (ConfigError): its numbers would be
+        partial. A deck edited since it was written is said so (`deck_changes`). What an earlier
+        summary of the same run holds and this one does not redo stays: its wall time, and its
+        figure when not drawn again. A figure that fails is a warning: the summary is already
+        written."""
         from ..summary import summarize
 
         case, status = self.case, self.status
         if status == RUNNING:
             raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
+        earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
         front, max_speed = self.measures()
@@ -219,6 +224,9 @@ class RunFolder:
         stopped = self._stopped(status)
         if stopped:
             summary["stopped"] = stopped
+            if "error" in stopped:
+                log.warning("%s: the run failed: %s", self.path, stopped["error"])
+        summary.update(self.deck_changes())
         if case.friction is not None and (self.path / layout.LOG).is_file():
             with suppress(KeyError, IndexError, LatticeError):
                 summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6)
@@ -226,7 +234,11 @@ class RunFolder:
         for name in (layout.H5MD, layout.TRAJ_BIN, layout.DUMP):
             if (self.path / name).exists():
                 files["trajectory"] = name
+        if self._current(layout.FIGURE):  # drawn again below, or the earlier one of this run
+            files["figure"] = layout.FIGURE
         summary["files"] = files
+        if wall_time is None and earlier is not None and "wall_time_s" in earlier:
+            wall_time = earlier["wall_time_s"]
         if wall_time is not None:
             summary["wall_time_s"] = round(wall_time, 2)
         (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
@@ -236,22 +248,58 @@ class RunFolder:
                 self.figure().savefig(self.path / layout.FIGURE, dpi=120)
             except Exception as err:  # the summary stands without its figure
                 log.warning("%s: no figure (%s: %s); summary.json is written", self.path, type(err).__name__, err)
+                files.pop("figure", None)
             else:
                 files["figure"] = layout.FIGURE
-                (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
+            (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
         return summary
+
+    def _current(self, name: str) -> bool:
+        """Whether a file a summary wrote still describes the run: it exists, and the log has not
+        changed since (a deck run again by hand writes a new one)."""
+        try:
+            made = (self.path / name).stat().st_mtime_ns
+        except FileNotFoundError:
+            return False
+        try:
+            return made >= (self.path / layout.LOG).stat().st_mtime_ns
+        except FileNotFoundError:
+            return True
+
+    def deck_changes(self) -> dict:
+        """How the deck that ran differs from case.toml, as far as can be told without reading
+        arbitrary edits (each a warning too): "deck_edited": true if in.lattice is not the deck
+        written (its hash in run.json), and "run_steps" {"case", "log"} if the log's `run N`
+        commands add up to another number of steps than the case's. Empty if neither."""
+        changes = {}
+        written = (marker.read(self.path) or {}).get(marker.DECK_HASH)
+        with suppress(OSError):
+            if written and marker.deck_hash((self.path / layout.DECK).read_text()) != written:
+                changes["deck_edited"] = True
+                log.warning("%s: %s was edited after it was written; the summary's case values (V_I, run length, "
+                            "...) are case.toml's and may not be the deck's", self.path, layout.DECK)
+        text = marker.log_text(self.path) or ""
+        ran = [int(n) for n in re.findall(r"^run\s+(\d+)\s*$", text, re.MULTILINE)]
+        expected = self.case.run.steps()
+        if ran and sum(ran) != expected:
+            changes["run_steps"] = {"case": expected, "log": sum(ran)}
+            log.warning("%s: the log ran %d steps (%g ms), case.toml has %d (%g ms)", self.path, sum(ran),
+                        sum(ran) * self.case.run.dt, expected, self.case.run.duration)
+        return changes
 
     def _stopped(self, status: str) -> dict | None:
         """Where a run that did not finish stopped: a contact (pair, time, gap) or the last time
-        it wrote (an interrupt)."""
+        it wrote (an interrupt, or an error: its message, from run.json or the log's ERROR line)."""
         if status == CONTACT:
             c = self.contact()
             return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
         if status in (INTERRUPTED, FAILED):
             record = marker.read(self.path) or {}
+            error = record.get("error") or (marker.lammps_error(marker.log_text(self.path) or "")
+                                            if status == FAILED else None)
             return {"reason": "interrupted" if status != FAILED else "failed",
                     "time_ms": record.get("time_ms", self._last_time()),
-                    **({"error": record["error"]} if "error" in record else {})}
+                    **({"error": error} if error else {})}
         return None
 
     def _last_time(self) -> float | None:

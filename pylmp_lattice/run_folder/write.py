@@ -17,14 +17,17 @@ from . import layout, marker
 
 
 def write_folder(case: Case, path: str | Path, overwrite: bool = False) -> Path:
-    """Write the deck, its input files, case.toml and run.json into `path`; return it.
+    """Write the deck, its input files, case.toml and run.json (with the deck's hash, so that a
+    deck edited by hand is told apart) into `path`; return it.
 
     A folder holding a run of this package (case.toml and run.json) is refused unless
     `overwrite`; then the earlier run's files (layout.RUN_FILES) are removed first, so none of
     them stays beside the new run, and only those: the user's own files and folders beside
     them, and the folder itself, always stay. Refused: the working directory, a parent of it,
-    runs/ itself, a folder holding files a run would write but no run, and one that another
-    writer or runner of this package holds (its lock, `marker.claimed`, is held meanwhile).
+    runs/ itself, a folder holding files a run would write but no run, and one still being
+    written: another writer or runner of this package holds it (its lock, `marker.claimed`, is
+    held meanwhile) or a process writes its log (`marker.status`; a run that failed or was
+    interrupted may be replaced).
     """
     path = Path(path)
     files = render(case)  # first: a case the deck refuses (see Case._extremes) leaves the folder as it was
@@ -44,7 +47,7 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
     for name, text in files.items():
         (path / name).write_text(text)
     (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
-    marker.record(path, marker.WRITTEN)
+    marker.record(path, marker.WRITTEN, **{marker.DECK_HASH: marker.deck_hash(files[layout.DECK])})
 
 
 def check_target(path: Path, overwrite: bool) -> bool:
