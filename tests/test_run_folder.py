@@ -366,7 +366,7 @@ def test_reading_while_lmp_writes_loses_nothing(tmp_path):
 
 def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
     """The CLI and RunFolder.summarize refuse while a runner of this package holds the lock, or
-    while a hand-run log has no end yet; one line, exit 2, nothing written."""
+    while a process writes a hand-run log that has no end yet; one line, exit 2, nothing written."""
     case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
     folder = tmp_path / "d"
     assert main(["deck", str(case), "-o", str(folder)]) == 0
@@ -378,10 +378,13 @@ def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
         with pytest.raises(ConfigError, match="still being written by LAMMPS"):
             RunFolder(folder).summarize()
     marker.record(folder, marker.WRITTEN)  # as `deck` left it; then `lmp -in` by hand, not ended yet
-    (folder / layout.LOG).write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
-    assert main(["summarize", str(folder)]) == 2
-    assert capsys.readouterr().err.splitlines() == [expected]
-    assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
+    with open(folder / layout.LOG, "w") as writer:  # a process (here this one) writes the log
+        writer.write("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
+        writer.flush()
+        assert main(["summarize", str(folder)]) == 2
+        assert capsys.readouterr().err.splitlines() == [expected]
+        assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
+    assert RunFolder(folder).status == "interrupted"  # no process writes it any more
 
 
 @lammps

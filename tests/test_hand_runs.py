@@ -1,0 +1,173 @@
+"""Decks run by hand (`lmp -in in.lattice`) that do not end as written: a LAMMPS ERROR after a
+hand edit is "failed", a killed lmp "interrupted" (measured up to where it stopped), and either
+may be summarized and overwritten; a live lmp's folder stays "running" and refused. A deck
+edited by hand is said so in summary.json, and a summary written again keeps what is still true."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomli_w
+
+from pylmp_lattice.case import case_to_dict
+from pylmp_lattice.cli import main
+from pylmp_lattice.run_folder import RunFolder, layout, marker, run_case
+
+from conftest import make_case
+
+LMP = Path(sys.executable).parent / "lmp"
+lammps = pytest.mark.lammps
+
+
+def deck(tmp_path: Path, case, name: str = "d") -> Path:
+    """`pylmp-lattice deck` of `case` into tmp_path/name; the folder."""
+    toml = tmp_path / f"{name}.toml"
+    toml.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    assert main(["deck", str(toml), "-o", str(tmp_path / name)]) == 0
+    return tmp_path / name
+
+
+def edit(folder: Path, old: str, new: str) -> None:
+    """Edit the deck by hand: one line starting with `old` becomes `new` (once)."""
+    text = (folder / layout.DECK).read_text()
+    lines = text.splitlines()
+    hits = [i for i, line in enumerate(lines) if line.startswith(old)]
+    assert len(hits) == 1, old
+    lines[hits[0]] = new
+    (folder / layout.DECK).write_text("\n".join(lines) + "\n")
+
+
+def run_by_hand(folder: Path) -> int:
+    return subprocess.run([str(LMP), "-in", layout.DECK, "-screen", "none"], cwd=folder).returncode
+
+
+@lammps
+def test_a_lammps_error_is_failed_summarized_and_may_be_overwritten(tmp_path, caplog):
+    """An unknown fix added by hand: lmp stops with an ERROR (no end of log). The folder is
+    "failed", summarize says why (exit 0, a warning naming the ERROR line; "stopped" holds it),
+    and `deck --overwrite` replaces it."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    timestep = next(line for line in (folder / layout.DECK).read_text().splitlines() if line.startswith("timestep"))
+    edit(folder, "timestep", timestep + "\nfix bogus all nosuchfix")
+    assert run_by_hand(folder) != 0
+    assert RunFolder(folder).status == "failed"
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    assert f"{folder}: the run failed: ERROR: Unrecognized fix style 'nosuchfix'" in caplog.text
+    summary = json.loads((folder / layout.SUMMARY).read_text())
+    assert summary["status"] == "failed" and summary["deck_edited"] is True
+    assert summary["stopped"]["reason"] == "failed"
+    assert summary["stopped"]["error"].startswith("ERROR: Unrecognized fix style 'nosuchfix'")
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 0
+    assert "nosuchfix" not in (folder / layout.DECK).read_text() and RunFolder(folder).status == "written"
+    assert not (folder / layout.SUMMARY).exists() and not (folder / layout.LOG).exists()
+
+
+@lammps
+def test_a_killed_lmp_is_interrupted_and_measured_up_to_its_stop(tmp_path, capsys):
+    """A 4000 ms deck of 2000 magnets run by hand: while lmp writes, the folder is "running",
+    summarize and `deck --overwrite` are refused (nothing touched); once lmp's process group is
+    killed (as Ctrl-C or a time limit does), it is "interrupted", summarize measures the frames
+    written up to the stop, and `deck --overwrite` replaces it."""
+    folder = deck(tmp_path, make_case(particles=2000, duration=4000.0, interval=1.0))
+    frame = 2000 * 4 * 8  # bytes of a binary frame (4 doubles a magnet), at least
+    lmp = subprocess.Popen([str(LMP), "-in", layout.DECK, "-screen", "none"], cwd=folder, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and lmp.poll() is None:
+            dump = folder / layout.TRAJ_BIN
+            if dump.exists() and dump.stat().st_size > 20 * frame:
+                break
+            time.sleep(0.02)
+        assert RunFolder(folder).status == "running" and lmp.poll() is None, "lmp ended too soon for this test"
+        capsys.readouterr()
+        assert main(["summarize", str(folder)]) == 2
+        assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 2
+        assert "still being written" in capsys.readouterr().err
+        assert not (folder / layout.SUMMARY).exists() and (folder / layout.TRAJ_BIN).exists()
+        assert lmp.poll() is None, "lmp ended too soon for this test"
+    finally:
+        os.killpg(lmp.pid, signal.SIGKILL)  # the wrapper `lmp` and LAMMPS, its child
+        lmp.wait(10)
+    deadline = time.monotonic() + 10  # LAMMPS, the wrapper's child, lets go of its log as it dies
+    while RunFolder(folder).status == "running" and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert RunFolder(folder).status == "interrupted"
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    summary = json.loads((folder / layout.SUMMARY).read_text())
+    traj = RunFolder(folder).trajectory()  # every frame written, now in traj.h5md
+    stop = summary["stopped"]
+    assert summary["status"] == "interrupted" and stop["reason"] == "interrupted"
+    assert stop["time_ms"] == traj.t[-1] and 20 <= stop["time_ms"] < 4000
+    np.testing.assert_allclose(np.diff(traj.t), 1.0, rtol=1e-9)  # frames 0, 1, ... ms up to the stop
+    # the front measured in what was written: it reached magnets by then, none after the stop
+    front = RunFolder(folder).front()
+    reached = np.isfinite(front.arrival)
+    assert summary["particles_reached_by_front"] == reached.sum() >= 3
+    assert np.nanmax(front.arrival) <= stop["time_ms"]
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 0
+    assert RunFolder(folder).status == "written" and not (folder / layout.H5MD).exists()
+
+
+def test_without_proc_a_quiet_log_is_no_longer_written(tmp_path, monkeypatch):
+    """Where /proc cannot tell who holds the log, a log without an end that changed in the last
+    marker.QUIET seconds is "running", an older one "interrupted"."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    monkeypatch.setattr(marker, "_open_for_writing", lambda path: None)
+    log = folder / layout.LOG
+    log.write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
+    assert RunFolder(folder).status == "running"
+    then = time.time() - marker.QUIET - 1
+    os.utime(log, (then, then))
+    assert RunFolder(folder).status == "interrupted"
+
+
+@lammps
+def test_an_edited_deck_is_said_in_the_summary(tmp_path, caplog):
+    """`run 100` edited into `run 50` and run by hand: summary.json says "deck_edited": true and
+    the steps the log ran against the case's, each with a warning; the deck as written says
+    neither, also after the package's runner ran it (run.json keeps the deck's hash)."""
+    case = make_case(particles=10, duration=1.0)  # 100 steps of 0.01 ms
+    folder = deck(tmp_path, case)
+    edit(folder, "run ", "run             50")
+    assert run_by_hand(folder) == 0 and RunFolder(folder).status == "finished"
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    err = caplog.text
+    caplog.clear()
+    summary = json.loads((folder / layout.SUMMARY).read_text())
+    assert summary["deck_edited"] is True and summary["run_steps"] == {"case": 100, "log": 50}
+    assert f"{folder}: {layout.DECK} was edited after it was written" in err
+    assert f"{folder}: the log ran 50 steps (0.5 ms), case.toml has 100 (1 ms)" in err
+    plain = deck(tmp_path, case, "plain")
+    assert run_by_hand(plain) == 0
+    assert main(["summarize", str(plain), "--no-figure"]) == 0
+    ran = run_case(case, tmp_path / "cli", figure=False)
+    assert marker.read(tmp_path / "cli")[marker.DECK_HASH] == marker.read(plain)[marker.DECK_HASH]
+    for summary in (json.loads((plain / layout.SUMMARY).read_text()), ran):
+        assert "deck_edited" not in summary and "run_steps" not in summary
+    assert "edited" not in caplog.text and "steps" not in caplog.text
+
+
+@lammps
+def test_summarize_again_keeps_the_wall_time_and_the_figure(tmp_path):
+    """A finished run summarized again with --no-figure keeps its wall time and its figure entry
+    (shock.png is still there and still of this run); once the log is newer (the deck run again
+    by hand), neither is claimed."""
+    folder = tmp_path / "r"
+    first = run_case(make_case(particles=40, duration=30.0), folder)
+    assert first["wall_time_s"] > 0 and first["files"]["figure"] == layout.FIGURE
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    again = json.loads((folder / layout.SUMMARY).read_text())
+    assert again["wall_time_s"] == first["wall_time_s"] and again["files"] == first["files"]
+    later = time.time() + 5
+    os.utime(folder / layout.LOG, (later, later))
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    rerun = json.loads((folder / layout.SUMMARY).read_text())
+    assert "wall_time_s" not in rerun and "figure" not in rerun["files"] and (folder / layout.FIGURE).exists()
