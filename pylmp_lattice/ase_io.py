@@ -23,6 +23,8 @@ from .trajectory import Trajectory
 UNITS = "mm, g, ms (velocity m/s, energy mJ): pylmp_lattice user units, not ASE's"
 # Element symbol of every magnet: ASE needs one; masses are set explicitly.
 SYMBOL = "X"
+# The files `write_trajectory` writes, by name ending: extended XYZ, ASE trajectory.
+FORMATS = {".extxyz": "extxyz", ".traj": "traj"}
 
 
 def to_atoms(traj: Trajectory, masses, every: int = 1) -> list:
@@ -51,10 +53,9 @@ def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1)
     from ase.io import write
 
     path = Path(path)
-    formats = {".extxyz": "extxyz", ".traj": "traj"}
-    if path.suffix not in formats:
-        raise ConfigError("export", f"got {path.name!r}; expected a file ending in {' or '.join(formats)}")
-    write(path, to_atoms(traj, masses, every), format=formats[path.suffix])
+    if path.suffix not in FORMATS:
+        raise ConfigError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
+    write(path, to_atoms(traj, masses, every), format=FORMATS[path.suffix])
     return path
 
 

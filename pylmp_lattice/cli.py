@@ -11,7 +11,9 @@ import dataclasses
 import gc
 import json
 import logging
+import os
 import re
+import shlex
 import signal
 import sys
 from pathlib import Path
@@ -107,13 +109,14 @@ def _parser() -> argparse.ArgumentParser:
 
     export = sub.add_parser("export", help="write a run's trajectory for ASE's GUI or OVITO (.extxyz or .traj)")
     export.add_argument("folder", type=Path, help="run folder")
-    export.add_argument("-o", "--output", type=Path, required=True, help="file ending in .extxyz or .traj")
+    export.add_argument("-o", "--output", type=_path, required=True, help="file ending in .extxyz or .traj")
     export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
+    export.add_argument("--overwrite", action="store_true", help="replace the file if it exists")
     export.set_defaults(func=_export)
 
     sweep = sub.add_parser("sweep", help="run every member of a sweep file (resumable); write DIR/results.csv")
     sweep.add_argument("sweep", type=Path, help="sweep file (TOML: base, [set], [grid], [zip], replicas, seed, keep)")
-    sweep.add_argument("-o", "--output", type=Path, required=True, help="sweep folder DIR")
+    sweep.add_argument("-o", "--output", type=_path, required=True, help="sweep folder DIR")
     sweep.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     sweep.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://HOST:PORT, instead of local workers")
     sweep.add_argument("--cluster", choices=("slurm", "pbs"),
@@ -128,7 +131,7 @@ def _parser() -> argparse.ArgumentParser:
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
     study.add_argument("name", choices=_study_names(), metavar="NAME",
                        help="one of: " + ", ".join(_study_names()))
-    study.add_argument("-o", "--output", type=Path, default=Path("runs/studies"), help="output folder (default: runs/studies)")
+    study.add_argument("-o", "--output", type=_path, default=Path("runs/studies"), help="output folder (default: runs/studies)")
     study.add_argument("--quick", action="store_true", help="a small version (fewer, shorter runs)")
     study.set_defaults(func=_study)
 
@@ -145,9 +148,16 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _path(text: str) -> Path:
+    """An -o argument: an empty one would be the working directory (Path("") is "."), never meant."""
+    if not text:
+        raise argparse.ArgumentTypeError("got an empty path; expected a file or folder name")
+    return Path(text)
+
+
 def _case_args(p):
     p.add_argument("case", type=Path, help="case file (TOML, user units mm, g, ms, N, m/s)")
-    p.add_argument("-o", "--output", type=Path,
+    p.add_argument("-o", "--output", type=_path,
                    help="run folder (default: runs/NAME, plus a short hash of the case when --set is used)")
     p.add_argument("--name", help="the run's name (the case's name, and the folder runs/NAME)")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -218,13 +228,17 @@ def _dry_run(case, folder: Path, args) -> int:
 
 
 def _deck(args) -> int:
+    from .preflight import check_writable
     from .run_folder import RunFolder
     from .run_folder.layout import DECK
 
     case, folder = _load(args)
+    check_writable(folder, "output")
     RunFolder.create(case, folder, overwrite=args.overwrite)
-    print(f"wrote {folder}/{DECK}; run it with: cd {folder} && lmp -in {DECK}; "
-          f"then: pylmp-lattice summarize {folder}")
+    # one line to paste: the subshell keeps the working directory, so the summarize path holds,
+    # and summarize runs after a stopped lmp too (it measures what was written)
+    where = shlex.quote(str(folder))
+    print(f"wrote {folder / DECK}; run it with: (cd {where} && lmp -in {DECK}); pylmp-lattice summarize {where}")
     return 0
 
 
@@ -241,17 +255,31 @@ def _summarize(args) -> int:
 
 
 def _export(args) -> int:
-    from .ase_io import write_trajectory
+    from .ase_io import FORMATS, write_trajectory
+    from .preflight import check_writable
     from .run_folder import RunFolder
 
+    out = args.output
     if args.every < 1:
         raise ConfigError("--every", f"got {args.every}; expected >= 1")
-    if not args.output.parent.is_dir():
-        raise ConfigError("--output", f"{args.output.parent} is not a folder; expected an existing folder")
+    if out.suffix not in FORMATS:  # here, before the temporary file's name would stand in the message
+        raise ConfigError("--output", f"got {out.name!r}; expected a file ending in {' or '.join(FORMATS)}")
+    if not out.parent.is_dir():
+        raise ConfigError("--output", f"{out.parent} is not a folder; expected an existing folder")
+    if out.is_dir() or (out.exists() and not args.overwrite):
+        raise ConfigError("--output", f"{out} is a folder; expected a file name" if out.is_dir() else
+                          f"{out} exists; pass --overwrite to replace it, or choose another -o")
+    check_writable(out.parent, "--output")
     run = RunFolder(args.folder)
     traj = run.trajectory()
-    path = write_trajectory(args.output, traj, run.case.chain.masses(), every=args.every)
-    print(f"wrote {path} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
+    # written beside it, then renamed: a failed or interrupted export leaves any old file whole
+    part = out.with_name(f".{out.stem}.{os.getpid()}.part{out.suffix}")
+    try:
+        write_trajectory(part, traj, run.case.chain.masses(), every=args.every)
+        os.replace(part, out)
+    finally:
+        Path(part).unlink(missing_ok=True)
+    print(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
 
@@ -302,9 +330,13 @@ def _study_names() -> list[str]:
 
 
 def _study(args) -> int:
+    from .preflight import check_writable
+    from .run_folder.layout import check_place
     from .studies import run_study
 
-    result = run_study(args.name, _folder(args.output), quick=args.quick)
+    check_place(args.output, "study")  # as a run's: never the working directory, a parent of it or runs/
+    check_writable(args.output, "output")
+    result = run_study(args.name, args.output, quick=args.quick)
     print(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 

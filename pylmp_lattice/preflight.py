@@ -14,6 +14,7 @@ import logging
 import math
 import os
 import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -283,6 +284,7 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
     for line in rank_warnings(case.chain.particles, nprocs):  # --np tells the truth
         log.warning(line)
     est = estimate(case, nprocs)
+    check_writable(folder, "output")  # else an unwritable place reads as a full disk (0 B free in /proc)
     disk, memory = free_disk(folder), available_memory()
     if est.output_bytes > disk or (memory is not None and est.memory_bytes > memory):
         free = f"{_size(disk)} free on disk" + (f", {_size(memory)} memory available" if memory is not None else "")
@@ -317,10 +319,30 @@ def coarse_dt_warning(case: Case) -> str | None:
 
 def free_disk(folder: str | Path) -> float:
     """Free bytes on the file system that holds (or will hold) `folder`."""
+    return float(shutil.disk_usage(_existing(folder)).free)
+
+
+def check_writable(folder: str | Path, field: str) -> None:
+    """ConfigError naming `field` unless a file can be made in `folder`, or, where it does not
+    exist yet, in its nearest existing parent (which makes it). Tried with an anonymous
+    temporary file, which leaves nothing behind: permission bits alone do not tell (root, /proc,
+    a read-only mount)."""
+    where = _existing(folder)
+    try:
+        with tempfile.TemporaryFile(dir=where):
+            pass
+    except OSError as err:
+        made = "" if where == Path(folder).resolve() else f" (to make {folder} there)"
+        raise ConfigError(field, f"cannot write in {where}{made}: {err.strerror}; "
+                                 "expected a folder you can write") from None
+
+
+def _existing(folder: str | Path) -> Path:
+    """`folder`, or its nearest parent that exists."""
     path = Path(folder).resolve()
     while not path.exists():
         path = path.parent
-    return float(shutil.disk_usage(path).free)
+    return path
 
 
 def available_memory() -> float | None:
