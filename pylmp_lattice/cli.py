@@ -334,7 +334,7 @@ def _study(args) -> int:
     from .run_folder.layout import check_place
     from .studies import run_study
 
-    check_place(args.output, "study")  # as a run's: never the working directory, a parent of it or runs/
+    check_place(_folder(args.output), "study")  # as a run's: never the working directory, a parent of it or runs/
     check_writable(args.output, "output")
     result = run_study(args.name, args.output, quick=args.quick)
     print(f"study {result.name}: wrote {args.output}/{result.name}.json")
