@@ -14,6 +14,7 @@ import json
 import logging
 import math
 import re
+import sys
 import tomllib
 import warnings
 from collections.abc import Iterator
@@ -306,8 +307,18 @@ class RunSettings:
             value = getattr(self, f.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"run.{f.name}", f"got {value!r} ms; expected > 0")
-        for name in ("duration", "output_interval", "check_interval"):
-            _steps(f"run.{name}", getattr(self, name), self.dt)
+        intervals = {name: getattr(self, name) for name in ("duration", "output_interval", "check_interval")}
+        # dt beyond every interval's bounds is the value at fault: named as such, with its range
+        shortest, longest = min(intervals, key=intervals.get), max(intervals, key=intervals.get)
+        if self.dt > intervals[shortest]:
+            raise ConfigError("run.dt", f"got {self.dt} ms; expected <= run.{shortest} = {intervals[shortest]} ms "
+                                        "(every interval of a run is a whole number of steps)")
+        if intervals[shortest] / self.dt > MAX_STEPS:
+            raise ConfigError("run.dt", f"got {self.dt} ms; expected >= {intervals[longest] / MAX_STEPS:.4g} ms "
+                              f"(run.{longest} = {intervals[longest]} ms in at most {MAX_STEPS} steps, LAMMPS's "
+                              "limit for one run)")
+        for name, interval in intervals.items():
+            _steps(f"run.{name}", interval, self.dt)
 
     def steps(self, name: str = "duration") -> int:
         """An interval of this run in time steps (validated to be a whole number)."""
@@ -443,6 +454,7 @@ class Case:
 
     def __post_init__(self):
         check_name(self.name)
+        _check_rest_stiffness(self.chain, self.force)  # before V0 sizes a long lattice
         if self.chain.particles is None:
             n = long_lattice_particles(self.chain, self.force, self.impactor, self.run.duration)
             object.__setattr__(self, "chain", replace(self.chain, particles=n))
@@ -595,6 +607,62 @@ class Case:
         return math.sqrt(lightest / k_max)
 
 
+def _check_rest_stiffness(chain: Chain, law: ForceLaw) -> None:
+    """Refuse (ConfigError naming chain.r0) nominal gaps where the law's stiffness k = -dF/dr is
+    not a finite normal number > 0: a chain at rest there carries no waves (V0 = r0 sqrt(k/m) is
+    0 or imaginary: unstable), so there is no shock to simulate, and V0 and the weak-shock
+    coefficient (`exact.weak_shock`), which size a long lattice and check the units, are undefined.
+    For the paper's law k evaluates to 0 beyond r0 = 1.158e77 mm, where (r0 + b)^4 overflows; a
+    Lennard-Jones or Morse chain stretched past its inflection point has k < 0. Gaps below the
+    smallest normal double (2.2e-308 mm) have too few digits to take a difference of (the weak
+    shock's F'')."""
+    r0 = np.atleast_1d(np.asarray(chain.r0, float))
+    gaps = np.append(r0, np.mean(r0))  # the mean: what the long lattice's size and the unit check use
+    if np.min(gaps) < sys.float_info.min:
+        raise ConfigError("chain.r0", f"got {np.min(gaps):g} mm; expected >= {sys.float_info.min:.4g} mm (the "
+                                      "smallest normal double: below it a gap has too few significant digits)")
+    with np.errstate(all="ignore"):
+        k = law.stiffness(gaps)
+    bad = ~((k >= sys.float_info.min) & (k < math.inf))
+    if not bad.any():
+        return
+    r, kr = float(gaps[bad][0]), float(k[bad][0])
+    where = _rest_range(law, r)
+    raise ConfigError("chain.r0", f"got {r:g} mm, where the {law.law} law's stiffness -dF/dr is {kr:g} N/mm; expected "
+                      "a gap where it is finite and > 0 (a chain at rest that carries waves)"
+                      + (f": {where} mm for this law" if where else "; no gap has it for this law's parameters"))
+
+
+def _rest_range(law: ForceLaw, r: float) -> str | None:
+    """The gaps (mm, normal doubles) nearest `r` where `law`'s stiffness is finite and > 0, as
+    text ("a to b", "up to b"), found on a grid of 10 points a decade refined to 4 digits; None if none."""
+    tiny = sys.float_info.min
+
+    def ok(x):
+        with np.errstate(all="ignore"):
+            k = law.stiffness(x)
+        return (k >= tiny) & (k < math.inf)
+
+    grid = np.geomspace(tiny, 1e308, 6160)  # 10 a decade
+    good = ok(grid)
+    if not good.any():
+        return None
+    nearest = int(np.flatnonzero(good)[np.argmin(np.abs(np.log(grid[good]) - math.log(max(r, tiny))))])
+    edges = np.flatnonzero(np.diff(good.astype(int)))  # the last index before each change
+    below, above = edges[edges < nearest], edges[edges >= nearest]
+
+    def edge(i):  # the boundary between grid[i] and grid[i + 1], to 1e-4 of a decade
+        fine = np.geomspace(grid[i], grid[i + 1], 1001)
+        hits = np.flatnonzero(ok(fine) == good[i + 1])
+        return float(fine[hits[0]] if good[i + 1] else fine[hits[0] - 1])
+
+    low = edge(below[-1]) if len(below) else None
+    high = edge(above[0]) if len(above) else None
+    if low is None:
+        return f"up to {high:.4g}" if high is not None else "any"
+    return f"{low:.4g} to {high:.4g}" if high is not None else f"from {low:.4g}"
+
+
 def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, duration: float) -> int:
     """N for a long lattice: the front must not reach the held end within `duration`.
 
@@ -634,28 +702,30 @@ def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
         return case_from_dict(data, base_dir=path.parent)
     except ConfigError as err:
         section = err.field.split(".")[0]
-        if section not in switched:
+        message = str(err)[len(err.field) + 2:]
+        if section not in switched or not message.startswith(("missing", "unknown key")):  # the keys afresh
             raise
-        raise ConfigError(err.field, f"{str(err)[len(err.field) + 2:]} (--set {section}.law={switched[section]} "
+        raise ConfigError(err.field, f"{message} (--set {section}.{switched[section]} "
                                      f"starts [{section}] afresh: give its fields with --set {section}.KEY=VALUE)") from None
 
 
-# A law's parameters belong to it: another law named with --set starts its section afresh.
-_LAW_SECTIONS = ("force", "second_neighbour")
+# A law's parameters belong to it, a profile's to it: another one named with --set starts its
+# section afresh. {section: (key, the default)}
+_KIND_KEYS = {"force": ("law", "power"), "second_neighbour": ("law", "power"), "impactor": ("profile", "constant")}
 
 
 def _switch_laws(data: dict, overrides: list[str]) -> dict[str, str]:
-    """Empty the sections whose law `overrides` switch to another than the file's, so that
-    the new law's fields come from `overrides` alone; {section: new law}."""
+    """Empty the sections whose law or profile `overrides` switch to another than the file's, so
+    that the new one's fields come from `overrides` alone; {section: "KEY=new value"}."""
     given = {}
     for item in overrides:
         apply_override(given, item)
     switched = {}
-    for section in _LAW_SECTIONS:
-        new = given.get(section, {}).get("law")
-        if section in data and new is not None and new != data[section].get("law", "power"):
+    for section, (key, default) in _KIND_KEYS.items():
+        new = given.get(section, {}).get(key)
+        if section in data and new is not None and new != data[section].get(key, default):
             data[section] = {}
-            switched[section] = new
+            switched[section] = f"{key}={new}"
     return switched
 
 
@@ -845,7 +915,7 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
     if missing:
-        raise ConfigError(f"{section}.{missing[0]}", "missing")
+        raise ConfigError(f"{section}.{missing[0]}", "missing" + (f"; or give {section}.{other_keys[0]}" if other_keys else ""))
     try:
         return cls(**converted)
     except (TypeError, ValueError) as err:
@@ -885,7 +955,8 @@ def _key(key: str) -> str:
 
 
 def _read_columns(path: Path, field: str, columns: str):
-    """Two numeric columns of a CSV file ('#' comments) as two tuples.
+    """Two numeric columns of a CSV file as two tuples; lines starting with '#' are comments (a
+    header line too: a first line of text is refused, never guessed to be a header).
 
     Errors name the file and the row, never its text: a data file may be anything."""
     if not path.is_file():
@@ -898,9 +969,10 @@ def _read_columns(path: Path, field: str, columns: str):
         raise ConfigError(field, f"{path.name}: cannot read ({err.strerror})") from err
     except ValueError as err:  # UnicodeDecodeError included; numpy's message quotes the text
         where = re.search(r"at row (\d+), column (\d+)", str(err))  # numpy: data rows from 0, columns from 1
+        note = "a header line must start with '#'" if where and where[1] == "0" else "'#' comment lines not counted"
         raise ConfigError(field, f"{path.name}: expected two numeric columns {columns}, comma-separated"
-                                 + (f" (not a number in data row {int(where[1]) + 1}, column {where[2]};"
-                                    " comment lines not counted)" if where else "")) from err
+                                 + (f"; not a number in data row {int(where[1]) + 1}, column {where[2]} ({note})"
+                                    if where else "")) from err
     if table.shape[1] != 2 or len(table) == 0:
         columns_got = table.shape[1] if len(table) else 0
         raise ConfigError(field, f"{path.name}: got {columns_got} columns; expected 2 ({columns})")

@@ -216,7 +216,78 @@ def test_non_csv_data_file_is_not_echoed(tmp_path):
         _measured_case(tmp_path, "notes.txt")
     assert "hunter2" not in str(info.value) and "password" not in str(info.value)
     assert str(info.value).startswith("impactor.file: notes.txt: expected two numeric columns")
-    assert "(not a number in data row 1, column 1; comment lines not counted)" in str(info.value)
+    assert "; not a number in data row 1, column 1 (a header line must start with '#')" in str(info.value)
+
+
+def test_data_file_header_must_be_a_comment(tmp_path):
+    """A header row of text is refused with the rule (never guessed to be a header); as a '#'
+    line it is a comment; a bad later row is counted without the comment lines."""
+    rows = "".join(f"{t},{0.5 * t}\n" for t in range(6))
+    (tmp_path / "plain.csv").write_text("t_ms,u_mm\n" + rows)
+    (tmp_path / "commented.csv").write_text("# t_ms,u_mm\n" + rows)
+    (tmp_path / "bad.csv").write_text("# t_ms,u_mm\n" + rows.replace("2,1.0", "2,x"))
+    with pytest.raises(ConfigError, match=r"^impactor\.file: plain\.csv: expected two numeric columns .*; not a "
+                                          r"number in data row 1, column 1 \(a header line must start with '#'\)$"):
+        _measured_case(tmp_path, "plain.csv")
+    assert _measured_case(tmp_path, "commented.csv").impactor.values == (0, 0.5, 1, 1.5, 2, 2.5)
+    with pytest.raises(ConfigError, match=r"data row 3, column 2 \('#' comment lines not counted\)$"):
+        _measured_case(tmp_path, "bad.csv")
+
+
+@pytest.mark.parametrize("r0, law, expected", [
+    # the paper's law: k = 3 K / (r0 + b)^4 is 0 in doubles once (r0 + b)^4 overflows, r0 > 1.158e77 mm
+    (1e100, {}, r"got 1e\+100 mm, where the power law's stiffness -dF/dr is 0 N/mm; .*: up to 1\.158e\+77 mm"),
+    (1e78, {}, r"up to 1\.158e\+77 mm for this law$"),
+    # Lennard-Jones beyond its inflection point (26/7)^(1/6) sigma = 6.222 mm: k < 0, an unstable chain
+    (12.0, {"law": "lj", "epsilon": 1.0, "sigma": 5.0}, r"stiffness -dF/dr is -0\.005986\d* N/mm; .* to 6\.222 mm"),
+    # Morse beyond r_e + ln 2 / alpha = 5.693 mm
+    (12.0, {"law": "morse", "D": 1.0, "alpha": 1.0, "r_e": 5.0}, r"up to 5\.69\d mm for this law$"),
+    (1e-320, {}, r"got 9\.99989e-321 mm; expected >= 2\.225e-308 mm \(the smallest normal double"),
+])
+def test_gap_where_the_chain_carries_no_waves_is_refused(r0, law, expected):
+    """Issue of the trial (item 3): a gap where the law's stiffness at rest is 0 in doubles made
+    exact.weak_shock divide by zero (a traceback). Refused by name with the law's range."""
+    sections = {"force": law} if law else {}
+    for far_end in ("fixed", "long"):  # a long lattice takes V0 first, to size itself
+        with pytest.raises(ConfigError, match=expected) as info:
+            make_case(chain={"r0": r0, "far_end": far_end}, **sections)
+        assert info.value.field == "chain.r0"
+
+
+def test_stiffness_that_underflows_everywhere_names_no_range():
+    with pytest.raises(ConfigError, match=r"^chain\.r0: got 12 mm, .* is 0 N/mm; .*; no gap has it for this law's "
+                                          r"parameters$"):
+        make_case(force={"law": "power", "K": 1e-320, "b": 3.917, "q": 3.0})
+
+
+@pytest.mark.parametrize("run, field, expected", [
+    ({"dt": 1e-300}, "run.dt", r"got 1e-300 ms; expected >= 2\.328e-08 ms \(run\.duration = 50\.0 ms in at most "
+                               r"2147483647 steps"),
+    ({"dt": 10.0}, "run.dt", r"got 10\.0 ms; expected <= run\.output_interval = 0\.1 ms"),
+    ({"duration": 1e12}, "run.duration", r"expected at most 2147483647 steps of run\.dt = 0\.01 ms"),
+    ({"dt": 0.03}, "run.duration", r"expected a whole multiple of run\.dt = 0\.03 ms"),
+])
+def test_time_step_errors_name_the_value_at_fault(run, field, expected):
+    """A time step beyond the bounds of every interval is named (trial item 7: run.dt = 1e-300
+    named run.duration, run.dt = 10 named run.output_interval)."""
+    with pytest.raises(ConfigError, match=expected) as info:
+        make_case(run=run)
+    assert info.value.field == field
+
+
+def test_another_impactor_profile_starts_its_section_afresh(tmp_path):
+    """As --set force.law=..., --set impactor.profile=... drops the file's [impactor] keys, and
+    an error about its keys says so (trial item 7: "impactor.velocity: unknown key")."""
+    path = tmp_path / "c.toml"
+    path.write_bytes(tomli_w.dumps(case_to_dict(make_case(impactor={"profile": "sine", "velocity": 2.0,
+                                                                       "duration": 40.0}))).encode())
+    with pytest.raises(ConfigError, match=r"^impactor\.t: missing; or give impactor\.file \(--set "
+                                          r"impactor\.profile=measured starts \[impactor\] afresh"):
+        load_case(path, ["impactor.profile=measured"])
+    with pytest.raises(ConfigError, match=r"^impactor\.velocity: missing \(--set impactor\.profile=constant starts"):
+        load_case(path, ["impactor.profile=constant"])
+    assert load_case(path, ["impactor.profile=constant", "impactor.velocity=1.5"]).impactor.velocity == 1.5
+    assert load_case(path, ["impactor.profile=sine", "impactor.velocity=1.5"]).impactor.duration == 40.0
 
 
 @pytest.mark.parametrize("chain", [
