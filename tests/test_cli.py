@@ -182,3 +182,73 @@ def test_export_of_a_folder_without_a_trajectory_is_one_line_and_exit_2(tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "holds no chain trajectory (status written" in err[0]
     assert not (tmp_path / "f.extxyz").exists()
+
+
+@pytest.mark.lammps
+def test_export_replaces_a_file_only_with_overwrite(tmp_path, monkeypatch, capsys):
+    """Like run and deck: an existing file stays unless --overwrite (trial 2, item 4), and the
+    replacement goes through a temporary file that is renamed (none left behind)."""
+    monkeypatch.chdir(tmp_path)
+    case = write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0))
+    assert main(["run", str(case), "-o", "r", "--quiet"]) == 0
+    Path("notes.extxyz").write_text("notes\n")
+    capsys.readouterr()
+    assert main(["export", "r", "-o", "notes.extxyz"]) == 2
+    err = capsys.readouterr().err
+    assert err == "pylmp-lattice: error: --output: notes.extxyz exists; pass --overwrite to replace it, or choose another -o\n"
+    assert Path("notes.extxyz").read_text() == "notes\n"
+    assert main(["export", "r", "-o", "notes.extxyz", "--overwrite"]) == 0
+    assert Path("notes.extxyz").read_text().startswith("12\n")  # extxyz: the atom count, then a frame
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "notes.extxyz", "r"]
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs /proc, where nothing can be made")
+def test_unwritable_output_is_named_not_taken_for_a_full_disk(tmp_path, monkeypatch, capsys):
+    """/proc has 0 B free and takes no files: each command says it cannot write there, naming
+    the output, exit 2, before any work (trial 2, items 4 and 6: 'too large ... 0 B free', or a
+    '[Errno 2]' with exit 1)."""
+    monkeypatch.chdir(tmp_path)
+    case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
+    for argv, field in ((["run", case, "-o", "/proc/x"], "output"), (["run", case, "-o", "/proc/x", "--dry-run"], None),
+                        (["deck", case, "-o", "/proc/x"], "output"), (["study", "fig3", "--quick", "-o", "/proc/x"], "output"),
+                        (["export", "r", "-o", "/proc/x.extxyz"], "--output")):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "Traceback" not in err and "free on disk" not in err and err.count("\n") == 1, err
+        assert ("pylmp-lattice: error: " if field else "refused: ") + f"{field or 'output'}: cannot write in /proc" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml"]
+
+
+def test_empty_output_is_refused(tmp_path, monkeypatch, capsys):
+    """-o "" is Path("."), the working directory: refused by every command (trial 2, item 6:
+    study wrote into the working directory)."""
+    monkeypatch.chdir(tmp_path)
+    case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
+    for argv in (["run", case, "-o", ""], ["deck", case, "-o", ""], ["study", "fig2", "--quick", "-o", ""],
+                 ["export", "r", "-o", ""]):
+        with pytest.raises(SystemExit) as done:
+            main(argv)
+        assert done.value.code == 2
+        assert "error: argument -o/--output: got an empty path; expected a file or folder name" in capsys.readouterr().err
+    assert main(["study", "fig2", "--quick", "-o", "."]) == 2
+    assert "output: got '.': the working directory" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml"]
+
+
+def test_deck_hint_is_one_line_to_paste(tmp_path, monkeypatch, capsys):
+    """The hint runs as printed in a shell, with a folder whose name has a space and a quote:
+    lmp in the folder, then summarize from where it was typed (trial 2, item 12)."""
+    monkeypatch.chdir(tmp_path)
+    case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
+    folder = "decks/it's a deck"
+    assert main(["deck", case, "-o", folder]) == 0
+    line = capsys.readouterr().out.strip()
+    command = line.split("; run it with: ", 1)[1]
+    stubs = tmp_path / "bin"  # lmp and pylmp-lattice that record where they ran and with what
+    stubs.mkdir()
+    for name in ("lmp", "pylmp-lattice"):
+        (stubs / name).write_text(f'#!/bin/sh\necho "{name} $(pwd) $*" >> "{tmp_path}/calls"\n')
+        (stubs / name).chmod(0o755)
+    subprocess.run(["bash", "-c", command], check=True, env={"PATH": f"{stubs}:/usr/bin:/bin"})
+    assert (tmp_path / "calls").read_text().splitlines() == [
+        f"lmp {tmp_path / folder} -in in.lattice", f"pylmp-lattice {tmp_path} summarize {folder}"]
