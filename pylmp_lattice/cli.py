@@ -291,10 +291,12 @@ def _sweep(args) -> int:
             start_forkserver()
         from .sweep import load_sweep, run_sweep
         from .sweep.cluster import sweep_workers
+        from .preflight import check_writable
         from .sweep.execute import check_folder
 
         sweep = load_sweep(args.sweep)
         check_folder(_folder(args.output))  # before the cluster's jobs write into it
+        check_writable(args.output, "output")
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
                               overwrite=args.overwrite, yes=args.yes, **where)

@@ -211,12 +211,18 @@ def test_unwritable_output_is_named_not_taken_for_a_full_disk(tmp_path, monkeypa
     case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
     for argv, field in ((["run", case, "-o", "/proc/x"], "output"), (["run", case, "-o", "/proc/x", "--dry-run"], None),
                         (["deck", case, "-o", "/proc/x"], "output"), (["study", "fig3", "--quick", "-o", "/proc/x"], "output"),
-                        (["export", "r", "-o", "/proc/x.extxyz"], "--output")):
+                        (["export", "r", "-o", "/proc/x.extxyz"], "--output"),
+                        (["sweep", str(write_sweep(tmp_path / "s.toml")), "-o", "/proc/x"], "output")):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert "Traceback" not in err and "free on disk" not in err and err.count("\n") == 1, err
         assert ("pylmp-lattice: error: " if field else "refused: ") + f"{field or 'output'}: cannot write in /proc" in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "s.toml"]
+
+
+def write_sweep(path: Path) -> Path:
+    path.write_bytes(tomli_w.dumps({"base": "case.toml"}).encode())
+    return path
 
 
 def test_empty_output_is_refused(tmp_path, monkeypatch, capsys):
