@@ -616,17 +616,19 @@ def _check_rest_stiffness(chain: Chain, law: ForceLaw) -> None:
     Lennard-Jones or Morse chain stretched past its inflection point has k < 0. Gaps below the
     smallest normal double (2.2e-308 mm) have too few digits to take a difference of (the weak
     shock's F'')."""
-    r0 = np.atleast_1d(np.asarray(chain.r0, float))
-    gaps = np.append(r0, np.mean(r0))  # the mean: what the long lattice's size and the unit check use
-    if np.min(gaps) < sys.float_info.min:
-        raise ConfigError("chain.r0", f"got {np.min(gaps):g} mm; expected >= {sys.float_info.min:.4g} mm (the "
-                                      "smallest normal double: below it a gap has too few significant digits)")
+    tiny = sys.float_info.min
+    # each gap given, and their mean: what the long lattice's size and the unit check use (plain
+    # floats: a sweep builds a case per member)
+    gaps = [float(chain.r0)] if np.isscalar(chain.r0) else [*map(float, chain.r0), float(np.mean(chain.r0))]
+    if min(gaps) < tiny:
+        raise ConfigError("chain.r0", f"got {min(gaps):g} mm; expected >= {tiny:.4g} mm (the smallest normal "
+                                      "double: below it a gap has too few significant digits)")
     with np.errstate(all="ignore"):
-        k = law.stiffness(gaps)
-    bad = ~((k >= sys.float_info.min) & (k < math.inf))
-    if not bad.any():
+        k = law.stiffness(gaps).tolist()
+    bad = [(r, kr) for r, kr in zip(gaps, k) if not tiny <= kr < math.inf]
+    if not bad:
         return
-    r, kr = float(gaps[bad][0]), float(k[bad][0])
+    r, kr = bad[0]
     where = _rest_range(law, r)
     raise ConfigError("chain.r0", f"got {r:g} mm, where the {law.law} law's stiffness -dF/dr is {kr:g} N/mm; expected "
                       "a gap where it is finite and > 0 (a chain at rest that carries waves)"

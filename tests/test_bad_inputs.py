@@ -107,7 +107,11 @@ FIELD_MUTATIONS = [
     (_set("chain.particles", 2**63 - 1), "chain.particles"),
     (_set("run.duration", 1e300), "run.duration"),
     (_set("run.duration", 1e12), "run.duration"),
-    (_set("run.dt", 1e-300), "run.duration"),  # more steps than LAMMPS runs at once
+    (_set("run.dt", 1e-300), "run.dt"),  # more steps than LAMMPS runs at once: the step at fault, not the duration
+    (_set("run.dt", 10.0), "run.dt"),  # longer than run.output_interval
+    (_set("chain.r0", 1e100), "chain.r0"),  # the law's stiffness there is 0 in doubles: was a ZeroDivisionError
+    (_set("chain.r0", 1e-320), "chain.r0"),  # below the normal doubles
+    (_set("force.K", 1e-320), "chain.r0"),  # no gap where the stiffness is > 0
     (_set("table.points", 10**12), "table.points"),
     (_set("chain.mass_disorder", 1e300), "chain.seed"),
     (_set("chain.defect_index", 10**18), "chain.defect_index"),
