@@ -278,7 +278,7 @@ def _export(args) -> int:
         write_trajectory(part, traj, run.case.chain.masses(), every=args.every)
         os.replace(part, out)
     finally:
-        Path(part).unlink(missing_ok=True)
+        part.unlink(missing_ok=True)
     print(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
@@ -289,9 +289,9 @@ def _sweep(args) -> int:
             from .sweep.pool import start_forkserver
 
             start_forkserver()
+        from .preflight import check_writable
         from .sweep import load_sweep, run_sweep
         from .sweep.cluster import sweep_workers
-        from .preflight import check_writable
         from .sweep.execute import check_folder
 
         sweep = load_sweep(args.sweep)

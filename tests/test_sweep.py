@@ -158,7 +158,7 @@ def test_sweep_from_python_accepts_a_case(case_factory):
          "grid.chain.seed: with replicas = 2, every replica would have this seed"),
         ('base = "base.toml"\n[set]\n"impactor.velocity" = -1.0\n[grid]\n"run.duration" = [10.0, 20.0]\n',
          "set.impactor.velocity: got -1.0 m/s; expected > 0"),
-        ('base = "base.toml"\n[set]\n"run.dt" = 0.3\n', "set: makes the base case invalid (run.duration: got 10.0 ms"),
+        ('base = "base.toml"\n[set]\n"run.dt" = 0.03\n', "set: makes the base case invalid (run.duration: got 10.0 ms"),
         # two values for one field in one member: one would be dropped silently
         ('base = "base.toml"\n[grid]\nfriction = [{mu = 0.1, p = 0.0, g = 9.81}]\n"friction.mu" = [0.2, 0.3]\n',
          "grid.friction.mu: also swept as grid.friction; a field can be swept once"),
