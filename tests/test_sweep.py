@@ -745,12 +745,15 @@ def _sleep_after_marking(path: str) -> str:
 def test_a_process_pool_the_caller_gave_gets_the_first_stop_as_sigint(tmp_path):
     """Local pools are told through their stop pipe; a caller's ProcessPoolExecutor has none, so
     its workers get SIGINT (their members stop at the engine's next step), not a kill later."""
+    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     from pylmp_lattice.sweep.pool import Pool
 
     marker = tmp_path / "started"
-    with ProcessPoolExecutor(1) as executor:
+    # spawned, not forked from this process: a fork would inherit its signal handlers and MPI
+    # state (a forked child that exits can break this process's later LAMMPS instances)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as executor:
         future = executor.submit(_sleep_after_marking, str(marker))
         deadline = time.monotonic() + 30
         while not marker.exists():
