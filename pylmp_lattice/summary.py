@@ -9,6 +9,7 @@ magnet 1 counts from the start, also before a pulse's peak marks its arrival).""
 from __future__ import annotations
 
 import logging
+import math
 import warnings
 
 import numpy as np
@@ -153,6 +154,6 @@ def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
 def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
     """x to `decimals` decimals, or more where that would keep fewer than `significant` figures:
     a small number (a drift's standard error of 1e-6) stays a number, not 0."""
-    if not np.isfinite(x) or x == 0:
+    if not math.isfinite(x) or x == 0:  # math, not numpy: a summary rounds some 20 numbers per member
         return round(x, decimals)
-    return round(x, max(decimals, significant - 1 - int(np.floor(np.log10(abs(x))))))
+    return round(x, max(decimals, significant - 1 - math.floor(math.log10(abs(x)))))
