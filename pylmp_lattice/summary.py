@@ -154,6 +154,7 @@ def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
 def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
     """x to `decimals` decimals, or more where that would keep fewer than `significant` figures:
     a small number (a drift's standard error of 1e-6) stays a number, not 0."""
+    x = float(x)  # numpy's round of an np.float64 multiplies by 10**n: a subnormal becomes NaN
     if not math.isfinite(x) or x == 0:  # math, not numpy: a summary rounds some 20 numbers per member
         return round(x, decimals)
     return round(x, max(decimals, significant - 1 - math.floor(math.log10(abs(x)))))

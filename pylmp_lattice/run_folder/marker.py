@@ -31,9 +31,14 @@ WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
     "written", "running", "finished", "interrupted", "contact", "failed")
 # run.json's hash of the deck as written (`deck_hash`): kept by every later record of the folder.
 DECK_HASH = "deck_sha256"
-# Seconds a hand-run log that has not ended must stay unchanged to count as no longer written,
-# where the processes holding it cannot be seen (no readable /proc: not Linux); see `being_written`.
+# Seconds a hand-run log that has not ended, and the dumps beside it, must stay unchanged to count
+# as no longer written (`being_written`): /proc can show a writer, never that none exists (one of
+# another user, or on another machine writing a shared folder).
 QUIET = 30.0
+# Seconds they must stay unchanged before anything destroys files of such an "interrupted" run
+# (converting its dumps, --overwrite: `settled`): a writer /proc cannot see may write a frame
+# only every few minutes.
+SETTLED = 600.0
 
 
 def deck_hash(text: str) -> str:
@@ -117,31 +122,49 @@ def status(folder: Path) -> str:
         return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
     error = lammps_error(text)
     if not log_ended(text) and error is None:
-        return RUNNING if being_written(folder / layout.LOG) else INTERRUPTED
+        if being_written(folder):
+            return RUNNING
+        text = log_text(folder) or text  # it may have ended while we looked
+        if not log_ended(text):
+            return INTERRUPTED
+        error = lammps_error(text)
     return CONTACT if find_contact(text) else FAILED if error else FINISHED
 
 
-def being_written(path: Path) -> bool:
-    """Whether a process may still write the file `path` (a log that has not ended).
+def being_written(folder: Path) -> bool:
+    """Whether a process may still write the run in `folder` (its log has not ended): a process
+    of this machine holds the log open for writing (Linux's /proc/*/fd, as `lsof` does: at once,
+    where a file's age is not, LAMMPS flushing its log at each thermo row only), or the log or a
+    dump changed in the last QUIET seconds (what /proc cannot see: a process of another user,
+    LAMMPS on another machine writing a shared folder, a system without /proc)."""
+    return bool(_open_for_writing(folder / layout.LOG)) or _changed_within(folder, QUIET)
 
-    On Linux: whether a process of this machine holds it open for writing, by /proc/*/fd (as
-    `lsof` does). That is exact at once, where the file's age is not: LAMMPS flushes its log at
-    each thermo row only, minutes apart in a long run. What /proc cannot show counts as no
-    writer: a process of another user, or LAMMPS on another machine writing a shared folder.
-    Where /proc cannot be read (not Linux): whether the file changed in the last QUIET seconds."""
-    writing = _open_for_writing(path)
-    if writing is not None:
-        return writing
-    try:
-        return time.time() - path.stat().st_mtime < QUIET
-    except FileNotFoundError:
+
+def settled(folder: Path) -> bool:
+    """Whether the folder's files may be destroyed (its dumps converted, the folder overwritten):
+    not while it is "running"; for a run "interrupted" by inference (a hand run's log without an
+    end, no writer seen), only once its log and dumps stayed unchanged for SETTLED seconds; a
+    runner of this package records its own end, which stands."""
+    state = status(folder)
+    if state == RUNNING:
         return False
+    inferred = (read(folder) or {}).get("state", WRITTEN) in (WRITTEN, RUNNING)
+    return not (state == INTERRUPTED and inferred and _changed_within(folder, SETTLED))
+
+
+def _changed_within(folder: Path, seconds: float) -> bool:
+    now = time.time()
+    for name in (layout.LOG, *layout.BINARY_GROUPS.values()):
+        with suppress(FileNotFoundError):
+            if now - (folder / name).stat().st_mtime < seconds:
+                return True
+    return False
 
 
 def _open_for_writing(path: Path) -> bool | None:
     """Whether a process holds `path` open for writing, by /proc; None if /proc cannot tell."""
     try:
-        target = path.stat()
+        real = os.path.realpath(path)
         os.listdir("/proc/self/fd")
     except OSError:
         return None
@@ -152,8 +175,8 @@ def _open_for_writing(path: Path) -> bool | None:
             continue
         for name in names:
             with suppress(OSError):
-                st = os.stat(fds / name)  # the open file itself, wherever its path leads
-                if (st.st_ino, st.st_dev) == (target.st_ino, target.st_dev) and _writes(fds.parent / "fdinfo" / name):
+                # the link's text, no stat: a file on a hung network mount must not block the look
+                if os.readlink(fds / name) == real and _writes(fds.parent / "fdinfo" / name):
                     return True
     return False
 

@@ -61,6 +61,10 @@ def check_target(path: Path, overwrite: bool) -> bool:
                                         "replace it, or choose another --name or -o")
         if marker.status(path) == marker.RUNNING:
             raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
+        if not marker.settled(path):
+            raise ConfigError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
+                                        "LAMMPS this machine cannot see may still write; wait, or remove the folder "
+                                        "yourself")
         odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_file()]
         if odd:  # checked before anything is removed: an overwrite never stops half-way
             raise ConfigError("output", f"{path / odd[0]} is not a file; a run writes a file there")
