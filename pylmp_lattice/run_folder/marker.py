@@ -140,12 +140,13 @@ def being_written(folder: Path) -> bool:
     return bool(_open_for_writing(folder / layout.LOG)) or _changed_within(folder, QUIET)
 
 
-def settled(folder: Path) -> bool:
+def settled(folder: Path, state: str | None = None) -> bool:
     """Whether the folder's files may be destroyed (its dumps converted, the folder overwritten):
     not while it is "running"; for a run "interrupted" by inference (a hand run's log without an
     end, no writer seen), only once its log and dumps stayed unchanged for SETTLED seconds; a
-    runner of this package records its own end, which stands."""
-    state = status(folder)
+    runner of this package records its own end, which stands. `state`: its `status`, if known
+    (each look scans /proc)."""
+    state = status(folder) if state is None else state
     if state == RUNNING:
         return False
     inferred = (read(folder) or {}).get("state", WRITTEN) in (WRITTEN, RUNNING)

@@ -59,9 +59,10 @@ def check_target(path: Path, overwrite: bool) -> bool:
         if not overwrite:
             raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
                                         "replace it, or choose another --name or -o")
-        if marker.status(path) == marker.RUNNING:
+        state = marker.status(path)
+        if state == marker.RUNNING:
             raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
-        if not marker.settled(path):
+        if not marker.settled(path, state):
             raise ConfigError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
                                         "LAMMPS this machine cannot see may still write; wait, or remove the folder "
                                         "yourself")
