@@ -8,7 +8,7 @@ that does it (wall time, perf_counter):
     cases      spec.member_cases: the members' cases (a point's replicas share its first)
     render     deck.render_replicas: the deck, the chains' data file and levels
     engine     runner.run_deck: LAMMPS (its own Loop time from log.lammps beside it)
-    record     front_record.read_front_batch: the front record and the drive's measures
+    record     case_measures.read_front_batch: the front record and the drive's measures
     summaries  summary.summaries: every member's summary
     store      store.write_batch: members.json
     other      the task's wall time minus all of the above (folders, files, bookkeeping)
@@ -35,14 +35,14 @@ from pathlib import Path
 
 import tomli_w
 
-from pylmp_lattice import deck, front_record, runner, summary
+from pylmp_lattice import case_measures, deck, runner, summary
 from pylmp_lattice.sweep import batch, load_sweep, store
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = ROOT / "inputs" / "paper_experiment.toml"
 # (label, module, attribute): the functions timed, where the task looks them up
 STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"), ("engine", runner, "run_deck"),
-          ("record", front_record, "read_front_batch"), ("summaries", summary, "summaries"),
+          ("record", case_measures, "read_front_batch"), ("summaries", summary, "summaries"),
           ("store", batch, "write_batch")]
 
 

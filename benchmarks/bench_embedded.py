@@ -19,7 +19,7 @@ from pathlib import Path
 from pylmp_lattice.case import load_case
 from pylmp_lattice.engine import new_lammps
 from pylmp_lattice.run_folder import RunFolder
-from pylmp_lattice.run_folder.layout import DECK, DIR_VARIABLE, LOG
+from pylmp_lattice.formats.layout import DECK, DIR_VARIABLE, LOG
 from pylmp_lattice.runner import run_embedded
 
 CASE = Path(__file__).parent.parent / "inputs" / "paper_long_lattice.toml"

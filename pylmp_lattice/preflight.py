@@ -24,7 +24,7 @@ from .case import Case
 from .errors import ConfigError
 from .deck import per_atom_masses, records_front, uses_chain_engine
 from .exact import weak_shock
-from .run_folder.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
+from .formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from .summary import linear_chain
 from .ranks import rank_warnings
 from .table import bond_table

@@ -1,6 +1,6 @@
 """The one layer that talks to LAMMPS: run a run folder's deck, report failures.
 
-Two runners produce the same files in the folder (see `run_folder.layout`): `run_embedded` (the
+Two runners produce the same files in the folder (see `formats.layout`): `run_embedded` (the
 LAMMPS Python module, in this process; the default) and `run_executable` (the `lmp` program,
 optionally under `mpiexec`). Writing the folder is `run_folder.write`'s job, reading it back `RunFolder`'s.
 
@@ -12,7 +12,7 @@ LAMMPS closes its dump and log itself. `lmp` runs in its own process group, to w
 signal is forwarded once, and dies with its parent (a parent-death signal).
 
 A run leaves the calling process as it found it: no change of working directory (the deck
-finds its files through the `dir` variable, see `run_folder.layout`) and no redirection of the
+finds its files through the `dir` variable, see `formats.layout`) and no redirection of the
 process's streams (LAMMPS's screen output goes to its own handle on stderr, or nowhere).
 """
 
@@ -32,10 +32,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from .dump import find_contact
+from .formats.dump import find_contact
 from .engine import ONE_INSTANCE, new_lammps
 from .errors import ContactError, DumpFormatError, Interrupted, RunError
-from .run_folder.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
+from .formats.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -216,7 +216,7 @@ def _last_thermo(folder: Path) -> tuple[int, float | None]:
 def _last_frame_time(folder: Path) -> float | None:
     """Time (s) of the last complete frame of the binary trajectory, if there is one: a killed
     `lmp` prints thermo rows only every 1/20 of the run, but writes frames to the end."""
-    from .bindump import open_dump
+    from .formats.bindump import open_dump
 
     path = folder / TRAJ_BIN
     with contextlib.suppress(FileNotFoundError, DumpFormatError):  # the signal's report comes first

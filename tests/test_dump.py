@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from pylmp_lattice.dump import DUMP_COLUMNS, READERS, read_dump, read_log, trajectory_from_dump
+from pylmp_lattice.formats.dump import DUMP_COLUMNS, READERS, read_dump, read_log, trajectory_from_dump
 from pylmp_lattice.errors import DumpFormatError
 
 N_ATOMS, SPACING, MASS = 10, 0.01, 0.002  # m, kg

@@ -7,16 +7,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pylmp_lattice.bindump import open_dump
+from pylmp_lattice.formats.bindump import open_dump
 from pylmp_lattice.case import case_from_dict, case_to_dict
 from pylmp_lattice.deck import render_replicas
-from pylmp_lattice.run_folder.layout import DATA
+from pylmp_lattice.formats.layout import DATA
 from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
 from pylmp_lattice.piston import SinePulse
-from pylmp_lattice.dump import read_dump, trajectory_from_dump
+from pylmp_lattice.formats.dump import read_dump, trajectory_from_dump
 from pylmp_lattice.runner import run_deck, run_embedded
-from pylmp_lattice.front_record import read_front_record
+from pylmp_lattice.case_measures import read_front_record
 from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
 
 from conftest import make_case

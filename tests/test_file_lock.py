@@ -13,7 +13,8 @@ import pytest
 
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.file_lock import Held, exclusive, is_held
-from pylmp_lattice.run_folder import layout, marker, write_folder
+from pylmp_lattice.formats import layout
+from pylmp_lattice.run_folder import marker, write_folder
 
 from conftest import held_elsewhere, make_case
 

@@ -12,7 +12,7 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
-from pylmp_lattice.dump import read_log
+from pylmp_lattice.formats.dump import read_log
 from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case

@@ -21,7 +21,8 @@ import tomli_w
 from pylmp_lattice import measures
 from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
-from pylmp_lattice.run_folder import RunFolder, layout, marker, run_case
+from pylmp_lattice.formats import layout
+from pylmp_lattice.run_folder import RunFolder, marker, run_case
 from pylmp_lattice.run_folder.marker import _open_for_writing
 
 from conftest import make_case

@@ -20,7 +20,7 @@ from pylmp_lattice.ase_io import case_from_atoms, to_atoms
 from pylmp_lattice.case import load_case, unit_warnings
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.forcelaw import LinearSpring
-from pylmp_lattice.h5md import read_group, read_observables
+from pylmp_lattice.formats.h5md import read_group, read_observables
 from pylmp_lattice.run_folder import RunFolder, simulate
 from pylmp_lattice.trajectory import Trajectory
 

@@ -10,12 +10,11 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.case_levels import chain_noise, chain_noises
+from pylmp_lattice.case_measures import case_front, chain_noise, chain_noises, read_front_record
 from pylmp_lattice.deck import render
-from pylmp_lattice.front_record import case_front, read_front_record
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.run_folder import simulate
-from pylmp_lattice.run_folder.layout import FRONT_BIN
+from pylmp_lattice.formats.layout import FRONT_BIN
 from pylmp_lattice.summary import summarize
 
 from conftest import make_case

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from pylmp_lattice import measures
-from pylmp_lattice.bindump import open_dump
+from pylmp_lattice.formats.bindump import open_dump
 from pylmp_lattice.errors import ConfigError, RunError
-from pylmp_lattice.front_record import read_front_record
+from pylmp_lattice.case_measures import read_front_record
 from pylmp_lattice.run_folder import RunFolder, execute, run_case, simulate
 
 from conftest import make_case

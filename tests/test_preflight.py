@@ -18,7 +18,7 @@ from pylmp_lattice import deck, preflight
 from pylmp_lattice.case import Chain, case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas
-from pylmp_lattice.run_folder import layout
+from pylmp_lattice.formats import layout
 from pylmp_lattice.runner import run_embedded
 
 from conftest import make_case

@@ -21,7 +21,8 @@ from pylmp_lattice.case import case_to_dict
 from pylmp_lattice.cli import main
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder, run_case
-from pylmp_lattice.run_folder import layout, marker
+from pylmp_lattice.formats import layout
+from pylmp_lattice.run_folder import marker
 from pylmp_lattice.serialize import dumps
 
 from conftest import held_elsewhere, make_case
@@ -116,14 +117,14 @@ def _import_graph() -> dict[str, set[str]]:
 # each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
 HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
-           "table", "deck", "case_levels", "summary", "plots", "progress", "measures",
-           "bindump", "dump", "h5md", "psf", "front_record", "run_folder", "run_folder.layout", "run_folder.marker",
+           "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
+           "formats", "run_folder", "run_folder.marker",
            "file_lock"}
 
 
 def _helper(module: str) -> bool:
     name = module.removeprefix("pylmp_lattice.")
-    return name in HELPERS or name.split(".")[0] == "measures"
+    return name in HELPERS or name.split(".")[0] in ("measures", "formats")
 
 
 def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], list[str]]:
@@ -222,7 +223,7 @@ def test_run_file_names_are_written_in_the_layout_module_only():
              layout.LOG, layout.DECK, layout.DATA, layout.TABLE, layout.MARKER, layout.FIGURE}
     offenders = []
     for path in PACKAGE.rglob("*.py"):
-        if path == PACKAGE / "run_folder" / "layout.py":
+        if path == PACKAGE / "formats" / "layout.py":
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names:

@@ -17,7 +17,7 @@ import tomli_w
 
 from pylmp_lattice.case import case_to_dict, load_case
 from pylmp_lattice import runner
-from pylmp_lattice.bindump import open_dump
+from pylmp_lattice.formats.bindump import open_dump
 from pylmp_lattice.errors import ContactError, RunError
 from pylmp_lattice.runner import run_embedded, run_executable
 from pylmp_lattice.run_folder import RunFolder, simulate

@@ -1,6 +1,5 @@
 """Run folders: the one home of a run's files.
 
-- `layout`: the names of its files and columns (the only module that names them);
 - `write`: a case into a folder (deck, input files, case.toml, run.json);
 - `execution`: `execute`/`run_case`/`simulate`, the one way a case becomes a run (preflight,
   write, run LAMMPS, record how it ended, convert, summarize);
@@ -8,8 +7,8 @@
 - `convert`: binary dumps into traj.h5md, by the writer after a run or by the reader later;
 - `folder`: `RunFolder`, which reads, caches, measures and summarizes any run folder.
 
-Names are imported on first use: the deck writer and the readers import `run_folder.layout` alone,
-without the layers above them.
+The names of its files and their readers are the floor below, `formats` (`formats.layout` names
+every file). Names here are imported on first use.
 """
 
 from importlib import import_module

@@ -15,11 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bindump import open_dump
 from ..case import Case
 from ..errors import LatticeError
+from ..formats import layout
+from ..formats.bindump import open_dump
 from ..units import to_h5md
-from . import layout, marker
+from . import marker
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +35,7 @@ def convert_dumps(folder: Path, case: Case) -> bool:
 
 
 def _convert(folder: Path, case: Case) -> bool:
-    from .. import h5md  # h5py on first need
+    from ..formats import h5md  # h5py on first need
 
     sources = {group: open_dump(folder / name) for group, name in layout.BINARY_GROUPS.items()
                if (folder / name).is_file()}
@@ -43,7 +44,7 @@ def _convert(folder: Path, case: Case) -> bool:
         return False
     log.info("%s: converting %d frames to %s", folder, sum(d.frames for d in sources.values()), layout.H5MD)
     target, partial = folder / layout.H5MD, folder / (layout.H5MD + ".part")
-    h5md.write_file(partial, case, sources, folder / layout.LOG)
+    h5md.write_file(partial, _header(case), sources, folder / layout.LOG)
     for group, dump in sources.items():
         count, last = h5md.frame_count(partial, group)
         expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
@@ -54,3 +55,14 @@ def _convert(folder: Path, case: Case) -> bool:
     for dump in sources.values():
         dump.path.unlink()
     return True
+
+
+def _header(case: Case):
+    """The case's part of its H5MD file (`h5md.Header`)."""
+    import tomli_w
+
+    from ..case import case_to_dict
+    from ..formats.h5md import Header
+
+    return Header(case.name, tomli_w.dumps(case_to_dict(case)), case.chain.masses(), np.sort(np.asarray(case.output.fine, int)) - 1,
+                  {"chain": case.run.output_interval, "fine": case.fine_interval()}, case.output.compression)

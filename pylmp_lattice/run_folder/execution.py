@@ -20,13 +20,14 @@ import tomli_w
 from .. import preflight
 from ..case import Case, case_to_dict
 from ..deck import render, render_replicas
-from ..dump import read_dump, trajectory_from_dump
+from ..formats.dump import read_dump, trajectory_from_dump
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..progress import progress_bar
 from ..runner import run_deck
 from ..trajectory import Trajectory
 from ..units import to_engine
-from . import layout, marker
+from ..formats import layout
+from . import marker
 from .convert import convert_dumps
 from .folder import RunFolder, summarize
 from .write import write_claimed

@@ -21,16 +21,17 @@ from pathlib import Path
 import numpy as np
 
 from .. import measures
-from ..bindump import open_dump, read_trajectory
+from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case, load_case
-from ..dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
+from ..formats.dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
-from ..front_record import case_front, read_front_record
+from ..case_measures import case_front, read_front_record
 from ..numbering import number
 from ..serialize import dumps
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
-from . import layout, marker
+from ..formats import layout
+from . import marker
 from .convert import convert_dumps
 from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
 from .write import write_folder
@@ -107,7 +108,7 @@ class RunFolder:
         From traj.h5md, the binary dumps (converted first when safe, else read as they stand)
         or the text dump. The impactor's acceleration comes from its profile: the piston imposes
         its motion, and the force on it in the file is the chain's push, not m a."""
-        from .. import h5md
+        from ..formats import h5md
 
         if group not in layout.BINARY_GROUPS:
             raise ConfigError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")

@@ -17,10 +17,10 @@ import time
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from ..dump import find_contact, log_ended
+from ..formats.dump import find_contact, log_ended
 from ..errors import ConfigError
 from ..file_lock import Held, exclusive, is_held
-from . import layout
+from ..formats import layout
 
 PACKAGE = "pylmp_lattice"
 # Seconds a writer waits for the folder's lock: a reader's look at it (`locked`) holds it for an
@@ -49,7 +49,7 @@ def deck_hash(text: str) -> str:
 def record(folder: Path, state: str, **details) -> None:
     """Write run.json (atomically): the package, its version, the state and its details (the
     deck's hash of the earlier record is kept)."""
-    from .. import __version__
+    from ..version import __version__
 
     kept = {DECK_HASH: (read(folder) or {}).get(DECK_HASH)}
     data = {"package": PACKAGE, "version": __version__, "state": state,

@@ -13,7 +13,8 @@ import tomli_w
 from ..case import Case, case_to_dict
 from ..deck import render
 from ..errors import ConfigError
-from . import layout, marker
+from ..formats import layout
+from . import marker
 
 
 def write_folder(case: Case, path: str | Path, overwrite: bool = False) -> Path:

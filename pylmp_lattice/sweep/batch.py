@@ -161,7 +161,7 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
     """Run the group as one batch; on a failed batch, each member alone."""
     from .. import deck
-    from ..run_folder import layout
+    from ..formats import layout
     from ..run_folder.marker import FINISHED
     from ..runner import run_deck
 
@@ -231,8 +231,8 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
 def _summaries(cases: list[Case], batch: Path) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it."""
     from .. import measures
-    from ..front_record import read_front_batch
-    from ..run_folder import layout
+    from ..case_measures import read_front_batch
+    from ..formats import layout
     from ..summary import summaries
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's

@@ -338,7 +338,8 @@ def check_folder(root: str | Path) -> None:
     """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
     a run's folder, and not inside another sweep's members/ or batches/ (a study's sweeps may
     sit side by side in one sweep's folder)."""
-    from ..run_folder import layout, marker
+    from ..formats import layout
+    from ..run_folder import marker
 
     layout.check_place(Path(root), "sweep")
     if marker.is_run(Path(root)):

@@ -206,7 +206,7 @@ def now() -> str:
 @cache
 def provenance() -> dict:
     """Where and with what a member ran (computed once per worker process)."""
-    from .. import __version__
+    from ..version import __version__
 
     return {
         "pylmp_lattice": __version__,

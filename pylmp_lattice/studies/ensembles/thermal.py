@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ... import measures
-from ...case_levels import chain_noise
+from ...case_measures import chain_noise
 from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
 from ...sweep import replica_stats

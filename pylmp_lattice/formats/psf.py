@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.constants import atomic_mass  # kg per u (CODATA)
 
-from .units import TO_SI
+from ..units import TO_SI
 
 G_TO_U = TO_SI["mass"] / atomic_mass
 

@@ -41,19 +41,18 @@ from __future__ import annotations
 
 import getpass
 from importlib.metadata import PackageNotFoundError, version
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
 from . import psf
 from .bindump import BinaryDump
-from .case import Case, case_to_dict
 from .dump import read_log
-from .errors import LatticeError
-from .run_folder.layout import TOPOLOGY
-from .trajectory import Trajectory
-from .units import H5MD_UNITS, from_engine, to_engine, to_h5md
+from ..errors import LatticeError
+from .layout import TOPOLOGY
+from ..trajectory import Trajectory
+from ..units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
@@ -66,27 +65,41 @@ _SI = {name: size for name, size in H5MD_UNITS.values()} | {"s": 1.0}
 _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
 
 
-def write_file(target: Path, case: Case, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
+@dataclass(frozen=True)
+class Header:
+    """What an H5MD file says of its run besides the frames: the case's name and TOML text
+    (user units), each magnet's mass (kg), the 0-based indices of the "fine" group's magnets,
+    each group's frame interval (ms) and the compression filter (output.compression)."""
+
+    name: str
+    case_toml: str
+    masses: np.ndarray
+    fine: np.ndarray
+    intervals: dict[str, float]
+    compression: str
+
+
+def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
     """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
     "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
     `log` (LAMMPS's log file) as observables, and beside it the chain's topology (`psf`,
     layout.TOPOLOGY). The dumps are left as they are."""
     import h5py
 
-    masses = case.chain.masses()
+    masses = header.masses
     species = psf.species(masses)
     # beside it, its topology: what plain MDAnalysis needs for masses (see `psf`)
-    (Path(target).parent / TOPOLOGY).write_text(psf.psf_text(case.name, masses))
+    (Path(target).parent / TOPOLOGY).write_text(psf.psf_text(header.name, masses))
     with h5py.File(target, "w") as h5:
-        _write_header(h5, tomli_w.dumps(case_to_dict(case)))
+        _write_header(h5, header.case_toml)
         for group, dump in dumps.items():
-            chosen = slice(None) if group == "chain" else np.sort(case.output.fine) - 1
+            chosen = slice(None) if group == "chain" else header.fine
             _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
-                         species[chosen], case.output.compression)
+                         species[chosen], header.compression)
         # MDAnalysis reads observables at the frames of the first particle group
-        first = h5["particles"][GROUPS[next(iter(dumps))]]
-        interval = case.run.output_interval if "chain" in dumps else case.fine_interval()
-        _write_observables(h5.create_group("observables"), first, log, interval)
+        first_group = next(iter(dumps))
+        first = h5["particles"][GROUPS[first_group]]
+        _write_observables(h5.create_group("observables"), first, log, header.intervals[first_group])
 
 
 def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:

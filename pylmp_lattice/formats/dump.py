@@ -38,10 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DumpFormatError
-from .run_folder.layout import CONTACT_MARK, DUMP_COLUMNS, END_OF_RUN
-from .trajectory import Trajectory
-from .units import from_engine
+from ..errors import DumpFormatError
+from .layout import CONTACT_MARK, DUMP_COLUMNS, END_OF_RUN
+from ..trajectory import Trajectory
+from ..units import from_engine
 
 logger = logging.getLogger(__name__)
 

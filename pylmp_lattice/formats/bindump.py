@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DumpFormatError
-from .trajectory import Trajectory
-from .units import from_engine
+from ..errors import DumpFormatError
+from ..trajectory import Trajectory
+from ..units import from_engine
 
 logger = logging.getLogger(__name__)
 

@@ -1,14 +1,13 @@
-"""The engine's on-the-fly front record (fix lattice/front, file front.bin) as measures results.
+"""A case's measures: the bridge between a case and the array measures (`measures`).
 
-The fix applies the definitions of `measures.arrival_times` and `measures.first_peaks` to every
-time step of every magnet, so a run has its front measures without any per-frame output. The
-impactor's motion is prescribed, not integrated (its force is the chain's push on the piston),
-so its measures come from its profile sampled at the same steps, as `RunFolder.trajectory` takes its
-acceleration from the profile.
-
-Both the record and the array measures of a trajectory (`case_front`) are interpreted here
-with the case's levels (`case_levels.front_levels`: against V_I and the chain's noise velocity) and
-its slowest linear speed, below which a gap's V_P is flagged (`measures.Front`).
+- the front measures' levels (m/s): the case's noise velocity sigma and the levels set against
+  it and V_I (`measures.levels`), one home for the deck, which passes them to fix lattice/front,
+  and for the readers, which apply the same levels to arrays;
+- the engine's front record (front.bin, read by `formats.front_record`) as a `measures.Front`:
+  each chain's rows with its levels, magnet 1's measures from the impactor's profile (its motion is
+  prescribed, not integrated, so the record has none), and the chain's slowest linear speed,
+  below which a gap's V_P is flagged;
+- `case_front`: the same definitions applied to a trajectory's arrays.
 """
 
 from __future__ import annotations
@@ -19,12 +18,36 @@ from pathlib import Path
 import numpy as np
 
 from . import measures
-from .bindump import open_dump
-from .case import Case
-from .case_levels import chain_noise, chain_noises
-from .run_folder.layout import FRONT_FIELDS
-from .units import from_engine
+from .case import Case, Chain
+from .formats.front_record import read_front_rows
 
+
+def chain_noise(case: Case) -> float:
+    """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
+    return float(chain_noises([case])[0])
+
+
+def chain_noises(cases) -> np.ndarray:
+    """The noise velocity of each of R cases, m/s, shape (R,): the cases of a batch (equal N,
+    held ends and force law; `deck.render_replicas` checks), computed together with the bits of
+    each alone (`chain_noise` is a batch of one)."""
+    first = cases[0]
+    free = np.ones(first.chain.particles, bool)
+    free[[0, *first.held()]] = False
+    masses, velocities, gaps = (np.stack([draw(case.chain) for case in cases])
+                                for draw in (Chain.masses, Chain.velocities, Chain.gaps))
+    return measures.noise_velocity(masses, velocities, gaps, first.force.energy, free)
+
+
+def front_levels(case: Case) -> measures.FrontLevels:
+    """The front measures' levels for this case (m/s): the fix's arguments, and the array measures'."""
+    return measures.front_levels(case.impactor.peak_velocity(), chain_noise(case))
+
+
+def chain_front_levels(cases) -> measures.FrontLevels:
+    """The front levels of each of R cases of one drive, m/s: arrays of shape (R,), entry r the
+    levels of `front_levels(cases[r])`."""
+    return measures.front_levels(cases[0].impactor.peak_velocity(), chain_noises(cases))
 
 @dataclass(frozen=True)
 class FrontRecord:
@@ -53,18 +76,15 @@ def read_front_records(cases, path: str | Path, arrival_method: str = "level") -
 def read_front_batch(cases, path: str | Path, arrival_method: str = "level") -> FrontRecord:
     """`read_front_records` as one FrontRecord of R chains: its front a `measures.Front` of R
     chains (`stack_fronts`), max_speed (R, N); each chain's levels from its noise velocity
-    (`case_levels.chain_noises`).
+    (`chain_noises`).
 
     One pass for the batch: the drive's measures once, against each distinct noise velocity
     (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
-    frame = open_dump(path).read()
-    end = float(from_engine(frame.time[-1], "time"))
-    case, n, chains = cases[0], cases[0].chain.particles, len(cases)
-    # (R, N): chain r's magnets in row r
-    rows = {name: from_engine(frame.data[-1, :, k + 1], quantity).reshape(chains, n)
-            for k, (name, quantity) in enumerate(FRONT_FIELDS)}
+    case = cases[0]
+    record = read_front_rows(path, len(cases), case.chain.particles)
+    rows, end = record.columns, record.end_time
     noise = chain_noises(cases)
     sigma, level_of = np.unique(noise, return_inverse=True)
     imp, vi = case.impactor, case.impactor.peak_velocity()

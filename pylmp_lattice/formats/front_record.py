@@ -1,0 +1,36 @@
+"""The engine's on-the-fly front record (fix lattice/front, file front.bin): its rows as arrays.
+
+The fix applies the definitions of `measures.arrival_times` and `measures.first_peaks` to every
+time step of every magnet and writes one binary dump frame at the end of the run (or where it
+stopped): a row per atom, the columns `layout.FRONT_FIELDS`. This module reads that frame in
+user units; what the rows mean for a case (its levels, its drive's own row) is
+`case_measures.read_front_batch`'s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..units import from_engine
+from .bindump import open_dump
+from .layout import FRONT_FIELDS
+
+
+@dataclass(frozen=True)
+class FrontRows:
+    """columns: {name: (R, N) array} for each of `layout.FRONT_FIELDS`, chain r's magnets in row
+    r, in user units (ms, m/s, m/s^2); end_time: when the record was written, ms."""
+
+    columns: dict[str, np.ndarray]
+    end_time: float
+
+
+def read_front_rows(path: str | Path, chains: int, particles: int) -> FrontRows:
+    """The record in `path` of `chains` chains of `particles` magnets (atom IDs in chain order)."""
+    frame = open_dump(path).read()
+    columns = {name: from_engine(frame.data[-1, :, k + 1], quantity).reshape(chains, particles)
+               for k, (name, quantity) in enumerate(FRONT_FIELDS)}
+    return FrontRows(columns, float(from_engine(frame.time[-1], "time")))
