@@ -114,7 +114,7 @@ def test_deferred_draw_checks_refuse_before_anything_is_written(monkeypatch, tmp
     from pylmp_lattice.cli import main
     from pylmp_lattice.run_folder import execute
 
-    monkeypatch.setattr(case_module, "CHUNK", 8)
+    monkeypatch.setattr(case_module.case, "CHUNK", 8)
     make = lambda: make_case(chain=chain, **run)  # noqa: E731
     case = make()  # built: the checks of its draws wait
     with pytest.raises(ConfigError) as info:

@@ -124,7 +124,7 @@ HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize"
 
 def _helper(module: str) -> bool:
     name = module.removeprefix("pylmp_lattice.")
-    return name in HELPERS or name.split(".")[0] in ("measures", "formats")
+    return name in HELPERS or name.split(".")[0] in ("case", "measures", "formats")
 
 
 def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], list[str]]:

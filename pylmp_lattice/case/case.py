@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError
-from .exact import weak_shock
-from .forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
-from .piston import PROFILES, Impactor
+from ..errors import ConfigError
+from ..exact import weak_shock
+from ..forcelaw import FPUT, ForceLaw, LennardJones, LinearSpring, Morse, PowerLaw, SampledLaw, Toda
+from ..piston import PROFILES, Impactor
 
 logger = logging.getLogger(__name__)
 
