@@ -16,6 +16,7 @@ import numpy as np
 
 from . import measures
 from .case import Case
+from .measures.front import LINEAR_LAG
 from .numbering import number
 
 log = logging.getLogger(__name__)
@@ -46,6 +47,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = measures.particles_reached(front.arrival).tolist()
     maxima = _maxima(vp)
+    fits = _front_speeds(cases, front.arrival)
     out = _linear_part(cases)
     for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
         resolution = _resolution(res)
@@ -53,6 +55,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
         out[r] |= {
             "particles_reached_by_front": reached[r],
             "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
+            "front_speed_m_per_s": fits[r],
             # with friction V_P peaks early and decays (Fig. S6): where and how high
             "shock_velocity_max_m_per_s": maxima[r],
             "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
@@ -68,6 +71,39 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
             if not out[r]["far_end_quiet"]:
                 log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
                             number(last_free), last)
+    return out
+
+
+def front_window(case: Case) -> tuple[int, int] | None:
+    """The gaps (first, last; 1-based, inclusive) over which `front_speed_m_per_s` is fitted,
+    from the case alone, so that every member of an ensemble point shares them: the second half
+    of the gaps that a wave at (1 - LINEAR_LAG) times the nominal linear speed V0 crosses in the
+    run, from gap 2 (gap 1 is the drive's rise) to the last gap between free magnets. A front
+    is never slower than linear waves, so any front that keeps going crosses the whole window.
+    None when the window would hold fewer than 2 gaps."""
+    r0, mass = float(np.mean(case.chain.r0)), float(np.mean(case.chain.mass))
+    v0 = float(measures.linear_wave_speed(float(case.force.stiffness(r0)), mass, r0))
+    last = min(int((1 - LINEAR_LAG) * v0 * case.run.duration / r0), min(case.held()) - 1)
+    first = max(2, math.ceil(last / 2))
+    return (first, last) if last > first else None
+
+
+def _front_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
+    """`front_speed_m_per_s` of each case: V_P from the slope of the arrival times against the
+    initial positions over `front_window` (no plateau criterion, so defined for every chain whose
+    front crossed the window; value null where it did not), with its standard error and window."""
+    arrival = np.atleast_2d(arrival)
+    out: list[dict | None] = [None] * len(cases)
+    by_window: dict[tuple[int, int], list[int]] = {}
+    for r, case in enumerate(cases):
+        window = front_window(case)
+        if window is not None:
+            by_window.setdefault(window, []).append(r)
+    for (first, last), rows in by_window.items():
+        positions = np.stack([cases[r].chain.positions() for r in rows])
+        speed, stderr = measures.fit_front_speeds(arrival[rows], positions, first, last + 1)
+        for r, v, e in zip(rows, speed.tolist(), stderr.tolist()):
+            out[r] = {"value": _round(v, 5), "stderr": _round(e, 5), "first_gap": first, "last_gap": last}
     return out
 
 

@@ -41,6 +41,30 @@ def test_only_converged_plateaus_of_done_members_count_and_inputs_are_left_out()
         assert not any(c.startswith(inp) for c in stats.columns)
 
 
+def test_every_statistic_states_its_coverage_and_marks_it_below_90_percent(tmp_path, caplog):
+    """3 of 4 converged plateaus: coverage 0.75, marked in the table, hollow in the figure, and
+    one warning line; the first peak (4 of 4) is not marked."""
+    stats = replica_stats(_table())
+    np.testing.assert_allclose(stats[f"{VP}.mean.coverage"], [0.75, 0.75], rtol=1e-12)
+    np.testing.assert_allclose(stats[f"{PEAK}.mean.coverage"], [1.0, 1.0], rtol=1e-12)
+    assert stats[f"{VP}.mean.low_coverage"].tolist() == [True, True]
+    assert stats[f"{PEAK}.mean.low_coverage"].tolist() == [False, False]
+    with caplog.at_level("WARNING"):
+        written = write_replica_stats(tmp_path, _table())
+    lines = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert lines == [f"{VP}.mean: below 90% coverage at 2 of 2 points (lowest 75% of the members done): "
+                     "a mean over the members that converged only"]
+    assert pd.read_csv(tmp_path / "replica_stats.csv")[f"{VP}.mean.low_coverage"].tolist() == [True, True]
+    assert written[f"{VP}.mean.count"].tolist() == [3, 3]
+    ax = plot_replica_stats(stats, "impactor.velocity", f"{VP}.mean")
+    hollow = [line for line in ax.lines if line.get_markerfacecolor() == "white"]
+    assert len(hollow) == 1 and hollow[0].get_xdata().tolist() == [1.5, 2.0]
+    assert "hollow: under 90% of members" in ax.get_title()
+    full = plot_replica_stats(stats, "impactor.velocity", f"{PEAK}.mean")
+    assert not [line for line in full.lines if line.get_markerfacecolor() == "white"]
+    assert "hollow" not in full.get_title()
+
+
 def test_a_sweep_where_no_member_is_done_has_nothing_to_average(tmp_path):
     """Every member failed (a bad grid value, say): each point is reported with n = 0, counts 0
     and no mean, and writing the statistics does not fail (it raised ValueError: 'n' is not
@@ -95,7 +119,7 @@ def test_one_point_s_figure_shows_the_spread_over_the_replicas(tmp_path):
     np.testing.assert_allclose(np.sort(values), [3.0, 3.01, 3.02], rtol=1e-12)  # the unconverged replica is out
     ax = plot_replica_spread(values, f"{VP}.mean", ax=Figure().add_subplot(), members=len(done))
     assert ax.get_xlabel() == "shock velocity plateau $V_P$ (m/s)" and ax.get_ylabel() == "replicas"
-    assert ax.get_title() == "3 of 4 replicas\nmean 3.01 ± 0.0058 m/s (± standard error)"
+    assert ax.get_title() == "3 of 4 replicas (coverage 75%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
     assert sum(bar.get_height() for bar in ax.containers[0]) == 3  # the histogram holds the 3 values
     stats = write_replica_stats(tmp_path, one.drop(columns=["impactor.velocity"]))
     assert len(stats) == 1 and (tmp_path / "replica_stats.png").stat().st_size > 0
@@ -240,7 +264,7 @@ def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path)
     assert tuple(fig.get_size_inches()) == (2 * PANEL[0], PANEL[1]) and not fig.legends
     ax = fig.axes[0]
     assert isinstance(ax.containers[0], BarContainer) and sum(bar.get_height() for bar in ax.containers[0]) == 3
-    assert ax.get_title() == "3 of 4 replicas\nmean 3.01 ± 0.0058 m/s (± standard error)"
+    assert ax.get_title() == "3 of 4 replicas (coverage 75%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
 
 
 def test_a_measure_not_in_the_statistics_is_named_with_the_available_ones():

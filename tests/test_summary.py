@@ -105,3 +105,39 @@ def test_v_p_from_frames_too_coarse_for_the_gaps_is_flagged_not_converged(caplog
     assert res["max_sample_interval_ms"] == pytest.approx(1.5, rel=0.05)
     assert "run.output_interval" in caplog.text and "output.front" in caplog.text
     json.loads(dumps(coarse), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))
+
+
+def test_front_speed_is_fitted_over_a_window_set_by_the_case_with_no_plateau_criterion():
+    """`front_speed_m_per_s`: over gaps 24-48 of a 60-magnet chain run 400 ms (the second half
+    of the gaps a wave at 0.9 V0 crosses: V0 = r0 sqrt(q K / (r0 + b)^(q+1) / m) = 1.6029 m/s,
+    0.9 V0 400 ms / 12 mm = 48.1 gaps), the least-squares slope of the arrival times against the
+    positions, checked against scipy's linregress; an accelerating front with a per-gap scatter
+    of 30 % (no plateau) still has one; a front that stopped inside the window has none."""
+    from scipy import stats
+
+    from pylmp_lattice.summary import front_window, summaries
+
+    case = make_case(particles=60, duration=400.0)
+    v0 = 12.0 * np.sqrt(3 * 413.8 / (12.0 + 3.917) ** 4 / 1.084)
+    assert v0 == pytest.approx(1.6029, abs=1e-4) and int(0.9 * v0 * 400 / 12) == 48
+    assert front_window(case) == (24, 48)
+    rng = np.random.default_rng(7)
+    x = 12.0 * np.arange(60)
+    steps = 12.0 / (3.0 + 0.01 * np.arange(59)) * (1 + 0.3 * rng.standard_normal(59)).clip(0.3)  # ms per gap
+    arrival = np.concatenate([[0.0], np.cumsum(steps)])
+    stopped = np.where(np.arange(60) < 40, arrival, np.nan)  # never reached magnet 41
+    front = measures.stack_fronts([
+        measures.Front(t, measures.propagation_velocity(t, 12.0), measures.first_peaks(
+            np.array([0.0, 1.0]), np.zeros((2, 60)), np.zeros((2, 60)), 2.0), "level", 0.0, 1.6, 0.0)
+        for t in (arrival, stopped)])
+    out = summaries([case, case], front)
+    line = stats.linregress(x[23:49], arrival[23:49])  # magnets 24-49: gaps 24-48
+    speed = out[0]["front_speed_m_per_s"]
+    assert speed["value"] == pytest.approx(1 / line.slope, rel=1e-4)
+    assert speed["stderr"] == pytest.approx(line.stderr / line.slope**2, rel=1e-2)
+    assert (speed["first_gap"], speed["last_gap"]) == (24, 48)
+    assert out[0]["shock_velocity_plateau_m_per_s"]["converged"] is False  # no plateau, a speed all the same
+    assert out[1]["front_speed_m_per_s"]["value"] is None or np.isnan(out[1]["front_speed_m_per_s"]["value"])
+    json.loads(dumps(out[1]), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))
+    assert front_window(make_case(particles=60, duration=20.0)) is None  # 2.4 gaps: no window
+    assert front_window(make_case(particles=21, duration=400.0)) == (10, 19)  # up to the last free magnet, 20

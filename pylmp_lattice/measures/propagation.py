@@ -108,6 +108,29 @@ def fit_propagation_velocity(arrival, positions, first_magnet: int = 1, last_mag
     )
 
 
+def fit_front_speeds(arrival, positions, first_magnet: int, last_magnet: int) -> tuple[np.ndarray, np.ndarray]:
+    """`fit_propagation_velocity` of R chains at once over one window of magnets, first_magnet
+    .. last_magnet (1-based, inclusive), with no plateau criterion: arrival (R, N) ms and
+    positions (R, N) mm give V_P (R,) m/s and its standard error (R,) (closed-form least
+    squares, no scipy). NaN for a chain where any magnet of the window has no arrival: a front
+    that did not cross the whole window has no speed over it."""
+    arrival = np.atleast_2d(np.asarray(arrival, dtype=float))
+    positions = np.broadcast_to(np.asarray(positions, dtype=float), arrival.shape)
+    if not 1 <= first_magnet < last_magnet - 1 < arrival.shape[1]:
+        raise ValueError(f"first_magnet, last_magnet: got {first_magnet}, {last_magnet}; "
+                         f"expected 1 <= first_magnet, first_magnet + 2 <= last_magnet <= {arrival.shape[1]}")
+    window = entries(first_magnet, last_magnet)
+    t, x = arrival[:, window], positions[:, window]
+    k = t.shape[1]
+    dx = x - x.mean(axis=1, keepdims=True)
+    dt = t - t.mean(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slope = np.sum(dx * dt, axis=1) / np.sum(dx * dx, axis=1)  # ms per mm
+        residual = dt - slope[:, None] * dx
+        slope_stderr = np.sqrt(np.sum(residual**2, axis=1) / (k - 2) / np.sum(dx * dx, axis=1))
+        return 1.0 / slope, slope_stderr / slope**2
+
+
 @dataclass(frozen=True)
 class Plateau:
     """Level of a per-gap or per-magnet series over its trailing window (see `trailing_plateau`).
