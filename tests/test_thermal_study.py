@@ -50,3 +50,16 @@ def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
         assert p["V_P_m_per_s"]["mean"] == pytest.approx(quiet["V_P_m_per_s"], rel=0.05)
         assert p["first_peak_m_per_s"]["mean"] == pytest.approx(2 * VI, rel=0.05)
     assert [p["chain.thermal_velocity"] for p in data["against_thermal_rms"]] == [0.0, 0.04, 0.2]
+
+    # the headline front speed: one gap window for every member (0.9 V0 150 ms / 12 mm = 18.0
+    # gaps: gaps 9-18), defined for all of them, within 5 % of the noise-free run's; every
+    # statistic states its coverage, marked below 90 % (the quick 5 % disorder point: 1 of 2 V_P
+    # plateaus converged)
+    assert data["front_window_gaps"] == [9, 18]
+    assert quiet["front_speed_m_per_s"] == summary["front_speed_m_per_s"]["value"]
+    for p in noisy:
+        assert p["front_speed_m_per_s"]["count"] == p["members"] and p["front_speed_m_per_s"]["coverage"] == 1.0
+        assert p["front_speed_m_per_s"]["mean"] == pytest.approx(quiet["front_speed_m_per_s"], rel=0.05)
+        for name in ("V_P_m_per_s", "first_peak_m_per_s", "eta"):
+            assert p[name]["coverage"] == p[name]["count"] / p["members"]
+            assert p[name]["low_coverage"] == (p[name]["count"] < 0.9 * p["members"])
