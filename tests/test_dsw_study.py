@@ -15,8 +15,10 @@ from pylmp_lattice.forcelaw import PowerLaw
 pytestmark = pytest.mark.lammps
 
 
-def test_dsw_quick(tmp_path):
-    assert main(["study", "dsw", "--quick", "-o", str(tmp_path)]) == 0
+def test_dsw_quick(tmp_path, caplog):
+    with caplog.at_level("WARNING"):
+        assert main(["study", "dsw", "--quick", "-o", str(tmp_path)]) == 0
+    assert "1 of 2 runs have V_I above V*, outside the theory's domain" in caplog.text
     data = json.loads((tmp_path / "dsw.json").read_text())
     assert data["quick"] is True and "quick" in data["title"]
     assert {p.name for p in tmp_path.iterdir()} >= {"dsw.png", "dsw.pdf", "dsw_runs.csv", "dsw_chains.csv"}
@@ -33,6 +35,11 @@ def test_dsw_quick(tmp_path):
     assert abs(below["f_vs_theory"]) < 0.01
     assert abs(below["mean_gap_vs_theory"]) < 1e-3 and abs(below["mean_force_vs_theory"]) < 1e-3
     assert below["wake"] == "decays" and above["wake"] == "persists"
+    assert below["theory_in_domain"] is True and above["theory_in_domain"] is False
+    # the measured deviations on each side of V*, as the chain's numbers
+    assert chain["largest_V_P_limit_deviation_below_V_star"] == pytest.approx(abs(below["V_P_limit_vs_lead"]), rel=1e-12)
+    assert chain["largest_V_P_limit_deviation_above_V_star"] == pytest.approx(abs(above["V_P_limit_vs_lead"]), rel=1e-12)
+    assert chain["largest_wake_frequency_deviation_above_V_star"] == pytest.approx(abs(above["f_vs_theory"]), rel=1e-12)
     assert chain["largest_decaying_V_I_m_per_s"] < v_star < chain["smallest_persisting_V_I_m_per_s"]
     # first peaks approach 2 V_I: the limit of A - C/n within 1 %
     assert below["first_peak_limit_over_V_I"] == pytest.approx(2.0, rel=0.01)

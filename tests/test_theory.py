@@ -118,6 +118,17 @@ def test_where_the_theory_does_not_apply():
     assert theory.critical_velocity(FPUT(1.0, 1.0, -0.5, 0.2), 1.0, 1.0) == np.inf  # k(0) = 2.6 k(r0) at contact
 
 
+def test_prediction_says_when_V_I_is_outside_the_theory_s_domain():
+    """in_domain: V_I <= V* (0.880652 m/s for the paper's chain, rho = c(r1)/c(r0) = 2 there);
+    above, the numbers are still given, flagged, with the trailing edge clipped at the piston."""
+    v_star = theory.critical_velocity(PAPER, MASS, R0)
+    inside, edge, outside = (theory.predict(PAPER, MASS, R0, v) for v in (0.5 * v_star, v_star, 2.0 * v_star))
+    assert inside.in_domain and edge.in_domain and not outside.in_domain
+    assert edge.stiffness_ratio == pytest.approx(4.0, rel=1e-9)  # k(r1) = 4 k(r0) at V*: the edge
+    assert outside.stiffness_ratio > 4 and outside.trailing_speed == 0.0
+    assert outside.to_dict()["in_domain"] is False
+
+
 # ----------------------------------------------------------------------------- the A - C/n fit
 
 def test_first_peak_limit_recovers_a_known_limit_with_its_uncertainty():

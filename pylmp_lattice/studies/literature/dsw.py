@@ -19,13 +19,18 @@ Per run, measured against the theory's `predict`:
   `measures.wake_state`) against r1 and F(r1);
 - the first-peak limit A (with its standard error) of A - C/n over the same particles.
 Per chain: the predicted V* beside the knees of eta(V_I) (`measures.critical_velocities`)
-and the bracket [largest V_I that decays, smallest that persists].
+and the bracket [largest V_I that decays, smallest that persists]; the largest deviations of
+V_P's limit and of the wake frequency from the theory below and above V*. Above V* the theory
+is outside its domain (`Prediction.in_domain`): the study warns, and the figure shades that
+side of every panel, where the measured deviations are drawn against numbers kept for
+comparison only.
 Quick: the paper's law only, at x = 0.5 and 1.5, 17 periods (400 ms); its figure and JSON
 say quick. Members that fail (magnets touching) are reported in the table with their error.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +44,7 @@ from ..output import StudyResult
 from ..scaffold import CHAINS as LITERATURE_CHAINS
 from ..scaffold import MASS, PAPER_FORCE, R0, done_runs, sweep_runs
 
+log = logging.getLogger(__name__)
 NAME = "dsw"
 # chain -> (force, spacing r0 in mm, mass in g, table settings)
 CHAINS = {f"magnet q={q:g}": (PAPER_FORCE | {"q": q}, R0, MASS, {}) for q in (2.0, 3.0, 4.0, 5.0)}
@@ -118,6 +124,7 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
         "wake_gap_mm": p.wake_gap, "mean_gap_vs_theory": wake.mean_gap / p.wake_gap - 1,
         "piston_force_N": p.piston_force, "mean_force_vs_theory": wake.mean_force / p.piston_force - 1,
         "trailing_speed_m_per_s": p.trailing_speed, "wake_persists_theory": p.wake_persists,
+        "theory_in_domain": p.in_domain,
     }
 
 
@@ -140,6 +147,10 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             row |= {"chain": chain, "V_I_over_V_star": row["V_I_m_per_s"] / v_star}
         rows += mine
         per_chain[chain] = _chain_numbers(law, mass, r0, t0, v_star, mine)
+    outside = [r for r in rows if r["V_I_over_V_star"] > 1]
+    if outside:
+        log.warning("study dsw: %d of %d runs have V_I above V*, outside the theory's domain: its lead speed and wake "
+                    "frequency there are for comparison only (they run ahead of the simulations)", len(outside), len(rows))
     numbers = {
         "title": STUDIES[NAME] + (" (quick version)" if quick else ""),
         "method": "El, Chaos 15, 037103 (2005); El & Hoefer, Physica D 333, 11 (2016); pylmp_lattice.theory",
@@ -170,7 +181,13 @@ def _chain_numbers(law, mass, r0, t0, v_star, rows) -> dict:
     decays = [r["V_I_m_per_s"] for r in ok if r["wake"] == "decays"]
     persists = [r["V_I_m_per_s"] for r in ok if r["wake"] == "persists"]
     v0 = measures.linear_wave_speed(float(law.stiffness(r0)), mass, r0)
-    return {
+    deviation = {}
+    for key, name in (("V_P_limit_vs_lead", "V_P_limit"), ("f_vs_theory", "wake_frequency")):
+        for side, inside in (("below", True), ("above", False)):
+            values = [abs(r[key]) for r in ok if r.get(key) is not None and np.isfinite(r[key])
+                      and (r["V_I_m_per_s"] <= v_star) == inside]
+            deviation[f"largest_{name}_deviation_{side}_V_star"] = max(values, default=None)
+    return deviation | {
         "r0_mm": r0, "mass_g": mass, "V0_m_per_s": v0, "T0_ms": t0,
         "V_star_theory_m_per_s": v_star, "V_star_over_V0": v_star / v0,
         "largest_decaying_V_I_m_per_s": max(decays, default=None),
@@ -216,8 +233,15 @@ def _figure(rows, per_chain, quick):
         ax[1, 2].errorbar(x, get("first_peak_limit_over_V_I"), yerr=get("first_peak_limit_error"), fmt="o", color=col,
                           ms=4, label=chain)
         ax[1, 2].plot(x, get("first_peak_plateau_over_V_I"), "x", color=col, ms=4)
+    right = max([r["V_I_over_V_star"] for r in ok], default=1.0)
     for a in ax.flat:
         a.axvline(1.0, color="k", ls="--", lw=0.8)
+        if right > 1:  # the theory's numbers here are for comparison only (Prediction.in_domain)
+            a.axvspan(1.0, right * 1.05, color="0.85", alpha=0.5, lw=0, zorder=0)
+    for a in ax[0, 1], ax[0, 2]:
+        if right > 1:
+            a.text(0.99, 0.02, "$V_I > V^*$: outside the theory's domain", transform=a.transAxes, ha="right",
+                   va="bottom", fontsize="x-small", color="0.3")
         a.set_xlabel("$V_I / V^*$ ($V^*$ of the theory)")
     for a in ax[0, 1], ax[0, 2], ax[1, 1]:
         a.axhline(0, color="k", lw=0.5)
