@@ -1,0 +1,80 @@
+"""The tables of docs/reproduction.md and docs/literature.md are written by docs/tables.py from
+the studies' stored outputs (docs/reproduction/*.json, docs/literature/*.csv): a number typed
+into a table, or a study output updated without rewriting the table, fails here."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+DOCS = Path(__file__).parent.parent / "docs"
+
+
+def _tables():
+    spec = importlib.util.spec_from_file_location("docs_tables", DOCS / "tables.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+tables = _tables()
+
+
+@pytest.mark.parametrize("doc", ["reproduction.md", "literature.md"])
+def test_every_generated_table_agrees_with_its_study(doc):
+    text = (DOCS / doc).read_text()
+    names = tables.marked(text)
+    assert sorted(names) == sorted(n for n, (d, _) in tables.BLOCKS.items() if d == doc)
+    rendered, changed = tables.render(text)
+    assert changed == [], f"{doc}: tables {changed} differ from their studies; run python docs/tables.py"
+    assert rendered == text
+
+
+def test_a_number_that_differs_from_its_table_fails():
+    """s7's 50 ms row as docs/reproduction.md showed it before the study moved (3.8882 for
+    3.8884): the check names the table."""
+    text = (DOCS / "reproduction.md").read_text()
+    assert "| 50 ms | 3.8884 m/s" in text
+    _, changed = tables.render(text.replace("| 50 ms | 3.8884 m/s", "| 50 ms | 3.8882 m/s"))
+    assert changed == ["s7"]
+    _, changed = tables.render(text.replace("1.701 | 1.882", "1.701 | 1.883"))
+    assert changed == ["s8"]
+
+
+def test_the_doc_shows_the_study_s_numbers():
+    """Read back independently of the renderer: each s7 row's V_P is the stored plateau mean to
+    4 decimals, and each dsw row's V_P limit the CSV's value to 5 significant figures."""
+    runs = json.loads((DOCS / "reproduction" / "s7.json").read_text())["runs"]
+    text = (DOCS / "reproduction.md").read_text()
+    for run in runs:
+        row = re.search(rf"^\| {run['T_r_ms']:g} ms \| ([0-9.]+) m/s", text, re.M)
+        assert row and float(row[1]) == pytest.approx(run["V_P_plateau"]["mean"], abs=5e-5)
+    lit = (DOCS / "literature.md").read_text()
+    block = lit[lit.index("<!-- table dsw-paper-law"):lit.index("<!-- end table dsw-paper-law")]
+    limits = [float(line.split("|")[3]) for line in block.splitlines() if re.match(r"^\| [0-9]", line)]
+    import csv
+
+    with open(DOCS / "literature" / "dsw_runs.csv", newline="") as f:
+        csv_limits = [float(r["V_P_limit_m_per_s"]) for r in csv.DictReader(f)
+                      if r["chain"] == "magnet q=3" and r["status"] == "done"]
+    assert limits == pytest.approx(csv_limits, rel=1e-4) and len(limits) == 8
+
+
+def test_the_script_checks_and_rewrites(tmp_path, monkeypatch, capsys):
+    """--check exits 1 naming a stale table and leaves the file; without it the table is rewritten."""
+    for name in ("reproduction.md", "literature.md"):
+        (tmp_path / name).write_text((DOCS / name).read_text())
+    monkeypatch.setattr(tables, "DOCS", tmp_path)
+    for sub in ("reproduction", "literature"):
+        (tmp_path / sub).symlink_to(DOCS / sub)
+    stale = (tmp_path / "reproduction.md").read_text().replace("| 5 ms | 3.9088", "| 5 ms | 3.9099")
+    (tmp_path / "reproduction.md").write_text(stale)
+    assert tables.main(["--check"]) == 1
+    assert "reproduction.md: table s7" in capsys.readouterr().err
+    assert (tmp_path / "reproduction.md").read_text() == stale
+    assert tables.main([]) == 0 and tables.main(["--check"]) == 0
+    assert (tmp_path / "reproduction.md").read_text() == (DOCS / "reproduction.md").read_text()
