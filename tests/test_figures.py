@@ -76,7 +76,7 @@ def check_figure(fig, quick: bool | None = None, letters: str | None = None):
 # Every study's figure (quick versions)
 # ---------------------------------------------------------------------------------------------
 
-PAPER_LETTERS = {"fig1": "bc", "s4": "cd", "s7": "bcd", "s8": "bcd"}  # the paper's own panel letters
+PAPER_LETTERS = {"fig1": "bcd", "s4": "cd", "s7": "bcd", "s8": "bcd"}  # the paper's own panel letters
 
 
 @pytest.mark.lammps
