@@ -67,6 +67,20 @@ def _num(text: str) -> float:
 
 
 # ------------------------------------------------------------------------------ reproduction.md
+def fig1_front() -> str:
+    """Fig. 1: the front speed in the gap and lab frames per window (docs/reproduction/fig1.json)."""
+    data = _json("reproduction/fig1.json")
+    gap = data["V_P_fit_by_arrival_definition_and_magnets"]["velocity_peak"]
+    paper = data["paper"]["V_P_m_per_s"]
+    rows = []
+    for window, lab in data["V_P_lab_frame_m_per_s"].items():
+        fit = gap[window]
+        rows.append([f"magnets {fit['first_magnet']}-{fit['last_magnet']}", f"{fixed(fit['velocity'], 3)} m/s",
+                     f"{fixed(lab, 3)} m/s", f"{paper:g} m/s", percent(lab / paper - 1, 1)])
+    return table(["window", "gap frame (the model's)", f"lab frame (centres, pitch {data['pitch_r0_plus_L_mm']:g} mm)",
+                  "paper", "lab frame vs paper"], rows)
+
+
 def s6() -> str:
     """Fig. S6: V_P against mu (docs/reproduction/s6.json)."""
     rows = []
@@ -139,6 +153,7 @@ def dsw_paper_law() -> str:
 
 # name -> (document, renderer)
 BLOCKS = {
+    "fig1-front": ("reproduction.md", fig1_front),
     "s6": ("reproduction.md", s6),
     "s7": ("reproduction.md", s7),
     "s8": ("reproduction.md", s8),
