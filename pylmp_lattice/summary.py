@@ -48,6 +48,7 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
     reached = measures.particles_reached(front.arrival).tolist()
     maxima = _maxima(vp)
     fits = _front_speeds(cases, front.arrival)
+    labs = _lab_speeds(cases, front.arrival)
     out = _linear_part(cases)
     for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
         resolution = _resolution(res)
@@ -63,6 +64,8 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None)
             "front_flags": _flags(flags),
             "front_resolution": resolution,
         }
+        if labs[r] is not None:
+            out[r]["front_speed_lab_m_per_s"] = labs[r]
         if case.chain.far_end == "long" and max_speed is not None:
             last_free = min(case.held()) - 1  # 0-based
             last = float(max_speed[r, last_free])
@@ -104,6 +107,33 @@ def _front_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
         speed, stderr = measures.fit_front_speeds(arrival[rows], positions, first, last + 1)
         for r, v, e in zip(rows, speed.tolist(), stderr.tolist()):
             out[r] = {"value": _round(v, 5), "stderr": _round(e, 5), "first_gap": first, "last_gap": last}
+    return out
+
+
+def lab_window(case: Case) -> tuple[int, int]:
+    """The magnets (first, last; 1-based, inclusive) over which `front_speed_lab_m_per_s` is
+    fitted: from magnet 2 (magnet 1's arrival is the drive's) over the first half of the gaps,
+    where an x-t image's arrow drawn from the impacted end spans (Fig. 1(b): magnets 2-12 of 21)."""
+    return 2, 2 + (case.chain.particles - 1) // 2
+
+
+def _lab_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
+    """`front_speed_lab_m_per_s` of each case that gives chain.magnet_length L: the front speed
+    over magnet centres, as an x-t image of the magnets shows it (pitch r0 + L, where the model's
+    r0 is the gap between faces), fitted over `lab_window`, with the gap-frame speed over the
+    same magnets beside it (value null where the front did not cross the window); None without L."""
+    arrival = np.atleast_2d(arrival)
+    out: list[dict | None] = [None] * len(cases)
+    for r, case in enumerate(cases):
+        length = case.chain.magnet_length
+        if length is None:
+            continue
+        first, last = lab_window(case)
+        positions = case.chain.positions()  # x_1 = 0, the gaps between faces
+        centres = positions + length * np.arange(positions.size)
+        (lab, gap), (error, _) = measures.fit_front_speeds(arrival[[r, r]], np.stack([centres, positions]), first, last)
+        out[r] = {"value": _round(lab, 5), "stderr": _round(error, 5), "gap_frame_m_per_s": _round(gap, 5),
+                  "magnets": [first, last], "pitch_mm": _round(float(np.mean(np.diff(centres))), 6)}
     return out
 
 

@@ -141,3 +141,22 @@ def test_front_speed_is_fitted_over_a_window_set_by_the_case_with_no_plateau_cri
     json.loads(dumps(out[1]), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))
     assert front_window(make_case(particles=60, duration=20.0)) is None  # 2.4 gaps: no window
     assert front_window(make_case(particles=21, duration=400.0)) == (10, 19)  # up to the last free magnet, 20
+
+
+def test_lab_frame_front_speed_counts_the_magnet_length():
+    """A front crossing each 12 mm gap in 12/4.18 ms (4.18 m/s in the gap frame) with magnets
+    L = 6.35 mm long: over magnets 2-12 (lab_window of 21 magnets) the centres are 10 x 18.35 =
+    183.5 mm apart and the front takes 10 x 12/4.18 ms, so 183.5 / (120/4.18) = 6.3919 m/s,
+    with the gap-frame 4.18 beside it; a case without magnet_length has no lab-frame speed."""
+    from pylmp_lattice.summary import summaries
+
+    arrival = 12.0 / 4.18 * np.arange(21.0)
+    arrival[20] = np.nan  # the fixed magnet 21 never moves
+    front = measures.stack_fronts([measures.Front(arrival, measures.propagation_velocity(arrival, 12.0),
+                                                  measures.first_peaks(np.array([0.0, 1.0]), np.zeros((2, 21)),
+                                                                       np.zeros((2, 21)), 2.0), "level", 0.0, 1.6, 0.0)])
+    lab = summaries([make_case(particles=21, chain={"magnet_length": 6.35})], front)[0]["front_speed_lab_m_per_s"]
+    assert lab["magnets"] == [2, 12] and lab["pitch_mm"] == pytest.approx(18.35, abs=1e-9)
+    assert lab["value"] == pytest.approx(183.5 / (120 / 4.18), rel=1e-5)
+    assert lab["gap_frame_m_per_s"] == pytest.approx(4.18, rel=1e-5)
+    assert "front_speed_lab_m_per_s" not in summaries([make_case(particles=21)], front)[0]
