@@ -43,6 +43,11 @@ class Chain:
     velocity: initial velocity of each magnet, m/s, one per particle (instead of
     thermal_velocity), e.g. a frame exported from a run (`ase_io.case_from_atoms`). The
     impactor's entry is replaced by its drive; the held end's must be 0.
+
+    magnet_length: each magnet's length along the rod, mm (the paper's: 6.35, two 3.175 mm
+    rings). It changes no force: the gaps r are between faces. It gives the lab frame, magnet
+    centres a pitch r0 + L apart, in which the paper reads its front speed off Fig. 1(b)
+    (`summary`'s front_speed_lab_m_per_s).
     """
 
     mass: float | tuple[float, ...]  # g, one value or one per particle
@@ -58,6 +63,7 @@ class Chain:
     defect_r0: float | None = None  # mm
     seed: int | None = None
     velocity: tuple[float, ...] | None = None  # m/s, initial velocity of each magnet
+    magnet_length: float | None = None  # mm, along the rod; the lab frame's pitch is r0 + magnet_length
 
     def __post_init__(self):
         _choice("chain.far_end", self.far_end, FAR_ENDS)
@@ -77,6 +83,9 @@ class Chain:
                     raise ConfigError(f"chain.{name}", f"got {len(values)} values; expected 1 or {expected}")
         elif not (np.isscalar(self.mass) and np.isscalar(self.r0)):
             raise ConfigError("chain.particles", "needed when mass or r0 is given per particle")
+        length = self.magnet_length
+        if length is not None and not (_is_number(length) and math.isfinite(length) and 0 <= length <= 1e6):
+            raise ConfigError("chain.magnet_length", f"got {brief(length)} mm; expected a number in [0, 1e6]")
         self._check_ensemble()
         self._check_velocity()
 
