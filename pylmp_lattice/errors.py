@@ -1,4 +1,4 @@
-"""The package's exceptions: one for bad input, one for a failed engine run."""
+"""The package's exceptions: one for bad input, one for a failed engine run, one for a stop signal."""
 
 from __future__ import annotations
 
@@ -45,9 +45,11 @@ class ContactError(RunError):
         )
 
 
-class Interrupted(LatticeError):
+class Interrupted(BaseException):
     """A run stopped by SIGINT or SIGTERM; what it wrote so far stays in its folder.
 
+    Not a LatticeError, nor an Exception: like KeyboardInterrupt, it passes every `except
+    Exception` (a figure that fails is a warning, a signal while it is drawn is not).
     exit_code follows the shell's convention, 128 + signal number (130 for SIGINT, 143 for SIGTERM).
     """
 
@@ -59,3 +61,6 @@ class Interrupted(LatticeError):
         where = f" at t = {time_ms:.6g} ms" if time_ms is not None else ""
         kept = f" (files kept in {folder})" if folder else ""
         super().__init__(f"interrupted{where}{kept}")
+
+    def __reduce__(self):  # a worker's Interrupted reaches its coordinator whole (pickled)
+        return type(self), (self.signum, self.time_ms, self.folder)

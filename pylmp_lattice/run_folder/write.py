@@ -45,10 +45,15 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
         for name in layout.RUN_FILES:
             if name != layout.LOCK:  # ours, held
                 (path / name).unlink(missing_ok=True)
-    for name, text in files.items():
-        (path / name).write_text(text)
-    (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
-    marker.record(path, marker.WRITTEN, **{marker.DECK_HASH: marker.deck_hash(files[layout.DECK])})
+    try:
+        for name, text in files.items():
+            (path / name).write_text(text)
+        (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+        marker.record(path, marker.WRITTEN, **{marker.DECK_HASH: marker.deck_hash(files[layout.DECK])})
+    except BaseException:  # a write stopped half-way (a signal, a full disk) is no run: its files go,
+        for name in [*files, layout.CASE, layout.MARKER, layout.MARKER + ".tmp"]:  # else no command could
+            (path / name).unlink(missing_ok=True)  # replace them
+        raise
 
 
 def check_target(path: Path, overwrite: bool) -> bool:

@@ -199,7 +199,7 @@ class _Coordinator:
     def _collect(self, task: Task, future: Future) -> None:
         try:
             results = future.result()
-        except Exception as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
+        except (Exception, Interrupted) as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
             if not (self.stop.signals or self.lost):
                 log.warning("a worker was lost (%s); the members in flight are read back from their folders",
                             batch.one_line(err))

@@ -120,8 +120,10 @@ def _local_pool(workers: int):
 
 def start_forkserver():
     """The forkserver context, its server started (at once: it loads PRELOAD while the caller
-    goes on), with Ctrl-C ignored in it (inherited): it and its workers are left to the
-    coordinator, and an early Ctrl-C does not interrupt its imports with a traceback."""
+    goes on), with the stop signals ignored in it (inherited): it and its workers are left to
+    the coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a
+    SIGTERM to the process group (a batch system's) does not kill it, which would break the
+    pool and leave the members in hand "running". It exits when the coordinator does."""
     from multiprocessing import forkserver
 
     context = multiprocessing.get_context("forkserver")
@@ -129,11 +131,12 @@ def start_forkserver():
     if threading.current_thread() is not threading.main_thread():
         forkserver.ensure_running()
         return context
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    previous = {s: signal.signal(s, signal.SIG_IGN) for s in STOP_SIGNALS}
     try:
         forkserver.ensure_running()
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
     return context
 
 

@@ -1,0 +1,135 @@
+"""SIGTERM at each stage of a run and of a sweep (issue 27, item 4): never an exit 0, never a
+state on disk that says more than happened.
+
+A stage is reached for certain, not by timing: the command runs in a child Python in which the
+stage's function first sends SIGTERM (to the process, or to its process group as a batch
+system does), then goes on as it would.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pylmp_lattice.sweep import load_results
+from test_sweep_faults import assert_table_matches_disk, running, start, statuses, wait_for
+from test_sweep import BASE
+
+pytestmark = pytest.mark.lammps
+
+# python HOOK MODULE:ATTR[.ATTR] WHO -- ARGS: the CLI with ATTR wrapped to send SIGTERM first
+# (WHO: "self" to this process, "group" to its process group)
+HOOK = """\
+import importlib, os, signal, sys
+
+
+def hooked(wrapped, who):
+    def call(*args, **kwargs):
+        os.killpg(os.getpgid(0), signal.SIGTERM) if who == "group" else os.kill(os.getpid(), signal.SIGTERM)
+        return wrapped(*args, **kwargs)
+    return call
+
+
+if __name__ == "__main__":  # a sweep's workers import this script again
+    where, who = sys.argv[1], sys.argv[2]
+    module, names = where.split(":")
+    owner = importlib.import_module(module)
+    *parents, name = names.split(".")
+    for part in parents:
+        owner = getattr(owner, part)
+    setattr(owner, name, hooked(getattr(owner, name), who))
+    from pylmp_lattice.cli import main
+    sys.exit(main(sys.argv[4:]))
+"""
+
+
+def hooked(tmp_path: Path, where: str, args: list[str], who: str = "self") -> subprocess.CompletedProcess:
+    script = tmp_path / "hook.py"
+    script.write_text(HOOK)
+    return subprocess.run([sys.executable, str(script), where, who, "--", *args], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300, start_new_session=True)
+
+
+def state(folder: Path) -> str | None:
+    try:
+        return json.loads((folder / "run.json").read_text())["state"]
+    except FileNotFoundError:
+        return None
+
+
+# stage -> (the function that sends SIGTERM as it starts, run.json's state after, files there and not)
+RUN_STAGES = {
+    "deck write": ("pylmp_lattice.run_folder.write:case_to_dict", None, [], ["in.lattice", "case.toml"]),
+    "engine": ("pylmp_lattice.runner:new_lammps", "interrupted", ["in.lattice", "log.lammps"], ["summary.json"]),
+    "conversion": ("pylmp_lattice.run_folder.execution:convert_dumps", "finished", ["traj.bin"], ["summary.json"]),
+    "summary": ("pylmp_lattice.summary:summarize", "finished", ["traj.h5md"], ["summary.json"]),
+    "figure": ("pylmp_lattice.run_folder.folder:RunFolder.figure", "finished", ["summary.json"], ["shock.png"]),
+}
+
+
+@pytest.mark.parametrize("stage", RUN_STAGES)
+def test_sigterm_at_each_stage_of_a_run_exits_143_and_records_what_happened(tmp_path, stage):
+    where, recorded, kept, absent = RUN_STAGES[stage]
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    done = hooked(tmp_path, where, ["run", "base.toml", "-o", "r", "--quiet"])
+    assert done.returncode == 143, done.stderr
+    assert done.stdout == "" and "Traceback" not in done.stderr
+    assert done.stderr.splitlines()[-1].startswith("pylmp-lattice: interrupted"), done.stderr
+    folder = tmp_path / "r"
+    assert state(folder) == recorded
+    assert all((folder / name).is_file() for name in kept), sorted(p.name for p in folder.iterdir())
+    assert not any((folder / name).exists() for name in absent), sorted(p.name for p in folder.iterdir())
+    if stage == "deck write":  # a write stopped half-way leaves nothing that blocks the same command again
+        assert not list(folder.iterdir())
+        again = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "run", "base.toml", "-o", "r", "--quiet"],
+                               capture_output=True, text=True, cwd=tmp_path, timeout=300)
+        assert again.returncode == 0, again.stderr
+        assert state(folder) == "finished"
+
+
+@pytest.mark.slow
+def test_sigterm_to_a_sweeps_process_group_records_its_running_members_interrupted(tmp_path):
+    """As a batch system stops a job: every process of the group gets SIGTERM, the fork server
+    included; it must not die under the pool (a broken pool killed the workers, whose members
+    stayed "running")."""
+    cmd, out, proc = start(tmp_path, workers=2)
+    wait_for(lambda: len(running(out)) == 2, proc)
+    os.killpg(proc.pid, signal.SIGTERM)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err and "a worker was lost" not in err
+    records = statuses(out).values()
+    assert records and {r["status"] for r in records} <= {"done", "interrupted"}, records
+    assert_table_matches_disk(out)
+
+
+def test_sigterm_to_a_sweeps_process_group_while_the_fork_server_starts(tmp_path):
+    sweep = tmp_path / "sweep.toml"
+    (tmp_path / "base.toml").write_text(BASE.format(particles=8, duration=5.0, output=1.0))
+    sweep.write_text('base = "base.toml"\nkeep = "measures"\n[grid]\n"impactor.velocity" = [0.5, 0.6]\n')
+    done = hooked(tmp_path, "pylmp_lattice.sweep.pool:start_forkserver", ["sweep", str(sweep), "-o", "out", "--quiet"],
+                  who="group")
+    assert done.returncode == 143, done.stderr
+    assert "Traceback" not in done.stderr
+    assert done.stderr.splitlines()[-1].startswith("pylmp-lattice: interrupted;")
+    assert not statuses(tmp_path / "out")  # no member started
+
+
+def test_sigterm_to_a_sweeps_process_group_while_its_table_is_written(tmp_path):
+    """The members are done, the table is written whole, and the command still says it was stopped."""
+    sweep = tmp_path / "sweep.toml"
+    (tmp_path / "base.toml").write_text(BASE.format(particles=8, duration=5.0, output=1.0))
+    sweep.write_text('base = "base.toml"\nkeep = "measures"\n[grid]\n"impactor.velocity" = [0.5, 0.6]\n')
+    out = tmp_path / "out"
+    done = hooked(tmp_path, "pylmp_lattice.sweep.table:Table.write", ["sweep", str(sweep), "-o", "out", "--quiet"],
+                  who="group")
+    assert done.returncode == 143, done.stderr
+    assert "Traceback" not in done.stderr
+    assert list(load_results(out)["status"]) == ["done", "done"]
+    assert_table_matches_disk(out)
