@@ -19,6 +19,7 @@ import numpy as np
 
 from . import measures
 from .case import Case, Chain
+from .errors import ConfigError
 from .formats.front_record import read_front_rows
 
 
@@ -89,6 +90,9 @@ def read_front_batch(cases, path: str | Path, arrival_method: str = "level") -> 
     sigma, level_of = np.unique(noise, return_inverse=True)
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
+    if t.size < 2:
+        raise ConfigError(str(path), f"the record ends at t = {end:g} ms, before the run's first step "
+                                     f"({case.run.dt:g} ms); nothing to measure")
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]  # one signal, its measures per sigma
     drive = measures.first_peaks(t, v, a, vi, noise=sigma)
     column = "arrival" if arrival_method == "level" else "pulse_arrival"

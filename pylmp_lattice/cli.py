@@ -18,7 +18,7 @@ import signal
 import sys
 from pathlib import Path
 
-from .errors import ConfigError, Interrupted, LatticeError
+from .errors import ConfigError, DumpFormatError, Interrupted, LatticeError
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
         return args.func(args)
-    except ConfigError as err:
+    except (ConfigError, DumpFormatError) as err:  # bad input: a case, an argument or a file
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Interrupted as err:

@@ -1,7 +1,9 @@
 """Strict JSON for results: NaN and infinities become null, numpy values plain Python.
 
 Results objects (measures, studies) go through `jsonable`; `dumps` refuses anything that would
-not be strict JSON (`allow_nan=False`), so a NaN can never reach a file as the token `NaN`.
+not be strict JSON (`allow_nan=False`), so a NaN can never reach a file as the token `NaN`, and
+`loads_object` reads back only what `dumps` could have written (a file holding `NaN` or `[1]`
+is no summary or record of ours).
 """
 
 from __future__ import annotations
@@ -48,3 +50,16 @@ def jsonable(obj):
 def dumps(obj, indent: int | None = 2) -> str:
     """Strict JSON text of `obj` (see `jsonable`)."""
     return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
+
+
+def _no_constant(token: str):
+    raise ValueError(f"{token} is not strict JSON")
+
+
+def loads_object(text: str | bytes) -> dict | None:
+    """The JSON object in `text`, strict (no NaN or infinities); None if it is anything else."""
+    try:
+        data = json.loads(text, parse_constant=_no_constant)
+    except (ValueError, RecursionError):  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        return None
+    return data if isinstance(data, dict) else None

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import DumpFormatError
 from ..units import from_engine
 from .bindump import open_dump
 from .layout import FRONT_FIELDS
@@ -30,7 +31,13 @@ class FrontRows:
 
 def read_front_rows(path: str | Path, chains: int, particles: int) -> FrontRows:
     """The record in `path` of `chains` chains of `particles` magnets (atom IDs in chain order)."""
-    frame = open_dump(path).read()
+    dump = open_dump(path)
+    if not dump.frames:  # written at the end of the run: a file without a whole frame was cut short
+        raise DumpFormatError(f"{path}: holds no complete front record (cut short?); expected one frame of "
+                              f"{chains * particles} magnets")
+    if dump.atoms != chains * particles:
+        raise DumpFormatError(f"{path}: holds {dump.atoms} magnets; expected {chains * particles}")
+    frame = dump.read()
     columns = {name: from_engine(frame.data[-1, :, k + 1], quantity).reshape(chains, particles)
                for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     return FrontRows(columns, float(from_engine(frame.time[-1], "time")))

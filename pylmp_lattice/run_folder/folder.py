@@ -12,7 +12,6 @@ destroys: a folder still being written is read as it stands, and says so.
 
 from __future__ import annotations
 
-import json
 import logging
 import re
 from contextlib import suppress
@@ -27,7 +26,7 @@ from ..formats.dump import Contact, find_contact, read_dump, read_log, trajector
 from ..errors import ConfigError, LatticeError
 from ..case_measures import case_front, read_front_record
 from ..numbering import number
-from ..serialize import dumps
+from ..serialize import dumps, loads_object
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
 from ..formats import layout
@@ -85,10 +84,11 @@ class RunFolder:
 
     @property
     def summary(self) -> dict | None:
-        """summary.json, or None if the folder has none (or one that does not parse)."""
+        """summary.json, or None if the folder has none, or one that is not a strict JSON object
+        (as `summarize` writes it: no NaN)."""
         try:
-            return json.loads((self.path / layout.SUMMARY).read_text())
-        except (OSError, ValueError):
+            return loads_object((self.path / layout.SUMMARY).read_bytes())
+        except OSError:
             return None
 
     # ---- trajectories
@@ -193,6 +193,9 @@ class RunFolder:
             traj = self.trajectory()
         except LatticeError:
             return None, None
+        if len(traj.t) < 2:
+            raise ConfigError(str(self.path), f"holds {len(traj.t)} frame(s) of its trajectory (status {self.status}); "
+                                              "a front needs at least 2, nothing to measure")
         front = case_front(case, traj.t, traj.v, traj.a, self.arrival_method())
         return front, np.max(np.abs(traj.v), axis=0)
 

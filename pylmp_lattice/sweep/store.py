@@ -169,12 +169,14 @@ def outcome(root: str | Path, member_id: str) -> dict | None:
 
 
 def read_json(path: Path) -> dict | None:
-    """A JSON object from a file; None if it is missing or does not parse."""
+    """A strict JSON object from a file (`serialize.loads_object`); None if it is missing or is
+    anything else (the package writes these files strict: a NaN in one was never ours)."""
+    from ..serialize import loads_object
+
     try:
-        data = json.loads(Path(path).read_text())
-    except (FileNotFoundError, NotADirectoryError, UnicodeDecodeError, json.JSONDecodeError):
+        return loads_object(Path(path).read_bytes())
+    except (FileNotFoundError, NotADirectoryError, IsADirectoryError):
         return None
-    return data if isinstance(data, dict) else None
 
 
 @contextlib.contextmanager

@@ -1,0 +1,100 @@
+"""Damaged run folders and sweep members (issue 27, items 5 and 6): a front record cut short, a
+run stopped before its second frame, a member's summary that is not ours. Each is one line
+naming the file and exit 2, or a member that is simply not done; never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.cli import main
+from pylmp_lattice.formats.bindump import open_dump
+from pylmp_lattice.sweep import load_results, load_sweep, run_sweep
+from test_hostile_signals import hooked, state
+from test_sweep import BASE
+
+pytestmark = pytest.mark.lammps
+
+
+def one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if not line.startswith("pylmp-lattice: info")]
+    assert "Traceback" not in err and lines[-1].startswith("pylmp-lattice: error: "), err
+    return lines[-1]
+
+
+@pytest.fixture
+def finished(tmp_path, capsys):
+    """A finished run of 20 magnets, 6 frames; its folder."""
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    assert main(["run", str(tmp_path / "base.toml"), "-o", str(tmp_path / "r"), "--quiet"]) == 0
+    capsys.readouterr()
+    return tmp_path / "r"
+
+
+@pytest.mark.parametrize("keep", [0, 10, 100, 1000])
+def test_summarize_of_a_front_record_cut_short_names_the_file(finished, capsys, keep):
+    record = finished / "front.bin"
+    record.write_bytes(record.read_bytes()[:keep])
+    assert main(["summarize", str(finished)]) == 2
+    line = one_error(capsys)
+    assert line.startswith(f"pylmp-lattice: error: {record}: "), line
+
+
+def test_summarize_of_a_trajectory_of_one_frame_names_the_folder(tmp_path, capsys, monkeypatch):
+    """Without a front record the front comes from the trajectory, and one frame has none: a run
+    whose binary dump holds one frame (stopped before its conversion, the record removed)."""
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    stopped = hooked(tmp_path, "pylmp_lattice.run_folder.execution:convert_dumps", ["run", "base.toml", "-o", "r"])
+    assert stopped.returncode == 143 and state(tmp_path / "r") == "finished", stopped.stderr
+    dump = tmp_path / "r" / "traj.bin"
+    dump.write_bytes(dump.read_bytes()[:open_dump(dump).frame_dtype.itemsize])
+    (tmp_path / "r" / "front.bin").unlink()
+    monkeypatch.chdir(tmp_path)
+    assert main(["summarize", "r"]) == 2
+    assert one_error(capsys).startswith("pylmp-lattice: error: r: holds 1 frame(s) of its trajectory")
+
+
+def test_summarize_of_a_run_interrupted_before_its_second_step_names_the_record(tmp_path, capsys, monkeypatch):
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    stopped = hooked(tmp_path, "pylmp_lattice.runner:new_lammps", ["run", "base.toml", "-o", "r", "--quiet"])
+    assert stopped.returncode == 143 and state(tmp_path / "r") == "interrupted", stopped.stderr
+    monkeypatch.chdir(tmp_path)
+    assert main(["summarize", "r"]) == 2
+    assert one_error(capsys) == ("pylmp-lattice: error: r/front.bin: the record ends at t = 0 ms, "
+                                 "before the run's first step (0.01 ms); nothing to measure")
+
+
+SWEEP = 'base = "base.toml"\n[grid]\n"impactor.velocity" = [0.5, 0.6]\n'
+
+
+def sweep_here(tmp_path):
+    (tmp_path / "base.toml").write_text(BASE.format(particles=8, duration=5.0, output=1.0))
+    (tmp_path / "sweep.toml").write_text(SWEEP)
+    with ThreadPoolExecutor(1) as pool:
+        return run_sweep(load_sweep(tmp_path / "sweep.toml"), tmp_path / "out", executor=pool, slots=1,
+                         progress=False)
+
+
+@pytest.mark.parametrize("summary", ["[1]", '{"particles": NaN}', "NaN", '"done"'])
+def test_a_member_whose_summary_is_not_ours_is_not_done_and_runs_again(tmp_path, summary):
+    """A resume used to fail on `[1]` (a list has no items) and keep `NaN` as done."""
+    first = sweep_here(tmp_path)
+    assert set(first["status"]) == {"done"}
+    member = tmp_path / "out" / first["folder"][0]
+    (member / "summary.json").write_text(summary)
+    again = sweep_here(tmp_path)
+    assert set(again["status"]) == {"done"}
+    assert json.loads((member / "summary.json").read_text())["particles"] == 8  # run again, its summary whole
+    for column in ("linear_wave_speed_V0_m_per_s", "particles_reached_by_front", "first_peak_velocity_over_V_I"):
+        assert np.allclose(again[column].astype(float), first[column].astype(float), rtol=1e-12, equal_nan=True)
+    assert list(load_results(tmp_path / "out")["status"]) == ["done", "done"]
+
+
+def test_open_dump_of_the_front_record_counts_its_frame(finished):
+    """The check above stands on this: a whole record is one frame."""
+    assert open_dump(finished / "front.bin").frames == 1
