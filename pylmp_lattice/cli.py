@@ -97,7 +97,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--yes", action="store_true", help="start a run estimated to take over an hour")
     run.set_defaults(func=_run)
 
-    deck = sub.add_parser("deck", help="write a deck that runs with `lmp -in in.lattice`")
+    deck = sub.add_parser("deck", help="write a deck that runs with `pylmp-lattice lmp -in in.lattice` (or the wheel's `lmp`)")
     _case_args(deck)
     deck.set_defaults(func=_deck)
 
@@ -238,7 +238,8 @@ def _deck(args) -> int:
     # one line to paste: the subshell keeps the working directory, so the summarize path holds,
     # and summarize runs after a stopped lmp too (it measures what was written)
     where = shlex.quote(str(folder))
-    print(f"wrote {folder / DECK}; run it with: (cd {where} && lmp -in {DECK}); pylmp-lattice summarize {where}")
+    print(f"wrote {folder / DECK}; run it with: (cd {where} && pylmp-lattice lmp -in {DECK}); "
+          f"pylmp-lattice summarize {where}")
     return 0
 
 
@@ -359,9 +360,18 @@ def _info(args) -> int:
 
 
 def _program(args) -> int:
+    """The wheel's program; `lmp -in in.lattice` in a run folder of this package as a hand run
+    (`marker.hand_run`: its end is known at once, also after Ctrl-C)."""
+    from contextlib import nullcontext
+
+    from .formats.layout import DECK
+    from .run_folder import marker
     from .tools import run_program
 
-    return run_program(args.program, args.args)
+    here = Path.cwd()
+    deck = args.program == "lmp" and any(a in ("-in", "-i") and b == DECK for a, b in zip(args.args, args.args[1:]))
+    with marker.hand_run(here) if deck and marker.is_run(here) else nullcontext():
+        return run_program(args.program, args.args)
 
 
 if __name__ == "__main__":

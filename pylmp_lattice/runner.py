@@ -142,7 +142,7 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
     with tempfile.TemporaryFile("w+") as out:
         # Its own process group: a terminal's Ctrl-C reaches only us, and we stop the whole group once.
         proc = subprocess.Popen(cmd, cwd=folder, stdout=sys.stderr if echo else out, stderr=subprocess.STDOUT,
-                                text=True, start_new_session=True, preexec_fn=_die_with_parent)
+                                text=True, start_new_session=True, preexec_fn=die_with_parent)
         with _stop_signals(lambda signum: _signal_group(proc, signum)) as stopped:
             while proc.poll() is None:
                 time.sleep(POLL)
@@ -159,14 +159,26 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         log = folder / LOG
         message = _error_line((log.read_text() if log.exists() else "") + output)
         if message is None:
-            message = (f"lmp was killed by signal {signal.Signals(-proc.returncode).name}" if proc.returncode < 0
+            killer = _killed_by(proc.returncode)
+            message = (f"lmp was killed by signal {killer} ({signal.Signals(killer).name})" if killer
                        else f"lmp exited with code {proc.returncode} without a LAMMPS error message")
         raise RunError(message, folder, proc.returncode)
     _check_contact(folder)
     return folder
 
 
-def _die_with_parent() -> None:
+def _killed_by(code: int) -> int | None:
+    """The signal that killed the engine, from the exit code of `lmp` or `mpiexec`: -n from the
+    program itself, 256 - n from the wheel's `lmp` wrapper (a Python script that exits with its
+    child's -n), 128 + n from a shell or mpiexec; None for an ordinary exit code."""
+    for signum in (-code, 256 - code if code < 255 else 0, code - 128):  # 255: exit(-1), no signal
+        if 0 < signum < signal.NSIG:
+            with contextlib.suppress(ValueError):
+                return int(signal.Signals(signum))
+    return None
+
+
+def die_with_parent() -> None:
     """In the child before exec: SIGTERM when the parent dies, so that mpiexec stops its ranks
     and lmp stops even if the parent is killed outright (Linux's PR_SET_PDEATHSIG)."""
     with contextlib.suppress(OSError, AttributeError):

@@ -41,4 +41,7 @@ def run_program(name: str, args: list[str]) -> int:
     """Run `name` (one of PROGRAMS) with `args` in the current folder; its exit code."""
     if name not in PROGRAMS:
         raise ValueError(f"name: got {name!r}; choose one of {', '.join(PROGRAMS)}")
-    return subprocess.call([str(program(name)), *args], env=environment())
+    from .runner import die_with_parent
+
+    # it dies with this process: a hand run's end is this process's (`marker.hand_run`)
+    return subprocess.call([str(program(name)), *args], env=environment(), preexec_fn=die_with_parent)

@@ -243,7 +243,7 @@ def test_empty_output_is_refused(tmp_path, monkeypatch, capsys):
 
 def test_deck_hint_is_one_line_to_paste(tmp_path, monkeypatch, capsys):
     """The hint runs as printed in a shell, with a folder whose name has a space and a quote:
-    lmp in the folder, then summarize from where it was typed (trial 2, item 12)."""
+    `pylmp-lattice lmp` in the folder, then summarize from where it was typed (trial 2, item 12)."""
     monkeypatch.chdir(tmp_path)
     case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
     folder = "decks/it's a deck"
@@ -257,4 +257,4 @@ def test_deck_hint_is_one_line_to_paste(tmp_path, monkeypatch, capsys):
         (stubs / name).chmod(0o755)
     subprocess.run(["bash", "-c", command], check=True, env={"PATH": f"{stubs}:/usr/bin:/bin"})
     assert (tmp_path / "calls").read_text().splitlines() == [
-        f"lmp {tmp_path / folder} -in in.lattice", f"pylmp-lattice {tmp_path} summarize {folder}"]
+        f"pylmp-lattice {tmp_path / folder} lmp -in in.lattice", f"pylmp-lattice {tmp_path} summarize {folder}"]

@@ -6,6 +6,7 @@ naming the file and exit 2, or a member that is simply not done; never a traceba
 from __future__ import annotations
 
 import json
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -98,3 +99,105 @@ def test_a_member_whose_summary_is_not_ours_is_not_done_and_runs_again(tmp_path,
 def test_open_dump_of_the_front_record_counts_its_frame(finished):
     """The check above stands on this: a whole record is one frame."""
     assert open_dump(finished / "front.bin").frames == 1
+
+
+def test_a_full_disk_leaves_run_json_recorded_and_no_temporary_file(tmp_path, monkeypatch):
+    """As another process filling the disk mid-run does (ENOSPC on the new file): run.json is
+    rewritten in place, never left "running", and no 0-byte run.json.tmp stays."""
+    import errno
+    from pathlib import Path
+
+    from pylmp_lattice.run_folder import marker
+
+    marker.record(tmp_path, marker.RUNNING)
+    real = Path.write_bytes
+
+    def full(self, data):
+        if self.name.endswith(".tmp"):
+            real(self, b"")  # the file is created, its data does not fit
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, data)
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    marker.record(tmp_path, marker.INTERRUPTED, time_ms=12.5)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json"]
+    assert marker.read(tmp_path)["state"] == "interrupted" and marker.read(tmp_path)["time_ms"] == 12.5
+
+
+def test_a_running_record_names_its_writer_and_a_gone_writer_is_known(tmp_path):
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    from pylmp_lattice.run_folder import marker
+
+    marker.record(tmp_path, marker.RUNNING)
+    data = marker.read(tmp_path)
+    assert data["pid"] == os.getpid() and data["host"] == socket.gethostname()
+    assert not marker.writer_gone(data)  # this process runs
+    child = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    assert marker.writer_gone(data | {"pid": int(child.stdout)})  # ended
+    assert not marker.writer_gone(data | {"pid": int(child.stdout), "host": "elsewhere"})  # /proc cannot tell
+    assert not marker.writer_gone(data | {"pid": "1; rm -rf /"}) and not marker.writer_gone({"state": "finished"})
+
+
+@pytest.mark.parametrize("code, signum", [(-9, 9), (247, 9), (137, 9), (143, 15), (1, None), (255, None), (3, None)])
+def test_a_killed_lmp_names_its_signal(code, signum):
+    """The wheel's `lmp` is a Python wrapper that exits with its child's -9 as 247: it used to
+    read "lmp exited with code 247"."""
+    from pylmp_lattice.runner import _killed_by
+
+    assert _killed_by(code) == signum
+
+
+def test_a_killed_lmp_run_says_killed_by_signal_9(tmp_path, capsys):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "base.toml").write_text(BASE.format(particles=400, duration=2000.0, output=10.0))
+    proc = subprocess.Popen([sys.executable, "-m", "pylmp_lattice.cli", "run", "base.toml", "-o", "r", "--quiet",
+                             "--runner", "lmp"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+    log = tmp_path / "r" / "log.lammps"
+    while "Step" not in (log.read_text() if log.exists() else ""):
+        assert proc.poll() is None, proc.stderr.read()
+        time.sleep(0.05)
+    engines = [int(p.parent.name) for p in __import__("pathlib").Path("/proc").glob("[0-9]*/exe")
+               if _exe(p).endswith("/lammps/lmp") and _cwd(p.parent) == str((tmp_path / "r").resolve())]
+    assert engines
+    for pid in engines:
+        os.kill(pid, signal.SIGKILL)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 1
+    assert "lmp was killed by signal 9 (SIGKILL)" in err.splitlines()[-1], err
+    assert state(tmp_path / "r") == "failed"
+
+
+def _exe(link) -> str:
+    try:
+        return os.readlink(link)
+    except OSError:
+        return ""
+
+
+def _cwd(proc) -> str:
+    try:
+        return os.readlink(proc / "cwd")
+    except OSError:
+        return ""
+
+
+def test_more_workers_than_cores_warns_once(tmp_path, caplog, monkeypatch):
+    import os
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 1)
+    (tmp_path / "base.toml").write_text(BASE.format(particles=8, duration=1.0, output=1.0))
+    (tmp_path / "sweep.toml").write_text('base = "base.toml"\n[grid]\n"impactor.velocity" = [0.5]\n')
+    run_sweep(load_sweep(tmp_path / "sweep.toml"), tmp_path / "out", workers=3, progress=False)
+    warned = [r.getMessage() for r in caplog.records if "cores" in r.getMessage()]
+    assert warned == ["--workers 3 is more than this machine's 1 cores: the members share them (each runs slower, "
+                      "and each worker holds its own engine in memory)"]

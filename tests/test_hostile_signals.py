@@ -133,3 +133,50 @@ def test_sigterm_to_a_sweeps_process_group_while_its_table_is_written(tmp_path):
     assert "Traceback" not in done.stderr
     assert list(load_results(out)["status"]) == ["done", "done"]
     assert_table_matches_disk(out)
+
+
+def test_a_hand_run_stopped_by_ctrl_c_is_quiet_and_summarized_at_once(tmp_path):
+    """The deck's own hint, `pylmp-lattice lmp -in in.lattice`, stopped by Ctrl-C (SIGINT to the
+    terminal's process group): one line, exit 130, and `summarize` measures it at once (it used
+    to refuse for 30 s, "still being written by LAMMPS")."""
+    import time
+
+    from pylmp_lattice.run_folder import RunFolder
+
+    (tmp_path / "base.toml").write_text(BASE.format(particles=400, duration=2000.0, output=10.0))
+    cli = [sys.executable, "-m", "pylmp_lattice.cli"]
+    deck = subprocess.run(cli + ["deck", "base.toml", "-o", "d"], cwd=tmp_path, capture_output=True, text=True)
+    assert "(cd d && pylmp-lattice lmp -in in.lattice)" in deck.stdout
+    proc = subprocess.Popen(cli + ["lmp", "-in", "in.lattice"], cwd=tmp_path / "d", start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    folder = RunFolder(tmp_path / "d")
+    while "Step" not in ((tmp_path / "d" / "log.lammps").read_text() if (tmp_path / "d" / "log.lammps").exists() else ""):
+        assert proc.poll() is None, proc.stderr.read()
+        time.sleep(0.05)
+    assert folder.status == "running"
+    os.killpg(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130 and err == "pylmp-lattice: interrupted\n", err
+    assert folder.status == "interrupted" and state(tmp_path / "d") == "interrupted"
+    summary = folder.summarize(figure=False)  # at once: no "still being written" for 30 s
+    assert summary["status"] == "interrupted" and 0 < summary["stopped"]["time_ms"] < 2000.0
+
+
+def test_a_killed_cli_run_is_known_to_have_ended_at_once(tmp_path):
+    """SIGKILL leaves run.json "running", but it names its writer, which is gone: the run is
+    "interrupted" at once, not after 30 s."""
+    import time
+
+    from pylmp_lattice.run_folder import RunFolder
+
+    (tmp_path / "base.toml").write_text(BASE.format(particles=400, duration=2000.0, output=10.0))
+    proc = subprocess.Popen([sys.executable, "-m", "pylmp_lattice.cli", "run", "base.toml", "-o", "r", "--quiet"],
+                            cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    log = tmp_path / "r" / "log.lammps"
+    while "Step" not in (log.read_text() if log.exists() else ""):
+        assert proc.poll() is None
+        time.sleep(0.05)
+    proc.kill()
+    proc.wait()
+    assert state(tmp_path / "r") == "running"
+    assert RunFolder(tmp_path / "r").status == "interrupted"

@@ -9,10 +9,12 @@ The format of two small files, as `bindump` is that of the binary dumps: the wri
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
 import re
+import socket
 import time
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -48,15 +50,48 @@ def deck_hash(text: str) -> str:
 
 def record(folder: Path, state: str, **details) -> None:
     """Write run.json (atomically): the package, its version, the state and its details (the
-    deck's hash of the earlier record is kept)."""
+    deck's hash of the earlier record is kept). A "running" record names its writer (host and
+    pid): once that process is gone, the run is known to have ended (`writer_gone`).
+
+    On a full disk (no room for the new file beside the old one) the record is rewritten in
+    place, in the block the old one frees: a run stopped by a full disk is not left "running"."""
     from ..version import __version__
 
     kept = {DECK_HASH: (read(folder) or {}).get(DECK_HASH)}
+    writer = {"host": socket.gethostname(), "pid": os.getpid()} if state == RUNNING else {}
     data = {"package": PACKAGE, "version": __version__, "state": state,
-            **{k: v for k, v in kept.items() if v is not None}, **details}
+            **{k: v for k, v in kept.items() if v is not None}, **writer, **details}
+    text = (json.dumps(data, indent=2) + "\n").encode()
     tmp = folder / (layout.MARKER + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(tmp, folder / layout.MARKER)
+    try:
+        tmp.write_bytes(text)
+        os.replace(tmp, folder / layout.MARKER)
+    except OSError as err:
+        tmp.unlink(missing_ok=True)
+        if err.errno != errno.ENOSPC or not (folder / layout.MARKER).is_file():
+            raise
+        with (folder / layout.MARKER).open("r+b") as f:  # in place: no second block needed
+            f.truncate(0)
+            f.write(text)
+
+
+def writer_gone(data: dict | None) -> bool:
+    """Whether the writer a "running" record names (`record`) is a process of this machine that
+    no longer runs: then no runner of this package writes the folder (LAMMPS dies with it: the
+    `lmp` runner's parent-death signal, `pylmp-lattice lmp`'s too). A writer of another machine,
+    or a record without one, may still be writing: False."""
+    if not data or data.get("state") != RUNNING or data.get("host") != socket.gethostname():
+        return False
+    pid = data.get("pid")
+    if not isinstance(pid, int) or isinstance(pid, bool) or pid <= 0:
+        return False
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return Path("/proc/self/stat").exists()  # no such process (on a system with /proc)
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[-1].split()[0] in ("Z", "X")  # a zombie: killed, not yet reaped
 
 
 def read(folder: Path) -> dict | None:
@@ -114,30 +149,49 @@ def status(folder: Path) -> str:
     runner's (`file_lock`)."""
     if locked(folder):
         return RUNNING
-    state = (read(folder) or {}).get("state", WRITTEN)
+    data = read(folder) or {}
+    state = data.get("state", WRITTEN)
     if state not in (WRITTEN, RUNNING):
         return state
     text = log_text(folder)
     if text is None:
         return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
-    error = lammps_error(text)
-    if not log_ended(text) and error is None:
-        if being_written(folder):
+    if log_state(text) is None:
+        if being_written(folder, quiet=0.0 if writer_gone(data) else QUIET):  # its runner's end is known at once
             return RUNNING
         text = log_text(folder) or text  # it may have ended while we looked
-        if not log_ended(text):
-            return INTERRUPTED
-        error = lammps_error(text)
+    return log_state(text) or INTERRUPTED
+
+
+def log_state(text: str) -> str | None:
+    """How a log says its run ended: "contact", "failed" (an ERROR line) or "finished"; None
+    while it has not ended."""
+    error = lammps_error(text)
+    if not log_ended(text) and error is None:
+        return None
     return CONTACT if find_contact(text) else FAILED if error else FINISHED
 
 
-def being_written(folder: Path) -> bool:
+@contextmanager
+def hand_run(folder: Path):
+    """`pylmp-lattice lmp -in in.lattice` in a run folder: the folder is claimed and recorded
+    "running" by this process while LAMMPS (its child, which dies with it) runs, and its end
+    recorded from the log, so that `status` knows at once that it ended, however it ended."""
+    with claimed(folder):
+        record(folder, RUNNING, runner="pylmp-lattice lmp")
+        try:
+            yield
+        finally:
+            record(folder, log_state(log_text(folder) or "") or INTERRUPTED, runner="pylmp-lattice lmp")
+
+
+def being_written(folder: Path, quiet: float = QUIET) -> bool:
     """Whether a process may still write the run in `folder` (its log has not ended): a process
     of this machine holds the log open for writing (Linux's /proc/*/fd, as `lsof` does: at once,
     where a file's age is not, LAMMPS flushing its log at each thermo row only), or the log or a
     dump changed in the last QUIET seconds (what /proc cannot see: a process of another user,
     LAMMPS on another machine writing a shared folder, a system without /proc)."""
-    return bool(_open_for_writing(folder / layout.LOG)) or _changed_within(folder, QUIET)
+    return bool(_open_for_writing(folder / layout.LOG)) or (quiet > 0 and _changed_within(folder, quiet))
 
 
 def settled(folder: Path, state: str | None = None) -> bool:
@@ -149,7 +203,8 @@ def settled(folder: Path, state: str | None = None) -> bool:
     state = status(folder) if state is None else state
     if state == RUNNING:
         return False
-    inferred = (read(folder) or {}).get("state", WRITTEN) in (WRITTEN, RUNNING)
+    data = read(folder) or {}
+    inferred = data.get("state", WRITTEN) in (WRITTEN, RUNNING) and not writer_gone(data)
     return not (state == INTERRUPTED and inferred and _changed_within(folder, SETTLED))
 
 

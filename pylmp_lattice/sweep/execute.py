@@ -87,6 +87,10 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+    cores = os.cpu_count() or 1
+    if workers is not None and executor is None and workers > cores:
+        log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
+                    "and each worker holds its own engine in memory)", workers, cores)
     log.info("%s: %d members (%s)", root.name, total, _estimate(sweep, total, slots or workers or os.cpu_count() or 1))
     if total > MANY_MEMBERS and not yes:
         raise ConfigError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
