@@ -160,7 +160,7 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         message = _error_line((log.read_text() if log.exists() else "") + output)
         if message is None:
             killer = _killed_by(proc.returncode)
-            message = (f"lmp was killed by signal {killer} ({signal.Signals(killer).name})" if killer
+            message = (f"lmp was killed by signal {signal.Signals(killer).name}" if killer
                        else f"lmp exited with code {proc.returncode} without a LAMMPS error message")
         raise RunError(message, folder, proc.returncode)
     _check_contact(folder)
