@@ -11,7 +11,6 @@ import dataclasses
 import gc
 import json
 import logging
-import os
 import re
 import shlex
 import signal
@@ -257,6 +256,7 @@ def _summarize(args) -> int:
 
 def _export(args) -> int:
     from .ase_io import FORMATS, write_trajectory
+    from .formats.files import refuse_link, replacing
     from .preflight import check_writable
     from .run_folder import RunFolder
 
@@ -267,19 +267,15 @@ def _export(args) -> int:
         raise ConfigError("--output", f"got {out.name!r}; expected a file ending in {' or '.join(FORMATS)}")
     if not out.parent.is_dir():
         raise ConfigError("--output", f"{out.parent} is not a folder; expected an existing folder")
+    refuse_link(out)
     if out.is_dir() or (out.exists() and not args.overwrite):
         raise ConfigError("--output", f"{out} is a folder; expected a file name" if out.is_dir() else
                           f"{out} exists; pass --overwrite to replace it, or choose another -o")
     check_writable(out.parent, "--output")
     run = RunFolder(args.folder)
     traj = run.trajectory()
-    # written beside it, then renamed: a failed or interrupted export leaves any old file whole
-    part = out.with_name(f".{out.stem}.{os.getpid()}.part{out.suffix}")
-    try:
+    with replacing(out) as part:  # a failed or interrupted export leaves any old file whole
         write_trajectory(part, traj, run.case.chain.masses(), every=args.every)
-        os.replace(part, out)
-    finally:
-        part.unlink(missing_ok=True)
     print(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 

@@ -44,7 +44,7 @@ def exclusive(path: str | Path, timeout: float | None = None):
         return
     deadline = None if timeout is None else time.monotonic() + timeout
     while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)  # a link there: ELOOP, never followed
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | (0 if deadline is None else fcntl.LOCK_NB))
         except BlockingIOError:
@@ -73,8 +73,8 @@ def is_held(path: str | Path) -> bool:
     if os.path.realpath(path) in _mine():
         return False
     try:
-        fd = os.open(path, os.O_RDONLY)
-    except FileNotFoundError:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except (FileNotFoundError, OSError):  # none, or a link: no lock of ours
         return False
     try:
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
@@ -94,6 +94,6 @@ def _mine() -> set[str]:
 def _names(path: Path, fd: int) -> bool:
     """Whether `path` still names the open file `fd` (it was not removed or replaced)."""
     try:
-        return os.stat(path).st_ino == os.fstat(fd).st_ino
+        return os.lstat(path).st_ino == os.fstat(fd).st_ino
     except FileNotFoundError:
         return False

@@ -994,7 +994,7 @@ def test_the_folder_says_at_most_how_many_members_are_done_before_any_is_read(tm
 def test_sweep_files_are_readable_as_the_umask_says(tmp_path):
     """Tables and records are written through a temporary file (mkstemp makes it the owner's
     alone); they end with the mode a plain open() gives under the process's umask."""
-    from pylmp_lattice.sweep.store import UMASK, atomic_write
+    from pylmp_lattice.formats.files import UMASK, atomic_write
 
     atomic_write(tmp_path / "results.csv", "id\n")
     assert (tmp_path / "results.csv").stat().st_mode & 0o777 == 0o666 & ~UMASK

@@ -49,6 +49,7 @@ import numpy as np
 from . import psf
 from .bindump import BinaryDump
 from .dump import read_log
+from .files import atomic_write
 from ..errors import LatticeError
 from .layout import TOPOLOGY
 from ..trajectory import Trajectory
@@ -89,7 +90,7 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
     masses = header.masses
     species = psf.species(masses)
     # beside it, its topology: what plain MDAnalysis needs for masses (see `psf`)
-    (Path(target).parent / TOPOLOGY).write_text(psf.psf_text(header.name, masses))
+    atomic_write(Path(target).parent / TOPOLOGY, psf.psf_text(header.name, masses))
     with h5py.File(target, "w") as h5:
         _write_header(h5, header.case_toml)
         for group, dump in dumps.items():

@@ -10,7 +10,6 @@ hold, with the same last frame.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +18,7 @@ from ..case import Case
 from ..errors import LatticeError
 from ..formats import layout
 from ..formats.bindump import open_dump
+from ..formats.files import refuse_links, replacing
 from ..units import to_h5md
 from . import marker
 
@@ -30,6 +30,7 @@ def convert_dumps(folder: Path, case: Case) -> bool:
     folder: its lock is held meanwhile); whether it did."""
     if case.output.format != "h5md" or not marker.settled(folder):  # a writer we cannot see may go on
         return False
+    refuse_links(folder, layout.RUN_FILES)  # the dumps it reads, the files it writes: never through a link
     with marker.claimed(folder):  # one converter at a time (a runner holds it already)
         return _convert(folder, case)
 
@@ -43,15 +44,13 @@ def _convert(folder: Path, case: Case) -> bool:
     if not sources:
         return False
     log.info("%s: converting %d frames to %s", folder, sum(d.frames for d in sources.values()), layout.H5MD)
-    target, partial = folder / layout.H5MD, folder / (layout.H5MD + ".part")
-    h5md.write_file(partial, _header(case), sources, folder / layout.LOG)
-    for group, dump in sources.items():
-        count, last = h5md.frame_count(partial, group)
-        expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
-        if count != dump.frames or not np.allclose(last, expected, rtol=1e-12, atol=0):
-            partial.unlink()
-            raise LatticeError(f"{folder}: the H5MD conversion of {dump.path.name} did not verify; kept it")
-    os.replace(partial, target)
+    with replacing(folder / layout.H5MD, part=folder / (layout.H5MD + ".part")) as partial:
+        h5md.write_file(partial, _header(case), sources, folder / layout.LOG)
+        for group, dump in sources.items():
+            count, last = h5md.frame_count(partial, group)
+            expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
+            if count != dump.frames or not np.allclose(last, expected, rtol=1e-12, atol=0):
+                raise LatticeError(f"{folder}: the H5MD conversion of {dump.path.name} did not verify; kept it")
     for dump in sources.values():
         dump.path.unlink()
     return True

@@ -27,6 +27,7 @@ from ..runner import run_deck
 from ..trajectory import Trajectory
 from ..units import to_engine
 from ..formats import layout
+from ..formats.files import atomic_write, refuse_links
 from . import marker
 from .convert import convert_dumps
 from .folder import RunFolder, summarize
@@ -124,9 +125,10 @@ def write_replicas_folder(cases, folder: str | Path) -> Path:
     """Write the batched deck of `cases` (deck.render_replicas) and the cases (replicas.toml)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    refuse_links(folder, layout.RUN_FILES)  # LAMMPS writes its files by name
     for name, text in render_replicas(cases).items():
-        (folder / name).write_text(text)
-    (folder / layout.REPLICAS).write_bytes(tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}).encode())
+        atomic_write(folder / name, text)
+    atomic_write(folder / layout.REPLICAS, tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}))
     return folder
 
 

@@ -30,6 +30,7 @@ from ..serialize import dumps, loads_object
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
 from ..formats import layout
+from ..formats.files import atomic_write, refuse_links, replacing
 from . import marker
 from .convert import convert_dumps
 from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
@@ -219,6 +220,7 @@ class RunFolder:
         case, status = self.case, self.status
         if status == RUNNING:
             raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
+        refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
@@ -245,17 +247,18 @@ class RunFolder:
             wall_time = earlier["wall_time_s"]
         if wall_time is not None:
             summary["wall_time_s"] = round(wall_time, 2)
-        (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
+        atomic_write(self.path / layout.SUMMARY, dumps(summary) + "\n")
         if figure and front is not None:
             try:
                 log.info("%s: drawing %s", self.path, layout.FIGURE)
-                self.figure().savefig(self.path / layout.FIGURE, dpi=120)
+                with replacing(self.path / layout.FIGURE) as png:
+                    self.figure().savefig(png, dpi=120, format="png")
             except Exception as err:  # the summary stands without its figure
                 log.warning("%s: no figure (%s: %s); summary.json is written", self.path, type(err).__name__, err)
                 files.pop("figure", None)
             else:
                 files["figure"] = layout.FIGURE
-            (self.path / layout.SUMMARY).write_text(dumps(summary) + "\n")
+            atomic_write(self.path / layout.SUMMARY, dumps(summary) + "\n")
         return summary
 
     def _current(self, name: str) -> bool:

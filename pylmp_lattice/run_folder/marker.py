@@ -22,7 +22,7 @@ from pathlib import Path
 from ..formats.dump import find_contact, log_ended
 from ..errors import ConfigError
 from ..file_lock import Held, exclusive, is_held
-from ..formats import layout
+from ..formats import files, layout
 
 PACKAGE = "pylmp_lattice"
 # Seconds a writer waits for the folder's lock: a reader's look at it (`locked`) holds it for an
@@ -61,18 +61,16 @@ def record(folder: Path, state: str, **details) -> None:
     writer = {"host": socket.gethostname(), "pid": os.getpid()} if state == RUNNING else {}
     data = {"package": PACKAGE, "version": __version__, "state": state,
             **{k: v for k, v in kept.items() if v is not None}, **writer, **details}
-    text = (json.dumps(data, indent=2) + "\n").encode()
-    tmp = folder / (layout.MARKER + ".tmp")
+    text = json.dumps(data, indent=2) + "\n"
     try:
-        tmp.write_bytes(text)
-        os.replace(tmp, folder / layout.MARKER)
-    except OSError as err:
-        tmp.unlink(missing_ok=True)
-        if err.errno != errno.ENOSPC or not (folder / layout.MARKER).is_file():
-            raise
-        with (folder / layout.MARKER).open("r+b") as f:  # in place: no second block needed
-            f.truncate(0)
-            f.write(text)
+        files.atomic_write(folder / layout.MARKER, text)
+    except files.DiskFull:  # no room for a second copy: the record in place (never through a link)
+        try:
+            fd = os.open(folder / layout.MARKER, os.O_WRONLY | os.O_TRUNC | os.O_NOFOLLOW)
+        except OSError:
+            raise files.DiskFull(folder / layout.MARKER) from None
+        with os.fdopen(fd, "wb") as f:
+            f.write(text.encode())
 
 
 def writer_gone(data: dict | None) -> bool:
@@ -114,6 +112,7 @@ def claimed(folder: Path):
     wrote it, a runner until its run is converted and summarised, a reader while it converts
     the dumps. Two cannot write one folder, and others leave its files alone meanwhile; in the
     thread that holds it (`file_lock`) it is simply held on. ConfigError if another holds it."""
+    files.refuse_link(folder / layout.LOCK)
     with contextlib.ExitStack() as stack:
         try:
             stack.enter_context(exclusive(folder / layout.LOCK, timeout=CLAIM_WAIT))

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import tomli_w
@@ -14,6 +15,7 @@ from ..case import Case, case_to_dict
 from ..deck import render
 from ..errors import ConfigError
 from ..formats import layout
+from ..formats.files import atomic_write, refuse_links
 from . import marker
 
 
@@ -47,12 +49,12 @@ def write_claimed(case: Case, path: Path, overwrite: bool, files: dict[str, str]
                 (path / name).unlink(missing_ok=True)
     try:
         for name, text in files.items():
-            (path / name).write_text(text)
-        (path / layout.CASE).write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+            atomic_write(path / name, text)
+        atomic_write(path / layout.CASE, tomli_w.dumps(case_to_dict(case)))
         marker.record(path, marker.WRITTEN, **{marker.DECK_HASH: marker.deck_hash(files[layout.DECK])})
     except BaseException:  # a write stopped half-way (a signal, a full disk) is no run: its files go,
-        for name in [*files, layout.CASE, layout.MARKER, layout.MARKER + ".tmp"]:  # else no command could
-            (path / name).unlink(missing_ok=True)  # replace them
+        for name in [*files, layout.CASE, layout.MARKER]:  # else no command could replace them
+            (path / name).unlink(missing_ok=True)
         raise
 
 
@@ -61,7 +63,10 @@ def check_target(path: Path, overwrite: bool) -> bool:
     `write_folder`). Under this thread's own claim of the folder, its lock is no other runner's."""
     path = Path(path)
     layout.check_place(path, "run")
-    if marker.is_run(path):
+    run = marker.is_run(path)
+    if not (run and overwrite):  # a link where LAMMPS or the package writes a file: refused (--overwrite removes it)
+        refuse_links(path, layout.RUN_FILES)
+    if run:
         if not overwrite:
             raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
                                         "replace it, or choose another --name or -o")
@@ -72,12 +77,13 @@ def check_target(path: Path, overwrite: bool) -> bool:
             raise ConfigError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
                                         "LAMMPS this machine cannot see may still write; wait, or remove the folder "
                                         "yourself")
-        odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_file()]
+        odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_symlink()
+               and not (path / name).is_file()]
         if odd:  # checked before anything is removed: an overwrite never stops half-way
             raise ConfigError("output", f"{path / odd[0]} is not a file; a run writes a file there")
         return True
     # a lock file alone is no run's (a writer's, this thread's own, or left by a killed one)
-    clash = sorted(name for name in layout.RUN_FILES if (path / name).exists() and name != layout.LOCK)
+    clash = sorted(name for name in layout.RUN_FILES if os.path.lexists(path / name) and name != layout.LOCK)
     if clash:
         raise ConfigError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
                                     "choose an empty or new folder")

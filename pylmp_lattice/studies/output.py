@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..formats.files import replacing
 from ..serialize import dumps
 
 log = logging.getLogger(__name__)
@@ -66,11 +67,10 @@ def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
 
 def _replace(path: Path, write, replaced: list) -> Path:
     """Write `path` through a partial file renamed over it; a replaced file's name joins `replaced`."""
-    tmp = path.with_name(f".{path.name}.partial")
-    write(tmp)
-    if path.exists():
-        replaced.append(path.name)
-    os.replace(tmp, path)
+    with replacing(path) as tmp:
+        write(tmp)
+        if os.path.lexists(path):
+            replaced.append(path.name)
     return path
 
 

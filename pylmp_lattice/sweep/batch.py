@@ -17,6 +17,7 @@ members as "interrupted".
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import resource
@@ -28,6 +29,7 @@ from pathlib import Path
 
 from ..case import Case
 from ..errors import Interrupted, LatticeError
+from ..formats.files import DiskFull, as_disk_full, atomic_write, disk_full, remove_tree
 from .spec import Member, member_cases
 from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, listing, member_folder, now,
                     provenance, task_lock, write_batch, write_status)
@@ -150,6 +152,10 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         if STOP.is_set():  # it broke while the sweep was being stopped (a second signal): redone on resume
             return _stopped([(m, case)], root, [record])[m.id]
+        if disk_full(err):  # the sweep stops (see execute): the member is run again on resume
+            with contextlib.suppress(OSError, LatticeError):
+                write_status(folder, record | {"status": INTERRUPTED, "ended": now()})
+            raise as_disk_full(err, folder) from err
         summary = None
         record |= {"status": FAILED, "error": one_line(err, root)}
     record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
@@ -172,10 +178,13 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     try:
         files = deck.render_replicas(cases, front=True)  # ConfigError if they differ beyond [chain]
         for name, text in files.items():
-            (batch / name).write_text(text)
+            atomic_write(batch / name, text)
         run_deck(batch, runner)
     except Interrupted as err:
         return _batch_stopped(group, batch, started, err)
+    except DiskFull:  # the sweep stops (see execute): its members are run again on resume
+        shutil.rmtree(batch, ignore_errors=True)
+        raise
     except LatticeError as err:  # unequal cases, a contact or an engine error in some chain: each member alone
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
@@ -204,7 +213,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     alone = listing(root / MEMBERS)
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
         if m.id in alone:
-            shutil.rmtree(member_folder(root, m.id))
+            remove_tree(member_folder(root, m.id))
     return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
 
 
@@ -278,8 +287,7 @@ def unstarted(m: Member) -> dict:
 
 def _fresh(folder: Path) -> Path:
     """An empty folder: an earlier unfinished attempt never counted as done."""
-    if folder.exists():
-        shutil.rmtree(folder)
+    remove_tree(folder)  # a link there is removed, never followed
     folder.mkdir(parents=True)
     return folder
 

@@ -35,13 +35,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError, Interrupted
-from . import batch
+from ..formats.files import DiskFull
+from . import batch, disk
 from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
 from .store import BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
-from .table import Table, member_row
+from .table import CSV, Table, frame, member_row
 
 log = logging.getLogger(__name__)
 
@@ -87,11 +88,13 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+    slots_now = slots or workers or os.cpu_count() or 1
     cores = os.cpu_count() or 1
     if workers is not None and executor is None and workers > cores:
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
-    log.info("%s: %d members (%s)", root.name, total, _estimate(sweep, total, slots or workers or os.cpu_count() or 1))
+    disk_need = disk.check(sweep, root, total - Outcomes(root).at_most(), slots_now)  # --yes or not
+    log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now), disk_need)
     if total > MANY_MEMBERS and not yes:
         raise ConfigError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")
@@ -120,6 +123,7 @@ class _Coordinator:
                               max(1, total // sweep.replicas), sweep.replicas)
         self.bar = _Progress(total, progress)
         self.lost = False
+        self.full: DiskFull | None = None  # a full disk: the sweep stops as on a signal
         self.preload = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
         self.kept = self.kept_failed = 0  # members whose outcome on disk stood (a resumed sweep's), failed ones
@@ -130,7 +134,7 @@ class _Coordinator:
         try:
             ready: list[Task] = []  # the next tasks, enumerated while the workers run
             while True:
-                stopping = self.stop.signals or self.lost
+                stopping = self.stop.signals or self.lost or self.full
                 while not stopping and len(running) < self.pool.slots and (ready or self._more(tasks, ready)):
                     task = ready.pop(0)
                     running[self.pool.submit(task)] = task
@@ -145,26 +149,45 @@ class _Coordinator:
                 done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(running.pop(future), future)
-                if (self.stop.signals or self.lost) and running:
+                if (self.stop.signals or self.lost or self.full) and running:
                     self._wind_down(running)
-                self.table.flush()
+                self._write_table(flush=True)
             if self.broken:
                 self.pool.kill()
                 for task in self.broken:
                     self._from_disk(task)
         finally:
             self.bar.close()
-            table = self.table.write()
+            table = self._write_table()
             if self.kept:
                 failed = self.kept_failed
                 log.info("%s: %d of %d members had an outcome before this run (%d done, %d failed): kept, not run "
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
+        done = sum(row["status"] == "done" for row in self.table.rows.values())
         if self.stop.signals:
-            done = int((table["status"] == "done").sum()) if len(table) else 0
             log.info("%s: stopped with %d of %d members done", self.root.name, done, self.total)
             raise Interrupted(self.stop.signals[0])
+        if self.full:
+            raise DiskFull(self.full.path, f"the sweep stopped with {done} of {self.total} members done, kept in "
+                                           f"{self.root} and its {CSV}; free space and run the same command to resume")
         return table
+
+    def _write_table(self, flush: bool = False):
+        """The table written (`flush`: if due); on a full disk the files keep their last rows and
+        the sweep stops."""
+        try:
+            return self.table.flush() if flush else self.table.write()
+        except DiskFull as err:
+            if self.full is None:
+                self._disk_full(err)
+            return frame([self.table.rows[i] for i in sorted(self.table.rows)])
+
+    def _disk_full(self, err: DiskFull) -> None:
+        """Stop as on a signal: no task is sent, the workers stop their members."""
+        log.warning("%s: %s; stopping", self.root.name, err)
+        self.full = err
+        self.pool.on_signal(1)
 
     def _more(self, tasks, ready: list[Task]) -> bool:
         """Enumerate the next task into `ready`; whether there was one."""
@@ -203,6 +226,11 @@ class _Coordinator:
     def _collect(self, task: Task, future: Future) -> None:
         try:
             results = future.result()
+        except DiskFull as err:  # its members are read back from the disk
+            if self.full is None:
+                self._disk_full(err)
+            self.broken.append(task)
+            return
         except (Exception, Interrupted) as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
             if not (self.stop.signals or self.lost):
                 log.warning("a worker was lost (%s); the members in flight are read back from their folders",
@@ -343,9 +371,12 @@ def check_folder(root: str | Path) -> None:
     a run's folder, and not inside another sweep's members/ or batches/ (a study's sweeps may
     sit side by side in one sweep's folder)."""
     from ..formats import layout
+    from ..formats.files import refuse_links
     from ..run_folder import marker
+    from .table import FILES as TABLE_FILES
 
     layout.check_place(Path(root), "sweep")
+    refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
     path = Path(root).resolve()
@@ -368,7 +399,7 @@ def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
         raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
                           "or pass --overwrite (overwrite=True) to replace it")
     if held is None or held.get("identity") != identity:
-        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n")
+        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n", sync=True)
 
 
 # ----------------------------------------------------------------------------- signals

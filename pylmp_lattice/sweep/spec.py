@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from ..case import (Case, case_from_dict, case_id, case_to_dict, data_file, identity_hash, normalised,
+from ..case import (Case, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     normalised_hash, read_toml)
 from ..errors import ConfigError
 
@@ -357,7 +357,18 @@ def load_sweep(path: str | Path) -> Sweep:
         if not isinstance(data.get(table, {}), dict):
             raise ConfigError(table, f"got {data[table]!r}; expected a table [{table}]")
     data.pop("cluster", None)  # what batch jobs book: sweep.cluster reads it
-    return Sweep(base=data_file(path.parent, data.pop("base"), "base"), **data)
+    return Sweep(base=base_file(path.parent, data.pop("base")), **data)
+
+
+def base_file(folder: Path, value) -> Path:
+    """The base case a sweep file names: a path relative to the sweep file's folder, or absolute.
+    Unlike the files a case names (`case.data_file`, kept inside its folder), it may lie
+    anywhere: the sweep only reads it, as `pylmp-lattice run CASE` reads a case, and writes in
+    its -o folder only; the files the base case names stay inside the base case's folder."""
+    if not (isinstance(value, str) and value and value.isprintable()):
+        raise ConfigError("base", f"got a {type(value).__name__}; expected the path of a case file (TOML), relative to "
+                                  "the sweep file's folder or absolute")
+    return (Path(folder) / value).resolve()
 
 
 def member_seed(sweep_seed: int, index: int) -> int:

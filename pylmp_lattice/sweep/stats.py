@@ -22,13 +22,13 @@ import numpy as np
 import pandas as pd
 
 from .store import atomic_write
+from .table import STATS_CSV, STATS_PNG
 
 log = logging.getLogger(__name__)
 
 
 # Columns that label a member rather than its parameter point.
 REPLICA_COLUMNS = ("replica", "chain.seed")
-STATS_CSV, STATS_PNG = "replica_stats.csv", "replica_stats.png"
 # The table columns averaged by default: column -> (name, unit).
 MEASURES = {
     "front_speed_m_per_s.value": ("front speed $V_P$, fixed gap window", "m/s"),
@@ -306,7 +306,7 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
 
     root = Path(root)
     stats = replica_stats(table, measures)
-    atomic_write(root / STATS_CSV, stats.to_csv(index=False))
+    atomic_write(root / STATS_CSV, stats.to_csv(index=False), sync=True)
     for line in low_coverage_warnings(stats):
         log.warning("%s", line)
     point = list(stats.columns[:list(stats.columns).index("n")])
@@ -329,7 +329,7 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
         _legend_below(fig, axes, cols, rows)
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=100)
-        atomic_write(root / STATS_PNG, buffer.getvalue())
+        atomic_write(root / STATS_PNG, buffer.getvalue(), sync=True)
     else:  # an earlier figure would no longer show this table
         (root / STATS_PNG).unlink(missing_ok=True)
     return stats

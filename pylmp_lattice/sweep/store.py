@@ -26,7 +26,6 @@ import os
 import platform
 import socket
 import subprocess
-import tempfile
 from datetime import datetime, timezone
 from functools import cache
 from pathlib import Path
@@ -34,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..file_lock import Held, exclusive
+from ..formats.files import atomic_write
 
 MEMBERS = "members"
 BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
@@ -46,31 +46,6 @@ INTERRUPTED = "interrupted"  # stopped by a signal or a lost worker: redone on r
 
 def member_folder(root: str | Path, member_id: str) -> Path:
     return Path(root) / MEMBERS / member_id
-
-
-# The process's umask (read once, at import: reading it means setting it).
-UMASK = os.umask(0o022)
-os.umask(UMASK)
-
-
-def atomic_write(path: Path, data: bytes | str, sync: bool = True) -> None:
-    """Write a file so that readers see the old or the new content, never a part.
-
-    sync: flush it to the disk before it replaces the old one (survives a power cut, not only
-    a killed process; about a millisecond per file)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, 0o666 & ~UMASK)  # as open() would make it (mkstemp's are the owner's alone)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data.encode() if isinstance(data, str) else data)
-            if sync:
-                f.flush()
-                os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_status(folder: Path, record: dict) -> None:
@@ -161,11 +136,30 @@ def outcome(root: str | Path, member_id: str) -> dict | None:
     from ..run_folder import RunFolder
 
     folder = member_folder(root, member_id)
+    if folder.is_symlink():  # not the sweep's own folder: run again (which removes the link)
+        return None
     record = read_status(folder)
     if record is None or record.get("id") != member_id or record.get("status") not in (DONE, FAILED):
         return None
+    if record["status"] == DONE and _case_identity(folder) != member_id:  # another case was run there
+        return None
     summary = RunFolder(folder).summary if record["status"] == DONE else None
     return None if record["status"] == DONE and summary is None else {"record": record, "summary": summary}
+
+
+def _case_identity(folder: Path) -> str | None:
+    """The identity (`case.case_id`) of the case in a run folder's case.toml, read without
+    building the case (the file is `case_to_dict` of the case that ran); None if unreadable."""
+    import tomllib
+
+    from ..case import identity_hash
+    from ..formats.layout import CASE
+
+    try:
+        data = tomllib.loads((Path(folder) / CASE).read_text())
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return identity_hash({k: v for k, v in data.items() if k != "name"})
 
 
 def read_json(path: Path) -> dict | None:

@@ -19,6 +19,8 @@ from .store import atomic_write
 
 CSV = "results.csv"
 PARQUET = "results.parquet"
+STATS_CSV, STATS_PNG = "replica_stats.csv", "replica_stats.png"  # with replicas: their statistics (`stats`)
+FILES = (CSV, PARQUET, STATS_CSV, STATS_PNG)
 FIXED = ("id", "status", "error", "folder", "wall_time_s")
 # Not measures: labels, file paths, and the run's own timing (the member's is wall_time_s).
 NOT_MEASURES = ("case", "files", "wall_time_s")
@@ -79,10 +81,10 @@ def write_table(root: str | Path, rows: list[dict]):
     """Write results.csv and results.parquet in `root` atomically; return the table."""
     df = frame(rows)
     root = Path(root)
-    atomic_write(root / CSV, df.to_csv(index=False))
+    atomic_write(root / CSV, df.to_csv(index=False), sync=True)
     buffer = io.BytesIO()
     df.to_parquet(buffer, index=False)
-    atomic_write(root / PARQUET, buffer.getvalue())
+    atomic_write(root / PARQUET, buffer.getvalue(), sync=True)
     return df
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import measures
+from ...formats.files import replacing
 from ...plots import pyplot, style_figure
 from ...run_folder import simulate
 from ..output import StudyResult
@@ -68,10 +69,8 @@ def _save(anim, path: Path, fmt: str, fps: int) -> Path:
     from matplotlib import animation
 
     writer = animation.FFMpegWriter(fps=fps) if fmt == "mp4" else animation.PillowWriter(fps=fps)
-    tmp = path.with_name(f".{path.name}.partial.{fmt}")
-    with _progress(path.name) as step:
+    with _progress(path.name) as step, replacing(path) as tmp:
         anim.save(tmp, writer=writer, dpi=80, progress_callback=step)
-    tmp.replace(path)
     return path
 
 

@@ -1,0 +1,69 @@
+"""A sweep's disk: what its members will write, summed and checked against the free space
+before any member runs (`check`), with or without --yes.
+
+A member's files are `preflight.file_bytes` of its case: run alone, its whole run folder (the
+force table is most of it when no trajectory is kept); batched (replicas of a point the chain
+engine holds together, `batch.batchable`), its chain's data and front record, and its share
+of the batch's table and small files, one batch per point and worker at most. The bytes of a
+member are the mean over up to SAMPLES parameter points spread over the grid, built without
+enumerating the members: a grid over N or the duration is seen at both ends.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ..errors import ConfigError
+from .spec import Sweep, _is_random, member_seed
+
+SAMPLES = 8
+
+
+def member_bytes(sweep: Sweep, slots: int) -> float | None:
+    """Mean bytes on disk of a member (see the module); None if no sampled point is a valid case."""
+    from ..case import case_from_dict
+    from ..formats.layout import DATA, FRONT_BIN
+    from ..preflight import file_bytes
+    from .batch import batchable
+
+    axes = [[{k: v} for v in values] for k, values in sweep.grid.items()]
+    if sweep.zip:
+        axes.append([dict(zip(sweep.zip, row)) for row in zip(*sweep.zip.values())])
+    points = math.prod(len(a) for a in axes)
+    sizes = []
+    for k in sorted({round(i * (points - 1) / max(1, SAMPLES - 1)) for i in range(min(points, SAMPLES))}):
+        point = {}
+        for axis in reversed(axes):  # itertools.product's order: the last axis varies fastest
+            k, j = divmod(k, len(axis))
+            point |= axis[j]
+        data = sweep._data(point)
+        if _is_random(data):
+            data.setdefault("chain", {}).setdefault("seed", member_seed(sweep.seed, 0))
+        try:
+            case = case_from_dict(data, base_dir=sweep.base_dir)
+        except ConfigError:  # an invalid member writes (almost) nothing
+            continue
+        files = file_bytes(case)
+        if sweep.replicas > 1 and batchable(case):
+            own = files[DATA] + files.get(FRONT_BIN, 0.0)
+            sizes.append(own + (sum(files.values()) - own) * min(sweep.replicas, slots) / sweep.replicas)
+        else:
+            sizes.append(sum(files.values()))
+    return sum(sizes) / len(sizes) if sizes else None
+
+
+def check(sweep: Sweep, root: str | Path, todo: int, slots: int) -> str:
+    """ConfigError unless `todo` members' files fit the free space where `root` is (or will be);
+    returns the need as text ("about 12 MB on disk")."""
+    from ..preflight import _size, free_disk
+
+    each = member_bytes(sweep, slots)
+    if each is None:
+        return "no disk estimate"
+    need, free = each * todo, free_disk(root)
+    if need > free:
+        raise ConfigError("-o", f"the sweep needs about {_size(need)} on disk ({todo} members to run, about "
+                          f"{_size(each)} each) and {root} has {_size(free)} free; free space or sweep fewer members"
+                          + ('' if sweep.keep == "measures" else ', or set keep = "measures" (no trajectories)'))
+    return f"about {_size(need)} on disk"
