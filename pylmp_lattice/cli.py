@@ -172,7 +172,7 @@ def _load(args):
     if args.name is not None:  # validated by the Case, as a name from the file is
         case = dataclasses.replace(case, name=args.name)
     overridden = args.set and args.name is None
-    return case, _folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
+    return case, _run_folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
 
 
 def _folder(path: Path) -> Path:
@@ -180,6 +180,19 @@ def _folder(path: Path) -> Path:
     if path.exists() and not path.is_dir():
         raise ConfigError("--output", f"{path} is a file; expected a folder")
     return path
+
+
+def _run_folder(path: Path) -> Path:
+    """A run's folder argument (`_folder`), never a sweep's folder or inside its members/ or
+    batches/: a run there would pass for a member, or stop the sweep from resuming."""
+    from .sweep.store import SWEEP_FILE, inside_sweep
+
+    outer = inside_sweep(path)
+    if outer is not None or (path / SWEEP_FILE).is_file():
+        where = f"inside {outer}, a sweep's members" if outer is not None else "a sweep's folder"
+        raise ConfigError("--output", f"{path} is {where}; a run there would be taken for the sweep's own; "
+                                      "choose a folder outside the sweep")
+    return _folder(path)
 
 
 def _run(args) -> int:

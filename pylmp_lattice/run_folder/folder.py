@@ -217,10 +217,10 @@ class RunFolder:
         written."""
         from ..summary import summarize
 
+        refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         case, status = self.case, self.status
         if status == RUNNING:
             raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
-        refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays

@@ -152,9 +152,10 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
     except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
         if STOP.is_set():  # it broke while the sweep was being stopped (a second signal): redone on resume
             return _stopped([(m, case)], root, [record])[m.id]
-        if disk_full(err):  # the sweep stops (see execute): the member is run again on resume
-            with contextlib.suppress(OSError, LatticeError):
-                write_status(folder, record | {"status": INTERRUPTED, "ended": now()})
+        if disk_full(err) or _no_room(case, folder):  # the sweep stops (see execute); the member's
+            # folder goes, which frees room for the table, and the member runs again on resume
+            with contextlib.suppress(OSError):
+                remove_tree(folder)
             raise as_disk_full(err, folder) from err
         summary = None
         record |= {"status": FAILED, "error": one_line(err, root)}
@@ -290,6 +291,17 @@ def _fresh(folder: Path) -> Path:
     remove_tree(folder)  # a link there is removed, never followed
     folder.mkdir(parents=True)
     return folder
+
+
+def _no_room(case: Case, folder: Path) -> bool:
+    """Whether a failed member's disk is too full for its run (its writes, LAMMPS's included,
+    may have failed on it in other ways: a refusal by preflight, a truncated record)."""
+    from ..preflight import free_disk, output_bytes
+
+    try:
+        return free_disk(folder) < output_bytes(case)
+    except (OSError, LatticeError):
+        return False
 
 
 def _cpu_time() -> float:

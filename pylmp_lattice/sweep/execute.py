@@ -41,7 +41,8 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
+from .store import (BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, inside_sweep, read_json,
+                    remove_stale_locks)
 from .table import CSV, Table, frame, member_row
 
 log = logging.getLogger(__name__)
@@ -232,7 +233,7 @@ class _Coordinator:
             self.broken.append(task)
             return
         except (Exception, Interrupted) as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
-            if not (self.stop.signals or self.lost):
+            if not (self.stop.signals or self.lost or self.full):
                 log.warning("a worker was lost (%s); the members in flight are read back from their folders",
                             batch.one_line(err))
                 self.lost = True
@@ -379,9 +380,7 @@ def check_folder(root: str | Path) -> None:
     refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
-    path = Path(root).resolve()
-    outer = next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
-                 None)
+    outer = inside_sweep(root)
     if outer is not None:
         raise ConfigError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
                           "folder (-o)")

@@ -48,6 +48,14 @@ def member_folder(root: str | Path, member_id: str) -> Path:
     return Path(root) / MEMBERS / member_id
 
 
+def inside_sweep(path: str | Path) -> Path | None:
+    """The members/ or batches/ folder of a sweep (one beside a sweep.json) that is `path` or
+    holds it, if any: what a sweep writes there passes for its members' outcomes."""
+    path = Path(path).resolve()
+    return next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
+                None)
+
+
 def write_status(folder: Path, record: dict) -> None:
     """The member's status, replaced atomically but not synced: thousands of members write it,
     a killed process leaves the old or the new file, and after a power cut a member whose
