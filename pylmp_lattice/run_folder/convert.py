@@ -28,9 +28,11 @@ log = logging.getLogger(__name__)
 def convert_dumps(folder: Path, case: Case) -> bool:
     """Convert the folder's binary dumps into traj.h5md when safe (no other process writes the
     folder: its lock is held meanwhile); whether it did."""
-    if case.output.format != "h5md" or not marker.settled(folder):  # a writer we cannot see may go on
+    if case.output.format != "h5md":
         return False
     refuse_links(folder, layout.RUN_FILES)  # the dumps it reads, the files it writes: never through a link
+    if not marker.settled(folder):  # a writer we cannot see may go on
+        return False
     with marker.claimed(folder):  # one converter at a time (a runner holds it already)
         return _convert(folder, case)
 

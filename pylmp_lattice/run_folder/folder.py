@@ -30,7 +30,7 @@ from ..serialize import dumps, loads_object
 from ..trajectory import Trajectory
 from ..units import from_engine, to_engine
 from ..formats import layout
-from ..formats.files import atomic_write, refuse_links, replacing
+from ..formats.files import atomic_write, refuse_link, refuse_links, replacing
 from . import marker
 from .convert import convert_dumps
 from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
@@ -63,6 +63,7 @@ class RunFolder:
     @property
     def case(self) -> Case:
         if "case" not in self._cache:
+            refuse_link(self.path / layout.CASE)
             if not (self.path / layout.CASE).is_file():
                 raise ConfigError("folder", f"got {str(self.path)!r}; expected a run folder (it has no {layout.CASE})")
             self._cache["case"] = load_case(self.path / layout.CASE)

@@ -1,0 +1,416 @@
+"""Hostile input (issue 27): links planted where the package or LAMMPS writes, runs written into
+a sweep's folders, full disks, and a sweep's base case outside its folder.
+
+Every test that plants links checks that nothing outside the folder changed: the outside
+folder's names, link texts and contents are compared before and after. Runs are the 21-magnet
+experiment cut to 2 ms (a second each).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import pickle
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+from pylmp_lattice.cli import main
+from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.formats import files, layout
+from pylmp_lattice.sweep import store
+from pylmp_lattice.sweep.table import FILES as TABLE_FILES
+
+INPUTS = Path(__file__).resolve().parents[1] / "inputs"
+EXPERIMENT = INPUTS / "paper_experiment.toml"
+SHORT = ["--set", "run.duration=2", "--quiet"]
+SWEEP_NAMES = (store.SWEEP_FILE, store.MEMBERS, store.BATCHES, *TABLE_FILES)
+
+
+def snapshot(folder: Path) -> dict:
+    """Every entry under `folder`: a link's text, a file's bytes, a folder as such."""
+    out = {}
+    for path in sorted(folder.rglob("*")):
+        key = str(path.relative_to(folder))
+        out[key] = ("link", os.readlink(path)) if path.is_symlink() else ("dir",) if path.is_dir() \
+            else ("file", path.read_bytes())
+    return out
+
+
+@pytest.fixture
+def outside(tmp_path):
+    """A folder beside the one under attack, holding a file the links point at."""
+    folder = tmp_path / "outside"
+    folder.mkdir()
+    (folder / "x").write_text("the user's own file\n")
+    return folder
+
+
+def plant(folder: Path, name: str, outside: Path, dangling: bool) -> Path:
+    """folder/name as a link to outside/x (or, dangling, to a name outside that does not exist)."""
+    link = folder / name
+    files.remove_tree(link)
+    link.symlink_to(outside / (f"new-{name}" if dangling else "x"))
+    return link
+
+
+def cli(capsys, *args) -> tuple[int, str]:
+    rc = main([str(a) for a in args])
+    return rc, capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A finished run of the experiment (h5md), made once."""
+    folder = tmp_path_factory.mktemp("finished") / "run"
+    assert main(["run", str(EXPERIMENT), "-o", str(folder), *SHORT]) == 0
+    return folder
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """A run whose binary dumps were never converted, recorded "interrupted" as a stopped runner does."""
+    from pylmp_lattice.case import load_case
+    from pylmp_lattice.run_folder import marker, write_folder
+    from pylmp_lattice.runner import run_deck
+
+    folder = write_folder(load_case(EXPERIMENT, ["run.duration=2"]), tmp_path_factory.mktemp("stopped") / "run")
+    run_deck(folder)
+    marker.record(folder, marker.INTERRUPTED, time_ms=2.0)
+    assert (folder / layout.TRAJ_BIN).is_file()
+    return folder
+
+
+# ----------------------------------------------------------------------------- the primitives
+
+def test_atomic_write_refuses_a_link_and_replaces_a_file(tmp_path, outside):
+    before = snapshot(outside)
+    for dangling in (False, True):
+        link = plant(tmp_path, "a.json", outside, dangling)
+        with pytest.raises(files.LinkError, match=r"a\.json: is a symbolic link"):
+            files.atomic_write(link, "{}")
+        assert link.is_symlink()
+    assert snapshot(outside) == before
+    target = tmp_path / "b.json"
+    target.write_text("old")
+    files.atomic_write(target, "new")
+    assert target.read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "b.json", "outside"]  # no temporary left
+
+
+def test_replacing_leaves_the_old_file_on_an_error_and_a_full_disk_is_named(tmp_path):
+    target = tmp_path / "shock.png"
+    target.write_bytes(b"old")
+    with pytest.raises(files.DiskFull, match=r"no space left on the device for .*shock\.png"):
+        with files.replacing(target) as tmp:
+            tmp.write_bytes(b"half")
+            raise OSError(errno.ENOSPC, "No space left on device")
+    assert target.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["shock.png"]
+    # h5py reports a full disk as text in a plain OSError
+    assert files.disk_full(OSError("Unable to create file (file write failed: errno = 28, error message = "
+                                   "'No space left on device')"))
+    # a sweep's worker sends both errors back to the coordinator pickled
+    for err in (files.DiskFull("/a/b", "then"), files.LinkError("/a/b")):
+        again = pickle.loads(pickle.dumps(err))
+        assert type(again) is type(err) and str(again) == str(err)
+
+
+def test_a_fixed_part_name_that_is_a_link_is_removed_not_followed(tmp_path, outside):
+    before = snapshot(outside)
+    part = plant(tmp_path, "traj.h5md.part", outside, dangling=False)
+    with files.replacing(tmp_path / "traj.h5md", part=part) as tmp:
+        tmp.write_text("frames")
+    assert (tmp_path / "traj.h5md").read_text() == "frames" and not os.path.lexists(part)
+    assert snapshot(outside) == before
+
+
+# ----------------------------------------------------------------------------- run, deck
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["to a file", "dangling"])
+def test_run_and_deck_refuse_a_link_at_every_run_file_name(tmp_path, outside, capsys, dangling):
+    before = snapshot(outside)
+    for name in layout.RUN_FILES:
+        # `deck` writes through the same check as `run`: three names for it
+        for command in ("run", "deck") if name in (layout.DECK, layout.CASE, layout.LOCK) else ("run",):
+            folder = tmp_path / f"{command}-{name}"
+            folder.mkdir()
+            link = plant(folder, name, outside, dangling)
+            rc, err = cli(capsys, command, EXPERIMENT, "-o", folder, *SHORT[:2])
+            assert rc == 2, (command, name, err)
+            assert f"{link}: is a symbolic link" in err and len(err.strip().splitlines()) == 1, err
+            assert link.is_symlink() and [p.name for p in folder.iterdir()] == [name]  # nothing written
+    assert snapshot(outside) == before
+
+
+def test_overwrite_removes_links_and_never_follows_them(tmp_path, outside, finished, capsys):
+    folder = tmp_path / "run"
+    shutil.copytree(finished, folder)
+    # every run file a link: those of the run to files outside (so the folder still reads as a
+    # run), the others dangling
+    for name in layout.RUN_FILES:
+        if name == layout.LOCK:
+            continue
+        if (folder / name).is_file():
+            shutil.move(folder / name, outside / name)
+            (folder / name).symlink_to(outside / name)
+        else:
+            plant(folder, name, outside, dangling=True)
+    before = snapshot(outside)
+    rc, err = cli(capsys, "run", EXPERIMENT, "-o", folder, "--overwrite", *SHORT)
+    assert rc == 0, err
+    assert snapshot(outside) == before
+    assert not [p.name for p in folder.iterdir() if p.is_symlink()]
+    assert (folder / layout.SUMMARY).is_file() and (folder / layout.H5MD).is_file()
+    # the lock is taken before anything else: a link there is refused, also with --overwrite
+    link = plant(folder, layout.LOCK, outside, dangling=True)
+    rc, err = cli(capsys, "run", EXPERIMENT, "-o", folder, "--overwrite", *SHORT)
+    assert rc == 2 and f"{link}: is a symbolic link" in err
+    assert snapshot(outside) == before
+
+
+# ----------------------------------------------------------------------------- summarize, convert
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["to a file", "dangling"])
+def test_summarize_refuses_a_link_at_every_run_file_name(tmp_path, outside, finished, capsys, dangling):
+    before = snapshot(outside)
+    for name in layout.RUN_FILES:
+        folder = tmp_path / name
+        shutil.copytree(finished, folder)
+        link = plant(folder, name, outside, dangling)
+        rc, err = cli(capsys, "summarize", folder)
+        assert rc == 2, (name, err)
+        assert f"{link}: is a symbolic link" in err and len(err.strip().splitlines()) == 1, err
+        assert snapshot(outside) == before, name
+
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["to a file", "dangling"])
+def test_converting_an_interrupted_run_refuses_a_link_at_every_run_file_name(tmp_path, outside, interrupted,
+                                                                             dangling):
+    from pylmp_lattice.run_folder import RunFolder
+
+    before = snapshot(outside)
+    for name in layout.RUN_FILES:
+        folder = tmp_path / name
+        shutil.copytree(interrupted, folder)
+        plant(folder, name, outside, dangling)
+        with pytest.raises(ConfigError, match=f"{name}: is a symbolic link"):
+            RunFolder(folder).convert()
+        assert snapshot(outside) == before, name
+        h5md = folder / layout.H5MD
+        assert not (h5md.is_file() and not h5md.is_symlink())  # nothing converted
+        if name != layout.TRAJ_BIN:  # the dumps stay
+            assert (folder / layout.TRAJ_BIN).is_file() and not (folder / layout.TRAJ_BIN).is_symlink()
+    # without links it converts
+    folder = tmp_path / "clean"
+    shutil.copytree(interrupted, folder)
+    assert RunFolder(folder).convert()
+    assert (folder / layout.H5MD).is_file() and not (folder / layout.TRAJ_BIN).exists()
+
+
+def test_export_and_study_outputs_refuse_a_link(tmp_path, outside, finished, capsys):
+    from pylmp_lattice.studies.output import StudyResult, write_study
+
+    before = snapshot(outside)
+    for dangling in (False, True):
+        link = plant(tmp_path, "t.extxyz", outside, dangling)
+        rc, err = cli(capsys, "export", finished, "-o", link, "--overwrite")
+        assert rc == 2 and f"{link}: is a symbolic link" in err
+        study = tmp_path / "study"
+        study.mkdir(exist_ok=True)
+        link = plant(study, "s.json", outside, dangling)
+        with pytest.raises(files.LinkError):
+            write_study(StudyResult("s", {"a": 1.0}), study)
+    assert snapshot(outside) == before
+
+
+# ----------------------------------------------------------------------------- sweeps
+
+def write_sweep(folder: Path, velocities=(1.0, 2.0), base: str | None = None) -> Path:
+    path = folder / "sweep.toml"
+    path.write_text(f'base = "{base or EXPERIMENT}"\n[set]\n"run.duration" = 2.0\n'
+                    f'[grid]\n"impactor.velocity" = {list(velocities)}\n')
+    return path
+
+
+def run_in_threads(sweep_file: Path, out: Path, **kw):
+    """The sweep with its members in a thread of this process (so that a monkeypatch applies)."""
+    from pylmp_lattice.sweep import load_sweep, run_sweep
+
+    with ThreadPoolExecutor(1) as pool:
+        return run_sweep(load_sweep(sweep_file), out, executor=pool, slots=1, progress=False, **kw)
+
+
+@pytest.fixture
+def no_forkserver(monkeypatch):
+    """`sweep` on the command line without its fork server (these sweeps are refused, or run
+    in a thread)."""
+    from pylmp_lattice.sweep import pool
+
+    monkeypatch.setattr(pool, "start_forkserver", lambda: None)
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    """A finished sweep of two members."""
+    folder = tmp_path_factory.mktemp("swept")
+    table = run_in_threads(write_sweep(folder), folder / "sw")
+    assert list(table["status"]) == ["done", "done"]
+    return folder / "sw"
+
+
+@pytest.mark.parametrize("dangling", [False, True], ids=["to a file", "dangling"])
+def test_a_sweep_refuses_a_link_at_each_of_its_names(tmp_path, outside, capsys, dangling, no_forkserver):
+    before = snapshot(outside)
+    sweep_file = write_sweep(tmp_path)
+    for name in SWEEP_NAMES:
+        folder = tmp_path / f"sw-{name}"
+        folder.mkdir()
+        link = plant(folder, name, outside, dangling)
+        rc, err = cli(capsys, "sweep", sweep_file, "-o", folder, "--quiet")
+        assert rc == 2 and f"{link}: is a symbolic link" in err, (name, err)
+    assert snapshot(outside) == before
+
+
+def test_a_member_folder_that_is_a_link_is_run_again_in_its_own_folder(tmp_path, outside, swept):
+    out = tmp_path / "sw"
+    shutil.copytree(swept, out)
+    member = next((out / store.MEMBERS).iterdir())
+    shutil.move(member, outside / member.name)  # a done member's files, outside: not this sweep's
+    member.symlink_to(outside / member.name)
+    before = snapshot(outside)
+    table = run_in_threads(write_sweep(tmp_path), out)
+    assert list(table["status"]) == ["done", "done"]
+    assert member.is_dir() and not member.is_symlink() and (member / layout.SUMMARY).is_file()
+    assert snapshot(outside) == before
+
+
+def test_run_refuses_a_sweeps_folder_and_its_members_and_batches(swept, capsys):
+    member = next((swept / store.MEMBERS).iterdir())
+    before = snapshot(swept)
+    for folder in (swept, member, swept / store.BATCHES / "x", member / "sub"):
+        for command in ("run", "deck"):
+            rc, err = cli(capsys, command, EXPERIMENT, "-o", folder, "--overwrite", "--set", "impactor.velocity=3.0")
+            assert rc == 2 and "a run there would be taken for the sweep's own" in err, (folder, err)
+    assert snapshot(swept) == before
+
+
+def test_resume_runs_again_a_member_whose_folder_holds_another_case(tmp_path, swept):
+    """Issue 27 item 2: a run of another case put into a member's folder (through the API, which
+    the command line refuses) must not pass for the member: resume runs it again."""
+    from pylmp_lattice.case import case_id, load_case
+    from pylmp_lattice.run_folder import RunFolder, run_case
+
+    out = tmp_path / "sw"
+    shutil.copytree(swept, out)
+    row = run_in_threads(write_sweep(tmp_path), out).iloc[0]
+    member = out / row["folder"]
+    status = (member / store.STATUS).read_text()
+    other = load_case(EXPERIMENT, ["run.duration=2", "impactor.velocity=3.0"])
+    run_case(other, member, overwrite=True, figure=False)
+    (member / store.STATUS).write_text(status)  # the member's record, as before
+    assert RunFolder(member).summary["impactor_peak_velocity_m_per_s"] == 3.0
+    table = run_in_threads(write_sweep(tmp_path), out)
+    again = table.set_index("id").loc[row["id"]]
+    assert again["status"] == "done" and again["impactor.velocity"] == 1.0
+    assert again["impactor_peak_velocity_m_per_s"] == 1.0  # the member's own case, run again
+    assert case_id(RunFolder(member).case) == row["id"]
+
+
+def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, monkeypatch, capsys, no_forkserver):
+    from pylmp_lattice import preflight
+    from pylmp_lattice.sweep import disk, load_sweep
+
+    sweep_file = write_sweep(tmp_path, velocities=[1.0, 1.5, 2.0, 2.5])
+    each = disk.member_bytes(load_sweep(sweep_file), 1)
+    # a member alone keeps its run folder: the force table (693 kB) is most of it
+    assert 0.7e6 < each < 1.2e6
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 3.5 * each)
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", tmp_path / "sw", "--yes", "--quiet")
+    assert rc == 2, err
+    assert f"(4 members to run, about {preflight._size(each)} each)" in err and "3" in err and "free" in err
+    assert not (tmp_path / "sw").exists()  # refused before anything was written
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 4.5 * each)  # fits
+    assert len(run_in_threads(sweep_file, tmp_path / "sw")) == 4
+
+
+def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,
+                                                                             no_forkserver):
+    """The disk fills for the third member's files (ENOSPC from the write primitive): the sweep
+    stops as on Ctrl-C, with the two finished members and results.csv, and one line naming the
+    file; the same command then finishes it."""
+    from pylmp_lattice.sweep import execute
+
+    sweep_file = write_sweep(tmp_path, velocities=[1.0, 1.5, 2.0, 2.5])
+    out = tmp_path / "sw"
+    create, members = files._create, []
+
+    def full(path, part):
+        folder = Path(path).parent
+        if folder.parent.name == store.MEMBERS and folder not in members:
+            members.append(folder)
+        if len(members) > 2 and folder.parent.name == store.MEMBERS:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return create(path, part)
+
+    monkeypatch.setattr(files, "_create", full)
+    with pytest.raises(files.DiskFull) as caught:
+        run_in_threads(sweep_file, out)
+    message = str(caught.value)
+    assert f"no space left on the device for {members[2]}/" in message
+    assert "stopped with 2 of 4 members done" in message and "run the same command to resume" in message
+    import pandas as pd
+
+    table = pd.read_csv(out / "results.csv")
+    assert list(table["status"])[:2] == ["done", "done"] and (table["status"] == "done").sum() == 2
+    assert sorted(p.name for p in (out / store.MEMBERS).iterdir() if (p / layout.SUMMARY).exists()) \
+        == sorted(p.name for p in members[:2])
+    # the command line: one line, exit 1
+    monkeypatch.setattr(execute, "executor_pool", _thread_pool(execute.executor_pool))
+    members.clear()
+    shutil.rmtree(out)
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet")
+    errors = [line for line in err.splitlines() if line.startswith("pylmp-lattice: error:")]
+    assert rc == 1 and len(errors) == 1 and errors[0].startswith("pylmp-lattice: error: no space left on the device "
+                                                                 f"for {members[2]}/"), err
+    # space again: the same command finishes the sweep, keeping the finished members
+    monkeypatch.setattr(files, "_create", create)
+    kept = {p.name: (p / layout.SUMMARY).stat().st_mtime_ns for p in members[:2]}
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet")
+    assert rc == 0, err
+    table = pd.read_csv(out / "results.csv")
+    assert list(table["status"]) == ["done"] * 4
+    assert {n: (out / store.MEMBERS / n / layout.SUMMARY).stat().st_mtime_ns for n in kept} == kept
+
+
+def _thread_pool(original):
+    """executor_pool with a thread of this process as the worker, for the command line."""
+    import contextlib
+
+    @contextlib.contextmanager
+    def pool(workers, scheduler, runner, executor, slots):
+        with ThreadPoolExecutor(1) as threads, original(None, None, runner, threads, 1) as p:
+            yield p
+
+    return pool
+
+
+# ----------------------------------------------------------------------------- the base case
+
+def test_a_sweep_base_may_be_outside_its_folder(tmp_path, capsys, no_forkserver):
+    """Issue 27 item 11: base = "../inputs/x.toml" or an absolute path is read (an input); the
+    sweep writes only in -o."""
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    shutil.copy(EXPERIMENT, tmp_path / "case.toml")
+    for base in ("../case.toml", str(tmp_path / "case.toml")):
+        table = run_in_threads(write_sweep(scratch, velocities=[1.0], base=base), scratch / "sw")
+        assert list(table["status"]) == ["done"] and table["impactor.velocity"][0] == 1.0
+    assert (tmp_path / "case.toml").read_bytes() == EXPERIMENT.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "scratch"]  # written in -o only
+    # a missing one is named with its whole path
+    sweep_file = write_sweep(scratch, velocities=[1.0], base="../" + "long-name/" * 8 + "case.toml")
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", scratch / "sw2", "--quiet")
+    assert rc == 2 and f"base: file not found: {tmp_path}/{'long-name/' * 8}case.toml" in err, err
