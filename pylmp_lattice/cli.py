@@ -185,7 +185,7 @@ def _folder(path: Path) -> Path:
 def _run_folder(path: Path) -> Path:
     """A run's folder argument (`_folder`), never a sweep's folder or inside its members/ or
     batches/: a run there would pass for a member, or stop the sweep from resuming."""
-    from .sweep.store import SWEEP_FILE, inside_sweep
+    from .formats.layout import SWEEP_FILE, inside_sweep
 
     outer = inside_sweep(path)
     if outer is not None or (path / SWEEP_FILE).is_file():

@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import tomli_w
 
 from pylmp_lattice.cli import main
-from pylmp_lattice.case import case_id
+from pylmp_lattice.case import case_id, case_to_dict
 from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, plot_replica_stats, replica_stats, run_sweep,
@@ -576,6 +577,9 @@ def test_a_grid_over_1e5_members_needs_yes_and_is_counted_before_enumeration(tmp
     built, original = [], spec.Sweep._member
     monkeypatch.setattr(spec.Sweep, "_member", lambda self, *a: built.append(a) or original(self, *a))
     assert load_sweep(path).count() == 160_000
+    from pylmp_lattice import preflight
+
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 1e15)  # past the disk check (155 GB: test_hostile)
     assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "160000 members" in err and "error: --yes: the sweep has 160000 members (over 100000); pass --yes" in err
@@ -628,6 +632,7 @@ def test_a_done_member_without_a_summary_that_parses_is_run_again(tmp_path, monk
 
     def fake_run_case(case, folder, **kwargs):
         ran.append(Path(folder).name)
+        (Path(folder) / "case.toml").write_text(tomli_w.dumps(case_to_dict(case)))  # the member's case: its identity
         summary = {"case": case.name, "V": case.impactor.velocity}
         (Path(folder) / "summary.json").write_text(json.dumps(summary))
         return summary

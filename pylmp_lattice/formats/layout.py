@@ -44,6 +44,11 @@ SUMMARY = "summary.json"
 FIGURE = "shock.png"
 LOCK = "run.lock"  # held (flock) while a writer or runner of this package writes the folder (marker.claimed)
 
+# ---- a sweep's folder (`sweep.store`): its members' run folders and batches, never a run's (`inside_sweep`)
+SWEEP_FILE = "sweep.json"  # the sweep the folder holds
+MEMBERS = "members"  # members/<id>/: a member run alone
+BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
+
 # Every name a run of this package may write (with its temporary files): a folder holding any of
 # them but no run is refused, and overwriting a run removes these and nothing else.
 RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
@@ -105,6 +110,14 @@ def check_place(path: Path, what: str) -> None:
                                     f"choose a new folder for the {what} (-o)")
     if path.exists() and not path.is_dir():
         raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")
+
+
+def inside_sweep(path: Path) -> Path | None:
+    """The members/ or batches/ folder of a sweep (one beside a sweep.json) that is `path` or
+    holds it, if any: what is written there passes for the sweep's members."""
+    path = Path(path).resolve()
+    return next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
+                None)
 
 
 def make_place(path: Path) -> Path:

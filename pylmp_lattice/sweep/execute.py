@@ -41,8 +41,7 @@ from .batch import Task
 from .pool import GRACE, Pool, executor_pool
 from ..case import identity_hash
 from .spec import Member, Sweep
-from .store import (BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, inside_sweep, read_json,
-                    remove_stale_locks)
+from .store import BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
 from .table import CSV, Table, frame, member_row
 
 log = logging.getLogger(__name__)
@@ -380,7 +379,7 @@ def check_folder(root: str | Path) -> None:
     refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
     if marker.is_run(Path(root)):
         raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
-    outer = inside_sweep(root)
+    outer = layout.inside_sweep(root)
     if outer is not None:
         raise ConfigError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
                           "folder (-o)")

@@ -34,26 +34,16 @@ import numpy as np
 
 from ..file_lock import Held, exclusive
 from ..formats.files import atomic_write
+from ..formats.layout import BATCHES, MEMBERS, SWEEP_FILE
 
-MEMBERS = "members"
-BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
 BATCH_FILE = "members.json"  # in a batch's folder: its members' outcomes
 STATUS = "status.json"
-SWEEP_FILE = "sweep.json"
 DONE, FAILED, RUNNING = "done", "failed", "running"
 INTERRUPTED = "interrupted"  # stopped by a signal or a lost worker: redone on resume
 
 
 def member_folder(root: str | Path, member_id: str) -> Path:
     return Path(root) / MEMBERS / member_id
-
-
-def inside_sweep(path: str | Path) -> Path | None:
-    """The members/ or batches/ folder of a sweep (one beside a sweep.json) that is `path` or
-    holds it, if any: what a sweep writes there passes for its members' outcomes."""
-    path = Path(path).resolve()
-    return next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
-                None)
 
 
 def write_status(folder: Path, record: dict) -> None:
