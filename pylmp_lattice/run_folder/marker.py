@@ -9,7 +9,6 @@ The format of two small files, as `bindump` is that of the binary dumps: the wri
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import json
 import os
