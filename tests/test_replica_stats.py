@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ def test_every_statistic_states_its_coverage_and_marks_it_below_90_percent(tmp_p
     assert stats[f"{PEAK}.mean.low_coverage"].tolist() == [False, False]
     with caplog.at_level("WARNING"):
         written = write_replica_stats(tmp_path, _table())
-    lines = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    lines = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert lines == [f"{VP}.mean: below 90% coverage at 2 of 2 points (lowest 75% of the members done): "
                      "a mean over the members that converged only"]
     assert pd.read_csv(tmp_path / "replica_stats.csv")[f"{VP}.mean.low_coverage"].tolist() == [True, True]
@@ -302,5 +303,5 @@ def test_a_disordered_ensemble_reports_coverage_and_its_headline_speed_uses_ever
     assert stats[f"{head}.mean"].iloc[0] == pytest.approx(float(np.mean(table[head].to_numpy(float))), rel=1e-12)
     low = [m for m in measures if stats[f"{m}.low_coverage"].iloc[0]]
     assert all(stats[f"{m}.count"].iloc[0] < 0.9 * 8 for m in low)
-    warned = [r.getMessage().split(":")[0] for r in caplog.records if r.levelname == "WARNING"]
+    warned = [r.getMessage().split(":")[0] for r in caplog.records if r.levelno == logging.WARNING]
     assert sorted(warned) == sorted(low)
