@@ -113,6 +113,81 @@ def s8() -> str:
 
 
 # -------------------------------------------------------------------------------- literature.md
+def harmonic() -> str:
+    """The harmonic chain against its exact solution (docs/literature/harmonic_runs.csv)."""
+    rows = []
+    for r in _csv("literature/harmonic_runs.csv"):
+        g = lambda k: _num(r[k])  # noqa: E731
+        rows.append([f"{g('u_p_m_per_s'):g}", f"{g('max_error_magnets_2_31_over_u_p'):.2e}",
+                     f"{g('max_error_all_over_u_p'):.2e}", fixed(g("front_speed_V_P_m_per_s"), 4),
+                     fixed(g("first_peak_over_u_p_magnet_31"), 5), fixed(g("first_peak_over_u_p_exact_magnet_31"), 5),
+                     r["last_magnet_with_first_peak"], fixed(g("first_peak_over_u_p_there"), 5),
+                     fixed(g("wake_decay_exponent_magnet_6"), 3), fixed(g("wake_decay_exponent_magnet_6_exact"), 3)])
+    return table(["u_p (m/s)", "max \\|v - exact\\| / u_p, magnets 2-31", "same, magnets 1-90", "V_P (m/s)",
+                  "first peak / u_p at magnet 31", "exact", "last magnet with a first peak", "first peak / u_p there",
+                  "wake decay exponent, magnet 6", "exact"], rows)
+
+
+def toda_solitons() -> str:
+    """One Toda soliton's speed against sinh(k)/k (docs/literature/toda_solitons.csv)."""
+    rows = [[f"{_num(r['kappa']):g}", f"{_num(r['dt_ms']):g}", fixed(_num(r["speed_sites_per_ms"]), 8),
+             fixed(_num(r["exact_sinh_k_over_k"]), 8), _exp(_num(r["relative_error"]))]
+            for r in _csv("literature/toda_solitons.csv")]
+    return table(["k", "dt (ms)", "measured speed (sites per unit time)", "sinh(k)/k", "relative error"], rows)
+
+
+def toda_pistons() -> str:
+    """The Toda piston problem (docs/literature/toda_pistons.csv)."""
+    rows = []
+    for r in _csv("literature/toda_pistons.csv"):
+        g = lambda k: _num(r[k])  # noqa: E731
+        rows.append([f"{g('u_p'):g}", fixed(g("mean_r_gaps_1_10"), 5), fixed(g("uniform_wake_r"), 5),
+                     _exp(g("relative_error_exp_minus_r")), fixed(g("mean_v_magnets_2_11"), 4),
+                     f"{g('staggered_t_half'):.3g}", f"{g('staggered_t_end'):.3g}",
+                     fixed(g("staggered_t_end") / g("staggered_t_half"), 2), fixed(g("front_speed_sites_per_ms"), 4),
+                     fixed(g("lead_soliton_speed"), 4), fixed(g("front_height"), 3),
+                     fixed(g("lead_soliton_height_sinh2k"), 3)])
+    return table(["u_p", "mean r, gaps 1-10, t in [190, 200]", "uniform wake -2 ln(1 + u_p/2)",
+                  "relative error of exp(-r)", "mean v, magnets 2-11", "staggered amplitude, t = 100", "t = 200", "ratio",
+                  "front speed (sites per unit time)", "lead soliton sinh(k)/k", "front height exp(-r) - 1",
+                  "lead soliton sinh^2 k"], rows)
+
+
+def hugoniot_fits() -> str:
+    """Each chain's c0 and weak-shock s beside the fitted U_s(u_p) lines (docs/literature/hugoniot.json)."""
+    rows = []
+    for chain, t in _json("literature/hugoniot.json")["theory_and_fits"].items():
+        a, h = t["fit_all"], t["fit_lower_half"]
+        rows.append([chain, fixed(t["c0_m_per_s"], 4), fixed(t["s_weak_shock"], 4), fixed(t["s_kdv_leading_edge"], 4),
+                     f"{fixed(a['c0_m_per_s'], 4)} + {fixed(a['s'], 4)} u_p",
+                     f"{fixed(h['c0_m_per_s'], 4)} + {fixed(h['s'], 4)} u_p (u_p <= {h['u_p_max_m_per_s']:g})"])
+    return table(["chain", "c0 (m/s)", "s (weak shock)", "4s/3", "fit, all u_p", "fit, lower half"], rows)
+
+
+def hugoniot_points() -> str:
+    """U_s, the mean state's jump conditions and the wake energy per run (docs/literature/hugoniot.json)."""
+    data = _json("literature/hugoniot.json")
+    rows = []
+    for p in data["points"]:
+        t = data["theory_and_fits"][p["chain"]]
+        c0, s, up, us = t["c0_m_per_s"], t["s_weak_shock"], p["u_p_m_per_s"], p["U_s_m_per_s"]
+        lead = p.get("lead_soliton_speed_m_per_s")
+        d = p["rankine_hugoniot_D_m_per_s"]
+        rows.append([p["chain"], f"{up:g}", fixed(us, 4) + (f" (lead soliton {fixed(lead, 4)})" if lead else ""),
+                     fixed(c0 + s * up, 4), fixed(c0 + 4 / 3 * s * up, 4), fixed(d, 4),
+                     fixed(p["rankine_hugoniot_u_p_m_per_s"], 4), fixed((us - c0) / (d - c0), 2),
+                     fixed(p["first_peak_over_u_p"], 3), f"{p['wake_oscillation_energy_mJ']:.3e}",
+                     f"{p['energy_jump_mJ']:.3e}", fixed(p["wake_oscillation_energy_mJ"] / p["energy_jump_mJ"], 3)])
+    return table(["chain", "u_p (m/s)", "U_s (m/s)", "c0 + s u_p", "c0 + (4/3) s u_p", "R-H D of the mean state",
+                  "R-H u_p", "(U_s - c0)/(D - c0)", "first peak / u_p", "wake oscillation energy (mJ)",
+                  "energy jump (mJ)", "ratio"], rows)
+
+
+def _exp(x) -> str:
+    """A small relative number in exponent form, "-9.3e-10"; "-" where there is none."""
+    return "-" if x is None or not math.isfinite(float(x)) else f"{float(x):.1e}"
+
+
 def dsw_chains() -> str:
     """The DSW theory's V* beside the knees, per chain (docs/literature/dsw_chains.csv; the
     runs whose wake was unclear from dsw_runs.csv)."""
@@ -157,6 +232,11 @@ BLOCKS = {
     "s6": ("reproduction.md", s6),
     "s7": ("reproduction.md", s7),
     "s8": ("reproduction.md", s8),
+    "harmonic": ("literature.md", harmonic),
+    "toda-solitons": ("literature.md", toda_solitons),
+    "toda-pistons": ("literature.md", toda_pistons),
+    "hugoniot-fits": ("literature.md", hugoniot_fits),
+    "hugoniot-points": ("literature.md", hugoniot_points),
     "dsw-chains": ("literature.md", dsw_chains),
     "dsw-paper-law": ("literature.md", dsw_paper_law),
 }
