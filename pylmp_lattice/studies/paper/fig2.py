@@ -35,11 +35,11 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     traj = simulate(case, out / NAME / case.name, overwrite=True)
     numbers = {
         "law": {"K_N_mm3": law.K, "b_mm": law.b, "q": law.q},
-        "noise_relative": NOISE,
+        "noise_relative": NOISE, "samples": int(r.size), "sample_range_mm": [float(r[0]), float(r[-1])],
         "fit": {"K_N_mm3": fit.law.K, "b_mm": fit.law.b, "q": fit.law.q,
                 "rms_relative_error": fit.rms_relative_error, "max_relative_error": fit.max_relative_error},
         "fit_relative_error": {"K": fit.law.K / law.K - 1, "b": fit.law.b / law.b - 1, "q": fit.law.q / law.q - 1},
-        "force_at_r0_N": float(law.force(R0)),
+        "r0_mm": R0, "force_at_r0_N": float(law.force(R0)),
         "stiffness_at_r0_N_per_mm": float(law.stiffness(R0)),
         "peak_velocity_m_per_s": {f"n={n + 1}": float(traj.v[:, n].max()) for n in SHOWN},
         "peak_acceleration_m_per_s2": {f"n={n + 1}": float(traj.a[:, n].max()) for n in SHOWN},
