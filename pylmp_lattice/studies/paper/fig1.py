@@ -104,6 +104,7 @@ def figure(t, x, v, quick, lab):
     third.plot(xs, ts, color="C3", lw=2, label=label)
     third.set(title=f"magnet centres, lab frame (pitch $r_0 + L$ = {R0 + MAGNET_LENGTH:g} mm)", xlabel="x (mm)",
               ylabel="t (ms)", ylim=(times[-1], times[0]))
-    third.legend(fontsize="small", loc="lower left")
+    # below the panel: every region inside it holds a magnet's line
+    third.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.12), frameon=False)
     return style_figure(fig, "Fig. 1: the 21-magnet experiment (model), calibrated friction, magnet 21 fixed",
                         quick=quick, stand_in=STAND_IN, letters="bcd")
