@@ -286,6 +286,33 @@ def s8() -> str:
     return table(["T_s / T0"] + [sig(r["T_s_over_T0"], 3) for r in runs],
                  [["V_P (m/s)"] + [fixed(r["V_P_plateau"]["mean"], 3) for r in runs]])
 
+def s8_limits() -> str:
+    """Fig. S8: the limits of V_P and the oscillation after a pulse (docs/reproduction/s8.json)."""
+    d = _json("reproduction/s8.json")
+    v0, vc = d["V0_m_per_s"], d["V_P_constant_drive_m_per_s"]
+    runs = [r for r in d["runs"] if r["status"] == "done"]
+    vp = lambda r: r["V_P_plateau"]["mean"]  # noqa: E731
+    at = lambda x: min(runs, key=lambda r: abs(math.log(r["T_s_over_T0"] / x)))  # noqa: E731
+    short, shorter, longest, one, third = runs[0], runs[1], runs[-1], at(1.0), at(10 ** -0.5)
+    osc, vi = d["shown"]["oscillations"], d["V_I_peak_m_per_s"]
+    maxima = osc["max_velocity_m_per_s"]
+    return table(COMPARE, [
+        ["V_P for T_s << T0", "tends to V0 (no number given)",
+         f"{fixed(vp(short), 3)} m/s at T_s = {sig(short['T_s_over_T0'], 1)} T0 = {fixed(vp(short) / v0, 3)} V0, falling "
+         f"towards V0 as T_s shrinks ({fixed(vp(shorter), 3)} at {sig(shorter['T_s_over_T0'], 2)} T0)",
+         "reproduced as stated", "the paper says only that V_P tends to V0 when T_s << T0 (shorter pulses: below)"],
+        ["V_P for T_s >> T0", "-> the constant drive's",
+         f"{fixed(vp(longest), 3)} m/s at {sig(longest['T_s_over_T0'], 2)} T0 against {fixed(vc, 3)} m/s for the "
+         "constant drive", percent(d["V_P_longest_over_constant_drive"] - 1, 1), ""],
+        ["V_P drops sharply below T0 (Fig. S8(b))", "yes",
+         f"{fixed(vp(one), 3)} at T0, {fixed(vp(third), 3)} at {sig(third['T_s_over_T0'], 2)} T0", "-", ""],
+        [f"after the pulse (Fig. S8(c, d), T_s = {d['shown']['T_s_ms']:g} ms)",
+         "amplitude and period fall until the oscillation vanishes",
+         f"magnet 10's maxima {fixed(maxima[0], 2)} -> {fixed(max(maxima), 2)} m/s, then down to {fixed(maxima[-1], 2)} "
+         f"m/s by {osc['max_time_ms'][-1]:.0f} ms; no extremum above 0.05 V_I ({0.05 * vi:g} m/s) after that", "-", ""],
+    ])
+
+
 
 # -------------------------------------------------------------------------------- literature.md
 def harmonic() -> str:
@@ -413,6 +440,7 @@ BLOCKS = {
     "s6": ("reproduction.md", s6),
     "s7": ("reproduction.md", s7),
     "s8": ("reproduction.md", s8),
+    "s8-limits": ("reproduction.md", s8_limits),
     "harmonic": ("literature.md", harmonic),
     "toda-solitons": ("literature.md", toda_solitons),
     "toda-pistons": ("literature.md", toda_pistons),
