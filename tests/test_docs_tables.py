@@ -24,7 +24,7 @@ def _tables():
 tables = _tables()
 
 
-@pytest.mark.parametrize("doc", ["reproduction.md", "literature.md"])
+@pytest.mark.parametrize("doc", ["reproduction.md", "literature.md", "../README.md"])
 def test_every_generated_table_agrees_with_its_study(doc):
     text = (DOCS / doc).read_text()
     names = tables.marked(text)
@@ -66,15 +66,21 @@ def test_the_doc_shows_the_study_s_numbers():
 
 def test_the_script_checks_and_rewrites(tmp_path, monkeypatch, capsys):
     """--check exits 1 naming a stale table and leaves the file; without it the table is rewritten."""
-    for name in ("reproduction.md", "literature.md"):
-        (tmp_path / name).write_text((DOCS / name).read_text())
-    monkeypatch.setattr(tables, "DOCS", tmp_path)
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    for name in ("reproduction.md", "literature.md", "../README.md"):
+        (docs / name).write_text((DOCS / name).read_text())
+    monkeypatch.setattr(tables, "DOCS", docs)
     for sub in ("reproduction", "literature"):
-        (tmp_path / sub).symlink_to(DOCS / sub)
-    stale = (tmp_path / "reproduction.md").read_text().replace("| 5 ms | 3.9088", "| 5 ms | 3.9099")
-    (tmp_path / "reproduction.md").write_text(stale)
+        (docs / sub).symlink_to(DOCS / sub)
+    stale = (docs / "reproduction.md").read_text().replace("| 5 ms | 3.9088", "| 5 ms | 3.9099")
+    (docs / "reproduction.md").write_text(stale)
+    readme = (tmp_path / "README.md").read_text().replace("| 3.913 m/s | 3.92 m/s", "| 3.92 m/s | 3.92 m/s")
+    (tmp_path / "README.md").write_text(readme)
     assert tables.main(["--check"]) == 1
-    assert "reproduction.md: table s7" in capsys.readouterr().err
-    assert (tmp_path / "reproduction.md").read_text() == stale
+    err = capsys.readouterr().err
+    assert "reproduction.md: table s7" in err and "README.md: table main-job" in err
+    assert (docs / "reproduction.md").read_text() == stale
     assert tables.main([]) == 0 and tables.main(["--check"]) == 0
-    assert (tmp_path / "reproduction.md").read_text() == (DOCS / "reproduction.md").read_text()
+    assert (docs / "reproduction.md").read_text() == (DOCS / "reproduction.md").read_text()
+    assert (tmp_path / "README.md").read_text() == (DOCS / "../README.md").read_text()
