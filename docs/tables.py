@@ -401,6 +401,41 @@ def s8_limits() -> str:
     ])
 
 
+S9_PAPER = {0.01: "settles at v = V_I", 0.1: "settles at v = V_I", 1.0: "a steady oscillation", 2.0: "a steady oscillation"}
+
+
+def s9() -> str:
+    """Fig. S9: phase portraits, settling and transition cycles (docs/reproduction/s9.json)."""
+    runs = _json("reproduction/s9.json")["runs"]
+    rows = []
+    for r in runs:
+        vi, s, o = r["V_I_m_per_s"], r["steady_oscillation"], r["orbit_in_window"]
+        spread = f"v varies by {100 * (o['velocity_max_m_per_s'] - o['velocity_min_m_per_s']) / vi:.0f} % of V_I"
+        orbit = (f"v between {fixed(o['velocity_min_m_per_s'], 3)} and {fixed(o['velocity_max_m_per_s'], 3)} m/s, gap "
+                 f"between {fixed(o['gap_min_mm'], 2)} and {fixed(o['gap_max_mm'], 2)} mm")
+        why = ""
+        if s["energy_ratio_eta"] is None:
+            level = re.search(r"\(([0-9.]+) V_I\)", s["reason"])[1]  # the prominence threshold
+            ours = f"settles: nothing above {level} V_I left ({spread})"
+        elif len(r["eta_by_time_ms"]) > 1:
+            eta = {float(t) / 1e3: e for t, e in r["eta_by_time_ms"].items()}
+            final = eta[max(eta)]
+            settled = min(t for t, e in eta.items() if abs(e / final - 1) < 0.01)
+            earlier = ", ".join(f"{fixed(e, 4)} at {t:g} s" for t, e in eta.items() if t in (min(eta), settled) and t != max(eta))
+            ours = f"a steady oscillation, reached slowly: eta = {fixed(final, 4)} at {max(eta):g} s ({earlier}), {orbit}"
+            why = (f"reproduced; it takes about {settled:g} s to settle (within 1 % of its final eta; at "
+                   f"{min(eta) * 1e3:g} ms eta is still {100 * (eta[min(eta)] / final - 1):.0f} % above its final value)")
+        else:
+            ours = f"steady, eta = {fixed(s['energy_ratio_eta'], 3)}, {orbit}"
+        rows.append([f"{vi:g} m/s", S9_PAPER.get(vi, "-"), ours, why])
+    cycles = [r for r in runs if r["steady_oscillation"]["energy_ratio_eta"] is not None]
+    rows.append(["transition cycles", "fewer at larger V_I",
+                 f"{cycles[0]['transition_cycles']} velocity maxima before settling (within 0.1 V_I of the final extrema, "
+                 f"{cycles[0]['settling_time_ms']:.0f} ms) at {cycles[0]['V_I_m_per_s']:g} m/s, "
+                 + ", ".join(f"{r['transition_cycles']} at {r['V_I_m_per_s']:g} m/s" for r in cycles[1:]), ""])
+    return table(["V_I", "paper", "ours", "why they differ"], rows)
+
+
 
 # -------------------------------------------------------------------------------- literature.md
 def harmonic() -> str:
@@ -547,6 +582,7 @@ BLOCKS = {
     "s7": ("reproduction.md", s7),
     "s8": ("reproduction.md", s8),
     "s8-limits": ("reproduction.md", s8_limits),
+    "s9": ("reproduction.md", s9),
     "harmonic": ("literature.md", harmonic),
     "toda-solitons": ("literature.md", toda_solitons),
     "toda-pistons": ("literature.md", toda_pistons),
