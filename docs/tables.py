@@ -478,6 +478,24 @@ def toda_pistons() -> str:
                   "lead soliton sinh^2 k"], rows)
 
 
+UNITS = {"K": "N mm^3", "b": "mm", "q": "", "A": "N", "B": "/mm", "a": "mm", "epsilon": "mJ", "sigma": "mm", "D": "mJ",
+         "alpha": "/mm", "r_e": "mm"}  # the force laws' parameters (forcelaw.py), in the paper's units
+LAWS = {"power": "F = K/(r+b)^q", "toda": "F = A (exp(-B (r - a)) - 1)", "lj": "Lennard-Jones", "morse": "Morse"}
+
+
+def hugoniot_chains() -> str:
+    """The four chains of the Hugoniot study (docs/literature/hugoniot.json)."""
+    rows = []
+    for chain, c in _json("literature/hugoniot.json")["chains"].items():
+        force = dict(c["force"])
+        law = force.pop("law")
+        params = ", ".join(f"{k} = {sig(v, 4) if k == 'alpha' else f'{v:g}'}{' ' + UNITS[k] if UNITS[k] else ''}"
+                           for k, v in force.items())
+        rows.append([chain, f"{LAWS[law]}, {params}", f"{c['r0_mm']:.5g} mm", f"{c['mass_g']:g} g",
+                     f"{c['duration_ms']:g} ms, dt {c['dt_ms']:g} ms"])
+    return table(["chain", "law", "r0", "m", "run"], rows)
+
+
 def hugoniot_fits() -> str:
     """Each chain's c0 and weak-shock s beside the fitted U_s(u_p) lines (docs/literature/hugoniot.json)."""
     rows = []
@@ -533,6 +551,26 @@ def dsw_chains() -> str:
                   "knee: two-line", "kneedle", "tangent", "eta = 0.1"], rows)
 
 
+def dsw_lengths() -> str:
+    """The paper's law: the V_P and first-peak limits against the run length (docs/literature/dsw.json)."""
+    data = _json("literature/dsw.json")["run_length"]
+    runs, periods = data["runs"], data["periods_T0"]
+    seconds = {p: next(r["duration_ms"] for r in runs if r["periods_T0"] == p) / 1e3 for p in periods}
+    rows = []
+    for vi in dict.fromkeys(r["V_I_m_per_s"] for r in runs):
+        mine = {r["periods_T0"]: r for r in runs if r["V_I_m_per_s"] == vi}
+        cells = [f"{mine[periods[0]]['V_I_over_V_star']:.3g}", sig(vi, 4)]
+        for key, digits in (("V_P_limit_m_per_s", 6), ("first_peak_limit_over_V_I", 5)):
+            values = [mine[p][key] if mine[p]["status"] == "done" else None for p in periods]
+            cells += [sig(v, digits) for v in values]
+            ok = [v for v in values if v is not None]
+            cells.append(sci((max(ok) - min(ok)) / (sum(ok) / len(ok))) if len(ok) == len(values) else "-")
+        rows.append(cells)
+    at = [f"{seconds[p]:.2g} s" for p in periods]
+    return table(["V_I/V*", "V_I (m/s)"] + [f"V_P limit, {t}" for t in at] + ["relative change"]
+                 + [f"first peak limit / V_I, {t}" for t in at] + ["relative change"], rows)
+
+
 def dsw_paper_law() -> str:
     """The paper's law run by run against the theory (docs/literature/dsw_runs.csv, magnet q=3)."""
     rows = []
@@ -586,10 +624,12 @@ BLOCKS = {
     "harmonic": ("literature.md", harmonic),
     "toda-solitons": ("literature.md", toda_solitons),
     "toda-pistons": ("literature.md", toda_pistons),
+    "hugoniot-chains": ("literature.md", hugoniot_chains),
     "hugoniot-fits": ("literature.md", hugoniot_fits),
     "hugoniot-points": ("literature.md", hugoniot_points),
     "dsw-chains": ("literature.md", dsw_chains),
     "dsw-paper-law": ("literature.md", dsw_paper_law),
+    "dsw-lengths": ("literature.md", dsw_lengths),
     "main-job": ("../README.md", readme_main_job),
 }
 

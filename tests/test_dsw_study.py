@@ -43,3 +43,16 @@ def test_dsw_quick(tmp_path, caplog):
     assert chain["largest_decaying_V_I_m_per_s"] < v_star < chain["smallest_persisting_V_I_m_per_s"]
     # first peaks approach 2 V_I: the limit of A - C/n within 1 %
     assert below["first_peak_limit_over_V_I"] == pytest.approx(2.0, rel=0.01)
+    # run length: the same V_I for 17 and 34 periods; the 17-period rows are the runs above, and
+    # the limits barely move (measured: V_P limit by 2.6e-4, first-peak limit by 2.4e-3)
+    lengths = data["run_length"]
+    assert lengths["periods_T0"] == [17.0, 34.0] and len(lengths["runs"]) == 4
+    short = [r for r in lengths["runs"] if r["periods_T0"] == 17.0]
+    assert [r["V_P_limit_m_per_s"] for r in short] == [below["V_P_limit_m_per_s"], above["V_P_limit_m_per_s"]]
+    assert all(r["status"] == "done" for r in lengths["runs"])
+    longer = [r for r in lengths["runs"] if r["periods_T0"] == 34.0]
+    assert longer[0]["duration_ms"] == pytest.approx(2 * short[0]["duration_ms"], rel=1e-12)
+    assert longer[0]["particles_reached"] > short[0]["particles_reached"]
+    assert 0 < lengths["largest_relative_change_V_P_limit"] < 1e-3
+    assert 0 < lengths["largest_relative_change_first_peak_limit"] < 5e-3
+    assert (tmp_path / "dsw_lengths.csv").exists()

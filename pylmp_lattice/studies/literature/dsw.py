@@ -24,8 +24,12 @@ V_P's limit and of the wake frequency from the theory below and above V*. Above 
 is outside its domain (`Prediction.in_domain`): the study warns, and the figure shades that
 side of every panel, where the measured deviations are drawn against numbers kept for
 comparison only.
-Quick: the paper's law only, at x = 0.5 and 1.5, 17 periods (400 ms); its figure and JSON
-say quick. Members that fail (magnets touching) are reported in the table with their error.
+Run length (the paper's law only): the same V_I run for LENGTHS periods (0.94, 1.5 and 3.0 s;
+the first is the runs above), and the V_P and first-peak limits of each, with their largest
+relative change between lengths per V_I: the table "lengths" (does the first peak's limit sit
+below 2 V_I, or do longer runs close the gap?).
+Quick: the paper's law only, at x = 0.5 and 1.5, 17 periods (400 ms), and 34 periods for the
+run length; its figure and JSON say quick. Members that fail (magnets touching) are reported in the table with their error.
 """
 
 from __future__ import annotations
@@ -51,7 +55,9 @@ CHAINS = {f"magnet q={q:g}": (PAPER_FORCE | {"q": q}, R0, MASS, {}) for q in (2.
 CHAINS |= {name: LITERATURE_CHAINS[name] for name in ("toda", "lj")}
 FRACTIONS = (0.25, 0.5, 0.75, 0.9, 1.1, 1.25, 1.5, 2.0)  # V_I / V*
 PERIODS = 40.0  # run length in linear periods T0 = 1/f0
-QUICK = {"chains": ("magnet q=3",), "fractions": (0.5, 1.5), "periods": 17.0}
+LENGTHS = (40.0, 64.0, 128.0)  # run lengths compared, periods T0 (the first is PERIODS)
+LENGTH_CHAIN = "magnet q=3"  # the chain whose limits are compared across run lengths
+QUICK = {"chains": ("magnet q=3",), "fractions": (0.5, 1.5), "periods": 17.0, "lengths": (17.0, 34.0)}
 PAPER_T0 = 23.53  # ms, about 1/f0 of the paper's chain (23.520): the time step scales from it
 MAGNET = 10  # where eta and f are measured (as Fig. 4)
 FINE = tuple(range(1, 13))  # magnets written at the fine interval: the piston's neighbours
@@ -147,6 +153,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
             row |= {"chain": chain, "V_I_over_V_star": row["V_I_m_per_s"] / v_star}
         rows += mine
         per_chain[chain] = _chain_numbers(law, mass, r0, t0, v_star, mine)
+    lengths = _run_lengths(out, rows, fractions, QUICK["lengths"] if quick else LENGTHS, periods)
     outside = [r for r in rows if r["V_I_over_V_star"] > 1]
     if outside:
         log.warning("study dsw: %d of %d runs have V_I above V*, outside the theory's domain: its lead speed and wake "
@@ -156,7 +163,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "method": "El, Chaos 15, 037103 (2005); El & Hoefer, Physica D 333, 11 (2016); pylmp_lattice.theory",
         "run_length_periods_T0": periods, "particle": MAGNET, "wake_gaps": list(WAKE_GAPS),
         "eta_prominence_over_V_I": PROMINENCE, "eta_ratio_decays_below": DECAYS, "eta_ratio_persists_above": PERSISTS,
-        "chains": per_chain, "runs": rows,
+        "chains": per_chain, "runs": rows, "run_length": lengths,
     }
     keys = list(dict.fromkeys(k for row in rows for k in row if k != "eta_reason"))
     tables = {"runs": {k: [_cell(row.get(k)) for row in rows] for k in keys},
@@ -164,7 +171,46 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                                                       for k in next(iter(per_chain.values())) if k != "knees"}}
     tables["chains"] |= {f"knee_{m}_m_per_s": [_cell(c["knees"][m].value) for c in per_chain.values()]
                          for m in measures.KNEE_METHODS}
+    tables["lengths"] = {k: [_cell(row.get(k)) for row in lengths["runs"]] for k in LENGTH_KEYS}
     return StudyResult(NAME, numbers, tables=tables, figure=_figure(rows, per_chain, quick), quick=quick)
+
+
+LENGTH_KEYS = ("V_I_m_per_s", "V_I_over_V_star", "periods_T0", "duration_ms", "status", "particles_reached",
+               "V_P_limit_m_per_s", "V_P_limit_error_m_per_s", "first_peak_limit_over_V_I", "first_peak_limit_error")
+
+
+def _run_lengths(out: Path, rows: list[dict], fractions, lengths, periods: float) -> dict:
+    """LENGTH_CHAIN's V_P and first-peak limits at each run length (periods T0): the rows of
+    `rows` (run for `periods`) and new sweeps for the other lengths; per V_I, the largest
+    relative change of each limit between lengths."""
+    law, (_, r0, mass, _) = chain_law(LENGTH_CHAIN), CHAINS[LENGTH_CHAIN]
+    v_star = theory.critical_velocity(law, mass, r0)
+    velocities = [float(np.round(x * v_star, 6)) for x in fractions]
+    found = []
+    for length in lengths:
+        if length == periods:
+            mine = [r | {"periods_T0": length} for r in rows if r["chain"] == LENGTH_CHAIN]
+        else:
+            base, t0 = chain_base(LENGTH_CHAIN, length)
+            base["name"] += f"_{length:g}T0"
+            mine = []
+            for r, row in done_runs(sweep_runs(base, out / NAME / base["name"], grid={"impactor.velocity": velocities}),
+                                    mine, "V_I_m_per_s", "impactor.velocity"):
+                row |= measure(r, t0, None)
+            for row in mine:
+                row |= {"chain": LENGTH_CHAIN, "V_I_over_V_star": row["V_I_m_per_s"] / v_star, "periods_T0": length}
+        found += [{k: row.get(k) for k in LENGTH_KEYS} for row in mine]
+    change = {}
+    for key in ("V_P_limit_m_per_s", "first_peak_limit_over_V_I"):
+        spans = []
+        for vi in velocities:
+            values = [r[key] for r in found if r["V_I_m_per_s"] == vi and r["status"] == "done"]
+            if len(values) == len(lengths):
+                spans.append((max(values) - min(values)) / np.mean(values))
+        change[key] = max(spans, default=None)
+    return {"chain": LENGTH_CHAIN, "periods_T0": list(lengths), "runs": found,
+            "largest_relative_change_V_P_limit": change["V_P_limit_m_per_s"],
+            "largest_relative_change_first_peak_limit": change["first_peak_limit_over_V_I"]}
 
 
 def _predict(law, mass, r0, vi):
