@@ -45,6 +45,22 @@ def test_a_number_that_differs_from_its_table_fails():
     assert changed == ["s8"]
 
 
+@pytest.mark.parametrize("name", sorted(tables.BLOCKS))
+def test_every_table_fails_on_a_changed_number(name):
+    """In each generated table, the last digit of its first number changed (a stale or typed
+    value): the check names that table and no other."""
+    doc = tables.BLOCKS[name][0]
+    text = (DOCS / doc).read_text()
+    start = text.index(f"<!-- table {name}:")
+    body_start = text.index("\n|---", start)  # the numbers are in the rows, not the header
+    end = text.index(f"<!-- end table {name} -->")
+    digit = re.search(r"\d(?=\D)", text[body_start + 5:end])
+    at = body_start + 5 + digit.start()
+    changed_text = text[:at] + str((int(text[at]) + 1) % 10) + text[at + 1:]
+    _, changed = tables.render(changed_text)
+    assert changed == [name]
+
+
 def test_the_doc_shows_the_study_s_numbers():
     """Read back independently of the renderer: each s7 row's V_P is the stored plateau mean to
     4 decimals, and each dsw row's V_P limit the CSV's value to 5 significant figures."""
@@ -62,6 +78,17 @@ def test_the_doc_shows_the_study_s_numbers():
         csv_limits = [float(r["V_P_limit_m_per_s"]) for r in csv.DictReader(f)
                       if r["chain"] == "magnet q=3" and r["status"] == "done"]
     assert limits == pytest.approx(csv_limits, rel=1e-4) and len(limits) == 8
+    # the run-length table: the 3 s first-peak limits, as dsw_lengths.csv gives them
+    block = lit[lit.index("<!-- table dsw-lengths"):lit.index("<!-- end table dsw-lengths")]
+    peaks = [float(line.split("|")[9]) for line in block.splitlines() if re.match(r"^\| [0-9]", line)]
+    with open(DOCS / "literature" / "dsw_lengths.csv", newline="") as f:
+        csv_peaks = [float(r["first_peak_limit_over_V_I"]) for r in csv.DictReader(f) if r["periods_T0"] == "128.0"]
+    assert peaks == pytest.approx(csv_peaks, abs=5e-5) and len(peaks) == 8
+    # the README's main job: V_P as the run's summary.json gives it
+    summary = json.loads((DOCS / "reproduction" / "paper_long_lattice_summary.json").read_text())
+    readme = (DOCS / "../README.md").read_text()
+    shown = re.search(r"^\| shock velocity plateau V_P \(gaps 145-193\) \| ([0-9.]+) m/s", readme, re.M)
+    assert float(shown[1]) == pytest.approx(summary["shock_velocity_plateau_m_per_s"]["mean"], abs=5e-4)
 
 
 def test_the_script_checks_and_rewrites(tmp_path, monkeypatch, capsys):
