@@ -281,6 +281,7 @@ def _figure(rows, per_chain, quick):
         ax[1, 2].plot(x, get("first_peak_plateau_over_V_I"), "x", color=col, ms=4)
     right = max([r["V_I_over_V_star"] for r in ok], default=1.0)
     for a in ax.flat:
+        a.set_xlabel("$V_I / V^*$ ($V^*$ of the theory)")
         a.axvline(1.0, color="k", ls="--", lw=0.8)
         if right > 1:  # the theory's numbers here are for comparison only (Prediction.in_domain)
             a.axvspan(1.0, right * 1.05, color="0.85", alpha=0.5, lw=0, zorder=0)
@@ -288,7 +289,6 @@ def _figure(rows, per_chain, quick):
         if right > 1:
             a.text(0.99, 0.02, "$V_I > V^*$: outside the theory's domain", transform=a.transAxes, ha="right",
                    va="bottom", fontsize="x-small", color="0.3")
-        a.set_xlabel("$V_I / V^*$ ($V^*$ of the theory)")
     for a in ax[0, 1], ax[0, 2], ax[1, 1]:
         a.axhline(0, color="k", lw=0.5)
     ax[0, 0].set(title="$V_P$", ylabel="$V_P / V_0$")
