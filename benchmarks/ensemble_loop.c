@@ -4,7 +4,7 @@
  * neighbours repelling with F(r) = K / (r + b)^q; magnet 0 of each chain is the impactor, moved
  * by a half-sine velocity pulse v = V sin(pi t / T) for t < T (x = x0 + V T / pi (1 - cos(pi t / T)),
  * then at rest); magnet N-1 is held; the others follow velocity Verlet with, if mu > 0, the exact
- * Coulomb stick-slip kick of pylmp_lattice/plugin/coulomb.h (limit mu (m g + p (F_left + F_right))).
+ * Coulomb stick-slip kick of pylmp_lattice/plugin/kernel/coulomb.h (limit mu (m g + p (F_left + F_right))).
  * Each chain starts from its own positions, velocities and masses (read from a file), so the loop
  * does the same integrations as the sweep's members, without their front measures or output.
  *
@@ -32,7 +32,7 @@ static double law(double r, double K, double b, double q)
     return q == 3.0 ? K / (s * s * s) : K / pow(s, q);
 }
 
-/* coulomb.h: the constant total force over a kick that reproduces the exact Coulomb solution */
+/* kernel/coulomb.h: the constant total force over a kick that reproduces the exact Coulomb solution */
 static double coulomb_kick(double v0, double fx, double limit, double dvdf, int *stuck)
 {
     *stuck = 0;

@@ -420,7 +420,7 @@ run 100
 # ---------------------------------------------------------------- one home for the drive and the law
 
 # pylmp_lattice.piston's profiles (user units: m/s, ms) and the same motion as the plugin's
-# drive arguments (SI), shared by fix lattice/piston and fix lattice/chain (impactor_drive.h)
+# drive arguments (SI), shared by fix lattice/piston and fix lattice/chain (kernel/drive.h)
 _T_SERIES = np.arange(0.0, 20.0 + 1e-9, 0.125)    # ms
 DRIVES = {
     "constant": (piston.Constant(2.0), "constant 2.0"),

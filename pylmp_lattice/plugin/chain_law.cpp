@@ -2,6 +2,8 @@
 
 #include "chain_law.h"
 
+#include "kernel/fit.h"
+
 #include "error.h"
 #include "lammps.h"
 #include "utils.h"
@@ -10,34 +12,6 @@
 #include <fstream>
 
 using namespace LAMMPS_NS;
-
-/* Clamped spline: first derivatives given at both ends; tridiagonal solve for d2y. */
-
-void UniformSpline::fit(double first, double step, const std::vector<double> &y, double slope_lo,
-                        double slope_hi)
-{
-  n = y.size();
-  x0 = first;
-  dx = step;
-  inv_dx = 1.0 / step;
-  c6 = step * step / 6.0;
-  std::vector<double> d2(n), w(n);
-  d2[0] = -0.5;
-  w[0] = 3.0 / dx * ((y[1] - y[0]) / dx - slope_lo);
-  for (int i = 1; i < n - 1; i++) {
-    const double p = 0.5 * d2[i - 1] + 2.0;
-    d2[i] = -0.5 / p;
-    w[i] = (3.0 * (y[i + 1] - 2.0 * y[i] + y[i - 1]) / (dx * dx) - 0.5 * w[i - 1]) / p;
-  }
-  const double wn = 3.0 / dx * (slope_hi - (y[n - 1] - y[n - 2]) / dx);
-  d2[n - 1] = (wn - 0.5 * w[n - 2]) / (0.5 * d2[n - 2] + 1.0);
-  for (int i = n - 2; i >= 0; i--) d2[i] = d2[i] * d2[i + 1] + w[i];
-  yd2.resize(2 * n);
-  for (int i = 0; i < n; i++) {
-    yd2[2 * i] = y[i];
-    yd2[2 * i + 1] = d2[i];
-  }
-}
 
 int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::string &who)
 {
@@ -49,27 +23,25 @@ int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::stri
   };
   if (style == "power") {
     need(3);
-    K = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-    b = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
-    q = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+    const double K = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    const double b = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+    const double q = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
     if (K <= 0.0 || b < 0.0 || q <= 1.0)
       error->all(FLERR, "{}: law power needs K > 0, b >= 0, q > 1", who);
-    qint = (q == std::floor(q) && q <= 8.0) ? static_cast<int>(q) : 0;
-    kind = POWER;
+    static_cast<Law &>(*this) = Law::power(K, b, q);
     return iarg + 4;
   }
   if (style == "linear") {
     need(2);
-    kind = LINEAR;
-    k = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-    r_free = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+    const double k = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    const double r_free = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
     if (k <= 0.0 || r_free <= 0.0)
       error->all(FLERR, "{}: law linear needs k > 0, r_free > 0", who);
+    static_cast<Law &>(*this) = Law::linear(k, r_free);
     return iarg + 3;
   }
   if (style == "table") {
     need(2);
-    kind = TABLE;
     read_table(lmp, arg[iarg + 1], arg[iarg + 2], who);
     return iarg + 3;
   }
@@ -122,6 +94,6 @@ void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::strin
   for (int i = 1; i < n; i++)
     if (std::fabs(r[i] - (r[0] + i * step)) > 1.0e-9 * std::fabs(r[n - 1]))
       error->all(FLERR, "{}: {} must sample r on a uniform grid", who, file);
-  tf.fit(r[0], step, f, fp_lo, fp_hi);
-  tu.fit(r[0], step, u, -f[0], -f[n - 1]);
+  storage.assign(4 * n, 0.0);
+  static_cast<Law &>(*this) = pl_kernel::fit_table(r.data(), u.data(), f.data(), n, fp_lo, fp_hi, storage.data());
 }

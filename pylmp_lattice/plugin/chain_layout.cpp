@@ -55,7 +55,7 @@ void FixLatticeChain::build_lists()
       local_index[i] = i;
       mass_of[i] = atom->rmass[i];
       dtfm[i] = dtf / atom->rmass[i];
-      weight[i] = atom->rmass[i] * g;
+      weight[i] = atom->rmass[i] * fr.g;
     }
   }
   runs.clear();
@@ -91,7 +91,7 @@ void FixLatticeChain::build_lists()
   std::sort(blocks.begin(), blocks.end(), [&](const Run &a, const Run &b) { return tag[a.first] < tag[b.first]; });
   runs.swap(blocks);
   bond_force.resize(BLOCK + 1);
-  scratch.resize(4 * (BLOCK + 2));
+  scratch.resize(5 * BLOCK + 8);    // the owned step's (kernel/step.h), and a block's positions
 
   // owning the state, the drift moves block k + 1 before the forces of block k: a free local
   // neighbour of a block must be the end of the block before or the start of the block after

@@ -55,32 +55,15 @@ void FixLatticeChain::settle_work(double kick, bool setup_kick)
 {
   for (bigint c = 0; c < nchains; c++) {
     works[c].settle(kick, setup_kick, work_done[c], work_pending[c]);
-    works[c] = CoulombWork();
+    works[c] = pl_kernel::CoulombWork();
   }
 }
 
-/* one free atom's total force from its bonds' forces left and right, with friction the exact
-   stick-slip kick: v (after the first half kick) becomes 0 if the atom sticks */
+/* the kernel's view of the mass slots (see the header) */
 
-template <bool FRICTION>
-inline double FixLatticeChain::total_force(double left, double right, int t, double kick, double &v,
-                                           CoulombWork &work) const
+pl_kernel::Masses FixLatticeChain::masses() const
 {
-  const double fx = left - right;
-  if constexpr (!FRICTION) {
-    return fx;
-  } else {
-    const double m = mass_of[t];
-    const double normal = weight[t] + p * (left + right);
-    const double limit = normal > 0.0 ? mu * normal : 0.0;
-    const double dvdf = kick / m;
-    const double v0 = v;
-    bool stuck;
-    const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
-    if (stuck) work.stuck(v0, m, kick, fx), v = 0.0;
-    else work.slip(v0, fx, ftot, dvdf);
-    return ftot;
-  }
+  return pl_kernel::Masses{slots(), dtfm.data(), mass_of.data(), weight.data(), one_type};
 }
 
 /* the force pass in the atom arrays (KICK: with the second half kick) */
@@ -96,6 +79,7 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
   const int *__restrict type = slots();
   const double *__restrict dtfm_of = dtfm.data();
   const double half_kick = one_type ? dtfm_of[1] : 0.0;
+  const pl_kernel::Masses ms = masses();
   // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
   // right neighbour
   double *__restrict X = scratch.data();
@@ -103,7 +87,7 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
   double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
   for (const Run &run : runs) {
     const int first = run.first, len = run.last - first + 1;
-    CoulombWork work;
+    pl_kernel::CoulombWork work;
     if constexpr (FRICTION) work = works[run.chain];
     for (int k = 0; k < len; k++) X[1 + k] = x[3 * (first + k)];
     X[0] = x[3 * run.left];
@@ -117,12 +101,12 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
       r_sum += r;
       F[k] = law(r);
     }
-    double *__restrict fr = f + 3 * first;
+    double *__restrict fo = f + 3 * first;
     double *__restrict vr = v + 3 * first;
     for (int k = 0; k < len; k++) {
       const int t = FRICTION || !one_type ? type[first + k] : 1;
-      const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vr[3 * k], work);
-      fr[3 * k] = ftot;
+      const double ftot = pl_kernel::total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vr[3 * k], work);
+      fo[3 * k] = ftot;
       if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[t]) * ftot;
     }
     if constexpr (FRICTION) works[run.chain] = work;
@@ -132,97 +116,20 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
   if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
 }
 
-/* Owning the state, the whole step in one pass over the fix's arrays (see the header): the
-   same operations as initial_integrate, run_forces<KICK> and the front record's sample. */
+/* Owning the state, the whole step in one pass over the fix's arrays: the chain kernel's step
+   for this rank's slab (kernel/step.h), the same operations as initial_integrate, run_forces<KICK>
+   and the front record's sample. */
 
 template <bool FRICTION, bool FRONT, class Law>
 void FixLatticeChain::own_step(const Law law, int &bad)
 {
-  double *__restrict x = xs;
-  double *__restrict v = vs;
-  double *__restrict f = fs;
-  double *__restrict F = bond_force.data();
-  double *__restrict mark = FRONT ? front->mark : nullptr;
-  const int *__restrict type = slots();
-  const double *__restrict dtfm_of = dtfm.data();
-  const double half_kick = one_type ? dtfm_of[1] : 0.0;
-  const double dtv = update->dt, kick = update->dt;
-  // per block in flight (two): the velocities after the first half kick, and before it
-  double *__restrict half[2] = {scratch.data(), scratch.data() + BLOCK};
-  double *__restrict before[2] = {scratch.data() + 2 * BLOCK, scratch.data() + 3 * BLOCK};
-  // velocity Verlet's first half kick and drift, with last step's forces
-  auto drift = [&](const Run &run, double *__restrict vh, double *__restrict v0) {
-    for (int i = run.first, k = 0; i <= run.last; i++, k++) {
-      v0[k] = v[i];
-      vh[k] = v[i] + (one_type ? half_kick : dtfm_of[type[i]]) * f[i];
-      x[i] += dtv * vh[k];
-    }
-  };
-  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
-  if (!runs.empty()) drift(runs[0], half[0], before[0]);
-  for (size_t b = 0; b < runs.size(); b++) {
-    const Run &run = runs[b];
-    const int first = run.first, last = run.last, len = last - first + 1;
-    CoulombWork work;
-    if constexpr (FRICTION) work = works[run.chain];
-    if (b + 1 < runs.size()) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
-    double *__restrict vh = half[b % 2];
-    // the bond forces, F[k] left of atom first + k: the two end bonds, then the inner ones
-    // from consecutive positions
-    auto bond = [&](double r) {
-      r_min = r < r_min ? r : r_min;
-      r_max = r > r_max ? r : r_max;
-      r_sum += r;
-      return law(r);
-    };
-    F[0] = bond(x[first] - x[run.left]);
-    F[len] = bond(x[run.right] - x[last]);
-    const double *__restrict xb = x + first;
-#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
-    for (int k = 1; k < len; k++) {
-      const double r = xb[k] - xb[k - 1];
-      r_min = r < r_min ? r : r_min;
-      r_max = r > r_max ? r : r_max;
-      r_sum += r;
-      F[k] = law(r);
-    }
-    // the forces and the second half kick
-    double *__restrict fb = f + first;
-    double *__restrict vb = v + first;
-    // one loop for one atom type and one for several (a test inside would keep the loop from
-    // vectorising)
-    auto kick_loop = [&](auto one_type_) {
-      constexpr bool ONE_TYPE = decltype(one_type_)::value;
-      for (int k = 0; k < len; k++) {
-        const int t = FRICTION || !ONE_TYPE ? type[first + k] : 1;
-        const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, kick, vh[k], work);
-        const double vn = vh[k] + (ONE_TYPE ? half_kick : dtfm_of[t]) * ftot;
-        fb[k] = ftot;
-        vb[k] = vn;
-      }
-    };
-    if (one_type) kick_loop(std::true_type{});
-    else kick_loop(std::false_type{});
-    if constexpr (FRICTION) works[run.chain] = work;
-    if constexpr (FRONT) {
-      // the front record's largest |v| of every atom (it may change at every step: atoms ahead
-      // of the front feel round-off forces from unequal gaps), and how many waiting atoms reach
-      // the start level now (a count as a double: an int would keep the loop from vectorising);
-      // a loop of its own, which vectorises also when the kicks (friction) do not
-      double *__restrict mb = mark + first;
-      const double *__restrict gate = start_gate.data() + first;
-      double starting = 0.0;
-#pragma omp simd reduction(+ : starting)
-      for (int k = 0; k < len; k++) {
-        mb[k] = FrontRecord::mark_max(mb[k], vb[k]);
-        starting += vb[k] >= gate[k] ? 1.0 : 0.0;
-      }
-      // the rows only of blocks where an atom is active or reaches the start level now
-      if (block_front[b].active > 0 || starting > 0.0) sample_front_block(b, before[b % 2], starting > 0.0);
-    }
-  }
-  if (FRICTION) settle_work(kick, false);
-  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+  FrontHook hook{this};
+  const pl_kernel::FrontPass<FrontHook> pass{FRONT ? front->mark : nullptr, start_gate.data(), &hook};
+  pl_kernel::Gaps gaps;
+  pl_kernel::step_runs<FRICTION, FRONT>(law, runs.data(), static_cast<int>(runs.size()), xs, vs, fs, masses(), fr,
+                                        update->dt, works.data(), scratch.data(), BLOCK, pass, gaps);
+  if (FRICTION) settle_work(update->dt, false);
+  if (gaps.bad(range_lo, range_hi)) bad = 1;
 }
 
 /* owning the state: the step's one pass, with the front record sampled inside it */

@@ -40,7 +40,7 @@ How a step is done
    of every run (post_run), so that dumps, thermo, computes and later commands see what
    they see on the general path. The fix's own energy and gap read its arrays. The front
    record (fix lattice/front) is then sampled inside the same pass, with the rules of
-   front_rules.h, while the block is in L1: per atom, in a vectorised loop after the block's
+   the chain kernel's front rules (kernel/front.h), while the block is in L1: per atom, in a vectorised loop after the block's
    kicks, one read and write of its largest |v| and one comparison with its start gate (its
    chain's start level while it waits, else infinity); the record row only for the atoms that
    start now and the block's active atoms (a span of local indices kept per block, about as
@@ -73,7 +73,7 @@ Syntax
 
    law args = power K b q | linear k r_free | table file keyword
      power: F(r) = K / (r + b)^q, q > 1 (integer q <= 8 by multiplications, else pow)
-     (chain_law.h; fix lattice/friction reads its analytic laws with the same code)
+     (kernel/law.h, read by chain_law.h; fix lattice/friction reads its analytic laws with the same code)
      linear: F(r) = k (r_free - r)
      table: section `keyword` of a bond_style table file (N n FP lo hi; rows i r U F on a
        uniform grid), interpolated by its clamped cubic spline, as bond_style table spline
@@ -103,7 +103,7 @@ Description
    on it; of a held atom zero.
 
    Friction: the limit L = mu (m g + p (F_{k-1} + F_k)) and the exact stick-slip kick of
-   fix lattice/friction (coulomb.h), with the same accounting of the work.
+   fix lattice/friction (kernel/coulomb.h), with the same accounting of the work.
 
    Contacts: every separation is checked at every step, in the force pass. If one is
    <= 0 the fix prints, on the step it happens,
@@ -162,8 +162,7 @@ using namespace FixConst;
 
 FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), length(0), nchains(0), range_lo(0.0),
-    range_hi(std::numeric_limits<double>::infinity()), friction(false), mu(0.0), p(0.0),
-    g(0.0), fused(false), own_allowed(false), own(false), clear_forces(false), front(nullptr),
+    range_hi(std::numeric_limits<double>::infinity()), friction(false), fused(false), own_allowed(false), own(false), clear_forces(false), front(nullptr),
     drive_u(0.0), drive_ud(0.0), xs(nullptr), vs(nullptr), fs(nullptr), nmax_state(0),
     in_order(false), edges_ok(false), energy_step(-1),
     pe_cached(0.0), gap_cached(0.0), contact_step(-1), pass_cpu(0.0), exchange_wall(0.0),
@@ -193,10 +192,10 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
     } else if (key == "friction") {
       if (iarg + 3 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/chain friction", error);
       friction = true;
-      mu = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      p = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
-      g = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
-      if (mu < 0.0 || p < 0.0 || g < 0.0)
+      fr.mu = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      fr.p = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+      fr.g = utils::numeric(FLERR, arg[iarg + 3], false, lmp);
+      if (fr.mu < 0.0 || fr.p < 0.0 || fr.g < 0.0)
         error->all(FLERR, "Fix lattice/chain: friction needs mu, p, g >= 0");
       iarg += 4;
     } else
@@ -211,7 +210,7 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
   nchains = atom->natoms / length;
   work_done.assign(nchains, 0.0);
   work_pending.assign(nchains, 0.0);
-  works.assign(nchains, CoulombWork());
+  works.assign(nchains, pl_kernel::CoulombWork());
 
   // each chain's impactor position now: its owner contributes it, every rank keeps all
   time_origin = update->ntimestep;
@@ -269,7 +268,7 @@ void FixLatticeChain::init()
     for (int t = 1; t <= ntypes; t++) {
       mass_of[t] = atom->mass[t];
       dtfm[t] = dtf / atom->mass[t];
-      weight[t] = atom->mass[t] * g;
+      weight[t] = atom->mass[t] * fr.g;
     }
   }
 

@@ -3,18 +3,21 @@
      fix_lattice_chain.cpp   syntax, arguments, the fix's hooks and outputs
      chain_layout.cpp        where the atoms are: blocks, chain ends, slab edges between ranks,
                              the fix's own per-atom state
-     chain_step.cpp          the two step paths (LAMMPS's arrays; the owned one pass)
+     chain_step.cpp          the two step paths (LAMMPS's arrays; the owned one pass, the chain
+                             kernel's step_runs for this rank's slab)
      chain_front.cpp         the front record sampled inside the owned pass
      chain_checks.cpp        gaps, contacts, energy
-   and the impactor's motion in impactor_drive.h, the laws in chain_law.h. */
+   The physics is the chain kernel's (kernel/*.h: laws, drives, friction, front rules, the step),
+   read from the arguments by chain_law.h and impactor_drive.h. */
 
 #ifndef PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 #define PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 
 #include "chain_law.h"
-#include "coulomb.h"
 #include "fix.h"
 #include "impactor_drive.h"
+#include "kernel/coulomb.h"
+#include "kernel/step.h"
 
 #include <vector>
 
@@ -58,7 +61,7 @@ class FixLatticeChain : public Fix {
   bigint nchains;
   double range_lo, range_hi;     // allowed separations; r <= 0 is a contact
   bool friction;
-  double mu, p, g;
+  pl_kernel::Friction fr;        // mu, p, g
   bigint time_origin;            // step at which the fix was defined: the drive's t = 0
   std::vector<double> x0;        // each chain's impactor position then
 
@@ -85,9 +88,7 @@ class FixLatticeChain : public Fix {
   // ---- the layout (chain_layout.cpp), rebuilt at every reneighbouring. Blocks: runs of up to
   // BLOCK free atoms that follow each other in memory with consecutive IDs, in ID order, with
   // the local/ghost index of the atom left of the first and right of the last
-  struct Run {
-    int first, last, left, right, chain;
-  };
+  using Run = pl_kernel::Run;
   std::vector<Run> runs;
   struct End {
     int i, other, chain;    // impactor: its right neighbour; held end: its left neighbour
@@ -103,7 +104,7 @@ class FixLatticeChain : public Fix {
   } edges[2];
   bool edges_ok;                 // every such ghost is owned by the rank next in x (on all ranks)
   std::vector<double> bond_force;    // scratch: the forces of one block's bonds
-  std::vector<double> scratch;       // scratch: positions of a block (AoS), velocities (own)
+  std::vector<double> scratch;       // scratch: positions of a block (AoS); the owned step's
 
   // ---- the front record inside the owned pass (chain_front.cpp): each block's active atoms
   // (how many, and the span of local indices lo..hi that holds them; they follow the front, so
@@ -119,10 +120,10 @@ class FixLatticeChain : public Fix {
   bool front_summarised = false;   // the three above are up to date (false after a reneighbouring)
 
   // ---- checks and energy (chain_checks.cpp)
-  // friction work of each chain on this rank (see coulomb.h): done, due at the next step, and
+  // friction work of each chain on this rank (see kernel/coulomb.h): done, due at the next step, and
   // this step's sums (each chain's runs add to it in ID order, as a one-chain run does)
   std::vector<double> work_done, work_pending;
-  std::vector<CoulombWork> works;
+  std::vector<pl_kernel::CoulombWork> works;
   bigint energy_step;                // step at which pe_cached and gap_cached were computed
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
@@ -157,8 +158,15 @@ class FixLatticeChain : public Fix {
   void own_pass();
   void end_forces();
   void settle_work(double kick, bool setup_kick);
-  template <bool FRICTION>
-  double total_force(double left, double right, int t, double kick, double &v, CoulombWork &work) const;
+  pl_kernel::Masses masses() const;
+  // the owned step's hook into the front record (kernel/step.h's FrontPass)
+  struct FrontHook {
+    FixLatticeChain *fix;
+    void sample_block(int b, const double *v_before, bool starting)
+    {
+      if (fix->block_front[b].active > 0 || starting) fix->sample_front_block(b, v_before, starting);
+    }
+  };
   template <bool FRICTION, bool KICK, class Law> void run_forces(const Law law, double kick, bool setup_kick, int &bad);
   template <bool FRICTION, bool FRONT, class Law> void own_step(const Law law, int &bad);
   // chain_front.cpp

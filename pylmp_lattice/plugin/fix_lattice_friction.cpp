@@ -105,8 +105,6 @@ Restrictions
 
 #include "fix_lattice_friction.h"
 
-#include "coulomb.h"
-
 #include "atom.h"
 #include "bond.h"
 #include "domain.h"
@@ -125,12 +123,13 @@ FixLatticeFriction::FixLatticeFriction(LAMMPS *lmp, int narg, char **arg) :
     periodic(false)
 {
   if (narg < 6) utils::missing_cmd_args(FLERR, "fix lattice/friction", error);
-  mu = utils::numeric(FLERR, arg[3], false, lmp);
-  p = utils::numeric(FLERR, arg[4], false, lmp);
-  g = utils::numeric(FLERR, arg[5], false, lmp);
+  const double mu = utils::numeric(FLERR, arg[3], false, lmp);
+  const double p = utils::numeric(FLERR, arg[4], false, lmp);
+  const double g = utils::numeric(FLERR, arg[5], false, lmp);
   if (mu < 0.0) error->all(FLERR, "Fix lattice/friction: mu = {} must be >= 0", mu);
   if (p < 0.0) error->all(FLERR, "Fix lattice/friction: p = {} must be >= 0", p);
   if (g < 0.0) error->all(FLERR, "Fix lattice/friction: g = {} must be >= 0", g);
+  fr = pl_kernel::Friction{mu, p, g};
 
   for (int iarg = 6; iarg < narg;) {
     if (strcmp(arg[iarg], "bond") == 0) {    // the syntax from before the law keyword
@@ -266,7 +265,7 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
   tagint prev_tag = -1;
   double prev_fright = 0.0;
 
-  CoulombWork work;
+  pl_kernel::CoulombWork work;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double fx = f[i][0];
@@ -277,8 +276,8 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     // neighbour forces add to the limit (also in rounding), so they are not needed; this
     // is the stuck branch below. m is not kept for later: that slowed law bond by 4%.
     if (v0 == 0.0 && !from_bond && law.kind == ChainLaw::POWER) {
-      const double weight = (rmass ? rmass[i] : mass[type[i]]) * g;
-      if (fabs(fx) <= mu * weight) {
+      const double weight = (rmass ? rmass[i] : mass[type[i]]) * fr.g;
+      if (fabs(fx) <= fr.limit(weight, 0.0, 0.0)) {
         v[i][0] = 0.0;
         f[i][0] = 0.0;
         continue;
@@ -297,19 +296,9 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     prev_fright = fright;
 
     const double m = rmass ? rmass[i] : mass[type[i]];
-    const double normal = m * g + p * (fleft + fright);
-    const double limit = normal > 0.0 ? mu * normal : 0.0;
-    const double dvdf = kick / m;
-    bool stuck;
-    const double ftot = coulomb_kick(v0, fx, limit, dvdf, stuck);
-    if (stuck) {
-      work.stuck(v0, m, kick, fx);
-      v[i][0] = 0.0;
-      f[i][0] = 0.0;
-      continue;
-    }
-    work.slip(v0, fx, ftot, dvdf);
-    f[i][0] = ftot;
+    double vi = v0;
+    f[i][0] = fr.kick_force(m, m * fr.g, fleft, fright, fx, kick, vi, work);
+    v[i][0] = vi;
   }
   work.settle(kick, setup_kick, work_done, work_pending);
 }

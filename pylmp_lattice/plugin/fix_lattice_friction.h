@@ -5,6 +5,7 @@
 
 #include "chain_law.h"
 #include "fix.h"
+#include "kernel/coulomb.h"
 
 namespace LAMMPS_NS {
 
@@ -18,7 +19,7 @@ class FixLatticeFriction : public Fix {
   double compute_scalar() override;
 
  private:
-  double mu, p, g;
+  pl_kernel::Friction fr;              // mu, p, g
   bool from_bond;                      // F from the bond style (law bond), else from `law`
   int btype;                           // law bond: bond type whose single() gives F
   ChainLaw law;                        // an analytic or tabulated law (chain_law.h)

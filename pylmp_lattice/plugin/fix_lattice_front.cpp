@@ -47,7 +47,8 @@ Description
    NaN. The records move with their atoms between MPI ranks.
 
 Implementation
-   The per-atom rules are in front_rules.h, shared with fix lattice/chain. Each step touches,
+   The per-atom rules are the chain kernel's (kernel/front.h), shared with fix lattice/chain
+   and the engines. Each step touches,
    per atom, only a hot state (the largest |v| so far, the previous v of a
    waiting atom, a phase byte); a row of the record (NCOL doubles) is touched only for the few
    atoms between their start and both peaks confirmed. The output column 6 (largest |v|) is
@@ -82,6 +83,8 @@ using namespace FrontRecord;
 namespace {
 // per-atom doubles moved between ranks: the row, then mark, vprev, phase and shown
 constexpr int NPACK = NCOL + 4;
+
+const double NaN = pl_kernel::quiet_nan();
 
 bool same_bits(double a, double b)
 {

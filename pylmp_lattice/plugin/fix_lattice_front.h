@@ -5,12 +5,15 @@
 
 #include "atom.h"
 #include "fix.h"
-#include "front_rules.h"
+#include "kernel/front.h"
 
 #include <string>
 #include <vector>
 
 namespace LAMMPS_NS {
+
+// the per-atom rules of the record (the chain kernel's)
+namespace FrontRecord = pl_kernel::front;
 
 class FixLatticeFront : public Fix {
  public:
@@ -53,11 +56,7 @@ class FixLatticeFront : public Fix {
      only if it was waiting), and L, the levels of its chain (levels_of). */
   void sample_row(int i, double v, double f, double m, double v_waiting, const FrontRecord::Levels &L)
   {
-    using namespace FrontRecord;
-    unsigned char &now = phase[i];
-    const unsigned char before = now;
-    if (before == ACTIVE || starts(before, v, L))
-      advance(rec[i], now, v, before == WAITING ? v_waiting : rec[i][V_PREV], f / m, L, current);
+    FrontRecord::sample_row(rec[i], phase[i], v, f, m, v_waiting, L, current);
   }
   // the same, the levels looked up (a division by the chain length: only for an atom not finished)
   void sample_row(int i, double v, double f, double m, double v_waiting)

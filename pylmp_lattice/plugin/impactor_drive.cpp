@@ -6,7 +6,6 @@
 #include "lammps.h"
 #include "utils.h"
 
-#include <cmath>
 
 using namespace LAMMPS_NS;
 
@@ -19,12 +18,14 @@ int ImpactorDrive::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std:
   const int nargs = kind == "constant" ? 1 : (kind == "ramp" || kind == "sine") ? 2 : kind == "measured" ? 6 : 0;
   if (iarg + nargs >= narg) utils::missing_cmd_args(FLERR, who + " impactor " + kind, error);
   if (kind == "constant" || kind == "ramp" || kind == "sine") {
-    profile = kind == "constant" ? CONSTANT : kind == "ramp" ? RAMP : SINE;
-    V = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-    if (nargs == 2) T = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
-    if (nargs == 2 && !(T > 0.0)) error->all(FLERR, "{}: impactor {} needs a time > 0", who, kind);
+    drive.profile = kind == "constant" ? pl_kernel::Drive::CONSTANT
+        : kind == "ramp"               ? pl_kernel::Drive::RAMP
+                                       : pl_kernel::Drive::SINE;
+    drive.V = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    if (nargs == 2) drive.T = utils::numeric(FLERR, arg[iarg + 2], false, lmp);
+    if (nargs == 2 && !(drive.T > 0.0)) error->all(FLERR, "{}: impactor {} needs a time > 0", who, kind);
   } else if (kind == "rest") {
-    profile = REST;
+    drive.profile = pl_kernel::Drive::REST;
   } else if (kind == "measured") {
     // measured file PATH column u|v after hold|stop
     const std::string column = arg[iarg + 4], after = arg[iarg + 6];
@@ -42,30 +43,12 @@ void ImpactorDrive::load_measured(const std::string &path, bool given_velocity, 
                                   LAMMPS *lmp, const std::string &name)
 {
   who = name;
-  profile = MEASURED;
   measured.load(path, given_velocity, hold_after, lmp->error, who.c_str());
+  drive.profile = pl_kernel::Drive::MEASURED;
+  drive.measured = measured.spline();
 }
 
 void ImpactorDrive::at(double t, double dt, double &u, double &ud) const
 {
-  switch (profile) {
-    case CONSTANT:
-      u = V * t;
-      ud = V;
-      return;
-    case RAMP:
-      u = t < T ? V * t * t / (2.0 * T) : V * (t - 0.5 * T);
-      ud = t < T ? V * t / T : V;
-      return;
-    case SINE:
-      u = t < T ? V * T / M_PI * (1.0 - cos(M_PI * t / T)) : 2.0 * V * T / M_PI;
-      ud = t < T ? V * sin(M_PI * t / T) : 0.0;
-      return;
-    case REST:
-      u = ud = 0.0;
-      return;
-    case MEASURED:
-      measured.at(t, 1.0e-6 * dt, u, ud);
-      return;
-  }
+  if (!drive.at(t, dt, u, ud)) measured.past_end(t);
 }

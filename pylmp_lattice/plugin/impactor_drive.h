@@ -1,6 +1,7 @@
-/* The impactor's prescribed motion: the one C++ home of the drive, used by fix lattice/chain
-   (each chain's first atom) and fix lattice/piston (one atom). Its Python twin is
-   pylmp_lattice/piston.py, which tests/test_plugin.py binds it to. Part of pylmp_lattice, GPL-2.0.
+/* The impactor's prescribed motion as fix lattice/chain (each chain's first atom) and fix
+   lattice/piston (one atom) read it from their arguments: the motions themselves are the chain
+   kernel's (kernel/drive.h). Its Python twin is pylmp_lattice/piston.py, which
+   tests/test_plugin.py binds it to. Part of pylmp_lattice, GPL-2.0.
 
    Syntax (at the fix's `impactor` keyword, or as lattice/piston's arguments):
      constant V | ramp V T | sine V T | rest | measured file PATH column u|v after hold|stop
@@ -29,10 +30,11 @@ class ImpactorDrive {
   /* displacement u and velocity ud at time t from the origin; dt: the time step (a measured
      run meant to end on the last sample may overshoot it by round-off) */
   void at(double t, double dt, double &u, double &ud) const;
+  /* the kernel's drive (its measured samples are this object's) */
+  const pl_kernel::Drive &kernel() const { return drive; }
 
  private:
-  enum { CONSTANT, RAMP, SINE, REST, MEASURED } profile = REST;
-  double V = 0.0, T = 0.0;    // peak velocity; ramp time or pulse length
+  pl_kernel::Drive drive;
   MeasuredMotion measured;
   std::string who;
 };

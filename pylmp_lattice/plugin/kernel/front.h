@@ -1,7 +1,9 @@
-/* The per-atom rules of the front record, in one place: fix lattice/front applies them in its own
-   pass after each step; fix lattice/chain applies the same functions inside its force pass when
-   it owns the whole step (see both fixes' headers). Part of pylmp_lattice, GPL-2.0. The
-   measures and their definitions are described in fix_lattice_front.cpp.
+/* The per-atom rules of the front record (the sampler the measures read: arrival times, first
+   peaks, per-magnet extrema), in one place: fix lattice/front applies them in its own pass after
+   each step; fix lattice/chain inside its force pass when it owns the whole step (see both
+   fixes' headers); the host and GPU engines in their chain loop (chain.h). Part of
+   pylmp_lattice, GPL-2.0. The measures and their definitions are described in
+   fix_lattice_front.cpp.
 
 Why a hot and a cold part
    A record row is NCOL doubles (296 bytes), but at any step only the few atoms between their
@@ -13,15 +15,13 @@ Why a hot and a cold part
    and the row only for active atoms (and at its start). The row's V_ABS_MAX column is the
    output copy of |mark|, refreshed whenever something may read the record (see the fix). */
 
-#ifndef PYLMP_LATTICE_FRONT_RULES_H
-#define PYLMP_LATTICE_FRONT_RULES_H
+#ifndef PYLMP_LATTICE_KERNEL_FRONT_H
+#define PYLMP_LATTICE_KERNEL_FRONT_H
 
-#include <cmath>
-#include <cstring>
-#include <limits>
+#include "device.h"
 
-namespace LAMMPS_NS {
-namespace FrontRecord {
+namespace pl_kernel {
+namespace front {
 
 // Columns of a row. The first NOUT are the fix's output; the rest is running state: the previous
 // sample (of an active atom), and blocks that follow a running maximum with its neighbouring
@@ -49,18 +49,16 @@ struct Sample {
   bool first;          // no earlier sample
 };
 
-const double NaN = std::numeric_limits<double>::quiet_NaN();
-
 /* hot part, every atom at every sample: the largest |v| (NaN compares false, so the first
    sample replaces the NaN of an atom not sampled yet, and a NaN v is kept; written so that
    x86 does it in one maxpd) */
-inline double mark_max(double mark, double v)
+PL_HD inline double mark_max(double mark, double v)
 {
-  const double a = std::fabs(v);
+  const double a = fabs(v);
   return mark > a ? mark : a;
 }
 /* an atom that waits and reaches the start level now: its row must be updated */
-inline bool starts(unsigned char phase, double v, const Levels &L)
+PL_HD inline bool starts(unsigned char phase, double v, const Levels &L)
 {
   return phase == WAITING && v >= L.start;
 }
@@ -69,34 +67,33 @@ namespace detail {
 constexpr int MAXIMUM = 6;    // columns in a maximum block
 
 // A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
-inline void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
+PL_HD inline void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
 {
-  const double row[MAXIMUM] = {y, t, y_prev, t_prev, NaN, NaN};
-  std::memcpy(m, row, sizeof(row));
+  m[0] = y, m[1] = t, m[2] = y_prev, m[3] = t_prev, m[4] = m[5] = quiet_nan();
 }
 
 // The sample after a maximum is its right neighbour.
-inline void fill_right(double *m, double y, double t, double t_prev)
+PL_HD inline void fill_right(double *m, double y, double t, double t_prev)
 {
-  if (m[1] == t_prev && std::isnan(m[4])) {
+  if (m[1] == t_prev && isnan(m[4])) {
     m[4] = y;
     m[5] = t;
   }
 }
 
 // First time v reaches level, between samples (t0, v0) below it and (t1, v1).
-inline double crossing(double level, double t0, double v0, double t1, double v1)
+PL_HD inline double crossing(double level, double t0, double v0, double t1, double v1)
 {
   return t0 + (level - v0) / (v1 - v0) * (t1 - t0);
 }
 
 // Vertex of the parabola through (tm, ym), (t, y), (tp, yp) where it is concave, else (t, y).
-inline void refine(const double *m, double &t_out, double &y_out)
+PL_HD inline void refine(const double *m, double &t_out, double &y_out)
 {
   const double y = m[0], t = m[1], ym = m[2], tm = m[3], yp = m[4], tp = m[5];
   t_out = t;
   y_out = y;
-  if (std::isnan(ym) || std::isnan(yp)) return;
+  if (isnan(ym) || isnan(yp)) return;
   const double h1 = t - tm, h2 = tp - t;
   const double c = ((ym - y) / h1 + (yp - y) / h2) / (h1 + h2);
   if (!(c < 0.0)) return;
@@ -110,7 +107,7 @@ inline void refine(const double *m, double &t_out, double &y_out)
    acceleration a at this sample and its velocity v_prev at the previous one (the row keeps it
    for active atoms; a waiting atom's comes from the hot state of whoever samples). Moves the
    atom from WAITING to ACTIVE and from ACTIVE to FINISHED. */
-inline void advance(double *r, unsigned char &phase, double v, double v_prev, double a, const Levels &L,
+PL_HD inline void advance(double *r, unsigned char &phase, double v, double v_prev, double a, const Levels &L,
                     const Sample &s)
 {
   using namespace detail;
@@ -121,7 +118,7 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
     phase = ACTIVE;
   }
   bool arrived_now = false;
-  if (std::isnan(r[T_ARRIVAL]) && v >= L.front) {
+  if (isnan(r[T_ARRIVAL]) && v >= L.front) {
     r[T_ARRIVAL] = s.first ? t : crossing(L.front, t_prev, v_prev, t, v);
     arrived_now = true;
   }
@@ -130,7 +127,7 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
   // maximum was the previous sample (a moved maximum's block is rewritten whole)
   const bool started_now = t == r[TS_START];
   const bool arun_open = r[DONE] != 1.0, pulse_open = r[PULSE_DONE] != 1.0;
-  const bool best_open = arun_open && !std::isnan(r[T_ARRIVAL]);
+  const bool best_open = arun_open && !isnan(r[T_ARRIVAL]);
   const bool arun_new = arun_open && (started_now || a > r[ARUN_A]);
   const bool pulse_new = pulse_open && (started_now || v > r[PULSE_V]);
   const bool best_new = best_open && (arrived_now || v > r[BEST_V]);
@@ -138,12 +135,12 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
   if (!pulse_new) fill_right(&r[PULSE_V], v, t, t_prev);
   if (!arun_new) fill_right(&r[ARUN_A], a, t, t_prev);
 
-  const double v_before = s.first ? NaN : v_prev;
-  if (arun_new) set_maximum(&r[ARUN_A], a, t, started_now ? NaN : r[A_PREV], t_prev);
+  const double v_before = s.first ? quiet_nan() : v_prev;
+  if (arun_new) set_maximum(&r[ARUN_A], a, t, started_now ? quiet_nan() : r[A_PREV], t_prev);
 
   if (pulse_new) {
     set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
-  } else if (pulse_open && v <= r[PULSE_V] - std::fmax(L.pulse_drop * std::fabs(r[PULSE_V]), L.pulse_floor)) {
+  } else if (pulse_open && v <= r[PULSE_V] - fmax(L.pulse_drop * fabs(r[PULSE_V]), L.pulse_floor)) {
     r[PULSE_DONE] = 1.0;
     double v_max;
     refine(&r[PULSE_V], r[T_PULSE], v_max);
@@ -151,7 +148,7 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
 
   if (best_new) {
     set_maximum(&r[BEST_V], v, t, v_before, t_prev);
-    std::memcpy(&r[ASNAP_A], &r[ARUN_A], MAXIMUM * sizeof(double));
+    for (int k = 0; k < MAXIMUM; k++) r[ASNAP_A + k] = r[ARUN_A + k];
   } else if (best_open && v <= r[BEST_V] - L.drop) {
     r[DONE] = 1.0;
     refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
@@ -165,7 +162,18 @@ inline void advance(double *r, unsigned char &phase, double v, double v_prev, do
   if (r[DONE] == 1.0 && r[PULSE_DONE] == 1.0) phase = FINISHED;
 }
 
-}    // namespace FrontRecord
-}    // namespace LAMMPS_NS
+/* The one per-atom sampling routine past the hot part (mark_max): the row r of an atom that is
+   active or reaches the start level now, with its v, force f and mass m at this sample and
+   v_waiting, its v at the previous sample (used only if it was waiting). */
+PL_HD inline void sample_row(double *r, unsigned char &phase, double v, double f, double m, double v_waiting,
+                             const Levels &L, const Sample &s)
+{
+  const unsigned char before = phase;
+  if (before == ACTIVE || starts(before, v, L))
+    advance(r, phase, v, before == WAITING ? v_waiting : r[V_PREV], f / m, L, s);
+}
+
+}    // namespace front
+}    // namespace pl_kernel
 
 #endif

@@ -1,0 +1,174 @@
+/* One time step of a slab of chains: the one step function of the chain, for fix lattice/chain's
+   owned pass (its slab of one rank), the host engine and the GPU engine (chain.h: one chain).
+   Part of pylmp_lattice, GPL-2.0.
+
+   The slab's free atoms come as runs (blocks of at most `block` atoms that follow each other in
+   memory with consecutive IDs, in ID order), each with the index of the atom left of its first
+   and right of its last (a chain end, an atom of the next run, or a slab-edge neighbour whose
+   position the caller has set for this step). One pass over the runs does velocity Verlet's
+   whole step: the first half kick and drift of the next run, then the bond forces, friction and
+   second half kick of this one (both neighbours of a run have moved when its forces are due),
+   and, with FRONT, the front record's hot part and the caller's sampling of the run's rows. */
+
+#ifndef PYLMP_LATTICE_KERNEL_STEP_H
+#define PYLMP_LATTICE_KERNEL_STEP_H
+
+#include "coulomb.h"
+#include "device.h"
+#include "front.h"
+
+namespace pl_kernel {
+
+struct Run {
+  int first, last, left, right, chain;
+};
+
+/* per-atom masses through slots: slot[i] (an atom type, or its own index) names its dt/2m, m and
+   m g; one_type: every atom has slot 1 (no lookup) */
+struct Masses {
+  const int *slot;
+  const double *dtfm, *mass, *weight;
+  bool one_type;
+};
+
+/* the separations seen: smallest, largest and a NaN probe (their sum) */
+struct Gaps {
+  double r_min, r_max, r_sum;
+  PL_HD Gaps() : r_min(infinity()), r_max(-infinity()), r_sum(0.0) {}
+  PL_HD void add(double r)
+  {
+    r_min = r < r_min ? r : r_min;
+    r_max = r > r_max ? r : r_max;
+    r_sum += r;
+  }
+  /* a contact (r <= 0), a separation outside [lo, hi], or a NaN */
+  PL_HD bool bad(double lo, double hi) const { return !(r_min > 0.0 && r_min >= lo && r_max <= hi) || isnan(r_sum); }
+};
+
+/* one free atom's total force from its bonds' forces left and right (slot t), with friction the
+   exact stick-slip kick of length `kick`: v (after the first half kick) becomes 0 if it sticks */
+template <bool FRICTION>
+PL_HD inline double total_force(double left, double right, int t, const Masses &ms, const Friction &fr, double kick,
+                                double &v, CoulombWork &work)
+{
+  const double fx = left - right;
+  if constexpr (!FRICTION) {
+    return fx;
+  } else {
+    return fr.kick_force(ms.mass[t], ms.weight[t], left, right, fx, kick, v, work);
+  }
+}
+
+/* the front record of the runs' atoms, as the step needs it: per atom its largest |v| (mark)
+   and its start gate (its chain's start level while it waits, else infinity); Hook is the
+   caller's: sample_block(b, v_before, starting) samples run b's rows (v_before: the run's
+   velocities of the previous step; starting: an atom reached its start gate now) */
+template <class Hook> struct FrontPass {
+  double *mark;
+  const double *gate;
+  Hook *hook;
+};
+struct NoFront {
+  PL_HD void sample_block(int, const double *, bool) {}
+};
+
+namespace detail {
+template <bool FRICTION, bool ONE_TYPE>
+PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const int len, const Masses &ms,
+                           const Friction &fr, double kick, double *PL_RESTRICT vh, double *PL_RESTRICT fb,
+                           double *PL_RESTRICT vb, CoulombWork &work)
+{
+  const double half_kick = ONE_TYPE ? ms.dtfm[1] : 0.0;
+  for (int k = 0; k < len; k++) {
+    const int t = FRICTION || !ONE_TYPE ? ms.slot[first + k] : 1;
+    const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vh[k], work);
+    const double vn = vh[k] + (ONE_TYPE ? half_kick : ms.dtfm[t]) * ftot;
+    fb[k] = ftot;
+    vb[k] = vn;
+  }
+}
+}    // namespace detail
+
+/* The whole step of the runs' atoms (the chain ends are the caller's: it has placed the
+   impactors at this step's position before). x, v, f: the slab's arrays along x; works: per
+   chain, this step's friction work (each run adds to its chain's, in ID order); scratch: 4 block
+   + block + 1 doubles; gaps: every bond left of a run's atom and right of its last. */
+template <bool FRICTION, bool FRONT, class LawT, class Hook>
+PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_RESTRICT x, double *PL_RESTRICT v,
+                     double *PL_RESTRICT f, const Masses &ms, const Friction &fr, double dt, CoulombWork *works,
+                     double *scratch, int block, const FrontPass<Hook> &front, Gaps &gaps)
+{
+  const int *PL_RESTRICT type = ms.slot;
+  const double *PL_RESTRICT dtfm_of = ms.dtfm;
+  const bool one_type = ms.one_type;
+  const double half_kick = one_type ? dtfm_of[1] : 0.0;
+  const double dtv = dt, kick = dt;
+  // per run in flight (two): the velocities after the first half kick, and before it; then the
+  // run's bond forces, F[k] left of atom first + k
+  double *PL_RESTRICT half[2] = {scratch, scratch + block};
+  double *PL_RESTRICT before[2] = {scratch + 2 * block, scratch + 3 * block};
+  double *PL_RESTRICT F = scratch + 4 * block;
+  // velocity Verlet's first half kick and drift, with last step's forces
+  auto drift = [&](const Run &run, double *PL_RESTRICT vh, double *PL_RESTRICT v0) {
+    for (int i = run.first, k = 0; i <= run.last; i++, k++) {
+      v0[k] = v[i];
+      vh[k] = v[i] + (one_type ? half_kick : dtfm_of[type[i]]) * f[i];
+      x[i] += dtv * vh[k];
+    }
+  };
+  double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+  if (nruns > 0) drift(runs[0], half[0], before[0]);
+  for (int b = 0; b < nruns; b++) {
+    const Run &run = runs[b];
+    const int first = run.first, last = run.last, len = last - first + 1;
+    CoulombWork work;
+    if constexpr (FRICTION) work = works[run.chain];
+    if (b + 1 < nruns) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
+    double *PL_RESTRICT vh = half[b % 2];
+    // the two end bonds, then the inner ones from consecutive positions
+    auto bond = [&](double r) {
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      return law(r);
+    };
+    F[0] = bond(x[first] - x[run.left]);
+    F[len] = bond(x[run.right] - x[last]);
+    const double *PL_RESTRICT xb = x + first;
+    PL_SIMD_REDUCE
+    for (int k = 1; k < len; k++) {
+      const double r = xb[k] - xb[k - 1];
+      r_min = r < r_min ? r : r_min;
+      r_max = r > r_max ? r : r_max;
+      r_sum += r;
+      F[k] = law(r);
+    }
+    // the forces and the second half kick: one loop for one atom type and one for several (a
+    // test inside would keep the loop from vectorising)
+    double *PL_RESTRICT fb = f + first;
+    double *PL_RESTRICT vb = v + first;
+    if (one_type) detail::kick_run<FRICTION, true>(F, first, len, ms, fr, kick, vh, fb, vb, work);
+    else detail::kick_run<FRICTION, false>(F, first, len, ms, fr, kick, vh, fb, vb, work);
+    if constexpr (FRICTION) works[run.chain] = work;
+    if constexpr (FRONT) {
+      // the front record's largest |v| of every atom (it may change at every step: atoms ahead
+      // of the front feel round-off forces from unequal gaps), and how many waiting atoms reach
+      // the start level now (a count as a double: an int would keep the loop from vectorising);
+      // a loop of its own, which vectorises also when the kicks (friction) do not
+      double *PL_RESTRICT mb = front.mark + first;
+      const double *PL_RESTRICT gate = front.gate + first;
+      double starting = 0.0;
+      PL_SIMD_SUM
+      for (int k = 0; k < len; k++) {
+        mb[k] = front::mark_max(mb[k], vb[k]);
+        starting += vb[k] >= gate[k] ? 1.0 : 0.0;
+      }
+      front.hook->sample_block(b, before[b % 2], starting > 0.0);
+    }
+  }
+  gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
+}
+
+}    // namespace pl_kernel
+
+#endif
