@@ -62,10 +62,15 @@ def _tables(case: Case, table: bool = True) -> dict[str, str]:
     return files
 
 
-def piston_text(imp: Measured) -> str:
-    """Samples for `fix lattice/piston`: t [s] from the first sample, u [m] or v [m/s]."""
+def piston_samples(imp: Measured) -> tuple[np.ndarray, np.ndarray]:
+    """The measured drive's samples in engine units: t [s] from the first sample, u [m] or v [m/s]."""
     t = to_engine(np.asarray(imp.t, float) - imp.t[0], "time")
-    y = to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
+    return t, to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
+
+
+def piston_text(imp: Measured) -> str:
+    """Samples for `fix lattice/piston` (`piston_samples`)."""
+    t, y = piston_samples(imp)
     unit = "m" if imp.column == "u" else "m/s"
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
@@ -87,19 +92,11 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     = "none", each chain with its own levels (`case_measures.chain_front_levels`).
     """
     first = cases[0]
-    for r, case in enumerate(cases):
-        if not uses_chain_engine(case):
-            raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
-        if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
-               for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
-            raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
-        if case.chain.particles != first.chain.particles or replica_range(case) != replica_range(first):
-            raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
+    batch = replica_batch(cases)
     # one text dump of all chains (the H5MD conversion and the front record are per chain), or
     # with `front` the front record alone (the fix's record is per atom)
     output = dict(format="none", fine=(), front=True) if front else dict(format="text", fine=(), front=False)
-    table = dataclasses.replace(first.table, r_max=min(case.table_range()[1] for case in cases))
-    batch = dataclasses.replace(first, output=dataclasses.replace(first.output, **output), table=table)
+    batch = dataclasses.replace(batch, output=dataclasses.replace(first.output, **output))
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines() if front and first.friction else "")),
@@ -110,6 +107,22 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
         files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
                                                f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
+
+
+def replica_batch(cases: Sequence[Case]) -> Case:
+    """The case that R replicas share in one batch (`render_replicas`, the engines): replica 0's,
+    with the narrowest table range of all; ConfigError if they differ beyond what a batch allows."""
+    first = cases[0]
+    for r, case in enumerate(cases):
+        if not uses_chain_engine(case):
+            raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
+        if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
+               for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
+            raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
+        if case.chain.particles != first.chain.particles or replica_range(case) != replica_range(first):
+            raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
+    table = dataclasses.replace(first.table, r_max=min(case.table_range()[1] for case in cases))
+    return dataclasses.replace(first, table=table)
 
 
 def replica_range(case: Case) -> tuple[float, float] | None:
@@ -131,13 +144,19 @@ _FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S
 def front_levels_file(cases: Sequence[Case]) -> str | None:
     """fix lattice/front's levels file for a batch of chains, one row per chain, each the levels
     its deck alone passes the fix (`_output_lines`); None when all chains have the same levels."""
-    lv = chain_front_levels(cases)
-    speeds = [to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop)]
-    rows = np.stack([*speeds, np.full(len(cases), lv.pulse_drop), to_engine(lv.pulse_floor, "velocity")], axis=1)
+    rows = front_levels_rows(cases)
     if np.all(rows == rows[0]):
         return None
     return "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
         f"{a!r} {b!r} {c!r} {d!r} {e!r}\n" for a, b, c, d, e in rows.tolist())
+
+
+def front_levels_rows(cases: Sequence[Case]) -> np.ndarray:
+    """Each chain's front levels as fix lattice/front takes them (SI): (R, 5), a row "start front
+    drop pulse_drop pulse_floor" per chain (`case_levels.chain_front_levels`)."""
+    lv = chain_front_levels(cases)
+    speeds = [to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop)]
+    return np.stack([*speeds, np.full(len(cases), lv.pulse_drop), to_engine(lv.pulse_floor, "velocity")], axis=1)
 
 
 def _chain_work_lines() -> str:
@@ -437,31 +456,47 @@ fix_modify      chain energy yes
 variable        min_gap equal f_chain[2]"""
 
 
-def _law_args(law) -> str | None:
-    """The law in the plugin's analytic form (fix lattice/chain, fix lattice/friction), SI;
-    None for a law it only knows as a table. New analytic laws of the plugin go here."""
+def law_params(law) -> tuple[str, tuple[float, ...]] | None:
+    """The law in the plugin's analytic form (fix lattice/chain, fix lattice/friction, the engines):
+    ("power", (K, b, q)) or ("linear", (k, r_free)), SI; None for a law it only knows as a table.
+    New analytic laws of the plugin go here."""
     if isinstance(law, PowerLaw):
         K = law.K * to_engine(1.0, "length") ** law.q  # N mm^q -> N m^q
-        return f"power {_num(K)} {_num(to_engine(law.b, 'length'))} {_num(law.q)}"
+        return "power", (float(K), float(to_engine(law.b, "length")), float(law.q))
     if isinstance(law, LinearSpring):
-        return f"linear {_num(to_engine(law.k, 'stiffness'))} {_num(to_engine(law.r_free, 'length'))}"
+        return "linear", (float(to_engine(law.k, "stiffness")), float(to_engine(law.r_free, "length")))
     return None
 
 
-def _impactor_args(imp) -> str:
-    """The impactor's motion for fix lattice/chain (SI)."""
+def _law_args(law) -> str | None:
+    """`law_params` as fix arguments."""
+    params = law_params(law)
+    return None if params is None else " ".join([params[0], *map(_num, params[1])])
+
+
+def impactor_params(imp) -> tuple[str, tuple[float, ...]]:
+    """The impactor's motion for fix lattice/chain and the engines (SI): ("constant", (V,)),
+    ("ramp", (V, T)), ("sine", (V, T)), ("rest", ()) or ("measured", ()) (`piston_samples`)."""
     if isinstance(imp, Rest):
-        return "rest"
+        return "rest", ()
     if isinstance(imp, Measured):
-        return f"measured file {in_deck(PISTON)} column {imp.column} after {imp.after}"
-    v = _num(to_engine(imp.velocity, "velocity"))
+        return "measured", ()
+    v = float(to_engine(imp.velocity, "velocity"))
     if isinstance(imp, Constant):
-        return f"constant {v}"
+        return "constant", (v,)
     if isinstance(imp, Ramp):
-        return f"ramp {v} {_num(to_engine(imp.ramp_time, 'time'))}"
+        return "ramp", (v, float(to_engine(imp.ramp_time, "time")))
     if isinstance(imp, SinePulse):
-        return f"sine {v} {_num(to_engine(imp.duration, 'time'))}"
+        return "sine", (v, float(to_engine(imp.duration, "time")))
     raise TypeError(f"no deck for impactor {imp!r}")
+
+
+def _impactor_args(imp) -> str:
+    """`impactor_params` as fix arguments."""
+    kind, values = impactor_params(imp)
+    if kind == "measured":
+        return f"measured file {in_deck(PISTON)} column {imp.column} after {imp.after}"
+    return " ".join([kind, *map(_num, values)])
 
 
 def _second_neighbour_lines(case: Case) -> str:

@@ -16,14 +16,19 @@ from .units import to_engine
 KEYWORD = "FORCE_LAW"
 
 
-def bond_table(law, r_min: float, r_max: float, points: int, r_eq: float) -> str:
-    """Table text for `bond_coeff 1 <file> FORCE_LAW`; r_min, r_max, r_eq in mm."""
+def table_arrays(law, r_min: float, r_max: float, points: int):
+    """The table's rows and end slopes in engine units: r (m), U (J), F (N), dF/dr (N/m) at r_min
+    and r_max; r_min, r_max in mm. The text of `bond_table` reads back to these doubles."""
     r = np.linspace(r_min, r_max, points)
-    r_si = to_engine(r, "length")
-    u_si = to_engine(law.energy(r), "energy")
-    f_si = to_engine(law.force(r), "force")
     # dF/dr in N/m at both ends, for the clamped spline
     fp_lo, fp_hi = -to_engine(law.stiffness(np.array([r_min, r_max])), "stiffness")
+    return (to_engine(r, "length"), to_engine(law.energy(r), "energy"), to_engine(law.force(r), "force"),
+            float(fp_lo), float(fp_hi))
+
+
+def bond_table(law, r_min: float, r_max: float, points: int, r_eq: float) -> str:
+    """Table text for `bond_coeff 1 <file> FORCE_LAW`; r_min, r_max, r_eq in mm."""
+    r_si, u_si, f_si, fp_lo, fp_hi = table_arrays(law, r_min, r_max, points)
     header = (
         f"# {law!r}\n# columns: index, r [m], U [J], F [N]; F = -dU/dr\n\n"
         f"{KEYWORD}\nN {points} FP {fp_lo:.17g} {fp_hi:.17g} EQ {to_engine(r_eq, 'length'):.17g}\n\n"

