@@ -1,0 +1,129 @@
+"""The host engine (engines.cpu: the chain kernel on every core) against LAMMPS's batch of the
+same members (deck.render_replicas, fix lattice/chain), for every law, drive, friction on and off,
+thermal and disorder members and both far ends: final x and v within 1e-12 relative, the front
+measures within 1e-9, the friction work within 1e-12 relative."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.case import Case
+from pylmp_lattice.deck import render_replicas
+from pylmp_lattice.engines.cpu import ChainBatch, Unsupported, run_chains
+from pylmp_lattice.front_record import read_front_batch
+from pylmp_lattice.measures import FirstPeaks
+from pylmp_lattice.run_folder.layout import CHAIN_WORK, DECK, FRONT_BIN, in_deck
+from pylmp_lattice.runner import run_embedded
+from pylmp_lattice.units import from_engine
+
+from conftest import OTHER_LAWS, make_case
+
+pytestmark = pytest.mark.lammps
+MEMBERS = 20
+FRICTION = {"mu": 0.285, "p": 0.012}
+FINAL = "final.txt"
+_T = np.arange(0.0, 8.0 + 1e-9, 0.125)
+DRIVES = {
+    "constant": {"profile": "constant", "velocity": 2.0},
+    "ramp": {"profile": "ramp", "velocity": 2.0, "ramp_time": 1.3},
+    "sine": {"profile": "sine", "velocity": 2.0, "duration": 2.3},
+    # u samples of a half-sine pulse (2 m/s for 2 ms), held after the data
+    "measured": {"profile": "measured", "t": list(_T), "values": list(4.0 / np.pi * (1 - np.cos(np.pi * np.minimum(_T, 2.0) / 2.0))),
+                 "column": "u", "after": "hold"},
+    "rest": {"profile": "rest"},
+}
+
+
+def thermal(law: str = "power", chain: dict | None = None, **kw) -> list[Case]:
+    """MEMBERS members of one point (21 magnets, 30 ms: the front reflects from the far end),
+    each with its own thermal draw; law: "power" (the paper's) or one of OTHER_LAWS."""
+    base = {"particles": 21, "duration": 30.0, "output": {"format": "none"}}
+    if law != "power":
+        force, r0, table = OTHER_LAWS[law]
+        base |= {"force": force, "table": table, "velocity": 0.5}
+        chain = {"mass": 1.0, "r0": r0} | (chain or {})
+    return [make_case(**(base | kw), chain={"thermal_velocity": 0.02, "seed": s} | (chain or {})) for s in range(MEMBERS)]
+
+
+def lammps(cases: list[Case], folder: Path, arrival_method: str = "level") -> dict:
+    """The members as one LAMMPS batch (the sweep's batch deck) with their final x and v dumped."""
+    folder.mkdir()
+    for name, text in render_replicas(cases, front=True).items():
+        (folder / name).write_text(text)
+    deck = folder / DECK
+    deck.write_text(deck.read_text() + f"write_dump all custom {in_deck(FINAL)} id x vx modify sort id format float %.17g\n")
+    run_embedded(folder)
+    n = cases[0].chain.particles
+    rows = np.loadtxt(folder / FINAL, skiprows=9)
+    out = {"x": from_engine(rows[:, 1], "length").reshape(-1, n), "v": from_engine(rows[:, 2], "velocity").reshape(-1, n)}
+    if (folder / FRONT_BIN).exists():
+        out["record"] = read_front_batch(cases, folder / FRONT_BIN, arrival_method)
+    if cases[0].friction is not None:
+        out["work"] = from_engine(np.loadtxt(folder / CHAIN_WORK), "energy")
+    return out
+
+
+def assert_same(batch: ChainBatch, ref: dict):
+    assert set(batch.status) == {"finished"}
+    for name in ("x", "v"):
+        got, want = getattr(batch, name), ref[name]
+        scale = np.max(np.abs(want))
+        assert np.max(np.abs(got - want)) <= 1e-12 * scale, name
+    if "work" in ref:
+        np.testing.assert_allclose(batch.work, ref["work"], rtol=1e-12, atol=0)
+        assert np.all(batch.work > 0)
+    else:
+        assert batch.work is None
+    if "record" not in ref:
+        assert batch.record is None
+        return
+    got, want = batch.record, ref["record"]
+    assert got.end_time == want.end_time
+    pairs = [(got.max_speed, want.max_speed), (got.front.arrival, want.front.arrival),
+             (got.front.propagation_velocity, want.front.propagation_velocity)]
+    pairs += [(getattr(got.front.peaks, f.name), getattr(want.front.peaks, f.name)) for f in dataclasses.fields(FirstPeaks)]
+    for a, b in pairs:
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=0, equal_nan=True)
+    assert np.isfinite(want.front.arrival[:, 1:]).any(axis=1).all()  # a front in every chain
+
+
+@pytest.mark.parametrize("friction", [None, FRICTION], ids=["frictionless", "friction"])
+@pytest.mark.parametrize("law", ["power", *OTHER_LAWS])
+def test_every_law_with_and_without_friction(tmp_path, law, friction):
+    cases = thermal(law, **({"friction": friction} if friction else {}))
+    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+
+
+@pytest.mark.parametrize("drive", [d for d in DRIVES if d != "constant"])
+def test_every_drive(tmp_path, drive):
+    """(constant: the laws' test); pulses arrive by their velocity peaks (the record's pulse column)"""
+    cases = thermal(impactor=DRIVES[drive], friction=FRICTION)
+    method = "velocity_peak" if drive in ("sine", "measured") else "level"
+    assert_same(run_chains(cases, method), lammps(cases, tmp_path / "lammps", method))
+
+
+def test_mass_and_gap_disorder(tmp_path):
+    """Disordered members (per-atom masses in LAMMPS), with friction."""
+    cases = thermal(friction=FRICTION, chain={"thermal_velocity": None, "mass_disorder": 0.05, "r0_disorder": 0.05})
+    assert len({c.chain.masses()[3] for c in cases}) == MEMBERS
+    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+
+
+def test_long_far_end(tmp_path):
+    cases = thermal(chain={"far_end": "long"}, particles=None, duration=10.0)
+    assert cases[0].chain.particles > 21
+    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+
+
+def test_members_it_cannot_run_are_refused_with_the_reason():
+    cases = thermal()
+    with pytest.raises(Unsupported, match="output.format"):
+        run_chains([dataclasses.replace(c, output=dataclasses.replace(c.output, format="text")) for c in cases])
+    other = make_case(particles=22, output={"format": "none"})
+    with pytest.raises(Unsupported, match="cannot share a batch"):
+        run_chains([cases[0], other])
+
