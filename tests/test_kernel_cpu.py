@@ -1,7 +1,8 @@
 """The host engine (engines.cpu: the chain kernel on every core) against LAMMPS's batch of the
 same members (deck.render_replicas, fix lattice/chain), for every law, drive, friction on and off,
 thermal and disorder members and both far ends: final x and v within 1e-12 relative, the front
-measures within 1e-9, the friction work within 1e-12 relative."""
+measures within 1e-9, the friction work within 1e-12 relative. The GPU engine (engines.gpu, the
+same kernel through NVRTC) against the host engine, where CuPy finds a device (marked gpu)."""
 
 from __future__ import annotations
 
@@ -127,3 +128,25 @@ def test_members_it_cannot_run_are_refused_with_the_reason():
     with pytest.raises(Unsupported, match="cannot share a batch"):
         run_chains([cases[0], other])
 
+
+def cpu_as_reference(batch: ChainBatch) -> dict:
+    """The host engine's results in the form `assert_same` takes."""
+    ref = {"x": batch.x, "v": batch.v}
+    if batch.record is not None:
+        ref["record"] = batch.record
+    if batch.work is not None:
+        ref["work"] = batch.work
+    return ref
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("members", ["power-friction", "table-law", "measured-drive"])
+def test_the_gpu_engine_gives_the_host_engine_s_results(members):
+    from pylmp_lattice.engines import gpu
+
+    why = gpu.available()
+    if why:
+        pytest.skip(why)
+    cases = {"power-friction": lambda: thermal(friction=FRICTION), "table-law": lambda: thermal("morse"),
+             "measured-drive": lambda: thermal(impactor=DRIVES["measured"], friction=FRICTION)}[members]()
+    assert_same(gpu.run_chains(cases), cpu_as_reference(run_chains(cases)))

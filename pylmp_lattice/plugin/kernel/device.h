@@ -26,7 +26,8 @@
 namespace pl_kernel {
 
 #ifndef __CUDACC_RTC__
-// unqualified calls in the kernel find these on the host and CUDA's own on the device
+// unqualified calls in the kernel find these on the host (and with nvcc on the device too);
+// NVRTC declares CUDA's own
 using std::copysign;
 using std::cos;
 using std::fabs;
@@ -34,11 +35,13 @@ using std::fmax;
 using std::isnan;
 using std::pow;
 using std::sin;
-PL_HD inline double infinity() { return std::numeric_limits<double>::infinity(); }
-PL_HD inline double quiet_nan() { return std::numeric_limits<double>::quiet_NaN(); }
-#else
+#endif
+#if defined(__CUDACC__) || defined(__CUDACC_RTC__)
 __device__ inline double infinity() { return __longlong_as_double(0x7ff0000000000000LL); }
 __device__ inline double quiet_nan() { return __longlong_as_double(0x7ff8000000000000LL); }
+#else
+inline double infinity() { return std::numeric_limits<double>::infinity(); }
+inline double quiet_nan() { return std::numeric_limits<double>::quiet_NaN(); }
 #endif
 
 constexpr double PI = 3.14159265358979323846;
