@@ -39,16 +39,8 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
                   const double *levels, double *front_out, double *work, long long *end_step, int *status,
                   int threads)
 {
-  ChainSetup S;
-  S.n = n;
-  S.steps = steps;
-  S.dt = dt;
-  S.range_lo = range_lo;
-  S.range_hi = range_hi;
-  S.friction = friction != 0;
-  S.fr = Friction{mu, p, g};
-  S.record = record != 0;
-  S.block = n - 2 < BLOCK ? n - 2 : BLOCK;    // (n >= 3) the blocks do not change the bits
+  ChainSetup S = chain_setup(n, steps, dt, range_lo, range_hi, friction != 0, mu, p, g, record != 0,
+                             n - 2 < BLOCK ? n - 2 : BLOCK);    // (n >= 3) the blocks do not change the bits
   std::vector<double> table_storage, measured_storage;
   if (law_kind == 0) S.law = Law::power(law_params[0], law_params[1], law_params[2]);
   else if (law_kind == 1) S.law = Law::linear(law_params[0], law_params[1]);
@@ -64,8 +56,6 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
     S.drive.measured = fit_measured(measured_t, measured_y, measured_n, given_velocity != 0, hold_after != 0,
                                     measured_storage.data());
   }
-  // as fix lattice/chain: dt/2 in force-to-velocity units (ftm2v = 1 in units si) over m
-  const double dtf = 0.5 * dt * 1.0;
   const int nruns = n > 2 ? (n - 2 + S.block - 1) / S.block : 0;
 #ifdef _OPENMP
   if (threads > 0) omp_set_num_threads(threads);
@@ -84,11 +74,7 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
     for (int c = 0; c < chains; c++) {
       const size_t at = static_cast<size_t>(c) * n;
       const double *m = mass + at;
-      for (int i = 0; i < n; i++) {
-        dtfm[i] = dtf / m[i];
-        weight[i] = m[i] * g;
-        f[i] = 0.0;
-      }
+      chain_masses(m, n, dt, g, dtfm.data(), weight.data());
       ChainData d{};
       d.x = x + at;
       d.v = v + at;
@@ -100,12 +86,7 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
       d.runs = runs.data();
       d.scratch = scratch.data();
       if (S.record) {
-        const double *L = levels + 5 * static_cast<size_t>(c);
-        d.levels.start = L[0];
-        d.levels.front = L[1];
-        d.levels.drop = L[2];
-        d.levels.pulse_drop = L[3];
-        d.levels.pulse_floor = L[4];
+        d.levels = levels_row(levels + 5 * static_cast<size_t>(c));
         for (double &r : rec) r = quiet_nan();
         for (int i = 0; i < n; i++) mark[i] = quiet_nan(), phase[i] = front::WAITING;
         d.rec = rec.data();

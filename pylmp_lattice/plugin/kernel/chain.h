@@ -28,6 +28,42 @@ struct ChainSetup {
   int block;                      // largest run of free atoms (scratch: 5 block + 1 doubles)
 };
 
+/* a batch's setup from the engines' arguments (its law and drive: the caller's) */
+PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, double range_lo, double range_hi, bool friction,
+                                    double mu, double p, double g, bool record, int block)
+{
+  ChainSetup S;
+  S.n = n;
+  S.steps = steps;
+  S.dt = dt;
+  S.range_lo = range_lo;
+  S.range_hi = range_hi;
+  S.friction = friction;
+  S.fr = Friction{mu, p, g};
+  S.record = record;
+  S.block = block;
+  return S;
+}
+
+/* a chain's per-atom mass terms, as fix lattice/chain's: dt/2 in force-to-velocity units
+   (ftm2v = 1 in units si) over m, and m g */
+PL_HD inline void chain_masses(const double *mass, int n, double dt, double g, double *dtfm, double *weight)
+{
+  const double dtf = 0.5 * dt * 1.0;
+  for (int i = 0; i < n; i++) {
+    dtfm[i] = dtf / mass[i];
+    weight[i] = mass[i] * g;
+  }
+}
+
+/* front levels from a row "start front drop pulse_drop pulse_floor" */
+PL_HD inline front::Levels levels_row(const double *L)
+{
+  front::Levels levels;
+  levels.start = L[0], levels.front = L[1], levels.drop = L[2], levels.pulse_drop = L[3], levels.pulse_floor = L[4];
+  return levels;
+}
+
 /* one chain's arrays (n each, the record n NCOL) and its outcome */
 struct ChainData {
   double *x, *v, *f;              // x, v in: initial; out: final

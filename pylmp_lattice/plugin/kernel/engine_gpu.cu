@@ -17,16 +17,7 @@ extern "C" __global__ void pl_run_chains_gpu(
 {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
   if (c >= chains) return;
-  ChainSetup S;
-  S.n = n;
-  S.steps = steps;
-  S.dt = dt;
-  S.range_lo = range_lo;
-  S.range_hi = range_hi;
-  S.friction = friction != 0;
-  S.fr = Friction{mu, p, g};
-  S.record = record != 0;
-  S.block = block;
+  ChainSetup S = chain_setup(n, steps, dt, range_lo, range_hi, friction != 0, mu, p, g, record != 0, block);
   if (law_kind == 0) S.law = Law::power(law_values[0], law_values[1], law_values[2]);
   else if (law_kind == 1) S.law = Law::linear(law_values[0], law_values[1]);
   else {
@@ -51,12 +42,7 @@ extern "C" __global__ void pl_run_chains_gpu(
     S.drive.measured.hold_after = hold_after != 0;
   }
   const long long at = static_cast<long long>(c) * n;
-  const double dtf = 0.5 * dt * 1.0;    // as fix lattice/chain: ftm2v = 1 in units si
-  for (int i = 0; i < n; i++) {
-    dtfm[at + i] = dtf / mass[at + i];
-    weight[at + i] = mass[at + i] * g;
-    f[at + i] = 0.0;
-  }
+  chain_masses(mass + at, n, dt, g, dtfm + at, weight + at);
   const int nruns = (n - 2 + block - 1) / block;
   ChainData d{};
   d.x = x + at;
@@ -69,11 +55,7 @@ extern "C" __global__ void pl_run_chains_gpu(
   d.runs = reinterpret_cast<Run *>(runs) + static_cast<long long>(c) * nruns;
   d.scratch = scratch + static_cast<long long>(c) * (5 * block + 1);
   if (S.record) {
-    d.levels.start = levels[5 * c];
-    d.levels.front = levels[5 * c + 1];
-    d.levels.drop = levels[5 * c + 2];
-    d.levels.pulse_drop = levels[5 * c + 3];
-    d.levels.pulse_floor = levels[5 * c + 4];
+    d.levels = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec + at * front::NCOL;
     d.mark = mark + at;
     d.gate = gate + at;
