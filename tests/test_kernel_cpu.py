@@ -15,9 +15,9 @@ import pytest
 from pylmp_lattice.case import Case
 from pylmp_lattice.deck import render_replicas
 from pylmp_lattice.engines.cpu import ChainBatch, Unsupported, run_chains
-from pylmp_lattice.front_record import read_front_batch
+from pylmp_lattice.case_measures import read_front_batch
 from pylmp_lattice.measures import FirstPeaks
-from pylmp_lattice.run_folder.layout import CHAIN_WORK, DECK, FRONT_BIN, in_deck
+from pylmp_lattice.formats.layout import CHAIN_WORK, DECK, FRONT_BIN, in_deck
 from pylmp_lattice.runner import run_embedded
 from pylmp_lattice.units import from_engine
 
