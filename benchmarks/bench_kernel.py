@@ -3,8 +3,9 @@
 
 Members: --members thermal replicas of inputs/paper_experiment.toml (21 magnets, 4800 steps), with
 and without friction, as bench_sweep.py builds them. Engine: `run_chains` on --workers threads,
-front record included (the loop has none), timed from the call to its return (the arrays built
-before, the measures from the record after, both inside the call). Loop: ensemble_loop.c on
+timed from the call to its return (the arrays built before, the measures from the record after,
+both inside the call), with the front record (as a sweep's members) and without (output.front =
+false: the loop's work alone). Loop: ensemble_loop.c on
 --workers processes (bench_sweep.run_loop). Check: every chain's final velocities, engine against
 loop, within 1e-9 m/s (the same equations and operations).
 
@@ -47,11 +48,14 @@ def main() -> None:
                 folder = tmp / f"{friction}-{members}"
                 folder.mkdir()
                 cases, x, v, m = loop_states(write_sweep(folder, members, args.thermal, friction))
-                cases = [dataclasses.replace(c, output=dataclasses.replace(c.output, format="none")) for c in cases]
                 load = os.getloadavg()[0]
-                start = time.perf_counter()
-                batch = run_chains(cases, threads=args.workers)
-                engine = time.perf_counter() - start
+                engine = {}
+                for record in (True, False):
+                    members_ = [dataclasses.replace(c, output=dataclasses.replace(c.output, format="none", front=record))
+                                for c in cases]
+                    start = time.perf_counter()
+                    batch = run_chains(members_, threads=args.workers)
+                    engine[record] = time.perf_counter() - start
                 loop_wall, _, final = run_loop(exe, folder, cases, x, v, m, args.workers)
                 error = float(np.max(np.abs(batch.v - final)))
                 assert error < 1e-9, f"engine and loop differ by {error} m/s"
@@ -59,11 +63,19 @@ def main() -> None:
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "
           f"processes; 21 magnets, 4800 steps, thermal {args.thermal} m/s")
     print("| friction | members | engine (s) | per member (ms) | C loop (s) | engine / loop | atom-steps/s | "
-          "max |v engine - v loop| (m/s) | load before |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "engine without the record (s) | its / loop | max |v engine - v loop| (m/s) | load before |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for friction, members, engine, loop_wall, error, load in rows:
-        print(f"| {'yes' if friction else 'no'} | {members} | {engine:.3f} | {1e3 * engine / members:.4f} | "
-              f"{loop_wall:.3f} | {engine / loop_wall:.2f}x | {members * 21 * 4800 / engine:.3g} | {error:.1e} | {load:.1f} |")
+        e = engine[True]
+        print(f"| {'yes' if friction else 'no'} | {members} | {e:.3f} | {1e3 * e / members:.4f} | "
+              f"{loop_wall:.3f} | {e / loop_wall:.2f}x | {members * 21 * 4800 / e:.3g} | {engine[False]:.3f} | "
+              f"{engine[False] / loop_wall:.2f}x | {error:.1e} | {load:.1f} |")
+    if len(rows) == 4:
+        print()
+        for friction in (True, False):
+            (_, n1, e1, l1, *_), (_, n2, e2, l2, *_) = [r for r in rows if r[0] == friction]
+            print(f"friction {'yes' if friction else 'no'}: marginal engine / loop from {n1} to {n2} members: "
+                  f"{(e2[True] - e1[True]) / (l2 - l1):.2f}x with the record, {(e2[False] - e1[False]) / (l2 - l1):.2f}x without")
 
 
 if __name__ == "__main__":
