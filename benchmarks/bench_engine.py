@@ -337,13 +337,13 @@ def print_size(n: int, rows: list[Row]) -> None:
 
 def replica_rows(bench: Bench) -> None:
     """21-magnet replicas: one LAMMPS instance each (simulation.simulate; a sample, extrapolated)
-    against all of them in one instance (simulation.simulate_replicas, when the package has it).
+    against all of them in one instance (simulation.execute_batch, when the package has it).
 
     Both timed whole: writing the folder, start-up, the run and reading the trajectories back."""
     n, count, sample = 21, bench.args.replicas, bench.args.replica_sample
     steps = front_limited_steps(n)
     case = paper_case(n, steps)
-    simulate_replicas = getattr(simulation, "simulate_replicas", None)
+    execute_batch = getattr(simulation, "execute_batch", None)
     final = {}  # final velocities of the last repeat: (replicas, N)
 
     def one_by_one(repeat):  # fresh folders, as an ensemble's members have
@@ -352,11 +352,11 @@ def replica_rows(bench: Bench) -> None:
         return sample
 
     def batched(repeat):
-        trajectories = simulate_replicas([case] * count, bench.tmp / f"replicas_{repeat}")
+        trajectories = execute_batch([case] * count, bench.tmp / f"replicas_{repeat}").replicas()
         final["batched"] = np.array([t.v[-1] for t in trajectories])
         return count
 
-    ways = {"one": one_by_one} | ({"batched": batched} if simulate_replicas else {})
+    ways = {"one": one_by_one} | ({"batched": batched} if execute_batch else {})
     wall, cpu = dict.fromkeys(ways, math.inf), dict.fromkeys(ways, math.inf)
     for repeat in range(bench.args.repeat):
         for key, way in ways.items():
@@ -367,11 +367,11 @@ def replica_rows(bench: Bench) -> None:
     print(f"\nReplicas: {count} chains of {n} magnets, {steps} steps each; writing, start-up and reading back included")
     print(f"{'way':<52} {'wall/replica':>12} {f'wall, {count}':>11} {'speed-up':>9} {'CPU/replica':>12} {'speed-up':>9}")
     labels = {"one": f"one LAMMPS instance each (simulate; {sample} timed)",
-              "batched": f"batched: {count} in one instance (simulate_replicas)"}
+              "batched": f"batched: {count} in one instance (execute_batch)"}
     for key in ways:
         print(f"{labels[key]:<52} {wall[key]:>12.4g} {wall[key] * count:>11.4g} {wall['one'] / wall[key]:>9.1f} "
               f"{cpu[key]:>12.4g} {cpu['one'] / cpu[key]:>9.1f}")
-    if simulate_replicas:
+    if execute_batch:
         diff = np.max(np.abs(final["batched"] - final["one"][0]))
         print(f"max |v(batched replica) - v(one instance)| = {diff:.1e} m/s over all replicas "
               "(the batched run is read from a text dump of 12 significant digits)")

@@ -220,12 +220,12 @@ def _run(args) -> int:
 def _dry_run(case, folder: Path, args) -> int:
     """The estimate as JSON on stdout; exit 2 if the run would be refused."""
     from . import preflight
-    from .run_folder.write import check_target
+    from .run_folder.claim import look
 
     est = preflight.estimate(case, args.np)
     try:
         preflight.check(case, folder, args.np, yes=args.yes)
-        check_target(folder, args.overwrite)
+        look(folder, args.overwrite)
         refused = None
     except ConfigError as err:
         refused = str(err)

@@ -2,7 +2,8 @@
 
 `render(case)` returns {file name: text}: the deck `in.lattice`, the data file `chain.data`
 and the potential table `force.table`. Written into one folder, `lmp -in in.lattice` runs it.
-`render_replicas(cases)` puts several chains of equal length into one deck (chain engine).
+`render_replicas(cases)` puts several chains of equal length into one deck (chain engine);
+`render_folder(cases)` is either, as a run folder holds it.
 Engine units are LAMMPS `units si`; every user value passes through `units.to_engine` here.
 """
 
@@ -44,7 +45,17 @@ def _num(x) -> str:
 
 
 def render(case: Case) -> dict[str, str]:
+    """The files of a run of `case`: {file name: text} (the module's docstring)."""
     return {DECK: deck_text(case), DATA: data_text(case), **_tables(case)}
+
+
+def render_folder(cases: Sequence[Case]) -> dict[str, str]:
+    """The deck files of a run folder of one case (`render`) or of a batch of chains
+    (`render_replicas`): a batch whose cases write no per-frame output (output.format = "none")
+    records every chain's front; else it writes one text dump of all chains."""
+    if len(cases) == 1:
+        return render(cases[0])
+    return render_replicas(cases, front=cases[0].output.format == "none")
 
 
 def _tables(case: Case, table: bool = True) -> dict[str, str]:
@@ -86,7 +97,7 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     has atom IDs r N + 1 .. r N + N, its own impactor (the first) and held end (the last),
     and sits at y = r times the box height: its x values are those of its single run, so
     its trajectory is bit for bit the one-by-one run's. The batch writes a text dump of all
-    chains (no fine output, no front record); read it back with run_folder.split_replicas.
+    chains (no fine output, no front record); read it back with RunFolder.replicas.
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
     = "none", each chain with its own levels (`case_measures.chain_front_levels`).
@@ -113,13 +124,14 @@ def replica_batch(cases: Sequence[Case]) -> Case:
     """The case that R replicas share in one batch (`render_replicas`, the engines): replica 0's,
     with the narrowest table range of all; ConfigError if they differ beyond what a batch allows."""
     first = cases[0]
+    first_range = replica_range(first)
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
         if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
                for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
-        if case.chain.particles != first.chain.particles or replica_range(case) != replica_range(first):
+        if case.chain.particles != first.chain.particles or replica_range(case) != first_range:
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
     table = dataclasses.replace(first.table, r_max=min(case.table_range()[1] for case in cases))
     return dataclasses.replace(first, table=table)
@@ -203,10 +215,13 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None) -> str
     height = half - -half
     atoms, bonds, magnet_masses, velocities = [], [], [], []
     moving = bool(np.any(v))  # a Velocities section has a line for every atom, or is left out
+    rows: dict[tuple, list[str]] = {}  # x values formatted once per distinct chain (a thermal batch has one)
     for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
                                                          to_engine(each, "mass").tolist())):
         y = _num(r * height) if r else "0"
-        atoms += [f"{i} {r + 1} {t} {xi!r} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
+        key = tuple(xs)
+        xs = rows.get(key) or rows.setdefault(key, [repr(xi) for xi in xs])
+        atoms += [f"{i} {r + 1} {t} {xi} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
         bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
         magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
         velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if moving else []

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 
@@ -33,16 +34,20 @@ class RunError(LatticeError):
 
 
 class ContactError(RunError):
-    """Two magnets touched or passed through each other: the model is no longer physical."""
+    """Two magnets touched or passed through each other: the model is no longer physical.
 
-    def __init__(self, pair: tuple[int, int], time_ms: float, gap_mm: float, folder: Path | None = None):
+    `summarized`: its summary up to the contact is written (`run_folder.run_case`)."""
+
+    def __init__(self, pair: tuple[int, int], time_ms: float, gap_mm: float, folder: Path | None = None,
+                 summarized: bool = False):
         self.pair = pair
         self.time_ms = time_ms
         self.gap_mm = gap_mm
-        super().__init__(
-            f"magnets {pair[0]} and {pair[1]} touched (gap {gap_mm:.4g} mm) at t = {time_ms:.4f} ms",
-            folder,
-        )
+        super().__init__(f"magnets {pair[0]} and {pair[1]} touched (gap {gap_mm:.4g} mm) at t = {time_ms:.4f} ms")
+        if folder is not None:  # where its files are, and its measures up to the contact
+            self.folder = folder
+            done = "measured up to the contact in summary.json; redo it with" if summarized else "measure it up to the contact with"
+            self.args = (f"{self} (files kept in {folder}; {done} `pylmp-lattice summarize {shlex.quote(str(folder))}`)",)
 
 
 class Interrupted(BaseException):

@@ -17,7 +17,7 @@ from pylmp_lattice.piston import SinePulse
 from pylmp_lattice.formats.dump import read_dump, trajectory_from_dump
 from pylmp_lattice.runner import run_deck, run_embedded
 from pylmp_lattice.case_measures import read_front_record
-from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas, split_replicas, write_replicas_folder
+from pylmp_lattice.run_folder import RunFolder, execute_batch, simulate, write_folder
 
 from conftest import make_case
 
@@ -150,7 +150,7 @@ def test_a_batch_on_several_ranks_is_split_by_whole_chains_bit_for_bit(tmp_path)
     those of one rank bit for bit."""
     cases = [make_case(particles=21, duration=30.0, interval=0.5, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r},
                        output={"format": "text"}) for r in range(5)]
-    runs = {n: _run_with_17_digits(write_replicas_folder(cases, tmp_path / f"np{n}"), n) for n in (1, 2, 3)}
+    runs = {n: _run_with_17_digits(write_folder(cases, tmp_path / f"np{n}"), n) for n in (1, 2, 3)}
     assert np.max(np.abs(runs[1].v)) > 1.0
     for n in (2, 3):
         log = (tmp_path / f"np{n}" / "log.lammps").read_text()
@@ -166,7 +166,8 @@ def test_batched_replicas_equal_their_single_runs(tmp_path):
     each replica's trajectory is bit for bit its own run's (same x values, y offsets only)."""
     cases = [make_case(particles=21, duration=30.0, interval=0.5, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r},
                        output={"format": "text"}) for r in range(4)]
-    batched = split_replicas(cases, _run_with_17_digits(write_replicas_folder(cases, tmp_path / "batched")))
+    _run_with_17_digits(write_folder(cases, tmp_path / "batched"))
+    batched = RunFolder(tmp_path / "batched").replicas()
     assert "length 21" in (tmp_path / "batched" / "in.lattice").read_text()
     for r, case in enumerate(cases):
         single = _run_with_17_digits(RunFolder.create(case, tmp_path / f"single{r}").path)
@@ -175,8 +176,8 @@ def test_batched_replicas_equal_their_single_runs(tmp_path):
         for name in ("x0", "u", "v", "a"):
             assert np.array_equal(getattr(batched[r], name), getattr(single, name)), (r, name)
     assert not np.array_equal(batched[0].v, batched[3].v)
-    # the package's path: the same trajectories through simulate_replicas
-    again = simulate_replicas(cases, tmp_path / "again")
+    # the package's road: the same trajectories through execute_batch
+    again = execute_batch(cases, tmp_path / "again").replicas()
     assert np.max(np.abs(again[2].v - batched[2].v)) < 1e-11
 
 
@@ -197,7 +198,7 @@ def test_batched_replicas_report_their_own_friction_work(tmp_path):
     writes the same doubles, a line per chain."""
     cases = [make_case(particles=21, duration=30.0, interval=10.0, friction=FRICTION, chain={"mass": 1.0 + 0.05 * r})
              for r in range(3)]
-    folder = write_replicas_folder(cases, tmp_path / "batched")
+    folder = write_folder(cases, tmp_path / "batched")
     deck = folder / "in.lattice"
     deck.write_text(deck.read_text() + "\nfix_modify chain write_work ${dir}/work.txt\n")
     batched = _run_printing_work(folder, [1, 3, 4, 5])
@@ -241,7 +242,7 @@ def test_batched_replicas_record_their_fronts_with_their_own_levels(tmp_path):
     levels = [f"{0.02 + 0.01 * r!r} {0.8 + 0.1 * r!r} 0.1 {0.1 + 0.05 * r!r} {0.01 * r!r}" for r in range(3)]
     records = {}
     for name, folder in [(r, RunFolder.create(c, tmp_path / f"single{r}").path) for r, c in enumerate(cases)] + \
-            [("batched", write_replicas_folder(cases, tmp_path / "batched"))]:
+            [("batched", write_folder(cases, tmp_path / "batched"))]:
         deck = folder / "in.lattice"
         lines = deck.read_text().splitlines()
         if name == "batched":  # its deck has no record: the single runs' lines, with the levels file
@@ -274,7 +275,7 @@ def test_replicas_at_rest_and_in_thermal_motion_share_a_batch(tmp_path):
     trajectory is its own run's."""
     cases = [make_case(particles=21, duration=10.0, interval=0.5, chain={"thermal_velocity": t, "seed": 3})
              for t in (0.0, 0.02)]
-    batched = simulate_replicas(cases, tmp_path / "batched")
+    batched = execute_batch(cases, tmp_path / "batched").replicas()
     for r, case in enumerate(cases):
         np.testing.assert_allclose(batched[r].v[0, 1:-1], case.chain.velocities()[1:-1], rtol=0, atol=1e-12)  # m/s, the text dump's 12 digits
         single = simulate(case, tmp_path / f"single{r}")

@@ -50,7 +50,7 @@ def test_summarize_of_a_trajectory_of_one_frame_names_the_folder(tmp_path, capsy
     """Without a front record the front comes from the trajectory, and one frame has none: a run
     whose binary dump holds one frame (stopped before its conversion, the record removed)."""
     (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
-    stopped = hooked(tmp_path, "pylmp_lattice.run_folder.execution:convert_dumps", ["run", "base.toml", "-o", "r"])
+    stopped = hooked(tmp_path, "pylmp_lattice.run_folder.execution:convert_claimed", ["run", "base.toml", "-o", "r"])
     assert stopped.returncode == 143 and state(tmp_path / "r") == "finished", stopped.stderr
     dump = tmp_path / "r" / "traj.bin"
     dump.write_bytes(dump.read_bytes()[:open_dump(dump).frame_dtype.itemsize])

@@ -65,9 +65,9 @@ def state(folder: Path) -> str | None:
 
 # stage -> (the function that sends SIGTERM as it starts, run.json's state after, files there and not)
 RUN_STAGES = {
-    "deck write": ("pylmp_lattice.run_folder.write:case_to_dict", None, [], ["in.lattice", "case.toml"]),
+    "deck write": ("pylmp_lattice.run_folder.cases:case_to_dict", None, [], ["in.lattice", "case.toml"]),
     "engine": ("pylmp_lattice.runner:new_lammps", "interrupted", ["in.lattice", "log.lammps"], ["summary.json"]),
-    "conversion": ("pylmp_lattice.run_folder.execution:convert_dumps", "finished", ["traj.bin"], ["summary.json"]),
+    "conversion": ("pylmp_lattice.run_folder.execution:convert_claimed", "finished", ["traj.bin"], ["summary.json"]),
     "summary": ("pylmp_lattice.summary:summarize", "finished", ["traj.h5md"], ["summary.json"]),
     "figure": ("pylmp_lattice.run_folder.folder:RunFolder.figure", "finished", ["summary.json"], ["shock.png"]),
 }

@@ -17,7 +17,7 @@ import tomli_w
 from pylmp_lattice import deck, preflight
 from pylmp_lattice.case import Chain, case_from_dict, case_to_dict
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.run_folder import RunFolder, simulate, simulate_replicas
+from pylmp_lattice.run_folder import RunFolder, execute_batch, simulate
 from pylmp_lattice.formats import layout
 from pylmp_lattice.runner import run_embedded
 
@@ -257,7 +257,7 @@ def test_batched_replicas_with_masses_per_magnet_equal_their_single_runs(tmp_pat
     per magnet are stacked with the atoms, and each replica's trajectory is its own run's."""
     cases = [make_case(particles=21, duration=10.0, interval=0.5, output={"format": "text"},
                        chain={"mass_disorder": 0.05, "seed": seed}) for seed in (1, 2, 3)]
-    batched = simulate_replicas(cases, tmp_path / "batched")
+    batched = execute_batch(cases, tmp_path / "batched").replicas()
     stacked = (tmp_path / "batched" / layout.DATA).read_text().split("MagnetMasses\n\n")[1].splitlines()
     assert [int(line.split()[0]) for line in stacked] == list(range(1, 64))
     for r, case in enumerate(cases):

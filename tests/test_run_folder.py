@@ -4,6 +4,7 @@ summarized whatever way the run ended, and runs that leave their process as they
 from __future__ import annotations
 
 import ast
+import dataclasses
 import json
 import os
 import signal
@@ -17,10 +18,11 @@ import numpy as np
 import pytest
 import tomli_w
 
-from pylmp_lattice.case import case_to_dict
+from pylmp_lattice.case import case_id, case_to_dict
 from pylmp_lattice.cli import main
 from pylmp_lattice.errors import ConfigError
-from pylmp_lattice.run_folder import RunFolder, run_case
+from pylmp_lattice.run_folder import RunFolder, execute, execute_batch, run_case, write_folder
+from pylmp_lattice.run_folder.cases import read_cases, replicas_text
 from pylmp_lattice.formats import layout
 from pylmp_lattice.run_folder import marker
 from pylmp_lattice.serialize import dumps
@@ -118,7 +120,7 @@ def _import_graph() -> dict[str, set[str]]:
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
 HELPERS = {"case", "forcelaw", "piston", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
            "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
-           "formats", "run_folder", "run_folder.marker",
+           "formats", "run_folder", "run_folder.marker", "run_folder.cases",
            "file_lock"}
 
 
@@ -180,11 +182,14 @@ def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], l
 @lammps
 def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, monkeypatch):
     """From `pylmp-lattice run` to its summary: each stage (cli, run_folder.execution,
-    preflight, run_folder.write, runner, run_folder.convert, run_folder.folder) is entered
-    once, helpers call only helpers, and no call climbs (the callee never imports the
-    caller). On befcb15 the path entered run_folder.folder 5 times from execution (create,
-    running, record, convert, summarize) and runner twice; on 88ad055 it climbed back 7 times,
-    e.g. from bindump to simulation."""
+    preflight, run_folder.claim, run_folder.write, runner, run_folder.convert,
+    run_folder.folder) is entered once, each from the road (run_folder.execution) alone,
+    helpers call only helpers, and no call climbs (the callee never imports the caller). The
+    folder is checked once: its place, its lock and whether it holds a run, each looked at
+    by the claim alone. On befcb15 the path entered run_folder.folder 5 times from execution
+    (create, running, record, convert, summarize) and runner twice; on 88ad055 it climbed back
+    7 times, e.g. from bindump to simulation; on caa535b it checked the place three times
+    (preflight, layout.make_place, write.check_target)."""
     monkeypatch.chdir(tmp_path)
     case = write_case(tmp_path / "case.toml", make_case(particles=40, duration=20.0))
     entries, stays = trace_module_entries(["run", str(case), "-o", "r", "--quiet"])
@@ -195,8 +200,15 @@ def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, m
     report = (f"stays in the stages: {' -> '.join(map(short, stays))}\nentries: {counts}\n"
               + "\n".join(f"  {short(a)} -> {short(b)}.{f}" for a, b, f in entries if not _helper(b)))
     stages = {m: k for m, k in counts.items() if not _helper(m)}
-    assert stages == dict.fromkeys(["cli", "run_folder.execution", "preflight", "run_folder.write", "runner",
-                                    "run_folder.convert", "run_folder.folder"], 1), report
+    road = ["preflight", "run_folder.claim", "run_folder.write", "runner", "run_folder.convert", "run_folder.folder"]
+    assert stages == dict.fromkeys(["cli", "run_folder.execution", *road], 1), report
+    callers = {short(b): short(a) for a, b, _ in entries if not _helper(b)}
+    assert callers == {"cli": None, "run_folder.execution": "cli"} | dict.fromkeys(road, "run_folder.execution"), report
+    looks = [(short(a), f) for a, b, f in entries
+             if (short(b), f) in (("formats.layout", "check_place"), ("run_folder.marker", "claimed"),
+                                  ("run_folder.marker", "is_run"))]
+    assert looks == [("run_folder.claim", "check_place"), ("run_folder.claim", "claimed"),
+                     ("run_folder.claim", "is_run")], report
     upward = [(a, b, f) for a, b, f in entries if a and _helper(a) and not _helper(b)]
     assert not upward, report
     graph = _import_graph()
@@ -211,11 +223,9 @@ def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, m
 
     climbs = [(a, b, f) for a, b, f in entries if a and a in below(b)]
     assert not climbs, (climbs, report)
-    assert stays == ["pylmp_lattice.cli", "pylmp_lattice.run_folder.execution", "pylmp_lattice.preflight",
-                     "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.write",
-                     "pylmp_lattice.run_folder.execution", "pylmp_lattice.runner", "pylmp_lattice.run_folder.execution",
-                     "pylmp_lattice.run_folder.convert", "pylmp_lattice.run_folder.execution",
-                     "pylmp_lattice.run_folder.folder", "pylmp_lattice.run_folder.execution", "pylmp_lattice.cli"], report
+    execution = "pylmp_lattice.run_folder.execution"
+    assert stays == ["pylmp_lattice.cli", execution,
+                     *[x for stage in road for x in (f"pylmp_lattice.{stage}", execution)], "pylmp_lattice.cli"], report
 
 
 def test_run_file_names_are_written_in_the_layout_module_only():
@@ -229,6 +239,69 @@ def test_run_file_names_are_written_in_the_layout_module_only():
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names:
                 offenders.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.value!r}")
     assert not offenders, offenders
+
+
+# ---- a batch of chains is a run folder too
+
+
+def _thermal(seeds, **chain):
+    return [make_case(particles=21, duration=10.0, interval=0.5, output={"format": "none"},
+                      chain={"thermal_velocity": 0.02, "seed": s, **chain}) for s in seeds]
+
+
+def test_a_batch_folder_holds_its_cases(tmp_path):
+    """replicas.toml gives back each chain's case (its identity), when they differ in their
+    seed, their masses, a field replica 0 does not set, or their name; case.toml a single run's."""
+    masses = make_case(particles=21, chain={"mass": tuple(1.0 + 0.01 * k for k in range(21))})
+    at_rest = make_case(particles=21, duration=10.0, interval=0.5, output={"format": "none"})
+    cases = [*_thermal([1, 2]), dataclasses.replace(at_rest, name="other"), masses]
+    text = replicas_text(cases[:3])
+    (tmp_path / layout.REPLICAS).write_bytes(text)
+    assert [case_id(c) for c in read_cases(tmp_path)] == [case_id(c) for c in cases[:3]]
+    assert b"seed = 2" in text and text.count(b"thermal_velocity = ") == 1  # replica 0's, once
+    write_folder(masses, tmp_path / "one")
+    assert [case_id(c) for c in read_cases(tmp_path / "one")] == [case_id(masses)]
+    with pytest.raises(ConfigError, match="expected a run folder"):
+        read_cases(tmp_path / "one" / "nothing")
+
+
+@lammps
+@pytest.mark.parametrize("chains", [1, 3])
+def test_a_batch_folder_and_a_single_run_folder_pass_the_same_checks(tmp_path, monkeypatch, chains):
+    """One road: a single run (`execute`) and a batch of three chains (`execute_batch`) pass
+    through the same records (running, finished), and their folders read the same
+    through RunFolder: a run of this package, finished, its cases back, the deck as written,
+    a front record; an overwrite is refused without --overwrite and replaces it with."""
+    cases = _thermal(range(1, chains + 1))
+    folder = tmp_path / "f"
+
+    def road(cases, overwrite=False):
+        return execute(cases[0], folder, overwrite=overwrite) if chains == 1 else execute_batch(cases, folder, overwrite=overwrite)
+
+    states = []
+    record = marker.record
+    monkeypatch.setattr(marker, "record", lambda path, state, **details: (states.append(state),
+                                                                          record(path, state, **details)))
+    road(cases)
+    assert states == ["running", "finished"]
+    run = RunFolder(folder)
+    assert marker.is_run(folder) and run.status == "finished" and not marker.locked(folder)
+    assert [case_id(c) for c in run.cases] == [case_id(c) for c in cases]
+    assert run.deck_changes() == {}
+    written = marker.read(folder)
+    assert written[marker.DECK_HASH] == marker.deck_hash((folder / layout.DECK).read_text())
+    assert written.get(marker.CHAINS, 1) == chains
+    assert (folder / layout.FRONT_BIN).stat().st_size > 0 and "Total wall time" in marker.log_text(folder)
+    if chains == 1:
+        assert run.case == cases[0] and run.front() is not None
+    else:
+        with pytest.raises(ConfigError, match="holds a batch of 3 chains"):
+            run.case
+    with pytest.raises(ConfigError, match="already holds a run"):
+        road(cases)
+    road(cases[::-1], overwrite=True)
+    assert [case_id(c) for c in RunFolder(folder).cases] == [case_id(c) for c in cases[::-1]]
+    assert RunFolder(folder).status == "finished"
 
 
 # ---- nothing outside the folder is written or deleted
@@ -404,17 +477,26 @@ def test_a_failed_figure_keeps_the_summary(tmp_path, monkeypatch, caplog):
 
 
 @lammps
-def test_summarize_a_run_stopped_by_contact(tmp_path, capsys):
-    """Driven into its held end, a short chain touches; its folder still summarizes, and says where."""
+def test_a_run_stopped_by_contact_is_summarized_and_says_so(tmp_path, capsys):
+    """Driven into its held end, a short chain touches: the run still writes summary.json (up to
+    the contact, saying where) and its figure, exit 1 with one line that names `summarize`;
+    a later `summarize` gives the same numbers (issue 27, item 8)."""
     case = write_case(tmp_path / "case.toml", make_case(particles=21, velocity=2.0, duration=100.0))
-    assert main(["run", str(case), "-o", str(tmp_path / "c"), "--quiet"]) == 1
-    assert "touched" in capsys.readouterr().err
-    assert main(["summarize", str(tmp_path / "c"), "--no-figure"]) == 0
-    summary = json.loads((tmp_path / "c" / layout.SUMMARY).read_text())
-    assert summary["status"] == "contact"
-    stop = summary["stopped"]
+    folder = tmp_path / "c"
+    assert main(["run", str(case), "-o", str(folder), "--quiet"]) == 1
+    out, err = capsys.readouterr()
+    line, = err.splitlines()
+    assert out == "" and line.startswith("pylmp-lattice: error: magnets 19 and 20 touched"), err
+    assert line.endswith(f"measured up to the contact in summary.json; redo it with `pylmp-lattice summarize {folder}`)")
+    assert (folder / layout.FIGURE).stat().st_size > 10_000
+    written = json.loads((folder / layout.SUMMARY).read_text())
+    assert written["status"] == "contact" and written["files"]["figure"] == layout.FIGURE
+    stop = written["stopped"]
     assert stop["reason"] == "contact" and stop["magnets"] == [19, 20]
     assert stop["time_ms"] == pytest.approx(68.56, abs=1e-9) and stop["gap_mm"] < 0
+    assert main(["summarize", str(folder), "--no-figure"]) == 0
+    again = json.loads((folder / layout.SUMMARY).read_text())
+    assert again.pop("wall_time_s") == written.pop("wall_time_s") and again == written
 
 
 @lammps

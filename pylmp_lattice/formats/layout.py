@@ -119,9 +119,3 @@ def inside_sweep(path: Path) -> Path | None:
     return next((p for p in (path, *path.parents) if p.name in (MEMBERS, BATCHES) and (p.parent / SWEEP_FILE).is_file()),
                 None)
 
-
-def make_place(path: Path) -> Path:
-    """The folder of a run, made if missing where a run may go (`check_place`); returned."""
-    check_place(path, "run")
-    path.mkdir(parents=True, exist_ok=True)
-    return path

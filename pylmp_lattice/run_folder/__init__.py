@@ -1,9 +1,12 @@
 """Run folders: the one home of a run's files.
 
-- `write`: a case into a folder (deck, input files, case.toml, run.json);
-- `execution`: `execute`/`run_case`/`simulate`, the one way a case becomes a run (preflight,
-  write, run LAMMPS, record how it ended, convert, summarize);
+- `claim`: every check of a folder before a run writes it, once, and its lock;
+- `write`: a case, or a batch of chains, into a claimed folder (deck, input files, its cases,
+  run.json);
+- `execution`: `execute`/`execute_batch`/`run_case`/`simulate`, the one road from cases to a run
+  (claim, preflight, write, run an engine, record how it ended, convert, summarize);
 - `marker`: the folder's state (run.json, the runner's lock, how the run stands);
+- `cases`: the folder's cases (case.toml, or a batch's replicas.toml);
 - `convert`: binary dumps into traj.h5md, by the writer after a run or by the reader later;
 - `folder`: `RunFolder`, which reads, caches, measures and summarizes any run folder.
 
@@ -13,9 +16,8 @@ every file). Names here are imported on first use.
 
 from importlib import import_module
 
-_API = {"RunFolder": "folder", "write_folder": "write", "execute": "execution", "run_case": "execution", "simulate": "execution",
-        "simulate_replicas": "execution", "split_replicas": "execution", "write_replicas_folder": "execution",
-        "RUNNERS": "execution"}
+_API = {"RunFolder": "folder", "write_folder": "write", "execute": "execution", "execute_batch": "execution",
+        "run_case": "execution", "simulate": "execution", "Lammps": "execution", "RUNNERS": "execution"}
 __all__ = list(_API)
 
 

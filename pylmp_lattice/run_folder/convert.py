@@ -1,6 +1,6 @@
-"""Turning a run's binary dumps into traj.h5md: by the writer once LAMMPS has ended
-(`run_folder.execution`), or by the reader on its first read of a folder that still holds them
-(`RunFolder.trajectory`, e.g. after an interrupt or `lmp -in` by hand).
+"""Turning a run's binary dumps into traj.h5md: by the runner once LAMMPS has ended, in the
+folder it claimed (`convert_claimed`), or by the reader on its first read of a folder that still
+holds them (`convert_dumps`: `RunFolder.trajectory`, e.g. after an interrupt or `lmp -in` by hand).
 
 It never destroys: nothing happens while LAMMPS may still write the folder (see
 `marker.status`), and the dumps are removed only after the H5MD file holds every frame they
@@ -21,6 +21,7 @@ from ..formats.bindump import open_dump
 from ..formats.files import refuse_links, replacing
 from ..units import to_h5md
 from . import marker
+from .claim import Claimed
 
 log = logging.getLogger(__name__)
 
@@ -33,8 +34,17 @@ def convert_dumps(folder: Path, case: Case) -> bool:
     refuse_links(folder, layout.RUN_FILES)  # the dumps it reads, the files it writes: never through a link
     if not marker.settled(folder):  # a writer we cannot see may go on
         return False
-    with marker.claimed(folder):  # one converter at a time (a runner holds it already)
+    with marker.claimed(folder):  # one converter at a time
         return _convert(folder, case)
+
+
+def convert_claimed(claimed: Claimed) -> bool:
+    """Convert the dumps of the run that just ended in the claimed folder (its runner holds the
+    lock and recorded the end: nothing else to look at); whether it did. A batch of chains
+    writes no binary dumps (one text dump of all chains, or only their front record)."""
+    if len(claimed.cases) != 1 or claimed.cases[0].output.format != "h5md":
+        return False
+    return _convert(claimed.path, claimed.cases[0])
 
 
 def _convert(folder: Path, case: Case) -> bool:

@@ -1,144 +1,180 @@
-"""Executing a case into a run folder: the one way a case becomes a run.
+"""Executing cases into a run folder: the one road from a case, or a batch of chains, to a run.
 
-`execute` checks the case against this machine (`preflight`), writes the folder
-(`write.write_folder`), runs LAMMPS in it (`runner`), records how the run ended (`marker`)
-and turns its binary dumps into H5MD (`convert`); `run_case` then hands the folder to the
-reader for its summary (`folder.summarize`); `simulate` returns the trajectory. Each of these
-modules is entered once on the way. Nothing of the folder is lost when a run fails, stops on a
-contact or is interrupted: its files stay, run.json says how it stopped, and an interrupted
-run's binary dumps wait for the next read to become H5MD, so that Ctrl-C returns at once.
+Each step is a module entered once, and each after the first takes the claimed folder, never a
+path to check again:
+
+    preflight  a single case against this machine: disk, memory, time (`preflight.check`)
+    claim      every check of the folder, and its lock (`claim.claim`)
+    write      the deck, its inputs, the cases and run.json "running" (`write.write`)
+    run        the engine in the folder, then run.json says how it ended (`_run`)
+    convert    binary dumps into H5MD (`convert.convert_claimed`)
+    summarize  (`run_case`) summary.json and the figure (`folder.summarize`)
+
+`execute` and `run_case` take one case, `execute_batch` equal-length chains in one instance
+(`deck.render_replicas`: a sweep's members). The engine is a step the road takes: LAMMPS
+(`Lammps`: embedded, or the `lmp` executable), or any object with the same `nprocs`, `check`
+and call (issue 28's kernels). Nothing of the folder is lost when a run fails, stops on a
+contact or is interrupted: its files stay, run.json says how it stopped; a contact is
+measured up to where it stopped (`run_case`), and an interrupted run's binary dumps wait for
+the next read to become H5MD, so that Ctrl-C returns at once.
 """
 
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
-import tomli_w
-
-from .. import preflight
-from ..case import Case, case_to_dict
-from ..deck import render, render_replicas
-from ..formats.dump import read_dump, trajectory_from_dump
+from .. import deck, preflight
+from .. import runner as lammps_runner
+from ..case import Case
 from ..errors import ConfigError, ContactError, Interrupted, RunError
-from ..progress import progress_bar
-from ..runner import run_deck
-from ..trajectory import Trajectory
-from ..units import to_engine
 from ..formats import layout
-from ..formats.files import atomic_write, refuse_links
+from ..progress import progress_bar
+from ..trajectory import Trajectory
 from . import marker
-from .convert import convert_dumps
+from .claim import Claimed, claim
+from .convert import convert_claimed
 from .folder import RunFolder, summarize
-from .write import write_claimed
+from .write import write
 
 RUNNERS = ("embedded", "lmp")
 
 
-def execute(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+class Engine(Protocol):
+    """What runs a written folder: `nprocs` (for the estimate), `check(path)` (refuse a folder
+    it cannot run, before anything is written) and `engine(path, on_step)`, which raises
+    ContactError, RunError or Interrupted as `runner.run_deck` does."""
+
+    nprocs: int
+
+    def check(self, path: Path) -> None: ...
+
+    def __call__(self, path: Path, on_step: Callable[[int], None] | None = None) -> None: ...
+
+
+@dataclass(frozen=True)
+class Lammps:
+    """LAMMPS as the engine: runner = "embedded" (its Python module, in this process) or "lmp"
+    (the executable, under mpiexec for nprocs > 1); `echo` shows its screen output on stderr."""
+
+    runner: str = "embedded"
+    nprocs: int = 1
+    echo: bool = False
+
+    def __post_init__(self):
+        if self.runner not in RUNNERS:
+            raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+        if self.nprocs > 1 and self.runner != "lmp":
+            raise ConfigError("--np", f"got {self.nprocs}; several ranks need --runner lmp")
+
+    def check(self, path: Path) -> None:
+        if self.runner == "embedded":
+            layout.deck_dir(path)  # a folder the deck cannot name
+
+    def __call__(self, path: Path, on_step: Callable[[int], None] | None = None) -> None:
+        lammps_runner.run_deck(path, self.runner, nprocs=self.nprocs, echo=self.echo, on_step=on_step)
+
+
+def execute(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
             overwrite: bool = False, progress: bool = False, yes: bool = False) -> RunFolder:
     """Write `case` into `folder` and run it there; return the RunFolder.
 
     runner = "embedded" uses the LAMMPS Python module in this process; "lmp" the executable
-    (with mpiexec for nprocs > 1). `progress` draws a bar on stderr (terminals only); `echo`
-    shows LAMMPS's screen output on stderr.
+    (with mpiexec for nprocs > 1); or an `Engine`. `progress` draws a bar on stderr (terminals
+    only); `echo` shows LAMMPS's screen output on stderr; `yes` starts a run estimated to take
+    over an hour.
     """
-    with _ran(case, folder, runner, nprocs, echo, overwrite, progress, yes) as path:
-        return RunFolder(path)
+    with _road([case], folder, _engine(runner, nprocs, echo), overwrite, progress, yes) as claimed:
+        return RunFolder(claimed.path)
 
 
-def run_case(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+def execute_batch(cases: Sequence[Case], folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1,
+                  echo: bool = False, overwrite: bool = False) -> RunFolder:
+    """Run equal-length chains, equal outside [chain], in one instance (`deck.render_replicas`),
+    on the road of `execute`; return the batch's RunFolder (`RunFolder.cases`, and
+    `RunFolder.replicas` for its chains' trajectories).
+
+    Cases with output.format = "none" record only each chain's front (front.bin, chain r's
+    rows its atoms; with friction, each chain's friction work); others write one text dump of
+    all chains. The machine check of a single run (`preflight`) is its sweep's here: a batch
+    is a sweep's members."""
+    with _road(list(cases), folder, _engine(runner, nprocs, echo), overwrite) as claimed:
+        return RunFolder(claimed.path)
+
+
+def run_case(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
              figure: bool = True, overwrite: bool = False, progress: bool = False, yes: bool = False) -> dict:
-    """Run `case` in `folder`, measure its front, write summary.json (then shock.png); return the summary.
+    """Run `case` in `folder` (see `execute`), measure its front, write summary.json (then
+    shock.png); return the summary.
 
-    summary.json is written after the run ended: a folder with it holds a finished run (or one
-    that stopped, as its "stopped" entry says)."""
+    summary.json is written after the run ended: a folder with it holds a finished run, or one
+    stopped by a contact (measured up to the contact, as its "stopped" entry says; the
+    ContactError is raised after it is written)."""
     start = time.perf_counter()
-    with _ran(case, folder, runner, nprocs, echo, overwrite, progress, yes) as path:
-        return summarize(path, figure=figure, wall_time=time.perf_counter() - start)
+    with _road([case], folder, _engine(runner, nprocs, echo), overwrite, progress, yes, contact_ends=True) as claimed:
+        return summarize(claimed.path, figure=figure, wall_time=time.perf_counter() - start)
 
 
-@contextmanager
-def _ran(case: Case, folder: str | Path, runner: str, nprocs: int, echo: bool, overwrite: bool, progress: bool,
-         yes: bool):
-    """The writer's side: the folder written, run and its dumps converted; its path is yielded
-    with the folder's lock still held (from the check of the folder until the caller has read
-    it: no other process overwrites or converts it meanwhile)."""
-    if runner not in RUNNERS:
-        raise ConfigError("runner", f"got {runner!r}; choose one of {', '.join(RUNNERS)}")
-    if nprocs > 1 and runner != "lmp":
-        raise ConfigError("--np", f"got {nprocs}; several ranks need --runner lmp")
-    preflight.check(case, folder, nprocs, yes=yes)
-    if runner == "embedded":
-        layout.deck_dir(Path(folder))  # a folder the deck cannot name is refused before anything is written
-    path = Path(folder)
-    files = render(case)  # first: a case the deck refuses leaves the folder as it was
-    with marker.claimed(layout.make_place(path)):
-        write_claimed(case, path, overwrite, files)
-        try:
-            _run(case, path, runner, nprocs, echo, progress)
-        except (ContactError, RunError):  # what the run wrote up to there becomes H5MD
-            convert_dumps(path, case)
-            raise
-        convert_dumps(path, case)
-        yield path
-
-
-def _run(case: Case, path: Path, runner: str, nprocs: int, echo: bool, progress: bool) -> None:
-    """Run the written folder; run.json says how it ended."""
-    marker.record(path, marker.RUNNING)
-    try:
-        with progress_bar(case, progress) as on_step:
-            run_deck(path, runner, nprocs=nprocs, echo=echo, on_step=on_step)
-    except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
-        marker.record(path, marker.INTERRUPTED, time_ms=err.time_ms)
-        raise
-    except ContactError as err:
-        marker.record(path, marker.CONTACT, time_ms=err.time_ms)
-        raise
-    except RunError as err:
-        marker.record(path, marker.FAILED, error=err.message)
-        raise
-    except BaseException:
-        marker.record(path, marker.INTERRUPTED)
-        raise
-    marker.record(path, marker.FINISHED)
-
-
-def simulate(case: Case, folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo: bool = False,
+def simulate(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
              overwrite: bool = False, progress: bool = False, yes: bool = False) -> Trajectory:
     """Run `case` in `folder` (see `execute`) and return its whole trajectory in user units."""
     return execute(case, folder, runner, nprocs, echo, overwrite, progress, yes).trajectory()
 
 
-def simulate_replicas(cases, folder: str | Path, runner: str = "embedded", nprocs: int = 1,
-                      echo: bool = False) -> list[Trajectory]:
-    """Run equal-length chains batched in one LAMMPS instance (see deck.render_replicas);
-    return one trajectory per case, each the same as its own `simulate` run's."""
-    folder = run_deck(write_replicas_folder(cases, folder), runner, nprocs=nprocs, echo=echo)
-    dt = to_engine(cases[0].run.dt, "time")
-    return split_replicas(cases, trajectory_from_dump(read_dump(folder / layout.DUMP, dt=dt)))
+def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
+    return Lammps(runner, nprocs, echo) if isinstance(runner, str) else runner
 
 
-def write_replicas_folder(cases, folder: str | Path) -> Path:
-    """Write the batched deck of `cases` (deck.render_replicas) and the cases (replicas.toml)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    refuse_links(folder, layout.RUN_FILES)  # LAMMPS writes its files by name
-    for name, text in render_replicas(cases).items():
-        atomic_write(folder / name, text)
-    atomic_write(folder / layout.REPLICAS, tomli_w.dumps({"replica": [case_to_dict(c) for c in cases]}))
-    return folder
+@contextmanager
+def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool, progress: bool = False,
+          yes: bool = False, contact_ends: bool = False):
+    """The road: a single case checked against the machine, the deck rendered (a case the deck
+    refuses leaves the folder as it was), the folder claimed, written, run and its dumps
+    converted; the claimed folder is yielded with its lock still held (no other process
+    overwrites or converts it until the caller has read it). With `contact_ends`, a run
+    stopped by a contact is yielded too (to be measured), and its ContactError raised after."""
+    engine.check(Path(folder))
+    if len(cases) == 1:
+        preflight.check(cases[0], folder, engine.nprocs, yes=yes)
+    files = deck.render_folder(cases)
+    with ExitStack() as held:
+        claimed = claim(folder, overwrite, held)
+        write(claimed, cases, files, marker.RUNNING)
+        try:
+            _run(claimed, engine, progress)
+        except ContactError as err:
+            convert_claimed(claimed)  # what the run wrote up to the contact becomes H5MD
+            if not contact_ends:
+                raise
+            yield claimed
+            raise ContactError(err.pair, err.time_ms, err.gap_mm, err.folder, summarized=True) from None
+        except RunError:
+            convert_claimed(claimed)
+            raise
+        convert_claimed(claimed)
+        yield claimed
 
 
-def split_replicas(cases, batched: Trajectory) -> list[Trajectory]:
-    """The trajectories of the replicas in a batched run (replica r: particles r N .. r N + N - 1)."""
-    n = cases[0].chain.particles
-    out = []
-    for r, case in enumerate(cases):
-        part = slice(r * n, (r + 1) * n)
-        a = batched.a[:, part].copy()
-        a[:, 0] = case.impactor.acceleration_at(batched.t)
-        out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], a))
-    return out
+def _run(claimed: Claimed, engine: Engine, progress: bool) -> None:
+    """Run the written folder (run.json "running"); run.json says how it ended."""
+    path, kept = claimed.path, claimed.record
+    try:
+        with progress_bar(claimed.cases[0], progress) as on_step:
+            engine(path, on_step=on_step)
+    except Interrupted as err:  # the dumps wait for the next read: Ctrl-C returns at once
+        marker.record(path, marker.INTERRUPTED, **kept, time_ms=err.time_ms)
+        raise
+    except ContactError as err:
+        marker.record(path, marker.CONTACT, **kept, time_ms=err.time_ms)
+        raise
+    except RunError as err:
+        marker.record(path, marker.FAILED, **kept, error=err.message)
+        raise
+    except BaseException:
+        marker.record(path, marker.INTERRUPTED, **kept)
+        raise
+    marker.record(path, marker.FINISHED, **kept)

@@ -5,7 +5,10 @@
 
 The reader side of a run folder: `run_folder.write` writes one, `run_folder.execution` runs it
 (or LAMMPS by hand, `lmp -in in.lattice`), and both sides share `layout` (its files), `marker`
-(its state) and `convert` (binary dumps into H5MD). What it reads, it caches (a folder that
+(its state), `cases` (its cases) and `convert` (binary dumps into H5MD). A batch of chains
+(`execution.execute_batch`) is a run folder too: its status, cases and deck read as a single
+run's; its chains' trajectories are `replicas()`, and what reads one case (`case`, `trajectory`,
+the measures and summary) refuses it. What it reads, it caches (a folder that
 changes on disk is read again: the cache is keyed by the files' sizes and times). It never
 destroys: a folder still being written is read as it stands, and says so.
 """
@@ -21,7 +24,7 @@ import numpy as np
 
 from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
-from ..case import Case, load_case
+from ..case import Case
 from ..formats.dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
 from ..case_measures import case_front, read_front_record
@@ -32,6 +35,7 @@ from ..units import from_engine, to_engine
 from ..formats import layout
 from ..formats.files import atomic_write, refuse_link, refuse_links, replacing
 from . import marker
+from .cases import read_cases
 from .convert import convert_dumps
 from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
 from .write import write_folder
@@ -50,8 +54,8 @@ class RunFolder:
         return f"RunFolder({str(self.path)!r})"
 
     @classmethod
-    def create(cls, case: Case, path: str | Path, overwrite: bool = False) -> RunFolder:
-        """Write `case` into `path` (`write.write_folder`) and open the folder."""
+    def create(cls, case: Case | list[Case], path: str | Path, overwrite: bool = False) -> RunFolder:
+        """Write `case` (or a batch: a list of cases) into `path` (`write.write_folder`) and open the folder."""
         return cls(write_folder(case, path, overwrite))
 
     def record(self, state: str, **details) -> None:
@@ -61,13 +65,20 @@ class RunFolder:
     # ---- what the folder is
 
     @property
+    def cases(self) -> tuple[Case, ...]:
+        """The folder's cases: its one case, or a batch's chains in order (`cases.read_cases`)."""
+        if "cases" not in self._cache:
+            self._cache["cases"] = read_cases(self.path)
+        return self._cache["cases"]
+
+    @property
     def case(self) -> Case:
-        if "case" not in self._cache:
-            refuse_link(self.path / layout.CASE)
-            if not (self.path / layout.CASE).is_file():
-                raise ConfigError("folder", f"got {str(self.path)!r}; expected a run folder (it has no {layout.CASE})")
-            self._cache["case"] = load_case(self.path / layout.CASE)
-        return self._cache["case"]
+        """The run's case; ConfigError for a batch of chains (see `cases`)."""
+        cases = self.cases
+        if len(cases) != 1:
+            raise ConfigError("folder", f"{self.path} holds a batch of {len(cases)} chains, not one case; "
+                                        "read RunFolder.cases and RunFolder.replicas()")
+        return cases[0]
 
     @property
     def status(self) -> str:
@@ -137,6 +148,22 @@ class RunFolder:
         traj.a[:, numbers == 0] = case.impactor.acceleration_at(traj.t)[:, None]
         self._cache[key] = traj
         return traj
+
+    def replicas(self) -> list[Trajectory]:
+        """A batch's chains' trajectories in user units, from its text dump of all chains: chain
+        r holds atoms r N + 1 .. r N + N, each the trajectory its own run gives (`deck.render_replicas`)."""
+        cases = self.cases
+        dump = self.path / layout.DUMP
+        if not dump.is_file():
+            raise ConfigError(str(self.path), f"holds no text dump of its chains (status {self.status})")
+        batched = trajectory_from_dump(read_dump(dump, dt=to_engine(cases[0].run.dt, "time")))
+        n, out = cases[0].chain.particles, []
+        for r, case in enumerate(cases):
+            part = slice(r * n, (r + 1) * n)
+            a = batched.a[:, part].copy()
+            a[:, 0] = case.impactor.acceleration_at(batched.t)  # imposed (see `trajectory`)
+            out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], a))
+        return out
 
     def _numbers(self, group: str) -> np.ndarray:
         """0-based magnet numbers of a group's columns (in id order)."""
@@ -288,11 +315,12 @@ class RunFolder:
                             "...) are case.toml's and may not be the deck's", self.path, layout.DECK)
         text = marker.log_text(self.path) or ""
         ran = [int(n) for n in re.findall(r"^run\s+(\d+)\s*$", text, re.MULTILINE)]
-        expected = self.case.run.steps()
-        if ran and sum(ran) != expected:
-            changes["run_steps"] = {"case": expected, "log": sum(ran)}
-            log.warning("%s: the log ran %d steps (%g ms), case.toml has %d (%g ms)", self.path, sum(ran),
-                        sum(ran) * self.case.run.dt, expected, self.case.run.duration)
+        cases = self.cases
+        run, where = cases[0].run, layout.CASE if len(cases) == 1 else layout.REPLICAS  # a batch's chains share it
+        if ran and sum(ran) != run.steps():
+            changes["run_steps"] = {"case": run.steps(), "log": sum(ran)}
+            log.warning("%s: the log ran %d steps (%g ms), %s has %d (%g ms)", self.path, sum(ran),
+                        sum(ran) * run.dt, where, run.steps(), run.duration)
         return changes
 
     def _stopped(self, status: str) -> dict | None:

@@ -30,8 +30,10 @@ CLAIM_WAIT = 0.5
 # How a run ended, as run.json records it; "written" until a runner of this package ran it.
 WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
     "written", "running", "finished", "interrupted", "contact", "failed")
-# run.json's hash of the deck as written (`deck_hash`): kept by every later record of the folder.
+# run.json's hash of the deck as written (`deck_hash`), and a batch's number of chains: kept by
+# every later record of the folder.
 DECK_HASH = "deck_sha256"
+CHAINS = "chains"
 # Seconds a hand-run log that has not ended, and the dumps beside it, must stay unchanged to count
 # as no longer written (`being_written`): /proc can show a writer, never that none exists (one of
 # another user, or on another machine writing a shared folder).
@@ -49,17 +51,20 @@ def deck_hash(text: str) -> str:
 
 def record(folder: Path, state: str, **details) -> None:
     """Write run.json (atomically): the package, its version, the state and its details (the
-    deck's hash of the earlier record is kept). A "running" record names its writer (host and
-    pid): once that process is gone, the run is known to have ended (`writer_gone`).
+    deck's hash and a batch's chains of the earlier record are kept, unless the details give
+    the hash: a runner that wrote the folder knows them, and saves a read). A "running" record
+    names its writer (host and pid): once that process is gone, the run is known to have ended
+    (`writer_gone`).
 
     On a full disk (no room for the new file beside the old one) the record is rewritten in
     place, in the block the old one frees: a run stopped by a full disk is not left "running"."""
     from ..version import __version__
 
-    kept = {DECK_HASH: (read(folder) or {}).get(DECK_HASH)}
+    if DECK_HASH not in details:
+        earlier = read(folder) or {}
+        details = {k: earlier[k] for k in (DECK_HASH, CHAINS) if earlier.get(k) is not None} | details
     writer = {"host": socket.gethostname(), "pid": os.getpid()} if state == RUNNING else {}
-    data = {"package": PACKAGE, "version": __version__, "state": state,
-            **{k: v for k, v in kept.items() if v is not None}, **writer, **details}
+    data = {"package": PACKAGE, "version": __version__, "state": state, **writer, **details}
     text = json.dumps(data, indent=2) + "\n"
     try:
         files.atomic_write(folder / layout.MARKER, text)
@@ -101,8 +106,9 @@ def read(folder: Path) -> dict | None:
 
 
 def is_run(folder: Path) -> bool:
-    """Whether the folder holds a run of this package (case.toml and run.json)."""
-    return (folder / layout.CASE).is_file() and read(folder) is not None
+    """Whether the folder holds a run of this package (its cases, case.toml or a batch's
+    replicas.toml, and run.json)."""
+    return ((folder / layout.CASE).is_file() or (folder / layout.REPLICAS).is_file()) and read(folder) is not None
 
 
 @contextmanager

@@ -3,10 +3,12 @@
 A task is a few members of one parameter point (they differ only in chain.seed, see `spec`).
 Those the chain engine can hold together (keep = "measures": no per-frame output, a front
 record; decks equal but for the data file) run as one deck (`deck.render_replicas(front=True)`)
-in DIR/batches/<id of the first>/: its chains are the members' chains bit for bit, and the fix's
-front record is per atom, so chain r's rows are member r's record (with friction, the fix also
-reports each chain's friction work). The batch's members.json then records every member's
-outcome with the summary a run alone would write (`store.write_batch`: no file per member).
+in DIR/batches/<id of the first>/, a run folder written and run by `run_folder.execute_batch`
+(the road of every run: claim, write, run.json, run, record): its chains are the members'
+chains bit for bit, and the fix's front record is per atom, so chain r's rows are member r's
+record (with friction, the fix also reports each chain's friction work). The batch's
+members.json then records every member's outcome with the summary a run alone would write
+(`store.write_batch`: no file per member).
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
 own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
 
@@ -29,7 +31,7 @@ from pathlib import Path
 
 from ..case import Case
 from ..errors import Interrupted, LatticeError
-from ..formats.files import DiskFull, as_disk_full, atomic_write, disk_full, remove_tree
+from ..formats.files import DiskFull, as_disk_full, disk_full, remove_tree
 from .spec import Member, member_cases
 from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, listing, member_folder, now,
                     provenance, task_lock, write_batch, write_status)
@@ -166,21 +168,17 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
 
 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
-    """Run the group as one batch; on a failed batch, each member alone."""
-    from .. import deck
+    """Run the group as one batch, a run folder on the road of every run (`execute_batch`); on
+    a failed batch, each member alone."""
     from ..formats import layout
+    from ..run_folder import execute_batch
     from ..run_folder.marker import FINISHED
-    from ..runner import run_deck
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
     batch = _fresh(root / BATCHES / group[0][0].id)
-    files = {}
     try:
-        files = deck.render_replicas(cases, front=True)  # ConfigError if they differ beyond [chain]
-        for name, text in files.items():
-            atomic_write(batch / name, text)
-        run_deck(batch, runner)
+        execute_batch(cases, batch, runner)  # ConfigError if they differ beyond [chain]
     except Interrupted as err:
         return _batch_stopped(group, batch, started, err)
     except DiskFull:  # the sweep stops (see execute): its members are run again on resume
@@ -190,7 +188,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):
             FRICTION_PER_CHAIN = False
-        if layout.FRONT_LEVELS in files and "lattice/front" in str(err):
+        if (batch / layout.FRONT_LEVELS).is_file() and "lattice/front" in str(err):
             LEVELS_PER_CHAIN = False
         return _alone(root, group, runner)
     try:

@@ -7,10 +7,11 @@ or "interrupted"), the one-line error, the swept parameters, wall and CPU time a
 (package version and git commit, LAMMPS version, plugin build, Python and numpy versions, host,
 start and end times). Members batched in one instance (keep = "measures", those of one
 parameter point the chain engine can hold together, see `batch`) share
-DIR/batches/<id of the first>/: the deck, data, log and front record, and `members.json`, their
-outcomes (`write_batch`): the record above once (status "done", times and provenance), and per
-member its id, index, parameters, chain number in the batch, case and summary; O(1) files for
-the batch instead of five per member.
+DIR/batches/<id of the first>/, a run folder (`run_folder.execute_batch`: deck, data,
+replicas.toml, run.json, log and front record), and `members.json`, their outcomes
+(`write_batch`): the record above once (status "done", times and provenance), and per member
+its id, index, parameters, chain number in the batch, case and summary; O(1) files for the
+batch instead of five per member.
 A member counts as done only when its record says so and its summary parses; status.json and
 members.json are each replaced in one step after everything else is written: a member killed
 half-way is re-run. DIR/sweep.json names the sweep the folder holds.
