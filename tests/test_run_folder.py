@@ -251,14 +251,18 @@ def _thermal(seeds, **chain):
 
 def test_a_batch_folder_holds_its_cases(tmp_path):
     """replicas.toml gives back each chain's case (its identity), when they differ in their
-    seed, their masses, a field replica 0 does not set, or their name; case.toml a single run's."""
+    seed, a field replica 0 sets and another does not, their name or their per-magnet masses;
+    case.toml a single run's."""
     masses = make_case(particles=21, chain={"mass": tuple(1.0 + 0.01 * k for k in range(21))})
     at_rest = make_case(particles=21, duration=10.0, interval=0.5, output={"format": "none"})
-    cases = [*_thermal([1, 2]), dataclasses.replace(at_rest, name="other"), masses]
-    text = replicas_text(cases[:3])
-    (tmp_path / layout.REPLICAS).write_bytes(text)
-    assert [case_id(c) for c in read_cases(tmp_path)] == [case_id(c) for c in cases[:3]]
-    assert b"seed = 2" in text and text.count(b"thermal_velocity = ") == 1  # replica 0's, once
+    cases = [*_thermal([1, 2]), dataclasses.replace(at_rest, name="other")]
+    (tmp_path / layout.REPLICAS).write_bytes(replicas_text(cases))
+    assert [case_id(c) for c in read_cases(tmp_path)] == [case_id(c) for c in cases]
+    heavier = [make_case(particles=21, chain={"mass": tuple(1.0 + 0.01 * k * r for k in range(21))}) for r in (1, 2)]
+    (tmp_path / layout.REPLICAS).write_bytes(replicas_text(heavier))  # a column of per-magnet masses
+    assert [case_id(c) for c in read_cases(tmp_path)] == [case_id(c) for c in heavier]
+    many = replicas_text(_thermal(range(1, 301)))
+    assert len(many) < len(replicas_text(_thermal([1]))) + 20 * 300  # a seed a chain, not a table
     write_folder(masses, tmp_path / "one")
     assert [case_id(c) for c in read_cases(tmp_path / "one")] == [case_id(masses)]
     with pytest.raises(ConfigError, match="expected a run folder"):

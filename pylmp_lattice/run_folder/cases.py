@@ -1,10 +1,12 @@
 """The cases a run folder holds, in user units: case.toml for a run of one case, replicas.toml
 for a batch of chains (`deck.render_replicas`: cases equal outside [chain], and in name).
 
-replicas.toml holds replica 0's case whole (`case`) and a row per chain (`replica`): the
-[chain] fields where it differs from replica 0's (`chain`), those replica 0 gives and it does
-not (`unset`), and its name if another. A batch of a sweep's replicas differs in chain.seed
-alone: a few bytes a chain, written in microseconds (the whole case per chain took 0.07 ms).
+replicas.toml holds replica 0's case whole (`case`), the number of chains (`count`), and a
+column per [chain] field in which the chains differ (`chains`, one value per chain; `unset`:
+the chains that leave a field out, whose place in its column holds a stand-in), and their names
+if they differ (`names`). A batch of a sweep's replicas differs in chain.seed alone: one column
+of integers, written in 0.1 ms for 300 chains (a table per chain took 1.9 ms, the whole case
+per chain 20 ms).
 """
 
 from __future__ import annotations
@@ -29,15 +31,19 @@ def case_text(case: Case) -> bytes:
 def replicas_text(cases: Sequence[Case]) -> bytes:
     """replicas.toml of a batch of chains (see the module's docstring)."""
     first = cases[0]
-    names = [f.name for f in fields(first.chain) if f.init]
-    rows = []
-    for case in cases:
-        changed = [(n, getattr(case.chain, n)) for n in names if getattr(case.chain, n) != getattr(first.chain, n)]
-        row = {"chain": {n: list(v) if isinstance(v, tuple) else v for n, v in changed if v is not None}}
-        unset = [n for n, v in changed if v is None]
-        row |= ({"unset": unset} if unset else {}) | ({"name": case.name} if case.name != first.name else {})
-        rows.append(row)
-    return tomli_w.dumps({"case": case_to_dict(first), "replica": rows}).encode()
+    columns, unset = {}, {}
+    for f in (f for f in fields(first.chain) if f.init):
+        values = [getattr(case.chain, f.name) for case in cases]
+        if all(v == values[0] for v in values):
+            continue
+        given = next(v for v in values if v is not None)
+        columns[f.name] = [list(v) if isinstance(v, tuple) else v for v in (given if v is None else v for v in values)]
+        if None in values:
+            unset[f.name] = [r for r, v in enumerate(values) if v is None]
+    names = [case.name for case in cases]
+    data = {"count": len(cases), "case": case_to_dict(first), "chains": columns, "unset": unset,
+            **({"names": names} if len(set(names)) > 1 else {})}
+    return tomli_w.dumps(data).encode()
 
 
 def read_cases(folder: Path) -> tuple[Case, ...]:
@@ -50,11 +56,14 @@ def read_cases(folder: Path) -> tuple[Case, ...]:
         raise ConfigError("folder", f"got {str(folder)!r}; expected a run folder (it has no {layout.CASE})")
     data = read_toml(folder / layout.REPLICAS, "folder")
     try:
-        base, rows = data["case"], data["replica"]
-        chains = [{k: v for k, v in base["chain"].items() if k not in row.get("unset", ())} | row["chain"]
-                  for row in rows]
-        return tuple(case_from_dict(base | {"chain": chain, "name": row.get("name", base["name"])}, base_dir=folder)
-                     for row, chain in zip(rows, chains))
-    except (KeyError, TypeError, AttributeError) as err:
+        base, count, columns, unset = data["case"], data["count"], data["chains"], data["unset"]
+        names = data.get("names", [base["name"]] * count)
+        cases = []
+        for r in range(count):
+            chain = base["chain"] | {k: column[r] for k, column in columns.items()}
+            chain = {k: v for k, v in chain.items() if r not in unset.get(k, ())}
+            cases.append(case_from_dict(base | {"chain": chain, "name": names[r]}, base_dir=folder))
+        return tuple(cases)
+    except (KeyError, IndexError, TypeError, AttributeError) as err:
         raise ConfigError("folder", f"{folder / layout.REPLICAS} is not a batch's cases ({type(err).__name__}: "
                                     f"{err})") from None
