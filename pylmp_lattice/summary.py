@@ -106,7 +106,7 @@ def _front_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
         positions = np.stack([cases[r].chain.positions() for r in rows])
         speed, stderr = measures.fit_front_speeds(arrival[rows], positions, first, last + 1)
         for r, v, e in zip(rows, speed.tolist(), stderr.tolist()):
-            out[r] = {"value": _round(v, 5), "stderr": _round(e, 5), "first_gap": first, "last_gap": last}
+            out[r] = {"value": _fitted(v), "stderr": _fitted(e), "first_gap": first, "last_gap": last}
     return out
 
 
@@ -132,7 +132,7 @@ def _lab_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
         positions = case.chain.positions()  # x_1 = 0, the gaps between faces
         centres = positions + length * np.arange(positions.size)
         (lab, gap), (error, _) = measures.fit_front_speeds(arrival[[r, r]], np.stack([centres, positions]), first, last)
-        out[r] = {"value": _round(lab, 5), "stderr": _round(error, 5), "gap_frame_m_per_s": _round(gap, 5),
+        out[r] = {"value": _fitted(lab), "stderr": _fitted(error), "gap_frame_m_per_s": _fitted(gap),
                   "magnets": [first, last], "pitch_mm": _round(float(np.mean(np.diff(centres))), 6)}
     return out
 
@@ -215,6 +215,12 @@ def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
         f"first_{p.over}": p.first,
         f"last_{p.over}": p.last,
     }
+
+
+def _fitted(x: float) -> float | None:
+    """A fitted front speed or its error, m/s, to 5 decimals; None (JSON null, as summary.json
+    reads back) where the front did not cross the window."""
+    return _round(x, 5) if math.isfinite(x) else None
 
 
 def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
