@@ -100,6 +100,7 @@ def test_contact_is_reported_at_the_step_of_a_step_by_step_guard(tmp_path):
     assert errors["stock_default"].time_ms == pytest.approx(68.6, abs=1e-9)
 
 
+@pytest.mark.slow  # MPI bit identity: several lmp runs under mpiexec
 @pytest.mark.lammps
 def test_one_two_and_three_ranks_give_bit_identical_trajectories_and_front_records(tmp_path):
     """700 magnets with friction and a pulse on 1, 2 and 3 MPI ranks (full doubles in the
@@ -143,6 +144,7 @@ def _run_with_17_digits(folder, nprocs=1):
     return trajectory_from_dump(read_dump(folder / "traj.dump", dt=1e-5))  # make_case: dt = 0.01 ms
 
 
+@pytest.mark.slow  # MPI bit identity: several lmp runs under mpiexec
 @pytest.mark.lammps
 def test_a_batch_on_several_ranks_is_split_by_whole_chains_bit_for_bit(tmp_path):
     """Five 21-magnet chains with friction on 1, 2 and 3 ranks: each rank owns whole chains

@@ -267,6 +267,7 @@ def impact_run(folder: Path, law: str = "", bonds: str | None = None, ranks: int
     return read_traj(folder / "traj.txt", 40), float(done.stdout.split("WORK ")[1].split()[0])
 
 
+@pytest.mark.slow  # MPI bit identity: several lmp runs under mpiexec
 @pytest.mark.parametrize("law", ["", f"law power {K!r} {B!r} {Q!r}"], ids=["bond", "power"])
 def test_one_and_two_ranks_give_the_same_trajectory(tmp_path, law):
     one, w1 = impact_run(tmp_path / "np1", law)

@@ -104,6 +104,7 @@ def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
     assert info.value.exit_code == -signal.SIGKILL
 
 
+@pytest.mark.slow  # MPI bit identity: several lmp runs under mpiexec
 def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):
     """The package's deck (friction on) on 1 and 2 ranks: identical dumps and front records
     (paper experiment); two ranks write two chunks per binary frame."""
