@@ -19,9 +19,9 @@ from .case import Case, check_name
 from .case_measures import chain_front_levels, front_levels
 from .errors import ConfigError
 from .forcelaw import LinearSpring, PowerLaw
-from .piston import Constant, Measured, Ramp, Rest, SinePulse
+from .impactor import Constant, Measured, Ramp, Rest, SinePulse
 from .formats.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
-                         FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, PISTON, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
+                         FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, IMPACTOR, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
 from .table import KEYWORD, bond_table
 from .units import to_engine
 
@@ -65,7 +65,7 @@ def _tables(case: Case, table: bool = True) -> dict[str, str]:
     lo, hi = case.table_range()
     files = {TABLE: bond_table(case.force, lo, hi, case.table.points, float(np.mean(case.chain.r0)))} if table else {}
     if isinstance(case.impactor, Measured):
-        files[PISTON] = piston_text(case.impactor)
+        files[IMPACTOR] = impactor_samples_text(case.impactor)
     if case.second_neighbour is not None:
         lo2, hi2 = case.second_table_range()
         files[SECOND_TABLE] = bond_table(case.second_neighbour, lo2, hi2, case.table.points,
@@ -73,15 +73,15 @@ def _tables(case: Case, table: bool = True) -> dict[str, str]:
     return files
 
 
-def piston_samples(imp: Measured) -> tuple[np.ndarray, np.ndarray]:
+def impactor_samples(imp: Measured) -> tuple[np.ndarray, np.ndarray]:
     """The measured drive's samples in engine units: t [s] from the first sample, u [m] or v [m/s]."""
     t = to_engine(np.asarray(imp.t, float) - imp.t[0], "time")
     return t, to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
 
 
-def piston_text(imp: Measured) -> str:
-    """Samples for `fix lattice/piston` (`piston_samples`)."""
-    t, y = piston_samples(imp)
+def impactor_samples_text(imp: Measured) -> str:
+    """Samples for `fix lattice/piston` (`impactor_samples`)."""
+    t, y = impactor_samples(imp)
     unit = "m" if imp.column == "u" else "m/s"
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
 
@@ -341,10 +341,10 @@ group           held id {held}
 group           free subtract all impactor held
 fix             integrate free nve
 fix             hold held setforce 0.0 0.0 0.0
-{_piston_lines(case)}
+{_impactor_lines(case)}
 {_friction_lines(case)}
 # y and z stay exactly zero: all atoms start on the x axis at rest in y, z, and every force
-# (bonds, piston, friction) is along x.
+# (bonds, the impactor's drive, friction) is along x.
 
 # ---- 4. Guard: stop when two magnets touch or pass (signed gap x_(i+1) - x_i <= 0)
 compute         bond_dx all bond/local dx
@@ -491,7 +491,7 @@ def _law_args(law) -> str | None:
 
 def impactor_params(imp) -> tuple[str, tuple[float, ...]]:
     """The impactor's motion for fix lattice/chain and the engines (SI): ("constant", (V,)),
-    ("ramp", (V, T)), ("sine", (V, T)), ("rest", ()) or ("measured", ()) (`piston_samples`)."""
+    ("ramp", (V, T)), ("sine", (V, T)), ("rest", ()) or ("measured", ()) (`impactor_samples`)."""
     if isinstance(imp, Rest):
         return "rest", ()
     if isinstance(imp, Measured):
@@ -510,7 +510,7 @@ def _impactor_args(imp) -> str:
     """`impactor_params` as fix arguments."""
     kind, values = impactor_params(imp)
     if kind == "measured":
-        return f"measured file {in_deck(PISTON)} column {imp.column} after {imp.after}"
+        return f"measured file {in_deck(IMPACTOR)} column {imp.column} after {imp.after}"
     return " ".join([kind, *map(_num, values)])
 
 
@@ -554,22 +554,22 @@ def _friction_lines(case: Case) -> str:
     )
 
 
-def _piston_lines(case: Case) -> str:
+def _impactor_lines(case: Case) -> str:
     """`fix move` for the impactor: position and velocity set together every step."""
     imp = case.impactor
     if isinstance(imp, Rest):
-        return "fix             piston impactor setforce 0.0 0.0 0.0  # held at rest, like the far end"
+        return "fix             drive impactor setforce 0.0 0.0 0.0  # held at rest, like the far end"
     if isinstance(imp, Measured):
         return (
             "# measured motion, cubic-spline interpolated by the plugin's fix\n"
-            f"fix             piston impactor lattice/piston file {in_deck(PISTON)} column {imp.column} after {imp.after}"
+            f"fix             drive impactor lattice/piston file {in_deck(IMPACTOR)} column {imp.column} after {imp.after}"
         )
     v = to_engine(imp.velocity, "velocity")
     if isinstance(imp, Constant):
         # the dump's first frame shows the impactor already moving, as the drive says
         return (
             f"velocity        impactor set {_num(v)} 0.0 0.0 units box\n"
-            f"fix             piston impactor move linear {_num(v)} 0.0 0.0 units box"
+            f"fix             drive impactor move linear {_num(v)} 0.0 0.0 units box"
         )
     if isinstance(imp, Ramp):
         name, value = "T_r", to_engine(imp.ramp_time, "time")
@@ -584,7 +584,7 @@ def _piston_lines(case: Case) -> str:
     return (
         f"variable        V_I equal {_num(v)}\n"
         f"variable        {name} equal {_num(value)}\n"
-        f"variable        piston_dx equal \"{dx}\"\n"
-        f"variable        piston_vx equal \"{vx}\"\n"
-        "fix             piston impactor move variable v_piston_dx NULL NULL v_piston_vx NULL NULL"
+        f"variable        drive_dx equal \"{dx}\"\n"
+        f"variable        drive_vx equal \"{vx}\"\n"
+        "fix             drive impactor move variable v_drive_dx NULL NULL v_drive_vx NULL NULL"
     )

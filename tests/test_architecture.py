@@ -29,7 +29,7 @@ LAYERS = [
     ("base", ["errors", "units", "numbering", "serialize", "trajectory", "file_lock", "version", "exact",
               "mdanalysis"]),
     ("formats", ["formats", "measures"]),
-    ("models", ["forcelaw", "piston", "table", "ranks", "theory"]),
+    ("models", ["forcelaw", "impactor", "table", "ranks", "theory"]),
     ("case", ["case"]),
     ("bridge", ["case_measures", "summary", "plots", "progress", "ase_io"]),
     ("deck", ["deck"]),

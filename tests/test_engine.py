@@ -13,7 +13,7 @@ from pylmp_lattice.deck import render_replicas
 from pylmp_lattice.formats.layout import DATA
 from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.forcelaw import PowerLaw
-from pylmp_lattice.piston import SinePulse
+from pylmp_lattice.impactor import SinePulse
 from pylmp_lattice.formats.dump import read_dump, trajectory_from_dump
 from pylmp_lattice.runner import run_deck, run_embedded
 from pylmp_lattice.case_measures import read_front_record

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pylmp_lattice import piston
+from pylmp_lattice import impactor
 from pylmp_lattice.engine import plugin_styles
 from pylmp_lattice.plugin import plugin_file
 
@@ -420,21 +420,21 @@ run 100
 
 # ---------------------------------------------------------------- one home for the drive and the law
 
-# pylmp_lattice.piston's profiles (user units: m/s, ms) and the same motion as the plugin's
+# pylmp_lattice.impactor's profiles (user units: m/s, ms) and the same motion as the plugin's
 # drive arguments (SI), shared by fix lattice/piston and fix lattice/chain (kernel/drive.h)
 _T_SERIES = np.arange(0.0, 20.0 + 1e-9, 0.125)    # ms
 DRIVES = {
-    "constant": (piston.Constant(2.0), "constant 2.0"),
-    "ramp": (piston.Ramp(2.0, 7.3), "ramp 2.0 0.0073"),
-    "sine": (piston.SinePulse(2.0, 7.3), "sine 2.0 0.0073"),
-    "rest": (piston.Rest(), "rest"),
-    "measured": (piston.Measured(tuple(_T_SERIES), tuple(piston.SinePulse(2.0, 10.0).displacement_at(_T_SERIES)),
+    "constant": (impactor.Constant(2.0), "constant 2.0"),
+    "ramp": (impactor.Ramp(2.0, 7.3), "ramp 2.0 0.0073"),
+    "sine": (impactor.SinePulse(2.0, 7.3), "sine 2.0 0.0073"),
+    "rest": (impactor.Rest(), "rest"),
+    "measured": (impactor.Measured(tuple(_T_SERIES), tuple(impactor.SinePulse(2.0, 10.0).displacement_at(_T_SERIES)),
                                  "u", "hold"), "measured file series.txt column u after hold"),
 }
 
 
 @pytest.mark.parametrize("name", sorted(DRIVES))
-def test_plugin_drive_is_the_python_piston(tmp_path, name):
+def test_plugin_drive_is_the_python_impactor(tmp_path, name):
     """fix lattice/piston with each drive moves the impactor as pylmp_lattice.piston says, over
     30 ms (past a ramp's and a pulse's end): x to 1e-12 m, v to 1e-12 m/s (round-off; the
     measured series: two not-a-knot splines of the same samples, 1e-9)."""

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..exact import weak_shock
 from ..forcelaw import ForceLaw
-from ..piston import Impactor
+from ..impactor import Impactor
 from .chain import CHUNK, KEPT_DRAWS, Chain
 from .checks import MAX_PARTICLES, _steps, check_name
 from .model import Friction, SecondNeighbour

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..exact import weak_shock
-from ..piston import PROFILES
+from ..impactor import PROFILES
 from .case import Case
 from .chain import Chain
 from .checks import NAME, _choice, _is_number, brief, check_name

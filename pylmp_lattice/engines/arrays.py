@@ -3,7 +3,7 @@ they return in user units: shared by `engines.cpu` and `engines.gpu`.
 
 The members are those a sweep batches in one LAMMPS instance (`deck.render_replicas`): equal N,
 everything but [chain] equal, output.format = "none". Every number is the one the LAMMPS deck
-passes (`deck.law_params`, `impactor_params`, `piston_samples`, `front_levels_rows`,
+passes (`deck.law_params`, `impactor_params`, `impactor_samples`, `front_levels_rows`,
 `table.table_arrays`), so an engine that runs the kernel gets LAMMPS's bits.
 """
 
@@ -59,7 +59,7 @@ class Arrays:
 
 def prepare(cases: list[Case], engine: str) -> Arrays:
     """The members' arrays; Unsupported if `engine` cannot run them."""
-    from ..deck import front_levels_rows, impactor_params, law_params, piston_samples, records_front, replica_batch
+    from ..deck import front_levels_rows, impactor_params, law_params, impactor_samples, records_front, replica_batch
     from ..table import table_arrays
     from ..units import to_engine
 
@@ -89,7 +89,7 @@ def prepare(cases: list[Case], engine: str) -> Arrays:
     return Arrays(
         batch, len(cases), batch.chain.particles, batch.run.steps(), float(to_engine(batch.run.dt, "time")),
         law, np.array(values + (0.0,) * (3 - len(values)), float), table, drive, *(tuple(dv) + (0.0, 0.0))[:2],
-        piston_samples(batch.impactor) if measured else (), measured and batch.impactor.column == "v",
+        impactor_samples(batch.impactor) if measured else (), measured and batch.impactor.column == "v",
         measured and batch.impactor.after == "hold",
         (float(fr.mu), float(fr.p), float(to_engine(fr.g, "acceleration"))) if fr else None,
         (float(to_engine(lo, "length")), float(to_engine(hi, "length"))),

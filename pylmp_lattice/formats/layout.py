@@ -22,7 +22,8 @@ DECK = "in.lattice"
 DATA = "chain.data"
 TABLE = "force.table"
 SECOND_TABLE = "second.table"  # the second-neighbour law, when the case has one
-PISTON = "piston.txt"  # a measured impactor's samples
+IMPACTOR = "impactor.txt"  # a measured impactor's samples (fix lattice/piston reads them)
+OLD_IMPACTOR = "piston.txt"  # their name in runs of 0.1.0 and before: overwriting one removes it too
 FRONT_LEVELS = "front_levels.txt"  # a batch of chains: each chain's front record levels, a row each
 CASE = "case.toml"  # the case, user units; a folder with it and MARKER holds a run
 REPLICAS = "replicas.toml"  # the cases of a batched-replica folder
@@ -51,7 +52,7 @@ BATCHES = "batches"  # batched members' shared files, and the tasks' lock files
 
 # Every name a run of this package may write (with its temporary files): a folder holding any of
 # them but no run is refused, and overwriting a run removes these and nothing else.
-RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, PISTON, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
+RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, IMPACTOR, OLD_IMPACTOR, FRONT_LEVELS, CASE, REPLICAS, LOG, DUMP, FINE_DUMP, TRAJ_BIN,
              FINE_BIN, FRONT_BIN, CHAIN_WORK, H5MD, H5MD + ".part", TOPOLOGY, SUMMARY, FIGURE, MARKER,
              MARKER + ".tmp", LOCK)
 

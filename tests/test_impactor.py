@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pylmp_lattice.piston import Constant, Ramp, SinePulse
+from pylmp_lattice.impactor import Constant, Ramp, SinePulse
 from pylmp_lattice.run_folder import simulate
 
 from conftest import make_case

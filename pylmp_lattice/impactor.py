@@ -4,6 +4,10 @@ User units: t in ms, velocity in m/s, displacement in mm (1 m/s * 1 ms = 1 mm), 
 in m/s^2. Each profile also renders its motion in the deck (`fix move`, or the plugin's
 `fix lattice/piston` for measured data), where position and velocity are set together every
 step, so they are always consistent.
+
+One word, impactor, names magnet 1 and its drive throughout the package; the plugin's
+`fix lattice/piston` keeps its older name until the C++ side is renamed. "Piston" elsewhere
+(`exact.harmonic_piston_velocity`, the Toda study) is the literature's piston problem.
 """
 
 from __future__ import annotations
