@@ -7,7 +7,8 @@
   each chain's rows with its levels, magnet 1's measures from the impactor's profile (its motion is
   prescribed, not integrated, so the record has none), and the chain's slowest linear speed,
   below which a gap's V_P is flagged;
-- `case_front`: the same definitions applied to a trajectory's arrays.
+- `case_front`: the same definitions applied to a trajectory's arrays;
+- `linear_constants`: the linear chain's wave speed V0 and frequency f0.
 """
 
 from __future__ import annotations
@@ -21,6 +22,15 @@ from . import measures
 from .case import Case, Chain
 from .errors import ConfigError
 from .formats.front_record import FrontRows, read_front_rows
+
+
+def linear_constants(case: Case) -> tuple[float, float]:
+    """(V0 in m/s, f0 in Hz): the linear wave speed and frequency of the case's nearest-neighbour
+    law at its mean gap and mean mass (`measures.linear_wave_speed`, `measures.linear_frequency`)."""
+    r0 = float(np.mean(case.chain.gaps()))
+    k0 = float(case.force.stiffness(r0))
+    m = float(np.mean(case.chain.masses()))
+    return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
 
 
 def chain_noise(case: Case) -> float:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import ConfigError
+from .units import acceleration
 
 
 @dataclass(frozen=True)
@@ -81,8 +82,7 @@ class Ramp:
         return self.velocity * np.where(t < tr, t**2 / (2 * tr), t - tr / 2)
 
     def acceleration_at(self, t):
-        # m/s per ms = 1e3 m/s^2
-        return np.where(np.asarray(t, float) < self.ramp_time, 1e3 * self.velocity / self.ramp_time, 0.0)
+        return np.where(np.asarray(t, float) < self.ramp_time, acceleration(self.velocity / self.ramp_time), 0.0)
 
     def peak_velocity(self) -> float:
         return self.velocity
@@ -113,7 +113,7 @@ class SinePulse:
 
     def acceleration_at(self, t):
         t, ts = np.asarray(t, float), self.duration
-        return np.where(t < ts, 1e3 * self.velocity * np.pi / ts * np.cos(np.pi * t / ts), 0.0)
+        return np.where(t < ts, acceleration(self.velocity * np.pi / ts * np.cos(np.pi * t / ts)), 0.0)
 
     def peak_velocity(self) -> float:
         return self.velocity
@@ -171,7 +171,7 @@ class Measured:
 
     def acceleration_at(self, t):
         t = np.asarray(t, float)
-        return np.where(t <= self.duration(), 1e3 * self._u(self._clipped(t), 2), 0.0)
+        return np.where(t <= self.duration(), acceleration(self._u(self._clipped(t), 2)), 0.0)
 
     def peak_velocity(self) -> float:
         return float(np.max(self.velocity_at(np.linspace(0.0, self.duration(), 20001))))

@@ -25,10 +25,10 @@ from .errors import ConfigError
 from .deck import per_atom_masses, records_front, uses_chain_engine
 from .exact import weak_shock
 from .formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
-from .summary import linear_chain
+from .case_measures import linear_constants
 from .ranks import rank_warnings
 from .table import bond_table
-from .units import to_engine
+from .units import period, to_engine
 
 log = logging.getLogger(__name__)
 
@@ -310,14 +310,14 @@ def coarse_dt_warning(case: Case) -> str | None:
     Behind a shock the chain is compressed and stiffer, so shock measures err more: for the
     paper's long lattice at dt = 0.4 ms, V_P by +0.20 % and the first peak by -0.68 %.
     """
-    f0 = linear_chain(case)[1]  # Hz
-    period = 1e3 / f0  # ms
-    if case.run.dt <= COARSE_DT_FRACTION * period:
+    f0 = linear_constants(case)[1]  # Hz
+    t0 = period(f0)  # ms
+    if case.run.dt <= COARSE_DT_FRACTION * t0:
         return None
-    error = (2 * math.pi * f0 * case.run.dt * 1e-3) ** 2 / 24
+    error = (2 * math.pi * case.run.dt / t0) ** 2 / 24
     text = (f"run.dt: {case.run.dt:g} ms is stable but coarse, more than 1/50 of the linear period "
-            f"1/f0 = {period:.4g} ms; expected phase error of linear waves {100 * error:.2g} %, "
-            f"more behind a shock; use dt <= {COARSE_DT_FRACTION * period:.3g} ms")
+            f"1/f0 = {t0:.4g} ms; expected phase error of linear waves {100 * error:.2g} %, "
+            f"more behind a shock; use dt <= {COARSE_DT_FRACTION * t0:.3g} ms")
     log.warning(text)
     return text
 

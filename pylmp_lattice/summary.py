@@ -16,6 +16,7 @@ import numpy as np
 
 from . import measures
 from .case import Case
+from .case_measures import linear_constants
 from .measures.front import LINEAR_LAG
 from .numbering import number
 
@@ -145,7 +146,7 @@ def _linear_part(cases) -> list[dict]:
     for case in cases:
         key = (float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses())), case.force)
         if key not in done:
-            done[key] = linear_chain(case)
+            done[key] = linear_constants(case)
         v0, f0 = done[key]
         out.append({
             "case": case.name,
@@ -155,14 +156,6 @@ def _linear_part(cases) -> list[dict]:
             "linear_frequency_f0_Hz": _round(f0, 4),
         })
     return out
-
-
-def linear_chain(case: Case) -> tuple[float, float]:
-    """Linear wave speed V0 (m/s) and frequency f0 (Hz) at the mean gap and mass."""
-    r0 = float(np.mean(case.chain.gaps()))
-    k0 = float(case.force.stiffness(r0))
-    m = float(np.mean(case.chain.masses()))
-    return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
 
 
 def _maxima(vp: np.ndarray) -> list[dict | None]:

@@ -32,6 +32,26 @@ def from_engine(value, quantity: str):
     return np.divide(value, TO_SI[quantity]) if not np.isscalar(value) else value / TO_SI[quantity]
 
 
+# Frequencies are reported in Hz (the paper's f0), while user times are in ms: a period in ms
+# is 1e3 / f, and a rate per ms (a velocity's change per ms, a magnet count per ms) is 1e3 per s.
+PER_MS_IN_HZ = 1.0 / TO_SI["time"]  # 1/ms -> Hz
+
+
+def period(frequency):
+    """A frequency in Hz -> its period in ms."""
+    return PER_MS_IN_HZ / np.asarray(frequency, float) if not np.isscalar(frequency) else PER_MS_IN_HZ / frequency
+
+
+def frequency(period_ms):
+    """A period in ms -> its frequency in Hz (also: a rate per ms -> per s)."""
+    return PER_MS_IN_HZ / np.asarray(period_ms, float) if not np.isscalar(period_ms) else PER_MS_IN_HZ / period_ms
+
+
+def acceleration(rate):
+    """A velocity's rate of change in m/s per ms -> m/s^2."""
+    return np.multiply(rate, PER_MS_IN_HZ) if not np.isscalar(rate) else rate * PER_MS_IN_HZ
+
+
 # The H5MD trajectory file (see `h5md`) keeps the engine's SI units, but lengths in nm and times
 # in ps: MDAnalysis's H5MD reader knows no m or mm, and takes the frame interval (observable dt)
 # in ps without converting it. Name and size in SI of each unit.

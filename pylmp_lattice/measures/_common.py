@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..units import TO_SI
+from ..units import PER_MS_IN_HZ as HZ_PER_INV_MS
 
-HZ_PER_INV_MS = 1.0 / TO_SI["time"]  # 1/ms -> Hz
 NAN = float("nan")
 
 

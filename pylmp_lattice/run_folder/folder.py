@@ -348,10 +348,10 @@ class RunFolder:
         """Fig. 3(a-d) of the run, titled with the case, V_I and N: profiles from the fine output
         if any, else a few magnets the front reached; panels (a, d) empty without a trajectory."""
         from ..plots import shock_figure
-        from ..summary import linear_chain
+        from ..case_measures import linear_constants
 
         case, front = self.case, self.front()
-        vi, v0 = case.impactor.peak_velocity(), linear_chain(case)[0]
+        vi, v0 = case.impactor.peak_velocity(), linear_constants(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
         # the first peaks saturate at 2 V_I under a steady drive without friction only
         steady = case.impactor.profile in ("constant", "ramp") and case.friction is None

@@ -2,7 +2,7 @@
 
 The paper's constants have their one home here (K, b, q: the defaults of `forcelaw.PowerLaw`,
 which are the paper's law): MASS, R0, PAPER_FORCE, MAGNET_LENGTH, the calibrated friction
-FRICTION, and the linear constants V0 and f0 of any case (`linear_constants`).
+FRICTION, and (from `case_measures`) the linear constants V0 and f0 of any case (`linear_constants`).
 
 Every chain is in user units (mm, g, ms, N, m/s). The Toda, Lennard-Jones and Morse chains of
 the literature studies are the dimensionless lattices (m = A = B = 1; m = epsilon = sigma = 1),
@@ -19,10 +19,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
-
-from .. import measures
 from ..case import Case, case_from_dict, case_to_dict
+from ..case_measures import linear_constants  # noqa: F401  (the studies' V0 and f0, from the bridge)
 from ..errors import LatticeError
 from ..forcelaw import PowerLaw
 from ..run_folder import RunFolder
@@ -99,14 +97,6 @@ def chain_case(chain: str, name: str, impactor: dict, duration: float, particles
         "name": name, "chain": chain_d, "force": dict(force), "impactor": impactor,
         "run": {"duration": duration, "dt": dt, "output_interval": output}, "table": dict(table),
     })
-
-
-def linear_constants(case: Case) -> tuple[float, float]:
-    """(V0 in m/s, f0 in Hz) of the case's nearest-neighbour law at its initial spacing."""
-    r0 = float(np.mean(case.chain.gaps()))
-    k = float(case.force.stiffness(r0))
-    m = float(np.mean(case.chain.masses()))
-    return measures.linear_wave_speed(k, m, r0), measures.linear_frequency(k, m)
 
 
 def pick(candidates, reached: int) -> list[int]:

@@ -29,6 +29,7 @@ from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
 from ...sweep import replica_stats
 from ...sweep.stats import low_coverage_warnings
+from ...units import period
 from ..output import StudyResult
 from ..scaffold import linear_constants, paper_dict, sweep_runs
 
@@ -95,7 +96,7 @@ def _measure(run) -> dict:
     traj = RunFolder(run.folder).trajectory("fine")
     f0 = summary["linear_frequency_f0_Hz"]
     end = case.run.duration
-    span = max(0.2 * end, WINDOW_PERIODS * 1e3 / f0)  # ms
+    span = max(0.2 * end, WINDOW_PERIODS * period(f0))  # ms
     noise = chain_noise(case)
     steady = measures.steady_oscillation(traj.t, traj.v[:, 0], VI, (end - span, end), noise=noise)
     front = summary["front_speed_m_per_s"]

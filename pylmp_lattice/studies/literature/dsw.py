@@ -43,6 +43,7 @@ from ... import measures, theory
 from ...case import FORCE_LAWS
 from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
+from ...units import period
 from .. import STUDIES
 from ..output import StudyResult
 from ..scaffold import CHAINS as LITERATURE_CHAINS
@@ -71,7 +72,7 @@ def chain_base(chain: str, periods: float) -> tuple[dict, float]:
     """The case dict of `chain` (a long lattice, V_I to be set) for `periods` of its T0; and T0, ms."""
     force, r0, mass, table = CHAINS[chain]
     law = chain_law(chain)
-    t0 = 1e3 / measures.linear_frequency(float(law.stiffness(r0)), mass)
+    t0 = period(measures.linear_frequency(float(law.stiffness(r0)), mass))
     dt = 0.01 * t0 / PAPER_T0  # ms; the run and its outputs as whole numbers of steps
     steps = round(periods * PAPER_T0 / 0.01)
     base = {

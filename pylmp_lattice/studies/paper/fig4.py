@@ -32,6 +32,7 @@ from ... import measures, theory
 from ...case import case_from_dict
 from ...forcelaw import PowerLaw
 from ...plots import pyplot, style_figure
+from ...units import period
 from ..output import StudyResult
 from ..scaffold import MASS, PAPER_FORCE, PAPER_LAW, R0, linear_constants, paper_case, paper_dict, sweep_runs
 
@@ -110,7 +111,7 @@ def _against_q(root, qs, fractions, periods, f0_paper):
     # run lasts `periods` linear periods 1/f0 of its law (with K, b fixed, f0 falls 12x from
     # q = 2.5 to 5)
     slow = {key: max(1.0, float(np.round(f0_paper / f0))) for key, (_, f0) in scale.items()}
-    length = {key: float(np.round(periods * 1e3 / f0 / (0.1 * slow[key])) * 0.1 * slow[key])
+    length = {key: float(np.round(periods * period(f0) / (0.1 * slow[key])) * 0.1 * slow[key])
               for key, (_, f0) in scale.items()}
     pairs = [(c, q, force, x) for c, q, force in points for x in fractions]
     q_base = paper_dict("fig4_q", {"profile": "constant", "velocity": 1.0}, 100.0)
@@ -192,7 +193,7 @@ def _measure(run, ends) -> dict:
     traj = run.trajectory()
     plateau = run.summary["shock_velocity_plateau_m_per_s"]
     f0 = run.summary["linear_frequency_f0_Hz"]
-    span = max(0.2 * ends[-1], WINDOW_PERIODS * 1e3 / f0)  # ms: enough for weak oscillations near f0
+    span = max(0.2 * ends[-1], WINDOW_PERIODS * period(f0))  # ms: enough for weak oscillations near f0
     steady = {end: measures.steady_oscillation(traj.t, traj.v[:, MAGNET - 1], vi, (end - span, end), prominence=PROMINENCE)
               for end in ends}
     last = steady[ends[-1]]

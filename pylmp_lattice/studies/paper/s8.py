@@ -21,6 +21,7 @@ from ... import measures
 from ...case import case_from_dict
 from ...plots import pyplot, style_figure
 from ...run_folder import RunFolder
+from ...units import period
 from ..output import StudyResult
 from ..scaffold import done_runs, linear_constants, paper_dict, sweep_runs
 
@@ -34,7 +35,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 250.0 if quick else 400.0
     base = paper_dict("s8", {"profile": "sine", "velocity": VI, "duration": 10.0}, duration)
     v0, f0 = linear_constants(case_from_dict(base))
-    t0 = 1e3 / f0  # ms
+    t0 = period(f0)  # ms
     # quick: 10 T0 = 235 ms would last nearly the whole 250 ms run; 100 ms = 4.3 T0 is the long pulse
     ratios = [0.1, 1.0] if quick else list(np.geomspace(0.1, 10.0, 9))
     durations = sorted({float(np.round(x * t0, 3)) for x in ratios} | {SHOWN_TS})
