@@ -17,6 +17,7 @@ import signal
 import sys
 from pathlib import Path
 
+from .engine import RUNNERS
 from .errors import ConfigError, DumpFormatError, Interrupted, LatticeError
 
 EXIT_RUN_ERROR = 1
@@ -86,7 +87,7 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="write the deck, run it, post-process, print the summary (JSON) on stdout")
     _case_args(run)
-    run.add_argument("--runner", choices=("embedded", "lmp"), default="embedded",
+    run.add_argument("--runner", choices=RUNNERS, default="embedded",
                      help="LAMMPS Python module in-process (default) or the lmp executable")
     run.add_argument("--np", type=int, default=1, help="MPI ranks (lmp runner only)")
     run.add_argument("--echo", action="store_true", help="show LAMMPS's screen output (on stderr)")

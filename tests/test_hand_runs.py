@@ -177,7 +177,7 @@ def test_an_edited_deck_is_said_in_the_summary(tmp_path, caplog):
     case = make_case(particles=10, duration=1.0)  # 100 steps of 0.01 ms
     folder = deck(tmp_path, case)
     edit(folder, "run ", "run             50")
-    assert run_by_hand(folder) == 0 and RunFolder(folder).status == "finished"
+    assert run_by_hand(folder) == 0 and RunFolder(folder).status == "done"
     assert main(["summarize", str(folder), "--no-figure"]) == 0
     err = caplog.text
     caplog.clear()

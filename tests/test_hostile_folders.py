@@ -51,7 +51,7 @@ def test_summarize_of_a_trajectory_of_one_frame_names_the_folder(tmp_path, capsy
     whose binary dump holds one frame (stopped before its conversion, the record removed)."""
     (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
     stopped = hooked(tmp_path, "pylmp_lattice.run_folder.execution:convert_claimed", ["run", "base.toml", "-o", "r"])
-    assert stopped.returncode == 143 and state(tmp_path / "r") == "finished", stopped.stderr
+    assert stopped.returncode == 143 and state(tmp_path / "r") == "done", stopped.stderr
     dump = tmp_path / "r" / "traj.bin"
     dump.write_bytes(dump.read_bytes()[:open_dump(dump).frame_dtype.itemsize])
     (tmp_path / "r" / "front.bin").unlink()
@@ -139,7 +139,7 @@ def test_a_running_record_names_its_writer_and_a_gone_writer_is_known(tmp_path):
     child = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
     assert marker.writer_gone(data | {"pid": int(child.stdout)})  # ended
     assert not marker.writer_gone(data | {"pid": int(child.stdout), "host": "elsewhere"})  # /proc cannot tell
-    assert not marker.writer_gone(data | {"pid": "1; rm -rf /"}) and not marker.writer_gone({"state": "finished"})
+    assert not marker.writer_gone(data | {"pid": "1; rm -rf /"}) and not marker.writer_gone({"state": "done"})
 
 
 @pytest.mark.parametrize("code, signum", [(-9, 9), (247, 9), (137, 9), (143, 15), (1, None), (255, None), (3, None)])

@@ -67,9 +67,9 @@ def state(folder: Path) -> str | None:
 RUN_STAGES = {
     "deck write": ("pylmp_lattice.run_folder.cases:case_to_dict", None, [], ["in.lattice", "case.toml"]),
     "engine": ("pylmp_lattice.runner:new_lammps", "interrupted", ["in.lattice", "log.lammps"], ["summary.json"]),
-    "conversion": ("pylmp_lattice.run_folder.execution:convert_claimed", "finished", ["traj.bin"], ["summary.json"]),
-    "summary": ("pylmp_lattice.summary:summarize", "finished", ["traj.h5md"], ["summary.json"]),
-    "figure": ("pylmp_lattice.run_folder.folder:RunFolder.figure", "finished", ["summary.json"], ["shock.png"]),
+    "conversion": ("pylmp_lattice.run_folder.execution:convert_claimed", "done", ["traj.bin"], ["summary.json"]),
+    "summary": ("pylmp_lattice.summary:summarize", "done", ["traj.h5md"], ["summary.json"]),
+    "figure": ("pylmp_lattice.run_folder.folder:RunFolder.figure", "done", ["summary.json"], ["shock.png"]),
 }
 
 
@@ -90,7 +90,7 @@ def test_sigterm_at_each_stage_of_a_run_exits_143_and_records_what_happened(tmp_
         again = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "run", "base.toml", "-o", "r", "--quiet"],
                                capture_output=True, text=True, cwd=tmp_path, timeout=300)
         assert again.returncode == 0, again.stderr
-        assert state(folder) == "finished"
+        assert state(folder) == "done"
 
 
 @pytest.mark.slow

@@ -287,9 +287,9 @@ def test_a_batch_folder_and_a_single_run_folder_pass_the_same_checks(tmp_path, m
     monkeypatch.setattr(marker, "record", lambda path, state, **details: (states.append(state),
                                                                           record(path, state, **details)))
     road(cases)
-    assert states == ["running", "finished"]
+    assert states == ["running", "done"]
     run = RunFolder(folder)
-    assert marker.is_run(folder) and run.status == "finished" and not marker.locked(folder)
+    assert marker.is_run(folder) and run.status == "done" and not marker.locked(folder)
     assert [case_id(c) for c in run.cases] == [case_id(c) for c in cases]
     assert run.deck_changes() == {}
     written = marker.read(folder)
@@ -305,7 +305,7 @@ def test_a_batch_folder_and_a_single_run_folder_pass_the_same_checks(tmp_path, m
         road(cases)
     road(cases[::-1], overwrite=True)
     assert [case_id(c) for c in RunFolder(folder).cases] == [case_id(c) for c in cases[::-1]]
-    assert RunFolder(folder).status == "finished"
+    assert RunFolder(folder).status == "done"
 
 
 # ---- nothing outside the folder is written or deleted
@@ -382,7 +382,7 @@ def test_a_study_run_again_keeps_the_users_notes_in_its_run_folder(tmp_path):
     (folder / layout.FIGURE).write_text("stale")  # the second run draws none: the old one must go
     run_case(make_case(particles=10, duration=2.0), folder, figure=False, overwrite=True)
     assert (folder / "notes.txt").read_text() == "mine" and not (folder / layout.FIGURE).exists()
-    assert RunFolder(folder).case.run.duration == 2.0 and RunFolder(folder).status == "finished"
+    assert RunFolder(folder).case.run.duration == 2.0 and RunFolder(folder).status == "done"
 
 
 # ---- summarize any folder
@@ -397,7 +397,7 @@ def test_deck_run_by_hand_then_summarize_equals_the_cli_run(tmp_path):
     assert main(["deck", str(case), "-o", str(tmp_path / "hand")]) == 0
     lmp = Path(sys.executable).parent / "lmp"
     subprocess.run([str(lmp), "-in", layout.DECK, "-screen", "none"], cwd=tmp_path / "hand", check=True)
-    assert RunFolder(tmp_path / "hand").status == "finished"
+    assert RunFolder(tmp_path / "hand").status == "done"
     assert main(["summarize", str(tmp_path / "hand")]) == 0
     cli, hand = (json.loads((tmp_path / d / layout.SUMMARY).read_text()) for d in ("cli", "hand"))
     a = {k: v for k, v in numbers(cli) if "wall_time" not in k}
@@ -641,5 +641,15 @@ def test_a_run_s_folder_is_its_own_until_its_summary_is_written(tmp_path, monkey
     summary = run_case(case, tmp_path / "run", figure=False)
     assert [(name, code) for name, code, _ in others] == [("deck", 2), ("summarize", 2)], others
     assert all("still being written" in err for _, _, err in others)
-    assert summary["particles"] == 10 and json.loads((tmp_path / "run" / layout.SUMMARY).read_text())["status"] == "finished"
+    assert summary["particles"] == 10 and json.loads((tmp_path / "run" / layout.SUMMARY).read_text())["status"] == "done"
     assert not (tmp_path / "run" / layout.LOCK).exists()
+
+
+def test_a_run_json_of_0_1_0_that_says_finished_reads_as_done(tmp_path):
+    """One word for a run that ended normally, "done" (run folders and sweep members alike);
+    run.json written before it said "finished", and such a folder still reads as done."""
+    RunFolder.create(make_case(particles=10, duration=1.0), tmp_path)
+    marker.record(tmp_path, marker.OLD_DONE)
+    assert RunFolder(tmp_path).status == marker.DONE == "done"
+    marker.record(tmp_path, marker.CONTACT)
+    assert RunFolder(tmp_path).status == "contact"

@@ -31,6 +31,7 @@ from typing import Protocol
 from .. import deck, preflight
 from .. import runner as lammps_runner
 from ..case import Case
+from ..engine import RUNNERS
 from ..errors import ConfigError, ContactError, Interrupted, RunError
 from ..formats import layout
 from ..progress import progress_bar
@@ -40,8 +41,6 @@ from .claim import Claimed, claim
 from .convert import convert_claimed
 from .folder import RunFolder, summarize
 from .write import write
-
-RUNNERS = ("embedded", "lmp")
 
 
 class Engine(Protocol):
@@ -177,4 +176,4 @@ def _run(claimed: Claimed, engine: Engine, progress: bool) -> None:
     except BaseException:
         marker.record(path, marker.INTERRUPTED, **kept)
         raise
-    marker.record(path, marker.FINISHED, **kept)
+    marker.record(path, marker.DONE, **kept)

@@ -82,7 +82,7 @@ class RunFolder:
 
     @property
     def status(self) -> str:
-        """How the run stands: "running", "finished", "interrupted", "contact", "failed" or
+        """How the run stands: "running", "done", "interrupted", "contact", "failed" or
         "written" (see `marker.status`)."""
         return marker.status(self.path)
 

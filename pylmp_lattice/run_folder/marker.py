@@ -27,9 +27,11 @@ PACKAGE = "pylmp_lattice"
 # Seconds a writer waits for the folder's lock: a reader's look at it (`locked`) holds it for an
 # instant; a writer or runner holds it for the whole run.
 CLAIM_WAIT = 0.5
-# How a run ended, as run.json records it; "written" until a runner of this package ran it.
-WRITTEN, RUNNING, FINISHED, INTERRUPTED, CONTACT, FAILED = (
-    "written", "running", "finished", "interrupted", "contact", "failed")
+# How a run stands, as run.json records it; "written" until a runner of this package ran it.
+# One vocabulary for run folders and a sweep's members (`sweep.store`): "done" ended normally.
+WRITTEN, RUNNING, DONE, INTERRUPTED, CONTACT, FAILED = (
+    "written", "running", "done", "interrupted", "contact", "failed")
+OLD_DONE = "finished"  # "done" in run.json of version 0.1.0 and before
 # run.json's hash of the deck as written (`deck_hash`), and a batch's number of chains: kept by
 # every later record of the folder.
 DECK_HASH = "deck_sha256"
@@ -147,7 +149,7 @@ def lammps_error(text: str) -> str | None:
 
 def status(folder: Path) -> str:
     """"running" while a runner of this package holds the folder's lock or a process writes its
-    log (`being_written`); else how the run ended: "finished", "contact", "failed" (the log has
+    log (`being_written`); else how the run ended: "done", "contact", "failed" (the log has
     an ERROR line), "interrupted" (its log has no end and no process writes it: killed, Ctrl-C,
     a time limit), or "written" for a deck never run. A lock this thread holds is no other
     runner's (`file_lock`)."""
@@ -156,7 +158,7 @@ def status(folder: Path) -> str:
     data = read(folder) or {}
     state = data.get("state", WRITTEN)
     if state not in (WRITTEN, RUNNING):
-        return state
+        return DONE if state == OLD_DONE else state
     text = log_text(folder)
     if text is None:
         return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
@@ -168,12 +170,12 @@ def status(folder: Path) -> str:
 
 
 def log_state(text: str) -> str | None:
-    """How a log says its run ended: "contact", "failed" (an ERROR line) or "finished"; None
+    """How a log says its run ended: "contact", "failed" (an ERROR line) or "done"; None
     while it has not ended."""
     error = lammps_error(text)
     if not log_ended(text) and error is None:
         return None
-    return CONTACT if find_contact(text) else FAILED if error else FINISHED
+    return CONTACT if find_contact(text) else FAILED if error else DONE
 
 
 @contextmanager

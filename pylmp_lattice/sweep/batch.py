@@ -172,7 +172,6 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     a failed batch, each member alone."""
     from ..formats import layout
     from ..run_folder import execute_batch
-    from ..run_folder.marker import FINISHED
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
@@ -206,7 +205,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
               "cpu_time_s": round(cpu, 4)}
     where = {"folder": str(batch), "log": str(batch / layout.LOG)}
     members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data,
-                "summary": summary | {"status": FINISHED, "files": where, "wall_time_s": round(wall, 4)}}
+                "summary": summary | {"status": DONE, "files": where, "wall_time_s": round(wall, 4)}}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
     outcomes = write_batch(batch, record, members)  # last: the members are done
     alone = listing(root / MEMBERS)

@@ -52,6 +52,7 @@ import numpy as np
 
 from ..case import (Case, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     normalised_hash, read_toml)
+from ..engine import RUNNERS
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -59,7 +60,6 @@ member_id = case_id  # a member's identity is its case's (one identity for run f
 
 KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "cluster")
 KEEP = ("all", "measures")
-RUNNERS = ("embedded", "lmp")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
 
 

@@ -36,11 +36,12 @@ import numpy as np
 from ..file_lock import Held, exclusive
 from ..formats.files import atomic_write
 from ..formats.layout import BATCHES, MEMBERS, SWEEP_FILE
+from ..run_folder.marker import DONE, FAILED, INTERRUPTED, RUNNING
 
 BATCH_FILE = "members.json"  # in a batch's folder: its members' outcomes
 STATUS = "status.json"
-DONE, FAILED, RUNNING = "done", "failed", "running"
-INTERRUPTED = "interrupted"  # stopped by a signal or a lost worker: redone on resume
+# A member's states are its run folder's (DONE, FAILED, RUNNING); INTERRUPTED: stopped by a signal
+# or a lost worker, redone on resume.
 
 
 def member_folder(root: str | Path, member_id: str) -> Path:
