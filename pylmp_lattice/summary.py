@@ -27,7 +27,7 @@ QUIET_FRACTION = 1e-3
 SIGNIFICANT = 3
 
 
-def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
+def summary_of(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
     """Linear wave speed and frequency, shock velocity plateau, first peaks (user units).
 
     front: the run's front measures (`RunFolder.measures`); None without a drive.
@@ -39,9 +39,9 @@ def summarize(case: Case, front: measures.Front | None, max_speed: np.ndarray | 
 
 
 def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None) -> list[dict]:
-    """`summarize` of each of R cases of one drive (a batch), from their fronts as one Front of R
+    """`summary_of` for each of R cases of one drive (a batch), from their fronts as one Front of R
     chains (`measures.stack_fronts`) and max_speed (R, N): each the summary of the case alone,
-    bit for bit (`summarize` is a batch of one)."""
+    bit for bit (`summary_of` is a batch of one)."""
     vi = cases[0].impactor.peak_velocity()
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speeds = measures.trailing_plateaus(vp)

@@ -14,7 +14,7 @@ from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.exact import harmonic_piston_velocity
 from pylmp_lattice.run_folder import RunFolder, run_case
-from pylmp_lattice.summary import summarize
+from pylmp_lattice.summary import summary_of
 
 from conftest import make_case
 
@@ -39,7 +39,7 @@ def test_peak_arrivals_leave_gap_1_out_and_level_arrivals_keep_it():
     assert np.isnan(pulse.accepted_velocity[0]) and np.isfinite(pulse.accepted_velocity[1:]).all()
     assert level.accepted_velocity[0] == pytest.approx(12.0 / 0.103, rel=1e-9) and not level.drive_gap.any()
     case = make_case(particles=6, impactor={"profile": "sine", "velocity": 1.4, "duration": 30.0})
-    top = summarize(case, pulse)["shock_velocity_max_m_per_s"]
+    top = summary_of(case, pulse)["shock_velocity_max_m_per_s"]
     assert top["gap"] == 2 and top["value"] == pytest.approx(12.0 / (19.249 - 15.103), rel=1e-4)
     early = _front(np.array([15.0, 11.544, 14.341, 17.18]), "velocity_peak")  # V_I = 2.81 m/s
     assert pulse.flags()["out_of_order_gaps"] == [] and early.flags()["out_of_order_gaps"] == []

@@ -15,7 +15,7 @@ from pylmp_lattice.deck import render
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.run_folder import simulate
 from pylmp_lattice.formats.layout import FRONT_BIN
-from pylmp_lattice.summary import summarize
+from pylmp_lattice.summary import summary_of
 
 from conftest import make_case
 
@@ -110,7 +110,7 @@ def test_summary_has_no_inf_where_arrivals_coincide():
     vp = measures.propagation_velocity(arrival, case.chain.gaps())
     front = measures.Front(arrival, vp, peaks, slowest_linear_speed=1.6)
     assert np.isinf(vp[0])
-    summary = summarize(case, front)
+    summary = summary_of(case, front)
     assert summary["shock_velocity_max_m_per_s"] == {"value": 4.0, "gap": 2}
     assert summary["front_flags"]["out_of_order_gaps"] == [1]
     json.loads(dumps(summary), parse_constant=lambda c: pytest.fail(f"{c} in the summary"))

@@ -16,7 +16,7 @@ import pytest
 
 from pylmp_lattice.case import load_case
 from pylmp_lattice.run_folder import RunFolder, simulate
-from pylmp_lattice.summary import summarize
+from pylmp_lattice.summary import summary_of
 
 pytestmark = [pytest.mark.lammps, pytest.mark.slow]
 CASE = Path(__file__).parent.parent / "inputs" / "paper_long_lattice.toml"
@@ -30,7 +30,7 @@ def long_lattice(tmp_path_factory):
 
 def test_paper_long_lattice_numbers(long_lattice):
     case, _, folder = long_lattice
-    s = summarize(case, *RunFolder(folder).measures())
+    s = summary_of(case, *RunFolder(folder).measures())
     assert 1.60 <= s["linear_wave_speed_V0_m_per_s"] <= 1.62
     # 0.5%: the paper gives 3 digits and our plateau still drifts by +0.06% across its window
     assert s["shock_velocity_plateau_m_per_s"]["mean"] == pytest.approx(3.92, rel=5e-3)

@@ -628,7 +628,7 @@ def test_a_run_s_folder_is_its_own_until_its_summary_is_written(tmp_path, monkey
     case = make_case(particles=10, duration=2.0)
     toml = write_case(tmp_path / "case.toml", case)
     others = []
-    original = execution.summarize
+    original = execution.summarize_folder
 
     def summarize_while_others_try(path, **kwargs):
         assert (path / layout.H5MD).is_file() and not (path / layout.TRAJ_BIN).exists()  # converted under the lock
@@ -637,7 +637,7 @@ def test_a_run_s_folder_is_its_own_until_its_summary_is_written(tmp_path, monkey
             others.append((argv[0], done.returncode, done.stderr.strip()))
         return original(path, **kwargs)
 
-    monkeypatch.setattr(execution, "summarize", summarize_while_others_try)
+    monkeypatch.setattr(execution, "summarize_folder", summarize_while_others_try)
     summary = run_case(case, tmp_path / "run", figure=False)
     assert [(name, code) for name, code, _ in others] == [("deck", 2), ("summarize", 2)], others
     assert all("still being written" in err for _, _, err in others)

@@ -10,7 +10,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
-from pylmp_lattice.summary import _plateau, _round, summarize
+from pylmp_lattice.summary import _plateau, _round, summary_of
 
 from conftest import make_case
 
@@ -91,13 +91,13 @@ def test_v_p_from_frames_too_coarse_for_the_gaps_is_flagged_not_converged(caplog
     engine record gave 7.24 m/s 'converged' for 3.91) do not: the summary says so, the plateau
     is not converged, and a warning names run.output_interval and output.front."""
     case = make_case(particles=60)
-    fine = summarize(case, _frames_of_a_steady_front(case, 0.25))
+    fine = summary_of(case, _frames_of_a_steady_front(case, 0.25))
     plateau = fine["shock_velocity_plateau_m_per_s"]
     assert plateau["mean"] == pytest.approx(4.0, rel=1e-3) and plateau["converged"] is True
     assert fine["front_resolution"]["resolved"] is True and fine["front_resolution"]["frames_per_gap"] == pytest.approx(12)
     assert fine["front_resolution"]["source"] == "frames"
     with caplog.at_level("WARNING"):
-        coarse = summarize(case, _frames_of_a_steady_front(case, 10.0))
+        coarse = summary_of(case, _frames_of_a_steady_front(case, 10.0))
     plateau = coarse["shock_velocity_plateau_m_per_s"]
     assert (plateau["converged"], plateau["trend"]) == (False, "unresolved")
     res = coarse["front_resolution"]

@@ -8,7 +8,7 @@ path to check again:
     write      the deck, its inputs, the cases and run.json "running" (`write.write`)
     run        the engine in the folder, then run.json says how it ended (`_run`)
     convert    binary dumps into H5MD (`convert.convert_claimed`)
-    summarize  (`run_case`) summary.json and the figure (`folder.summarize`)
+    summarize  (`run_case`) summary.json and the figure (`folder.summarize_folder`)
 
 `execute` and `run_case` take one case, `execute_batch` equal-length chains in one instance
 (`deck.render_replicas`: a sweep's members). The engine is a step the road takes: LAMMPS
@@ -39,7 +39,7 @@ from ..trajectory import Trajectory
 from . import marker
 from .claim import Claimed, claim
 from .convert import convert_claimed
-from .folder import RunFolder, summarize
+from .folder import RunFolder, summarize_folder
 from .write import write
 
 
@@ -115,7 +115,7 @@ def run_case(case: Case, folder: str | Path, runner: str | Engine = "embedded", 
     ContactError is raised after it is written)."""
     start = time.perf_counter()
     with _road([case], folder, _engine(runner, nprocs, echo), overwrite, progress, yes, contact_ends=True) as claimed:
-        return summarize(claimed.path, figure=figure, wall_time=time.perf_counter() - start)
+        return summarize_folder(claimed.path, figure=figure, wall_time=time.perf_counter() - start)
 
 
 def simulate(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,

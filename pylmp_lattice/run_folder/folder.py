@@ -243,7 +243,7 @@ class RunFolder:
         summary of the same run holds and this one does not redo stays: its wall time, and its
         figure when not drawn again. A figure that fails is a warning: the summary is already
         written."""
-        from ..summary import summarize
+        from ..summary import summary_of
 
         refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         case, status = self.case, self.status
@@ -253,7 +253,7 @@ class RunFolder:
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
         front, max_speed = self.measures()
-        summary = summarize(case, front, max_speed)
+        summary = summary_of(case, front, max_speed)
         summary["status"] = status
         stopped = self._stopped(status)
         if stopped:
@@ -369,8 +369,9 @@ class RunFolder:
         return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
-def summarize(path: str | Path, figure: bool = True, wall_time: float | None = None) -> dict:
-    """`RunFolder(path).summarize(...)` in one call: the writer's hand-over of a run it ended."""
+def summarize_folder(path: str | Path, figure: bool = True, wall_time: float | None = None) -> dict:
+    """`RunFolder(path).summarize(...)` in one call (one entry into this module): the writer's
+    hand-over of a run it ended."""
     return RunFolder(path).summarize(figure=figure, wall_time=wall_time)
 
 
