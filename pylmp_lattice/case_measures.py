@@ -8,7 +8,8 @@
   prescribed, not integrated, so the record has none), and the chain's slowest linear speed,
   below which a gap's V_P is flagged;
 - `case_front`: the same definitions applied to a trajectory's arrays;
-- `linear_constants`: the linear chain's wave speed V0 and frequency f0.
+- `linear_constants`: the linear chain's wave speed V0 and frequency f0;
+- `set_impactor_acceleration`: magnet 1's row of a trajectory's accelerations from its profile.
 """
 
 from __future__ import annotations
@@ -31,6 +32,13 @@ def linear_constants(case: Case) -> tuple[float, float]:
     k0 = float(case.force.stiffness(r0))
     m = float(np.mean(case.chain.masses()))
     return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
+
+
+def set_impactor_acceleration(case: Case, traj, columns) -> None:
+    """Magnet 1's accelerations in `traj` (its `columns`: a list of indices or a mask, maybe
+    empty) from the impactor's profile, m/s^2: its motion is prescribed, so the force on it in a
+    dump is the chain's push, not m a."""
+    traj.a[:, columns] = case.impactor.acceleration_at(traj.t)[:, None]
 
 
 def chain_noise(case: Case) -> float:

@@ -27,7 +27,7 @@ from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
 from ..formats.dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import ConfigError, LatticeError
-from ..case_measures import case_front, read_front_record
+from ..case_measures import case_front, read_front_record, set_impactor_acceleration
 from ..numbering import number
 from ..serialize import dumps, loads_object
 from ..trajectory import Trajectory
@@ -119,8 +119,8 @@ class RunFolder:
         (1 .. N, as the paper counts), increasing. Column k holds magnets[k].
 
         From traj.h5md, the binary dumps (converted first when safe, else read as they stand)
-        or the text dump. The impactor's acceleration comes from its profile: the piston imposes
-        its motion, and the force on it in the file is the chain's push, not m a."""
+        or the text dump. The impactor's acceleration comes from its profile
+        (`case_measures.set_impactor_acceleration`)."""
         from ..formats import h5md
 
         if group not in layout.BINARY_GROUPS:
@@ -145,7 +145,7 @@ class RunFolder:
                                               f"output.format = {case.output.format!r})")
         numbers = self._numbers(group)
         numbers = numbers if columns is None else numbers[list(columns)]
-        traj.a[:, numbers == 0] = case.impactor.acceleration_at(traj.t)[:, None]
+        set_impactor_acceleration(case, traj, numbers == 0)
         self._cache[key] = traj
         return traj
 
@@ -160,9 +160,8 @@ class RunFolder:
         n, out = cases[0].chain.particles, []
         for r, case in enumerate(cases):
             part = slice(r * n, (r + 1) * n)
-            a = batched.a[:, part].copy()
-            a[:, 0] = case.impactor.acceleration_at(batched.t)  # imposed (see `trajectory`)
-            out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], a))
+            out.append(Trajectory(batched.t, batched.x0[part], batched.u[:, part], batched.v[:, part], batched.a[:, part].copy()))
+            set_impactor_acceleration(case, out[-1], [0])  # imposed (see `trajectory`)
         return out
 
     def _numbers(self, group: str) -> np.ndarray:
