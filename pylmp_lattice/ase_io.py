@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import Case, case_from_dict
-from .errors import ConfigError
+from .errors import ConfigError, UsageError
 from .trajectory import Trajectory
 
 UNITS = "mm, g, ms (velocity m/s, energy mJ): pylmp_lattice user units, not ASE's"
@@ -54,7 +54,7 @@ def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1)
 
     path = Path(path)
     if path.suffix not in FORMATS:
-        raise ConfigError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
+        raise UsageError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
     write(path, to_atoms(traj, masses, every), format=FORMATS[path.suffix])
     return path
 

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from .engine import RUNNERS
-from .errors import ConfigError, DumpFormatError, Interrupted, LatticeError
+from .errors import ConfigError, DumpFormatError, Interrupted, LatticeError, UsageError
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
@@ -179,7 +179,7 @@ def _load(args):
 def _folder(path: Path) -> Path:
     """An output folder argument: refused at once if it names a file, before any work."""
     if path.exists() and not path.is_dir():
-        raise ConfigError("--output", f"{path} is a file; expected a folder")
+        raise UsageError("--output", f"{path} is a file; expected a folder")
     return path
 
 
@@ -191,7 +191,7 @@ def _run_folder(path: Path) -> Path:
     outer = inside_sweep(path)
     if outer is not None or (path / SWEEP_FILE).is_file():
         where = f"inside {outer}, a sweep's members" if outer is not None else "a sweep's folder"
-        raise ConfigError("--output", f"{path} is {where}; a run there would be taken for the sweep's own; "
+        raise UsageError("--output", f"{path} is {where}; a run there would be taken for the sweep's own; "
                                       "choose a folder outside the sweep")
     return _folder(path)
 
@@ -262,7 +262,7 @@ def _summarize(args) -> int:
 
     folder = RunFolder(args.folder)
     if not args.folder.is_dir():
-        raise ConfigError("folder", f"got {str(args.folder)!r}; expected a run folder")
+        raise UsageError("folder", f"got {str(args.folder)!r}; expected a run folder")
     summary = folder.summarize(figure=not args.no_figure)
     print(dumps(summary))
     return 0
@@ -276,14 +276,14 @@ def _export(args) -> int:
 
     out = args.output
     if args.every < 1:
-        raise ConfigError("--every", f"got {args.every}; expected >= 1")
+        raise UsageError("--every", f"got {args.every}; expected >= 1")
     if out.suffix not in FORMATS:  # here, before the temporary file's name would stand in the message
-        raise ConfigError("--output", f"got {out.name!r}; expected a file ending in {' or '.join(FORMATS)}")
+        raise UsageError("--output", f"got {out.name!r}; expected a file ending in {' or '.join(FORMATS)}")
     if not out.parent.is_dir():
-        raise ConfigError("--output", f"{out.parent} is not a folder; expected an existing folder")
+        raise UsageError("--output", f"{out.parent} is not a folder; expected an existing folder")
     refuse_link(out)
     if out.is_dir() or (out.exists() and not args.overwrite):
-        raise ConfigError("--output", f"{out} is a folder; expected a file name" if out.is_dir() else
+        raise UsageError("--output", f"{out} is a folder; expected a file name" if out.is_dir() else
                           f"{out} exists; pass --overwrite to replace it, or choose another -o")
     check_writable(out.parent, "--output")
     run = RunFolder(args.folder)

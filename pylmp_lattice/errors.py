@@ -1,4 +1,5 @@
-"""The package's exceptions: one for bad input, one for a failed engine run, one for a stop signal."""
+"""The package's exceptions: bad input (a case field; a flag, folder or argument), a failed engine
+run, a stop signal."""
 
 from __future__ import annotations
 
@@ -16,6 +17,13 @@ class ConfigError(LatticeError, ValueError):
     def __init__(self, field: str, message: str):
         self.field = field
         super().__init__(f"{field}: {message}")
+
+
+class UsageError(ConfigError):
+    """A command-line flag, a folder or a function's argument is wrong (not a case field); the
+    message names it, e.g. "--np: got 0; expected an integer >= 1". A ConfigError, so that both
+    are bad input (the command line's exit 2) while a ConfigError raised as such names a field
+    of a case or sweep file."""
 
 
 class DumpFormatError(LatticeError, ValueError):

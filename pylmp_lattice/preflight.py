@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import Case, unit_warnings
-from .errors import ConfigError
+from .errors import ConfigError, UsageError
 from .deck import per_atom_masses, records_front, uses_chain_engine
 from .exact import weak_shock
 from .formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
@@ -280,7 +280,7 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
     """Refuse (ConfigError) a run that cannot fit this machine or, without `yes`, takes over an hour;
     warn about many ranks and a coarse time step. Returns the estimate."""
     if not (isinstance(nprocs, int) and nprocs >= 1):
-        raise ConfigError("--np", f"got {nprocs!r}; expected an integer >= 1")
+        raise UsageError("--np", f"got {nprocs!r}; expected an integer >= 1")
     for line in rank_warnings(case.chain.particles, nprocs):  # --np tells the truth
         log.warning(line)
     est = estimate(case, nprocs)
@@ -338,7 +338,7 @@ def check_writable(folder: str | Path, field: str) -> None:
             pass
     except OSError as err:
         made = "" if where == Path(folder).resolve() else f" (to make {folder} there)"
-        raise ConfigError(field, f"cannot write in {where}{made}: {err.strerror}; "
+        raise UsageError(field, f"cannot write in {where}{made}: {err.strerror}; "
                                  "expected a folder you can write") from None
 
 

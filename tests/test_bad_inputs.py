@@ -370,3 +370,34 @@ def test_random_mutations_never_crash(workdir, capsys, seed):
         assert code in (0, 2), (code, err, data)
         assert code == 0 or (err.count("\n") == 1 and "Traceback" not in err), (err, data)
         shutil.rmtree(f"runs/t{seed}-{trial}", ignore_errors=True)
+
+
+def test_a_flag_or_folder_is_a_usage_error_and_a_case_field_a_config_error(tmp_path):
+    """UsageError names a flag, folder or argument; a ConfigError raised as such names a case
+    field; both are bad input (a UsageError is a ConfigError: the CLI's exit 2). Every raise
+    in the package that names a flag ("-o", "--np") or the output folder is a UsageError."""
+    import ast
+    from pathlib import Path
+
+    from pylmp_lattice.errors import ConfigError, UsageError
+    from pylmp_lattice.preflight import check
+    from pylmp_lattice.run_folder import execute
+
+    case = make_case(particles=10, duration=1.0)
+    with pytest.raises(UsageError, match=r"^--np: got 0; expected an integer >= 1$"):
+        check(case, tmp_path, nprocs=0)
+    with pytest.raises(UsageError, match=r"^--np: got 2; several ranks need --runner lmp$"):
+        execute(case, tmp_path / "run", nprocs=2)
+    with pytest.raises(ConfigError, match=r"^chain.mass: ") as info:
+        make_case(chain={"mass": -1.0})
+    assert type(info.value) is ConfigError and issubclass(UsageError, ConfigError)
+
+    package = Path(__file__).resolve().parents[1] / "pylmp_lattice"
+    wrong = []
+    for path in package.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "ConfigError" and node.args
+                    and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)
+                    and (node.args[0].value.startswith("-") or node.args[0].value in ("output", "folder"))):
+                wrong.append(f"{path.relative_to(package)}:{node.lineno}")
+    assert wrong == [], f"ConfigError naming a flag or folder (raise UsageError): {wrong}"

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, UsageError
 from ..exact import weak_shock
 from ..impactor import PROFILES
 from .case import Case
@@ -93,7 +93,7 @@ def apply_override(data: dict, item: str) -> None:
     key, sep, text = item.partition("=")
     parts = key.strip().split(".")
     if not sep or not (parts == ["name"] or (len(parts) == 2 and all(parts))) or not item.isprintable():
-        raise ConfigError("--set", f"got {brief(item)}; expected SECTION.KEY=VALUE (one line) or name=VALUE, "
+        raise UsageError("--set", f"got {brief(item)}; expected SECTION.KEY=VALUE (one line) or name=VALUE, "
                                    "e.g. impactor.velocity=1.5")
     try:
         value = tomllib.loads(f"v = {text.strip()}")["v"]

@@ -15,7 +15,7 @@ import os
 import re
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import UsageError
 
 # ---- written before the run (deck.render, write.write_folder)
 DECK = "in.lattice"
@@ -96,21 +96,21 @@ def deck_dir(folder: Path) -> str:
     for path in (relative, str(folder)):
         if deck_safe(path):
             return path
-    raise ConfigError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
+    raise UsageError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
                                 "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
                                 "or use --runner lmp")
 
 
 def check_place(path: Path, what: str) -> None:
-    """ConfigError unless `path` may be the output folder of a `what` ("run", "sweep"): never the
+    """UsageError unless `path` may be the output folder of a `what` ("run", "sweep"): never the
     working directory, a parent of it or runs/ itself (they hold the user's files), nor a file."""
     path = Path(path)
     resolved, here = path.resolve(), Path.cwd().resolve()
     if resolved == here or resolved in here.parents or resolved == here / "runs":
-        raise ConfigError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
+        raise UsageError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
                                     f"choose a new folder for the {what} (-o)")
     if path.exists() and not path.is_dir():
-        raise ConfigError("output", f"got {str(path)!r}: a file, not a folder")
+        raise UsageError("output", f"got {str(path)!r}: a file, not a folder")
 
 
 def inside_sweep(path: Path) -> Path | None:

@@ -18,7 +18,7 @@ from typing import Sequence
 import tomli_w
 
 from ..case import Case, case_from_dict, case_to_dict, load_case, read_toml
-from ..errors import ConfigError
+from ..errors import ConfigError, UsageError
 from ..formats import layout
 from ..formats.files import refuse_links
 
@@ -53,7 +53,7 @@ def read_cases(folder: Path) -> tuple[Case, ...]:
     if (folder / layout.CASE).is_file():
         return (load_case(folder / layout.CASE),)
     if not (folder / layout.REPLICAS).is_file():
-        raise ConfigError("folder", f"got {str(folder)!r}; expected a run folder (it has no {layout.CASE})")
+        raise UsageError("folder", f"got {str(folder)!r}; expected a run folder (it has no {layout.CASE})")
     data = read_toml(folder / layout.REPLICAS, "folder")
     try:
         base, count, columns, unset = data["case"], data["count"], data["chains"], data["unset"]
@@ -65,5 +65,5 @@ def read_cases(folder: Path) -> tuple[Case, ...]:
             cases.append(case_from_dict(base | {"chain": chain, "name": names[r]}, base_dir=folder))
         return tuple(cases)
     except (KeyError, IndexError, TypeError, AttributeError) as err:
-        raise ConfigError("folder", f"{folder / layout.REPLICAS} is not a batch's cases ({type(err).__name__}: "
+        raise UsageError("folder", f"{folder / layout.REPLICAS} is not a batch's cases ({type(err).__name__}: "
                                     f"{err})") from None

@@ -16,7 +16,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import ConfigError, UsageError
 from ..formats import layout
 from ..formats.files import refuse_links
 from . import marker
@@ -66,23 +66,23 @@ def _holds_run(path: Path, overwrite: bool) -> bool:
         refuse_links(path, layout.RUN_FILES)
     if run:
         if not overwrite:
-            raise ConfigError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
+            raise UsageError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
                                         "replace it, or choose another --name or -o")
         state = marker.status(path)
         if state == marker.RUNNING:
-            raise ConfigError("output", f"{path} holds a run that is still being written; wait for it or stop it")
+            raise UsageError("output", f"{path} holds a run that is still being written; wait for it or stop it")
         if not marker.settled(path, state):
-            raise ConfigError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
+            raise UsageError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
                                         "LAMMPS this machine cannot see may still write; wait, or remove the folder "
                                         "yourself")
         odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_symlink()
                and not (path / name).is_file()]
         if odd:  # checked before anything is removed: an overwrite never stops half-way
-            raise ConfigError("output", f"{path / odd[0]} is not a file; a run writes a file there")
+            raise UsageError("output", f"{path / odd[0]} is not a file; a run writes a file there")
         return True
     # a lock file alone is no run's (a writer's, this thread's own, or left by a killed one)
     clash = sorted(name for name in layout.RUN_FILES if os.path.lexists(path / name) and name != layout.LOCK)
     if clash:
-        raise ConfigError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
+        raise UsageError("output", f"{path} holds {', '.join(clash)} but no run of this package; "
                                     "choose an empty or new folder")
     return False

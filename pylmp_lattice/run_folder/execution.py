@@ -32,7 +32,7 @@ from .. import deck, preflight
 from .. import runner as lammps_runner
 from ..case import Case
 from ..engine import RUNNERS
-from ..errors import ConfigError, ContactError, Interrupted, RunError
+from ..errors import ContactError, Interrupted, RunError, UsageError
 from ..formats import layout
 from ..progress import progress_bar
 from ..trajectory import Trajectory
@@ -66,9 +66,9 @@ class Lammps:
 
     def __post_init__(self):
         if self.runner not in RUNNERS:
-            raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+            raise UsageError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
         if self.nprocs > 1 and self.runner != "lmp":
-            raise ConfigError("--np", f"got {self.nprocs}; several ranks need --runner lmp")
+            raise UsageError("--np", f"got {self.nprocs}; several ranks need --runner lmp")
 
     def check(self, path: Path) -> None:
         if self.runner == "embedded":

@@ -26,7 +26,7 @@ from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
 from ..formats.dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
-from ..errors import ConfigError, LatticeError
+from ..errors import LatticeError, UsageError
 from ..case_measures import case_front, read_front_record, set_impactor_acceleration
 from ..numbering import number
 from ..serialize import dumps, loads_object
@@ -76,7 +76,7 @@ class RunFolder:
         """The run's case; ConfigError for a batch of chains (see `cases`)."""
         cases = self.cases
         if len(cases) != 1:
-            raise ConfigError("folder", f"{self.path} holds a batch of {len(cases)} chains, not one case; "
+            raise UsageError("folder", f"{self.path} holds a batch of {len(cases)} chains, not one case; "
                                         "read RunFolder.cases and RunFolder.replicas()")
         return cases[0]
 
@@ -124,7 +124,7 @@ class RunFolder:
         from ..formats import h5md
 
         if group not in layout.BINARY_GROUPS:
-            raise ConfigError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")
+            raise UsageError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")
         case = self.case
         columns = self._columns(group, magnets)
         key = ("trajectory", group, columns, self._stamp())
@@ -141,7 +141,7 @@ class RunFolder:
         elif text.is_file():
             traj = _select(trajectory_from_dump(read_dump(text, dt=to_engine(case.run.dt, "time"))), columns)
         else:
-            raise ConfigError(str(self.path), f"holds no {group} trajectory (status {self.status}, "
+            raise UsageError(str(self.path), f"holds no {group} trajectory (status {self.status}, "
                                               f"output.format = {case.output.format!r})")
         numbers = self._numbers(group)
         numbers = numbers if columns is None else numbers[list(columns)]
@@ -155,7 +155,7 @@ class RunFolder:
         cases = self.cases
         dump = self.path / layout.DUMP
         if not dump.is_file():
-            raise ConfigError(str(self.path), f"holds no text dump of its chains (status {self.status})")
+            raise UsageError(str(self.path), f"holds no text dump of its chains (status {self.status})")
         batched = trajectory_from_dump(read_dump(dump, dt=to_engine(cases[0].run.dt, "time")))
         n, out = cases[0].chain.particles, []
         for r, case in enumerate(cases):
@@ -178,7 +178,7 @@ class RunFolder:
         wanted = list(magnets) if isinstance(magnets, (list, tuple, np.ndarray)) else None
         if wanted is None or not all(isinstance(m, (int, np.integer)) and not isinstance(m, bool) for m in wanted) \
                 or any(m not in held for m in wanted) or wanted != sorted(set(wanted)):
-            raise ConfigError("magnets", f"got {magnets!r}; expected a list of increasing integer magnet numbers in {where}")
+            raise UsageError("magnets", f"got {magnets!r}; expected a list of increasing integer magnet numbers in {where}")
         return tuple(held.index(m) for m in wanted)
 
     def _masses(self, group: str) -> np.ndarray:
@@ -222,7 +222,7 @@ class RunFolder:
         except LatticeError:
             return None, None
         if len(traj.t) < 2:
-            raise ConfigError(str(self.path), f"holds {len(traj.t)} frame(s) of its trajectory (status {self.status}); "
+            raise UsageError(str(self.path), f"holds {len(traj.t)} frame(s) of its trajectory (status {self.status}); "
                                               "a front needs at least 2, nothing to measure")
         front = case_front(case, traj.t, traj.v, traj.a, self.arrival_method())
         return front, np.max(np.abs(traj.v), axis=0)
@@ -237,7 +237,7 @@ class RunFolder:
         """Write summary.json (strict JSON: an undefined measure is null), then the figure; return
         the summary. Works for any run folder LAMMPS no longer writes: finished, run by hand,
         stopped by a contact, failed or interrupted (measured up to where it stopped; `stopped`
-        says where). A folder still being written is refused (ConfigError): its numbers would be
+        says where). A folder still being written is refused (UsageError): its numbers would be
         partial. A deck edited since it was written is said so (`deck_changes`). What an earlier
         summary of the same run holds and this one does not redo stays: its wall time, and its
         figure when not drawn again. A figure that fails is a warning: the summary is already
@@ -247,7 +247,7 @@ class RunFolder:
         refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         case, status = self.case, self.status
         if status == RUNNING:
-            raise ConfigError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
+            raise UsageError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays

@@ -19,7 +19,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..formats.dump import find_contact, log_ended
-from ..errors import ConfigError
+from ..errors import UsageError
 from ..file_lock import Held, exclusive, is_held
 from ..formats import files, layout
 
@@ -118,13 +118,13 @@ def claimed(folder: Path):
     """Hold the folder's lock (run.lock): a writer from before it looks at the folder until it
     wrote it, a runner until its run is converted and summarised, a reader while it converts
     the dumps. Two cannot write one folder, and others leave its files alone meanwhile; in the
-    thread that holds it (`file_lock`) it is simply held on. ConfigError if another holds it."""
+    thread that holds it (`file_lock`) it is simply held on. UsageError if another holds it."""
     files.refuse_link(folder / layout.LOCK)
     with contextlib.ExitStack() as stack:
         try:
             stack.enter_context(exclusive(folder / layout.LOCK, timeout=CLAIM_WAIT))
         except Held as err:
-            raise ConfigError("output", f"{folder} holds a run that is still being written; wait for it or "
+            raise UsageError("output", f"{folder} holds a run that is still being written; wait for it or "
                                         "stop it") from err
         yield
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..case import read_toml
-from ..errors import ConfigError
+from ..errors import ConfigError, UsageError
 
 log = logging.getLogger(__name__)
 
@@ -141,12 +141,12 @@ def sweep_workers(sweep_file: str | Path, folder: str | Path, kind: str | None, 
         if "cluster" in read_toml(Path(sweep_file), "sweep"):  # (without one, dask is not loaded)
             read_cluster(sweep_file)
         if jobs is not None:
-            raise ConfigError("--jobs", "counts batch jobs; use it with --cluster (or --workers for local processes)")
+            raise UsageError("--jobs", "counts batch jobs; use it with --cluster (or --workers for local processes)")
         yield {"workers": workers, "scheduler": scheduler}
         return
     for option, value in (("--scheduler", scheduler), ("--workers", workers)):
         if value is not None:
-            raise ConfigError(option, "the batch cluster has its own workers; leave it out with --cluster")
+            raise UsageError(option, "the batch cluster has its own workers; leave it out with --cluster")
     from distributed import Client
 
     jobs = 1 if jobs is None else jobs
@@ -160,19 +160,19 @@ def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path):
     """Keep `jobs` batch jobs of one Dask worker each while the block runs; yield the jobqueue
     cluster (a `distributed.Client` connects to it). Leaving the block cancels the jobs."""
     if kind not in KINDS:
-        raise ConfigError("--cluster", f"got {kind!r}; choose one of {', '.join(KINDS)}")
+        raise UsageError("--cluster", f"got {kind!r}; choose one of {', '.join(KINDS)}")
     if not (isinstance(jobs, int) and jobs >= 1):
-        raise ConfigError("--jobs", f"got {jobs!r}; expected an integer >= 1")
+        raise UsageError("--jobs", f"got {jobs!r}; expected an integer >= 1")
     logs = Path(folder).resolve() / LOGS
     if not _PATH.fullmatch(str(logs)):  # it is written into the job script's directives
-        raise ConfigError("-o", f"got {str(folder)!r}; with --cluster, a folder path of letters, digits and "
+        raise UsageError("-o", f"got {str(folder)!r}; with --cluster, a folder path of letters, digits and "
                           "_ . / + - @ % , = ~ only (no spaces or shell characters)")
     from dask_jobqueue import PBSCluster, SLURMCluster
 
     cls = SLURMCluster if kind == "slurm" else PBSCluster
     submit = cls.job_cls.submit_command
     if shutil.which(submit) is None:  # jobqueue would only log the failed submissions, and wait
-        raise ConfigError("--cluster", f"{submit} is not on PATH; a {kind} cluster is submitted from a machine that has it")
+        raise UsageError("--cluster", f"{submit} is not on PATH; a {kind} cluster is submitted from a machine that has it")
     with _quiet("distributed", "dask_jobqueue"), cls(**job_options(kind, spec, logs)) as cluster:
         # adapt, not scale: a worker that retired at its lifetime is replaced by a new job
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import ConfigError, UsageError
 from .spec import Sweep, _is_random, member_seed
 
 SAMPLES = 8
@@ -54,7 +54,7 @@ def member_bytes(sweep: Sweep, slots: int) -> float | None:
 
 
 def check(sweep: Sweep, root: str | Path, todo: int, slots: int) -> str:
-    """ConfigError unless `todo` members' files fit the free space where `root` is (or will be);
+    """UsageError unless `todo` members' files fit the free space where `root` is (or will be);
     returns the need as text ("about 12 MB on disk")."""
     from ..preflight import _size, free_disk
 
@@ -63,7 +63,7 @@ def check(sweep: Sweep, root: str | Path, todo: int, slots: int) -> str:
         return "no disk estimate"
     need, free = each * todo, free_disk(root)
     if need > free:
-        raise ConfigError("-o", f"the sweep needs about {_size(need)} on disk ({todo} members to run, about "
+        raise UsageError("-o", f"the sweep needs about {_size(need)} on disk ({todo} members to run, about "
                           f"{_size(each)} each) and {root} has {_size(free)} free; free space or sweep fewer members"
                           + ('' if sweep.keep == "measures" else ', or set keep = "measures" (no trajectories)'))
     return f"about {_size(need)} on disk"

@@ -34,7 +34,7 @@ from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import ConfigError, Interrupted
+from ..errors import Interrupted, UsageError
 from ..formats.files import DiskFull
 from . import batch, disk
 from .batch import Task
@@ -87,7 +87,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
-        raise ConfigError("--workers", f"got {workers!r}; expected an integer >= 1")
+        raise UsageError("--workers", f"got {workers!r}; expected an integer >= 1")
     slots_now = slots or workers or os.cpu_count() or 1
     cores = os.cpu_count() or 1
     if workers is not None and executor is None and workers > cores:
@@ -96,7 +96,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     disk_need = disk.check(sweep, root, total - Outcomes(root).at_most(), slots_now)  # --yes or not
     log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now), disk_need)
     if total > MANY_MEMBERS and not yes:
-        raise ConfigError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
+        raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")
     root.mkdir(parents=True, exist_ok=True)
     with _lock(root), _StopSignals() as stop:
@@ -360,14 +360,14 @@ def _lock(root: Path):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError as err:
-            raise ConfigError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
+            raise UsageError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
         yield
     finally:
         os.close(fd)
 
 
 def check_folder(root: str | Path) -> None:
-    """ConfigError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
+    """UsageError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
     a run's folder, and not inside another sweep's members/ or batches/ (a study's sweeps may
     sit side by side in one sweep's folder)."""
     from ..formats import layout
@@ -378,10 +378,10 @@ def check_folder(root: str | Path) -> None:
     layout.check_place(Path(root), "sweep")
     refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
     if marker.is_run(Path(root)):
-        raise ConfigError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
+        raise UsageError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
     outer = layout.inside_sweep(root)
     if outer is not None:
-        raise ConfigError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
+        raise UsageError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
                           "folder (-o)")
 
 
@@ -394,7 +394,7 @@ def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
     identity = sweep.identity()
     held = read_json(root / SWEEP_FILE)
     if held is not None and held.get("identity") != identity and not overwrite:
-        raise ConfigError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
+        raise UsageError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
                           "or pass --overwrite (overwrite=True) to replace it")
     if held is None or held.get("identity") != identity:
         atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n", sync=True)

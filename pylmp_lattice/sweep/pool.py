@@ -14,7 +14,7 @@ import signal
 import threading
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 
-from ..errors import ConfigError, Interrupted
+from ..errors import ConfigError, Interrupted, UsageError
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds a local worker lives on after a stop signal (to stop its engine and report).
@@ -65,14 +65,14 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
     task at a time per process: pool processes are, Dask workers must be (one thread each)."""
     if executor is not None:
         if workers is not None or scheduler is not None:
-            raise ConfigError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
+            raise UsageError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
         yield Pool(executor, slots or 1)
         return
     if scheduler is None:
         yield from _local_pool(workers or os.cpu_count() or 1)
         return
     if workers is not None:
-        raise ConfigError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
+        raise UsageError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
     from distributed import Client
     from distributed.comm.addressing import parse_address, parse_host_port
     from distributed.comm.registry import backends
@@ -83,11 +83,11 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
         if kind not in backends:
             raise ValueError(f"unknown scheme {kind!r}")
     except ValueError as err:
-        raise ConfigError("--scheduler", f"got {scheduler!r} ({err}); expected an address like tcp://HOST:PORT") from err
+        raise UsageError("--scheduler", f"got {scheduler!r} ({err}); expected an address like tcp://HOST:PORT") from err
     try:
         client = Client(scheduler, timeout="20s")
     except (OSError, TimeoutError, ValueError) as err:
-        raise ConfigError("--scheduler", f"cannot reach {scheduler} ({err}); expected tcp://HOST:PORT") from err
+        raise UsageError("--scheduler", f"cannot reach {scheduler} ({err}); expected tcp://HOST:PORT") from err
     try:
         threads = client.nthreads()
         if runner == "embedded" and any(n > 1 for n in threads.values()):
