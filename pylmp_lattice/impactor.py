@@ -70,8 +70,7 @@ class Ramp:
 
     def __post_init__(self):
         _check_velocity(self.velocity)
-        if not self.ramp_time > 0:
-            raise ConfigError("impactor.ramp_time", f"got {self.ramp_time} ms; expected > 0")
+        _check_time("impactor.ramp_time", self.ramp_time)
 
     def velocity_at(self, t):
         t = np.asarray(t, float)
@@ -99,8 +98,7 @@ class SinePulse:
 
     def __post_init__(self):
         _check_velocity(self.velocity)
-        if not self.duration > 0:
-            raise ConfigError("impactor.duration", f"got {self.duration} ms; expected > 0")
+        _check_time("impactor.duration", self.duration)
 
     def velocity_at(self, t):
         t = np.asarray(t, float)
@@ -184,3 +182,8 @@ PROFILES = {cls.profile: cls for cls in (Constant, Rest, Ramp, SinePulse, Measur
 def _check_velocity(v: float):
     if not (np.isfinite(v) and v > 0):
         raise ConfigError("impactor.velocity", f"got {v} m/s; expected > 0")
+
+
+def _check_time(field: str, t: float):
+    if not t > 0:
+        raise ConfigError(field, f"got {t} ms; expected > 0")
