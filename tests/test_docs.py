@@ -21,6 +21,24 @@ def test_the_docs_build_with_warnings_as_errors(tmp_path):
     assert "RunFolder" in (tmp_path / "site" / "api" / "index.html").read_text()
 
 
+def test_the_architecture_figure_draws_the_layers_the_test_keeps(tmp_path):
+    """docs/figures/architecture.svg is drawn by docs/figures/architecture.py from the layers of
+    tests/test_architecture.py (text kept as text): the committed file names each layer, in
+    order, and the script draws it again."""
+    import importlib.util
+    import re
+
+    from test_architecture import LAYERS
+
+    spec = importlib.util.spec_from_file_location("architecture", ROOT / "docs" / "figures" / "architecture.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    script.draw(tmp_path / "a.svg")
+    for svg in (ROOT / "docs" / "figures" / "architecture.svg", tmp_path / "a.svg"):
+        names = re.findall(r"<text style=\"font-weight: 700[^>]*>([^<]*)</text>", svg.read_text())  # the bold ones
+        assert names == [name for name, _ in LAYERS], (svg, names)
+
+
 @pytest.mark.lammps
 def test_the_tutorial_notebook_runs(tmp_path):
     """docs/tutorial.ipynb, executed cell by cell in a fresh kernel from docs/."""
