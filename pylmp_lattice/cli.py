@@ -26,6 +26,8 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The `pylmp-lattice` command: run the subcommand in `argv` (default: sys.argv); return the exit
+    code (0, 2 for bad input, 130 for Ctrl-C, 1 for a failed run), errors as one line on stderr."""
     parser = _parser()
     args = parser.parse_args(argv)
     for level in (logging.INFO, logging.WARNING):

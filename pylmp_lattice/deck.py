@@ -45,7 +45,13 @@ def _num(x) -> str:
 
 
 def render(case: Case) -> dict[str, str]:
-    """The files of a run of `case`: {file name: text} (the module's docstring)."""
+    """The LAMMPS input of `case`: {file name: text}, the deck (`in.lattice`), the data file
+    (`chain.data`), the force table(s) and, for a measured drive, its samples (`impactor.txt`).
+
+    A pure function: no file is read or written, and the same case gives the same texts. Every
+    value is converted to LAMMPS `units si` here (`units.to_engine`) and written so that it reads
+    back to the same double; the case's name appears only in comments. Written into one folder,
+    `lmp -in in.lattice` runs it (`run_folder.write` does that, with case.toml and run.json)."""
     return {DECK: deck_text(case), DATA: data_text(case), **_tables(case)}
 
 

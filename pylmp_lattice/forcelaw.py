@@ -7,14 +7,33 @@ Every law gives F, the potential U with F = -dU/dr, and the stiffness k = -dF/dr
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from .errors import ConfigError
 
 
+class Law(Protocol):
+    """What every law gives (user units); each law below is one."""
+
+    law: str  # its name in a case's [force] section
+
+    def force(self, r):
+        """F(r), N: the repulsive force at separations r (mm, any shape)."""
+
+    def energy(self, r):
+        """U(r), mJ, with F = -dU/dr."""
+
+    def stiffness(self, r):
+        """k(r) = -dF/dr, N/mm."""
+
+    def domain(self) -> tuple[float, float]:
+        """The separations where the law is defined, mm (open at a divergence)."""
+
+
 @dataclass(frozen=True)
-class PowerLaw:
+class PowerLaw(Law):
     """The magnets' law F = K / (r + b)^q (paper: K = 413.8 N mm^3, b = 3.917 mm, q = 3)."""
 
     K: float = 413.8  # N mm^q
@@ -44,7 +63,7 @@ class PowerLaw:
 
 
 @dataclass(frozen=True)
-class LinearSpring:
+class LinearSpring(Law):
     """Linear spring F = k (r_free - r): repulsive for r < r_free, stiffness k everywhere.
 
     The paper's Fig. S5 writes "F = k r" with r counted as compression; with the repulsive
@@ -74,7 +93,7 @@ class LinearSpring:
 
 
 @dataclass(frozen=True)
-class SampledLaw:
+class SampledLaw(Law):
     """A law given as measured samples (r_i, F_i), interpolated by a not-a-knot cubic spline.
 
     U(r) is the spline's exact integral, so F = -dU/dr holds to round-off; the law is only
@@ -117,7 +136,7 @@ class SampledLaw:
 
 
 @dataclass(frozen=True)
-class Toda:
+class Toda(Law):
     """The Toda law F = A (exp(-B (r - a)) - 1), zero at r = a (Toda 1967).
 
     U = (A/B) (exp(-B (r - a)) - 1) + A (r - a), zero and minimal at r = a. With m = A = B = 1
@@ -152,7 +171,7 @@ class Toda:
 
 
 @dataclass(frozen=True)
-class LennardJones:
+class LennardJones(Law):
     """The Lennard-Jones law between nearest neighbours, U = 4 epsilon ((sigma/r)^12 - (sigma/r)^6).
 
     F = (24 epsilon / r) (2 (sigma/r)^12 - (sigma/r)^6), zero at r = 2^(1/6) sigma; U -> 0 far
@@ -190,7 +209,7 @@ class LennardJones:
 
 
 @dataclass(frozen=True)
-class Morse:
+class Morse(Law):
     """The Morse law U = D (exp(-2 alpha (r - r_e)) - 2 exp(-alpha (r - r_e))), as LAMMPS's morse.
 
     F = 2 alpha D (exp(-2 alpha (r - r_e)) - exp(-alpha (r - r_e))), zero at r = r_e, where
@@ -228,7 +247,7 @@ class Morse:
 
 
 @dataclass(frozen=True)
-class FPUT:
+class FPUT(Law):
     """The Fermi-Pasta-Ulam-Tsingou law: U = k x^2/2 + alpha x^3/3 + beta x^4/4, x = r - a the stretch.
 
     F = -(k x + alpha x^2 + beta x^3) (repulsive when compressed, x < 0), stiffness
@@ -273,6 +292,8 @@ ForceLaw = PowerLaw | LinearSpring | SampledLaw | Toda | LennardJones | Morse | 
 
 @dataclass(frozen=True)
 class PowerLawFit:
+    """`fit_power_law`'s result: the law, and its relative error against the samples of F."""
+
     law: PowerLaw
     rms_relative_error: float  # sqrt(mean(((F_fit - F) / F)^2))
     max_relative_error: float

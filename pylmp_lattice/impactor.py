@@ -13,6 +13,7 @@ One word, impactor, names magnet 1 and its drive throughout the package; the plu
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -20,8 +21,26 @@ from .errors import ConfigError
 from .units import acceleration
 
 
+class Profile(Protocol):
+    """What every impactor profile gives (user units: t in ms); each profile below is one."""
+
+    profile: str  # its name in a case's [impactor] section
+
+    def velocity_at(self, t):
+        """The impactor's velocity at times t, m/s."""
+
+    def displacement_at(self, t):
+        """Its displacement from where it starts, mm."""
+
+    def acceleration_at(self, t):
+        """Its acceleration, m/s^2 (the force on it in a dump is the chain's push, not m a)."""
+
+    def peak_velocity(self) -> float:
+        """Its largest velocity, m/s: V_I, against which the front's levels are set."""
+
+
 @dataclass(frozen=True)
-class Constant:
+class Constant(Profile):
     """u1(t) = V_I t: the paper's constant impactor velocity (Fig. 3)."""
 
     velocity: float  # m/s
@@ -45,7 +64,7 @@ class Constant:
 
 
 @dataclass(frozen=True)
-class Rest:
+class Rest(Profile):
     """The first magnet held at rest, like the last (the friction calibration rig, Fig. S4b)."""
 
     profile = "rest"
@@ -60,7 +79,7 @@ class Rest:
 
 
 @dataclass(frozen=True)
-class Ramp:
+class Ramp(Profile):
     """Linear ramp from rest to V_I over T_r, then constant (paper Fig. S7a)."""
 
     velocity: float  # m/s
@@ -88,7 +107,7 @@ class Ramp:
 
 
 @dataclass(frozen=True)
-class SinePulse:
+class SinePulse(Profile):
     """Half-sine velocity pulse V_I sin(pi t / T_s) for 0 <= t <= T_s, then at rest (Fig. S8a)."""
 
     velocity: float  # m/s, peak
@@ -118,7 +137,7 @@ class SinePulse:
 
 
 @dataclass(frozen=True)
-class Measured:
+class Measured(Profile):
     """A measured impactor motion, samples (t_i, u_i) or (t_i, v_i) (paper Sec. S1, Fig. S2).
 
     Times start at the first sample and displacements at its value (the impactor starts where

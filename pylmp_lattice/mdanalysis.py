@@ -45,6 +45,7 @@ class H5MDParser(TopologyReaderBase):
     format = "H5MD"
 
     def parse(self, **kwargs) -> Topology:
+        """The topology of the H5MD file (or open h5py.File): MDAnalysis's parser interface."""
         if isinstance(self.filename, h5py.File):
             return _topology(self.filename)
         with h5py.File(self.filename, "r") as h5:

@@ -13,6 +13,7 @@ from . import measures
 
 
 def pyplot():
+    """matplotlib's pyplot with the Agg backend, imported on first use (it costs a command 0.4 s)."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -257,6 +257,9 @@ def _table_bytes(law, lo: float, hi: float, points: int) -> float:
 
 
 def estimate(case: Case, nprocs: int = 1) -> Estimate:
+    """What running `case` on `nprocs` ranks will take before it runs: frames, the size of every
+    output file, memory and wall time, from the case alone (nothing is drawn or written).
+    `pl.estimate`; `check` refuses a run that does not fit this machine."""
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)
     types = 1 if per_atom_masses(case) else len(np.unique(np.asarray(case.chain.mass)))

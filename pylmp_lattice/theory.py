@@ -234,6 +234,7 @@ class FirstPeakLimit:
     points: int
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return asdict(self)
 
 

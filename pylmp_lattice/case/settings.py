@@ -17,6 +17,8 @@ COMPRESSIONS = ("lzf", "gzip", "none")
 
 @dataclass(frozen=True)
 class RunSettings:
+    """[run]: how long and how finely to integrate, ms, and which engine (`ENGINES`)."""
+
     duration: float  # ms
     dt: float = 0.01  # ms
     output_interval: float = 0.1  # ms between dump frames

@@ -55,6 +55,7 @@ class BinaryDump:
     frame_dtype: np.dtype | None  # every frame alike (one chunk): its record type, else None
 
     def column(self, name: str) -> int:
+        """The index of column `name` in each row; DumpFormatError naming the file without it."""
         try:
             return self.columns.index(name)
         except ValueError:

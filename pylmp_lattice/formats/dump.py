@@ -85,6 +85,7 @@ class DumpFrames:
 
     @property
     def n_frames(self) -> int:
+        """The number of frames read."""
         return len(self.time)
 
 

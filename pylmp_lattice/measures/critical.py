@@ -32,6 +32,7 @@ class CriticalVelocity:
     reason: str | None = None
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"V_star_m_per_s": self.value, "method": self.method, "reason": self.reason}
 
 

@@ -127,6 +127,7 @@ class FrictionFit:
     nfev: int
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return asdict(self)
 
 

@@ -79,17 +79,20 @@ class Front:
 
     @property
     def out_of_order(self) -> np.ndarray:
+        """Gaps whose far magnet's arrival is not later than the near one's (not the drive's gap 1)."""
         with np.errstate(invalid="ignore"):
             return ~self.drive_gap & (np.diff(self.arrival) <= 0)
 
     @property
     def below_linear_speed(self) -> np.ndarray:
+        """Gaps (in order) whose V_P is below the chain's slowest linear speed, by more than LINEAR_LAG."""
         slowest = np.asarray(self.slowest_linear_speed)[..., None]  # a chain's, against its gaps
         with np.errstate(invalid="ignore"):
             return ~self.drive_gap & ~self.out_of_order & (self.propagation_velocity < (1 - LINEAR_LAG) * slowest)
 
     @property
     def accepted_velocity(self) -> np.ndarray:
+        """V_P per gap, NaN where flagged (the drive's gap, out of order, below the linear speed)."""
         return np.where(self.drive_gap | self.out_of_order | self.below_linear_speed, NAN, self.propagation_velocity)
 
     def resolution(self) -> dict:

@@ -37,6 +37,7 @@ class Oscillations:
         return HZ_PER_INV_MS / np.diff(self.max_time)
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"max_time_ms": self.max_time, "max_velocity_m_per_s": self.max_velocity,
                 "min_time_ms": self.min_time, "min_velocity_m_per_s": self.min_velocity,
                 "frequency_time_ms": self.frequency_time, "frequency_Hz": self.frequency}
@@ -97,13 +98,16 @@ class SteadyOscillation:
 
     @property
     def amplitude(self) -> float:
+        """Half the peak-to-peak velocity, m/s."""
         return 0.5 * (self.max_velocity - self.min_velocity)
 
     @property
     def measured(self) -> bool:
+        """Whether the oscillation was measured (`reason` says why not)."""
         return self.reason is None
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"frequency_Hz": self.frequency, "energy_ratio_eta": self.energy_ratio,
                 "max_velocity_m_per_s": self.max_velocity, "min_velocity_m_per_s": self.min_velocity,
                 "amplitude_m_per_s": self.amplitude, "mean_velocity_m_per_s": self.mean_velocity,

@@ -42,6 +42,7 @@ class FirstPeaks:
         return self.peak_time - self.start_time
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"start_time_ms": self.start_time, "peak_time_ms": self.peak_time,
                 "peak_velocity_m_per_s": self.peak_velocity, "peak_acceleration_m_per_s2": self.peak_acceleration,
                 "rise_time_ms": self.rise_time}

@@ -28,6 +28,7 @@ class PhasePortrait:
                 "velocity_min_m_per_s": v.min(), "velocity_max_m_per_s": v.max()}
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"magnet": self.magnet, "time_ms": self.time, "gap_mm": self.gap, "velocity_m_per_s": self.velocity}
 
 

@@ -167,6 +167,7 @@ class Plateau:
         return bool(abs(self.drift) <= max(rtol, noisy) and self.std <= SCATTER_LIMIT * abs(self.mean))
 
     def to_dict(self, rtol: float = 0.01) -> dict:
+        """The plateau as a dict of plain values (JSON), with `converged(rtol)`."""
         return {"mean": self.mean, "std": self.std, "relative_drift": self.drift,
                 "relative_drift_stderr": self.drift_stderr, f"first_{self.over}": self.first,
                 f"last_{self.over}": self.last, "converged": self.converged(rtol), "converged_rtol": rtol}

@@ -64,9 +64,11 @@ class TransitionZone:
 
     @property
     def width(self) -> np.ndarray:
+        """The transition zone's width in magnets: front magnet minus settled magnet."""
         return self.front_magnet - self.settled_magnet
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"time_ms": self.time, "front_magnet": self.front_magnet, "settled_magnet": self.settled_magnet,
                 "width_magnets": self.width}
 

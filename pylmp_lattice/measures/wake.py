@@ -44,6 +44,7 @@ class WakeState:
         return self.kinetic + self.potential
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return asdict(self) | {"oscillation_energy": self.oscillation_energy}
 
 

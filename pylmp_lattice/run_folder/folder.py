@@ -73,7 +73,7 @@ class RunFolder:
 
     @property
     def case(self) -> Case:
-        """The run's case; ConfigError for a batch of chains (see `cases`)."""
+        """The run's case; UsageError for a batch of chains (see `cases`)."""
         cases = self.cases
         if len(cases) != 1:
             raise UsageError("folder", f"{self.path} holds a batch of {len(cases)} chains, not one case; "

@@ -135,6 +135,7 @@ def locked(folder: Path) -> bool:
 
 
 def log_text(folder: Path) -> str | None:
+    """The folder's log.lammps as text, None without one."""
     try:
         return (folder / layout.LOG).read_text(errors="replace")
     except FileNotFoundError:

@@ -37,6 +37,7 @@ class StudyResult:
     quick: bool = False
 
     def to_dict(self) -> dict:
+        """The results as a dict of plain values (JSON), units in the keys."""
         return {"study": self.name, "quick": self.quick, **self.numbers}
 
 

@@ -118,6 +118,7 @@ class SweepRun:
 
     @property
     def done(self) -> bool:
+        """Whether the member's run ended normally (status "done")."""
         return self.status == DONE
 
     def row(self, label: str, key: str) -> dict:

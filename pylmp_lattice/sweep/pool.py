@@ -32,6 +32,7 @@ class Pool:
         self.executor, self.slots, self._stop = executor, slots, stop
 
     def submit(self, task) -> Future:
+        """Start a task (`batch.run_task`) on a worker; its future."""
         from .batch import run_task
 
         return self.executor.submit(run_task, task)
@@ -47,6 +48,7 @@ class Pool:
             self._signal(signal.SIGINT)
 
     def kill(self) -> None:
+        """SIGKILL the workers (when they did not stop on SIGTERM)."""
         self._signal(signal.SIGKILL)
 
     def _signal(self, signum: int) -> None:

@@ -92,10 +92,12 @@ class Member:
 
     @property
     def case(self) -> Case | None:
+        """The member's case once built (`build_from`); None if it is invalid (see `error`)."""
         return self._case[0]
 
     @property
     def error(self) -> str | None:
+        """Why the member's case is invalid, one line; None for a valid case."""
         return self._case[1]
 
     def build_from(self, template: Case, seed) -> None:

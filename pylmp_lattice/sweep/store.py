@@ -45,6 +45,7 @@ STATUS = "status.json"
 
 
 def member_folder(root: str | Path, member_id: str) -> Path:
+    """The folder of a member run alone: ROOT/members/<id>."""
     return Path(root) / MEMBERS / member_id
 
 
@@ -196,6 +197,7 @@ def remove_stale_locks(root: str | Path) -> None:
 
 
 def now() -> str:
+    """The time now, UTC, ISO 8601 to the millisecond, as status.json records it."""
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 

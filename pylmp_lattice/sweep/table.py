@@ -99,6 +99,7 @@ class Table:
         self.dirty = False
 
     def set(self, index: int, row: dict) -> None:
+        """Set member `index`'s row; written at the next `flush`."""
         self.rows[index] = row
         self.dirty = True
 

@@ -53,6 +53,8 @@ def base_case(duration: float) -> dict:
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     if quick:
         rms, disorder, replicas, duration = [0.0, 0.02, 0.1], [0.05], 2, 150.0
     else:

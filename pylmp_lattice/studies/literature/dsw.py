@@ -136,6 +136,8 @@ def measure(run, t0: float, prediction: theory.Prediction | None) -> dict:
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     chains = QUICK["chains"] if quick else tuple(CHAINS)
     fractions = QUICK["fractions"] if quick else FRACTIONS
     periods = QUICK["periods"] if quick else PERIODS

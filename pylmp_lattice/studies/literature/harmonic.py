@@ -47,6 +47,8 @@ def _decay_exponent(t, dv, t_range):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     velocities, duration = QUICK if quick else (VELOCITIES, 600.0)
     omega = np.sqrt(MAGNET_STIFFNESS / MAGNET_MASS)
     c0 = MAGNET_R0 * omega

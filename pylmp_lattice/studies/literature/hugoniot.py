@@ -67,6 +67,8 @@ def measure(chain: str, u_p: float, case, summary: dict, traj) -> dict:
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     plans = {c: (QUICK[c][0], QUICK[c][1], *RUNS[c][2:]) for c in QUICK} if quick else RUNS
     rows, theory = [], {}
     for chain, (speeds, duration, dt, output) in plans.items():

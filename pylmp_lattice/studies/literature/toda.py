@@ -63,6 +63,8 @@ def piston_case(u_p: float, duration: float, particles: int | None = None):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     kappas, speeds, duration = QUICK if quick else (KAPPAS, PISTON_SPEEDS, 200.0)
     folder = out / NAME
     solitons = []

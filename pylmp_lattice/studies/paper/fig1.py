@@ -36,6 +36,8 @@ FITS = {"n=2..12": (2, 12), "n=6..18": (6, 18)}  # first and last magnet
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     case = experiment_case()  # small enough to run whole in the quick version too
     traj = simulate(case, out / NAME / case.name, overwrite=True)
     t, v, a = traj.t, traj.v, traj.a

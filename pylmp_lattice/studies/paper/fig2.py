@@ -26,6 +26,8 @@ SHOWN = (1, 7)  # 0-based: magnets n = 2 and 8, as in the paper
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     law = PAPER_LAW
     r = np.linspace(2.0, 40.0, 60)
     rng = np.random.default_rng(2020)

@@ -22,6 +22,8 @@ PAPER = {"V0_m_per_s": 1.62, "V_P_m_per_s": 3.92, "first_peak_m_per_s": 3.87, "s
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     duration = 200.0 if quick else 600.0
     case = paper_case("fig3_long_lattice", {"profile": "constant", "velocity": VI}, duration)
     traj = simulate(case, out / NAME / case.name, overwrite=True)

@@ -47,6 +47,8 @@ QUICK_FRACTIONS = (0.05, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0)  # of V0
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     root = out / NAME
     if quick:
         velocities, duration = [0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0], 150.0

@@ -26,6 +26,8 @@ log = logging.getLogger(__name__)
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     from matplotlib import animation
 
     plt = pyplot()

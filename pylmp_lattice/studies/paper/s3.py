@@ -75,6 +75,8 @@ def relaxed(case):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     duration = 150.0 if quick else 400.0
     plt = pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")

@@ -49,6 +49,8 @@ def rig_case(r1: float, duration: float = 2000.0):
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     separations = (SEPARATIONS[0], SEPARATIONS[-1]) if quick else SEPARATIONS
     duration = 600.0 if quick else 2000.0
     plt = pyplot()

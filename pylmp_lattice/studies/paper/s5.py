@@ -30,12 +30,15 @@ DECAY_PROMINENCE = 1e-3  # of V_I
 
 
 def linear_case(duration: float):
+    """The paper's chain with the linear spring of its rest stiffness (same r0, same F(r0)), driven at VI."""
     k = MAGNET_STIFFNESS
     return paper_case("s5_linear_lattice", {"profile": "constant", "velocity": VI}, duration,
                       force={"law": "linear", "k": k, "r_free": R0 + float(PAPER_LAW.force(R0)) / k})
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     duration = 200.0 if quick else 600.0
     case = linear_case(duration)
     traj = simulate(case, out / NAME / case.name, overwrite=True)

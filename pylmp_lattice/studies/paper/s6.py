@@ -25,6 +25,8 @@ VI = 2.0
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     mus, duration = ([0.0, 0.1, 0.285], 150.0) if quick else ([0.0, 0.02, 0.05, 0.1, 0.2, 0.285], 300.0)
     base = paper_dict("s6", {"profile": "constant", "velocity": VI}, duration,
                       friction=dict(FRICTION))

@@ -24,6 +24,8 @@ MAGNET = 10
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     ramps, duration = ([1.0, 10.0], 200.0) if quick else ([1.0, 5.0, 10.0, 25.0, 50.0, 100.0], 400.0)
     base = paper_dict("s7", {"profile": "ramp", "velocity": VI, "ramp_time": 1.0}, duration)
     _, f0 = linear_constants(case_from_dict(base))

@@ -32,6 +32,8 @@ SHOWN_TS = 100.0  # ms, the paper's Fig. S8(c, d)
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     duration = 250.0 if quick else 400.0
     base = paper_dict("s8", {"profile": "sine", "velocity": VI, "duration": 10.0}, duration)
     v0, f0 = linear_constants(case_from_dict(base))

@@ -33,6 +33,8 @@ CHECKPOINTS = (600.0, 1000.0, 2000.0, 3000.0)  # ms
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
+    """Run this study into `out` (`quick`: its small version) and return its results; what it
+    runs and measures is the module's docstring."""
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 8), layout="constrained")
     rows = []
