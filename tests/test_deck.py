@@ -123,6 +123,7 @@ CHANGES = [
 ]
 # Fields that act elsewhere than in the deck's files
 ELSEWHERE = {
+    "chain.magnet_length": "the lab frame's pitch r0 + L, for the summary's lab-frame front speed (summary.py)",
     "output.compression": "the H5MD file's compression: applied when run_folder.convert writes traj.h5md",
 }
 

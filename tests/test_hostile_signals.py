@@ -68,7 +68,7 @@ RUN_STAGES = {
     "deck write": ("pylmp_lattice.run_folder.cases:case_to_dict", None, [], ["in.lattice", "case.toml"]),
     "engine": ("pylmp_lattice.runner:new_lammps", "interrupted", ["in.lattice", "log.lammps"], ["summary.json"]),
     "conversion": ("pylmp_lattice.run_folder.execution:convert_claimed", "done", ["traj.bin"], ["summary.json"]),
-    "summary": ("pylmp_lattice.summary:summarize", "done", ["traj.h5md"], ["summary.json"]),
+    "summary": ("pylmp_lattice.summary:summary_of", "done", ["traj.h5md"], ["summary.json"]),
     "figure": ("pylmp_lattice.run_folder.folder:RunFolder.figure", "done", ["summary.json"], ["shock.png"]),
 }
 
