@@ -69,7 +69,7 @@ def lammps(cases: list[Case], folder: Path, arrival_method: str = "level") -> di
 
 
 def assert_same(batch: ChainBatch, ref: dict):
-    assert set(batch.status) == {"finished"}
+    assert set(batch.status) == {"done"}
     for name in ("x", "v"):
         got, want = getattr(batch, name), ref[name]
         scale = np.max(np.abs(want))

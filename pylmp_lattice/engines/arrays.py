@@ -19,7 +19,7 @@ from ..errors import ConfigError, LatticeError
 LAWS = {"power": 0, "linear": 1, "table": 2}
 DRIVES = {"constant": 0, "ramp": 1, "sine": 2, "rest": 3, "measured": 4}
 # kernel/chain.h ChainStatus
-STATUS = ("finished", "contact", "out_of_range", "drive_ended")
+STATUS = ("done", "contact", "out_of_range", "drive_ended")
 NOUT = 7  # the record's output columns (kernel/front.h, FRONT_FIELDS)
 
 
@@ -102,7 +102,7 @@ class ChainBatch:
     """R chains after their run, user units: x (R, N) mm and v (R, N) m/s at the end; record: the
     front record of all chains (`case_measures.FrontRecord` of R chains; None without one: an
     impactor at rest); work (R,) mJ: each chain's friction work (None without friction); status
-    (R,): "finished", "contact" (stopped after the step of a touch, as the fix stops),
+    (R,): "done", "contact" (stopped after the step of a touch, as the fix stops),
     "out_of_range" (a gap left the table range: LAMMPS stops with an error) or "drive_ended" (a
     measured drive's data ended: LAMMPS stops with an error); end_time (R,) ms: each chain's last
     step. The record is the batch's up to the last step of any chain: read it for finished chains."""
