@@ -50,7 +50,8 @@ class Engine(Protocol):
 
     nprocs: int
 
-    def check(self, path: Path) -> None: ...
+    def check(self, path: Path) -> None:
+        """Refuse a folder this engine cannot run, before anything is written."""
 
     def __call__(self, path: Path, on_step: Callable[[int], None] | None = None) -> None: ...
 
@@ -71,6 +72,7 @@ class Lammps:
             raise UsageError("--np", f"got {self.nprocs}; several ranks need --runner lmp")
 
     def check(self, path: Path) -> None:
+        """The embedded runner refuses a folder its deck cannot name (`layout.deck_dir`)."""
         if self.runner == "embedded":
             layout.deck_dir(path)  # a folder the deck cannot name
 
