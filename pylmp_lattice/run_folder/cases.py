@@ -18,7 +18,7 @@ from typing import Sequence
 import tomli_w
 
 from ..case import Case, case_from_dict, case_to_dict, load_case, read_toml
-from ..errors import ConfigError, UsageError
+from ..errors import UsageError
 from ..formats import layout
 from ..formats.files import refuse_links
 
@@ -47,7 +47,7 @@ def replicas_text(cases: Sequence[Case]) -> bytes:
 
 
 def read_cases(folder: Path) -> tuple[Case, ...]:
-    """The folder's cases: one from case.toml, or a batch's from replicas.toml; ConfigError
+    """The folder's cases: one from case.toml, or a batch's from replicas.toml; UsageError
     naming the folder if it holds neither (or one that does not read). Never through a link."""
     refuse_links(folder, (layout.CASE, layout.REPLICAS))
     if (folder / layout.CASE).is_file():

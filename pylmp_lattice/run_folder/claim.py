@@ -16,7 +16,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import ConfigError, UsageError
+from ..errors import UsageError
 from ..formats import layout
 from ..formats.files import refuse_links
 from . import marker
@@ -37,7 +37,7 @@ class Claimed:
 
 def claim(path: str | Path, overwrite: bool, held: ExitStack) -> Claimed:
     """Claim `path` for a run (see the module's docstring): the `Claimed` folder, whose lock is
-    held until `held` closes. ConfigError if it may not be written: its place, a folder another
+    held until `held` closes. UsageError if it may not be written: its place, a folder another
     writer holds or LAMMPS still writes, a run without `overwrite`, files of no run. The
     caller's `preflight.check` found the place writable."""
     path = Path(path)
@@ -52,13 +52,13 @@ def claim(path: str | Path, overwrite: bool, held: ExitStack) -> Claimed:
 
 def look(path: Path, overwrite: bool) -> bool:
     """`claim`'s checks without the claim (`run --dry-run`): whether `path` holds a run to
-    replace; ConfigError if it may not be written."""
+    replace; UsageError if it may not be written."""
     layout.check_place(path, "run")
     return _holds_run(path, overwrite)
 
 
 def _holds_run(path: Path, overwrite: bool) -> bool:
-    """Whether `path` holds a run to replace; ConfigError if it may not be written (see `claim`,
+    """Whether `path` holds a run to replace; UsageError if it may not be written (see `claim`,
     whose lock makes this look final). Under this thread's own claim, the lock is no other
     runner's."""
     run = marker.is_run(path)
