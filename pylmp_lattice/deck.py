@@ -86,7 +86,7 @@ def impactor_samples(imp: Measured) -> tuple[np.ndarray, np.ndarray]:
 
 
 def impactor_samples_text(imp: Measured) -> str:
-    """Samples for `fix lattice/piston` (`impactor_samples`)."""
+    """Samples for `fix lattice/impactor` (`impactor_samples`)."""
     t, y = impactor_samples(imp)
     unit = "m" if imp.column == "u" else "m/s"
     return f"# measured impactor motion: t [s], {imp.column} [{unit}]\n" + "".join(f"{_num(a)} {_num(b)}\n" for a, b in zip(t, y))
@@ -568,7 +568,7 @@ def _impactor_lines(case: Case) -> str:
     if isinstance(imp, Measured):
         return (
             "# measured motion, cubic-spline interpolated by the plugin's fix\n"
-            f"fix             drive impactor lattice/piston file {in_deck(IMPACTOR)} column {imp.column} after {imp.after}"
+            f"fix             drive impactor lattice/impactor file {in_deck(IMPACTOR)} column {imp.column} after {imp.after}"
         )
     v = to_engine(imp.velocity, "velocity")
     if isinstance(imp, Constant):

@@ -2,11 +2,12 @@
 
 User units: t in ms, velocity in m/s, displacement in mm (1 m/s * 1 ms = 1 mm), acceleration
 in m/s^2. Each profile also renders its motion in the deck (`fix move`, or the plugin's
-`fix lattice/piston` for measured data), where position and velocity are set together every
+`fix lattice/impactor` for measured data), where position and velocity are set together every
 step, so they are always consistent.
 
-One word, impactor, names magnet 1 and its drive throughout the package; the plugin's
-`fix lattice/piston` keeps its older name until the C++ side is renamed. "Piston" elsewhere
+One word, impactor, names magnet 1 and its drive throughout the package and the plugin (`fix
+lattice/impactor`; decks of 0.1.0 and before say `lattice/piston`, which the plugin still
+registers under that name). "Piston" elsewhere
 (`exact.harmonic_piston_velocity`, the Toda study) is the literature's piston problem.
 """
 
@@ -142,7 +143,7 @@ class Measured(Profile):
 
     Times start at the first sample and displacements at its value (the impactor starts where
     it is). Interpolated by a not-a-knot cubic spline, of u (v its derivative) or of v (u its
-    exact integral), as `fix lattice/piston` does in the engine. After the last sample the
+    exact integral), as `fix lattice/impactor` does in the engine. After the last sample the
     impactor is held at rest ('hold') or the run must not go on ('stop').
     """
 

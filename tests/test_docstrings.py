@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import importlib.util
 import pkgutil
 
 import pylmp_lattice
@@ -18,6 +19,9 @@ def undocumented() -> list[str]:
     missing = []
     for info in pkgutil.walk_packages(pylmp_lattice.__path__, "pylmp_lattice."):
         if any(part.startswith("_") for part in info.name.split(".")):
+            continue
+        spec = importlib.util.find_spec(info.name)
+        if not info.ispkg and not spec.origin.endswith(".py"):  # the plugin's libraries: C++, not Python
             continue
         module = importlib.import_module(info.name)
         if not inspect.getdoc(module):

@@ -43,7 +43,7 @@ def test_lammps_impactor_follows_profile(tmp_path, impactor):
 @pytest.mark.lammps
 @pytest.mark.parametrize("column", ["u", "v"])
 def test_measured_impactor_sampled_at_8_khz_matches_the_analytic_run(tmp_path, column):
-    """A u1(t) sampled at the camera's 8 kHz, played by fix lattice/piston, against the same
+    """A u1(t) sampled at the camera's 8 kHz, played by fix lattice/impactor, against the same
     motion given analytically (fix move): all 30 magnets' velocities agree to 2e-3 V_I.
 
     The half-sine's acceleration jumps at t = 0 and T_s, where a cubic spline through samples

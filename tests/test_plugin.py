@@ -1,4 +1,4 @@
-"""Standalone tests of the compiled plugin: fix lattice/friction and fix lattice/piston.
+"""Standalone tests of the compiled plugin: fix lattice/friction and fix lattice/impactor.
 
 Every test writes a small deck (SI units, atoms on the x axis, bonds between consecutive
 IDs, `bond_style table spline` tabulated here from F = K/(r+b)^q), runs the wheel's `lmp`
@@ -118,10 +118,10 @@ def half_cycles(x: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(turns[:-1], turns[1:]))
 
 
-def test_plugin_registers_both_styles():
+def test_plugin_registers_its_styles_and_the_impactor_s_old_name():
     styles = plugin_styles()
-    assert "fix lattice/friction" in styles
-    assert "fix lattice/piston" in styles
+    for style in ("lattice/friction", "lattice/impactor", "lattice/chain", "lattice/front", "lattice/piston"):
+        assert f"fix {style}" in styles
 
 
 # ---------------------------------------------------------------- friction: one magnet
@@ -367,7 +367,7 @@ def test_piston_reproduces_analytic_fix_move(tmp_path, column):
         f"variable pv equal {V_MAX}*(1-cos({OMEGA}*time))\n"
         "fix push impactor move variable v_pu NULL NULL v_pv NULL NULL units box",
     )
-    measured = piston_run(tmp_path / "piston", f"fix push impactor lattice/piston file {series} column {column}")
+    measured = piston_run(tmp_path / "piston", f"fix push impactor lattice/impactor file {series} column {column}")
     t = DUMP_EVERY * 1e-5 * np.arange(len(analytic))
     x_tol, v_tol = PISTON_TOLERANCE[column]
     np.testing.assert_allclose(analytic[:, 0, 0], exact_u(t), rtol=0, atol=1e-15)
@@ -382,7 +382,7 @@ def test_piston_reproduces_analytic_fix_move(tmp_path, column):
 def test_piston_after_hold_keeps_last_position(tmp_path):
     series = tmp_path / "impactor.txt"
     write_series(series, exact_u, duration=0.02)
-    rows = piston_run(tmp_path, f"fix push impactor lattice/piston file {series} column u after hold", steps=4000)
+    rows = piston_run(tmp_path, f"fix push impactor lattice/impactor file {series} column u after hold", steps=4000)
     t = DUMP_EVERY * 1e-5 * np.arange(len(rows))
     after = t > 0.02 + 1e-9
     np.testing.assert_allclose(rows[~after, 0, 0], exact_u(t[~after]), rtol=0, atol=1e-9)
@@ -410,18 +410,18 @@ def test_piston_rejects_bad_series_clearly(tmp_path, case):
     bonds = write_table(tmp_path / "magnet.table", 1e-3, 40e-3, 2000, 12e-3)
     deck = header(data, bonds, 1e-5) + f"""
 group impactor id 1
-fix push impactor lattice/piston file {series} column u
+fix push impactor lattice/impactor file {series} column u
 run 100
 """
     done = run_lmp(deck, tmp_path, check=False)
     assert done.returncode != 0
-    assert "ERROR: Fix lattice/piston" in done.stdout and message in done.stdout
+    assert "ERROR: Fix lattice/impactor" in done.stdout and message in done.stdout
 
 
 # ---------------------------------------------------------------- one home for the drive and the law
 
 # pylmp_lattice.impactor's profiles (user units: m/s, ms) and the same motion as the plugin's
-# drive arguments (SI), shared by fix lattice/piston and fix lattice/chain (kernel/drive.h)
+# drive arguments (SI), shared by fix lattice/impactor and fix lattice/chain (kernel/drive.h)
 _T_SERIES = np.arange(0.0, 20.0 + 1e-9, 0.125)    # ms
 DRIVES = {
     "constant": (impactor.Constant(2.0), "constant 2.0"),
@@ -435,7 +435,7 @@ DRIVES = {
 
 @pytest.mark.parametrize("name", sorted(DRIVES))
 def test_plugin_drive_is_the_python_impactor(tmp_path, name):
-    """fix lattice/piston with each drive moves the impactor as pylmp_lattice.piston says, over
+    """fix lattice/impactor with each drive moves the impactor as pylmp_lattice.piston says, over
     30 ms (past a ramp's and a pulse's end): x to 1e-12 m, v to 1e-12 m/s (round-off; the
     measured series: two not-a-knot splines of the same samples, 1e-9)."""
     imp, args = DRIVES[name]
@@ -443,7 +443,7 @@ def test_plugin_drive_is_the_python_impactor(tmp_path, name):
         lines = "".join(f"{float(t) * 1e-3!r} {float(u) * 1e-3!r}\n" for t, u in zip(imp.t, imp.values))
         (tmp_path / "series.txt").write_text(lines)
         args = args.replace("series.txt", str(tmp_path / "series.txt"))
-    rows = piston_run(tmp_path, f"fix push impactor lattice/piston {args}", steps=3000)
+    rows = piston_run(tmp_path, f"fix push impactor lattice/impactor {args}", steps=3000)
     t = DUMP_EVERY * 1e-5 * np.arange(len(rows))    # s
     tol = 1e-9 if name == "measured" else 1e-12
     np.testing.assert_allclose(rows[:, 0, 0], 1e-3 * imp.displacement_at(1e3 * t), rtol=0, atol=tol)

@@ -1,4 +1,5 @@
-"""The compiled LAMMPS plugin with the fix styles lattice/friction and lattice/piston.
+"""The compiled LAMMPS plugin (fix styles lattice/chain, lattice/friction, lattice/impactor, lattice/front) and the
+host engine (`engines.cpu`).
 
 `pip install` builds ``latticeplugin.so`` and the host engine ``latticeengine.so`` (the chain
 kernel without LAMMPS, `engines.cpu`; see the top-level CMakeLists.txt) into this package. `plugin_dir` is the package's ``lammps.plugins`` entry point: the `lmp` wrapper

@@ -73,16 +73,16 @@ Syntax
 
    law args = power K b q | linear k r_free | table file keyword
      power: F(r) = K / (r + b)^q, q > 1 (integer q <= 8 by multiplications, else pow)
-     (kernel/law.h, read by chain_law.h; fix lattice/friction reads its analytic laws with the same code)
+     (kernel/law.h, read by force_law.h; fix lattice/friction reads its analytic laws with the same code)
      linear: F(r) = k (r_free - r)
      table: section `keyword` of a bond_style table file (N n FP lo hi; rows i r U F on a
        uniform grid), interpolated by its clamped cubic spline, as bond_style table spline
    impactor args = constant V | ramp V T | sine V T | rest |
                    measured file path column u|v after hold|stop
-     the motions of impactor_drive.h (shared with fix lattice/piston):
+     the motions of impactor_drive.h (shared with fix lattice/impactor):
      constant: u = V t; ramp: v rises linearly to V over T, then constant;
      sine: v = V sin(pi t / T) for t < T, then at rest; rest: held in place;
-     measured: the spline of a series (see fix lattice/piston's header)
+     measured: the spline of a series (see fix lattice/impactor's header)
    keywords:
      length n = atoms per chain (default: all atoms, one chain)
      range lo hi = separations allowed (distance units); beyond them the run stops with

@@ -8,12 +8,12 @@
      chain_front.cpp         the front record sampled inside the owned pass
      chain_checks.cpp        gaps, contacts, energy
    The physics is the chain kernel's (kernel/*.h: laws, drives, friction, front rules, the step),
-   read from the arguments by chain_law.h and impactor_drive.h. */
+   read from the arguments by force_law.h and impactor_drive.h. */
 
 #ifndef PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 #define PYLMP_LATTICE_FIX_LATTICE_CHAIN_H
 
-#include "chain_law.h"
+#include "force_law.h"
 #include "fix.h"
 #include "impactor_drive.h"
 #include "kernel/coulomb.h"
@@ -55,7 +55,7 @@ class FixLatticeChain : public Fix {
   static constexpr int BLOCK = 256;
 
   // ---- the arguments (fix_lattice_chain.cpp)
-  ChainLaw law;
+  ForceLaw law;
   ImpactorDrive drive;
   bigint length;                 // atoms per chain: chain c holds IDs c*length+1 .. (c+1)*length
   bigint nchains;

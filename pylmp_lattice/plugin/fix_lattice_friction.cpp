@@ -16,7 +16,7 @@ Syntax
        linear k r_free = F(r) = k (r_free - r), k > 0, r_free > 0
          k = force/distance units, r_free = distance units
        table file keyword = a bond_style table file's section, by its clamped spline
-       (power, linear, table: the laws of fix lattice/chain, from the same code, chain_law.h,
+       (power, linear, table: the laws of fix lattice/chain, from the same code, force_law.h,
        so both fixes accept and refuse the same parameters)
      bond value = btype: the same as law bond btype (the syntax before law existed)
 
@@ -275,7 +275,7 @@ void FixLatticeFriction::apply_friction(double kick, bool setup_kick)
     // law power (F > 0): at rest and held by its weight alone, it sticks whatever the
     // neighbour forces add to the limit (also in rounding), so they are not needed; this
     // is the stuck branch below. m is not kept for later: that slowed law bond by 4%.
-    if (v0 == 0.0 && !from_bond && law.kind == ChainLaw::POWER) {
+    if (v0 == 0.0 && !from_bond && law.kind == ForceLaw::POWER) {
       const double weight = (rmass ? rmass[i] : mass[type[i]]) * fr.g;
       if (fabs(fx) <= fr.limit(weight, 0.0, 0.0)) {
         v[i][0] = 0.0;

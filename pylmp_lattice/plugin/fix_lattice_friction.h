@@ -3,7 +3,7 @@
 #ifndef PYLMP_LATTICE_FIX_LATTICE_FRICTION_H
 #define PYLMP_LATTICE_FIX_LATTICE_FRICTION_H
 
-#include "chain_law.h"
+#include "force_law.h"
 #include "fix.h"
 #include "kernel/coulomb.h"
 
@@ -22,7 +22,7 @@ class FixLatticeFriction : public Fix {
   pl_kernel::Friction fr;              // mu, p, g
   bool from_bond;                      // F from the bond style (law bond), else from `law`
   int btype;                           // law bond: bond type whose single() gives F
-  ChainLaw law;                        // an analytic or tabulated law (chain_law.h)
+  ForceLaw law;                        // an analytic or tabulated law (force_law.h)
   double work_done;                    // this rank's friction work up to the current step (J)
   double work_pending;                 // work of the current kick's second half, due at the next step
   bool periodic;                       // any periodic dimension: pick the closest image of neighbours

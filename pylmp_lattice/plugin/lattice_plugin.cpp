@@ -1,4 +1,4 @@
-/* Plugin loader: registers the pylmp_lattice fix styles (lattice/friction, lattice/piston, lattice/chain,
+/* Plugin loader: registers the pylmp_lattice fix styles (lattice/friction, lattice/impactor, lattice/chain,
    lattice/front) with LAMMPS on `plugin load`
    (or on auto-loading from LAMMPS_PLUGIN_PATH). */
 
@@ -7,7 +7,7 @@
 #include "fix_lattice_chain.h"
 #include "fix_lattice_friction.h"
 #include "fix_lattice_front.h"
-#include "fix_lattice_piston.h"
+#include "fix_lattice_impactor.h"
 
 using namespace LAMMPS_NS;
 
@@ -29,8 +29,10 @@ struct Style {
 };
 const Style STYLES[] = {
     {"lattice/friction", "Coulomb friction on a 1D magnet chain (pylmp_lattice)", &create<FixLatticeFriction>},
-    {"lattice/piston", "Impactor driven by a measured u(t) or v(t) series (pylmp_lattice)",
-     &create<FixLatticePiston>},
+    {"lattice/impactor", "Impactor moved by a prescribed motion (pylmp_lattice)", &create<FixLatticeImpactor>},
+    // its name before 0.1.0's one word for the impactor: decks written then still run
+    {"lattice/piston", "Impactor moved by a prescribed motion (pylmp_lattice; old name of lattice/impactor)",
+     &create<FixLatticeImpactor>},
     {"lattice/chain", "Chain-specialised time step of 1D nearest-neighbour chains (pylmp_lattice)",
      &create<FixLatticeChain>},
     {"lattice/front", "Front arrival and first peak of each atom, recorded every step (pylmp_lattice)",

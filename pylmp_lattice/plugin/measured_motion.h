@@ -1,6 +1,6 @@
 /* A measured impactor motion u(t) or v(t) read from a file: the reading and its checks; the
    spline is the chain kernel's (kernel/drive.h, fitted by kernel/fit.h). Shared by fix
-   lattice/piston and fix lattice/chain. Part of pylmp_lattice, GPL-2.0. */
+   lattice/impactor and fix lattice/chain. Part of pylmp_lattice, GPL-2.0. */
 
 #ifndef PYLMP_LATTICE_MEASURED_MOTION_H
 #define PYLMP_LATTICE_MEASURED_MOTION_H

@@ -1,6 +1,6 @@
 /* The impactor's prescribed motion: the one home of the drive, for fix lattice/chain (each
-   chain's first atom), fix lattice/piston (one atom), the host engine and the GPU engine. Its
-   Python twin is pylmp_lattice/piston.py (tests/test_plugin.py binds them). Part of pylmp_lattice,
+   chain's first atom), fix lattice/impactor (one atom), the host engine and the GPU engine. Its
+   Python twin is pylmp_lattice/impactor.py (tests/test_plugin.py binds them). Part of pylmp_lattice,
    GPL-2.0.
 
    constant: u = V t; ramp: v rises linearly to V over T, then constant; sine: v = V sin(pi t / T)

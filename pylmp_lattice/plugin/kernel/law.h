@@ -5,7 +5,7 @@
    A law gives the repulsive force F(r) > 0 and the potential U(r) (F = -dU/dr) of the
    separation r. To add an analytic law: a value type with its F in laws::, a Kind, its U in
    Law::energy(), one case in Law::dispatch(), and its parameters in the plugin's parser
-   (chain_law.cpp) and the engines' argument lists. Any other law is its table, interpolated by
+   (force_law.cpp) and the engines' argument lists. Any other law is its table, interpolated by
    the clamped cubic spline that bond_style table spline uses (fitted by fit_table, fit.h), so
    every engine sees the same function. Tables are plain pointers into their owner's storage. */
 

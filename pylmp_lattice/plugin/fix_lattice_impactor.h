@@ -1,16 +1,16 @@
-/* Impactor moved by a prescribed motion (impactor_drive.h); see fix_lattice_piston.cpp for the syntax. */
+/* Impactor moved by a prescribed motion (impactor_drive.h); see fix_lattice_impactor.cpp for the syntax. */
 
-#ifndef PYLMP_LATTICE_FIX_LATTICE_PISTON_H
-#define PYLMP_LATTICE_FIX_LATTICE_PISTON_H
+#ifndef PYLMP_LATTICE_FIX_LATTICE_IMPACTOR_H
+#define PYLMP_LATTICE_FIX_LATTICE_IMPACTOR_H
 
 #include "fix.h"
 #include "impactor_drive.h"
 
 namespace LAMMPS_NS {
 
-class FixLatticePiston : public Fix {
+class FixLatticeImpactor : public Fix {
  public:
-  FixLatticePiston(class LAMMPS *, int, char **);
+  FixLatticeImpactor(class LAMMPS *, int, char **);
   int setmask() override;
   void init() override;
   void setup(int) override;

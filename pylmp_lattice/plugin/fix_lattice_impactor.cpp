@@ -1,11 +1,11 @@
 /* ----------------------------------------------------------------------
-   fix lattice/piston: impactor moved along x by a prescribed motion
+   fix lattice/impactor: impactor moved along x by a prescribed motion
    Part of pylmp_lattice, GPL-2.0. Compiled as a LAMMPS plugin.
 
 Syntax
-   fix ID group-ID lattice/piston constant V | ramp V T | sine V T | rest |
+   fix ID group-ID lattice/impactor constant V | ramp V T | sine V T | rest |
                                   measured file path column u|v after hold|stop
-   fix ID group-ID lattice/piston file path column u|v keyword value ...
+   fix ID group-ID lattice/impactor file path column u|v keyword value ...
 
    group-ID must contain exactly one atom (the impactor)
    constant, ramp, sine, rest, measured: the motions of fix lattice/chain's impactor keyword,
@@ -20,9 +20,9 @@ Syntax
        stop = stop the run with an error if it goes past the last sample
 
 Examples
-   fix drive impactor lattice/piston ramp 2.0 7.3e-3
-   fix drive impactor lattice/piston file impactor_u.txt column u after hold
-   fix drive impactor lattice/piston file impactor_v.csv column v
+   fix drive impactor lattice/impactor ramp 2.0 7.3e-3
+   fix drive impactor lattice/impactor file impactor_u.txt column u after hold
+   fix drive impactor lattice/impactor file impactor_v.csv column v
 
 Description
    constant: u = V t; ramp: v = V t / T up to T, then V; sine: v = V sin(pi t / T) up to T,
@@ -48,7 +48,7 @@ Restrictions
    Not for rRESPA. Do not integrate the atom with another fix (e.g. fix nve).
 ------------------------------------------------------------------------- */
 
-#include "fix_lattice_piston.h"
+#include "fix_lattice_impactor.h"
 
 #include "atom.h"
 #include "error.h"
@@ -61,35 +61,35 @@ Restrictions
 using namespace LAMMPS_NS;
 using namespace FixConst;
 
-FixLatticePiston::FixLatticePiston(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
+FixLatticeImpactor::FixLatticeImpactor(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
 {
-  if (narg < 4) utils::missing_cmd_args(FLERR, "fix lattice/piston", error);
+  if (narg < 4) utils::missing_cmd_args(FLERR, "fix lattice/impactor", error);
   if (strcmp(arg[3], "file") != 0) {
-    if (drive.parse(lmp, narg, arg, 3, "Fix lattice/piston") != narg)
-      error->all(FLERR, "Fix lattice/piston: unexpected arguments after the motion");
+    if (drive.parse(lmp, narg, arg, 3, "Fix lattice/impactor") != narg)
+      error->all(FLERR, "Fix lattice/impactor: unexpected arguments after the motion");
   } else {    // file PATH column u|v [after hold|stop]
-    if (narg < 7) utils::missing_cmd_args(FLERR, "fix lattice/piston file", error);
+    if (narg < 7) utils::missing_cmd_args(FLERR, "fix lattice/impactor file", error);
     if (strcmp(arg[5], "column") != 0)
-      error->all(FLERR, "Fix lattice/piston: expected 'column u|v', got '{}'", arg[5]);
+      error->all(FLERR, "Fix lattice/impactor: expected 'column u|v', got '{}'", arg[5]);
     const std::string column = arg[6];
     if (column != "u" && column != "v")
-      error->all(FLERR, "Fix lattice/piston: column '{}' unknown; choose one of 'u', 'v'", column);
+      error->all(FLERR, "Fix lattice/impactor: column '{}' unknown; choose one of 'u', 'v'", column);
     bool hold_after = false;
     for (int iarg = 7; iarg < narg; iarg += 2) {
       if (strcmp(arg[iarg], "after") != 0)
-        error->all(FLERR, "Fix lattice/piston: unknown keyword '{}'; expected 'after'", arg[iarg]);
-      if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/piston after", error);
+        error->all(FLERR, "Fix lattice/impactor: unknown keyword '{}'; expected 'after'", arg[iarg]);
+      if (iarg + 1 >= narg) utils::missing_cmd_args(FLERR, "fix lattice/impactor after", error);
       if (strcmp(arg[iarg + 1], "hold") == 0) hold_after = true;
       else if (strcmp(arg[iarg + 1], "stop") == 0) hold_after = false;
       else
-        error->all(FLERR, "Fix lattice/piston: after '{}' unknown; choose one of 'hold', 'stop'",
+        error->all(FLERR, "Fix lattice/impactor: after '{}' unknown; choose one of 'hold', 'stop'",
                    arg[iarg + 1]);
     }
-    drive.load_measured(arg[4], column == "v", hold_after, lmp, "Fix lattice/piston");
+    drive.load_measured(arg[4], column == "v", hold_after, lmp, "Fix lattice/impactor");
   }
 
   if (group->count(igroup) != 1)
-    error->all(FLERR, "Fix lattice/piston: group {} has {} atoms; expected exactly 1",
+    error->all(FLERR, "Fix lattice/impactor: group {} has {} atoms; expected exactly 1",
                group->names[igroup], group->count(igroup));
 
   time_integrate = 1;
@@ -103,20 +103,20 @@ FixLatticePiston::FixLatticePiston(LAMMPS *lmp, int narg, char **arg) : Fix(lmp,
   MPI_Allreduce(mine, x0, 3, MPI_DOUBLE, MPI_SUM, world);
 }
 
-int FixLatticePiston::setmask()
+int FixLatticeImpactor::setmask()
 {
   return INITIAL_INTEGRATE | FINAL_INTEGRATE;
 }
 
-void FixLatticePiston::init()
+void FixLatticeImpactor::init()
 {
   if (utils::strmatch(update->integrate_style, "^respa"))
-    error->all(FLERR, "Fix lattice/piston does not support run_style respa");
+    error->all(FLERR, "Fix lattice/impactor does not support run_style respa");
 }
 
 /* put the atom on its prescribed path at the current step's time */
 
-void FixLatticePiston::place(bool set_x)
+void FixLatticeImpactor::place(bool set_x)
 {
   double u, ud;
   drive.at((update->ntimestep - time_origin) * update->dt, update->dt, u, ud);
@@ -134,17 +134,17 @@ void FixLatticePiston::place(bool set_x)
   }
 }
 
-void FixLatticePiston::setup(int /*vflag*/)
+void FixLatticeImpactor::setup(int /*vflag*/)
 {
   place(false);
 }
 
-void FixLatticePiston::initial_integrate(int /*vflag*/)
+void FixLatticeImpactor::initial_integrate(int /*vflag*/)
 {
   place(true);
 }
 
-void FixLatticePiston::final_integrate()
+void FixLatticeImpactor::final_integrate()
 {
   place(false);
 }

@@ -17,10 +17,10 @@
 
 namespace LAMMPS_NS {
 
-struct ChainLaw : pl_kernel::Law {
-  ChainLaw() = default;
-  ChainLaw(const ChainLaw &) = delete;    // the table's spline points into `storage`
-  ChainLaw &operator=(const ChainLaw &) = delete;
+struct ForceLaw : pl_kernel::Law {
+  ForceLaw() = default;
+  ForceLaw(const ForceLaw &) = delete;    // the table's spline points into `storage`
+  ForceLaw &operator=(const ForceLaw &) = delete;
 
   /* parse "power K b q" | "linear k r_free" | "table FILE KEYWORD" at arg[iarg]; returns
      the index after the law's arguments; errors start with `who` (e.g. "Fix lattice/chain") */

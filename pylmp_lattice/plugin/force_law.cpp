@@ -1,6 +1,6 @@
-/* Force laws of fix lattice/chain (see chain_law.h). Part of pylmp_lattice, GPL-2.0. */
+/* Force laws of fix lattice/chain (see force_law.h). Part of pylmp_lattice, GPL-2.0. */
 
-#include "chain_law.h"
+#include "force_law.h"
 
 #include "kernel/fit.h"
 
@@ -13,7 +13,7 @@
 
 using namespace LAMMPS_NS;
 
-int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::string &who)
+int ForceLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::string &who)
 {
   Error *error = lmp->error;
   if (iarg >= narg) utils::missing_cmd_args(FLERR, who + " law", error);
@@ -52,7 +52,7 @@ int ChainLaw::parse(LAMMPS *lmp, int narg, char **arg, int iarg, const std::stri
 /* The section KEYWORD of a bond_style table file: "N n FP lo hi ..." then n lines
    "index r U F" on a uniform grid (as pylmp_lattice writes it). Every rank reads it. */
 
-void ChainLaw::read_table(LAMMPS *lmp, const std::string &file, const std::string &keyword,
+void ForceLaw::read_table(LAMMPS *lmp, const std::string &file, const std::string &keyword,
                           const std::string &who)
 {
   Error *error = lmp->error;
