@@ -7,7 +7,7 @@ Every law gives F, the potential U with F = -dU/dr, and the stiffness k = -dF/dr
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 
@@ -18,6 +18,12 @@ class Law(Protocol):
     """What every law gives (user units); each law below is one."""
 
     law: str  # its name in a case's [force] section
+    # its parameters that must be finite and > 0, name -> unit, checked when it is made
+    positive: ClassVar[dict[str, str]] = {}
+
+    def __post_init__(self):
+        for name, unit in self.positive.items():
+            _positive(f"force.{name}", getattr(self, name), unit)
 
     def force(self, r):
         """F(r), N: the repulsive force at separations r (mm, any shape)."""
@@ -41,10 +47,10 @@ class PowerLaw(Law):
     q: float = 3.0
 
     law = "power"
+    positive = {"K": "N mm^q", "b": "mm"}
 
     def __post_init__(self):
-        _positive("force.K", self.K, "N mm^q")
-        _positive("force.b", self.b, "mm")
+        super().__post_init__()
         if not self.q > 1:
             raise ConfigError("force.q", f"got {self.q}; expected > 1 (finite potential energy)")
 
@@ -74,10 +80,7 @@ class LinearSpring(Law):
     r_free: float  # mm
 
     law = "linear"
-
-    def __post_init__(self):
-        _positive("force.k", self.k, "N/mm")
-        _positive("force.r_free", self.r_free, "mm")
+    positive = {"k": "N/mm", "r_free": "mm"}
 
     def force(self, r):
         return self.k * (self.r_free - np.asarray(r, float))
@@ -150,11 +153,7 @@ class Toda(Law):
     a: float  # mm, the separation where F = 0
 
     law = "toda"
-
-    def __post_init__(self):
-        _positive("force.A", self.A, "N")
-        _positive("force.B", self.B, "1/mm")
-        _positive("force.a", self.a, "mm")
+    positive = {"A": "N", "B": "1/mm", "a": "mm"}
 
     def force(self, r):
         return self.A * np.expm1(-self.B * (np.asarray(r, float) - self.a))
@@ -183,10 +182,7 @@ class LennardJones(Law):
     sigma: float  # mm, where U = 0
 
     law = "lj"
-
-    def __post_init__(self):
-        _positive("force.epsilon", self.epsilon, "mJ")
-        _positive("force.sigma", self.sigma, "mm")
+    positive = {"epsilon": "mJ", "sigma": "mm"}
 
     def _s6(self, r):
         return (self.sigma / np.asarray(r, float)) ** 6
@@ -221,11 +217,7 @@ class Morse(Law):
     r_e: float  # mm, the separation where F = 0
 
     law = "morse"
-
-    def __post_init__(self):
-        _positive("force.D", self.D, "mJ")
-        _positive("force.alpha", self.alpha, "1/mm")
-        _positive("force.r_e", self.r_e, "mm")
+    positive = {"D": "mJ", "alpha": "1/mm", "r_e": "mm"}
 
     def _e(self, r):
         return np.exp(-self.alpha * (np.asarray(r, float) - self.r_e))
@@ -262,10 +254,10 @@ class FPUT(Law):
     beta: float = 0.0  # N/mm^3
 
     law = "fput"
+    positive = {"k": "N/mm", "a": "mm"}
 
     def __post_init__(self):
-        _positive("force.k", self.k, "N/mm")
-        _positive("force.a", self.a, "mm")
+        super().__post_init__()
         for name, unit in (("alpha", "N/mm^2"), ("beta", "N/mm^3")):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value)):

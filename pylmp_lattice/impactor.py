@@ -49,7 +49,7 @@ class Constant(Profile):
     profile = "constant"
 
     def __post_init__(self):
-        _check_velocity(self.velocity)
+        _check_drive(self.velocity)
 
     def velocity_at(self, t):
         return np.full_like(np.asarray(t, float), self.velocity)
@@ -89,8 +89,7 @@ class Ramp(Profile):
     profile = "ramp"
 
     def __post_init__(self):
-        _check_velocity(self.velocity)
-        _check_time("impactor.ramp_time", self.ramp_time)
+        _check_drive(self.velocity, ramp_time=self.ramp_time)
 
     def velocity_at(self, t):
         t = np.asarray(t, float)
@@ -117,8 +116,7 @@ class SinePulse(Profile):
     profile = "sine"
 
     def __post_init__(self):
-        _check_velocity(self.velocity)
-        _check_time("impactor.duration", self.duration)
+        _check_drive(self.velocity, duration=self.duration)
 
     def velocity_at(self, t):
         t = np.asarray(t, float)
@@ -199,11 +197,10 @@ Impactor = Constant | Rest | Ramp | SinePulse | Measured
 PROFILES = {cls.profile: cls for cls in (Constant, Rest, Ramp, SinePulse, Measured)}
 
 
-def _check_velocity(v: float):
-    if not (np.isfinite(v) and v > 0):
-        raise ConfigError("impactor.velocity", f"got {v} m/s; expected > 0")
-
-
-def _check_time(field: str, t: float):
-    if not t > 0:
-        raise ConfigError(field, f"got {t} ms; expected > 0")
+def _check_drive(velocity: float, **times: float):
+    """A drive's peak velocity (m/s) and its times (ms, by field name), each > 0."""
+    if not (np.isfinite(velocity) and velocity > 0):
+        raise ConfigError("impactor.velocity", f"got {velocity} m/s; expected > 0")
+    for name, t in times.items():
+        if not t > 0:
+            raise ConfigError(f"impactor.{name}", f"got {t} ms; expected > 0")

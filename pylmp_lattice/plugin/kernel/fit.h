@@ -91,15 +91,7 @@ inline Measured fit_measured(const double *t, const double *y, int n, bool given
   yint[0] = 0.0;
   for (int i = 0; i < n - 1; i++)
     yint[i + 1] = yint[i] + 0.5 * h[i] * (y[i] + y[i + 1]) - h[i] * h[i] * h[i] * (d2y[i] + d2y[i + 1]) / 24.0;
-  Measured m;
-  m.n = n;
-  m.t = t;
-  m.y = y;
-  m.d2y = d2y;
-  m.yint = yint;
-  m.given_velocity = given_velocity;
-  m.hold_after = hold_after;
-  return m;
+  return Measured{n, t, y, d2y, yint, given_velocity, hold_after};  // its fields, in order (drive.h)
 }
 
 }    // namespace pl_kernel
