@@ -15,15 +15,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .case import Case, check_name
-from .case_measures import chain_front_levels, front_levels
-from .errors import ConfigError
-from .forcelaw import LinearSpring, PowerLaw
-from .impactor import Constant, Measured, Ramp, Rest, SinePulse
-from .formats.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
+from ..case import Case, check_name
+from ..case_measures import chain_front_levels, front_levels
+from ..errors import ConfigError
+from ..forcelaw import LinearSpring, PowerLaw
+from ..impactor import Constant, Measured, Ramp, Rest, SinePulse
+from ..formats.layout import (BIN_COLUMNS, CHAIN_WORK, CONTACT_MARK, FRONT_LEVELS, DATA, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN,
                          FINE_DUMP, FRONT_BIN, FRONT_COLUMNS, IMPACTOR, SECOND_TABLE, TABLE, TRAJ_BIN, in_deck)
-from .table import KEYWORD, bond_table
-from .units import to_engine
+from ..table import KEYWORD, bond_table
+from ..units import to_engine
 
 
 # A chain with more distinct masses than this (mass disorder) gives every magnet its own mass
