@@ -1,0 +1,106 @@
+"""The LAMMPS data file of one chain or of a batch of chains (atoms, masses, bonds for the
+stock engine, velocities), and the deck's lines, shared by both engines, that set up the
+system and read it."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..case import Case, check_name
+from ..formats.layout import DATA, in_deck
+from ..units import to_engine
+from .engine_args import _num
+from .kind import MAGNET_MASSES, per_atom_masses, uses_chain_engine
+
+
+def data_text(case: Case, per_atom: bool | None = None) -> str:
+    """LAMMPS data file: atoms on the x axis (m), one type per distinct mass (kg); for the stock
+    engine bonds i-(i+1) of type 1 and, with second neighbours, bonds i-(i+2) of type 2.
+
+    Positions and masses include the chain's disorder and defect; a chain with thermal motion
+    gets a Velocities section (m/s) for its free magnets. With per-atom masses (default
+    `per_atom_masses(case)`) every magnet is type 1 and its mass is in the MAGNET_MASSES section."""
+    return chains_data_text([case], per_atom)
+
+
+def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None) -> str:
+    """The data file of R chains of equal N (one case: `data_text`), written from their arrays:
+    chain r has atom IDs r N + 1 .. r N + N and molecule r + 1, and sits at y = r times the box
+    height (its x values are those of its run alone). Atom types are the distinct masses of all
+    chains; with per-atom masses, the distinct masses of their first magnets."""
+    first, chains = cases[0], len(cases)
+    n = first.chain.particles
+    per_atom = per_atom_masses(first) if per_atom is None else per_atom
+    x = to_engine(np.stack([case.chain.positions() for case in cases]), "length")
+    each = np.stack([case.chain.masses() for case in cases])
+    masses, types = np.unique(each[:, :1] if per_atom else each, return_inverse=True)
+    types = np.broadcast_to(types.reshape(chains, -1), (chains, n))
+    v = to_engine(np.stack([case.chain.velocities() for case in cases]), "velocity")
+    ids = np.arange(1, n * chains + 1).reshape(chains, n).tolist()
+    # The chain engine finds neighbours by atom ID: bonds would only make LAMMPS warn that no
+    # bond style is set.
+    pairs = [] if uses_chain_engine(first) else [(i, i + 1, 1) for i in range(n - 1)]
+    if first.second_neighbour is not None:
+        pairs += [(i, i + 2, 2) for i in range(n - 2)]
+    # y and z are fixed walls one table length away: atoms never leave x, and no ghosts in y, z;
+    # the chains lie one box height apart in y
+    half = to_engine(first.table_range()[1], "length")
+    height = half - -half
+    atoms, bonds, magnet_masses, velocities = [], [], [], []
+    moving = bool(np.any(v))  # a Velocities section has a line for every atom, or is left out
+    rows: dict[tuple, list[str]] = {}  # x values formatted once per distinct chain (a thermal batch has one)
+    for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
+                                                         to_engine(each, "mass").tolist())):
+        y = _num(r * height) if r else "0"
+        key = tuple(xs)
+        xs = rows.get(key) or rows.setdefault(key, [repr(xi) for xi in xs])
+        atoms += [f"{i} {r + 1} {t} {xi} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
+        bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
+        magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
+        velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if moving else []
+    name = check_name(first.name)
+    lines = [
+        f"# {name}: {n} magnets on the x axis (LAMMPS units si)" if chains == 1 else
+        f"# {name}: {chains} chains of {n} magnets on the x axis (LAMMPS units si)",
+        "",
+        f"{n * chains} atoms",
+        f"{len(bonds)} bonds",
+        f"{len(masses)} atom types",
+        f"{pairs[-1][2] if pairs else 0} bond types",
+        "",
+        f"{_num(np.min(x[:, 0]) - half)} {_num(np.max(x[:, -1]) + half)} xlo xhi",
+        f"{_num(-half)} {_num(-half + chains * height)} ylo yhi",
+        f"{_num(-half)} {_num(half)} zlo zhi",
+        "",
+        "Masses",
+        "",
+        *(f"{i + 1} {_num(to_engine(m, 'mass'))}" for i, m in enumerate(masses)),
+        "",
+        "Atoms # bond",
+        "",
+        *atoms,
+    ]
+    for section, section_lines in (("Bonds", bonds), (MAGNET_MASSES, magnet_masses), ("Velocities", velocities)):
+        if section_lines:
+            lines += ["", section, "", *section_lines]
+    return "\n".join(lines) + "\n"
+
+
+# Both engines: atoms of the bond style (the stock engine's data file has bonds) on the x axis
+# of a 3D box, kept in the order they were read (the map finds chain neighbours by ID).
+_SYSTEM = """\
+units           si
+dimension       3
+boundary        s f f
+atom_style      bond
+atom_modify     map array sort 0 0.0"""
+
+
+def _read_data(per_atom: bool) -> str:
+    if not per_atom:
+        return f"read_data       {in_deck(DATA)}"
+    return ("# one mass per magnet (mass disorder) and one atom type: LAMMPS keeps arrays per pair of types\n"
+            "fix             masses all property/atom rmass\n"
+            f"read_data       {in_deck(DATA)} fix masses NULL {MAGNET_MASSES}")
