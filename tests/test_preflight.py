@@ -213,7 +213,7 @@ def test_masses_per_magnet_give_the_run_of_masses_per_type(tmp_path, engine):
 
 
 def test_run_larger_than_the_free_disk_is_refused_before_anything_is_written(tmp_path, monkeypatch):
-    monkeypatch.setattr(preflight, "free_disk", lambda folder: 1e5)
+    monkeypatch.setattr(preflight.checks, "free_disk", lambda folder: 1e5)  # where check looks it up
     case = make_case(particles=40, duration=30.0)  # force table 0.68 MB, binary dump 0.43 MB, H5MD, ...
     with pytest.raises(ConfigError, match=r"^run: too large for this machine: 301 frames, output 1.4\d MB.*100 kB free"):
         simulate(case, tmp_path / "run")
