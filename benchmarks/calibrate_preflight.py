@@ -7,7 +7,7 @@ run folder, fits the motion-dependent constants of `preflight` (text: bytes more
 moving and of an unevenly spaced magnet; H5MD: bytes per atom-frame moving and at rest, per
 compression) by least squares, and prints a table of estimate / measured per file with the
 current constants. The binary dump is measured before its conversion (LAMMPS run without
-post-processing). Copy the fitted values into preflight.py when they move.
+post-processing). Copy the fitted values into preflight/estimate.py when they move.
 """
 
 from __future__ import annotations
