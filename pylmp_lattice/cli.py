@@ -128,6 +128,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
     sweep.add_argument("--overwrite", action="store_true", help="make DIR this sweep's when it holds a different one (its table is replaced)")
     sweep.add_argument("--yes", action="store_true", help="run a sweep of over 100000 members")
+    sweep.add_argument("--engine", choices=("lammps", "cpu", "gpu"),
+                       help="engine of the batched members (default: the sweep file's engine, else lammps): "
+                            "cpu = the chain kernel on every core, gpu = on a GPU (pip install '.[gpu]')")
     sweep.set_defaults(func=_sweep)
 
     study = sub.add_parser("study", help="reproduce a figure of the paper: NAME.json, CSV, NAME.png, NAME.pdf")
@@ -312,7 +315,7 @@ def _sweep(args) -> int:
         check_writable(args.output, "output")
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
-                              overwrite=args.overwrite, yes=args.yes, **where)
+                              overwrite=args.overwrite, yes=args.yes, engine=args.engine, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         where = (f"finished members are kept in {args.output}" if (args.output / "members").is_dir()
                  else "no member had started")

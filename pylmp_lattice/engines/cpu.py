@@ -15,15 +15,19 @@ Members it cannot run raise `Unsupported` with the reason (the caller runs them 
 from __future__ import annotations
 
 import ctypes
+import os
 
 import numpy as np
 
 from ..case import Case
 from ..errors import RunError
-from .arrays import DRIVES, LAWS, NOUT, ChainBatch, Unsupported, prepare, result
+from .arrays import DRIVES, LAWS, NOUT, Arrays, ChainBatch, Unsupported, prepare, result
 
-__all__ = ["ChainBatch", "Unsupported", "run_chains"]
+__all__ = ["ChainBatch", "Unsupported", "run_arrays", "run_chains"]
 ABI = 1
+# A chunk of chains per call of the library, per thread: about 0.2 s of one core (its loop runs
+# 4-5e8 atom-steps/s, benchmarks/bench_kernel.py), so a stop waits at most that long.
+CHUNK_ATOM_STEPS = 1e8
 
 
 def run_chains(cases: list[Case], arrival_method: str = "level", threads: int | None = None) -> ChainBatch:
@@ -31,7 +35,16 @@ def run_chains(cases: list[Case], arrival_method: str = "level", threads: int | 
     with output.format = "none") on `threads` cores (default: all); arrival by `arrival_method`
     ("level" or "velocity_peak", as `case_measures.read_front_batch`)."""
     a = prepare(cases, "cpu")
+    return result(cases, a, *run_arrays(a, threads), arrival_method)
+
+
+def run_arrays(a: Arrays, threads: int | None = None):
+    """The kernel over the batch `a`: x, v, front (R N, NOUT, or None), work, end_step, status,
+    in engine units, as `arrays.result` takes them. The chains run in chunks of about
+    CHUNK_ATOM_STEPS per thread: Python's signal handlers run between two (a call into C defers
+    them), so Ctrl-C (KeyboardInterrupt, a sweep worker's Interrupted) stops it within one."""
     lib = _library()
+    threads = int(threads or os.cpu_count() or 1)
     x, v = a.x.copy(), a.v.copy()
     empty = np.zeros(1)
     r, u, f, fp_lo, fp_hi = ([np.ascontiguousarray(t, float) for t in a.table[:3]] + list(a.table[3:])
@@ -42,14 +55,19 @@ def run_chains(cases: list[Case], arrival_method: str = "level", threads: int | 
     work = np.zeros(a.chains)
     end_step = np.zeros(a.chains, np.int64)
     status = np.zeros(a.chains, np.int32)
-    lib.pl_run_chains(
-        a.chains, a.n, a.steps, a.dt, LAWS[a.law], _ptr(a.law_values), len(r), _ptr(r), _ptr(u), _ptr(f),
-        float(fp_lo), float(fp_hi), DRIVES[a.drive], a.V, a.T, len(t_s), _ptr(t_s), _ptr(y_s),
-        int(a.given_velocity), int(a.hold), int(a.friction is not None), mu, p, g, *a.range,
-        _ptr(x), _ptr(v), _ptr(a.mass), int(a.record), _ptr(a.levels), _ptr(front), _ptr(work),
-        end_step.ctypes.data_as(ctypes.POINTER(ctypes.c_longlong)), status.ctypes.data_as(ctypes.POINTER(ctypes.c_int)),
-        int(threads or 0))
-    return result(cases, a, x, v, front, work, end_step, status, arrival_method)
+    chunk = max(threads, threads * int(CHUNK_ATOM_STEPS // max(1, a.n * a.steps)))
+    for lo in range(0, a.chains, chunk):
+        hi = min(a.chains, lo + chunk)
+        atoms = slice(lo * a.n, hi * a.n)
+        lib.pl_run_chains(
+            hi - lo, a.n, a.steps, a.dt, LAWS[a.law], _ptr(a.law_values), len(r), _ptr(r), _ptr(u), _ptr(f),
+            float(fp_lo), float(fp_hi), DRIVES[a.drive], a.V, a.T, len(t_s), _ptr(t_s), _ptr(y_s),
+            int(a.given_velocity), int(a.hold), int(a.friction is not None), mu, p, g, *a.range,
+            _ptr(x[lo:hi]), _ptr(v[lo:hi]), _ptr(a.mass[lo:hi]), int(a.record), _ptr(a.levels[lo:hi]),
+            _ptr(front[atoms] if a.record else front), _ptr(work[lo:hi]),
+            end_step[lo:hi].ctypes.data_as(ctypes.POINTER(ctypes.c_longlong)),
+            status[lo:hi].ctypes.data_as(ctypes.POINTER(ctypes.c_int)), threads)
+    return x, v, front if a.record else None, work, end_step, status
 
 
 _LIB = None

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..case import Case
-from .arrays import DRIVES, LAWS, NOUT, ChainBatch, Unsupported, prepare, result
+from .arrays import DRIVES, LAWS, NOUT, Arrays, ChainBatch, Unsupported, prepare, result
 
-__all__ = ["ChainBatch", "Unsupported", "available", "run_chains"]
+__all__ = ["ChainBatch", "Unsupported", "available", "run_arrays", "run_chains"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 NCOL = 37  # kernel/front.h: a record row
 THREADS = 128
@@ -46,11 +46,16 @@ def run_chains(cases: list[Case], arrival_method: str = "level") -> ChainBatch:
     why = available()
     if why:
         raise Unsupported(why)
+    a = prepare(cases, "gpu")
+    return result(cases, a, *run_arrays(a), arrival_method)
+
+
+def run_arrays(a: Arrays):
+    """`engines.cpu.run_arrays` on the GPU (one launch: Ctrl-C waits for it)."""
     import cupy as cp
 
     from .cpu import _library, _ptr
 
-    a = prepare(cases, "gpu")
     lib = _library()
     n, chains = a.n, a.chains
     block = min(BLOCK, n - 2)
@@ -93,7 +98,7 @@ def run_chains(cases: list[Case], arrival_method: str = "level") -> ChainBatch:
             cp.zeros(chains * (5 * block + 1)), work, end_step, status)
     _kernel()((-(-chains // THREADS),), (THREADS,), args)
     front = rec.reshape(per_atom, NCOL)[:, :NOUT].get() if a.record else None
-    return result(cases, a, x.get(), v.get(), front, work.get(), end_step.get(), status.get(), arrival_method)
+    return x.get(), v.get(), front, work.get(), end_step.get(), status.get()
 
 
 _KERNEL = None

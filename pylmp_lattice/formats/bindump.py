@@ -107,6 +107,22 @@ def open_dump(path: str | Path) -> BinaryDump:
     return BinaryDump(path, first.columns, first.atoms, frames, dtype)
 
 
+def write_frame(path: str | Path, step: int, time: float, columns: str, data: np.ndarray) -> None:
+    """One frame (`columns`: names, the first "id"; data (atoms, columns)) as one rank of
+    LAMMPS writes it (no box: an engine without one, `engines.road`), atomically."""
+    from .files import atomic_write
+
+    data = np.ascontiguousarray(data, "<f8")
+    names = columns.encode("ascii")
+    frame = _Frame(tuple(columns.split()), data.shape[0], step, time, 1, 2, len(names), None)
+    rec = np.zeros(1, _frame_dtype(frame))
+    rec["magic_len"], rec["magic"], rec["endian"], rec["revision"] = -len(_MAGIC), _MAGIC, 1, _REVISION
+    rec["step"], rec["atoms"], rec["ncol"], rec["unit_len"], rec["unit"] = step, data.shape[0], data.shape[1], 2, b"si"
+    rec["time_flag"], rec["time"], rec["names_len"], rec["names"] = 1, time, len(names), names
+    rec["chunks"], rec["n"], rec["data"] = 1, data.size, data
+    atomic_write(path, rec.tobytes())
+
+
 @dataclass(frozen=True)
 class _Frame:
     columns: tuple[str, ...]

@@ -12,6 +12,10 @@ members.json then records every member's outcome with the summary a run alone wo
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
 own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
 
+The engine of a batch is LAMMPS, or with engine = "cpu" or "gpu" the chain kernel
+(`engines.road.KernelEngine`) on the same road into the same folder; members it cannot run
+(and those that run alone) run with LAMMPS, and the log says so once per reason and process.
+
 Stopping: SIGINT or SIGTERM soft-stops the engine (runner) and sets this process's stop flag;
 with the flag set no further member starts: the task returns its unstarted and stopped
 members as "interrupted".
@@ -57,11 +61,13 @@ IN_TASK = threading.Event()
 @dataclass(frozen=True)
 class Task:
     """What a worker needs to run some members (small and picklable): the sweep folder
-    (absolute), the members, the runner."""
+    (absolute), the members, the runner, the batches' engine and its threads (cpu)."""
 
     root: str
     members: tuple[Member, ...]
     runner: str
+    engine: str = "lammps"
+    threads: int | None = None
 
 
 def run_task(task: Task) -> list[dict]:
@@ -99,8 +105,10 @@ def _run_members(root: Path, task: Task) -> list[dict]:
         if STOP.is_set():
             break
         if len(group) > 1:
-            results |= _run_batch(root, group, task.runner, started)
+            results |= _run_batch(root, group, task.runner, started, task.engine, task.threads)
         else:
+            if task.engine != "lammps":
+                _note(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     return [results.get(m.id) or unstarted(m) for m in task.members]
 
@@ -167,17 +175,23 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
     return {"id": m.id, "record": record, "summary": summary}
 
 
-def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str) -> dict[str, dict]:
-    """Run the group as one batch, a run folder on the road of every run (`execute_batch`); on
-    a failed batch, each member alone."""
+def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str, kind: str = "lammps",
+               threads: int | None = None) -> dict[str, dict]:
+    """Run the group as one batch, a run folder on the road of every run (`execute_batch`), by
+    the `kind` engine (LAMMPS if the kernel cannot run it); on a failed batch, each member alone."""
+    from ..engines.road import kernel_engine
     from ..formats import layout
     from ..run_folder import execute_batch
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
+    engine = kernel_engine(kind, cases, threads) if kind != "lammps" else runner
+    if isinstance(engine, str) and kind != "lammps":
+        _note(kind, engine)
+        engine, kind = runner, "lammps"
     batch = _fresh(root / BATCHES / group[0][0].id)
     try:
-        execute_batch(cases, batch, runner)  # ConfigError if they differ beyond [chain]
+        execute_batch(cases, batch, engine)  # ConfigError if they differ beyond [chain]
     except Interrupted as err:
         return _batch_stopped(group, batch, started, err)
     except DiskFull:  # the sweep stops (see execute): its members are run again on resume
@@ -201,7 +215,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         return _alone(root, group, runner)
     wall, cpu = (time.perf_counter() - start) / len(group), (_cpu_time() - cpu) / len(group)
     record = {"status": DONE, "error": None, "started": started, "ended": now(), "pid": os.getpid(),
-              "provenance": provenance(), "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
+              "provenance": provenance(), "engine": kind, "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
               "cpu_time_s": round(cpu, 4)}
     where = {"folder": str(batch), "log": str(batch / layout.LOG)}
     members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data,
@@ -213,6 +227,13 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         if m.id in alone:
             remove_tree(member_folder(root, m.id))
     return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
+
+
+def _note(kind: str, why: str, noted: set = set()) -> None:  # noqa: B006 - the reasons noted in this process
+    """The one line that says members run with LAMMPS, not the `kind` engine (once per reason)."""
+    if why not in noted:
+        noted.add(why)
+        log.warning("engine %s cannot run some members (%s): they run with LAMMPS", kind, why)
 
 
 def _batch_stopped(group: list[tuple[Member, Case]], batch: Path, started: str, err: Interrupted) -> dict[str, dict]:

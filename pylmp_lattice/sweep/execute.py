@@ -67,7 +67,7 @@ BATCHED_SECONDS = 2.3e-4
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
               retry_failed: bool = False, progress: bool = True, executor: Executor | None = None,
-              slots: int | None = None, overwrite: bool = False, yes: bool = False):
+              slots: int | None = None, overwrite: bool = False, yes: bool = False, engine: str | None = None):
     """Run every member not yet done; return the table (a pandas DataFrame, also in
     root/results.{csv,parquet}).
 
@@ -76,7 +76,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
     different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
-    MANY_MEMBERS members needs `yes`.
+    MANY_MEMBERS members needs `yes`. engine: "lammps", "cpu" or "gpu" for the batched members
+    (default: the sweep's, `Sweep.engine`); with "gpu", one local worker unless told otherwise.
     Raises Interrupted on SIGINT or SIGTERM, after writing the table. A script that calls it
     needs the `if __name__ == "__main__":` guard: the local workers import it again.
     """
@@ -84,6 +85,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         raise RuntimeError("run_sweep was called while a sweep worker imported the main script again (as Python's "
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
     check_folder(root)
+    sweep = _with_engine(sweep, engine)
+    if sweep.engine == "gpu" and workers is None and scheduler is None and executor is None:
+        workers = 1  # one device: a worker feeds it
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
@@ -205,13 +209,18 @@ class _Coordinator:
                 continue
             point = _point(m)
             if group and (point != key or len(group) >= size):
-                yield Task(str(self.root), tuple(group), self.sweep.runner)
+                yield self._task(group)
                 group = []
             if not group:
                 key, size = point, self.blocks.next_size(m)
             group.append(m)
         if group:
-            yield Task(str(self.root), tuple(group), self.sweep.runner)
+            yield self._task(group)
+
+    def _task(self, group: list[Member]) -> Task:
+        """A task of these members; the cpu engine gets this machine's cores shared by its workers."""
+        threads = max(1, (os.cpu_count() or 1) // self.pool.slots) if self.sweep.engine == "cpu" else None
+        return Task(str(self.root), tuple(group), self.sweep.runner, self.sweep.engine, threads)
 
     def _finished(self, m: Member) -> bool:
         """Whether the member's outcome on disk stands (its row is set from it)."""
@@ -264,6 +273,21 @@ class _Coordinator:
             folder = None  # not started, or its batch stopped before it wrote anything
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
+
+
+def _with_engine(sweep: Sweep, engine: str | None) -> Sweep:
+    """The sweep with `engine` if given; ConfigError for "gpu" where CuPy finds no device."""
+    import dataclasses
+
+    if engine is not None:
+        sweep = dataclasses.replace(sweep, engine=engine)
+    if sweep.engine == "gpu":
+        from ..engines.gpu import available
+
+        why = available()
+        if why:
+            raise ConfigError("engine", f"gpu: {why}; run with engine cpu or lammps")
+    return sweep
 
 
 def _from_worker_import() -> bool:

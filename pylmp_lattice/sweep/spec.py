@@ -8,6 +8,8 @@ A sweep file (TOML) holds
     keep = "all"              # or "measures": no per-frame output (output.format = "none"), the
                               # front measures from the engine's record
     runner = "embedded"       # LAMMPS in the worker process; or "lmp" (the executable)
+    engine = "lammps"         # or "cpu", "gpu": the chain kernel runs batched members (see
+                              # sweep.batch; its results are LAMMPS's, within rounding)
     [set]                     # fixed overrides of the base case
     "impactor.velocity" = 1.5
     [grid]                    # the product of these lists
@@ -53,12 +55,13 @@ import numpy as np
 from ..case import (Case, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     normalised_hash, read_toml)
 from ..engine import RUNNERS
+from ..engines.road import ENGINES
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
 
-KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "cluster")
+KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "engine", "cluster")
 KEEP = ("all", "measures")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
 
@@ -154,6 +157,7 @@ class Sweep:
     seed: int = 0
     keep: str = "all"
     runner: str = "embedded"
+    engine: str = "lammps"  # not part of the identity: every engine gives the same members' results
     base_dir: Path = Path(".")  # where files named by the base case (force.file, ...) are
 
     def __post_init__(self):
@@ -203,6 +207,8 @@ class Sweep:
             raise ConfigError("keep", f"got {self.keep!r}; choose one of {', '.join(KEEP)}")
         if self.runner not in RUNNERS:
             raise ConfigError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+        if self.engine not in ENGINES:
+            raise ConfigError("engine", f"got {self.engine!r}; choose one of {', '.join(ENGINES)}")
         seeded = [f"{table}.chain.seed" for table in ("set", "grid", "zip") if "chain.seed" in getattr(self, table)]
         if self.replicas > 1 and seeded:
             raise ConfigError(seeded[0], f"with replicas = {self.replicas}, every replica would have this seed (one "

@@ -1,0 +1,88 @@
+"""A kernel engine on the road of every run (`run_folder.execution.Engine`): a batch of chains
+run by the host build (`cpu`) or the GPU build (`gpu`) of the chain kernel into a run folder
+that looks as LAMMPS leaves it.
+
+`run_folder.execute_batch` writes the folder (deck, data, replicas.toml, run.json "running"),
+this engine runs it and writes what fix lattice/front and fix lattice/chain write at the end
+of a batch: front.bin (one frame, a row per atom, `layout.FRONT_COLUMNS`, engine units) and,
+with friction, chain_work.txt (each chain's work, %.17g); the log says which engine ran. The
+deck stays: `lmp -in in.lattice` in the folder runs the same chains with LAMMPS. A chain that
+stops early (a contact, a gap out of the table range, a measured drive's end) fails the batch
+as it fails LAMMPS's: ContactError or RunError.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..case import Case
+from ..errors import ContactError, RunError
+from ..formats import layout
+from ..formats.bindump import write_frame
+from ..formats.files import atomic_write
+from ..units import from_engine
+from .arrays import STATUS, Unsupported, prepare
+
+ENGINES = ("lammps", "cpu", "gpu")
+KERNELS = ENGINES[1:]
+
+
+class KernelEngine:
+    """The `kind` engine ("cpu" on `threads` cores, default all; "gpu") for these cases, which
+    `run_folder.execute_batch` writes into a folder; Unsupported if it cannot run them."""
+
+    nprocs = 1
+
+    def __init__(self, kind: str, cases: list[Case], threads: int | None = None):
+        if kind not in KERNELS:
+            raise ValueError(f"kind: got {kind!r}; expected one of {', '.join(KERNELS)}")
+        if kind == "gpu":
+            from .gpu import available
+
+            why = available()
+            if why:
+                raise Unsupported(why)
+        self.kind, self.threads = kind, threads
+        self.arrays = prepare(list(cases), kind)
+
+    def check(self, path: Path) -> None:
+        """Any folder: the engine reads nothing from it."""
+
+    def __call__(self, path: Path, on_step: Callable[[int], None] | None = None) -> None:
+        from . import cpu, gpu
+
+        a = self.arrays
+        x, v, front, work, end_step, status = (cpu.run_arrays(a, self.threads) if self.kind == "cpu"
+                                               else gpu.run_arrays(a))
+        path = Path(path)
+        end = int(end_step.max())
+        atomic_write(path / layout.LOG, f"pylmp_lattice {self.kind} engine (the chain kernel, no LAMMPS): {a.chains} "
+                                        f"chains of {a.n} magnets, {a.steps} steps of {a.dt:.17g} s; last step {end}\n")
+        if front is not None:
+            ids = np.arange(1, a.chains * a.n + 1, dtype=float)[:, None]
+            write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, np.hstack([ids, front]))
+        if a.friction is not None:
+            atomic_write(path / layout.CHAIN_WORK, "".join(f"{w:.17g}\n" for w in work))
+        stopped = np.flatnonzero(status)
+        if stopped.size:
+            c = int(stopped[np.argmin(end_step[stopped])])  # the first to stop, as LAMMPS stops at it
+            at = float(from_engine(end_step[c] * a.dt, "time"))
+            if STATUS[status[c]] == "contact":
+                gaps = np.diff(x[c])
+                i = int(np.argmin(gaps))
+                raise ContactError((i + 1, i + 2), at, float(from_engine(gaps[i], "length")), path)
+            raise RunError(f"chain {c + 1} of the batch stopped at t = {at:.6g} ms: {STATUS[status[c]].replace('_', ' ')}",
+                           path)
+        if on_step is not None:
+            on_step(end)
+
+
+def kernel_engine(kind: str, cases: list[Case], threads: int | None = None) -> KernelEngine | str:
+    """The kernel engine for these cases, or why it cannot run them (one line)."""
+    try:
+        return KernelEngine(kind, cases, threads)
+    except Unsupported as err:
+        return str(err)
