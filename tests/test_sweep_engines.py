@@ -1,0 +1,161 @@
+"""Sweeps with --engine cpu (the chain kernel on every core) and gpu against the default,
+LAMMPS: the same results table, replica statistics, batch folders and resume; members the
+kernel cannot run fall back to LAMMPS with a note; Ctrl-C stops the C engine within 2 s."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pylmp_lattice.cli import main
+from pylmp_lattice.sweep import load_sweep, replica_stats, run_sweep
+from pylmp_lattice.sweep.store import BATCH_FILE, Outcomes
+
+ROOT = Path(__file__).resolve().parents[1]
+EXPERIMENT = ROOT / "inputs" / "paper_experiment.toml"  # 21 magnets, friction on the rod, 4800 steps
+ENSEMBLES = {
+    "thermal with friction": '"chain.thermal_velocity" = 0.02\n',
+    "mass disorder": '"chain.mass_disorder" = 0.02\n"chain.disorder" = "uniform"\n',
+}
+
+
+def write_sweep(folder: Path, replicas: int, extra: str, duration: float | None = None, keep: str = "measures") -> Path:
+    path = folder / "sweep.toml"
+    path.write_text(f'base = "{EXPERIMENT}"\nreplicas = {replicas}\nseed = 11\nkeep = "{keep}"\n[set]\n{extra}'
+                    + (f'"run.duration" = {duration}\n' if duration else ""))
+    return path
+
+
+def sweep_in_process(path: Path, out: Path, engine: str) -> pd.DataFrame:
+    with ThreadPoolExecutor(1) as pool:
+        return run_sweep(load_sweep(path), out, executor=pool, slots=1, progress=False, engine=engine)
+
+
+def assert_same_table(a: pd.DataFrame, b: pd.DataFrame, rtol: float = 1e-9) -> None:
+    """Equal ids, statuses, folders' kind and every other column; numbers within rtol (measures)."""
+    a, b = a.set_index("id").sort_index(), b.set_index("id").sort_index()
+    assert list(a.columns) == list(b.columns) and list(a.index) == list(b.index)
+    for column in a.columns.drop("wall_time_s"):
+        if a[column].dtype.kind == "f":
+            np.testing.assert_allclose(b[column], a[column], rtol=rtol, atol=0, equal_nan=True, err_msg=column)
+        else:
+            assert list(a[column]) == list(b[column]), column
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("ensemble", ENSEMBLES)
+def test_the_cpu_engine_gives_the_lammps_results_table(tmp_path, ensemble):
+    """Six replicas of the 21-magnet experiment (friction on the rod), one batch each way: the
+    table's measures within 1e-9 (the kernel is the fixes' physics: in fact bit for bit), the
+    replica statistics alike, and the batch folders hold the same files but the log."""
+    path = write_sweep(tmp_path, 6, ENSEMBLES[ensemble])
+    lammps = sweep_in_process(path, tmp_path / "lammps", "lammps")
+    cpu = sweep_in_process(path, tmp_path / "cpu", "cpu")
+    assert set(cpu["status"]) == {"done"} and cpu["shock_velocity_max_m_per_s.value"].nunique() == 6
+    assert_same_table(lammps, cpu)
+    assert "friction_dissipated_energy_mJ" in cpu and cpu["friction_dissipated_energy_mJ"].gt(0).all()
+    pd.testing.assert_frame_equal(replica_stats(cpu), replica_stats(lammps), rtol=1e-9)
+    disk = Outcomes(tmp_path / "cpu")
+    records = [disk.get(i)["record"] for i in cpu["id"]]
+    assert {r["engine"] for r in records} == {"cpu"} and len({r["batch"] for r in records}) == 1
+    folder = tmp_path / "cpu" / records[0]["batch"]
+    same = tmp_path / "lammps" / records[0]["batch"]
+    assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in same.iterdir())
+    assert (folder / "front.bin").read_bytes()[:200] != b"" and "cpu engine" in (folder / "log.lammps").read_text()
+    assert json.loads((folder / "run.json").read_text())["state"] == "finished"
+
+
+@pytest.mark.lammps
+def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_path, caplog, monkeypatch):
+    """A batch the kernel refuses runs with LAMMPS (its record says so) and the log has one
+    line for it, however many batches; so does a member that runs alone (trajectories kept)."""
+    from pylmp_lattice.engines import road
+    from pylmp_lattice.engines.arrays import Unsupported
+
+    def refuse(cases, kind):
+        raise Unsupported("refused by this test")
+
+    monkeypatch.setattr(road, "prepare", refuse)
+    path = write_sweep(tmp_path, 4, ENSEMBLES["thermal with friction"], duration=10.0)
+    with caplog.at_level(logging.WARNING, logger="pylmp_lattice"):
+        table = sweep_in_process(path, tmp_path / "out", "cpu")
+        alone = sweep_in_process(write_sweep(tmp_path, 2, ENSEMBLES["mass disorder"], duration=5.0, keep="all"),
+                                 tmp_path / "alone", "cpu")
+    assert set(table["status"]) == set(alone["status"]) == {"done"}
+    disk = Outcomes(tmp_path / "out")
+    assert {disk.get(i)["record"]["engine"] for i in table["id"]} == {"lammps"}
+    notes = [r.getMessage() for r in caplog.records if "run with LAMMPS" in r.getMessage()]
+    assert len([n for n in notes if "refused by this test" in n]) == 1, notes
+    assert len([n for n in notes if "runs alone" in n]) == 1, notes
+
+
+@pytest.mark.lammps
+def test_a_cpu_sweep_resumes_only_what_is_missing(tmp_path):
+    """A batch whose members.json is gone runs again (only it), and the table is as before;
+    a sweep run with LAMMPS resumes with the cpu engine (the engine is not the sweep's identity)."""
+    path = write_sweep(tmp_path, 4, ENSEMBLES["thermal with friction"], duration=10.0)
+    out = tmp_path / "out"
+    first = sweep_in_process(path, out, "lammps")
+    batches = sorted((out / "batches").glob(f"*/{BATCH_FILE}"))
+    assert len(batches) == 1
+    stamp = batches[0].stat().st_mtime_ns
+    again = sweep_in_process(path, out, "cpu")
+    assert batches[0].stat().st_mtime_ns == stamp  # kept, not run again
+    batches[0].unlink()
+    third = sweep_in_process(path, out, "cpu")
+    assert Outcomes(out).get(third["id"][0])["record"]["engine"] == "cpu"
+    assert_same_table(first, again) and assert_same_table(first, third)
+
+
+def test_engine_gpu_without_cupy_or_a_device_is_one_line_exit_2(tmp_path, capsys):
+    from pylmp_lattice.engines.gpu import available
+
+    if available() is None:
+        pytest.skip("this machine has a GPU the engine can use")
+    path = write_sweep(tmp_path, 2, ENSEMBLES["mass disorder"])
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out"), "--engine", "gpu", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "engine" in err and "gpu" in err
+    assert not (tmp_path / "out" / "members").exists()
+
+
+def test_an_unknown_engine_in_a_sweep_file_names_the_field(tmp_path, capsys):
+    path = write_sweep(tmp_path, 2, ENSEMBLES["mass disorder"])
+    path.write_text(path.read_text().replace("keep =", 'engine = "tpu"\nkeep ='))
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "engine" in err and "'tpu'" in err and "cpu" in err
+
+
+@pytest.mark.lammps
+def test_ctrl_c_stops_a_cpu_sweep_within_2_s(tmp_path):
+    """SIGINT to the command's process group while the kernel runs (in C, in chunks): exit 130
+    within 2 s, members "done" or "interrupted" (resume: test_a_cpu_sweep_resumes_only_what_is_missing)."""
+    path = write_sweep(tmp_path, 2000, ENSEMBLES["mass disorder"], duration=600.0)  # 48000 steps: ~5 s of 2 cores
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--engine", "cpu",
+           "--workers", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    deadline = time.monotonic() + 60
+    while not any((out / "batches").glob("*/run.json")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)  # the kernel is running
+    assert proc.poll() is None, proc.stderr.read()
+    os.killpg(proc.pid, signal.SIGINT)
+    sent = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    took = time.monotonic() - sent
+    assert proc.returncode == 130 and took < 2.0, (proc.returncode, took, err)
+    table = pd.read_csv(out / "results.csv")
+    assert set(table["status"]) <= {"done", "interrupted"} and (table["status"] == "interrupted").any()
