@@ -26,7 +26,10 @@ of the command's process (the package, pandas and pyarrow for the table, matplot
 replica figure) and of the workers' fork server (the package, the engine's libraries), each
 measured in a fresh Python. The work on the cases, files, table and figure is left out.
 
-    python benchmarks/bench_sweep.py [--members 1000[,4000]] [--workers 2] [--thermal 0.02] [--variants friction,frictionless]
+With --engine cpu (or gpu) the sweep's batches run on the chain kernel (`engines.road`); the
+engine columns then read "-" (its log has no LAMMPS loop time) and the floor is the imports only.
+
+    python benchmarks/bench_sweep.py [--members 1000[,4000]] [--workers 2] [--thermal 0.02] [--variants friction,frictionless] [--engine lammps|cpu|gpu]
 """
 
 from __future__ import annotations
@@ -68,11 +71,11 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
+def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps") -> dict:
     """The sweep as a user runs it: wall time, start-up, first result, the table written, and
     CPU (the coordinator's, and the workers' in their tasks), seconds."""
     cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", str(workers),
-           "--quiet"]
+           "--quiet", "--engine", engine]
     cpu = children_cpu()
     start = time.time()
     done = subprocess.run(cmd, capture_output=True, text=True)
@@ -91,7 +94,8 @@ def run_sweep_command(path: Path, out: Path, workers: int) -> dict:
     tasks = sum(r["cpu_time_s"] for r in records)  # each member's share of its task's CPU
     # LAMMPS's own loop time of every batch (or member run alone), summed over the workers
     logs = [*(out / "batches").glob("*/log.lammps"), *(out / "members").glob("*/log.lammps")]
-    loops = [re.search(r"Loop time of (\S+).*?\n\s*\n?([\d.]+)% CPU use", p.read_text(), re.S).groups() for p in logs]
+    found = [re.search(r"Loop time of (\S+).*?\n\s*\n?([\d.]+)% CPU use", p.read_text(), re.S) for p in logs]
+    loops = [m.groups() for m in found if m is not None]  # a kernel engine's log has none
     engine = sum(float(t) for t, _ in loops) / workers
     engine_cpu = sum(float(t) * float(use) / 100 for t, use in loops)  # the engine's own CPU, contention aside
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
@@ -167,12 +171,18 @@ def import_cpu(modules, repeat: int = 3) -> float:
     return best
 
 
+def lammps(value: float, spec: str) -> str:
+    """LAMMPS's engine time, or "-" where none ran (a kernel engine)."""
+    return format(value, spec) if value else "-"
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--members", default="1000", help="one size, or two (N1,N2) for the marginal cost")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
     p.add_argument("--variants", default="friction,frictionless")
+    p.add_argument("--engine", choices=("lammps", "cpu", "gpu"), default="lammps")
     p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
     args = p.parse_args()
     sizes = [int(n) for n in args.members.split(",")]
@@ -188,7 +198,7 @@ def main() -> None:
         imports = {"coordinator": import_cpu(COORDINATOR), "workers": import_cpu(PRELOAD)}
         warm = tmp / "warm-up"  # not reported: the first sweep of a session reads the libraries from disk
         warm.mkdir()
-        run_sweep_command(write_sweep(warm, 2 * args.workers, args.thermal, friction=True), warm / "out", args.workers)
+        run_sweep_command(write_sweep(warm, 2 * args.workers, args.thermal, friction=True), warm / "out", args.workers, args.engine)
         rows = []
         for variant in args.variants.split(","):
             for members in sizes:
@@ -196,7 +206,7 @@ def main() -> None:
                 folder.mkdir()
                 path = write_sweep(folder, members, args.thermal, friction=variant == "friction")
                 load_before = os.getloadavg()[0]
-                sweep = run_sweep_command(path, folder / "out", args.workers)
+                sweep = run_sweep_command(path, folder / "out", args.workers, args.engine)
                 cases, x, v, m = loop_states(path)
                 loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
                 error = check_member_zero(cases[0], final[0], folder)
@@ -204,15 +214,15 @@ def main() -> None:
                 rows.append((variant, members, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; machine: {os.cpu_count()} cores; members of the 21-magnet experiment "
-          f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers")
+          f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers, engine {args.engine}")
     print("| variant | members | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
           "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
           "| C loop CPU (s) | sweep / loop, CPU | loop vs engine, member 0 (m/s) | load before, after |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for variant, members, s, loop_wall, loop_cpu, error, before, after in rows:
         print(f"| {variant} | {members} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
-              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {s['engine']:.2f} | {loop_wall:.3f} | "
-              f"{s['engine'] / loop_wall:.1f}x | "
+              f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {lammps(s['engine'], '.2f')} | {loop_wall:.3f} | "
+              f"{lammps(s['engine'] / loop_wall, '.1f')}x | "
               f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
               f"{error:.1e} | {before:.1f}, {after:.1f} |")
     print("start-up: the command to the first member's start; first result: to the first member done; table "

@@ -159,3 +159,17 @@ def test_ctrl_c_stops_a_cpu_sweep_within_2_s(tmp_path):
     assert proc.returncode == 130 and took < 2.0, (proc.returncode, took, err)
     table = pd.read_csv(out / "results.csv")
     assert set(table["status"]) <= {"done", "interrupted"} and (table["status"] == "interrupted").any()
+
+
+@pytest.mark.gpu
+def test_the_gpu_engine_gives_the_cpu_engine_s_results_table(tmp_path):
+    """Where CuPy finds a device: the same sweep with --engine gpu and --engine cpu, within 1e-12
+    (one kernel; the GPU may contract a*b+c into an FMA)."""
+    from pylmp_lattice.engines.gpu import available
+
+    why = available()
+    if why:
+        pytest.skip(why)
+    path = write_sweep(tmp_path, 6, ENSEMBLES["thermal with friction"])
+    assert_same_table(sweep_in_process(path, tmp_path / "cpu", "cpu"), sweep_in_process(path, tmp_path / "gpu", "gpu"),
+                      rtol=1e-12)

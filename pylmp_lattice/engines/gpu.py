@@ -5,10 +5,14 @@ The same batch as `engines.cpu` (`arrays.prepare`), the splines fitted on the ho
 engine's library (the plugin's fits, fit.h), the same results (`arrays.ChainBatch`). CuPy is an
 optional dependency: without it, or without a device, `run_chains` raises `Unsupported`.
 
-Not yet run on a GPU (the session that wrote it had none): its test (tests/test_kernel_cpu.py,
-marked gpu) compares it with the host engine within 1e-12 where CuPy finds a device. Memory is
-chain-major (each thread reads its own slices: not coalesced) and every chain keeps its front
-record (n x 37 doubles); a layout for 10^6 members is the next step.
+Chains of up to 64 magnets (the ensembles') keep their whole state in each thread's local
+memory, which CUDA interleaves by thread (coalesced), and only the record's 7 output columns per
+magnet go back to global memory; longer chains run on chain-major rows of global arrays.
+
+Not yet run on a GPU (the sessions that wrote it had none; nvcc -ptx -arch=sm_90 compiles it):
+its tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py, marked gpu) and
+benchmarks/bench_gpu.py --check compare it with the host engine within 1e-12 where CuPy finds a
+device.
 """
 
 from __future__ import annotations
@@ -26,6 +30,10 @@ KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 NCOL = 37  # kernel/front.h: a record row
 THREADS = 128
 BLOCK = 256  # the largest run of free atoms, as the fix's
+# Chains of up to 64 magnets keep their state in each thread's local memory (engine_gpu.cu)
+LOCAL_SIZES = (32, 64)
+# Atom-steps per launch: about 0.5 s at 1e11 atom-steps/s (issue 28's target), so Ctrl-C waits at most that long
+CHUNK_ATOM_STEPS = 5e10
 
 
 def available() -> str | None:
@@ -79,38 +87,66 @@ def run_arrays(a: Arrays):
         t_s = y_s = fit = empty
     mu, p, g = a.friction or (0.0, 0.0, 0.0)
     d = cp.asarray
-    x, v, mass = d(a.x), d(a.v), d(a.mass)
-    per_atom = chains * n
-    rec = cp.full(per_atom * NCOL if a.record else 1, np.nan)
-    mark = cp.full(per_atom if a.record else 1, np.nan)
-    gate = cp.zeros(per_atom if a.record else 1)
-    phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
-    work = cp.zeros(chains)
-    end_step = cp.zeros(chains, cp.int64)
-    status = cp.zeros(chains, cp.int32)
-    args = (np.int32(chains), np.int32(n), np.int64(a.steps), np.float64(a.dt), np.int32(block),
-            np.int32(LAWS[a.law]), d(a.law_values), np.int32(table_n), np.float64(x0), np.float64(dx), d(yd2),
-            np.int32(DRIVES[a.drive]), np.float64(a.V), np.float64(a.T), np.int32(len(t_s)), d(t_s), d(y_s), d(fit),
-            np.int32(a.given_velocity), np.int32(a.hold), np.int32(a.friction is not None), np.float64(mu),
-            np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), x, v, mass,
-            cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32),
-            np.int32(a.record), d(a.levels), rec, mark, gate, phase, cp.zeros(chains * nruns * 5, cp.int32),
-            cp.zeros(chains * (5 * block + 1)), work, end_step, status)
-    _kernel()((-(-chains // THREADS),), (THREADS,), args)
-    front = rec.reshape(per_atom, NCOL)[:, :NOUT].get() if a.record else None
-    return x.get(), v.get(), front, work.get(), end_step.get(), status.get()
+    x, v, mass, levels = d(a.x), d(a.v), d(a.mass), d(a.levels)
+    work, end_step, status = cp.zeros(chains), cp.zeros(chains, cp.int64), cp.zeros(chains, cp.int32)
+    setup = (np.int32(n), np.int64(a.steps), np.float64(a.dt), np.int32(block),
+             np.int32(LAWS[a.law]), d(a.law_values), np.int32(table_n), np.float64(x0), np.float64(dx), d(yd2),
+             np.int32(DRIVES[a.drive]), np.float64(a.V), np.float64(a.T), np.int32(len(t_s)), d(t_s), d(y_s), d(fit),
+             np.int32(a.given_velocity), np.int32(a.hold), np.int32(a.friction is not None), np.float64(mu),
+             np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record))
+    local = _local_size(n)
+    if local:
+        front = cp.empty(chains * n * NOUT if a.record else 1)
+    else:  # each chain's rows of global arrays: its whole record (NCOL columns), the output copied out
+        per_atom = chains * n
+        rec = cp.full(per_atom * NCOL if a.record else 1, np.nan)
+        mark = cp.full(per_atom if a.record else 1, np.nan)
+        gate = cp.zeros(per_atom if a.record else 1)
+        phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
+        scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
+        runs, scratch_runs = cp.zeros(chains * nruns * 5, cp.int32), cp.zeros(chains * (5 * block + 1))
+    chunk = max(THREADS, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // THREADS * THREADS)
+    for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
+        hi = min(chains, lo + chunk)
+        rows, atoms = slice(lo, hi), slice(lo * n, hi * n)
+        grid = (-(-(hi - lo) // THREADS),)
+        if local:
+            args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
+                    front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
+            _kernel("pl_run_short_chains_gpu", local)(grid, (THREADS,), args)
+        else:
+            f, dtfm, weight, index = scratch
+            args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
+                    index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
+                    *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
+                    runs[lo * nruns * 5:hi * nruns * 5], scratch_runs[lo * (5 * block + 1):hi * (5 * block + 1)],
+                    work[rows], end_step[rows], status[rows])
+            _kernel("pl_run_chains_gpu", 0)(grid, (THREADS,), args)
+        cp.cuda.Stream.null.synchronize()
+    if not a.record:
+        out = None
+    elif local:
+        out = front.reshape(chains * n, NOUT).get()
+    else:
+        out = rec.reshape(chains * n, NCOL)[:, :NOUT].get()
+    return x.get(), v.get(), out, work.get(), end_step.get(), status.get()
 
 
-_KERNEL = None
+def _local_size(n: int) -> int:
+    """The local arrays' length for chains of n (PL_LOCAL_N: a multiple of 32), 0 for global rows."""
+    return next((size for size in LOCAL_SIZES if n <= size), 0)
 
 
-def _kernel():
-    """The compiled kernel (CuPy caches the compilation on disk)."""
-    global _KERNEL
-    if _KERNEL is None:
+_MODULES: dict = {}
+
+
+def _kernel(name: str, local: int):
+    """A compiled kernel of engine_gpu.cu, its local arrays `local` long (CuPy caches the
+    compilation on disk)."""
+    if local not in _MODULES:
         import cupy as cp
 
         source = (KERNEL / "engine_gpu.cu").read_text()
-        module = cp.RawModule(code=source, options=("-std=c++17", f"-I{KERNEL}"))
-        _KERNEL = module.get_function("pl_run_chains_gpu")
-    return _KERNEL
+        _MODULES[local] = cp.RawModule(code=source, options=("-std=c++17", f"-I{KERNEL}",
+                                                             f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}"))
+    return _MODULES[local].get_function(name)

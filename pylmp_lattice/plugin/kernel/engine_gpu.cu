@@ -1,22 +1,35 @@
-/* The GPU engine's kernel: one thread per chain, each running the chain kernel's run_chain
-   (chain.h) on its own slices of the batch's arrays (chain-major). Compiled at run time by NVRTC
-   through CuPy (pylmp_lattice/engines/gpu.py, with -I this folder). Part of pylmp_lattice, GPL-2.0. */
+/* The GPU engine's kernels: one thread per chain, each running the chain kernel's run_chain
+   (chain.h). Compiled at run time by NVRTC through CuPy (pylmp_lattice/engines/gpu.py, with -I
+   this folder and -DPL_LOCAL_N). Part of pylmp_lattice, GPL-2.0.
+
+   Short chains (n <= PL_LOCAL_N, the ensembles' case): pl_run_short_chains_gpu keeps a chain's
+   whole state (x, v, f, masses, the front record's rows, marks, phases, scratch) in per-thread
+   local arrays. CUDA interleaves local memory by thread (word k of the 32 threads of a warp is
+   one 128-byte line), so when the warp's threads step their chains in lockstep every access is
+   coalesced, and what stays hot sits in L1/L2; only the inputs (x, v, masses, levels) are read
+   from global memory once, and only the record's NOUT output columns (not its NCOL columns of
+   running state) and the final x, v are written back: the per-chain record leaves the chip
+   compact, 7 doubles per magnet.
+   Long chains: pl_run_chains_gpu runs on chain-major slices of global arrays (each thread its
+   own rows: not coalesced; a block per chain would be the next step). */
 
 #include "chain.h"
 
+#ifndef PL_LOCAL_N
+#define PL_LOCAL_N 32
+#endif
+
 using namespace pl_kernel;
 
-extern "C" __global__ void pl_run_chains_gpu(
-    int chains, int n, long long steps, double dt, int block, int law_kind, const double *law_values, int table_n,
-    double table_x0, double table_dx, const double *table_yd2, int drive_profile, double V, double T, int measured_n,
-    const double *measured_t, const double *measured_y, const double *measured_fit, int given_velocity, int hold_after,
-    int friction, double mu, double p, double g, double range_lo, double range_hi, double *x, double *v,
-    const double *mass, double *f, double *dtfm, double *weight, const int *index, int record, const double *levels,
-    double *rec, double *mark, double *gate, unsigned char *phase, int *runs, double *scratch, double *work,
-    long long *end_step, int *status)
+namespace {
+/* The batch's setup (as the host engine builds it, engine_cpu.cpp), from the host's fits. */
+__device__ ChainSetup make_setup(int n, long long steps, double dt, int block, int law_kind, const double *law_values,
+                                 int table_n, double table_x0, double table_dx, const double *table_yd2,
+                                 int drive_profile, double V, double T, int measured_n, const double *measured_t,
+                                 const double *measured_y, const double *measured_fit, int given_velocity,
+                                 int hold_after, int friction, double mu, double p, double g, double range_lo,
+                                 double range_hi, int record)
 {
-  const int c = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c >= chains) return;
   ChainSetup S = chain_setup(n, steps, dt, range_lo, range_hi, friction != 0, mu, p, g, record != 0, block);
   if (law_kind == 0) S.law = Law::power(law_values[0], law_values[1], law_values[2]);
   else if (law_kind == 1) S.law = Law::linear(law_values[0], law_values[1]);
@@ -41,6 +54,71 @@ extern "C" __global__ void pl_run_chains_gpu(
     S.drive.measured.given_velocity = given_velocity != 0;
     S.drive.measured.hold_after = hold_after != 0;
   }
+  return S;
+}
+}    // namespace
+
+#define PL_SETUP_PARAMS                                                                                             \
+  int chains, int n, long long steps, double dt, int block, int law_kind, const double *law_values, int table_n,   \
+      double table_x0, double table_dx, const double *table_yd2, int drive_profile, double V, double T,            \
+      int measured_n, const double *measured_t, const double *measured_y, const double *measured_fit,             \
+      int given_velocity, int hold_after, int friction, double mu, double p, double g, double range_lo,           \
+      double range_hi, int record
+#define PL_SETUP_ARGS                                                                                               \
+  n, steps, dt, block, law_kind, law_values, table_n, table_x0, table_dx, table_yd2, drive_profile, V, T,           \
+      measured_n, measured_t, measured_y, measured_fit, given_velocity, hold_after, friction, mu, p, g, range_lo,  \
+      range_hi, record
+
+/* n <= PL_LOCAL_N, n - 2 <= block: one run of free atoms. x, v (chains x n, chain-major) in and
+   out; front_out (chains x n x NOUT) with a record. */
+extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass,
+                                                   const double *levels, double *front_out, double *work,
+                                                   long long *end_step, int *status)
+{
+  const int c = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c >= chains) return;
+  const ChainSetup S = make_setup(PL_SETUP_ARGS);
+  constexpr int N = PL_LOCAL_N;
+  double xl[N], vl[N], fl[N], ml[N], dtfm[N], weight[N], rec[N * front::NCOL], mark[N], gate[N];
+  double scratch[5 * N + 1];
+  unsigned char phase[N];
+  int index[N];
+  Run runs[1];
+  const long long at = static_cast<long long>(c) * n;
+  for (int i = 0; i < n; i++) {
+    xl[i] = x[at + i], vl[i] = v[at + i], ml[i] = mass[at + i], index[i] = i;
+    mark[i] = quiet_nan(), gate[i] = 0.0, phase[i] = front::WAITING;
+  }
+  if (S.record)
+    for (int k = 0; k < n * front::NCOL; k++) rec[k] = quiet_nan();
+  chain_masses(ml, n, dt, g, dtfm, weight);
+  ChainData d{};
+  d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = index;
+  d.runs = runs, d.scratch = scratch;
+  if (S.record) {
+    d.levels = levels_row(levels + 5 * static_cast<long long>(c));
+    d.rec = rec, d.mark = mark, d.gate = gate, d.phase = phase;
+  }
+  run_chain(S, d);
+  for (int i = 0; i < n; i++) x[at + i] = xl[i], v[at + i] = vl[i];
+  if (S.record)
+    for (int i = 0; i < n; i++)
+      for (int k = 0; k < front::NOUT; k++) front_out[(at + i) * front::NOUT + k] = rec[i * front::NCOL + k];
+  work[c] = d.work_done;
+  end_step[c] = d.end_step;
+  status[c] = d.status;
+}
+
+/* Any n: each thread on its chain's rows of global arrays (chain-major); rec (chains x n x NCOL)
+   NaN, mark NaN, gate and phase 0 on entry. */
+extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass, double *f,
+                                             double *dtfm, double *weight, const int *index, const double *levels,
+                                             double *rec, double *mark, double *gate, unsigned char *phase, int *runs,
+                                             double *scratch, double *work, long long *end_step, int *status)
+{
+  const int c = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c >= chains) return;
+  const ChainSetup S = make_setup(PL_SETUP_ARGS);
   const long long at = static_cast<long long>(c) * n;
   chain_masses(mass + at, n, dt, g, dtfm + at, weight + at);
   const int nruns = (n - 2 + block - 1) / block;

