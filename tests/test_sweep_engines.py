@@ -142,7 +142,7 @@ def test_an_unknown_engine_in_a_sweep_file_names_the_field(tmp_path, capsys):
 def test_ctrl_c_stops_a_cpu_sweep_within_2_s(tmp_path):
     """SIGINT to the command's process group while the kernel runs (in C, in chunks): exit 130
     within 2 s, members "done" or "interrupted" (resume: test_a_cpu_sweep_resumes_only_what_is_missing)."""
-    path = write_sweep(tmp_path, 2000, ENSEMBLES["mass disorder"], duration=600.0)  # 48000 steps: ~5 s of 2 cores
+    path = write_sweep(tmp_path, 5000, ENSEMBLES["mass disorder"])  # about 10 s of 2 cores (4800 steps each)
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--engine", "cpu",
            "--workers", "2", "--quiet"]
@@ -150,7 +150,7 @@ def test_ctrl_c_stops_a_cpu_sweep_within_2_s(tmp_path):
     deadline = time.monotonic() + 60
     while not any((out / "batches").glob("*/run.json")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    time.sleep(0.3)  # the kernel is running
+    time.sleep(1.5)  # the kernel is running, and the coordinator has loaded pandas for the table
     assert proc.poll() is None, proc.stderr.read()
     os.killpg(proc.pid, signal.SIGINT)
     sent = time.monotonic()

@@ -25,10 +25,10 @@ from .arrays import DRIVES, LAWS, NOUT, Arrays, ChainBatch, Unsupported, prepare
 
 __all__ = ["ChainBatch", "Unsupported", "run_arrays", "run_chains"]
 ABI = 1
-# A chunk of chains per call of the library, per thread: about 0.4 s of one core (the 21-magnet
+# A chunk of chains per call of the library, per thread: about 0.1 s of one core (the 21-magnet
 # experiment with friction and the record runs 4.5e7 atom-steps/s per thread on a 2-core AMD EPYC,
 # benchmarks/bench_kernel.py --members 1000), so a stop waits at most that long.
-CHUNK_ATOM_STEPS = 2e7
+CHUNK_ATOM_STEPS = 5e6
 
 
 def run_chains(cases: list[Case], arrival_method: str = "level", threads: int | None = None) -> ChainBatch:

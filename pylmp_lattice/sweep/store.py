@@ -9,9 +9,9 @@ start and end times). Members batched in one instance (keep = "measures", those 
 parameter point the chain engine can hold together, see `batch`) share
 DIR/batches/<id of the first>/, a run folder (`run_folder.execute_batch`: deck, data,
 replicas.toml, run.json, log and front record), and `members.json`, their outcomes
-(`write_batch`): the record above once (status "done", times and provenance), and per member
-its id, index, parameters, chain number in the batch, case and summary; O(1) files for the
-batch instead of five per member.
+(`write_batch`): the record above once (status "done", times, provenance, engine), and per
+member its id, index, parameters, chain number in the batch, case and summary, as columns
+(each key once for the batch: `columns`); O(1) files for the batch instead of five per member.
 A member counts as done only when its record says so and its summary parses; status.json and
 members.json are each replaced in one step after everything else is written: a member killed
 half-way is re-run. DIR/sweep.json names the sweep the folder holds.
@@ -106,14 +106,32 @@ def listing(folder: Path) -> set[str]:
 def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, dict]:
     """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
-    summary} each), written last and atomically. Returns the outcomes as `read_batch` gives them."""
+    summary} each) as columns (`columns`), written last and atomically. Returns the outcomes
+    as `read_batch` gives them."""
     from ..serialize import jsonable
 
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
-    data = {**record, "members": [m | {"summary": jsonable(m["summary"])} for m in members]}
-    atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False) + "\n", sync=False)
+    data = {**record, "columns": columns([m | {"summary": jsonable(m["summary"])} for m in members])}
+    atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n", sync=False)
     return _batch_outcomes(data)
+
+
+def columns(rows: list):
+    """Rows as columns, for a batch of up to 10^6 members: dicts with the same keys become
+    {"cols": {key: columns(their values)}} (each key once), anything else {"rows": rows}."""
+    first = rows[0] if rows else None
+    if isinstance(first, dict) and first and all(isinstance(r, dict) and r.keys() == first.keys() for r in rows):
+        return {"cols": {key: columns([r[key] for r in rows]) for key in first}}
+    return {"rows": rows}
+
+
+def rows(table: dict) -> list:
+    """`columns` undone."""
+    if "rows" in table:
+        return table["rows"]
+    cols = {key: rows(column) for key, column in table["cols"].items()}
+    return [dict(zip(cols, values)) for values in zip(*cols.values(), strict=True)]
 
 
 def read_batch(path: Path) -> dict[str, dict]:
@@ -121,14 +139,15 @@ def read_batch(path: Path) -> dict[str, dict]:
     data = read_json(path)
     try:
         return _batch_outcomes(data) if data is not None and data["status"] == DONE else {}
-    except (KeyError, TypeError, AttributeError):
+    except (KeyError, TypeError, AttributeError, ValueError):
         return {}
 
 
 def _batch_outcomes(data: dict) -> dict[str, dict]:
-    record = {k: v for k, v in data.items() if k != "members"}
+    record = {k: v for k, v in data.items() if k not in ("members", "columns")}
+    members = rows(data["columns"]) if "columns" in data else data["members"]  # "members": a list, before columns
     return {m["id"]: {"record": record | {k: m[k] for k in ("id", "index", "params", "chain")}, "summary": m["summary"]}
-            for m in data["members"] if isinstance(m["summary"], dict)}
+            for m in members if isinstance(m["summary"], dict)}
 
 
 def outcome(root: str | Path, member_id: str) -> dict | None:
