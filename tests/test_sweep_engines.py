@@ -19,6 +19,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
+from pylmp_lattice.run_folder.marker import DONE
 from pylmp_lattice.sweep import load_sweep, replica_stats, run_sweep
 from pylmp_lattice.sweep.store import BATCH_FILE, Outcomes
 
@@ -73,7 +74,8 @@ def test_the_cpu_engine_gives_the_lammps_results_table(tmp_path, ensemble):
     same = tmp_path / "lammps" / records[0]["batch"]
     assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in same.iterdir())
     assert (folder / "front.bin").read_bytes()[:200] != b"" and "cpu engine" in (folder / "log.lammps").read_text()
-    assert json.loads((folder / "run.json").read_text())["state"] == "finished"
+    states = [json.loads((f / "run.json").read_text())["state"] for f in (folder, same)]
+    assert states == [DONE, DONE]
 
 
 @pytest.mark.lammps

@@ -34,7 +34,7 @@ from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import Interrupted, UsageError
+from ..errors import ConfigError, Interrupted, UsageError
 from ..formats.files import DiskFull
 from . import batch, disk
 from .batch import Task
