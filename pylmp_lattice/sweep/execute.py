@@ -57,6 +57,9 @@ MANY_MEMBERS = 100_000
 MAX_ATOMS = 200_000
 MAX_ATOM_STEPS = 1e8
 MAX_TYPES = 1024
+# A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
+# and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
+GPU_MAX_ATOMS = 4_000_000
 # A member beyond its engine and output, for the estimate: run alone, its instance, files and
 # measures (CPU time of 25 members of the 21-magnet experiment, keep = "measures", through
 # batch.run_member: 0.051 s each, of which 0.010 s engine; 2026-11-26 01:39 UTC); batched, its
@@ -77,7 +80,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
     different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
     MANY_MEMBERS members needs `yes`. engine: "lammps", "cpu" or "gpu" for the batched members
-    (default: the sweep's, `Sweep.engine`); with "gpu", one local worker unless told otherwise.
+    (default: the sweep's, `Sweep.engine`); with "gpu" every worker feeds the one device (the
+    members' Python, not the kernel, takes most of the time: `_Blocks`).
     Raises Interrupted on SIGINT or SIGTERM, after writing the table. A script that calls it
     needs the `if __name__ == "__main__":` guard: the local workers import it again.
     """
@@ -86,8 +90,6 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
     check_folder(root)
     sweep = _with_engine(sweep, engine)
-    if sweep.engine == "gpu" and workers is None and scheduler is None and executor is None:
-        workers = 1  # one device: a worker feeds it
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
@@ -124,7 +126,7 @@ class _Coordinator:
         self.table = Table(root)
         self.disk = Outcomes(root)
         self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots,  # a resumed sweep: what is left
-                              max(1, total // sweep.replicas), sweep.replicas)
+                              max(1, total // sweep.replicas), sweep.replicas, engine=sweep.engine)
         self.bar = _Progress(total, progress)
         self.lost = False
         self.full: DiskFull | None = None  # a full disk: the sweep stops as on a signal
@@ -326,6 +328,7 @@ class _Blocks:
     points: int = 1  # parameter points
     replicas: int = 1  # members per point
     limits: dict = field(default_factory=dict)
+    engine: str = "lammps"
 
     def next_size(self, m: Member) -> int:
         """The size of the task that starts with member `m`."""
@@ -347,7 +350,9 @@ class _Blocks:
 
                 n = case.chain.particles
                 caps = [MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps()))]
-                if per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
+                if self.engine == "gpu":  # a launch fills the device only with 10^5 chains or so
+                    caps = [GPU_MAX_ATOMS // n]
+                elif per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
                     caps.append(MAX_TYPES)
                 self.limits[point] = max(1, min(caps))
         return self.limits[point]
