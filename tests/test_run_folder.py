@@ -113,20 +113,20 @@ def _import_graph() -> dict[str, set[str]]:
 
 
 # Modules the run path calls for values, as often as it needs one: the case and the laws it is
-# made of, pure functions of values (units, the deck's text, the summary's dict, the measures,
-# the figure, the progress bar's callback) and the formats of single files (binary and text
+# made of, pure functions of values (units, the deck's text, preflight's size estimates, the summary's dict,
+# the measures, the figure, the progress bar's callback) and the formats of single files (binary and text
 # dumps, H5MD and its PSF topology, the front record, run.json and the lock). They call only
 # each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
 HELPERS = {"case", "forcelaw", "impactor", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
            "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
            "formats", "run_folder", "run_folder.marker", "run_folder.cases",
-           "file_lock"}
+           "file_lock", "preflight.estimate"}
 
 
 def _helper(module: str) -> bool:
     name = module.removeprefix("pylmp_lattice.")
-    return name in HELPERS or name.split(".")[0] in ("case", "measures", "formats")
+    return name in HELPERS or name.split(".")[0] in ("case", "measures", "formats", "deck")
 
 
 def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], list[str]]:
@@ -182,7 +182,7 @@ def trace_module_entries(argv: list[str]) -> tuple[list[tuple[str, str, str]], l
 @lammps
 def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, monkeypatch):
     """From `pylmp-lattice run` to its summary: each stage (cli, run_folder.execution,
-    preflight, run_folder.claim, run_folder.write, runner, run_folder.convert,
+    preflight.checks, run_folder.claim, run_folder.write, runner, run_folder.convert,
     run_folder.folder) is entered once, each from the road (run_folder.execution) alone,
     helpers call only helpers, and no call climbs (the callee never imports the caller). The
     folder is checked once: its place, its lock and whether it holds a run, each looked at
@@ -200,7 +200,7 @@ def test_the_cli_run_path_enters_each_stage_once_and_only_calls_down(tmp_path, m
     report = (f"stays in the stages: {' -> '.join(map(short, stays))}\nentries: {counts}\n"
               + "\n".join(f"  {short(a)} -> {short(b)}.{f}" for a, b, f in entries if not _helper(b)))
     stages = {m: k for m, k in counts.items() if not _helper(m)}
-    road = ["preflight", "run_folder.claim", "run_folder.write", "runner", "run_folder.convert", "run_folder.folder"]
+    road = ["preflight.checks", "run_folder.claim", "run_folder.write", "runner", "run_folder.convert", "run_folder.folder"]
     assert stages == dict.fromkeys(["cli", "run_folder.execution", *road], 1), report
     callers = {short(b): short(a) for a, b, _ in entries if not _helper(b)}
     assert callers == {"cli": None, "run_folder.execution": "cli"} | dict.fromkeys(road, "run_folder.execution"), report
