@@ -115,6 +115,9 @@ FIELD_MUTATIONS = [
     (_set("table.points", 10**12), "table.points"),
     (_set("chain.mass_disorder", 1e300), "chain.seed"),
     (_set("chain.defect_index", 10**18), "chain.defect_index"),
+    (lambda d: d["chain"].update(defect_index=5, defect_r0=1e300), "chain.defect_r0"),  # was a ZeroDivisionError
+    (lambda d: d["chain"].update(defect_index=5, defect_r0=2**63 - 1), "chain.defect_r0"),  # was numpy's casting error
+    (lambda d: d["chain"].update(thermal_velocity=1e300, seed=1), "chain.thermal_velocity"),  # was a ValueError
     # a long lattice that would need more magnets than LAMMPS can number
     (lambda d: (d["chain"].pop("particles"), d["chain"].update(far_end="long"), d["run"].update(duration=1e12)),
      "run.duration"),
@@ -205,6 +208,23 @@ def test_bad_field_in_a_case_file(workdir, capsys, mutate, field):
     mutate(data)
     err = refused(["deck", _write_case(data)], capsys, field)
     assert SECRET not in err and "root:" not in err
+
+
+@pytest.mark.parametrize("setting, message", [
+    (["chain.defect_index=5", "chain.defect_r0=1e300"],
+     "chain.defect_r0: got 1e+300 mm, where the power law's stiffness -dF/dr is 0 N/mm; expected a gap where it is "
+     "finite and > 0 (a chain at rest that carries waves): up to "),
+    (["chain.defect_index=5", "chain.defect_r0=9223372036854775807"],
+     "chain.defect_r0: got 9.22337e+18 mm; expected at most 5.004e+08 mm"),  # 1 mm * 1e-6 / 2.22e-16 / 9
+    (["chain.thermal_velocity=1e300", "chain.seed=1"],
+     "chain.thermal_velocity: got 1e+300 m/s; expected >= 0 and < 100 m/s (the smallest gap 1 mm / run.dt 0.01 ms"),
+])
+def test_extreme_chain_fields_are_refused_by_run_before_anything_is_written(workdir, capsys, setting, message):
+    """The issue's repros on `run` itself (not only `deck` or --dry-run): one line with the range, exit 2."""
+    data = copy.deepcopy(CASE)
+    data["chain"]["r0"] = 1.0
+    argv = ["run", _write_case(data), "-o", "runs/x"] + [a for s in setting for a in ("--set", s)]
+    assert message in refused(argv, capsys, message.split(":")[0])
 
 
 @pytest.mark.parametrize("content, field", [

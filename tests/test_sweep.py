@@ -152,6 +152,13 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         # a bad [set] value would fail every member: refused before any starts
         ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = "0.02 m/s"\n',
          "set.chain.thermal_velocity: got '0.02 m/s'; expected a number"),
+        # a swept value of a kind its field never takes fails every member that has it: the file's error
+        ('base = "base.toml"\n[grid]\n"impactor.velocity" = [1.0, "fast"]\n',
+         "grid.impactor.velocity: got 'fast'; expected a number"),
+        ('base = "base.toml"\n[grid]\n"chain.thermal_velocity" = [0.01, true]\n"chain.seed" = [1]\n',
+         "grid.chain.thermal_velocity: got True; expected a number"),
+        ('base = "base.toml"\n[zip]\n"run.duration" = [10.0, 20.0]\nfriction = [{mu = 0.1}, {mu = "x"}]\n',
+         "zip.friction: got 'x'; expected a number (for friction.mu)"),
         # one seed for every replica: one chain, run once (the ensemble collapsed to a member)
         ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = 0.02\n"chain.seed" = 5\n',
          "set.chain.seed: with replicas = 2, every replica would have this seed"),

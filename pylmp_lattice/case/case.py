@@ -25,6 +25,8 @@ logger = logging.getLogger(__name__)
 # Extra particles beyond the front's reach in a long lattice: the dispersive precursor ahead
 # of the front decays over a few particles, so 20 keep the held end unperturbed.
 LONG_LATTICE_MARGIN = 20
+# How finely the positions (doubles) must resolve the smallest gap at the chain's far end.
+GAP_DIGITS = 1e-6
 # The keys of the cases whose extremes passed `Case._check_extremes` (bounded: cleared when full).
 _CHECKED: set[tuple] = set()
 
@@ -84,7 +86,7 @@ class Case:
         smallest, widest = self.chain.gap_range
         # the checks below depend on these alone: a sweep's replicas without disorder pass them once
         key = (self.force, self.table, self.second_neighbour, self.run.dt, self.chain.particles, smallest, widest,
-               lightest)
+               lightest, self.chain.thermal_velocity)
         try:
             if key in _CHECKED:
                 return smallest, widest, lightest
@@ -101,6 +103,14 @@ class Case:
         lo, hi = self.table_range(widest)
         if not math.isfinite((self.chain.particles - 1) * widest * 3):  # positions and table in doubles
             raise ConfigError("chain.r0", f"got gaps up to {widest:g} mm; expected a chain whose length is finite")
+        # positions in doubles: the chain's far end must still resolve its smallest gap (a 2^63 mm
+        # defect gap left the gaps beyond it 0, "touched at t = 0")
+        longest = smallest * GAP_DIGITS / sys.float_info.epsilon / (self.chain.particles - 1)
+        if widest > longest:
+            field = "chain.defect_r0" if widest == float(self.chain.defect_r0 or 0) else "chain.r0"
+            raise ConfigError(field, f"got {widest:g} mm; expected at most {longest:.4g} mm (a chain of "
+                              f"{self.chain.particles} magnets with gaps up to that keeps its smallest gap, "
+                              f"{smallest:g} mm, to {GAP_DIGITS:g} of itself in double precision)")
         if not math.isfinite(hi):
             raise ConfigError("table.r_max", f"got {hi} mm; expected a finite table range")
         if self.second_neighbour is not None:
@@ -118,6 +128,11 @@ class Case:
                                              "(the table must cover every separation of the run)")
         if d[1] < hi:
             raise ConfigError("table.r_max", f"table [{lo}, {hi}] mm and gaps must lie in the law's range [{d[0]}, {d[1]}] mm")
+        v_t = self.chain.thermal_velocity
+        if v_t and not v_t * self.run.dt < smallest:  # mm/ms = m/s; v^2 overflows beyond 1e154 m/s
+            raise ConfigError("chain.thermal_velocity", f"got {v_t:g} m/s; expected >= 0 and < {smallest / self.run.dt:.4g} "
+                              f"m/s (the smallest gap {smallest:g} mm / run.dt {self.run.dt:g} ms: an RMS speed that "
+                              "crosses a gap in one step)")
         dt_max = self._stability_limit(lo, hi, lightest)
         if self.run.dt >= dt_max:
             raise ConfigError("run.dt", f"got {self.run.dt} ms; expected < {dt_max:.4g} ms (stability limit of the stiffest spring)")
@@ -197,7 +212,7 @@ class Case:
 
 
 def _check_rest_stiffness(chain: Chain, law: ForceLaw) -> None:
-    """Refuse (ConfigError naming chain.r0) nominal gaps where the law's stiffness k = -dF/dr is
+    """Refuse (ConfigError naming chain.r0 or chain.defect_r0) nominal gaps where the law's stiffness k = -dF/dr is
     not a finite normal number > 0: a chain at rest there carries no waves (V0 = r0 sqrt(k/m) is
     0 or imaginary: unstable), so there is no shock to simulate, and V0 and the weak-shock
     coefficient (`exact.weak_shock`), which size a long lattice and check the units, are undefined.
@@ -207,19 +222,23 @@ def _check_rest_stiffness(chain: Chain, law: ForceLaw) -> None:
     shock's F'')."""
     tiny = sys.float_info.min
     # each gap given, and their mean: what the long lattice's size and the unit check use (plain
-    # floats: a sweep builds a case per member)
+    # floats: a sweep builds a case per member); the defect's gap too (1e300 mm: k = 0, no V0)
     gaps = [float(chain.r0)] if np.isscalar(chain.r0) else [*map(float, chain.r0), float(np.mean(chain.r0))]
-    if min(gaps) < tiny:
-        raise ConfigError("chain.r0", f"got {min(gaps):g} mm; expected >= {tiny:.4g} mm (the smallest normal "
-                                      "double: below it a gap has too few significant digits)")
+    named = [("chain.r0", r) for r in gaps]
+    if chain.defect_r0 is not None:
+        named.append(("chain.defect_r0", float(chain.defect_r0)))
+    for field, r in named:
+        if r < tiny:
+            raise ConfigError(field, f"got {r:g} mm; expected >= {tiny:.4g} mm (the smallest normal double: below "
+                                     "it a gap has too few significant digits)")
     with np.errstate(all="ignore"):
-        k = law.stiffness(gaps).tolist()
-    bad = [(r, kr) for r, kr in zip(gaps, k) if not tiny <= kr < math.inf]
+        k = law.stiffness([r for _, r in named]).tolist()
+    bad = [(field, r, kr) for (field, r), kr in zip(named, k) if not tiny <= kr < math.inf]
     if not bad:
         return
-    r, kr = bad[0]
+    field, r, kr = bad[0]
     where = _rest_range(law, r)
-    raise ConfigError("chain.r0", f"got {r:g} mm, where the {law.law} law's stiffness -dF/dr is {kr:g} N/mm; expected "
+    raise ConfigError(field, f"got {r:g} mm, where the {law.law} law's stiffness -dF/dr is {kr:g} N/mm; expected "
                       "a gap where it is finite and > 0 (a chain at rest that carries waves)"
                       + (f": {where} mm for this law" if where else "; no gap has it for this law's parameters"))
 

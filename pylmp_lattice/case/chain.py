@@ -208,7 +208,7 @@ class Chain:
     def _range(self, name: str, nominal, defect, chunks) -> tuple[float, float]:
         width = getattr(self, name)
         if not width and np.isscalar(nominal):  # no draws: the value and the defect (N >= 3 keeps one of each)
-            values = [float(nominal)] + ([defect] if defect is not None else [])
+            values = [float(nominal)] + ([float(defect)] if defect is not None else [])  # an int may pass 2^53
             return min(values), max(values)
         low, high = _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
         # nominal and defect are > 0: only a draw can be <= 0 (never a uniform one, whose width is < 1/sqrt(3))

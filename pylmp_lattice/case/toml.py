@@ -291,7 +291,12 @@ def _check_type(field: str, value, annotation: str) -> None:
     if not ok:
         kinds = (["a finite number" if _is_number(value) else "a number"] * numeric + ["text"] * ("str" in scalar)
                  + ["true or false"] * ("bool" in scalar) + ["a list of finite numbers"] * ("tuple" in annotation))
-        raise ConfigError(field, f"got {brief(value)}; expected {' or '.join(kinds)}")
+        raise FieldKindError(field, f"got {brief(value)}; expected {' or '.join(kinds)}")
+
+
+class FieldKindError(ConfigError):
+    """A value of a kind its field never takes (text for a number, ...): wrong in any case,
+    whatever the other fields (a sweep refuses such a swept value before any member runs)."""
 
 
 def _key(key: str) -> str:

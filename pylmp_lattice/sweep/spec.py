@@ -28,7 +28,8 @@ Members are the grid product (keys in file order, the zip as one more axis), eac
 (thermal velocities or disorder) gets chain.seed derived from the sweep seed and its number,
 unless the sweep itself sets chain.seed. A member is identified by the hash of its resolved
 case (`case.case_id`, numbers normalised: 1 and 1.0 are one value); two members with the same
-case are one member. A field is set or swept, not both; swept numbers must be finite. The [set]
+case are one member. A field is set or swept, not both; swept numbers must be finite, and a
+swept value of a kind its field never takes (text for a number) is an error of the sweep file. The [set]
 values and the base are checked once, on the first point's case, before any member runs (a bad
 one is an error of the sweep file, naming set.<key>, set or base); a grid or zip value that makes some members' cases invalid
 fails those members only (recorded as failed, with the error).
@@ -52,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from ..case import (Case, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
+from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     normalised_hash, read_toml)
 from ..engine import RUNNERS
 from ..engines.road import ENGINES
@@ -217,6 +218,7 @@ class Sweep:
             raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
                               f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
         self._check_fixed()
+        self._check_kinds()
 
     def _may_be_random(self) -> bool:
         """Whether some member's chain is random: the base with [set], or a swept chain value."""
@@ -314,6 +316,22 @@ class Sweep:
             raise ConfigError("base", f"the base case is invalid ({err})") from err
         if base is None and self._error(self._data({})) is not None:
             raise ConfigError("set", f"makes the base case invalid ({err})") from err
+
+    def _check_kinds(self) -> None:
+        """A swept value of a kind its field never takes (text or true/false for a number, or a
+        section's table holding one) fails every member that has it, whatever the other axes:
+        an error of the sweep file (ConfigError naming grid.<key> or zip.<key>), found by building
+        the first point's case with each such value."""
+        first = {k: v[0] for table in (self.grid, self.zip) for k, v in table.items()}
+        for table in ("grid", "zip"):
+            for key, values in getattr(self, table).items():
+                for value in values:
+                    if _is_number(value) or isinstance(value, list) and all(map(_is_number, value)):
+                        continue  # a number or a list of them: its range is checked per member
+                    err = self._error(self._data(first | {key: value}))
+                    if isinstance(err, FieldKindError) and _overlap(err.field, key):
+                        raise ConfigError(f"{table}.{key}", str(err).split(": ", 1)[1]
+                                          + ("" if err.field == key else f" (for {err.field})")) from err
 
     def _error(self, data: dict) -> ConfigError | None:
         """Why a case dict is no case (None if it is one); an unknown field is the sweep's error."""
@@ -448,6 +466,10 @@ def _assign(data: dict, key: str, value) -> None:
 def _is_random(data: dict) -> bool:
     chain = data.get("chain", {})
     return isinstance(chain, dict) and any(chain.get(f) for f in RANDOM_FIELDS)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _is_int(value) -> bool:
