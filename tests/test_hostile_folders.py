@@ -201,3 +201,88 @@ def test_more_workers_than_cores_warns_once(tmp_path, caplog, monkeypatch):
     warned = [r.getMessage() for r in caplog.records if "cores" in r.getMessage()]
     assert warned == ["--workers 3 is more than this machine's 1 cores: the members share them (each runs slower, "
                       "and each worker holds its own engine in memory)"]
+
+
+NO_SPACE = "ERROR on proc 0: Error writing dump traj: No space left on device"
+
+
+def test_a_disk_full_for_lammps_mid_run_names_the_dump_and_run_json_says_failed(tmp_path, capsys, monkeypatch):
+    """LAMMPS stops on a full disk (its ERROR line names the dump ID): one line naming the file,
+    exit 1, run.json "failed" with it; the conversion of what was written, refused for want of
+    room, does not hide it (it gave a bare "no space ... topology.psf" before)."""
+    from pylmp_lattice.errors import RunError
+    from pylmp_lattice.run_folder import convert, execution
+
+    real = execution.run_deck
+
+    def filled(path, *args, **kwargs):
+        real(path, *args, **kwargs)  # dumps written; then the disk is full
+        monkeypatch.setattr(convert, "free_bytes", lambda folder: 0)
+        raise RunError(NO_SPACE, path)
+
+    monkeypatch.setattr(execution, "run_deck", filled)
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    folder = tmp_path / "r"
+    assert main(["run", str(tmp_path / "base.toml"), "-o", str(folder), "--quiet"]) == 1
+    line = one_error(capsys)
+    assert line == (f"pylmp-lattice: error: no space left on the device for {folder / 'traj.bin'}; LAMMPS stopped "
+                    f"({NO_SPACE}); the files are kept"), line
+    record = json.loads((folder / "run.json").read_text())
+    assert record["state"] == "failed" and record["error"].startswith(f"{folder / 'traj.bin'}: no space left")
+    assert (folder / "traj.bin").is_file() and not list(folder.glob("*.part"))
+
+
+@pytest.mark.parametrize("how", ["checked", "reserved"])
+def test_a_disk_full_for_the_h5md_file_keeps_the_dumps_and_names_the_file(tmp_path, capsys, monkeypatch, how):
+    """A finished run whose H5MD file does not fit: one line naming traj.h5md, exit 1, the binary
+    dumps kept, no part file or held lock, run.json "finished"; with room again, summarize converts.
+    checked: the free space is below the dumps' size; reserved: it shrank after the check (another
+    process), so the reservation fails. HDF5 that ran out of room mid-file crashed the process
+    (a segmentation fault, seen on a 45 MB tmpfs), which the reservation prevents."""
+    import errno
+
+    from pylmp_lattice.formats import h5md
+    from pylmp_lattice.run_folder import convert, marker
+
+    real = convert.convert_dumps
+    if how == "checked":
+        def full(folder, case):
+            monkeypatch.setattr(convert, "free_bytes", lambda folder: 1000)
+            return real(folder, case)
+    else:
+        def no_room(fd, size):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def full(folder, case):
+            monkeypatch.setattr(h5md, "_reserve", no_room)
+            return real(folder, case)
+    monkeypatch.setattr("pylmp_lattice.run_folder.execution.convert_dumps", full)
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    folder = tmp_path / "r"
+    assert main(["run", str(tmp_path / "base.toml"), "-o", str(folder), "--quiet"]) == 1
+    line = one_error(capsys)
+    assert line.startswith(f"pylmp-lattice: error: no space left on the device for {folder / 'traj.h5md'}"), line
+    if how == "checked":
+        assert "needs up to 0.0" in line and "MB, 0.001 MB free; they are kept" in line, line
+    assert {"traj.bin", "front.bin"} <= {p.name for p in folder.iterdir()}
+    assert not (folder / "traj.h5md").exists() and not list(folder.glob("*.part")) and not list(folder.glob(".*tmp"))
+    assert marker.read(folder)["state"] == "finished" and not marker.locked(folder)
+    monkeypatch.undo()
+    assert main(["summarize", str(folder)]) == 0
+    assert (folder / "traj.h5md").is_file() and not (folder / "traj.bin").exists()
+
+
+def test_the_reservation_allocates_the_blocks_and_the_file_keeps_its_length(tmp_path):
+    """What the H5MD writer stands on: fallocate(KEEP_SIZE) holds the bytes on the disk, the
+    length stays 0 for HDF5 to write from, and the blocks beyond it go once released."""
+    from pylmp_lattice.formats import h5md
+
+    path = tmp_path / "f"
+    with open(path, "w+b") as f:
+        h5md._reserve(f.fileno(), 4_000_000)
+        if os.fstat(f.fileno()).st_blocks == 0:
+            pytest.skip("this file system does not reserve (fallocate unsupported)")
+        assert os.fstat(f.fileno()).st_size == 0 and os.fstat(f.fileno()).st_blocks * 512 >= 4_000_000
+        with h5md._released(f):
+            f.write(b"x" * 1000)
+    assert path.stat().st_size == 1000 and path.stat().st_blocks * 512 < 100_000

@@ -70,6 +70,11 @@ def as_disk_full(err: BaseException, where: str | Path) -> DiskFull:
     return err if isinstance(err, DiskFull) else DiskFull(getattr(err, "filename", None) or where)
 
 
+def free_bytes(path: str | Path) -> int:
+    """Free bytes (for this user) on the file system that holds `path` (existing)."""
+    return shutil.disk_usage(path).free
+
+
 def refuse_link(path: str | Path) -> None:
     """LinkError if `path` is a symbolic link (dangling or not: lstat)."""
     if os.path.islink(path):

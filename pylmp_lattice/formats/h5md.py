@@ -39,7 +39,9 @@ without decompressing the others.
 
 from __future__ import annotations
 
+import contextlib
 import getpass
+import os
 from importlib.metadata import PackageNotFoundError, version
 from dataclasses import dataclass
 from pathlib import Path
@@ -80,27 +82,64 @@ class Header:
     compression: str
 
 
-def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: Path | None = None) -> None:
+def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: Path | None = None,
+               reserve: int = 0) -> None:
     """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
     "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
     `log` (LAMMPS's log file) as observables, and beside it the chain's topology (`psf`,
-    layout.TOPOLOGY). The dumps are left as they are."""
+    layout.TOPOLOGY). The dumps are left as they are.
+
+    reserve: bytes to allocate on the disk for the file first (an OSError if they are not
+    there); HDF5 then writes into them through a Python file, which truncates it at the end.
+    HDF5 that ran out of space mid-file crashed the process (a segmentation fault on closing
+    it); a Python file turns a failed write into an OSError."""
     import h5py
 
     masses = header.masses
     species = psf.species(masses)
     # beside it, its topology: what plain MDAnalysis needs for masses (see `psf`)
     atomic_write(Path(target).parent / TOPOLOGY, psf.psf_text(header.name, masses))
-    with h5py.File(target, "w") as h5:
-        _write_header(h5, header.case_toml)
-        for group, dump in dumps.items():
-            chosen = slice(None) if group == "chain" else header.fine
-            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
-                         species[chosen], header.compression)
-        # MDAnalysis reads observables at the frames of the first particle group
-        first_group = next(iter(dumps))
-        first = h5["particles"][GROUPS[first_group]]
-        _write_observables(h5.create_group("observables"), first, log, header.intervals[first_group])
+    with open(target, "w+b") as f:
+        if reserve:
+            _reserve(f.fileno(), reserve)
+        with _released(f), h5py.File(f, "w") as h5:  # HDF5 closes the file first
+            _write_header(h5, header.case_toml)
+            for group, dump in dumps.items():
+                chosen = slice(None) if group == "chain" else header.fine
+                _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
+                             species[chosen], header.compression)
+            # MDAnalysis reads observables at the frames of the first particle group
+            first_group = next(iter(dumps))
+            first = h5["particles"][GROUPS[first_group]]
+            _write_observables(h5.create_group("observables"), first, log, header.intervals[first_group])
+
+
+def _reserve(fd: int, size: int) -> None:
+    """Allocate `size` bytes of disk for the open file `fd` without changing its length (Linux
+    fallocate, FALLOC_FL_KEEP_SIZE): HDF5's writes then need no new blocks. OSError ENOSPC if
+    the disk has less free; elsewhere, or on a file system without it, nothing is reserved."""
+    import ctypes
+    import errno
+
+    try:
+        fallocate = ctypes.CDLL(None, use_errno=True).fallocate
+    except (OSError, AttributeError):
+        return
+    fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int64, ctypes.c_int64]
+    if fallocate(fd, 1, 0, size) != 0:
+        code = ctypes.get_errno()
+        if code not in (errno.EOPNOTSUPP, errno.ENOSYS):
+            raise OSError(code, os.strerror(code))
+
+
+@contextlib.contextmanager
+def _released(f):
+    """Free the reserved blocks beyond the end of the file once HDF5 has written it."""
+    try:
+        yield
+    finally:
+        f.flush()
+        os.ftruncate(f.fileno(), os.fstat(f.fileno()).st_size)
 
 
 def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:

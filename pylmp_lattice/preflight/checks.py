@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import logging
 import math
-import shutil
 import tempfile
 from pathlib import Path
 
 from ..case import Case, unit_warnings
 from ..case_measures import linear_constants
 from ..errors import ConfigError, UsageError
+from ..formats.files import free_bytes
 from ..ranks import rank_warnings
 from ..units import period
 from .estimate import Estimate, _size, estimate
@@ -76,7 +76,7 @@ def coarse_dt_warning(case: Case) -> str | None:
 
 def free_disk(folder: str | Path) -> float:
     """Free bytes on the file system that holds (or will hold) `folder`."""
-    return float(shutil.disk_usage(_existing(folder)).free)
+    return float(free_bytes(_existing(folder)))
 
 
 def check_writable(folder: str | Path, field: str) -> None:

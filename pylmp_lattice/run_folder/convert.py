@@ -18,7 +18,7 @@ from ..case import Case
 from ..errors import LatticeError
 from ..formats import layout
 from ..formats.bindump import open_dump
-from ..formats.files import refuse_links, replacing
+from ..formats.files import DiskFull, free_bytes, refuse_links, replacing
 from ..units import to_h5md
 from . import marker
 from .claim import Claimed
@@ -55,9 +55,10 @@ def _convert(folder: Path, case: Case) -> bool:
     sources = {group: dump for group, dump in sources.items() if dump.frames}
     if not sources:
         return False
+    need = _check_room(folder, sources)
     log.info("%s: converting %d frames to %s", folder, sum(d.frames for d in sources.values()), layout.H5MD)
     with replacing(folder / layout.H5MD, part=folder / (layout.H5MD + ".part")) as partial:
-        h5md.write_file(partial, _header(case), sources, folder / layout.LOG)
+        h5md.write_file(partial, _header(case), sources, folder / layout.LOG, reserve=need)
         for group, dump in sources.items():
             count, last = h5md.frame_count(partial, group)
             expected = to_h5md(dump.read(dump.frames - 1).data[-1, :, dump.column("x")], "length")
@@ -66,6 +67,19 @@ def _convert(folder: Path, case: Case) -> bool:
     for dump in sources.values():
         dump.path.unlink()
     return True
+
+
+def _check_room(folder: Path, sources) -> int:
+    """The bytes to reserve for traj.h5md: the binary dumps' size (it holds their x, v, f as
+    doubles: at most that); DiskFull naming it, before HDF5 writes, if the disk has less free
+    (HDF5 that ran out of space mid-file crashed the process: `h5md.write_file`)."""
+    need = sum(dump.path.stat().st_size for dump in sources.values())
+    free = free_bytes(folder)
+    if free < need:
+        raise DiskFull(folder / layout.H5MD, f"converting the binary dumps needs up to {need / 1e6:.3g} MB, "
+                       f"{free / 1e6:.3g} MB free; they are kept: free some space and run "
+                       f"'pylmp-lattice summarize {folder}'")
+    return need
 
 
 def _header(case: Case):

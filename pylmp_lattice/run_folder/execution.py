@@ -21,9 +21,10 @@ the next read to become H5MD, so that Ctrl-C returns at once.
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -34,6 +35,7 @@ from ..case import Case
 from ..engine import RUNNERS
 from ..errors import ContactError, Interrupted, RunError, UsageError
 from ..formats import layout
+from ..formats.files import DiskFull, disk_full
 from ..progress import progress_bar
 from ..trajectory import Trajectory
 from . import marker
@@ -154,7 +156,8 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
             yield claimed
             raise ContactError(err.pair, err.time_ms, err.gap_mm, err.folder, summarized=True) from None
         except RunError:
-            convert_claimed(claimed)
+            with suppress(DiskFull):  # on a full disk the dumps stay binary: the run's error says more
+                convert_claimed(claimed)
             raise
         convert_claimed(claimed)
         yield claimed
@@ -173,9 +176,22 @@ def _run(claimed: Claimed, engine: Engine, progress: bool) -> None:
         marker.record(path, marker.CONTACT, **kept, time_ms=err.time_ms)
         raise
     except RunError as err:
+        if disk_full(err):  # LAMMPS names the dump ("Error writing dump traj"): the message names its file
+            full = DiskFull(_full_file(claimed.cases[0], path, err.message),
+                            f"LAMMPS stopped ({err.message}); the files are kept")
+            marker.record(path, marker.FAILED, **kept, error=f"{full.path}: no space left on the device ({err.message})")
+            raise full from err
         marker.record(path, marker.FAILED, **kept, error=err.message)
         raise
     except BaseException:
         marker.record(path, marker.INTERRUPTED, **kept)
         raise
     marker.record(path, marker.DONE, **kept)
+
+
+def _full_file(case: Case, path: Path, message: str) -> Path:
+    """The file LAMMPS could not write on a full disk, from its ERROR line: a dump's by its ID,
+    else the log."""
+    groups = layout.TEXT_GROUPS if case.output.format == "text" else layout.BINARY_GROUPS
+    dump = re.search(r"dump (\w+)", message)
+    return path / groups.get({"traj": "chain"}.get(dump[1], dump[1]) if dump else "", layout.LOG)
