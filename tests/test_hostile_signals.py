@@ -156,10 +156,16 @@ def test_a_hand_run_stopped_by_ctrl_c_is_quiet_and_summarized_at_once(tmp_path):
     assert folder.status == "running"
     os.killpg(proc.pid, signal.SIGINT)
     err = proc.communicate(timeout=60)[1]
-    assert proc.returncode == 130 and err == "pylmp-lattice: interrupted\n", err
+    at = json.loads((tmp_path / "d" / "run.json").read_text())["time_ms"]
+    assert proc.returncode == 130 and err == f"pylmp-lattice: interrupted at t = {at:g} ms (files kept in {tmp_path / 'd'})\n", err
     assert folder.status == "interrupted" and state(tmp_path / "d") == "interrupted"
     summary = folder.summarize(figure=False)  # at once: no "still being written" for 30 s
-    assert summary["status"] == "interrupted" and 0 < summary["stopped"]["time_ms"] < 2000.0
+    assert summary["status"] == "interrupted" and summary["stopped"]["time_ms"] == at and 0 < at < 2000.0
+    # the run ended softly, as the CLI's does: the deck's lines after `run` wrote the engine's
+    # front record (lmp, killed, wrote none: the front came from frames, with a +-1 % sawtooth in V_P)
+    assert (tmp_path / "d" / "front.bin").is_file() and summary["front_resolution"]["source"] == "engine record"
+    assert (tmp_path / "d" / "log.lammps").read_text().rstrip().splitlines()[-1].startswith("Total wall time")
+    assert folder.figure()._suptitle.get_text().endswith(f"; stopped at {at:.5g} of 2000 ms (interrupted)")
 
 
 def test_a_killed_cli_run_is_known_to_have_ended_at_once(tmp_path):

@@ -344,14 +344,18 @@ class RunFolder:
         return None
 
     def figure(self):
-        """Fig. 3(a-d) of the run, titled with the case, V_I and N: profiles from the fine output
-        if any, else a few magnets the front reached; panels (a, d) empty without a trajectory."""
+        """Fig. 3(a-d) of the run, titled with the case, V_I, N and where a run that did not
+        finish stopped: profiles from the fine output if any, else a few magnets the front
+        reached; panels (a, d) empty without a trajectory."""
         from ..plots import shock_figure
         from ..case_measures import linear_constants
 
         case, front = self.case, self.front()
         vi, v0 = case.impactor.peak_velocity(), linear_constants(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
+        stopped = self._stopped(self.status) or {}
+        if stopped.get("time_ms") is not None:  # a run that ended early says so: its panels end there
+            title += f"; stopped at {stopped['time_ms']:.5g} of {case.run.duration:g} ms ({stopped['reason']})"
         # the first peaks saturate at 2 V_I under a steady drive without friction only
         steady = case.impactor.profile in ("constant", "ramp") and case.friction is None
         saturation = 2 * vi if steady else None

@@ -19,7 +19,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..formats.dump import find_contact, log_ended
-from ..errors import UsageError
+from ..errors import Interrupted, UsageError
 from ..file_lock import Held, exclusive, is_held
 from ..formats import files, layout
 
@@ -36,6 +36,7 @@ OLD_DONE = "finished"  # "done" in run.json of version 0.1.0 and before
 # every later record of the folder.
 DECK_HASH = "deck_sha256"
 CHAINS = "chains"
+HAND_RUNNER = "pylmp-lattice lmp"  # run.json's runner of a hand run (`hand_run`)
 # Seconds a hand-run log that has not ended, and the dumps beside it, must stay unchanged to count
 # as no longer written (`being_written`): /proc can show a writer, never that none exists (one of
 # another user, or on another machine writing a shared folder).
@@ -182,14 +183,21 @@ def log_state(text: str) -> str | None:
 @contextmanager
 def hand_run(folder: Path):
     """`pylmp-lattice lmp -in in.lattice` in a run folder: the folder is claimed and recorded
-    "running" by this process while LAMMPS (its child, which dies with it) runs, and its end
-    recorded from the log, so that `status` knows at once that it ended, however it ended."""
+    "running" by this process while LAMMPS (in this process) runs, and its end recorded from
+    the log, or "interrupted" at the time LAMMPS's soft stop ended it (`Interrupted`), so that
+    `status` knows at once that it ended, however it ended."""
     with claimed(folder):
-        record(folder, RUNNING, runner="pylmp-lattice lmp")
+        record(folder, RUNNING, runner=HAND_RUNNER)
         try:
             yield
-        finally:
-            record(folder, log_state(log_text(folder) or "") or INTERRUPTED, runner="pylmp-lattice lmp")
+        except Interrupted as err:  # LAMMPS's soft stop: its log ends as a finished run's does
+            record(folder, INTERRUPTED, runner=HAND_RUNNER,
+                   **({"time_ms": err.time_ms} if err.time_ms is not None else {}))
+            raise
+        except BaseException:
+            record(folder, log_state(log_text(folder) or "") or INTERRUPTED, runner=HAND_RUNNER)
+            raise
+        record(folder, log_state(log_text(folder) or "") or INTERRUPTED, runner=HAND_RUNNER)
 
 
 def being_written(folder: Path, quiet: float = QUIET) -> bool:
