@@ -228,7 +228,7 @@ def _dry_run(case, folder: Path, args) -> int:
     from . import preflight
     from .run_folder.claim import look
 
-    est = preflight.estimate(case, args.np)
+    est = preflight.estimate(case, args.np, measure=True)
     try:
         preflight.check(case, folder, args.np, yes=args.yes)
         look(folder, args.overwrite)

@@ -19,6 +19,7 @@ import numpy as np
 from ..case import Case
 from ..deck import per_atom_masses, records_front, uses_chain_engine
 from ..exact import weak_shock
+from ..overhead import overheads
 from ..formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from ..table import bond_table
 from ..units import to_engine
@@ -68,11 +69,10 @@ BASE_MEMORY_BYTES = 151e6
 # Loop time, 2026-11-25 22:15 UTC, load 2.5): 1.27 us a step for 21 magnets, 4.2-4.7 ns per
 # atom-step for 3000 and 10^5 magnets; the constants add a third for load. Each written
 # atom-frame costs 3.3e-6 s as text (writing, reading back) and 5e-7 s as H5MD (conversion);
-# plus 1.2 s of start-up, measures and figure.
+# plus the command's start-up, writes, measures and figure: this machine's, `overhead`.
 SECONDS_PER_STEP = 2e-6
 SECONDS_PER_ATOM_STEP = 6e-9
 SECONDS_PER_ATOM_FRAME = {"text": 3.3e-6, "h5md": 5e-7, "none": 0.0}
-BASE_SECONDS = 1.2
 
 
 @dataclass(frozen=True)
@@ -243,10 +243,12 @@ def _table_bytes(law, lo: float, hi: float, points: int) -> float:
     return header + (len(text) - header) * points / k
 
 
-def estimate(case: Case, nprocs: int = 1) -> Estimate:
+def estimate(case: Case, nprocs: int = 1, measure: bool = False) -> Estimate:
     """What running `case` on `nprocs` ranks will take before it runs: frames, the size of every
-    output file, memory and wall time, from the case alone (nothing is drawn or written).
-    `pl.estimate`; `check` refuses a run that does not fit this machine."""
+    output file, memory and wall time, from the case alone (nothing is drawn or written). The
+    time is the command's, start to exit, with this machine's start-up (`overhead`: measured
+    now, once, if `measure` and not cached). `pl.estimate`; `check` refuses a run that does
+    not fit this machine."""
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)
     types = 1 if per_atom_masses(case) else len(np.unique(np.asarray(case.chain.mass)))
@@ -255,7 +257,7 @@ def estimate(case: Case, nprocs: int = 1) -> Estimate:
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
     if not case.output.front:
         memory += TRAJECTORY_BYTES_PER_ATOM_FRAME * atom_frames(case)
-    seconds = BASE_SECONDS + engine_seconds(n, steps, nprocs)
+    seconds = overheads(measure).run_s + engine_seconds(n, steps, nprocs)
     seconds += SECONDS_PER_ATOM_FRAME[fmt] * atom_frames(case)
     return Estimate(frames(case), files, memory, seconds)
 

@@ -60,11 +60,9 @@ MAX_TYPES = 1024
 # A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
 # and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
 GPU_MAX_ATOMS = 4_000_000
-# A member beyond its engine and output, for the estimate: run alone, its instance, files and
-# measures (CPU time of 25 members of the 21-magnet experiment, keep = "measures", through
-# batch.run_member: 0.051 s each, of which 0.010 s engine; 2026-11-26 01:39 UTC); batched, its
-# share of the worker's Python (0.23 ms, docs/performance.md "Worker Python per batched member").
-ALONE_SECONDS = 0.04
+# A batched member beyond its atom-steps, for the estimate: its share of the worker's Python
+# (0.23 ms, docs/performance.md "Worker Python per batched member"); a member run alone costs
+# this machine's `overhead.Overheads.member_s`.
 BATCHED_SECONDS = 2.3e-4
 
 
@@ -359,22 +357,28 @@ class _Blocks:
 
 
 def _estimate(sweep: Sweep, total: int, workers: int) -> str:
-    """The sweep's time in its workers, from the first member's case and preflight's model: a
-    batched member (one of a point's replicas) costs its atom-steps (the instance's cost per
-    step is shared) and BATCHED_SECONDS, one run alone its engine, output and ALONE_SECONDS."""
-    from ..preflight import SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, _duration, atom_frames, engine_seconds
+    """The sweep's time, command to exit, from the first member's case, preflight's model and
+    this machine's overheads (`overhead`, measured once): its start-up and end, then in its
+    workers each task's overhead (a member run alone, or a point's batch of replicas) and, per
+    member, a batched one's atom-steps (the instance's cost per step is the task's) and
+    BATCHED_SECONDS, one run alone its engine and output."""
+    from ..overhead import overheads
+    from ..preflight.estimate import (SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, SECONDS_PER_STEP, _duration,
+                                      atom_frames, engine_seconds)
 
     first = next(sweep.iter_members(), None)
     if first is None or first.case is None:
         return "no estimate"
-    case = first.case
+    case, costs = first.case, overheads(measure=True)
     n, steps = case.chain.particles, case.run.steps()
     if sweep.replicas > 1 and batch.batchable(case):  # a task holds one point's members
         each, kind = SECONDS_PER_ATOM_STEP * n * steps + BATCHED_SECONDS, "batched"
+        tasks = -(-total // sweep.replicas) * (costs.member_s + SECONDS_PER_STEP * steps)
     else:
-        each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case) + ALONE_SECONDS
-        kind = "each run alone"
-    return (f"about {_duration(each * total / workers)} on {workers} worker{'s' if workers > 1 else ''} ({kind}), "
+        each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
+        tasks, kind = total * costs.member_s, "each run alone"
+    seconds = costs.sweep_s + (each * total + tasks) / workers
+    return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}), "
             "if all are like the first")
 
 
