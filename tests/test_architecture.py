@@ -9,7 +9,7 @@ The order, lowest first (docs/architecture.md draws it):
     case          the case: chain, settings, model sections, TOML, identity
     bridge        a case's measures (front levels, front record), summary, figures, progress, ASE
     deck          deck text from a case
-    engine        LAMMPS: plugin, engine, runner, programs, preflight; the kernel engines (engines)
+    engine        LAMMPS: plugin, engine, runner, programs, preflight, overheads; the kernel engines (engines)
     run folder    write, run, record, convert, read
     sweeps        parameter sweeps and ensembles
     studies       the paper's figures and the literature
@@ -33,7 +33,7 @@ LAYERS = [
     ("case", ["case"]),
     ("bridge", ["case_measures", "summary", "plots", "progress", "ase_io"]),
     ("deck", ["deck"]),
-    ("engine", ["plugin", "engine", "engines", "runner", "tools", "preflight"]),
+    ("engine", ["plugin", "engine", "engines", "runner", "tools", "preflight", "overhead"]),
     ("run folder", ["run_folder"]),
     ("sweeps", ["sweep"]),
     ("studies", ["studies"]),
