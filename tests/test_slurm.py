@@ -83,7 +83,11 @@ def test_cluster_section_reaches_the_pbs_job_script(tmp_path):
         ('directives = ["--account=abc", "--x=1\\nrm -rf ~"]', [], "cluster.directives[1]: got '--x=1\\nrm -rf ~'"),
         ('directives = ["--comment=$(reboot)"]', [], "cluster.directives[0]: got '--comment=$(reboot)'"),
         ('directives = ["#SBATCH --x"]', [], "cluster.directives[0]: got '#SBATCH --x'"),
-        ("nodes = 2", [], "cluster.nodes: unknown key; expected one of queue, cores, memory, walltime, directives"),
+        ("nodes = 2", [], "cluster.nodes: unknown key; expected one of queue, cores, memory, walltime, directives, "
+                          "interface"),
+        ('interface = "eth0; rm -rf x"', [], "cluster.interface: got 'eth0; rm -rf x'; expected a network interface"),
+        ('interface = "nosuch9"', ["--cluster", "slurm"], "cluster.interface: got 'nosuch9'; this machine's "
+                                                          "interfaces are "),
         ("", ["--jobs", "2"], "--jobs: counts batch jobs; use it with --cluster"),
         ("", ["--cluster", "slurm", "--jobs", "0"], "--jobs: got 0; expected an integer >= 1"),
         ("", ["--cluster", "slurm", "--workers", "2"], "--workers: the batch cluster has its own workers"),
@@ -101,6 +105,39 @@ def test_bad_cluster_section_or_options_are_one_line_naming_the_field_exit_2(tmp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"pylmp-lattice: error: {field}"), err
     assert not (tmp_path / "out" / "members").exists()
+
+
+def test_the_scheduler_listens_on_loopback_with_tls_and_refuses_a_client_without_the_key(tmp_path, monkeypatch):
+    """--cluster's scheduler (issue 27 item 12: it listened on the machine's address, without
+    authentication): on loopback by default, TLS with a key made for the sweep; a client
+    without it cannot connect, one with it can; the workers' job script names the key files
+    in DIR/cluster/, readable by the owner alone. sbatch and scancel are stand-ins here (no
+    job starts); tests marked slurm run real workers through it."""
+    import os
+    import stat
+
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    bin_ = tmp_path / "bin"
+    bin_.mkdir()
+    for name, text in (("sbatch", "echo 'Submitted batch job 42'"), ("scancel", "true")):
+        (bin_ / name).write_text(f"#!/bin/sh\n{text}\n")
+        (bin_ / name).chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_}:{os.environ['PATH']}")
+    spec = ClusterSpec(memory="1GiB", walltime="00:10:00")
+    with cluster.batch_cluster("slurm", 1, spec, tmp_path / "out") as jobs, Client(jobs, timeout="20s") as client:
+        address = jobs.scheduler_address
+        assert address.startswith("tls://127.0.0.1:"), address
+        assert client.scheduler_info()["address"] == address  # the sweep's own client holds the key
+        script = jobs.job_script()
+        keys = sorted((tmp_path / "out" / "cluster").glob(".dask-jobqueue.worker.*"))
+        assert keys and all(stat.S_IMODE(k.stat().st_mode) == 0o600 for k in keys)
+        assert all(f"--tls-{flag}" in script for flag in ("ca-file", "cert", "key"))
+        with pytest.raises(OSError):  # TLS without the sweep's certificate: refused
+            Client(address, security=Security.temporary(), timeout="3s")
+        with pytest.raises(OSError):  # plain TCP: not even spoken
+            Client(address.replace("tls://", "tcp://"), timeout="3s")
 
 
 def comparable(table: pd.DataFrame) -> pd.DataFrame:

@@ -6,6 +6,7 @@
     memory = "2GiB"                    # memory per job (also the Dask worker's memory limit)
     walltime = "01:00:00"              # per job, [D-]HH:MM:SS
     directives = ["--account=abc"]     # further #SBATCH / #PBS lines, one option each
+    interface = "ib0"                  # the network interface the compute nodes reach this machine on
 
 `pylmp-lattice sweep SWEEP.toml -o DIR --cluster slurm --jobs N` submits N jobs (SLURM's sbatch
 or PBS's qsub), each one Dask worker with one thread: a worker runs one task at a time (the
@@ -22,6 +23,15 @@ A worker retires at a random time in 85-95 % of the walltime (dask's `--lifetime
 does, its running task is lost (the members of a batch are written together at its end; what
 finished before is on disk), and the scheduler runs that task again elsewhere; re-running the
 command resumes in any case.
+
+The Dask scheduler runs in this process and listens on one network interface only: loopback
+("lo", the default: jobs that run on this machine, as on a one-node SLURM) or the one `interface`
+names (else jobqueue's own configuration's `interface`), the cluster's network that the compute
+nodes reach this machine on, e.g. "ib0" or "eth0". It speaks TLS with mutual authentication
+(`distributed.Security.temporary()`: a key and certificate made for this sweep, valid one day):
+a worker or client without them cannot connect, so nobody who merely reaches the port can
+submit work. The workers' copy of them is written to DIR/cluster/ (readable by the owner alone),
+which the compute nodes must see (the members write DIR anyway); the dashboard is off.
 
 jobqueue writes these values into a job script that a shell runs, so every one is checked
 against a strict pattern (no spaces except one between a directive's option and its value, no
@@ -55,6 +65,8 @@ _QUEUE = re.compile(r"[A-Za-z0-9_.@-]+")
 _MEMORY = re.compile(r"\d+(\.\d+)?([kKMGTP]i?)?B")
 _WALLTIME = re.compile(r"(?:(\d+)-)?(\d+):([0-5]\d):([0-5]\d)")
 _PATH = re.compile(r"[A-Za-z0-9_./+@%,=~-]+")
+_INTERFACE = re.compile(r"[A-Za-z0-9_.:-]{1,15}")
+LOOPBACK = "lo"
 _DIRECTIVE = re.compile(r"-{1,2}[A-Za-z][A-Za-z0-9_-]*(?:[ =][A-Za-z0-9_.,:@%/+=-]+)?")
 
 
@@ -67,8 +79,12 @@ class ClusterSpec:
     memory: str = "2GiB"
     walltime: str = "01:00:00"
     directives: tuple[str, ...] = ()
+    interface: str | None = None  # None: jobqueue's configured interface, else loopback
 
     def __post_init__(self):
+        if self.interface is not None and not (isinstance(self.interface, str) and _INTERFACE.fullmatch(self.interface)):
+            raise ConfigError("cluster.interface", f"got {self.interface!r}; expected a network interface name, "
+                                                   "e.g. \"ib0\" or \"lo\"")
         if self.queue is not None and not (isinstance(self.queue, str) and _QUEUE.fullmatch(self.queue)):
             raise ConfigError("cluster.queue", f"got {self.queue!r}; expected a name of letters, digits, _ . @ -")
         if not (isinstance(self.cores, int) and not isinstance(self.cores, bool) and 1 <= self.cores <= 4096):
@@ -111,8 +127,23 @@ def read_cluster(sweep_file: str | Path) -> ClusterSpec:
     return cluster_spec(read_toml(Path(sweep_file), "sweep").get("cluster", {}))
 
 
+def listening_interface(kind: str, spec: ClusterSpec) -> str:
+    """The network interface the scheduler listens on (see the module): the section's, else
+    jobqueue's configured one, else loopback; ConfigError naming cluster.interface if this
+    machine has no such interface (the ones it has listed)."""
+    import dask
+    import psutil
+
+    name = spec.interface or dask.config.get(f"jobqueue.{kind}.interface", None) or LOOPBACK
+    have = sorted(psutil.net_if_addrs())
+    if name not in have:
+        raise ConfigError("cluster.interface", f"got {name!r}; this machine's interfaces are {', '.join(have)}")
+    return name
+
+
 def job_options(kind: str, spec: ClusterSpec, log_directory: str | Path) -> dict:
-    """Keyword arguments of dask-jobqueue's SLURMCluster or PBSCluster for one worker per job."""
+    """Keyword arguments of dask-jobqueue's SLURMCluster or PBSCluster for one worker per job;
+    the scheduler's interface and TLS come from `batch_cluster`."""
     lifetime, stagger = round(LIFETIME * spec.seconds), round(STAGGER * spec.seconds)
     options = {
         "cores": 1, "processes": 1, "memory": spec.memory, "queue": spec.queue,
@@ -167,17 +198,23 @@ def batch_cluster(kind: str, jobs: int, spec: ClusterSpec, folder: str | Path):
     if not _PATH.fullmatch(str(logs)):  # it is written into the job script's directives
         raise UsageError("-o", f"got {str(folder)!r}; with --cluster, a folder path of letters, digits and "
                           "_ . / + - @ % , = ~ only (no spaces or shell characters)")
+    interface = listening_interface(kind, spec)
     from dask_jobqueue import PBSCluster, SLURMCluster
 
     cls = SLURMCluster if kind == "slurm" else PBSCluster
     submit = cls.job_cls.submit_command
     if shutil.which(submit) is None:  # jobqueue would only log the failed submissions, and wait
         raise UsageError("--cluster", f"{submit} is not on PATH; a {kind} cluster is submitted from a machine that has it")
-    with _quiet("distributed", "dask_jobqueue"), cls(**job_options(kind, spec, logs)) as cluster:
+    from distributed.security import Security
+
+    logs.mkdir(parents=True, exist_ok=True)  # the workers' key and certificate go here (mode 0600)
+    secure = {"security": Security.temporary(), "shared_temp_directory": str(logs), "interface": interface,
+              "scheduler_options": {"interface": interface, "dashboard": False}}
+    with _quiet("distributed", "dask_jobqueue"), cls(**job_options(kind, spec, logs), **secure) as cluster:
         # adapt, not scale: a worker that retired at its lifetime is replaced by a new job
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
-        log.info("%s: %d jobs of one worker (%d cores, %s, %s); scheduler %s; job logs in %s",
-                 kind, jobs, spec.cores, spec.memory, spec.walltime, cluster.scheduler_address, logs)
+        log.info("%s: %d jobs of one worker (%d cores, %s, %s); scheduler %s (TLS, interface %s); job logs in %s",
+                 kind, jobs, spec.cores, spec.memory, spec.walltime, cluster.scheduler_address, interface, logs)
         yield cluster
 
 
