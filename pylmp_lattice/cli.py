@@ -33,6 +33,10 @@ def main(argv: list[str] | None = None) -> int:
     for level in (logging.INFO, logging.WARNING):
         logging.addLevelName(level, logging.getLevelName(level).lower())
     logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")
+    # --quiet: warnings and errors only (no progress, no "converting ..." or "drawing ..." lines)
+    root, level = logging.getLogger(), logging.getLogger().level
+    if getattr(args, "quiet", False):
+        root.setLevel(logging.WARNING)
     # SIGTERM outside an engine run ends the command like Ctrl-C does (runs stop the engine themselves).
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
@@ -50,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
     finally:
+        root.setLevel(level)
         signal.signal(signal.SIGTERM, previous)
         if argv is None:  # this process is the command, about to exit: its objects need no last
             gc.freeze()  # garbage collection (0.2-1 s once a sweep loaded pandas and matplotlib)
@@ -93,7 +98,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="LAMMPS Python module in-process (default) or the lmp executable")
     run.add_argument("--np", type=int, default=1, help="MPI ranks (lmp runner only)")
     run.add_argument("--echo", action="store_true", help="show LAMMPS's screen output (on stderr)")
-    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--quiet", action="store_true", help="no progress bar or info lines: warnings and errors only")
     run.add_argument("--dry-run", action="store_true",
                      help="print the run's estimated output size, memory and time (JSON) and stop")
     run.add_argument("--yes", action="store_true", help="start a run estimated to take over an hour")
@@ -125,7 +130,7 @@ def _parser() -> argparse.ArgumentParser:
                        help="submit --jobs batch jobs of one Dask worker each; the sweep file's [cluster] says what they book")
     sweep.add_argument("--jobs", type=int, metavar="N", help="batch jobs with --cluster (default 1)")
     sweep.add_argument("--retry-failed", action="store_true", help="run members that failed before again")
-    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar or info lines: warnings, errors and the tally")
     sweep.add_argument("--overwrite", action="store_true", help="make DIR this sweep's when it holds a different one (its table is replaced)")
     sweep.add_argument("--yes", action="store_true", help="run a sweep of over 100000 members")
     sweep.add_argument("--engine", choices=("lammps", "cpu", "gpu"),

@@ -48,8 +48,20 @@ def jsonable(obj):
 
 
 def dumps(obj, indent: int | None = 2) -> str:
-    """Strict JSON text of `obj` (see `jsonable`)."""
-    return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
+    """Strict JSON text of `obj` (see `jsonable`), floats to 15 significant digits: what a
+    double holds of a decimal number, without the noise of its last bits (64.525, not
+    64.52499999999999, for 5162 steps of 0.0125 ms)."""
+    return json.dumps(_short(jsonable(obj)), indent=indent, allow_nan=False)
+
+
+def _short(obj):
+    if type(obj) is float:
+        return float(f"{obj:.15g}")
+    if isinstance(obj, dict):
+        return {k: _short(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_short(v) for v in obj]
+    return obj
 
 
 def _no_constant(token: str):

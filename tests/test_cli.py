@@ -258,3 +258,19 @@ def test_deck_hint_is_one_line_to_paste(tmp_path, monkeypatch, capsys):
     subprocess.run(["bash", "-c", command], check=True, env={"PATH": f"{stubs}:/usr/bin:/bin"})
     assert (tmp_path / "calls").read_text().splitlines() == [
         f"pylmp-lattice {tmp_path / folder} lmp -in in.lattice", f"pylmp-lattice {tmp_path} summarize {folder}"]
+
+
+@pytest.mark.lammps
+def test_quiet_is_quiet_and_summary_json_has_no_float_noise(tmp_path):
+    """--quiet printed "converting ... frames" and "drawing shock.png" (issue 27 item 13): a
+    command of its own (in-process, pytest's logging decides what shows); the summary showed
+    64.52499999999999 where 5162 steps of 0.0125 ms are 64.525."""
+    from pylmp_lattice.serialize import dumps
+
+    case = write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0, interval=0.5))
+    done = subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", "run", str(case), "-o", str(tmp_path / "r"),
+                           "--quiet"], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert json.loads(done.stdout)["files"]["figure"] == "shock.png"  # drawn, silently
+    assert dumps({"t": 5162 * 0.0125, "small": 1e-300 / 3, "x": [0.1 + 0.2]}) == \
+        '{\n  "t": 64.525,\n  "small": 3.33333333333333e-301,\n  "x": [\n    0.3\n  ]\n}'

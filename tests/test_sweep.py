@@ -112,7 +112,9 @@ chain.thermal_velocity = 0.01
     assert {m.id for m in other_seed.members()}.isdisjoint(m.id for m in members)
 
 
-def test_sections_as_tables_and_identical_members_run_once(tmp_path):
+def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
+    """... and say so in one line (study thermal printed 14 "member N is the same case" lines)."""
+    caplog.set_level("INFO", logger="pylmp_lattice")
     write_sweep(tmp_path, "")
     sweep = Sweep(base=tmp_path / "base.toml",
                   grid={"force": [{"law": "linear", "k": 0.5, "r_free": 30.0},
@@ -121,6 +123,8 @@ def test_sections_as_tables_and_identical_members_run_once(tmp_path):
     members = sweep.members()  # 4 combinations, 2 distinct cases
     assert [(m.index, m.case.force.law) for m in members] == [(0, "linear"), (2, "power")]
     assert members[1].params == {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}, "impactor.velocity": 1.0}
+    assert [r.getMessage() for r in caplog.records] == [
+        "2 members are the same case as earlier ones (members 1, 3); each case runs once"]
 
 
 def test_sweep_from_python_accepts_a_case(case_factory):

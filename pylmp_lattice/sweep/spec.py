@@ -257,7 +257,7 @@ class Sweep:
         axes = [[{k: v} for v in values] for k, values in self.grid.items()]
         if self.zip:
             axes.append([dict(zip(self.zip, row)) for row in zip(*self.zip.values())])
-        seen = set()
+        seen, same = set(), []
         index = 0
         for combo in itertools.product(*axes):
             point = {k: v for part in combo for k, v in part.items()}
@@ -284,10 +284,13 @@ class Sweep:
                     member = Member(index, normalised_hash(identity), params, resolved, self.base_dir)
                 index += 1
                 if member.id in seen:
-                    log.info("member %d is the same case as an earlier one (id %s); run once", member.index, member.id)
+                    same.append(member.index)
                     continue
                 seen.add(member.id)
                 yield member
+        if same:  # one line for all (study thermal printed 14)
+            log.info("%d member%s the same case as earlier ones (member%s %s); each case runs once", len(same),
+                     " is" if len(same) == 1 else "s are", "" if len(same) == 1 else "s", _numbers(same))
 
     def _data(self, point: dict, fixed: bool = True) -> dict:
         """The case dict of a parameter point: the base, [set] (if `fixed`), then the point's values."""
@@ -466,6 +469,12 @@ def _assign(data: dict, key: str, value) -> None:
 def _is_random(data: dict) -> bool:
     chain = data.get("chain", {})
     return isinstance(chain, dict) and any(chain.get(f) for f in RANDOM_FIELDS)
+
+
+def _numbers(indices: list[int], shown: int = 5) -> str:
+    """'3, 7, 9' or '3, 7, 9, 12, 15, ... 40' for a long list."""
+    head = ", ".join(map(str, indices[:shown]))
+    return head if len(indices) <= shown else f"{head}, ... {indices[-1]}"
 
 
 def _is_number(value) -> bool:
