@@ -81,7 +81,7 @@ def velocity_profiles(t, v, magnets, ax=None):
     for k, n in enumerate(magnets):
         ax.plot(t, v[:, k], lw=0.8, label=f"n = {n}")
     ax.set(xlabel="t (ms)", ylabel="v (m/s)")
-    ax.legend(fontsize="small")
+    legend_above_data(ax, ncol=len(magnets))
     return ax
 
 
@@ -139,8 +139,20 @@ def oscillation_peaks(t, v, magnets, drive_velocity, ax=None):
     ax.plot([], [], "^", ms=4, color="0.4", label="maxima")
     ax.plot([], [], "v", ms=4, color="0.4", label="minima")
     ax.set(xlabel="t (ms)", ylabel="peak velocity (m/s)")
-    ax.legend(fontsize="small")
+    legend_above_data(ax, ncol=3)
     return ax
+
+
+def legend_above_data(ax, ncol: int, row: float = 0.075):
+    """The legend in `ncol` columns at the top of the axes, in headroom made for it: the y range
+    grows so that the data keep below its rows (`row`: a row's share of the axes height, small
+    font). A long run's traces fill the whole panel, and a legend anywhere inside covered them."""
+    handles, labels = ax.get_legend_handles_labels()
+    rows = -(-len(labels) // ncol)
+    low, high = ax.get_ylim()
+    share = 1 - rows * row - 0.03  # what the data keep of the height
+    ax.set_ylim(low, low + (high - low) / share)
+    ax.legend(handles, labels, loc="upper left", ncol=ncol, fontsize="small", columnspacing=1.0, handlelength=1.5)
 
 
 def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front, v0: float | None = None,

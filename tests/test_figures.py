@@ -182,3 +182,31 @@ def test_quick_figures_name_only_what_they_draw(quick_studies):
     lo, hi = b.get_ylim()
     for level in (numbers["V0_m_per_s"], numbers["V_P_constant_drive_m_per_s"]):
         assert lo + 0.02 * (hi - lo) < level < hi - 0.02 * (hi - lo)
+
+
+def covered(ax) -> int:
+    """Points of the axes' lines that its legend's box covers (display coordinates)."""
+    ax.figure.draw_without_rendering()  # places a "best" legend (a bare Figure's canvas.draw does nothing)
+    box = ax.get_legend().get_window_extent()
+    count = 0
+    for line in ax.lines:
+        xy = line.get_transform().transform(np.asarray(line.get_xydata(), float))
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        count += int(np.sum((xy[:, 0] >= box.x0) & (xy[:, 0] <= box.x1) & (xy[:, 1] >= box.y0) & (xy[:, 1] <= box.y1)))
+    return count
+
+
+def test_legends_of_a_long_run_cover_no_trace():
+    """A long run's traces fill panels (a) and (d) from edge to edge: their legends covered
+    traces wherever matplotlib put them (issue 27 item 13); they sit in headroom above the data."""
+    from matplotlib.figure import Figure
+
+    from pylmp_lattice.plots import oscillation_peaks, velocity_profiles
+
+    t = np.linspace(0, 1000, 20001)
+    magnets = [2, 50, 100, 150]
+    v = np.stack([2 + 1.9 * np.sin(2 * np.pi * t / (9 + k)) * (t > 150 * k) for k in range(4)], axis=1)
+    for draw, args in ((velocity_profiles, (t, v, magnets)), (oscillation_peaks, (t, v, magnets, 2.0))):
+        ax = Figure(figsize=(5.5, 4)).subplots()
+        draw(*args, ax=ax)
+        assert covered(ax) == 0, draw.__name__

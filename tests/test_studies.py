@@ -229,13 +229,20 @@ def test_s9_quick_phase_portraits(quick):
 
 @pytest.mark.lammps
 @pytest.mark.slow
-def test_movies_quick(quick):
+def test_movies_quick(quick, quick_studies):
     from matplotlib import animation
 
     d = quick("movies")
     assert d["format"] == ("mp4" if animation.writers.is_available("ffmpeg") else "gif")
     for name in d["movie_files"].values():
         assert (quick.out / name).stat().st_size > 1000
+    # movies.png: one title (it said "Movie S2 (last frame)" over the frame's own), the legend beside the data
+    from test_figures import covered
+
+    fig = quick_studies("movies").figure
+    ax = fig.axes[0]
+    assert fig._suptitle.get_text().startswith("Movie S2 (model), last frame: long lattice") and ax.get_title() == ""
+    assert covered(ax) == 0 and ax.get_legend().get_window_extent().x0 > ax.get_window_extent().x1
 
 
 @pytest.mark.lammps

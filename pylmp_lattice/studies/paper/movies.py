@@ -38,7 +38,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     files, stills = {}, []
 
     case = experiment_case()
-    traj = simulate(case, out / NAME / case.name, overwrite=True)
+    log.info("movies: running %s for Movie S1 (%g ms)", case.name, case.run.duration)
+    traj = simulate(case, out / NAME / case.name, overwrite=True, progress=True)
     fig, anim = _movie_s1(plt, traj, _frames(traj.t, frames))
     files["S1"] = _save(anim, out / f"movie_S1.{fmt}", fmt, fps)
     stills.append(fig)
@@ -46,7 +47,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     duration = 100.0 if quick else 600.0
     vi = 2.0
     case = paper_case("movie_long_lattice", {"profile": "constant", "velocity": vi}, duration)
-    traj = simulate(case, out / NAME / case.name, overwrite=True)
+    log.info("movies: running %s for Movie S2 (%d magnets, %g ms)", case.name, case.chain.particles, duration)
+    traj = simulate(case, out / NAME / case.name, overwrite=True, progress=True)
     arrival = measures.arrival_times(traj.t, traj.v, vi)
     reached = measures.particles_reached(arrival)
     steady = measures.steady_oscillation(traj.t, traj.v[:, 9], vi, (0.8 * duration, duration))
@@ -55,8 +57,11 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     files["S2"] = _save(anim, out / f"movie_S2.{fmt}", fmt, fps)
     stills.append(fig)
 
-    # the last frame of S2 stands for the movies in NAME.png
-    still = style_figure(stills[1], "Movie S2 (last frame)", quick=quick, letters="")
+    # the last frame of S2 stands for the movies in NAME.png, its frame's title as the figure's (once)
+    ax = stills[1].axes[0]
+    what = ax.get_title().replace("Movie S2 (model): ", "Movie S2 (model), last frame: ")
+    ax.set_title("")
+    still = style_figure(stills[1], what, quick=quick, letters="")
     numbers = {"stand_in_impact_S1": EXPERIMENT_STAND_IN,
                "format": fmt, "frames": frames, "fps": fps, "movie_files": {k: p.name for k, p in files.items()},
                "ffmpeg_available": fmt == "mp4"}
@@ -137,7 +142,7 @@ def _movie_s2(plt, traj, vi, arrival, onset, frames):
     settled = ax.axvline(0, color="C2", lw=1, label="settled (steady oscillation)")
     ax.axhline(vi, color="k", ls=":", lw=0.8, label="$V_I$")
     ax.set(xlim=(1, last), ylim=(-0.2, 2.2 * vi), xlabel="magnet n", ylabel="v (m/s)")
-    ax.legend(loc="upper right", fontsize="small")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize="small")  # beside the axes: never on the data
     label = ax.set_title("")
 
     def draw(i):
