@@ -58,7 +58,8 @@ def twin_axis(ax, label: str, color: str = "C3"):
 def separate(left, right, left_values, right_values, overlap: float = -0.2):
     """Twin-axis data kept readable: the left axis's data in the upper part of the panel, the
     right axis's in the lower part (overlapping by `overlap` of the height), each range set by
-    its own finite values; a negative overlap leaves a gap for a legend."""
+    its own finite values, and ticked over that part alone; a negative overlap leaves a gap for
+    a legend."""
     for ax, values, (lo, hi) in ((left, left_values, (0.5 - overlap / 2, 0.97)),
                                  (right, right_values, (0.03, 0.5 + overlap / 2))):
         log = ax.get_yscale() == "log"
@@ -72,6 +73,11 @@ def separate(left, right, left_values, right_values, overlap: float = -0.2):
         scale = span / (hi - lo)
         limits = np.array([vmin - lo * scale, vmax + (1 - hi) * scale])
         ax.set_ylim(*(10**limits if log else limits))
+        if not log:  # ticks over its own part only: the experiment's first peak velocity axis read down to -1.8 m/s
+            from matplotlib.ticker import MaxNLocator
+
+            ticks = MaxNLocator(nbins=5).tick_values(vmin, vmax)
+            ax.set_yticks(ticks[(ticks >= vmin - 0.05 * span) & (ticks <= vmax + 0.05 * span)])
 
 
 def velocity_profiles(t, v, magnets, ax=None):

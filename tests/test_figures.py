@@ -210,3 +210,51 @@ def test_legends_of_a_long_run_cover_no_trace():
         ax = Figure(figsize=(5.5, 4)).subplots()
         draw(*args, ax=ax)
         assert covered(ax) == 0, draw.__name__
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_hugoniot_labels_the_model_chains_reduced_units(quick_studies):
+    """The Toda chain (m = A = B = 1) is in reduced units: its panels said m/s and mJ (issue 27
+    item 13); the magnets' stay in m/s."""
+    fig = quick_studies("hugoniot").figure
+    by_title = {ax.get_title(): ax for ax in fig.axes}
+    toda = [ax for title, ax in by_title.items() if title.startswith("toda (m = A = B = 1)")]
+    magnet = [ax for title, ax in by_title.items() if title.startswith("magnet:")]
+    assert len(toda) == 2 and len(magnet) == 2
+    for ax in toda:
+        assert "m/s" not in ax.get_xlabel() + ax.get_ylabel() and "reduced units" in ax.get_xlabel()
+    assert all(ax.get_xlabel() == "$u_p$ (m/s)" for ax in magnet)
+
+
+def test_twin_axes_tick_only_their_own_data():
+    """Panel (c) of the experiment: the first peak velocities (2.4-5.1 m/s) are drawn in the upper
+    part, so the left axis extends below them; it was ticked down to -1.8 m/s, a velocity no
+    first peak has. Each axis is now ticked over its own values only."""
+    from matplotlib.figure import Figure
+
+    from pylmp_lattice.plots import separate
+
+    ax = Figure().subplots()
+    right = ax.twinx()
+    velocity, acceleration = np.linspace(2.4, 5.1, 18), np.linspace(200, 3900, 18)
+    ax.plot(velocity)
+    right.plot(acceleration)
+    separate(ax, right, velocity, acceleration)
+    assert ax.get_ylim()[0] < 0  # the room below, for the other axis's data
+    assert 2.0 <= min(ax.get_yticks()) and max(ax.get_yticks()) <= 5.5, ax.get_yticks()
+    assert 0 <= min(right.get_yticks()) and max(right.get_yticks()) <= 4000, right.get_yticks()
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
+def test_fig1_draws_the_front_speed_line_on_the_trajectories(quick_studies):
+    """Fig. 1(b) had no front-speed line where the paper draws its red arrow (issue 27 item 13):
+    the gap-frame fit over magnets 2-12, its speed in the legend, as in the lab-frame panel."""
+    result = quick_studies("fig1")
+    left = panels(result.figure)[0]
+    speed = result.numbers["V_P_fit_by_arrival_definition_and_magnets"]["velocity_peak"]["n=2..12"]
+    (label,) = [t.get_text() for t in left.get_legend().get_texts()]
+    assert label == f"front, magnets 2-12: {speed.velocity:.2f} m/s (gap frame)"
+    xs, ts = left.lines[-1].get_data()
+    assert np.allclose(np.diff(xs) / np.diff(ts), speed.velocity)  # mm/ms = m/s

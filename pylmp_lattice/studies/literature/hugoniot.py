@@ -39,6 +39,8 @@ RUNS = {
     "lj": ((0.1, 0.25, 0.5, 1.0, 2.0, 3.0), 30.0, 0.002, 0.02),
     "morse": ((0.1, 0.25, 0.5, 1.0, 2.0, 3.0), 30.0, 0.002, 0.02),
 }
+# The model chains' reduced units (their user units are mm, g, N, so a speed is numerically in m/s).
+REDUCED = {"toda": "m = A = B = 1", "lj": r"m = $\epsilon$ = $\sigma$ = 1", "morse": r"m = D = 1, $\alpha r_e$ = 6"}
 QUICK = {"magnet": ((0.1, 1.0), 300.0), "toda": ((0.5, 1.0), 50.0)}
 
 
@@ -123,12 +125,15 @@ def _figure(rows, theory):
                 label=f"fit: {th['fit_all']['c0_m_per_s']:.3f} + {th['fit_all']['s']:.3f} $u_p$")
         if chain == "toda":
             ax.plot(line[1:], CHAINS["toda"][1] * toda_lead_soliton(line[1:])[1], "r-", lw=0.8, label="exact lead soliton")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="speed (m/s)", title=f"{chain}: front and jump speeds")
+        # the model chains are in reduced units: numerically m/s and mJ (mm, g, N), but not the magnets'
+        speed, energy = ("m/s", "mJ") if chain not in REDUCED else ("reduced units",) * 2
+        name = chain if chain not in REDUCED else f"{chain} ({REDUCED[chain]})"
+        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"speed ({speed})", title=f"{name}: front and jump speeds")
         ax.legend(fontsize="x-small")
         ax = axes[1, k]
         ax.loglog(u, [r["wake_oscillation_energy_mJ"] for r in mine], "o", label="wake oscillation energy")
         ax.loglog(u, [max(r["energy_jump_mJ"], 1e-12) for r in mine], "k^", mfc="none", label="energy jump condition")
-        ax.set(xlabel="$u_p$ (m/s)", ylabel="energy per particle (mJ)", title=f"{chain}: the wake's energy")
+        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"energy per particle ({energy})", title=f"{name}: the wake's energy")
         ax.xaxis.set_minor_formatter(NullFormatter())  # crowded minor labels on a short log axis
         ax.legend(fontsize="x-small")
     return fig

@@ -74,28 +74,31 @@ def run(out: Path, quick: bool = False) -> StudyResult:
                            "V_P_gap_frame_m_per_s": [speeds["velocity_peak"][k].velocity for k in FITS],
                            "V_P_lab_frame_m_per_s": [lab[k].velocity for k in FITS],
                            "V_P_lab_frame_stderr_m_per_s": [lab[k].velocity_stderr for k in FITS]}
-    fit = lab["n=2..12"]
-    line = _front_line(arrivals["velocity_peak"], centres, fit)
-    return StudyResult(NAME, numbers, tables=tables, figure=figure(t, x, v, quick, (t, x + centres - traj.x0, line)),
-                       quick=quick)
+    line = _front_line(arrivals["velocity_peak"], centres, lab["n=2..12"], f"paper {PAPER['V_P_m_per_s']:g}")
+    gap_line = _front_line(arrivals["velocity_peak"], traj.x0, speeds["velocity_peak"]["n=2..12"], "gap frame")
+    return StudyResult(NAME, numbers, tables=tables,
+                       figure=figure(t, x, v, quick, (t, x + centres - traj.x0, line), gap_line), quick=quick)
 
 
-def _front_line(arrival, centres, fit) -> tuple[np.ndarray, np.ndarray, str]:
-    """The fitted front over its magnets in the lab frame: centre positions (mm) and times (ms)
-    of the line t = t0 + x / V_P through their arrivals, and its legend."""
+def _front_line(arrival, positions, fit, note: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """The fitted front over its magnets: their initial positions (mm; centres in the lab
+    frame) and the times (ms) of the line t = t0 + x / V_P through their arrivals, and its legend."""
     window = slice(fit.first_magnet - 1, fit.last_magnet)
-    xs, ts = centres[window], arrival[window]
+    xs, ts = positions[window], arrival[window]
     t0 = np.nanmean(ts - xs / fit.velocity)
     return xs, t0 + xs / fit.velocity, (f"front, magnets {fit.first_magnet}-{fit.last_magnet}: "
-                                        f"{fit.velocity:.2f} m/s (paper {PAPER['V_P_m_per_s']:g})")
+                                        f"{fit.velocity:.2f} m/s ({note})")
 
 
-def figure(t, x, v, quick, lab):
-    """The paper's panels (b) and (c), and the lab-frame x-t map of the magnet centres with the
-    fitted front line."""
+def figure(t, x, v, quick, lab, gap_line):
+    """The paper's panels (b), with the fitted front line where the paper has its red arrow,
+    and (c), and the lab-frame x-t map of the magnet centres with its fitted front line."""
     plt = pyplot()
     fig, (left, right, third) = plt.subplots(1, 3, figsize=(17, 5.5), layout="constrained")
     left.plot(x, t, color="k", lw=0.8)
+    xs, ts, label = gap_line
+    left.plot(xs, ts, color="C3", lw=2, label=label)
+    left.legend(fontsize="small", loc="lower left")
     left.set(title="magnet trajectories", xlabel="x (mm)", ylabel="t (ms)", ylim=(t[-1], t[0]))
     for n in PROFILES:
         right.plot(t, v[:, n], lw=0.8, label=f"n = {n + 1}")
