@@ -99,12 +99,12 @@ def overheads(measure: bool = False) -> Overheads:
 def _measure() -> Overheads:
     with tempfile.TemporaryDirectory(prefix="pylmp_lattice_overhead_") as tmp:
         folder = Path(tmp)
-        (folder / "case.toml").write_text(_TINY_CASE)
-        run_s = _wall(["run", "case.toml", "-o", "r{}", "--quiet"], folder)
+        (folder / "tiny.toml").write_text(_TINY_CASE)
+        run_s = _wall(["run", "tiny.toml", "-o", "r{}", "--quiet"], folder)
         times = {}
         for k in (1, SWEEP_MEMBERS):
             values = ", ".join(f"{0.5 + 0.01 * i:g}" for i in range(k))
-            (folder / f"sweep{k}.toml").write_text(f'base = "case.toml"\n[grid]\n"impactor.velocity" = [{values}]\n')
+            (folder / f"sweep{k}.toml").write_text(f'base = "tiny.toml"\n[grid]\n"impactor.velocity" = [{values}]\n')
             times[k] = _wall(["sweep", f"sweep{k}.toml", "-o", f"s{k}_{{}}", "--workers", "1", "--quiet"], folder)
     member_s = max(0.0, (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1))
     return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3), round(member_s, 3), True)

@@ -34,6 +34,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     namespace = {}
     exec(compile(readme_example(), "README.md", "exec"), namespace)
+    namespace = {}  # a second time, as a user runs a script again (it raised "already holds a run")
+    exec(compile(readme_example(), "README.md", "exec"), namespace)
     # what the example claims: a finished run folder and measures of its front
     summary, run, front = namespace["summary"], namespace["run"], namespace["front"]
     assert (tmp_path / "runs/api_example/summary.json").exists() and (tmp_path / "api_example.png").exists()

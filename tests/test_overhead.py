@@ -28,7 +28,7 @@ def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cac
 
     def wall(args, cwd, tries=2):
         calls.append(args)
-        assert (cwd / "case.toml").is_file()  # the tiny case the commands run
+        assert (cwd / "tiny.toml").is_file()  # the tiny case the commands run
         return walls[args[0] if args[0] == "run" else args[1]]
 
     monkeypatch.setattr(overhead, "_wall", wall)

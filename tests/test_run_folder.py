@@ -121,7 +121,7 @@ def _import_graph() -> dict[str, set[str]]:
 HELPERS = {"case", "forcelaw", "impactor", "exact", "units", "errors", "serialize", "trajectory", "ranks", "numbering",
            "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
            "formats", "run_folder", "run_folder.marker", "run_folder.cases",
-           "file_lock", "preflight.estimate"}
+           "file_lock", "preflight.estimate", "overhead"}
 
 
 def _helper(module: str) -> bool:

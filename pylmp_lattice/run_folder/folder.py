@@ -15,6 +15,7 @@ destroys: a folder still being written is read as it stands, and says so.
 
 from __future__ import annotations
 
+import json
 import logging
 import re
 from contextlib import suppress
@@ -286,7 +287,7 @@ class RunFolder:
             else:
                 files["figure"] = layout.FIGURE
             atomic_write(self.path / layout.SUMMARY, dumps(summary) + "\n")
-        return summary
+        return json.loads(dumps(summary))  # as summary.json holds it: null for NaN, 15 digits
 
     def _current(self, name: str) -> bool:
         """Whether a file a summary wrote still describes the run: it exists, and the log has not
