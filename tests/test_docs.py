@@ -19,6 +19,20 @@ def test_the_docs_build_with_warnings_as_errors(tmp_path):
     assert done.returncode == 0, done.stderr + done.stdout
     assert (tmp_path / "site" / "api" / "index.html").is_file()
     assert "RunFolder" in (tmp_path / "site" / "api" / "index.html").read_text()
+    # the tutorial is a page with its outputs (it was a raw .ipynb link, stored without them)
+    page = (tmp_path / "site" / "tutorial" / "index.html").read_text()
+    assert "V_P = 3.87" in page and page.count("data:image/png;base64,") >= 1
+
+
+def test_the_tutorial_is_stored_with_its_outputs_and_leaves_the_backend_alone():
+    """Its figure shows in Jupyter (it forced the Agg backend) and in the docs (stored outputs)."""
+    import nbformat
+
+    nb = nbformat.read(ROOT / "docs" / "tutorial.ipynb", as_version=4)
+    code = [cell for cell in nb.cells if cell.cell_type == "code"]
+    assert not any("matplotlib.use" in cell.source for cell in code)
+    assert all(cell.outputs for cell in code)
+    assert any("image/png" in out.get("data", {}) for cell in code for out in cell.outputs)
 
 
 def test_the_architecture_figure_draws_the_layers_the_test_keeps(tmp_path):
