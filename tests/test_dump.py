@@ -221,3 +221,24 @@ def test_read_log_ending_in_error(tmp_path):
     assert_array_equal(first["Step"], [0, 100])
     assert failed["Step"][0] == 100 and 2000 < failed["Step"][-1] < 10100
     assert np.all(np.isfinite(failed["TotEng"]))
+
+
+@pytest.mark.lammps
+def test_the_guides_mdanalysis_route_for_a_text_dump(tmp_path):
+    """docs/guide.md's text-dump route, as written there: frame time step * dt (dt the time step
+    in ps), the file's x through additional_columns, positions shifted by the box origin."""
+    import MDAnalysis as mda
+
+    from conftest import make_case
+
+    from pylmp_lattice.run_folder import run_case
+
+    case = make_case(particles=12, duration=5.0, dt=0.0125, interval=0.125, output={"format": "text"})
+    run_case(case, tmp_path / "r", figure=False)
+    u = mda.Universe(str(tmp_path / "r" / "traj.dump"), format="LAMMPSDUMP", dt=0.0125e9,
+                     additional_columns=["x", "vx", "fx"])
+    ts = u.trajectory[-1]
+    assert ts.time == pytest.approx(5e9) and u.trajectory.dt == pytest.approx(0.0125e9)
+    mine = read_dump(tmp_path / "r" / "traj.dump", dt=1.25e-5)
+    assert_array_equal(ts.data["x"], mine.x[-1])
+    assert not np.allclose(ts.positions[:, 0], ts.data["x"]) and np.ptp(ts.positions[:, 0] - ts.data["x"]) < 1e-6
