@@ -210,17 +210,18 @@ def test_a_disk_full_for_lammps_mid_run_names_the_dump_and_run_json_says_failed(
     """LAMMPS stops on a full disk (its ERROR line names the dump ID): one line naming the file,
     exit 1, run.json "failed" with it; the conversion of what was written, refused for want of
     room, does not hide it (it gave a bare "no space ... topology.psf" before)."""
+    from pylmp_lattice import runner
     from pylmp_lattice.errors import RunError
-    from pylmp_lattice.run_folder import convert, execution
+    from pylmp_lattice.run_folder import convert
 
-    real = execution.run_deck
+    real = runner.run_deck
 
     def filled(path, *args, **kwargs):
         real(path, *args, **kwargs)  # dumps written; then the disk is full
         monkeypatch.setattr(convert, "free_bytes", lambda folder: 0)
         raise RunError(NO_SPACE, path)
 
-    monkeypatch.setattr(execution, "run_deck", filled)
+    monkeypatch.setattr(runner, "run_deck", filled)
     (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
     folder = tmp_path / "r"
     assert main(["run", str(tmp_path / "base.toml"), "-o", str(folder), "--quiet"]) == 1
@@ -244,19 +245,19 @@ def test_a_disk_full_for_the_h5md_file_keeps_the_dumps_and_names_the_file(tmp_pa
     from pylmp_lattice.formats import h5md
     from pylmp_lattice.run_folder import convert, marker
 
-    real = convert.convert_dumps
+    real = convert.convert_claimed
     if how == "checked":
-        def full(folder, case):
+        def full(claimed):
             monkeypatch.setattr(convert, "free_bytes", lambda folder: 1000)
-            return real(folder, case)
+            return real(claimed)
     else:
         def no_room(fd, size):
             raise OSError(errno.ENOSPC, "No space left on device")
 
-        def full(folder, case):
+        def full(claimed):
             monkeypatch.setattr(h5md, "_reserve", no_room)
-            return real(folder, case)
-    monkeypatch.setattr("pylmp_lattice.run_folder.execution.convert_dumps", full)
+            return real(claimed)
+    monkeypatch.setattr("pylmp_lattice.run_folder.execution.convert_claimed", full)
     (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
     folder = tmp_path / "r"
     assert main(["run", str(tmp_path / "base.toml"), "-o", str(folder), "--quiet"]) == 1

@@ -531,7 +531,7 @@ def test_ctrl_c_returns_within_2_s_and_the_folder_summarizes_up_to_the_stop(tmp_
     assert summary["stopped"]["reason"] == "interrupted"
     t_stop = summary["stopped"]["time_ms"]
     traj = RunFolder(folder).trajectory()
-    assert 0 < traj.t[-1] <= t_stop < traj.t[-1] + 1.0 + 1e-9  # frames 1 ms apart
+    assert 0 < traj.t[-1] <= t_stop + 1e-9 < traj.t[-1] + 1.0 + 2e-9  # frames 1 ms apart; summary.json's 15 digits
     assert (folder / layout.H5MD).exists() and not (folder / layout.TRAJ_BIN).exists()
 
 
