@@ -170,7 +170,8 @@ class _Coordinator:
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = sum(row["status"] == "done" for row in self.table.rows.values())
         if self.stop.signals:
-            log.info("%s: stopped with %d of %d members done", self.root.name, done, self.total)
+            # a warning: where a stopped sweep stands is said under --quiet too
+            log.warning("%s: stopped with %d of %d members done", self.root.name, done, self.total)
             raise Interrupted(self.stop.signals[0])
         if self.full:
             raise DiskFull(self.full.path, f"the sweep stopped with {done} of {self.total} members done, kept in "
