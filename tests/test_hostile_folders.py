@@ -236,7 +236,7 @@ def test_a_disk_full_for_lammps_mid_run_names_the_dump_and_run_json_says_failed(
 @pytest.mark.parametrize("how", ["checked", "reserved"])
 def test_a_disk_full_for_the_h5md_file_keeps_the_dumps_and_names_the_file(tmp_path, capsys, monkeypatch, how):
     """A finished run whose H5MD file does not fit: one line naming traj.h5md, exit 1, the binary
-    dumps kept, no part file or held lock, run.json "finished"; with room again, summarize converts.
+    dumps kept, no part file or held lock, run.json "done"; with room again, summarize converts.
     checked: the free space is below the dumps' size; reserved: it shrank after the check (another
     process), so the reservation fails. HDF5 that ran out of room mid-file crashed the process
     (a segmentation fault, seen on a 45 MB tmpfs), which the reservation prevents."""
@@ -267,7 +267,7 @@ def test_a_disk_full_for_the_h5md_file_keeps_the_dumps_and_names_the_file(tmp_pa
         assert "needs up to 0.0" in line and "MB, 0.001 MB free; they are kept" in line, line
     assert {"traj.bin", "front.bin"} <= {p.name for p in folder.iterdir()}
     assert not (folder / "traj.h5md").exists() and not list(folder.glob("*.part")) and not list(folder.glob(".*tmp"))
-    assert marker.read(folder)["state"] == "finished" and not marker.locked(folder)
+    assert marker.read(folder)["state"] == "done" and not marker.locked(folder)
     monkeypatch.undo()
     assert main(["summarize", str(folder)]) == 0
     assert (folder / "traj.h5md").is_file() and not (folder / "traj.bin").exists()
