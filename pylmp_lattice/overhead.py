@@ -30,6 +30,9 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from .errors import LatticeError
+from .formats.files import atomic_write
+
 log = logging.getLogger(__name__)
 
 # Set (to anything): the defaults, never measured; the measuring commands and the tests set it.
@@ -87,12 +90,16 @@ def overheads(measure: bool = False) -> Overheads:
     if not measure:
         return Overheads()
     log.info("measuring this machine's start-up and per-member costs once for the estimates (cached in %s)", path)
-    found = _measure()
+    try:
+        found = _measure()
+    except (OSError, subprocess.SubprocessError) as err:  # an estimate never stops the work it estimates
+        log.warning("could not measure this machine's overheads (%s); the estimate uses the defaults", err)
+        return Overheads()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({k: v for k, v in asdict(found).items() if k != "measured"}) + "\n")
-    except OSError as err:  # an unwritable cache measures again next time, no more
-        log.warning("could not cache the overheads in %s (%s)", path, err.strerror)
+        atomic_write(path, json.dumps({k: v for k, v in asdict(found).items() if k != "measured"}) + "\n")
+    except (OSError, LatticeError) as err:  # an unwritable cache (or a link there) measures again next time, no more
+        log.warning("could not cache the overheads in %s (%s)", path, getattr(err, "strerror", None) or err)
     return found
 
 

@@ -111,11 +111,13 @@ def _front_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
     return out
 
 
-def lab_window(case: Case) -> tuple[int, int]:
+def lab_window(case: Case) -> tuple[int, int] | None:
     """The magnets (first, last; 1-based, inclusive) over which `front_speed_lab_m_per_s` is
     fitted: from magnet 2 (magnet 1's arrival is the drive's) over the first half of the gaps,
-    where an x-t image's arrow drawn from the impacted end spans (Fig. 1(b): magnets 2-12 of 21)."""
-    return 2, 2 + (case.chain.particles - 1) // 2
+    where an x-t image's arrow drawn from the impacted end spans (Fig. 1(b): magnets 2-12 of 21).
+    None when that holds fewer than 3 magnets (a chain of under 5), too few for a slope and its error."""
+    last = 2 + (case.chain.particles - 1) // 2
+    return (2, last) if last >= 4 else None
 
 
 def _lab_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
@@ -126,10 +128,10 @@ def _lab_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
     arrival = np.atleast_2d(arrival)
     out: list[dict | None] = [None] * len(cases)
     for r, case in enumerate(cases):
-        length = case.chain.magnet_length
-        if length is None:
+        length, window = case.chain.magnet_length, lab_window(case)
+        if length is None or window is None:
             continue
-        first, last = lab_window(case)
+        first, last = window
         positions = case.chain.positions()  # x_1 = 0, the gaps between faces
         centres = positions + length * np.arange(positions.size)
         (lab, gap), (error, _) = measures.fit_front_speeds(arrival[[r, r]], np.stack([centres, positions]), first, last)

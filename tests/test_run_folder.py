@@ -653,3 +653,26 @@ def test_a_run_json_of_0_1_0_that_says_finished_reads_as_done(tmp_path):
     assert RunFolder(tmp_path).status == marker.DONE == "done"
     marker.record(tmp_path, marker.CONTACT)
     assert RunFolder(tmp_path).status == "contact"
+
+
+@pytest.mark.parametrize("error, state", [(ValueError("a bug in an engine"), "failed"),
+                                          (KeyboardInterrupt(), "interrupted")])
+def test_an_engine_s_own_error_is_failed_and_a_signal_interrupted(tmp_path, error, state):
+    """run.json after an engine raised: an error of its own (not Interrupted, a contact or a LAMMPS
+    error) is "failed" with its line, never "interrupted" (which a sweep's resume redoes)."""
+    from pylmp_lattice.run_folder import execute
+
+    class Broken:
+        nprocs = 1
+
+        def check(self, path):
+            pass
+
+        def __call__(self, path, on_step=None):
+            raise error
+
+    with pytest.raises(type(error)):
+        execute(make_case(particles=10, duration=1.0), tmp_path / "r", Broken())
+    record = marker.read(tmp_path / "r")
+    assert record["state"] == state
+    assert record.get("error") == ("ValueError: a bug in an engine" if state == "failed" else None)

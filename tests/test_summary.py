@@ -160,3 +160,21 @@ def test_lab_frame_front_speed_counts_the_magnet_length():
     assert lab["value"] == pytest.approx(183.5 / (120 / 4.18), rel=1e-5)
     assert lab["gap_frame_m_per_s"] == pytest.approx(4.18, rel=1e-5)
     assert "front_speed_lab_m_per_s" not in summaries([make_case(particles=21)], front)[0]
+
+
+@pytest.mark.parametrize("particles, window", [(3, None), (4, None), (5, [2, 4])])
+def test_a_short_chain_s_lab_window_holds_three_magnets_or_is_left_out(particles, window):
+    """Magnets 2 .. 2 + (N-1)//2: under 3 magnets (N < 5) no slope with an error, so no
+    lab-frame speed (N = 3 and 4 raised ValueError in fit_front_speeds before)."""
+    from pylmp_lattice.summary import summaries
+
+    arrival = 12.0 / 4.18 * np.arange(float(particles))
+    arrival[-1] = np.nan
+    peaks = measures.first_peaks(np.array([0.0, 1.0]), np.zeros((2, particles)), np.zeros((2, particles)), 2.0)
+    front = measures.stack_fronts([measures.Front(arrival, measures.propagation_velocity(arrival, 12.0), peaks,
+                                                  "level", 0.0, 1.6, 0.0)])
+    summary = summaries([make_case(particles=particles, chain={"magnet_length": 6.35})], front)[0]
+    lab = summary.get("front_speed_lab_m_per_s")
+    assert (lab and lab["magnets"]) == window
+    if window:
+        assert lab["value"] == pytest.approx(18.35 / (12 / 4.18), abs=1e-5)  # 5 decimals

@@ -183,7 +183,10 @@ def _run(claimed: Claimed, engine: Engine, progress: bool) -> None:
             raise full from err
         marker.record(path, marker.FAILED, **kept, error=err.message)
         raise
-    except BaseException:
+    except Exception as err:  # an engine's own error (a full disk writing its record, a bug): failed, not redone
+        marker.record(path, marker.FAILED, **kept, error=f"{type(err).__name__}: {err}".splitlines()[0])
+        raise
+    except BaseException:  # a signal on its way out (KeyboardInterrupt, SystemExit)
         marker.record(path, marker.INTERRUPTED, **kept)
         raise
     marker.record(path, marker.DONE, **kept)
