@@ -525,7 +525,7 @@ def test_member_cases_are_the_cases_of_their_dicts(tmp_path):
 
 
 def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
-    from pylmp_lattice.sweep import execute
+    from pylmp_lattice.sweep import blocks, execute
     from pylmp_lattice.sweep.pool import Pool
 
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=200), particles=12, duration=20.0))
@@ -545,7 +545,7 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
     coordinator = execute._Coordinator(grid, tmp_path, Pool(None, 2), execute._StopSignals(), False, False, grid.count())
     assert [len(t.members) for t in coordinator._tasks()] == [20] * 6
     # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
-    monkeypatch.setattr(execute, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
+    monkeypatch.setattr(blocks, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
     assert sizes(2) == [25] * 8
     # resumed with 180 done on disk, the first ones or the last ones: the 20 left, shared by both
     # workers (the sizes come from what the folder holds, before any member is enumerated)
@@ -802,7 +802,7 @@ def test_a_guarded_script_may_run_a_sweep_in_a_child_process(tmp_path):
 
 @pytest.mark.parametrize("disorder", [{}, {"chain.mass_disorder": 0.01}, {"chain.r0_disorder": 0.005}])
 def test_a_thousand_replicas_on_two_workers_are_two_tasks_of_500(disorder):
-    """Tasks are as large as an instance allows (execute.MAX_*): 1000 members of the 21-magnet
+    """Tasks are as large as an instance allows (blocks.MAX_*): 1000 members of the 21-magnet
     experiment (2.1e4 atoms, 1.0e8 atom-steps) are one task of 500 per worker, with mass
     disorder too (masses per magnet: at most one atom type per chain)."""
     from pylmp_lattice.sweep.execute import _Blocks
@@ -862,18 +862,18 @@ def test_a_stop_while_a_batch_is_measured_interrupts_its_members(tmp_path, monke
     """A stop signal after the batch's engine ended, while its record is read: its members are
     interrupted (redone on resume), as when the stop comes during the run; no warning that its
     measures could not be read, and none runs alone."""
-    import signal as signals
+    import signal
     import threading
     from concurrent.futures import ThreadPoolExecutor
 
     from pylmp_lattice.errors import Interrupted
-    from pylmp_lattice.sweep import batch
+    from pylmp_lattice.sweep import batch, signals
 
     def stopped(cases, folder):
-        raise Interrupted(signals.SIGINT)
+        raise Interrupted(signal.SIGINT)
 
     monkeypatch.setattr(batch, "_summaries", stopped)
-    monkeypatch.setattr(batch, "STOP", threading.Event())  # this process's stop flag, for this test only
+    monkeypatch.setattr(signals, "STOP", threading.Event())  # this process's stop flag, for this test only
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
     with ThreadPoolExecutor(1) as pool:
         table = run_sweep(sweep, tmp_path / "out", executor=pool, slots=1, progress=False)

@@ -1,4 +1,5 @@
-"""A sweep's work in the worker: members alone, or batched, many chains in one LAMMPS instance.
+"""A sweep's work in the worker: a task, its members batched, many chains in one LAMMPS instance,
+or alone (`member`).
 
 A task is a few members of one parameter point (they differ only in chain.seed, see `spec`).
 Those the chain engine can hold together (keep = "measures": no per-frame output, a front
@@ -16,29 +17,27 @@ The engine of a batch is LAMMPS, or with engine = "cpu" or "gpu" the chain kerne
 (`engines.road.KernelEngine`) on the same road into the same folder; members it cannot run
 (and those that run alone) run with LAMMPS, and the log says so once per reason and process.
 
-Stopping: SIGINT or SIGTERM soft-stops the engine (runner) and sets this process's stop flag;
-with the flag set no further member starts: the task returns its unstarted and stopped
-members as "interrupted".
+Stopping: with this process's stop flag set (`signals.STOP`) no further member starts: the task
+returns its unstarted and stopped members as "interrupted".
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
-import resource
 import shutil
-import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..case import Case
 from ..errors import Interrupted, LatticeError
-from ..formats.files import DiskFull, as_disk_full, disk_full, remove_tree
+from ..formats.files import DiskFull, remove_tree
+from . import signals
+from .member import _cpu_time, _fresh, _invalid, _record, one_line, run_member, unstarted
 from .spec import Member, member_cases
-from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, listing, member_folder, now,
-                    provenance, task_lock, write_batch, write_status)
+from .store import (BATCHES, DONE, INTERRUPTED, MEMBERS, Outcomes, listing, member_folder, now, provenance, task_lock,
+                    write_batch)
 
 log = logging.getLogger(__name__)
 # Whether the plugin's fix lattice/chain writes each chain's friction work (`fix_modify chain
@@ -50,12 +49,6 @@ NO_CHAIN_WORK = "fix_modify write_work"
 # Likewise for fix lattice/front's per-chain levels (`length n levels FILE`): a build without
 # them refuses the batch deck, and from then on chains batch only with equal levels.
 LEVELS_PER_CHAIN = True
-# Set by a stop signal (see pool._pool_worker_init); read before each start.
-STOP = threading.Event()
-# In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
-EXIT_AFTER_STOP: float | None = None
-# Whether this process is inside run_task (a pool worker's signal handler stops it there).
-IN_TASK = threading.Event()
 
 
 @dataclass(frozen=True)
@@ -73,11 +66,11 @@ class Task:
 def run_task(task: Task) -> list[dict]:
     """Run the task's members; one result per member, in order: {"id", "record", "summary"}.
     Every member's outcome is on disk (its status written last) before it is returned."""
-    IN_TASK.set()
+    signals.IN_TASK.set()
     try:
         return _run_task(task)
     finally:
-        IN_TASK.clear()
+        signals.IN_TASK.clear()
 
 
 def _run_task(task: Task) -> list[dict]:
@@ -102,7 +95,7 @@ def _run_members(root: Path, task: Task) -> list[dict]:
     valid = [(m, c) for m, c in zip(todo, cases) if c is not None]
     for group in _batches(valid):
         started = now()  # before the look at STOP: a member never starts after a stop signal
-        if STOP.is_set():
+        if signals.STOP.is_set():
             break
         if len(group) > 1:
             results |= _run_batch(root, group, task.runner, started, task.engine, task.threads)
@@ -111,13 +104,6 @@ def _run_members(root: Path, task: Task) -> list[dict]:
                 _note(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     return [results.get(m.id) or unstarted(m) for m in task.members]
-
-
-def stopping(signum: int) -> None:
-    """A stop signal arrived: no member starts from now on; a pool worker exits soon after."""
-    STOP.set()
-    if EXIT_AFTER_STOP is not None:
-        threading.Timer(EXIT_AFTER_STOP, os._exit, (128 + signum,)).start()
 
 
 def batchable(case: Case) -> bool:
@@ -142,37 +128,6 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
         key = (case.chain.particles, replica_range(case), shared) if batchable(case) else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
-
-
-def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> dict:
-    """Run one member alone in its folder (`run_case`); any earlier attempt there is removed first."""
-    from ..run_folder import run_case
-
-    folder = _fresh(member_folder(root, m.id))
-    start, cpu = time.perf_counter(), _cpu_time()
-    record = _record(m, started)
-    write_status(folder, record)
-    try:
-        # yes: a sweep is batch work, started knowingly; the disk and memory guard still applies
-        summary = run_case(case, folder, runner=runner, figure=False, yes=True)
-        record["status"] = DONE
-    except Interrupted as err:
-        stopping(err.signum)
-        return _stopped([(m, case)], root, [record])[m.id]
-    except Exception as err:  # noqa: BLE001 - any failure is recorded, and the sweep goes on
-        if STOP.is_set():  # it broke while the sweep was being stopped (a second signal): redone on resume
-            return _stopped([(m, case)], root, [record])[m.id]
-        if disk_full(err) or _no_room(case, folder):  # the sweep stops (see execute); the member's
-            # folder goes, which frees room for the table, and the member runs again on resume
-            with contextlib.suppress(OSError):
-                remove_tree(folder)
-            raise as_disk_full(err, folder) from err
-        summary = None
-        record |= {"status": FAILED, "error": one_line(err, root)}
-    record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
-               "cpu_time_s": round(_cpu_time() - cpu, 3)}
-    write_status(folder, record)
-    return {"id": m.id, "record": record, "summary": summary}
 
 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str, kind: str = "lammps",
@@ -239,7 +194,7 @@ def _note(kind: str, why: str, noted: set = set()) -> None:  # noqa: B006 - the 
 def _batch_stopped(group: list[tuple[Member, Case]], batch: Path, started: str, err: Interrupted) -> dict[str, dict]:
     """A batch stopped by a signal before its members were recorded: interrupted, none of them
     on disk (redone on resume)."""
-    stopping(err.signum)
+    signals.stopping(err.signum)
     shutil.rmtree(batch, ignore_errors=True)
     return {m.id: {"id": m.id, "record": _record(m, started) | {"status": INTERRUPTED, "ended": now()}, "summary": None}
             for m, _ in group}
@@ -250,7 +205,7 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     out = {}
     for m, case in group:
         started = now()
-        if STOP.is_set():
+        if signals.STOP.is_set():
             break
         out[m.id] = run_member(root, m, case, runner, started)
     return out
@@ -274,64 +229,3 @@ def _summaries(cases: list[Case], batch: Path) -> list[dict]:
         for summary, work in zip(out, works, strict=True):
             summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
     return out
-
-
-def _record(m: Member, started: str | None = None) -> dict:
-    return {"id": m.id, "index": m.index, "params": m.params, "status": RUNNING, "error": None,
-            "started": started or now(), "pid": os.getpid(), "provenance": provenance()}
-
-
-def _invalid(root: Path, m: Member) -> dict:
-    folder = _fresh(member_folder(root, m.id))
-    record = _record(m) | {"status": FAILED, "error": m.error, "ended": now(), "wall_time_s": 0.0}
-    write_status(folder, record)
-    return {"id": m.id, "record": record, "summary": None}
-
-
-def _stopped(group, root: Path, records: list[dict]) -> dict[str, dict]:
-    """Members stopped by a signal: "interrupted" on disk too (redone on resume)."""
-    out = {}
-    for (m, _), record in zip(group, records):
-        record |= {"status": INTERRUPTED, "ended": now()}
-        write_status(member_folder(root, m.id), record)
-        out[m.id] = {"id": m.id, "record": record, "summary": None}
-    return out
-
-
-def unstarted(m: Member) -> dict:
-    """A member not started (a stop came first), or whose worker was lost before it finished."""
-    return {"id": m.id, "record": {"id": m.id, "index": m.index, "params": m.params, "status": INTERRUPTED,
-                                   "error": None}, "summary": None}
-
-
-def _fresh(folder: Path) -> Path:
-    """An empty folder: an earlier unfinished attempt never counted as done."""
-    remove_tree(folder)  # a link there is removed, never followed
-    folder.mkdir(parents=True)
-    return folder
-
-
-def _no_room(case: Case, folder: Path) -> bool:
-    """Whether a failed member's disk is too full for its run (its writes, LAMMPS's included,
-    may have failed on it in other ways: a refusal by preflight, a truncated record)."""
-    from ..preflight import free_disk, output_bytes
-
-    try:
-        return free_disk(folder) < output_bytes(case)
-    except (OSError, LatticeError):
-        return False
-
-
-def _cpu_time() -> float:
-    """CPU seconds of this process and its finished children (the `lmp` runner's engine)."""
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + children.ru_utime + children.ru_stime
-
-
-def one_line(err: BaseException, root: Path | None = None) -> str:
-    """An exception as one line; our own errors speak for themselves, others get their type.
-    Paths under the sweep folder `root` are given relative to it."""
-    lines = str(err).strip().splitlines()
-    text = lines[0] if lines else ""
-    text = text if isinstance(err, LatticeError) and text else f"{type(err).__name__}: {text}".rstrip(": ")
-    return text.replace(f"{root}/", "") if root is not None else text

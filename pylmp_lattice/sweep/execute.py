@@ -5,7 +5,7 @@ The coordinator counts the members and estimates the run before enumerating them
 folder (one coordinator per DIR, DIR/sweep.json names the sweep it holds), then enumerates the
 members lazily: a member done on disk (status done, summary that parses) is skipped, the others
 are grouped into tasks, consecutive members of one parameter point, sized to the workers
-(`_Blocks`), and run by `batch.run_task` in the workers, whose results live on disk. At most one
+(`blocks._Blocks`), and run by `batch.run_task` in the workers, whose results live on disk. At most one
 task per worker is in flight, so a stop never finds members queued. The table is kept in
 memory (O(1) per member), written at most every 30 s (`Table`) and at the end.
 
@@ -20,50 +20,33 @@ else "interrupted", and the sweep stops; running the command again completes it.
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import importlib
 import logging
-import math
 import os
-import signal
-import sys
 import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError, Interrupted, UsageError
 from ..formats.files import DiskFull
-from . import batch, disk
+from . import disk
 from .batch import Task
+from .blocks import GPU_MAX_ATOMS, _Blocks, _point  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
+from .estimate import _estimate
+from .folder import check_folder, claim, lock
+from .member import one_line, unstarted
 from .pool import GRACE, Pool, executor_pool
-from ..case import identity_hash
+from .progress import _Progress
+from .signals import _StopSignals
 from .spec import Member, Sweep
-from .store import BATCHES, FAILED, INTERRUPTED, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json, remove_stale_locks
+from .store import FAILED, INTERRUPTED, MEMBERS, Outcomes, remove_stale_locks
 from .table import CSV, Table, frame, member_row
 
 log = logging.getLogger(__name__)
 
 # A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
 MANY_MEMBERS = 100_000
-# A task's members: at most this many atoms, atom-steps (about 0.7 s of engine time: a batch of
-# the 21-magnet experiment with friction and the front record runs 5e7 atom-steps in 0.33 s,
-# docs/performance.md) and atom types (LAMMPS keeps some per-type-pair tables; with masses per
-# magnet each chain may add one, `deck.chains_data_text`, else the chains share theirs) in one
-# instance. Each instance costs about 0.05 s to set up, so tasks are as large as these allow,
-# shared evenly by the workers.
-MAX_ATOMS = 200_000
-MAX_ATOM_STEPS = 1e8
-MAX_TYPES = 1024
-# A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
-# and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
-GPU_MAX_ATOMS = 4_000_000
-# A batched member beyond its atom-steps, for the estimate: its share of the worker's Python
-# (0.23 ms, docs/performance.md "Worker Python per batched member"); a member run alone costs
-# this machine's `overhead.Overheads.member_s`.
-BATCHED_SECONDS = 2.3e-4
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -76,10 +59,10 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     (tcp://HOST:PORT), whose workers must see `root` on a shared file system; or executor: any
     `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
-    different sweep is refused unless `overwrite` (see `_claim`); a sweep of over
+    different sweep is refused unless `overwrite` (see `folder.claim`); a sweep of over
     MANY_MEMBERS members needs `yes`. engine: "lammps", "cpu" or "gpu" for the batched members
     (default: the sweep's, `Sweep.engine`); with "gpu" every worker feeds the one device (the
-    members' Python, not the kernel, takes most of the time: `_Blocks`).
+    members' Python, not the kernel, takes most of the time: `blocks._Blocks`).
     Raises Interrupted on SIGINT or SIGTERM, after writing the table. A script that calls it
     needs the `if __name__ == "__main__":` guard: the local workers import it again.
     """
@@ -103,8 +86,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")
     root.mkdir(parents=True, exist_ok=True)
-    with _lock(root), _StopSignals() as stop:
-        _claim(root, sweep, overwrite)
+    with lock(root), _StopSignals() as stop:
+        claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
         try:
             with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
@@ -244,7 +227,7 @@ class _Coordinator:
         except (Exception, Interrupted) as err:  # noqa: BLE001 - the worker was lost (killed, crashed), or stopped
             if not (self.stop.signals or self.lost or self.full):
                 log.warning("a worker was lost (%s); the members in flight are read back from their folders",
-                            batch.one_line(err))
+                            one_line(err))
                 self.lost = True
             self.broken.append(task)
             return
@@ -254,7 +237,7 @@ class _Coordinator:
     def _from_disk(self, task: Task) -> None:
         disk = Outcomes(self.root, batches=[m.id for m in task.members])  # as it stands now
         for m in task.members:
-            result = disk.get(m.id) or batch.unstarted(m)
+            result = disk.get(m.id) or unstarted(m)
             self._row(m, result["record"], result["summary"])
 
     def _wind_down(self, running: dict[Future, Task]) -> None:
@@ -308,175 +291,3 @@ def _preload(sweep: Sweep) -> None:
         modules += ["matplotlib.figure", "matplotlib.backends.backend_agg"]
     for name in modules:
         importlib.import_module(name)
-
-
-def _point(m: Member) -> str:
-    """The member's parameter point: members of one point differ only in their seed."""
-    return identity_hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
-
-
-@dataclass
-class _Blocks:
-    """Task sizes: the members in as few tasks as one instance allows (MAX_*), their number a
-    multiple of the workers, so that every worker gets an equal share; a task holds one point's
-    members, so the few points of a sweep are split in equal parts (3 points on 2 workers: 6
-    tasks, not 3 of which one worker would run 2)."""
-
-    todo: int  # members to run (at least)
-    slots: int
-    points: int = 1  # parameter points
-    replicas: int = 1  # members per point
-    limits: dict = field(default_factory=dict)
-    engine: str = "lammps"
-
-    def next_size(self, m: Member) -> int:
-        """The size of the task that starts with member `m`."""
-        tasks = self.slots * math.ceil(self.todo / (self.slots * self._cap(m)))
-        # parts per point: until the tasks fill the workers evenly, or are too many to matter
-        parts = next(k for k in range(1, self.slots + 1)
-                     if (self.points * k) % self.slots == 0 or self.points * k >= 4 * self.slots)
-        return max(1, min(math.ceil(self.todo / tasks), math.ceil(self.replicas / parts)))
-
-    def _cap(self, m: Member) -> int:
-        """Members of this point one instance may hold (1 if they cannot be batched)."""
-        point = _point(m)
-        if point not in self.limits:
-            case = m.case
-            if case is None or not batch.batchable(case):
-                self.limits[point] = 1
-            else:
-                from ..deck import per_atom_masses
-
-                n = case.chain.particles
-                caps = [MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps()))]
-                if self.engine == "gpu":  # a launch fills the device only with 10^5 chains or so
-                    caps = [GPU_MAX_ATOMS // n]
-                elif per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
-                    caps.append(MAX_TYPES)
-                self.limits[point] = max(1, min(caps))
-        return self.limits[point]
-
-
-def _estimate(sweep: Sweep, total: int, workers: int) -> str:
-    """The sweep's time, command to exit, from the first member's case, preflight's model and
-    this machine's overheads (`overhead`, measured once): its start-up and end, then in its
-    workers each task's overhead (a member run alone, or a point's batch of replicas) and, per
-    member, a batched one's atom-steps (the instance's cost per step is the task's) and
-    BATCHED_SECONDS, one run alone its engine and output."""
-    from ..overhead import overheads
-    from ..preflight.estimate import (SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, SECONDS_PER_STEP, _duration,
-                                      atom_frames, engine_seconds)
-
-    first = next(sweep.iter_members(), None)
-    if first is None or first.case is None:
-        return "no estimate"
-    case, costs = first.case, overheads(measure=True)
-    n, steps = case.chain.particles, case.run.steps()
-    if sweep.replicas > 1 and batch.batchable(case):  # a task holds one point's members
-        each, kind = SECONDS_PER_ATOM_STEP * n * steps + BATCHED_SECONDS, "batched"
-        tasks = -(-total // sweep.replicas) * (costs.member_s + SECONDS_PER_STEP * steps)
-    else:
-        each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
-        tasks, kind = total * costs.member_s, "each run alone"
-    seconds = costs.sweep_s + (each * total + tasks) / workers
-    return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}), "
-            "if all are like the first")
-
-
-# ----------------------------------------------------------------------------- the folder
-
-@contextlib.contextmanager
-def _lock(root: Path):
-    """One coordinator per sweep folder: a lock on the folder itself (no lock file to leave
-    behind; the kernel drops it when the coordinator dies)."""
-    fd = os.open(root, os.O_RDONLY)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise UsageError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
-        yield
-    finally:
-        os.close(fd)
-
-
-def check_folder(root: str | Path) -> None:
-    """UsageError unless `root` may be a sweep's folder: where a run may go (`check_place`), not
-    a run's folder, and not inside another sweep's members/ or batches/ (a study's sweeps may
-    sit side by side in one sweep's folder)."""
-    from ..formats import layout
-    from ..formats.files import refuse_links
-    from ..run_folder import marker
-    from .table import FILES as TABLE_FILES
-
-    layout.check_place(Path(root), "sweep")
-    refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
-    if marker.is_run(Path(root)):
-        raise UsageError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")
-    outer = layout.inside_sweep(root)
-    if outer is not None:
-        raise UsageError("output", f"{root} is {outer} or inside it, which holds a sweep's members; choose another "
-                          "folder (-o)")
-
-
-def _claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
-    """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`, which
-    makes DIR this sweep's (its table is replaced; member folders are named by their case, so
-    those of identical cases are reused and the others stay on disk, out of the table)."""
-    import json
-
-    identity = sweep.identity()
-    held = read_json(root / SWEEP_FILE)
-    if held is not None and held.get("identity") != identity and not overwrite:
-        raise UsageError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
-                          "or pass --overwrite (overwrite=True) to replace it")
-    if held is None or held.get("identity") != identity:
-        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n", sync=True)
-
-
-# ----------------------------------------------------------------------------- signals
-
-class _StopSignals:
-    """SIGINT and SIGTERM recorded (in the main thread; elsewhere the process's handling stays):
-    the first asks the workers to stop, the second kills them (`on_signal(count)`)."""
-
-    def __init__(self):
-        self.signals: list[int] = []
-        self.on_signal = lambda count: None
-        self.previous = {}
-
-    def __enter__(self):
-        if threading.current_thread() is threading.main_thread():
-            self.previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
-        return self
-
-    def _handle(self, signum, frame):
-        self.signals.append(signum)
-        self.on_signal(len(self.signals))
-
-    def __exit__(self, *exc):
-        for s, handler in self.previous.items():
-            signal.signal(s, handler)
-
-
-class _Progress:
-    """A progress bar on stderr (terminals only): members finished of all, failed, running."""
-
-    def __init__(self, total: int, enabled: bool):
-        from tqdm import tqdm
-
-        self.failed = self.running = 0
-        self.bar = tqdm(total=total, file=sys.stderr, disable=None if enabled else True, unit="member",
-                        dynamic_ncols=True, mininterval=0.5)
-
-    def show(self, running: int) -> None:
-        self.running = running
-        self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
-
-    def advance(self, status: str) -> None:
-        self.failed += status == FAILED
-        if status != INTERRUPTED:
-            self.bar.update(1)
-
-    def close(self) -> None:
-        self.bar.close()

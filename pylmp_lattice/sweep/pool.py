@@ -146,17 +146,17 @@ def _pool_worker_init(alive, stop) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
     any later start, and the worker exits GRACE seconds later; it exits at once when the
     coordinator is gone."""
-    from . import batch
+    from . import signals
 
     def on_signal(signum, frame):
-        if batch.STOP.is_set():  # stopping already (Ctrl-C reaches this worker and its coordinator both)
+        if signals.STOP.is_set():  # stopping already (Ctrl-C reaches this worker and its coordinator both)
             return
-        batch.stopping(signum)
-        if batch.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
+        signals.stopping(signum)
+        if signals.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
             raise Interrupted(signum)
         os._exit(128 + signum)  # between tasks: nothing in hand
 
-    batch.EXIT_AFTER_STOP = GRACE
+    signals.EXIT_AFTER_STOP = GRACE
     for s in STOP_SIGNALS:
         signal.signal(s, on_signal)
 

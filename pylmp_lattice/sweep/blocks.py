@@ -1,0 +1,71 @@
+"""A sweep's tasks, sized: consecutive members of one parameter point, as many as one instance
+allows, shared evenly by the workers (`_Blocks`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..case import identity_hash
+from . import batch
+from .spec import Member
+
+# A task's members: at most this many atoms, atom-steps (about 0.7 s of engine time: a batch of
+# the 21-magnet experiment with friction and the front record runs 5e7 atom-steps in 0.33 s,
+# docs/performance.md) and atom types (LAMMPS keeps some per-type-pair tables; with masses per
+# magnet each chain may add one, `deck.chains_data_text`, else the chains share theirs) in one
+# instance. Each instance costs about 0.05 s to set up, so tasks are as large as these allow,
+# shared evenly by the workers.
+MAX_ATOMS = 200_000
+MAX_ATOM_STEPS = 1e8
+MAX_TYPES = 1024
+# A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
+# and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
+GPU_MAX_ATOMS = 4_000_000
+
+
+def _point(m: Member) -> str:
+    """The member's parameter point: members of one point differ only in their seed."""
+    return identity_hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
+
+
+@dataclass
+class _Blocks:
+    """Task sizes: the members in as few tasks as one instance allows (MAX_*), their number a
+    multiple of the workers, so that every worker gets an equal share; a task holds one point's
+    members, so the few points of a sweep are split in equal parts (3 points on 2 workers: 6
+    tasks, not 3 of which one worker would run 2)."""
+
+    todo: int  # members to run (at least)
+    slots: int
+    points: int = 1  # parameter points
+    replicas: int = 1  # members per point
+    limits: dict = field(default_factory=dict)
+    engine: str = "lammps"
+
+    def next_size(self, m: Member) -> int:
+        """The size of the task that starts with member `m`."""
+        tasks = self.slots * math.ceil(self.todo / (self.slots * self._cap(m)))
+        # parts per point: until the tasks fill the workers evenly, or are too many to matter
+        parts = next(k for k in range(1, self.slots + 1)
+                     if (self.points * k) % self.slots == 0 or self.points * k >= 4 * self.slots)
+        return max(1, min(math.ceil(self.todo / tasks), math.ceil(self.replicas / parts)))
+
+    def _cap(self, m: Member) -> int:
+        """Members of this point one instance may hold (1 if they cannot be batched)."""
+        point = _point(m)
+        if point not in self.limits:
+            case = m.case
+            if case is None or not batch.batchable(case):
+                self.limits[point] = 1
+            else:
+                from ..deck import per_atom_masses
+
+                n = case.chain.particles
+                caps = [MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps()))]
+                if self.engine == "gpu":  # a launch fills the device only with 10^5 chains or so
+                    caps = [GPU_MAX_ATOMS // n]
+                elif per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
+                    caps.append(MAX_TYPES)
+                self.limits[point] = max(1, min(caps))
+        return self.limits[point]

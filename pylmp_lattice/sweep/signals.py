@@ -1,0 +1,50 @@
+"""Stopping a sweep on SIGINT or SIGTERM: the coordinator's signals (`_StopSignals`) and a
+worker's stop flag.
+
+In a worker, a stop signal soft-stops the engine (runner) and sets this process's flag (`STOP`,
+`stopping`); with the flag set no further member starts: the task returns its unstarted and
+stopped members as "interrupted". A pool worker's handler (`pool._pool_worker_init`) sets it.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+# Set by a stop signal (see pool._pool_worker_init); read before each start.
+STOP = threading.Event()
+# In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
+EXIT_AFTER_STOP: float | None = None
+# Whether this process is inside run_task (a pool worker's signal handler stops it there).
+IN_TASK = threading.Event()
+
+
+class _StopSignals:
+    """SIGINT and SIGTERM recorded (in the main thread; elsewhere the process's handling stays):
+    the first asks the workers to stop, the second kills them (`on_signal(count)`)."""
+
+    def __init__(self):
+        self.signals: list[int] = []
+        self.on_signal = lambda count: None
+        self.previous = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
+        return self
+
+    def _handle(self, signum, frame):
+        self.signals.append(signum)
+        self.on_signal(len(self.signals))
+
+    def __exit__(self, *exc):
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
+
+
+def stopping(signum: int) -> None:
+    """A stop signal arrived: no member starts from now on; a pool worker exits soon after."""
+    STOP.set()
+    if EXIT_AFTER_STOP is not None:
+        threading.Timer(EXIT_AFTER_STOP, os._exit, (128 + signum,)).start()
