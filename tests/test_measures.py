@@ -403,6 +403,30 @@ def test_centred_velocity_is_exact_for_a_quadratic_front():
     assert (local.first_magnet, local.last_magnet, local.n_points) == (31, 33, 3)
 
 
+def test_front_fits_against_scipy_linregress():
+    # A noisy line with one magnet never reached: the single fit leaves it out, the batched one
+    # gives no speed for a window that holds it; both are scipy's least squares to 1e-12 of V_P.
+    from scipy.stats import linregress
+
+    rng = np.random.default_rng(3)
+    x = np.cumsum(rng.uniform(10.0, 14.0, 30))
+    arrival = x / 4.2 + rng.normal(0.0, 0.2, 30)
+    arrival[20] = np.nan
+    keep = np.isfinite(arrival)
+    line = linregress(x[keep], arrival[keep])
+    fit = fit_propagation_velocity(arrival, x)
+    assert fit.n_points == 29
+    assert_allclose([fit.velocity, fit.velocity_stderr], [1 / line.slope, line.stderr / line.slope**2],
+                    rtol=0, atol=1e-12 / line.slope)
+    rows = np.stack([arrival, np.where(keep, arrival, 0.0)])
+    speed, stderr = measures.fit_front_speeds(rows, x, 2, 15)  # magnets 2-15 all reached in both rows
+    whole, _ = measures.fit_front_speeds(rows, x, 2, 30)
+    part = fit_propagation_velocity(arrival, x, 2, 15)
+    assert_allclose(speed, part.velocity, rtol=1e-12)
+    assert_allclose(stderr, part.velocity_stderr, rtol=1e-12)
+    assert np.isnan(whole[0]) and np.isfinite(whole[1])
+
+
 def test_short_pulse_arrival_by_first_velocity_and_acceleration_peak():
     # A Gaussian pulse v = h_n V_I exp(-((t - t_n)/w)^2) that weakens to 0.3 V_I: it never
     # reaches V_I/2 far out, but its maximum (t_n) and its steepest rise (t_n - w/sqrt 2) do.

@@ -94,13 +94,10 @@ def fit_propagation_velocity(arrival, positions, first_magnet: int = 1, last_mag
     keep = np.isfinite(t)
     if keep.sum() < 3:
         return FrontFit(NAN, NAN, NAN, first_magnet, last_magnet, int(keep.sum()))
-    from scipy import stats  # here: importing scipy.stats costs ~0.3 s, and most runs never fit
-
-    line = stats.linregress(x[keep], t[keep])
-    residual = t[keep] - (line.intercept + line.slope * x[keep])
+    (velocity,), (stderr,), residual = _front_lines(x[keep][None], t[keep][None])
     return FrontFit(
-        velocity=float(1.0 / line.slope),
-        velocity_stderr=float(line.stderr / line.slope**2),
+        velocity=float(velocity),
+        velocity_stderr=float(stderr),
         residual_rms=float(np.sqrt(np.mean(residual**2))),
         first_magnet=first_magnet,
         last_magnet=last_magnet,
@@ -111,24 +108,31 @@ def fit_propagation_velocity(arrival, positions, first_magnet: int = 1, last_mag
 def fit_front_speeds(arrival, positions, first_magnet: int, last_magnet: int) -> tuple[np.ndarray, np.ndarray]:
     """`fit_propagation_velocity` of R chains at once over one window of magnets, first_magnet
     .. last_magnet (1-based, inclusive), with no plateau criterion: arrival (R, N) ms and
-    positions (R, N) mm give V_P (R,) m/s and its standard error (R,) (closed-form least
-    squares, no scipy). NaN for a chain where any magnet of the window has no arrival: a front
-    that did not cross the whole window has no speed over it."""
+    positions (R, N) mm give V_P (R,) m/s and its standard error (R,). NaN for a chain where any
+    magnet of the window has no arrival: a front that did not cross the whole window has no speed
+    over it (`fit_propagation_velocity` fits the magnets that have one)."""
     arrival = np.atleast_2d(np.asarray(arrival, dtype=float))
     positions = np.broadcast_to(np.asarray(positions, dtype=float), arrival.shape)
     if not 1 <= first_magnet < last_magnet - 1 < arrival.shape[1]:
         raise ValueError(f"first_magnet, last_magnet: got {first_magnet}, {last_magnet}; "
                          f"expected 1 <= first_magnet, first_magnet + 2 <= last_magnet <= {arrival.shape[1]}")
     window = entries(first_magnet, last_magnet)
-    t, x = arrival[:, window], positions[:, window]
-    k = t.shape[1]
+    velocity, stderr, _ = _front_lines(positions[:, window], arrival[:, window])
+    return velocity, stderr
+
+
+def _front_lines(x, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares t = t_0 + x / V of each row of x (R, k) mm and t (R, k) ms, k >= 3, in
+    closed form (scipy.stats.linregress's numbers to 1e-12 of V, without its ~0.3 s import): V (R,)
+    m/s, its standard error (R,) from the residuals (k - 2 degrees of freedom), and the
+    residuals of t (R, k), ms. NaN in a row where any t is."""
     dx = x - x.mean(axis=1, keepdims=True)
     dt = t - t.mean(axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         slope = np.sum(dx * dt, axis=1) / np.sum(dx * dx, axis=1)  # ms per mm
         residual = dt - slope[:, None] * dx
-        slope_stderr = np.sqrt(np.sum(residual**2, axis=1) / (k - 2) / np.sum(dx * dx, axis=1))
-        return 1.0 / slope, slope_stderr / slope**2
+        slope_stderr = np.sqrt(np.sum(residual**2, axis=1) / (t.shape[1] - 2) / np.sum(dx * dx, axis=1))
+        return 1.0 / slope, slope_stderr / slope**2, residual
 
 
 @dataclass(frozen=True)
