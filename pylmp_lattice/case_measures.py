@@ -8,7 +8,7 @@
   prescribed, not integrated, so the record has none), and the chain's slowest linear speed,
   below which a gap's V_P is flagged;
 - `case_front`: the same definitions applied to a trajectory's arrays;
-- `linear_constants`: the linear chain's wave speed V0 and frequency f0;
+- `linear_constants`, `linear_constants_at`: the linear chain's wave speed V0 and frequency f0;
 - `set_impactor_acceleration`: magnet 1's row of a trajectory's accelerations from its profile.
 """
 
@@ -27,11 +27,15 @@ from .formats.front_record import FrontRows, read_front_rows
 
 def linear_constants(case: Case) -> tuple[float, float]:
     """(V0 in m/s, f0 in Hz): the linear wave speed and frequency of the case's nearest-neighbour
-    law at its mean gap and mean mass (`measures.linear_wave_speed`, `measures.linear_frequency`)."""
-    r0 = float(np.mean(case.chain.gaps()))
-    k0 = float(case.force.stiffness(r0))
-    m = float(np.mean(case.chain.masses()))
-    return float(measures.linear_wave_speed(k0, m, r0)), float(measures.linear_frequency(k0, m))
+    law at its mean gap and mean mass, as drawn (`linear_constants_at`)."""
+    return linear_constants_at(case.force, float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses())))
+
+
+def linear_constants_at(force, r0: float, mass: float) -> tuple[float, float]:
+    """(V0 in m/s, f0 in Hz) of the nearest-neighbour law `force` linearised at gap r0 (mm) for
+    magnets of mass `mass` (g) (`measures.linear_wave_speed`, `measures.linear_frequency`)."""
+    k0 = float(force.stiffness(r0))
+    return float(measures.linear_wave_speed(k0, mass, r0)), float(measures.linear_frequency(k0, mass))
 
 
 def set_impactor_acceleration(case: Case, traj, columns) -> None:

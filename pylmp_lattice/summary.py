@@ -16,7 +16,7 @@ import numpy as np
 
 from . import measures
 from .case import Case
-from .case_measures import linear_constants
+from .case_measures import linear_constants_at
 from .measures.front import LINEAR_LAG
 from .numbering import number
 
@@ -85,8 +85,8 @@ def front_window(case: Case) -> tuple[int, int] | None:
     run, from gap 2 (gap 1 is the drive's rise) to the last gap between free magnets. A front
     is never slower than linear waves, so any front that keeps going crosses the whole window.
     None when the window would hold fewer than 2 gaps."""
-    r0, mass = float(np.mean(case.chain.r0)), float(np.mean(case.chain.mass))
-    v0 = float(measures.linear_wave_speed(float(case.force.stiffness(r0)), mass, r0))
+    r0 = float(np.mean(case.chain.r0))
+    v0 = linear_constants_at(case.force, r0, float(np.mean(case.chain.mass)))[0]
     last = min(int((1 - LINEAR_LAG) * v0 * case.run.duration / r0), min(case.held()) - 1)
     first = max(2, math.ceil(last / 2))
     return (first, last) if last > first else None
@@ -148,7 +148,7 @@ def _linear_part(cases) -> list[dict]:
     for case in cases:
         key = (float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses())), case.force)
         if key not in done:
-            done[key] = linear_constants(case)
+            done[key] = linear_constants_at(case.force, *key[:2])
         v0, f0 = done[key]
         out.append({
             "case": case.name,
