@@ -81,6 +81,16 @@ def test_draws_come_from_the_children_of_the_seed_sequence():
     np.testing.assert_array_equal(chain.velocities()[1:-1], free - np.sum(m * free) / float(np.sum(m)))
 
 
+def test_a_sample_of_the_first_draws_is_the_chain_s_own():
+    """masses(first), gaps(first): the first of the chain's own numbers, drawn for those alone
+    (preflight's sample of a long chain), defect included."""
+    chain = make_case(particles=50, chain={"mass_disorder": 0.1, "r0_disorder": 0.05, "seed": 4,
+                                           "defect_index": 6, "defect_mass": 2.5}).chain
+    np.testing.assert_array_equal(chain.masses(7), chain.masses()[:7])
+    np.testing.assert_array_equal(chain.gaps(7), chain.gaps()[:7])
+    assert chain.masses(7)[5] == 2.5 and chain.masses(5).shape == (5,)
+
+
 def test_data_file_carries_disorder_and_velocities():
     case = make_case(particles=6, chain={"thermal_velocity": 0.1, "r0_disorder": 0.05, "mass_disorder": 0.05, "seed": 1})
     text = data_text(case)

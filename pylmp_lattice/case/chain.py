@@ -176,12 +176,18 @@ class Chain:
     def _gaps(self, chunk: int) -> Iterator[np.ndarray]:
         return self._series(self.r0, self.particles - 1, self.r0_disorder, 1, self.defect_r0, chunk)
 
-    def masses(self) -> np.ndarray:
-        """Mass of each particle, g, shape (N,), with disorder and defect."""
+    def masses(self, first: int | None = None) -> np.ndarray:
+        """Mass of each particle, g, shape (N,), with disorder and defect; of particles 1 ..
+        `first` only if given (the same numbers, drawn for those alone: a sample of any N)."""
+        if first is not None:
+            return next(self._masses(first))
         return self._kept("masses", lambda: next(self._masses(self.particles)))
 
-    def gaps(self) -> np.ndarray:
-        """Initial separations, mm, shape (N-1,), with disorder and defect."""
+    def gaps(self, first: int | None = None) -> np.ndarray:
+        """Initial separations, mm, shape (N-1,), with disorder and defect; of gaps 1 .. `first`
+        only if given (the same numbers, drawn for those alone: a sample of any N)."""
+        if first is not None:
+            return next(self._gaps(first))
         return self._kept("gaps", lambda: next(self._gaps(self.particles - 1)))
 
     def _kept(self, name: str, draw) -> np.ndarray:

@@ -151,10 +151,10 @@ class _ChainSample:
         self.case, chain = case, case.chain
         self.n = n = chain.particles
         k = min(n, SAMPLE)
-        gaps = next(chain._gaps(k - 1))
+        gaps, masses = chain.gaps(k - 1), chain.masses(k)  # mm, g
         self.widest = float(gaps.max())  # mm
         self.x = to_engine(np.concatenate([[0.0], np.cumsum(gaps)]), "length")  # m, as in the data file
-        self.mass = to_engine(next(chain._masses(k)), "mass")  # kg
+        self.mass = to_engine(masses, "mass")  # kg, as in the data file
         self.per_atom = per_atom_masses(case)
         self.types = 1 if self.per_atom else len(np.unique(np.asarray(chain.mass)))
         # magnets whose two gaps differ in the engine's doubles feel a force from the first step
@@ -163,7 +163,7 @@ class _ChainSample:
         if chain.thermal_velocity or chain.r0_disorder:  # every free magnet moves from the start
             self.speed = math.inf
         elif case.impactor.peak_velocity() > 0:  # the front-speed bound of long_lattice_particles, magnets/ms
-            r0, m = float(np.mean(gaps)), float(np.mean(self.mass)) * 1e3
+            r0, m = float(np.mean(gaps)), float(np.mean(masses))
             shock = weak_shock(case.force, r0, m)
             self.speed = (shock.c0 + 2 * max(1.0, shock.s) * case.impactor.peak_velocity()) / r0
         else:
