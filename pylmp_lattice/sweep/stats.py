@@ -89,13 +89,18 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
             row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
             row[f"{name}.count"] = len(values)
             row[f"{name}.coverage"] = len(values) / len(group) if len(group) else np.nan
-            row[f"{name}.low_coverage"] = bool(len(group)) and len(values) < COVERAGE_LIMIT * len(group)
+            row[f"{name}.low_coverage"] = _low_coverage(len(values), len(group))
         rows.append(row)
     columns = point + ["n"] + [f"{name}.{s}" for name in measures for s in STATISTICS]
     return pd.DataFrame(rows, columns=columns)
 
 
 STATISTICS = ("mean", "sem", "count", "coverage", "low_coverage")  # the columns of each measure
+
+
+def _low_coverage(count: int, members: int | None) -> bool:
+    """Whether `count` values of `members` done ones fall below COVERAGE_LIMIT (never with no members)."""
+    return bool(members) and count < COVERAGE_LIMIT * members
 
 
 def low_coverage_warnings(stats: pd.DataFrame) -> list[str]:
@@ -230,7 +235,7 @@ def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int 
     ax.set_xlabel(label(measure))
     ax.set_ylabel("replicas")
     used = f"{len(values)} of {members} replicas" if members is not None else f"{len(values)} values"
-    if members and len(values) < COVERAGE_LIMIT * members:
+    if _low_coverage(len(values), members):
         used += f" (coverage {len(values) / members:.0%}, below {COVERAGE_LIMIT:.0%})"
     unit = MEASURES.get(measure, (None, None))[1]
     spread = f" ± {sem:.2g}" if np.isfinite(sem) else ""
