@@ -7,6 +7,8 @@ reported in m/s^2. LAMMPS runs with `units si` (m, kg, s, N, J).
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 # Size of one user unit in SI (engine) units, per quantity.
@@ -24,12 +26,12 @@ TO_SI = {
 
 def to_engine(value, quantity: str):
     """User units -> LAMMPS `units si`."""
-    return np.multiply(value, TO_SI[quantity]) if not np.isscalar(value) else value * TO_SI[quantity]
+    return _elementwise(np.multiply, value, TO_SI[quantity])
 
 
 def from_engine(value, quantity: str):
     """LAMMPS `units si` -> user units."""
-    return np.divide(value, TO_SI[quantity]) if not np.isscalar(value) else value / TO_SI[quantity]
+    return _elementwise(np.divide, value, TO_SI[quantity])
 
 
 # Frequencies are reported in Hz (the paper's f0), while user times are in ms: a period in ms
@@ -39,17 +41,27 @@ PER_MS_IN_HZ = 1.0 / TO_SI["time"]  # 1/ms -> Hz
 
 def period(frequency):
     """A frequency in Hz -> its period in ms."""
-    return PER_MS_IN_HZ / np.asarray(frequency, float) if not np.isscalar(frequency) else PER_MS_IN_HZ / frequency
+    return _elementwise(np.divide, PER_MS_IN_HZ, frequency)
 
 
 def frequency(period_ms):
     """A period in ms -> its frequency in Hz (also: a rate per ms -> per s)."""
-    return PER_MS_IN_HZ / np.asarray(period_ms, float) if not np.isscalar(period_ms) else PER_MS_IN_HZ / period_ms
+    return _elementwise(np.divide, PER_MS_IN_HZ, period_ms)
 
 
 def acceleration(rate):
     """A velocity's rate of change in m/s per ms -> m/s^2."""
-    return np.multiply(rate, PER_MS_IN_HZ) if not np.isscalar(rate) else rate * PER_MS_IN_HZ
+    return _elementwise(np.multiply, rate, PER_MS_IN_HZ)
+
+
+_OPERATORS = {np.multiply: operator.mul, np.divide: operator.truediv}
+
+
+def _elementwise(ufunc, a, b):
+    """ufunc(a, b), np.multiply or np.divide, of a value and a unit's factor: an array for a list
+    or an array; for a scalar value the plain operator, so that a Python float stays one (the
+    ufunc would return a numpy scalar)."""
+    return _OPERATORS[ufunc](a, b) if np.isscalar(a) and np.isscalar(b) else ufunc(a, b)
 
 
 # The H5MD trajectory file (see `h5md`) keeps the engine's SI units, but lengths in nm and times
