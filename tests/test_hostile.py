@@ -145,6 +145,20 @@ def test_run_and_deck_refuse_a_link_at_every_run_file_name(tmp_path, outside, ca
     assert snapshot(outside) == before
 
 
+
+@pytest.mark.parametrize("name", [layout.LOG, layout.TRAJ_BIN, layout.FRONT_BIN])
+def test_a_hand_run_refuses_a_link_where_lammps_writes(tmp_path, outside, capsys, monkeypatch, name):
+    """`pylmp-lattice lmp -in in.lattice` in a deck folder with a dangling link at a file LAMMPS
+    writes: refused with one line, exit 2, before LAMMPS starts (it wrote 10 kB through the link)."""
+    deck = tmp_path / "deck"
+    assert main(["deck", str(EXPERIMENT), "-o", str(deck), "--set", "run.duration=2"]) == 0
+    before = snapshot(outside)
+    plant(deck, name, outside, dangling=True)
+    monkeypatch.chdir(deck)
+    rc, err = cli(capsys, "lmp", "-in", layout.DECK)
+    assert rc == 2 and err.count("\n") == 1 and f"{name}: is a symbolic link" in err
+    assert snapshot(outside) == before
+
 def test_overwrite_removes_links_and_never_follows_them(tmp_path, outside, finished, capsys):
     folder = tmp_path / "run"
     shutil.copytree(finished, folder)

@@ -185,8 +185,10 @@ def hand_run(folder: Path):
     """`pylmp-lattice lmp -in in.lattice` in a run folder: the folder is claimed and recorded
     "running" by this process while LAMMPS (in this process) runs, and its end recorded from
     the log, or "interrupted" at the time LAMMPS's soft stop ended it (`Interrupted`), so that
-    `status` knows at once that it ended, however it ended."""
+    `status` knows at once that it ended, however it ended. A link at any run file's name is
+    refused before LAMMPS starts, as the road's claim refuses it."""
     with claimed(folder):
+        files.refuse_links(folder, layout.RUN_FILES)  # LAMMPS opens its files by name: never through a link
         record(folder, RUNNING, runner=HAND_RUNNER)
         try:
             yield
