@@ -14,10 +14,7 @@
 #include "output.h"
 #include "update.h"
 
-#include <cmath>
 #include <ctime>
-#include <limits>
-#include <type_traits>
 
 using namespace LAMMPS_NS;
 
@@ -71,20 +68,18 @@ pl_kernel::Masses FixLatticeChain::masses() const
 template <bool FRICTION, bool KICK, class Law>
 void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, int &bad)
 {
+  using pl_kernel::detail::kick_run;
+  constexpr auto TO = KICK ? pl_kernel::detail::KickTo::in_place : pl_kernel::detail::KickTo::none;
   // restrict: stores to v, f and the bond forces cannot change the law's coefficients
-  double *__restrict x = atom->x[0];
+  const double *__restrict x = atom->x[0];
   double *__restrict v = atom->v[0];
   double *__restrict f = atom->f[0];
   double *__restrict F = bond_force.data();
-  const int *__restrict type = slots();
-  const double *__restrict dtfm_of = dtfm.data();
-  const double half_kick = one_type ? dtfm_of[1] : 0.0;
   const pl_kernel::Masses ms = masses();
   // the block's positions, contiguous: X[0] left neighbour, X[1..len] the block, X[len+1]
   // right neighbour
   double *__restrict X = scratch.data();
-  // the smallest and largest separation and a NaN probe, as vectorised reductions
-  double r_min = std::numeric_limits<double>::infinity(), r_max = -r_min, r_sum = 0.0;
+  pl_kernel::Gaps gaps;
   for (const Run &run : runs) {
     const int first = run.first, len = run.last - first + 1;
     pl_kernel::CoulombWork work;
@@ -92,28 +87,15 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
     for (int k = 0; k < len; k++) X[1 + k] = x[3 * (first + k)];
     X[0] = x[3 * run.left];
     X[len + 1] = x[3 * run.right];
-    // the bond forces, F[k] left of atom first + k
-#pragma omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)
-    for (int k = 0; k <= len; k++) {
-      const double r = X[k + 1] - X[k];
-      r_min = r < r_min ? r : r_min;
-      r_max = r > r_max ? r : r_max;
-      r_sum += r;
-      F[k] = law(r);
-    }
-    double *__restrict fo = f + 3 * first;
-    double *__restrict vr = v + 3 * first;
-    for (int k = 0; k < len; k++) {
-      const int t = FRICTION || !one_type ? type[first + k] : 1;
-      const double ftot = pl_kernel::total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vr[3 * k], work);
-      fo[3 * k] = ftot;
-      if (KICK) vr[3 * k] += (one_type ? half_kick : dtfm_of[t]) * ftot;
-    }
+    pl_kernel::bond_forces(law, X, len + 1, F, gaps);
+    // LAMMPS's arrays: an atom's x component every 3 doubles
+    double *fo = f + 3 * first, *vr = v + 3 * first;
+    if (one_type) kick_run<FRICTION, true, TO, 3>(F, first, len, ms, fr, kick, vr, fo, nullptr, work);
+    else kick_run<FRICTION, false, TO, 3>(F, first, len, ms, fr, kick, vr, fo, nullptr, work);
     if constexpr (FRICTION) works[run.chain] = work;
   }
   if (FRICTION) settle_work(kick, setup_kick);
-  // r <= 0 is a contact
-  if (!(r_min > 0.0 && r_min >= range_lo && r_max <= range_hi) || std::isnan(r_sum)) bad = 1;
+  if (gaps.bad(range_lo, range_hi)) bad = 1;
 }
 
 /* Owning the state, the whole step in one pass over the fix's arrays: the chain kernel's step

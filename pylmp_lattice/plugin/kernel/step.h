@@ -45,6 +45,24 @@ struct Gaps {
   PL_HD bool bad(double lo, double hi) const { return !(r_min > 0.0 && r_min >= lo && r_max <= hi) || isnan(r_sum); }
 };
 
+/* the bond forces F[k] = law(X[k + 1] - X[k]), k < nbonds, of consecutive positions X, their
+   separations added to gaps (vectorised reductions) */
+template <class LawT>
+PL_HD inline void bond_forces(const LawT law, const double *PL_RESTRICT X, int nbonds, double *PL_RESTRICT F,
+                              Gaps &gaps)
+{
+  double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+  PL_SIMD_REDUCE
+  for (int k = 0; k < nbonds; k++) {
+    const double r = X[k + 1] - X[k];
+    r_min = r < r_min ? r : r_min;
+    r_max = r > r_max ? r : r_max;
+    r_sum += r;
+    F[k] = law(r);
+  }
+  gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
+}
+
 /* one free atom's total force from its bonds' forces left and right (slot t), with friction the
    exact stick-slip kick of length `kick`: v (after the first half kick) becomes 0 if it sticks */
 template <bool FRICTION>
@@ -73,7 +91,13 @@ struct NoFront {
 };
 
 namespace detail {
-template <bool FRICTION, bool ONE_TYPE>
+/* where a run's second half kick goes: nowhere (LAMMPS's force pass without it), onto the
+   velocities it read (in place) or into a separate row */
+enum class KickTo { none, in_place, out };
+
+/* the forces of a run's atoms from its bond forces F (F[k] left of atom first + k) into fb and
+   their second half kick from vh into vb (or in place): the arrays' atoms STRIDE doubles apart */
+template <bool FRICTION, bool ONE_TYPE, KickTo TO = KickTo::out, int STRIDE = 1>
 PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const int len, const Masses &ms,
                            const Friction &fr, double kick, double *PL_RESTRICT vh, double *PL_RESTRICT fb,
                            double *PL_RESTRICT vb, CoulombWork &work)
@@ -81,10 +105,12 @@ PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const i
   const double half_kick = ONE_TYPE ? ms.dtfm[1] : 0.0;
   for (int k = 0; k < len; k++) {
     const int t = FRICTION || !ONE_TYPE ? ms.slot[first + k] : 1;
-    const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vh[k], work);
-    const double vn = vh[k] + (ONE_TYPE ? half_kick : ms.dtfm[t]) * ftot;
-    fb[k] = ftot;
-    vb[k] = vn;
+    const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vh[STRIDE * k], work);
+    fb[STRIDE * k] = ftot;
+    if constexpr (TO != KickTo::none) {
+      const double vn = vh[STRIDE * k] + (ONE_TYPE ? half_kick : ms.dtfm[t]) * ftot;
+      (TO == KickTo::in_place ? vh : vb)[STRIDE * k] = vn;
+    }
   }
 }
 }    // namespace detail
@@ -116,7 +142,6 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_REST
       x[i] += dtv * vh[k];
     }
   };
-  double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
   if (nruns > 0) drift(runs[0], half[0], before[0]);
   for (int b = 0; b < nruns; b++) {
     const Run &run = runs[b];
@@ -126,23 +151,12 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_REST
     if (b + 1 < nruns) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
     double *PL_RESTRICT vh = half[b % 2];
     // the two end bonds, then the inner ones from consecutive positions
-    auto bond = [&](double r) {
-      r_min = r < r_min ? r : r_min;
-      r_max = r > r_max ? r : r_max;
-      r_sum += r;
-      return law(r);
-    };
-    F[0] = bond(x[first] - x[run.left]);
-    F[len] = bond(x[run.right] - x[last]);
-    const double *PL_RESTRICT xb = x + first;
-    PL_SIMD_REDUCE
-    for (int k = 1; k < len; k++) {
-      const double r = xb[k] - xb[k - 1];
-      r_min = r < r_min ? r : r_min;
-      r_max = r > r_max ? r : r_max;
-      r_sum += r;
-      F[k] = law(r);
-    }
+    const double r_left = x[first] - x[run.left], r_right = x[run.right] - x[last];
+    gaps.add(r_left);
+    gaps.add(r_right);
+    F[0] = law(r_left);
+    F[len] = law(r_right);
+    bond_forces(law, x + first, len - 1, F + 1, gaps);
     // the forces and the second half kick: one loop for one atom type and one for several (a
     // test inside would keep the loop from vectorising)
     double *PL_RESTRICT fb = f + first;
@@ -166,7 +180,6 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_REST
       front.hook->sample_block(b, before[b % 2], starting > 0.0);
     }
   }
-  gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
 }
 
 }    // namespace pl_kernel
