@@ -39,23 +39,18 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
                   const double *levels, double *front_out, double *work, long long *end_step, int *status,
                   int threads)
 {
-  ChainSetup S = chain_setup(n, steps, dt, range_lo, range_hi, friction != 0, mu, p, g, record != 0,
-                             n - 2 < BLOCK ? n - 2 : BLOCK);    // (n >= 3) the blocks do not change the bits
-  std::vector<double> table_storage, measured_storage;
-  if (law_kind == 0) S.law = Law::power(law_params[0], law_params[1], law_params[2]);
-  else if (law_kind == 1) S.law = Law::linear(law_params[0], law_params[1]);
-  else {
-    table_storage.assign(4 * table_n, 0.0);
-    S.law = fit_table(table_r, table_u, table_f, table_n, fp_lo, fp_hi, table_storage.data());
-  }
-  S.drive.profile = static_cast<Drive::Profile>(drive_profile);
-  S.drive.V = V;
-  S.drive.T = T;
-  if (S.drive.profile == Drive::MEASURED) {
+  std::vector<double> table_storage(law_kind == 2 ? 4 * table_n : 0), measured_storage;
+  const Law table = law_kind == 2 ? fit_table(table_r, table_u, table_f, table_n, fp_lo, fp_hi, table_storage.data())
+                                  : Law();
+  Measured measured;
+  if (drive_profile == Drive::MEASURED) {
     measured_storage.assign(2 * measured_n, 0.0);
-    S.drive.measured = fit_measured(measured_t, measured_y, measured_n, given_velocity != 0, hold_after != 0,
-                                    measured_storage.data());
+    measured = fit_measured(measured_t, measured_y, measured_n, given_velocity != 0, hold_after != 0,
+                            measured_storage.data());
   }
+  const ChainSetup S = chain_setup(n, steps, dt, n - 2 < BLOCK ? n - 2 : BLOCK, law_kind, law_params, table,
+                                   drive_profile, V, T, measured, friction != 0, mu, p, g, range_lo, range_hi,
+                                   record != 0);    // (n >= 3) the blocks do not change the bits
   const int nruns = n > 2 ? (n - 2 + S.block - 1) / S.block : 0;
 #ifdef _OPENMP
   if (threads > 0) omp_set_num_threads(threads);

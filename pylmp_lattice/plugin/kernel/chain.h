@@ -28,9 +28,13 @@ struct ChainSetup {
   int block;                      // largest run of free atoms (scratch: 5 block + 1 doubles)
 };
 
-/* a batch's setup from the engines' arguments (its law and drive: the caller's) */
-PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, double range_lo, double range_hi, bool friction,
-                                    double mu, double p, double g, bool record, int block)
+/* a batch's setup from the engines' shared arguments (engine_cpu.cpp, engine_gpu.cu): law_kind 0
+   power (law_values K b q), 1 linear (k r_free), 2 the fitted `table`; drive_profile a
+   Drive::Profile with V, T, or the fitted `measured` */
+PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, int block, int law_kind, const double *law_values,
+                                    const Law &table, int drive_profile, double V, double T, const Measured &measured,
+                                    bool friction, double mu, double p, double g, double range_lo, double range_hi,
+                                    bool record)
 {
   ChainSetup S;
   S.n = n;
@@ -42,6 +46,13 @@ PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, double ra
   S.fr = Friction{mu, p, g};
   S.record = record;
   S.block = block;
+  if (law_kind == 0) S.law = Law::power(law_values[0], law_values[1], law_values[2]);
+  else if (law_kind == 1) S.law = Law::linear(law_values[0], law_values[1]);
+  else S.law = table;
+  S.drive.profile = static_cast<Drive::Profile>(drive_profile);
+  S.drive.V = V;
+  S.drive.T = T;
+  if (S.drive.profile == Drive::MEASURED) S.drive.measured = measured;
   return S;
 }
 

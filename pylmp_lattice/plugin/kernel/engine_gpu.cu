@@ -22,7 +22,7 @@
 using namespace pl_kernel;
 
 namespace {
-/* The batch's setup (as the host engine builds it, engine_cpu.cpp), from the host's fits. */
+/* The batch's setup: chain.h's chain_setup, from the host's fits. */
 __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, int law_kind, const double *law_values,
                                  int table_n, double table_x0, double table_dx, const double *table_yd2,
                                  int drive_profile, double V, double T, int measured_n, const double *measured_t,
@@ -30,31 +30,12 @@ __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, i
                                  int hold_after, int friction, double mu, double p, double g, double range_lo,
                                  double range_hi, int record)
 {
-  ChainSetup S = chain_setup(n, steps, dt, range_lo, range_hi, friction != 0, mu, p, g, record != 0, block);
-  if (law_kind == 0) S.law = Law::power(law_values[0], law_values[1], law_values[2]);
-  else if (law_kind == 1) S.law = Law::linear(law_values[0], law_values[1]);
-  else {
-    // the host's fit (fit.h), its step and 1 / step as fit_spline computes them
-    Spline tf;
-    tf.x0 = table_x0, tf.dx = table_dx, tf.inv_dx = 1.0 / table_dx, tf.c6 = table_dx * table_dx / 6.0;
-    tf.n = table_n, tf.yd2 = table_yd2;
-    Spline tu = tf;
-    tu.yd2 = table_yd2 + 2 * table_n;
-    S.law = Law::table(tf, tu);
-  }
-  S.drive.profile = static_cast<Drive::Profile>(drive_profile);
-  S.drive.V = V;
-  S.drive.T = T;
-  if (S.drive.profile == Drive::MEASURED) {
-    S.drive.measured.n = measured_n;
-    S.drive.measured.t = measured_t;
-    S.drive.measured.y = measured_y;
-    S.drive.measured.d2y = measured_fit;
-    S.drive.measured.yint = measured_fit + measured_n;
-    S.drive.measured.given_velocity = given_velocity != 0;
-    S.drive.measured.hold_after = hold_after != 0;
-  }
-  return S;
+  // the host's fits (engine_cpu.cpp: pl_fit_table, pl_fit_measured)
+  const Law table = Law::table(table_x0, table_dx, table_n, table_yd2);
+  const Measured measured{measured_n, measured_t, measured_y, measured_fit, measured_fit + measured_n,
+                          given_velocity != 0, hold_after != 0};
+  return chain_setup(n, steps, dt, block, law_kind, law_values, table, drive_profile, V, T, measured, friction != 0,
+                     mu, p, g, range_lo, range_hi, record != 0);
 }
 }    // namespace
 

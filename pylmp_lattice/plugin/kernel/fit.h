@@ -17,12 +17,6 @@ namespace pl_kernel {
 inline Spline fit_spline(double first, double step, const double *y, int n, double slope_lo, double slope_hi,
                          double *yd2)
 {
-  Spline s;
-  s.n = n;
-  s.x0 = first;
-  s.dx = step;
-  s.inv_dx = 1.0 / step;
-  s.c6 = step * step / 6.0;
   const double dx = step;
   std::vector<double> d2(n), w(n);
   d2[0] = -0.5;
@@ -39,8 +33,7 @@ inline Spline fit_spline(double first, double step, const double *y, int n, doub
     yd2[2 * i] = y[i];
     yd2[2 * i + 1] = d2[i];
   }
-  s.yd2 = yd2;
-  return s;
+  return Spline::on_grid(first, step, n, yd2);
 }
 
 /* A bond_style table's law: n rows r, U, F on a uniform grid (checked by the caller) and the
@@ -49,9 +42,9 @@ inline Law fit_table(const double *r, const double *u, const double *f, int n, d
                      double *storage)
 {
   const double step = (r[n - 1] - r[0]) / (n - 1);
-  const Spline tf = fit_spline(r[0], step, f, n, fp_lo, fp_hi, storage);
-  const Spline tu = fit_spline(r[0], step, u, n, -f[0], -f[n - 1], storage + 2 * n);
-  return Law::table(tf, tu);
+  fit_spline(r[0], step, f, n, fp_lo, fp_hi, storage);
+  fit_spline(r[0], step, u, n, -f[0], -f[n - 1], storage + 2 * n);
+  return Law::table(r[0], step, n, storage);
 }
 
 /* Not-a-knot cubic spline of a measured drive: the third derivative is continuous at t[1] and

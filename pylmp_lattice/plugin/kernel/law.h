@@ -23,6 +23,15 @@ struct Spline {
   int n = 0;
   const double *yd2 = nullptr;
 
+  /* the spline of n values and second derivatives yd2 (interleaved) on the grid x0 + i dx */
+  PL_HD static Spline on_grid(double x0, double dx, int n, const double *yd2)
+  {
+    Spline s;
+    s.x0 = x0, s.dx = dx, s.inv_dx = 1.0 / dx, s.c6 = dx * dx / 6.0;
+    s.n = n, s.yd2 = yd2;
+    return s;
+  }
+
   PL_HD double operator()(double x) const
   {
     double u = (x - x0) * inv_dx;
@@ -90,6 +99,11 @@ struct Law {
     law.kind = TABLE;
     law.tf = force, law.tu = energy;
     return law;
+  }
+  /* a table law from its fit (fit_table's storage: F's spline, then U's, n points each) */
+  PL_HD static Law table(double x0, double dx, int n, const double *storage)
+  {
+    return table(Spline::on_grid(x0, dx, n, storage), Spline::on_grid(x0, dx, n, storage + 2 * n));
   }
 
   /* call f(law) with the law as one of the value types above */
