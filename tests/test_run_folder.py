@@ -444,7 +444,8 @@ def test_reading_while_lmp_writes_loses_nothing(tmp_path):
 
 def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
     """The CLI and RunFolder.summarize refuse while a runner of this package holds the lock, or
-    while a process writes a hand-run log that has no end yet; one line, exit 2, nothing written."""
+    while a process writes a hand-run log that has no end yet; one line, exit 2, nothing written.
+    A log that only changed lately (issue 27: "waits or says how long") is refused saying when."""
     case = write_case(tmp_path / "case.toml", make_case(particles=10, duration=1.0))
     folder = tmp_path / "d"
     assert main(["deck", str(case), "-o", str(folder)]) == 0
@@ -463,6 +464,13 @@ def test_summarize_refuses_a_folder_a_runner_still_writes(tmp_path, capsys):
         assert capsys.readouterr().err.splitlines() == [expected]
         assert not (folder / layout.SUMMARY).exists() and not (folder / layout.FIGURE).exists()
     assert RunFolder(folder).status == "running"  # just changed: a writer /proc cannot see may go on
+    # a plain `lmp -in in.lattice` just stopped: refused, saying how long until it counts as ended
+    then = time.time() - 4.2
+    os.utime(folder / layout.LOG, (then, then))
+    assert main(["summarize", str(folder)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"pylmp-lattice: error: {folder}: still being written by LAMMPS; its {layout.LOG} changed 4 s ago; "
+        f"if no LAMMPS writes it any more, summarize again in {marker.QUIET - 4:.0f} s"]
     then = time.time() - marker.QUIET - 1
     os.utime(folder / layout.LOG, (then, then))
     assert RunFolder(folder).status == "interrupted"  # no process writes it any more

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import re
 from contextlib import suppress
 from pathlib import Path
@@ -248,7 +249,10 @@ class RunFolder:
         refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         case, status = self.case, self.status
         if status == RUNNING:
-            raise UsageError(str(self.path), "still being written by LAMMPS; summarize it when the run ends")
+            wait = marker.quiet_wait(self.path)  # a writer /proc cannot see may go on: how long it counts as one
+            raise UsageError(str(self.path), "still being written by LAMMPS; " + (
+                f"its {wait[0]} changed {max(0, int(wait[1]))} s ago; if no LAMMPS writes it any more, summarize "
+                f"again in {math.ceil(wait[2])} s" if wait else "summarize it when the run ends"))
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays

@@ -225,13 +225,30 @@ def settled(folder: Path, state: str | None = None) -> bool:
     return not (state == INTERRUPTED and inferred and _changed_within(folder, SETTLED))
 
 
-def _changed_within(folder: Path, seconds: float) -> bool:
-    now = time.time()
+def quiet_wait(folder: Path) -> tuple[str, float, float] | None:
+    """When a run is "running" by its files' ages alone (no runner of this package holds it, no
+    process of this machine writes its log): the file that changed last, its age and the seconds
+    until `being_written` stops counting it; None otherwise (no time can be said)."""
+    if locked(folder) or _open_for_writing(folder / layout.LOG) or writer_gone(read(folder)):
+        return None
+    newest = _newest(folder)
+    if newest is None or newest[1] >= QUIET:
+        return None
+    return (*newest, QUIET - newest[1])
+
+
+def _newest(folder: Path) -> tuple[str, float] | None:
+    """The log's or a dump's name that changed last, and its age in seconds; None without them."""
+    ages = []
     for name in (layout.LOG, *layout.BINARY_GROUPS.values()):
         with suppress(FileNotFoundError):
-            if now - (folder / name).stat().st_mtime < seconds:
-                return True
-    return False
+            ages.append((time.time() - (folder / name).stat().st_mtime, name))
+    return min(ages)[::-1] if ages else None
+
+
+def _changed_within(folder: Path, seconds: float) -> bool:
+    newest = _newest(folder)
+    return newest is not None and newest[1] < seconds
 
 
 def _open_for_writing(path: Path) -> bool | None:
