@@ -351,7 +351,7 @@ def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, m
 
 
 def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,
-                                                                             no_forkserver):
+                                                                             caplog, no_forkserver):
     """The disk fills for the third member's files (ENOSPC from the write primitive): the sweep
     stops as on Ctrl-C, with the two finished members and results.csv, and one line naming the
     file; the same command then finishes it."""
@@ -365,7 +365,8 @@ def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(t
         folder = Path(path).parent
         if folder.parent.name == store.MEMBERS and folder not in members:
             members.append(folder)
-        if len(members) > 2 and folder.parent.name == store.MEMBERS:
+        # the member's status.json fits, its run's files do not
+        if len(members) > 2 and folder.parent.name == store.MEMBERS and Path(path).name != store.STATUS:
             raise OSError(errno.ENOSPC, "No space left on device")
         return create(path, part)
 
@@ -389,6 +390,26 @@ def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(t
     errors = [line for line in err.splitlines() if line.startswith("pylmp-lattice: error:")]
     assert rc == 1 and len(errors) == 1 and errors[0].startswith("pylmp-lattice: error: no space left on the device "
                                                                  f"for {members[2]}/"), err
+    # what it says is true: the stopped member's folder is gone (it used to say "the files are kept")
+    warned = [r.getMessage() for r in caplog.records if "no space left" in r.getMessage()]
+    assert warned and all(f"member {members[2].name}'s folder is removed; it runs again on resume" in w
+                          for w in warned), warned
+    assert not members[2].exists() and f"kept in {out} and its results.csv;" in errors[0], err
+    # no room for results.csv either: the line does not claim one (it used to say "and its results.csv")
+    members.clear()
+    shutil.rmtree(out)
+    table_full = full
+
+    def full(path, part):
+        if Path(path).name.startswith("results.") and len(members) > 2:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return table_full(path, part)
+
+    monkeypatch.setattr(files, "_create", full)
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet")
+    errors = [line for line in err.splitlines() if line.startswith("pylmp-lattice: error:")]
+    assert rc == 1 and not (out / "results.csv").exists() and len(errors) == 1, err
+    assert f"kept in {out} (no room to write results.csv); free space and run the same command" in errors[0], err
     # space again: the same command finishes the sweep, keeping the finished members
     monkeypatch.setattr(files, "_create", create)
     kept = {p.name: (p / layout.SUMMARY).stat().st_mtime_ns for p in members[:2]}

@@ -149,9 +149,9 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         execute_batch(cases, batch, engine)  # ConfigError if they differ beyond [chain]
     except Interrupted as err:
         return _batch_stopped(group, batch, started, err)
-    except DiskFull:  # the sweep stops (see execute): its members are run again on resume
+    except DiskFull as err:  # the sweep stops (see execute): its members are run again on resume
         shutil.rmtree(batch, ignore_errors=True)
-        raise
+        raise DiskFull(err.path, f"batch {batch.name}'s folder is removed; its members run again on resume") from err
     except LatticeError as err:  # unequal cases, a contact or an engine error in some chain: each member alone
         global FRICTION_PER_CHAIN, LEVELS_PER_CHAIN
         if NO_CHAIN_WORK in str(err):

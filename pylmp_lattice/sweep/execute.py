@@ -157,8 +157,11 @@ class _Coordinator:
             log.warning("%s: stopped with %d of %d members done", self.root.name, done, self.total)
             raise Interrupted(self.stop.signals[0])
         if self.full:
+            # the table the last write left (`_write_table`): current, as last written, or none
+            csv = (f"and its {CSV}" if not self.table.dirty else f"and its {CSV} as last written (it may lack the "
+                   "latest rows)" if (self.root / CSV).is_file() else f"(no room to write {CSV})")
             raise DiskFull(self.full.path, f"the sweep stopped with {done} of {self.total} members done, kept in "
-                                           f"{self.root} and its {CSV}; free space and run the same command to resume")
+                                           f"{self.root} {csv}; free space and run the same command to resume")
         return table
 
     def _write_table(self, flush: bool = False):

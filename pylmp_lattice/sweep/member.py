@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..case import Case
 from ..errors import Interrupted, LatticeError
-from ..formats.files import as_disk_full, disk_full, remove_tree
+from ..formats.files import DiskFull, as_disk_full, disk_full, remove_tree
 from . import signals
 from .spec import Member
 from .store import DONE, FAILED, INTERRUPTED, RUNNING, member_folder, now, provenance, write_status
@@ -42,7 +42,8 @@ def run_member(root: Path, m: Member, case: Case, runner: str, started: str) -> 
             # folder goes, which frees room for the table, and the member runs again on resume
             with contextlib.suppress(OSError):
                 remove_tree(folder)
-            raise as_disk_full(err, folder) from err
+            raise DiskFull(as_disk_full(err, folder).path, f"member {m.id}'s folder is removed; it runs again on "
+                                                           "resume") from err
         summary = None
         record |= {"status": FAILED, "error": one_line(err, root)}
     record |= {"ended": now(), "wall_time_s": round(time.perf_counter() - start, 3),
