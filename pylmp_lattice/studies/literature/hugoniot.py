@@ -127,13 +127,14 @@ def _figure(rows, theory):
             ax.plot(line[1:], CHAINS["toda"][1] * toda_lead_soliton(line[1:])[1], "r-", lw=0.8, label="exact lead soliton")
         # the model chains are in reduced units: numerically m/s and mJ (mm, g, N), but not the magnets'
         speed, energy = ("m/s", "mJ") if chain not in REDUCED else ("reduced units",) * 2
+        # two-line titles: centred one-liners ran into the panel letter and off a narrow panel
         name = chain if chain not in REDUCED else f"{chain} ({REDUCED[chain]})"
-        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"speed ({speed})", title=f"{name}: front and jump speeds")
+        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"speed ({speed})", title=f"{name}\nfront and jump speeds")
         ax.legend(fontsize="x-small")
         ax = axes[1, k]
         ax.loglog(u, [r["wake_oscillation_energy_mJ"] for r in mine], "o", label="wake oscillation energy")
         ax.loglog(u, [max(r["energy_jump_mJ"], 1e-12) for r in mine], "k^", mfc="none", label="energy jump condition")
-        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"energy per particle ({energy})", title=f"{name}: the wake's energy")
+        ax.set(xlabel=f"$u_p$ ({speed})", ylabel=f"energy per particle ({energy})", title=f"{name}\nthe wake's energy")
         ax.xaxis.set_minor_formatter(NullFormatter())  # crowded minor labels on a short log axis
         ax.legend(fontsize="x-small")
     return fig
