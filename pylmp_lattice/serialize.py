@@ -54,6 +54,12 @@ def dumps(obj, indent: int | None = 2) -> str:
     return json.dumps(_short(jsonable(obj)), indent=indent, allow_nan=False)
 
 
+def short_float(x: float) -> str:
+    """A finite float as text to 15 significant digits (the JSON's rule), for CSV cells:
+    3.96949, not 3.9694900000000004; a whole number keeps its ".0" so a column reads back as floats."""
+    return repr(float(f"{x:.15g}"))
+
+
 def _short(obj):
     if type(obj) is float:
         return float(f"{obj:.15g}")

@@ -32,14 +32,17 @@ def test_writer_files(tmp_path):
     fig = pyplot().figure()
     fig.gca().plot([0, 1], [0, 1])
     result = StudyResult("demo", {"v_m_per_s": float("nan"), "t_ms": 1.5},
-                         tables={"peaks": {"n": [1, 2], "v_m_per_s": [0.5, float("nan")]}}, figure=fig)
+                         tables={"peaks": {"n": [1, 2, 3], "v_m_per_s": [0.5, float("nan"), 3.0],
+                                           # float noise: written to 15 significant digits, as the JSON
+                                           "x_mm": [0.1 + 0.2, 3.9694900000000004, 1 / 3]}}, figure=fig)
     files = write_study(result, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.json", "demo.pdf", "demo.png", "demo_peaks.csv"]
     data = json.loads((tmp_path / "demo.json").read_text(), parse_constant=lambda c: pytest.fail(c))
     assert data["v_m_per_s"] is None and data["t_ms"] == 1.5 and data["study"] == "demo"
     assert data["files"]["png"] == "demo.png"
     rows = list(csv.reader(open(files["table peaks"])))
-    assert rows == [["n", "v_m_per_s"], ["1", "0.5"], ["2", ""]]
+    assert rows == [["n", "v_m_per_s", "x_mm"], ["1", "0.5", "0.3"], ["2", "", "3.96949"],
+                    ["3", "3.0", "0.333333333333333"]]
     # a second write replaces the files whole and leaves no partial file behind
     write_study(result, tmp_path)
     assert not list(tmp_path.glob(".*partial"))

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..formats.files import replacing
-from ..serialize import dumps
+from ..serialize import dumps, short_float
 
 log = logging.getLogger(__name__)
 
@@ -91,5 +91,5 @@ def _write_csv(path: Path, columns: dict[str, Any]) -> None:
 
 def _cell(x):
     if isinstance(x, (float, np.floating)):
-        return repr(float(x)) if math.isfinite(x) else ""
+        return short_float(float(x)) if math.isfinite(x) else ""
     return x.item() if isinstance(x, np.generic) else x

@@ -15,6 +15,7 @@ import json
 import time
 from pathlib import Path
 
+from ..serialize import short_float
 from .store import atomic_write
 
 CSV = "results.csv"
@@ -81,7 +82,7 @@ def write_table(root: str | Path, rows: list[dict]):
     """Write results.csv and results.parquet in `root` atomically; return the table."""
     df = frame(rows)
     root = Path(root)
-    atomic_write(root / CSV, df.to_csv(index=False), sync=True)
+    atomic_write(root / CSV, df.to_csv(index=False, float_format=short_float), sync=True)  # as the JSON
     buffer = io.BytesIO()
     df.to_parquet(buffer, index=False)
     atomic_write(root / PARQUET, buffer.getvalue(), sync=True)
