@@ -273,6 +273,23 @@ def test_movie_progress_is_plain_lines_off_a_terminal(caplog, capsys):
     assert "\r" not in capsys.readouterr().err
 
 
+def test_movie_save_lets_no_matplotlib_info_line_through(tmp_path, caplog):
+    """matplotlib's "Animation.save using <class ...PillowWriter>" is no line for the user."""
+    from matplotlib import animation
+
+    from pylmp_lattice.plots import pyplot
+    from pylmp_lattice.studies.paper.movies import _save
+
+    fig = pyplot().figure()
+    anim = animation.FuncAnimation(fig, lambda k: [], frames=2, blit=False)
+    with caplog.at_level(logging.INFO):
+        _save(anim, tmp_path / "m.gif", "gif", fps=5)
+    pyplot().close(fig)
+    assert (tmp_path / "m.gif").stat().st_size > 0
+    assert [r.name for r in caplog.records if r.name.startswith("matplotlib")] == []
+    assert logging.getLogger("matplotlib.animation").level == logging.NOTSET  # restored
+
+
 @pytest.mark.lammps
 @pytest.mark.slow
 def test_fig4_quick_against_impactor_velocity(quick):

@@ -76,8 +76,14 @@ def _save(anim, path: Path, fmt: str, fps: int) -> Path:
     from matplotlib import animation
 
     writer = animation.FFMpegWriter(fps=fps) if fmt == "mp4" else animation.PillowWriter(fps=fps)
-    with _progress(path.name) as step, replacing(path) as tmp:
-        anim.save(tmp, writer=writer, dpi=80, progress_callback=step)
+    quiet = logging.getLogger("matplotlib.animation")  # its "Animation.save using <class ...>" info line
+    level = quiet.level
+    quiet.setLevel(logging.WARNING)
+    try:
+        with _progress(path.name) as step, replacing(path) as tmp:
+            anim.save(tmp, writer=writer, dpi=80, progress_callback=step)
+    finally:
+        quiet.setLevel(level)
     return path
 
 
