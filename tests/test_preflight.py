@@ -266,26 +266,20 @@ def test_batched_replicas_with_masses_per_magnet_equal_their_single_runs(tmp_pat
     assert not np.array_equal(batched[0].v, batched[2].v)
 
 
-def test_the_long_lattice_refuses_a_chain_the_unit_warning_calls_a_mistake_unless_yes(tmp_path, caplog):
+def test_the_long_lattice_refuses_a_chain_the_unit_warning_calls_a_mistake_unless_yes(tmp_path):
     """issue 27 item 10: r0 in metres on the long lattice built 201 336 magnets and wrote 35 MB
-    before the contact error; now the guard refuses it, naming the field, unless --yes. The slip
-    is said once: the error, not also a warning before it; with --yes, a warning."""
+    before the contact error; now the guard refuses it, naming the field, unless --yes."""
     from pylmp_lattice.case import load_case
 
     inputs = Path(__file__).parent.parent / "inputs"
-    with caplog.at_level(logging.WARNING):
-        case = load_case(inputs / "paper_long_lattice.toml", ["chain.r0=0.012"])
-        assert case.chain.particles > 100_000
-        with pytest.raises(ConfigError, match=r"^chain\.r0: got 0\.012 mm; .* that is 12 mm; with chain\.far_end = "
-                                              r"\"long\" that builds \d+ magnets .*pass --yes"):
-            preflight.check(case, tmp_path / "r")
-        assert "lengths are in mm" not in caplog.text
-        try:
-            preflight.check(case, tmp_path / "r", yes=True)
-        except ConfigError as err:  # a machine too small for it may still refuse it, for its size
-            assert err.field == "run" and "too large for this machine" in str(err)
-        else:
-            assert [r.getMessage() for r in caplog.records if "lengths are in mm" in r.getMessage()] == [
-                "chain.r0: got 0.012 mm; lengths are in mm: if it is in m, that is 12 mm"]
+    case = load_case(inputs / "paper_long_lattice.toml", ["chain.r0=0.012"])
+    assert case.chain.particles > 100_000
+    with pytest.raises(ConfigError, match=r"^chain\.r0: got 0\.012 mm; .* that is 12 mm; with chain\.far_end = "
+                                          r"\"long\" that builds \d+ magnets .*pass --yes"):
+        preflight.check(case, tmp_path / "r")
+    try:
+        preflight.check(case, tmp_path / "r", yes=True)
+    except ConfigError as err:  # a machine too small for it may still refuse it, for its size
+        assert err.field == "run" and "too large for this machine" in str(err)
     ok = load_case(inputs / "paper_long_lattice.toml")
     preflight.check(ok, tmp_path / "r")  # the case as it is passes

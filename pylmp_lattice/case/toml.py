@@ -138,9 +138,8 @@ def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
         second_neighbour=_second_neighbour(data["second_neighbour"]) if "second_neighbour" in data else None,
         name=name,
     )
-    if case.chain.far_end != "long":  # a long lattice's slip: preflight.check refuses it (with yes, warns), said once
-        for message in unit_warnings(case):
-            logger.warning(message)
+    for message in unit_warnings(case):
+        logger.warning(message)
     return case
 
 

@@ -44,13 +44,11 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
                                  "(fewer particles, a shorter run or a longer run.output_interval)")
     if est.seconds > LONG_RUN_SECONDS and not yes:
         raise ConfigError("run", f"estimated {est}; pass --yes (yes=True) to start a run this long")
-    mistake = unit_warnings(case) if case.chain.far_end == "long" else []  # load_case left them to us
-    if mistake and not yes:  # the long lattice sizes itself from r0 and V_I: a unit slip builds a huge chain that touches at once
+    mistake = unit_warnings(case) if case.chain.far_end == "long" and not yes else []
+    if mistake:  # the long lattice sizes itself from r0 and V_I: a unit slip builds a huge chain that touches at once
         field, message = mistake[0].split(": ", 1)
         raise ConfigError(field, f"{message}; with chain.far_end = \"long\" that builds {case.chain.particles} magnets "
                                  f"({est}); pass --yes (yes=True) to run it as it is")
-    for message in mistake:
-        log.warning(message)
     case.check_draws()  # after the refusals, which need N alone: N draws for a disordered chain
     coarse_dt_warning(case)  # it builds the chain's arrays
     return est
