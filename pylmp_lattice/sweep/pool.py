@@ -12,6 +12,7 @@ import multiprocessing
 import os
 import signal
 import threading
+import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 
 from ..errors import ConfigError, Interrupted, UsageError
@@ -115,9 +116,21 @@ def _local_pool(workers: int):
     try:
         yield Pool(pool, workers, stop=stop_w.close)
     finally:
+        if stop_w.closed:  # stopped: the workers exit within GRACE; one that does so while it holds the task
+            _end_workers(pool)  # queue's lock would leave another waiting on it, and the shutdown with it, forever
         pool.shutdown(wait=True, cancel_futures=True)
         for end in (alive_w, alive_r, stop_w, stop_r):
             end.close()
+
+
+def _end_workers(pool: ProcessPoolExecutor) -> None:
+    """Kill the pool's workers still alive GRACE seconds from now (their members are on disk, or
+    "interrupted" and redone on resume), so that its shutdown cannot wait on a dead worker's lock."""
+    deadline = time.monotonic() + GRACE
+    for process in list((pool._processes or {}).values()):  # noqa: SLF001 - no public way before Python 3.14
+        process.join(max(0.0, deadline - time.monotonic()))
+        if process.is_alive():
+            process.kill()
 
 
 def start_forkserver():
