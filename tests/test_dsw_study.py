@@ -15,6 +15,7 @@ from pylmp_lattice.forcelaw import PowerLaw
 pytestmark = pytest.mark.lammps
 
 
+@pytest.mark.slow  # 33 s: the quick study plus its run-length runs (17 and 34 periods)
 def test_dsw_quick(tmp_path, caplog):
     with caplog.at_level("WARNING"):
         assert main(["study", "dsw", "--quick", "-o", str(tmp_path)]) == 0
