@@ -220,7 +220,7 @@ def test_hugoniot_labels_the_model_chains_reduced_units(quick_studies):
     fig = quick_studies("hugoniot").figure
     by_title = {ax.get_title(): ax for ax in fig.axes}
     toda = [ax for title, ax in by_title.items() if title.startswith("toda (m = A = B = 1)")]
-    magnet = [ax for title, ax in by_title.items() if title.startswith("magnet:")]
+    magnet = [ax for title, ax in by_title.items() if title.startswith("magnet\n")]
     assert len(toda) == 2 and len(magnet) == 2
     for ax in toda:
         assert "m/s" not in ax.get_xlabel() + ax.get_ylabel() and "reduced units" in ax.get_xlabel()
