@@ -2,10 +2,10 @@
 (benchmarks/ensemble_loop.c) on the same chains and the same number of cores, in one run.
 
 Members: --members thermal replicas of inputs/paper_experiment.toml (21 magnets, 4800 steps), with
-and without friction, as bench_sweep.py builds them. Engine: `run_chains` on --workers threads,
-timed from the call to its return (the arrays built before, the measures from the record after,
-both inside the call), with the front record (as a sweep's members) and without (output.front =
-false: the loop's work alone). Loop: ensemble_loop.c on
+and without friction, as bench_sweep.py builds them. Engine: the sweep's batch road
+(`run_folder.execute_batch` with `engines.road.KernelEngine("cpu")` on --workers threads), timed
+from the engine's arrays to the measures read from its front record, with the record (as a
+sweep's members) and without (output.front = false: the loop's work alone). Loop: ensemble_loop.c on
 --workers processes (bench_sweep.run_loop). Check: every chain's final velocities, engine against
 loop, within 1e-9 m/s (the same equations and operations).
 
@@ -36,7 +36,10 @@ def main() -> None:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
     args = p.parse_args()
-    from pylmp_lattice.engines.cpu import run_chains
+    from pylmp_lattice.case_measures import read_front_batch
+    from pylmp_lattice.engines.road import KernelEngine
+    from pylmp_lattice.formats.layout import FRONT_BIN
+    from pylmp_lattice.run_folder import execute_batch
 
     rows = []
     with tempfile.TemporaryDirectory(prefix=".bench_kernel.", dir=ROOT) as tmp:
@@ -54,10 +57,13 @@ def main() -> None:
                     members_ = [dataclasses.replace(c, output=dataclasses.replace(c.output, format="none", front=record))
                                 for c in cases]
                     start = time.perf_counter()
-                    batch = run_chains(members_, threads=args.workers)
+                    batch = KernelEngine("cpu", members_, threads=args.workers)
+                    execute_batch(members_, folder / f"record-{record}", batch)
+                    if record:
+                        read_front_batch(members_, folder / f"record-{record}" / FRONT_BIN)
                     engine[record] = time.perf_counter() - start
                 loop_wall, _, final = run_loop(exe, folder, cases, x, v, m, args.workers)
-                error = float(np.max(np.abs(batch.v - final)))
+                error = float(np.max(np.abs(batch.final[1] - final)))
                 assert error < 1e-9, f"engine and loop differ by {error} m/s"
                 rows.append((friction, members, engine, loop_wall, error, load))
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "

@@ -1,8 +1,11 @@
-"""The host engine (engines.cpu: the chain kernel on every core) against LAMMPS's batch of the
-same members (deck.render_replicas, fix lattice/chain), for every law, drive, friction on and off,
+"""The host engine (engines.cpu: the chain kernel on every core, on the road of every batch:
+`run_folder.execute_batch` with `engines.road.KernelEngine`) against LAMMPS's batch of the same
+members (deck.render_replicas, fix lattice/chain), for every law, drive, friction on and off,
 thermal and disorder members and both far ends: final x and v within 1e-12 relative, the front
-measures within 1e-9, the friction work within 1e-12 relative. The GPU engine (engines.gpu, the
-same kernel through NVRTC) against the host engine, where CuPy finds a device (marked gpu)."""
+measures (read from the folder's front.bin, as a sweep reads them) within 1e-9, the friction work
+within 1e-12 relative. The GPU engine (engines.gpu, the same kernel through NVRTC) against the
+host engine, where CuPy finds a device (marked gpu). The layout the library exports against
+the package's record columns."""
 
 from __future__ import annotations
 
@@ -14,10 +17,12 @@ import pytest
 
 from pylmp_lattice.case import Case
 from pylmp_lattice.deck import render_replicas
-from pylmp_lattice.engines.cpu import ChainBatch, Unsupported, run_chains
+from pylmp_lattice.engines.library import Unsupported, layout
+from pylmp_lattice.engines.road import KernelEngine
 from pylmp_lattice.case_measures import read_front_batch
 from pylmp_lattice.measures import FirstPeaks
-from pylmp_lattice.formats.layout import CHAIN_WORK, DECK, FRONT_BIN, in_deck
+from pylmp_lattice.formats.layout import CHAIN_WORK, DECK, FRONT_BIN, FRONT_COLUMNS, FRONT_FIELDS, in_deck
+from pylmp_lattice.run_folder import execute_batch
 from pylmp_lattice.runner import run_embedded
 from pylmp_lattice.units import from_engine
 
@@ -60,29 +65,39 @@ def lammps(cases: list[Case], folder: Path, arrival_method: str = "level") -> di
     run_embedded(folder)
     n = cases[0].chain.particles
     rows = np.loadtxt(folder / FINAL, skiprows=9)
-    out = {"x": from_engine(rows[:, 1], "length").reshape(-1, n), "v": from_engine(rows[:, 2], "velocity").reshape(-1, n)}
+    return recorded(cases, folder, arrival_method, from_engine(rows[:, 1], "length").reshape(-1, n),
+                    from_engine(rows[:, 2], "velocity").reshape(-1, n))
+
+
+def kernel(cases: list[Case], folder: Path, arrival_method: str = "level", kind: str = "cpu") -> dict:
+    """The members as one batch of the `kind` engine, on the sweep's road into `folder`."""
+    engine = KernelEngine(kind, cases)
+    execute_batch(cases, folder, engine)
+    return recorded(cases, folder, arrival_method, *engine.final)
+
+
+def recorded(cases: list[Case], folder: Path, arrival_method: str, x, v) -> dict:
+    """What a batch left in its folder (front record, friction work) and its chains' final x, v."""
+    out = {"x": x, "v": v}
     if (folder / FRONT_BIN).exists():
         out["record"] = read_front_batch(cases, folder / FRONT_BIN, arrival_method)
-    if cases[0].friction is not None:
+    if (folder / CHAIN_WORK).exists():
         out["work"] = from_engine(np.loadtxt(folder / CHAIN_WORK), "energy")
     return out
 
 
-def assert_same(batch: ChainBatch, ref: dict):
-    assert set(batch.status) == {"done"}
+def assert_same(got: dict, ref: dict):
     for name in ("x", "v"):
-        got, want = getattr(batch, name), ref[name]
-        scale = np.max(np.abs(want))
-        assert np.max(np.abs(got - want)) <= 1e-12 * scale, name
+        scale = np.max(np.abs(ref[name]))
+        assert np.max(np.abs(got[name] - ref[name])) <= 1e-12 * scale, name
+    assert ("work" in got) == ("work" in ref)
     if "work" in ref:
-        np.testing.assert_allclose(batch.work, ref["work"], rtol=1e-12, atol=0)
-        assert np.all(batch.work > 0)
-    else:
-        assert batch.work is None
+        np.testing.assert_allclose(got["work"], ref["work"], rtol=1e-12, atol=0)
+        assert np.all(got["work"] > 0)
+    assert ("record" in got) == ("record" in ref)
     if "record" not in ref:
-        assert batch.record is None
         return
-    got, want = batch.record, ref["record"]
+    got, want = got["record"], ref["record"]
     assert got.end_time == want.end_time
     pairs = [(got.max_speed, want.max_speed), (got.front.arrival, want.front.arrival),
              (got.front.propagation_velocity, want.front.propagation_velocity)]
@@ -96,7 +111,7 @@ def assert_same(batch: ChainBatch, ref: dict):
 @pytest.mark.parametrize("law", ["power", *OTHER_LAWS])
 def test_every_law_with_and_without_friction(tmp_path, law, friction):
     cases = thermal(law, **({"friction": friction} if friction else {}))
-    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+    assert_same(kernel(cases, tmp_path / "cpu"), lammps(cases, tmp_path / "lammps"))
 
 
 @pytest.mark.parametrize("drive", [d for d in DRIVES if d != "constant"])
@@ -104,44 +119,42 @@ def test_every_drive(tmp_path, drive):
     """(constant: the laws' test); pulses arrive by their velocity peaks (the record's pulse column)"""
     cases = thermal(impactor=DRIVES[drive], friction=FRICTION)
     method = "velocity_peak" if drive in ("sine", "measured") else "level"
-    assert_same(run_chains(cases, method), lammps(cases, tmp_path / "lammps", method))
+    assert_same(kernel(cases, tmp_path / "cpu", method), lammps(cases, tmp_path / "lammps", method))
 
 
 def test_mass_and_gap_disorder(tmp_path):
     """Disordered members (per-atom masses in LAMMPS), with friction."""
     cases = thermal(friction=FRICTION, chain={"thermal_velocity": None, "mass_disorder": 0.05, "r0_disorder": 0.05})
     assert len({c.chain.masses()[3] for c in cases}) == MEMBERS
-    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+    assert_same(kernel(cases, tmp_path / "cpu"), lammps(cases, tmp_path / "lammps"))
 
 
 def test_long_far_end(tmp_path):
     cases = thermal(chain={"far_end": "long"}, particles=None, duration=10.0)
     assert cases[0].chain.particles > 21
-    assert_same(run_chains(cases), lammps(cases, tmp_path / "lammps"))
+    assert_same(kernel(cases, tmp_path / "cpu"), lammps(cases, tmp_path / "lammps"))
 
 
 def test_members_it_cannot_run_are_refused_with_the_reason():
     cases = thermal()
     with pytest.raises(Unsupported, match="output.format"):
-        run_chains([dataclasses.replace(c, output=dataclasses.replace(c.output, format="text")) for c in cases])
+        KernelEngine("cpu", [dataclasses.replace(c, output=dataclasses.replace(c.output, format="text")) for c in cases])
     other = make_case(particles=22, output={"format": "none"})
     with pytest.raises(Unsupported, match="cannot share a batch"):
-        run_chains([cases[0], other])
+        KernelEngine("cpu", [cases[0], other])
 
 
-def cpu_as_reference(batch: ChainBatch) -> dict:
-    """The host engine's results in the form `assert_same` takes."""
-    ref = {"x": batch.x, "v": batch.v}
-    if batch.record is not None:
-        ref["record"] = batch.record
-    if batch.work is not None:
-        ref["work"] = batch.work
-    return ref
+def test_the_library_s_layout_is_the_record_s():
+    """The columns, block and status names Python reads from the library (never restates)."""
+    lay = layout()
+    assert lay.nout == len(FRONT_FIELDS) == len(FRONT_COLUMNS.split()) - 1
+    assert lay.ncol > lay.nout and lay.block >= 1
+    assert lay.status == ("done", "contact", "out_of_range", "drive_ended")
 
 
 @pytest.mark.gpu
 @pytest.mark.parametrize("members", ["power-friction", "table-law", "measured-drive"])
-def test_the_gpu_engine_gives_the_host_engine_s_results(members):
+def test_the_gpu_engine_gives_the_host_engine_s_results(tmp_path, members):
     from pylmp_lattice.engines import gpu
 
     why = gpu.available()
@@ -149,4 +162,5 @@ def test_the_gpu_engine_gives_the_host_engine_s_results(members):
         pytest.skip(why)
     cases = {"power-friction": lambda: thermal(friction=FRICTION), "table-law": lambda: thermal("morse"),
              "measured-drive": lambda: thermal(impactor=DRIVES["measured"], friction=FRICTION)}[members]()
-    assert_same(gpu.run_chains(cases), cpu_as_reference(run_chains(cases)))
+    method = "velocity_peak" if members == "measured-drive" else "level"
+    assert_same(kernel(cases, tmp_path / "gpu", method, "gpu"), kernel(cases, tmp_path / "cpu", method))

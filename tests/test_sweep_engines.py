@@ -83,7 +83,7 @@ def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_pat
     """A batch the kernel refuses runs with LAMMPS (its record says so) and the log has one
     line for it, however many batches; so does a member that runs alone (trajectories kept)."""
     from pylmp_lattice.engines import road
-    from pylmp_lattice.engines.arrays import Unsupported
+    from pylmp_lattice.engines.library import Unsupported
 
     def refuse(cases, kind):
         raise Unsupported("refused by this test")

@@ -1,5 +1,5 @@
-"""A batch of ensemble members as the kernel engines take it (engine units, `units`), and what
-they return in user units: shared by `engines.cpu` and `engines.gpu`.
+"""A batch of ensemble members as the kernel engines take it (engine units, `units`): shared by
+`engines.cpu` and `engines.gpu`.
 
 The members are those a sweep batches in one LAMMPS instance (`deck.render_replicas`): equal N,
 everything but [chain] equal, output.format = "none". Every number is the one the LAMMPS deck
@@ -14,17 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..case import Case
-from ..errors import ConfigError, LatticeError
+from ..errors import ConfigError
+from .library import Unsupported
 
 LAWS = {"power": 0, "linear": 1, "table": 2}
 DRIVES = {"constant": 0, "ramp": 1, "sine": 2, "rest": 3, "measured": 4}
-# kernel/chain.h ChainStatus
-STATUS = ("done", "contact", "out_of_range", "drive_ended")
-NOUT = 7  # the record's output columns (kernel/front.h, FRONT_FIELDS)
-
-
-class Unsupported(LatticeError):
-    """A kernel engine cannot run these members (the message says why): run them with LAMMPS."""
 
 
 @dataclass
@@ -95,35 +89,3 @@ def prepare(cases: list[Case], engine: str) -> Arrays:
         (float(to_engine(lo, "length")), float(to_engine(hi, "length"))),
         stack("positions", "length"), stack("velocities", "velocity"), stack("masses", "mass"), record,
         np.ascontiguousarray(front_levels_rows(cases), float) if record else np.zeros((len(cases), 5)))
-
-
-@dataclass(frozen=True)
-class ChainBatch:
-    """R chains after their run, user units: x (R, N) mm and v (R, N) m/s at the end; record: the
-    front record of all chains (`case_measures.FrontRecord` of R chains; None without one: an
-    impactor at rest); work (R,) mJ: each chain's friction work (None without friction); status
-    (R,): "done", "contact" (stopped after the step of a touch, as the fix stops),
-    "out_of_range" (a gap left the table range: LAMMPS stops with an error) or "drive_ended" (a
-    measured drive's data ended: LAMMPS stops with an error); end_time (R,) ms: each chain's last
-    step. The record is the batch's up to the last step of any chain: read it for finished chains."""
-
-    x: np.ndarray
-    v: np.ndarray
-    record: object
-    work: np.ndarray | None
-    status: tuple[str, ...]
-    end_time: np.ndarray
-
-
-def result(cases: list[Case], a: Arrays, x, v, front, work, end_step, status, arrival_method: str) -> ChainBatch:
-    """What an engine returns, from its arrays (engine units; front: (R N, NOUT))."""
-    from ..case_measures import front_batch
-    from ..formats.front_record import front_rows
-    from ..units import from_engine
-
-    end_time = np.asarray(end_step) * a.dt  # as LAMMPS's time of its last step
-    record = (front_batch(cases, front_rows(front, float(end_time.max()), a.chains, a.n), arrival_method)
-              if a.record else None)
-    return ChainBatch(from_engine(x, "length"), from_engine(v, "velocity"), record,
-                      from_engine(work, "energy") if a.friction is not None else None,
-                      tuple(STATUS[s] for s in status), from_engine(end_time, "time"))

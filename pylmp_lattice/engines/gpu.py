@@ -2,8 +2,8 @@
 compiled at run time by NVRTC through CuPy, one thread per chain (kernel/engine_gpu.cu).
 
 The same batch as `engines.cpu` (`arrays.prepare`), the splines fitted on the host by the host
-engine's library (the plugin's fits, fit.h), the same results (`arrays.ChainBatch`). CuPy is an
-optional dependency: without it, or without a device, `run_chains` raises `Unsupported`.
+engine's library (`library`: the plugin's fits, fit.h), the same results (`cpu.run_arrays`'s).
+CuPy is an optional dependency: without it, or without a device, `available` says why.
 
 Chains of up to 64 magnets (the ensembles') keep their whole state in each thread's local
 memory, which CUDA interleaves by thread (coalesced), and only the record's 7 output columns per
@@ -17,19 +17,16 @@ device.
 
 from __future__ import annotations
 
-import ctypes
 from pathlib import Path
 
 import numpy as np
 
-from ..case import Case
-from .arrays import DRIVES, LAWS, NOUT, Arrays, ChainBatch, Unsupported, prepare, result
+from .arrays import DRIVES, LAWS, Arrays
+from .library import layout, library, ptr
 
-__all__ = ["ChainBatch", "Unsupported", "available", "run_arrays", "run_chains"]
+__all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
-NCOL = 37  # kernel/front.h: a record row
 THREADS = 128
-BLOCK = 256  # the largest run of free atoms, as the fix's
 # Chains of up to 64 magnets keep their state in each thread's local memory (engine_gpu.cu)
 LOCAL_SIZES = (32, 64)
 # Atom-steps per launch: about 0.5 s at 1e11 atom-steps/s (issue 28's target), so Ctrl-C waits at most that long
@@ -49,40 +46,27 @@ def available() -> str | None:
     return None if count else "CuPy finds no CUDA device"
 
 
-def run_chains(cases: list[Case], arrival_method: str = "level") -> ChainBatch:
-    """`engines.cpu.run_chains` on the GPU."""
-    why = available()
-    if why:
-        raise Unsupported(why)
-    a = prepare(cases, "gpu")
-    return result(cases, a, *run_arrays(a), arrival_method)
-
-
 def run_arrays(a: Arrays):
     """`engines.cpu.run_arrays` on the GPU (one launch: Ctrl-C waits for it)."""
     import cupy as cp
 
-    from .cpu import _library, _ptr
-
-    lib = _library()
+    lib, lay = library(), layout()
+    NOUT, NCOL = lay.nout, lay.ncol  # noqa: N806 - the kernel's names
     n, chains = a.n, a.chains
-    block = min(BLOCK, n - 2)
+    block = min(lay.block, n - 2)
     nruns = (n - 2 + block - 1) // block
     empty = np.zeros(1)
     if a.table:  # the host's fit, as the plugin's
         r, u, f = (np.ascontiguousarray(t, float) for t in a.table[:3])
         yd2, x0_dx = np.zeros(4 * len(r)), np.zeros(2)
-        lib.pl_fit_table.restype = None
-        lib.pl_fit_table(_ptr(r), _ptr(u), _ptr(f), ctypes.c_int(len(r)), ctypes.c_double(a.table[3]),
-                         ctypes.c_double(a.table[4]), _ptr(yd2), _ptr(x0_dx))
+        lib.pl_fit_table(ptr(r), ptr(u), ptr(f), len(r), a.table[3], a.table[4], ptr(yd2), ptr(x0_dx))
         table_n, (x0, dx) = len(r), x0_dx
     else:
         yd2, table_n, x0, dx = empty, 0, 0.0, 1.0
     if a.samples:
         t_s, y_s = (np.ascontiguousarray(s, float) for s in a.samples)
         fit = np.zeros(2 * len(t_s))
-        lib.pl_fit_measured.restype = None
-        lib.pl_fit_measured(_ptr(t_s), _ptr(y_s), ctypes.c_int(len(t_s)), _ptr(fit))
+        lib.pl_fit_measured(ptr(t_s), ptr(y_s), len(t_s), ptr(fit))
     else:
         t_s = y_s = fit = empty
     mu, p, g = a.friction or (0.0, 0.0, 0.0)

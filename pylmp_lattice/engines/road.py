@@ -24,7 +24,9 @@ from ..formats import layout
 from ..formats.bindump import write_frame
 from ..formats.files import atomic_write
 from ..units import from_engine
-from .arrays import STATUS, Unsupported, prepare
+from .arrays import prepare
+from .library import Unsupported
+from .library import layout as kernel_layout
 
 ENGINES = ("lammps", "cpu", "gpu")
 KERNELS = ENGINES[1:]
@@ -32,9 +34,12 @@ KERNELS = ENGINES[1:]
 
 class KernelEngine:
     """The `kind` engine ("cpu" on `threads` cores, default all; "gpu") for these cases, which
-    `run_folder.execute_batch` writes into a folder; Unsupported if it cannot run them."""
+    `run_folder.execute_batch` writes into a folder; Unsupported if it cannot run them. After a
+    run, `final` holds the chains' last x (mm) and v (m/s), (R, N) each, as LAMMPS's atoms hold
+    them at the end of its batch."""
 
     nprocs = 1
+    final: tuple[np.ndarray, np.ndarray] | None = None
 
     def __init__(self, kind: str, cases: list[Case], threads: int | None = None):
         if kind not in KERNELS:
@@ -57,6 +62,7 @@ class KernelEngine:
         a = self.arrays
         x, v, front, work, end_step, status = (cpu.run_arrays(a, self.threads) if self.kind == "cpu"
                                                else gpu.run_arrays(a))
+        self.final = from_engine(x, "length"), from_engine(v, "velocity")
         path = Path(path)
         end = int(end_step.max())
         atomic_write(path / layout.LOG, f"pylmp_lattice {self.kind} engine (the chain kernel, no LAMMPS): {a.chains} "
@@ -66,15 +72,15 @@ class KernelEngine:
             write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, np.hstack([ids, front]))
         if a.friction is not None:
             atomic_write(path / layout.CHAIN_WORK, "".join(f"{w:.17g}\n" for w in work))
-        stopped = np.flatnonzero(status)
+        stopped, names = np.flatnonzero(status), kernel_layout().status
         if stopped.size:
             c = int(stopped[np.argmin(end_step[stopped])])  # the first to stop, as LAMMPS stops at it
             at = float(from_engine(end_step[c] * a.dt, "time"))
-            if STATUS[status[c]] == "contact":
+            if names[status[c]] == "contact":
                 gaps = np.diff(x[c])
                 i = int(np.argmin(gaps))
                 raise ContactError((i + 1, i + 2), at, float(from_engine(gaps[i], "length")), path)
-            raise RunError(f"chain {c + 1} of the batch stopped at t = {at:.6g} ms: {STATUS[status[c]].replace('_', ' ')}",
+            raise RunError(f"chain {c + 1} of the batch stopped at t = {at:.6g} ms: {names[status[c]].replace('_', ' ')}",
                            path)
         if on_step is not None:
             on_step(end)

@@ -1,6 +1,6 @@
 /* The host engine: a batch of independent chains, integrated by the chain kernel (kernel/chain.h)
-   with OpenMP over chains; no MPI, no LAMMPS. Loaded by pylmp_lattice/engines/cpu.py (ctypes),
-   which checks the arguments; each chain gives the bits of the same chain in fix lattice/chain.
+   with OpenMP over chains; no MPI, no LAMMPS. Loaded by pylmp_lattice/engines/library.py (ctypes);
+   engines/cpu.py checks the arguments; each chain gives the bits of the same chain in fix lattice/chain.
    Part of pylmp_lattice, GPL-2.0. */
 
 #include "kernel/chain.h"
@@ -15,13 +15,32 @@
 using namespace pl_kernel;
 
 namespace {
-constexpr int BLOCK = 256;    // as fix lattice/chain's blocks
+// The largest run of free atoms stepped as one block, as fix lattice/chain's BLOCK (n >= 3: the
+// blocks do not change the bits); the GPU engine takes it from here (pl_engine_block).
+constexpr int BLOCK = 256;
 }
 
 extern "C" {
 
-/* The version of this ABI: cpu.py refuses a library of another. */
-int pl_engine_abi() { return 1; }
+/* The version of this ABI: engines/library.py refuses a library of another. */
+int pl_engine_abi() { return 2; }
+
+/* The engines' layout, read by engines/library.py so that Python never restates it: the block,
+   a front record row's output columns (front::NOUT, those of fix lattice/front) and all of its
+   columns (front::NCOL), and each ChainStatus's name (NULL past the last). */
+int pl_engine_block() { return BLOCK; }
+int pl_engine_nout() { return front::NOUT; }
+int pl_engine_ncol() { return front::NCOL; }
+const char *pl_engine_status(int status)
+{
+  switch (status) {
+    case FINISHED: return "done";
+    case CONTACT: return "contact";
+    case OUT_OF_RANGE: return "out_of_range";
+    case DRIVE_ENDED: return "drive_ended";
+    default: return nullptr;
+  }
+}
 
 /* Run `chains` chains of n atoms for `steps` steps of dt (SI units throughout).
    law_kind 0 power (law_params K b q), 1 linear (k r_free), 2 table (table_n rows r, U, F and
@@ -30,7 +49,7 @@ int pl_engine_abi() { return 1; }
    range: allowed separations. Per chain (row-major, chains x n): x, v in and out, mass; with
    `record` levels (chains x 5: start front drop pulse_drop pulse_floor) and front_out (chains x
    n x 7: the fix lattice/front columns); work (chains): friction work; end_step and status
-   (kernel/chain.h ChainStatus) per chain. threads <= 0: OpenMP's default. Returns 0. */
+   (kernel/chain.h ChainStatus, named by pl_engine_status) per chain. threads <= 0: OpenMP's default. Returns 0. */
 int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, const double *law_params,
                   int table_n, const double *table_r, const double *table_u, const double *table_f, double fp_lo,
                   double fp_hi, int drive_profile, double V, double T, int measured_n, const double *measured_t,
@@ -50,7 +69,7 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
   }
   const ChainSetup S = chain_setup(n, steps, dt, n - 2 < BLOCK ? n - 2 : BLOCK, law_kind, law_params, table,
                                    drive_profile, V, T, measured, friction != 0, mu, p, g, range_lo, range_hi,
-                                   record != 0);    // (n >= 3) the blocks do not change the bits
+                                   record != 0);
   const int nruns = n > 2 ? (n - 2 + S.block - 1) / S.block : 0;
 #ifdef _OPENMP
   if (threads > 0) omp_set_num_threads(threads);
