@@ -45,21 +45,44 @@ def set_impactor_acceleration(case: Case, traj, columns) -> None:
     traj.a[:, columns] = case.impactor.acceleration_at(traj.t)[:, None]
 
 
+@dataclass(frozen=True)
+class ChainDraws:
+    """The initial chains of R cases of one batch (equal N), each row the case's own draws bit
+    for bit (`Chain.masses`, `gaps`, `velocities`): masses (R, N) g, gaps (R, N-1) mm,
+    velocities (R, N) m/s. Drawn once per batch (`chain_draws`), for every measure and engine
+    that takes the batch's chains as arrays."""
+
+    masses: np.ndarray
+    gaps: np.ndarray
+    velocities: np.ndarray
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Initial positions (R, N), mm, x_1 = 0 (`Chain.positions` of each row)."""
+        return np.concatenate([np.zeros((len(self.gaps), 1)), np.cumsum(self.gaps, axis=1)], axis=1)
+
+
+def chain_draws(cases) -> ChainDraws:
+    """The chains of R cases (equal N) as arrays, each drawn once."""
+    chains = [case.chain for case in cases]
+    return ChainDraws(*(np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps,
+                                                                                    Chain.velocities)))
+
+
 def chain_noise(case: Case) -> float:
     """The case's noise velocity sigma, m/s: `measures.noise_velocity` of its initial state."""
     return float(chain_noises([case])[0])
 
 
-def chain_noises(cases) -> np.ndarray:
+def chain_noises(cases, draws: ChainDraws | None = None) -> np.ndarray:
     """The noise velocity of each of R cases, m/s, shape (R,): the cases of a batch (equal N,
     held ends and force law; `deck.render_replicas` checks), computed together with the bits of
-    each alone (`chain_noise` is a batch of one)."""
+    each alone (`chain_noise` is a batch of one); draws: their `chain_draws`, if drawn."""
     first = cases[0]
     free = np.ones(first.chain.particles, bool)
     free[[0, *first.held()]] = False
-    masses, velocities, gaps = (np.stack([draw(case.chain) for case in cases])
-                                for draw in (Chain.masses, Chain.velocities, Chain.gaps))
-    return measures.noise_velocity(masses, velocities, gaps, first.force.energy, free)
+    d = draws or chain_draws(cases)
+    return measures.noise_velocity(d.masses, d.velocities, d.gaps, first.force.energy, free)
 
 
 def front_levels(case: Case) -> measures.FrontLevels:
@@ -96,25 +119,28 @@ def read_front_records(cases, path: str | Path, arrival_method: str = "level") -
     return [FrontRecord(batch.front.row(r), batch.max_speed[r], batch.end_time) for r in range(len(cases))]
 
 
-def read_front_batch(cases, path: str | Path, arrival_method: str = "level") -> FrontRecord:
+def read_front_batch(cases, path: str | Path, arrival_method: str = "level",
+                     draws: ChainDraws | None = None) -> FrontRecord:
     """`read_front_records` as one FrontRecord of R chains: its front a `measures.Front` of R
     chains (`stack_fronts`), max_speed (R, N); each chain's levels from its noise velocity
-    (`chain_noises`).
+    (`chain_noises`); draws: the cases' `chain_draws`, if drawn.
 
     One pass for the batch: the drive's measures once, against each distinct noise velocity
     (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
-    return front_batch(cases, read_front_rows(path, len(cases), cases[0].chain.particles), arrival_method, str(path))
+    return front_batch(cases, read_front_rows(path, len(cases), cases[0].chain.particles), arrival_method, str(path),
+                       draws)
 
 
-def front_batch(cases, record: FrontRows, arrival_method: str = "level", source: str = "the front record") -> FrontRecord:
-    """`read_front_batch` from the record's rows (`formats.front_record`), as its file holds them
-    or as an engine that keeps the record in memory returns them (`engines.cpu`); source: where
-    they come from, for the error of a record with no step."""
+def front_batch(cases, record: FrontRows, arrival_method: str = "level", source: str = "the front record",
+                draws: ChainDraws | None = None) -> FrontRecord:
+    """`read_front_batch` from the record's rows (`formats.front_record`); source: where they
+    come from, for the error of a record with no step."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     case = cases[0]
     rows, end = record.columns, record.end_time
-    noise = chain_noises(cases)
+    draws = draws or chain_draws(cases)
+    noise = chain_noises(cases, draws)
     sigma, level_of = np.unique(noise, return_inverse=True)
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
@@ -130,9 +156,9 @@ def front_batch(cases, record: FrontRows, arrival_method: str = "level", source:
     for f in fields(measures.FirstPeaks):  # magnet 1's are the drive's
         peaks.append(rows[f.name].copy())
         peaks[-1][:, 0] = getattr(drive, f.name)[level_of]
-    gaps = np.stack([c.chain.gaps() for c in cases])
+    gaps = draws.gaps
     front = measures.Front(arrival, measures.propagation_velocity(arrival, gaps), measures.FirstPeaks(*peaks),
-                           arrival_method, noise, slowest_linear_speeds(cases, gaps))
+                           arrival_method, noise, slowest_linear_speeds(cases, gaps, draws.masses))
     return FrontRecord(front, rows["max_speed"].copy(), end)
 
 
@@ -148,7 +174,8 @@ def slowest_linear_speed(case: Case) -> float:
     return float(slowest_linear_speeds([case], case.chain.gaps()[None])[0])
 
 
-def slowest_linear_speeds(cases, gaps: np.ndarray) -> np.ndarray:
-    """`slowest_linear_speed` of each of R cases of one law, gaps (R, N-1) mm: shape (R,)."""
-    masses = np.stack([c.chain.masses() for c in cases])
+def slowest_linear_speeds(cases, gaps: np.ndarray, masses: np.ndarray | None = None) -> np.ndarray:
+    """`slowest_linear_speed` of each of R cases of one law, gaps (R, N-1) mm (masses (R, N) g,
+    if drawn): shape (R,)."""
+    masses = np.stack([c.chain.masses() for c in cases]) if masses is None else masses
     return measures.slowest_linear_speed(cases[0].force.stiffness(gaps), masses, gaps)

@@ -8,6 +8,7 @@ magnet 1 counts from the start, also before a pulse's peak marks its arrival).""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import warnings
@@ -16,7 +17,7 @@ import numpy as np
 
 from . import measures
 from .case import Case
-from .case_measures import linear_constants_at
+from .case_measures import ChainDraws, chain_draws, linear_constants_at
 from .measures.front import LINEAR_LAG
 from .numbering import number
 
@@ -34,23 +35,29 @@ def summary_of(case: Case, front: measures.Front | None, max_speed: np.ndarray |
     max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
     end stayed at rest."""
     if front is None:  # no drive, no shock (e.g. the friction calibration rig)
-        return _linear_part([case])[0]
+        return _linear_part([case], chain_draws([case]))[0]
     return summaries([case], measures.stack_fronts([front]), None if max_speed is None else np.asarray(max_speed)[None])[0]
 
 
-def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None) -> list[dict]:
+def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
+              draws: ChainDraws | None = None) -> list[dict]:
     """`summary_of` for each of R cases of one drive (a batch), from their fronts as one Front of R
     chains (`measures.stack_fronts`) and max_speed (R, N): each the summary of the case alone,
-    bit for bit (`summary_of` is a batch of one)."""
+    bit for bit (`summary_of` is a batch of one); draws: the cases' `chain_draws`, if drawn.
+    What depends on a case but not on its draws (the fit windows, V0 and f0) is worked out once
+    per parameter point (`_points`)."""
+    draws = draws or chain_draws(cases)
+    points = _points(cases)
     vi = cases[0].impactor.peak_velocity()
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speeds = measures.trailing_plateaus(vp)
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = measures.particles_reached(front.arrival).tolist()
     maxima = _maxima(vp)
-    fits = _front_speeds(cases, front.arrival)
-    labs = _lab_speeds(cases, front.arrival)
-    out = _linear_part(cases)
+    positions = draws.positions
+    fits = _front_speeds(cases, points, front.arrival, positions)
+    labs = _lab_speeds(cases, points, front.arrival, positions)
+    out = _linear_part(cases, draws)
     for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
         resolution = _resolution(res)
         speed, first_peak = speeds[r], first_peaks[r]
@@ -92,20 +99,32 @@ def front_window(case: Case) -> tuple[int, int] | None:
     return (first, last) if last > first else None
 
 
-def _front_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
+def _points(cases) -> list[list[int]]:
+    """The rows of the cases in groups that differ at most in chain.seed: every other field of
+    the case and of its chain is the same object (a sweep's replicas of one point are built so,
+    `spec.member_cases`), so anything worked out from those fields alone is the same for them."""
+    case_fields = [f.name for f in dataclasses.fields(cases[0]) if f.name != "chain"]
+    chain_fields = [f.name for f in dataclasses.fields(cases[0].chain) if f.name != "seed"]
+    groups: dict[tuple, list[int]] = {}
+    for r, case in enumerate(cases):
+        key = (tuple(id(getattr(case, f)) for f in case_fields), tuple(id(getattr(case.chain, f)) for f in chain_fields))
+        groups.setdefault(key, []).append(r)
+    return list(groups.values())
+
+
+def _front_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray) -> list[dict | None]:
     """`front_speed_m_per_s` of each case: V_P from the slope of the arrival times against the
-    initial positions over `front_window` (no plateau criterion, so defined for every chain whose
-    front crossed the window; value null where it did not), with its standard error and window."""
+    initial positions (R, N) over `front_window` (no plateau criterion, so defined for every chain
+    whose front crossed the window; value null where it did not), with its standard error and window."""
     arrival = np.atleast_2d(arrival)
     out: list[dict | None] = [None] * len(cases)
     by_window: dict[tuple[int, int], list[int]] = {}
-    for r, case in enumerate(cases):
-        window = front_window(case)
+    for rows in points:
+        window = front_window(cases[rows[0]])
         if window is not None:
-            by_window.setdefault(window, []).append(r)
+            by_window.setdefault(window, []).extend(rows)
     for (first, last), rows in by_window.items():
-        positions = np.stack([cases[r].chain.positions() for r in rows])
-        speed, stderr = measures.fit_front_speeds(arrival[rows], positions, first, last + 1)
+        speed, stderr = measures.fit_front_speeds(arrival[rows], positions[rows], first, last + 1)
         for r, v, e in zip(rows, speed.tolist(), stderr.tolist()):
             out[r] = {"value": _fitted(v), "stderr": _fitted(e), "first_gap": first, "last_gap": last}
     return out
@@ -120,33 +139,40 @@ def lab_window(case: Case) -> tuple[int, int] | None:
     return (2, last) if last >= 4 else None
 
 
-def _lab_speeds(cases, arrival: np.ndarray) -> list[dict | None]:
+def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray) -> list[dict | None]:
     """`front_speed_lab_m_per_s` of each case that gives chain.magnet_length L: the front speed
     over magnet centres, as an x-t image of the magnets shows it (pitch r0 + L, where the model's
     r0 is the gap between faces), fitted over `lab_window`, with the gap-frame speed over the
-    same magnets beside it (value null where the front did not cross the window); None without L."""
+    same magnets beside it (value null where the front did not cross the window); None without L.
+    positions (R, N): the initial positions, x_1 = 0, the gaps between faces."""
     arrival = np.atleast_2d(arrival)
     out: list[dict | None] = [None] * len(cases)
-    for r, case in enumerate(cases):
+    for rows in points:
+        case = cases[rows[0]]
         length, window = case.chain.magnet_length, lab_window(case)
         if length is None or window is None:
             continue
         first, last = window
-        positions = case.chain.positions()  # x_1 = 0, the gaps between faces
-        centres = positions + length * np.arange(positions.size)
-        (lab, gap), (error, _) = measures.fit_front_speeds(arrival[[r, r]], np.stack([centres, positions]), first, last)
-        out[r] = {"value": _fitted(lab), "stderr": _fitted(error), "gap_frame_m_per_s": _fitted(gap),
-                  "magnets": [first, last], "pitch_mm": _round(float(np.mean(np.diff(centres))), 6)}
+        x = positions[rows]
+        centres = x + length * np.arange(x.shape[1])
+        # the centres' fits and the gaps' in one call (each row is fitted alone)
+        speed, error = measures.fit_front_speeds(np.concatenate([arrival[rows]] * 2), np.concatenate([centres, x]),
+                                                 first, last)
+        k = len(rows)
+        pitch = np.mean(np.diff(centres, axis=1), axis=1)
+        for r, lab, gap, e, p in zip(rows, speed[:k].tolist(), speed[k:].tolist(), error[:k].tolist(), pitch.tolist()):
+            out[r] = {"value": _fitted(lab), "stderr": _fitted(e), "gap_frame_m_per_s": _fitted(gap),
+                      "magnets": [first, last], "pitch_mm": _round(p, 6)}
     return out
 
 
-def _linear_part(cases) -> list[dict]:
+def _linear_part(cases, draws: ChainDraws) -> list[dict]:
     """The part of each summary without a front: the case, N, V_I and the linear V0 and f0
     (computed once for chains of equal mean gap and mass)."""
     done: dict[tuple, tuple[float, float]] = {}
     out = []
-    for case in cases:
-        key = (float(np.mean(case.chain.gaps())), float(np.mean(case.chain.masses())), case.force)
+    for case, r0, mass in zip(cases, np.mean(draws.gaps, axis=1).tolist(), np.mean(draws.masses, axis=1).tolist()):
+        key = (r0, mass, case.force)
         if key not in done:
             done[key] = linear_constants_at(case.force, *key[:2])
         v0, f0 = done[key]

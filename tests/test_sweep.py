@@ -724,7 +724,7 @@ def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, mo
 
     from pylmp_lattice.sweep import batch
 
-    def damaged(cases, folder):
+    def damaged(cases, folder, draws):
         raise ValueError("front.bin: truncated")
 
     monkeypatch.setattr(batch, "_summaries", damaged)
@@ -869,7 +869,7 @@ def test_a_stop_while_a_batch_is_measured_interrupts_its_members(tmp_path, monke
     from pylmp_lattice.errors import Interrupted
     from pylmp_lattice.sweep import batch, signals
 
-    def stopped(cases, folder):
+    def stopped(cases, folder, draws):
         raise Interrupted(signal.SIGINT)
 
     monkeypatch.setattr(batch, "_summaries", stopped)

@@ -85,7 +85,7 @@ def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_pat
     from pylmp_lattice.engines import road
     from pylmp_lattice.engines.library import Unsupported
 
-    def refuse(cases, kind):
+    def refuse(cases, kind, draws=None):
         raise Unsupported("refused by this test")
 
     monkeypatch.setattr(road, "prepare", refuse)

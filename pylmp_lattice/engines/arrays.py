@@ -51,8 +51,10 @@ class Arrays:
     levels: np.ndarray
 
 
-def prepare(cases: list[Case], engine: str) -> Arrays:
-    """The members' arrays; Unsupported if `engine` cannot run them."""
+def prepare(cases: list[Case], engine: str, draws=None) -> Arrays:
+    """The members' arrays (their chains from `draws`, the cases' `case_measures.chain_draws`,
+    if drawn); Unsupported if `engine` cannot run them."""
+    from ..case_measures import chain_draws
     from ..deck import front_levels_rows, impactor_params, law_params, impactor_samples, records_front, replica_batch
     from ..table import table_arrays
     from ..units import to_engine
@@ -67,8 +69,10 @@ def prepare(cases: list[Case], engine: str) -> Arrays:
         raise Unsupported(f"output.format = {batch.output.format!r}: the {engine} engine keeps no frames; "
                           "it needs output.format = 'none'")
 
-    def stack(name: str, quantity: str) -> np.ndarray:
-        return np.ascontiguousarray(to_engine(np.stack([getattr(c.chain, name)() for c in cases]), quantity), float)
+    draws = draws or chain_draws(cases)
+
+    def engine_units(values: np.ndarray, quantity: str) -> np.ndarray:
+        return np.ascontiguousarray(to_engine(values, quantity), float)
 
     lo, hi = batch.table_range()
     params = law_params(batch.force)
@@ -87,5 +91,6 @@ def prepare(cases: list[Case], engine: str) -> Arrays:
         measured and batch.impactor.after == "hold",
         (float(fr.mu), float(fr.p), float(to_engine(fr.g, "acceleration"))) if fr else None,
         (float(to_engine(lo, "length")), float(to_engine(hi, "length"))),
-        stack("positions", "length"), stack("velocities", "velocity"), stack("masses", "mass"), record,
+        engine_units(draws.positions, "length"), engine_units(draws.velocities, "velocity"),
+        engine_units(draws.masses, "mass"), record,
         np.ascontiguousarray(front_levels_rows(cases), float) if record else np.zeros((len(cases), 5)))

@@ -33,7 +33,8 @@ KERNELS = ENGINES[1:]
 
 
 class KernelEngine:
-    """The `kind` engine ("cpu" on `threads` cores, default all; "gpu") for these cases, which
+    """The `kind` engine ("cpu" on `threads` cores, default all; "gpu") for these cases (their
+    chains from `draws`, their `case_measures.chain_draws`, if drawn), which
     `run_folder.execute_batch` writes into a folder; Unsupported if it cannot run them. After a
     run, `final` holds the chains' last x (mm) and v (m/s), (R, N) each, as LAMMPS's atoms hold
     them at the end of its batch."""
@@ -41,7 +42,7 @@ class KernelEngine:
     nprocs = 1
     final: tuple[np.ndarray, np.ndarray] | None = None
 
-    def __init__(self, kind: str, cases: list[Case], threads: int | None = None):
+    def __init__(self, kind: str, cases: list[Case], threads: int | None = None, draws=None):
         if kind not in KERNELS:
             raise ValueError(f"kind: got {kind!r}; expected one of {', '.join(KERNELS)}")
         if kind == "gpu":
@@ -51,7 +52,7 @@ class KernelEngine:
             if why:
                 raise Unsupported(why)
         self.kind, self.threads = kind, threads
-        self.arrays = prepare(list(cases), kind)
+        self.arrays = prepare(list(cases), kind, draws)
 
     def check(self, path: Path) -> None:
         """Any folder: the engine reads nothing from it."""
@@ -86,9 +87,9 @@ class KernelEngine:
             on_step(end)
 
 
-def kernel_engine(kind: str, cases: list[Case], threads: int | None = None) -> KernelEngine | str:
+def kernel_engine(kind: str, cases: list[Case], threads: int | None = None, draws=None) -> KernelEngine | str:
     """The kernel engine for these cases, or why it cannot run them (one line)."""
     try:
-        return KernelEngine(kind, cases, threads)
+        return KernelEngine(kind, cases, threads, draws)
     except Unsupported as err:
         return str(err)

@@ -134,13 +134,15 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
                threads: int | None = None) -> dict[str, dict]:
     """Run the group as one batch, a run folder on the road of every run (`execute_batch`), by
     the `kind` engine (LAMMPS if the kernel cannot run it); on a failed batch, each member alone."""
+    from ..case_measures import chain_draws
     from ..engines.road import kernel_engine
     from ..formats import layout
     from ..run_folder import execute_batch
 
     start, cpu = time.perf_counter(), _cpu_time()
     cases = [case for _, case in group]
-    engine = kernel_engine(kind, cases, threads) if kind != "lammps" else runner
+    draws = chain_draws(cases)  # the members' chains, drawn once for the engine and the measures
+    engine = kernel_engine(kind, cases, threads, draws) if kind != "lammps" else runner
     if isinstance(engine, str) and kind != "lammps":
         _note(kind, engine)
         engine, kind = runner, "lammps"
@@ -160,7 +162,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
             LEVELS_PER_CHAIN = False
         return _alone(root, group, runner)
     try:
-        summaries = _summaries(cases, batch)
+        summaries = _summaries(cases, batch, draws)
     except Interrupted as err:  # a stop while its measures were read: as one during the run
         return _batch_stopped(group, batch, started, err)
     except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
@@ -211,16 +213,17 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     return out
 
 
-def _summaries(cases: list[Case], batch: Path) -> list[dict]:
-    """Each chain's summary from the batch's front record, as its run alone would write it."""
+def _summaries(cases: list[Case], batch: Path, draws) -> list[dict]:
+    """Each chain's summary from the batch's front record, as its run alone would write it
+    (draws: the members' `case_measures.chain_draws`)."""
     from .. import measures
     from ..case_measures import read_front_batch
     from ..formats import layout
     from ..summary import summaries
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
-    record = read_front_batch(cases, batch / layout.FRONT_BIN, method)
-    out = summaries(cases, record.front, record.max_speed)
+    record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws)
+    out = summaries(cases, record.front, record.max_speed, draws)
     if cases[0].friction is not None:
         from ..units import from_engine
 
