@@ -4,6 +4,7 @@ noisy runs."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -65,6 +66,27 @@ def test_noise_velocities_of_a_batch_are_those_of_each_chain_alone(law):
         one = measures.front_levels(2.0, alone[k])
         assert [levels.start[k], levels.front[k], levels.drop[k], levels.pulse_floor[k]] == \
             [one.start, one.front, one.drop, one.pulse_floor]
+
+
+def test_a_batch_s_chain_draws_are_each_chain_s_own():
+    """chain_draws (the chains a sweep's batch draws once for its engine and measures): row r is
+    case r's masses, gaps, velocities and positions bit for bit, and the summaries' per-point
+    shortcut (`summary._points`) groups replicas of one point and nothing else."""
+    from pylmp_lattice.case_measures import chain_draws
+    from pylmp_lattice.summary import _points
+
+    first = make_case(particles=25, chain={"thermal_velocity": 0.02, "r0_disorder": 0.05, "mass_disorder": 0.05,
+                                            "seed": 0})
+    cases = [dataclasses.replace(first, chain=dataclasses.replace(first.chain, seed=s)) for s in range(12)]
+    other = make_case(particles=25, chain={"thermal_velocity": 0.03, "seed": 1})  # an equal N, another point
+    draws = chain_draws([*cases, other])
+    for r, case in enumerate([*cases, other]):
+        for name in ("masses", "gaps", "velocities", "positions"):
+            got, want = getattr(draws, name)[r], getattr(case.chain, name)()
+            assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist(), (r, name)
+    assert len({tuple(row) for row in draws.velocities.tolist()}) == 13
+    assert _points([*cases, other]) == [list(range(12)), [12]]
+    assert _points([make_case(particles=25), make_case(particles=25)]) == [[0], [1]]  # equal, not the same objects
 
 
 def test_noise_velocity_of_a_thermal_chain_is_its_rms_velocity():
