@@ -3,22 +3,24 @@
 A task of --members replicas of inputs/paper_experiment.toml (21 magnets, 60 ms, 4800 steps,
 chain.thermal_velocity = --thermal m/s, keep = "measures") runs as one batch through
 `sweep.batch.run_task`, as a pool worker runs it. Each stage is timed by wrapping the function
-that does it (wall time, perf_counter):
+that does it (wall time, perf_counter; see --clock):
 
     cases      spec.member_cases: the members' cases (a point's replicas share its first)
     render     deck.render_replicas: the deck, the chains' data file and levels
-    engine     runner.run_deck: LAMMPS (its own Loop time from log.lammps beside it)
+    engine     runner.run_deck: LAMMPS (its own Loop time from log.lammps beside it); with
+               --engine cpu, engines.cpu.run_arrays: the chain kernel on --threads cores
     record     case_measures.read_front_batch: the front record and the drive's measures
     summaries  summary.summaries: every member's summary
     store      store.write_batch: members.json
     other      the task's wall time minus all of the above (folders, files, bookkeeping)
 
-Python = task - engine. A warm-up task of 5 members runs first (imports, caches: a pool worker
+Python = task - engine. --clock cpu times with this process's CPU time (all its threads:
+the engine's too) instead of wall time, which other processes on a loaded machine disturb less. A warm-up task of 5 members runs first (imports, caches: a pool worker
 has them after its first task). Both variants: the case as shipped (friction) and without.
 On an older tree (e.g. the reference commit, run with its own environment) the stages it lacks
 show "-" and count in "other".
 
-    python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3]
+    python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3] [--engine lammps|cpu] [--threads 1] [--clock wall|cpu]
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from pathlib import Path
 import tomli_w
 
 from pylmp_lattice import case_measures, deck, runner, summary
+from pylmp_lattice.engines import cpu
 from pylmp_lattice.sweep import batch, load_sweep, store
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -46,7 +49,8 @@ STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"),
           ("store", batch, "write_batch")]
 
 
-def task(folder: Path, members: int, thermal: float, friction: bool) -> batch.Task:
+def task(folder: Path, members: int, thermal: float, friction: bool, engine: str = "lammps",
+         threads: int | None = None) -> batch.Task:
     base = tomllib.loads(CASE.read_text())
     if not friction:
         del base["friction"]
@@ -57,36 +61,42 @@ def task(folder: Path, members: int, thermal: float, friction: bool) -> batch.Ta
     sweep = load_sweep(folder / "sweep.toml")
     root = folder / "out"
     (root / store.MEMBERS).mkdir(parents=True)
-    return batch.Task(str(root), tuple(sweep.iter_members()), sweep.runner)
+    return batch.Task(str(root), tuple(sweep.iter_members()), sweep.runner, engine, threads)
+
+
+CLOCK = time.perf_counter
 
 
 def timed_run(t: batch.Task) -> dict[str, float]:
     """Run the task with its stages timed; seconds per stage, the task's and the engine's Loop."""
-    stages = [(label, module, name) for label, module, name in STAGES if hasattr(module, name)]  # (an older tree)
+    engine = ("engine", cpu, "run_arrays") if t.engine == "cpu" else ("engine", runner, "run_deck")
+    stages = [(label, module, name) for label, module, name in STAGES[:2] + [engine] + STAGES[3:]
+              if hasattr(module, name)]  # (an older tree)
     spent = {label: 0.0 for label, *_ in stages}
     originals = [(module, name, getattr(module, name)) for _, module, name in stages]
 
     def wrap(label, fn):
         def timed(*args, **kwargs):
-            start = time.perf_counter()
+            start = CLOCK()
             try:
                 return fn(*args, **kwargs)
             finally:
-                spent[label] += time.perf_counter() - start
+                spent[label] += CLOCK() - start
         return timed
 
     for (label, module, name), (_, _, fn) in zip(stages, originals):
         setattr(module, name, wrap(label, fn))
     try:
-        start = time.perf_counter()
+        start = CLOCK()
         results = batch.run_task(t)
-        spent["task"] = time.perf_counter() - start
+        spent["task"] = CLOCK() - start
     finally:
         for module, name, fn in originals:
             setattr(module, name, fn)
     assert {r["record"]["status"] for r in results} == {"done"} and "batch" in results[0]["record"], "not batched"
     [log] = Path(t.root).glob(f"{store.BATCHES}/*/log.lammps")
-    spent["loop"] = float(re.search(r"Loop time of (\S+)", log.read_text())[1])
+    loop = re.search(r"Loop time of (\S+)", log.read_text())  # (LAMMPS's; none for the kernel)
+    spent["loop"] = float(loop[1]) if loop else float("nan")
     return spent
 
 
@@ -95,19 +105,25 @@ def main() -> None:
     parser.add_argument("--members", type=int, default=500)
     parser.add_argument("--thermal", type=float, default=0.02)
     parser.add_argument("--repeat", type=int, default=3, help="tasks per variant; the fastest is shown")
+    parser.add_argument("--engine", choices=("lammps", "cpu"), default="lammps", help="the batches' engine")
+    parser.add_argument("--threads", type=int, default=1, help="the cpu engine's cores (a sweep's worker: cores / workers)")
+    parser.add_argument("--clock", choices=("wall", "cpu"), default="wall", help="wall time, or this process's CPU time")
     args = parser.parse_args()
+    global CLOCK
+    CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
     work = Path(tempfile.mkdtemp(prefix="bench_batch_python_"))
     try:
-        timed_run(task(work / "warm", 5, args.thermal, True))
+        timed_run(task(work / "warm", 5, args.thermal, True, args.engine, args.threads))
         rows = {}
         for friction in (True, False):
-            runs = [timed_run(task(work / f"{friction}{k}", args.members, args.thermal, friction))
+            runs = [timed_run(task(work / f"{friction}{k}", args.members, args.thermal, friction, args.engine, args.threads))
                     for k in range(args.repeat)]
             rows["friction" if friction else "frictionless"] = min(runs, key=lambda r: r["task"] - r["engine"])
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print(f"# {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, load average {os.getloadavg()[0]:.2f}; "
-          f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s, fastest of {args.repeat}")
+          f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s, engine {args.engine}, "
+          f"fastest of {args.repeat}")
     n = args.members
     labels = [label for label, *_ in STAGES if label != "engine"]
     print(f"{'variant':<13}" + "".join(f"{label:>10}" for label in labels)

@@ -90,10 +90,10 @@ def front_levels(case: Case) -> measures.FrontLevels:
     return measures.front_levels(case.impactor.peak_velocity(), chain_noise(case))
 
 
-def chain_front_levels(cases) -> measures.FrontLevels:
+def chain_front_levels(cases, draws: ChainDraws | None = None) -> measures.FrontLevels:
     """The front levels of each of R cases of one drive, m/s: arrays of shape (R,), entry r the
-    levels of `front_levels(cases[r])`."""
-    return measures.front_levels(cases[0].impactor.peak_velocity(), chain_noises(cases))
+    levels of `front_levels(cases[r])` (draws: their `chain_draws`, if drawn)."""
+    return measures.front_levels(cases[0].impactor.peak_velocity(), chain_noises(cases, draws))
 
 @dataclass(frozen=True)
 class FrontRecord:

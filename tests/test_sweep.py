@@ -1013,6 +1013,25 @@ def test_the_folder_says_at_most_how_many_members_are_done_before_any_is_read(tm
     assert disk.get("b")["summary"] == {"particles": 21} and disk.get("d") is None  # d never finished
 
 
+def test_a_batch_s_members_json_is_strict_and_reads_back_each_member_s_summary(tmp_path):
+    """write_batch makes every value strict JSON column by column (NaN and infinities null,
+    numpy values plain, a column of mixed dicts and None value by value) and read_batch gives
+    each member's summary back as `serialize.jsonable` of it would read."""
+    from pylmp_lattice.serialize import jsonable
+    from pylmp_lattice.sweep.store import BATCH_FILE, read_batch, write_batch
+
+    summaries = [{"a": 1.5, "b": float("nan"), "c": {"mean": np.float64(2.0), "flag": np.bool_(True)},
+                  "d": None, "e": [1, float("inf")], "f": "x"},
+                 {"a": float("-inf"), "b": 3, "c": None, "d": {"value": float("nan")}, "e": (2, 3.0), "f": "y"}]
+    write_batch(tmp_path, {"status": "done"}, [{"id": i, "index": k, "params": {"p": k}, "chain": k, "case": {},
+                                                "summary": s} for k, (i, s) in enumerate(zip("ab", summaries))])
+    text = (tmp_path / BATCH_FILE).read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    back = read_batch(tmp_path / BATCH_FILE)
+    assert [back[i]["summary"] for i in "ab"] == [json.loads(json.dumps(jsonable(s))) for s in summaries]
+    assert back["b"]["summary"]["a"] is None and back["a"]["summary"]["c"] == {"mean": 2.0, "flag": True}
+
+
 def test_sweep_files_are_readable_as_the_umask_says(tmp_path):
     """Tables and records are written through a temporary file (mkstemp makes it the owner's
     alone); they end with the mode a plain open() gives under the process's umask."""

@@ -71,9 +71,10 @@ def impactor_samples(imp: Measured) -> tuple[np.ndarray, np.ndarray]:
     return t, to_engine(np.asarray(imp.values, float), "length" if imp.column == "u" else "velocity")
 
 
-def front_levels_rows(cases: Sequence[Case]) -> np.ndarray:
+def front_levels_rows(cases: Sequence[Case], draws=None) -> np.ndarray:
     """Each chain's front levels as fix lattice/front takes them (SI): (R, 5), a row "start front
-    drop pulse_drop pulse_floor" per chain (`case_measures.chain_front_levels`)."""
-    lv = chain_front_levels(cases)
+    drop pulse_drop pulse_floor" per chain (`case_measures.chain_front_levels`; draws: the
+    cases' `case_measures.chain_draws`, if drawn)."""
+    lv = chain_front_levels(cases, draws)
     speeds = [to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop)]
     return np.stack([*speeds, np.full(len(cases), lv.pulse_drop), to_engine(lv.pulse_floor, "velocity")], axis=1)

@@ -93,4 +93,4 @@ def prepare(cases: list[Case], engine: str, draws=None) -> Arrays:
         (float(to_engine(lo, "length")), float(to_engine(hi, "length"))),
         engine_units(draws.positions, "length"), engine_units(draws.velocities, "velocity"),
         engine_units(draws.masses, "mass"), record,
-        np.ascontiguousarray(front_levels_rows(cases), float) if record else np.zeros((len(cases), 5)))
+        np.ascontiguousarray(front_levels_rows(cases, draws), float) if record else np.zeros((len(cases), 5)))

@@ -23,6 +23,7 @@ import contextlib
 import hashlib
 import importlib.metadata
 import json
+import math
 import os
 import platform
 import socket
@@ -108,11 +109,9 @@ def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, di
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
     summary} each) as columns (`columns`), written last and atomically. Returns the outcomes
     as `read_batch` gives them."""
-    from ..serialize import jsonable
-
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
-    data = {**record, "columns": columns([m | {"summary": jsonable(m["summary"])} for m in members])}
+    data = {**record, "columns": _strict(columns(members))}
     atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n", sync=False)
     return _batch_outcomes(data)
 
@@ -124,6 +123,23 @@ def columns(rows: list):
     if isinstance(first, dict) and first and all(isinstance(r, dict) and r.keys() == first.keys() for r in rows):
         return {"cols": {key: columns([r[key] for r in rows]) for key in first}}
     return {"rows": rows}
+
+
+def _strict(table: dict) -> dict:
+    """`columns`' table with its values strict JSON (`serialize.jsonable`): a column of plain
+    numbers, strings and None in one pass (non-finite floats become None), any other value by
+    value: a batch's summaries are some 60 values a member."""
+    from ..serialize import jsonable
+
+    if "cols" in table:
+        return {"cols": {key: _strict(column) for key, column in table["cols"].items()}}
+    values = table["rows"]
+    if {type(v) for v in values} <= _PLAIN:
+        return {"rows": [None if type(v) is float and not math.isfinite(v) else v for v in values]}
+    return {"rows": jsonable(values)}
+
+
+_PLAIN = {float, int, bool, str, type(None)}
 
 
 def rows(table: dict) -> list:
