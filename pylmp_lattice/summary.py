@@ -44,8 +44,8 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     """`summary_of` for each of R cases of one drive (a batch), from their fronts as one Front of R
     chains (`measures.stack_fronts`) and max_speed (R, N): each the summary of the case alone,
     bit for bit (`summary_of` is a batch of one); draws: the cases' `chain_draws`, if drawn.
-    What depends on a case but not on its draws (the fit windows, V0 and f0) is worked out once
-    per parameter point (`_points`)."""
+    What depends on a case but not on its draws (the fit windows) is worked out once per
+    parameter point (`_points`), V0 and f0 once per mean gap and mass."""
     draws = draws or chain_draws(cases)
     points = _points(cases)
     vi = cases[0].impactor.peak_velocity()
