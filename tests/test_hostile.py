@@ -12,7 +12,7 @@ import errno
 import os
 import pickle
 import shutil
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -418,6 +418,94 @@ def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(t
     table = pd.read_csv(out / "results.csv")
     assert list(table["status"]) == ["done"] * 4
     assert {n: (out / store.MEMBERS / n / layout.SUMMARY).stat().st_mtime_ns for n in kept} == kept
+
+
+class _DyingWorker(Executor):
+    """An executor whose worker dies (or reports a full disk) in its task's first member, after
+    writing the member's status.json "running", as a worker killed GRACE s after a stop, or
+    one whose "interrupted" record did not fit on the disk, leaves it."""
+
+    def __init__(self, error: BaseException):
+        import subprocess
+
+        gone = subprocess.Popen(["true"])
+        gone.wait()
+        self.pid, self.error = gone.pid, error  # a process of this machine that no longer runs
+
+    def submit(self, fn, task):
+        import socket
+
+        from pylmp_lattice.sweep.member import _record
+
+        m = task.members[0]
+        folder = store.member_folder(task.root, m.id)
+        folder.mkdir(parents=True)
+        record = _record(m) | {"pid": self.pid}
+        record["provenance"]["host"] = socket.gethostname()
+        store.write_status(folder, record)
+        future = Future()
+        future.set_exception(self.error)
+        return future
+
+
+@pytest.mark.parametrize("how", ["lost worker", "full disk"])
+def test_no_member_stays_running_once_the_sweep_has_stopped_by_itself(tmp_path, monkeypatch, how):
+    """Issue 27 item 6: a full disk mid-sweep once left a member's status.json "running" (its
+    worker could not write "interrupted"). Once the sweep has stopped on its own (a lost worker,
+    a full disk), a member whose worker is gone is "interrupted" on disk, or, with no room even
+    for that record, has no folder: it runs again on resume either way."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from pylmp_lattice.sweep import load_sweep, run_sweep
+
+    sweep_file = write_sweep(tmp_path, velocities=[1.0])
+    out = tmp_path / "sw"
+    if how == "lost worker":
+        table = run_sweep(load_sweep(sweep_file), out, executor=_DyingWorker(BrokenProcessPool("killed")), slots=1,
+                          progress=False)
+    else:  # the disk is full: the worker's task says so, and no status.json fits any more
+        create = files._create
+
+        def full(path, part):
+            if Path(path).name == store.STATUS and Path(path).exists():  # the worker's "running" fitted
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return create(path, part)
+
+        monkeypatch.setattr(files, "_create", full)
+        with pytest.raises(files.DiskFull, match="stopped with 0 of 1 members done"):
+            run_sweep(load_sweep(sweep_file), out, executor=_DyingWorker(files.DiskFull(out / "x")), slots=1,
+                      progress=False)
+        import pandas as pd
+
+        table = pd.read_csv(out / "results.csv")
+    assert list(table["status"]) == ["interrupted"]
+    members = list((out / store.MEMBERS).iterdir())
+    if how == "lost worker":
+        assert [store.read_status(m)["status"] for m in members] == ["interrupted"]
+    else:
+        assert members == []  # no room for its record: its folder went
+    monkeypatch.undo()
+    assert list(run_in_threads(sweep_file, out)["status"]) == ["done"]  # resumed
+
+
+def test_a_running_member_of_a_live_or_remote_worker_is_left_alone(tmp_path):
+    """Only a worker known gone (a process of this machine that no longer runs) is settled: a
+    thread of this process, or a worker on another machine, may still write its outcome."""
+    import socket
+
+    from pylmp_lattice.sweep.execute import _settle
+    from pylmp_lattice.sweep.member import _record
+    from pylmp_lattice.sweep.spec import load_sweep
+
+    m = next(load_sweep(write_sweep(tmp_path, velocities=[1.0])).iter_members())
+    folder = store.member_folder(tmp_path / "sw", m.id)
+    folder.mkdir(parents=True)
+    for pid, host in ((os.getpid(), socket.gethostname()), (_DyingWorker(None).pid, "another-host")):
+        record = _record(m) | {"pid": pid}
+        record["provenance"]["host"] = host
+        store.write_status(folder, record)
+        _settle(tmp_path / "sw", m)
+        assert store.read_status(folder)["status"] == "running"
 
 
 def _thread_pool(original):

@@ -20,6 +20,7 @@ else "interrupted", and the sweep stops; running the command again completes it.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import logging
 import os
@@ -29,7 +30,8 @@ from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from pathlib import Path
 
 from ..errors import ConfigError, Interrupted, UsageError
-from ..formats.files import DiskFull
+from ..formats.files import DiskFull, remove_tree
+from ..run_folder import marker
 from . import disk
 from .batch import Task
 from .blocks import GPU_MAX_ATOMS, _Blocks, _point  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
@@ -40,7 +42,8 @@ from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
 from .signals import _StopSignals
 from .spec import Member, Sweep
-from .store import FAILED, INTERRUPTED, MEMBERS, Outcomes, remove_stale_locks
+from .store import (FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
+                    write_status)
 from .table import CSV, Table, frame, member_row
 
 log = logging.getLogger(__name__)
@@ -140,7 +143,7 @@ class _Coordinator:
                     self._wind_down(running)
                 self._write_table(flush=True)
             if self.broken:
-                self.pool.kill()
+                self.pool.kill(wait=True)
                 for task in self.broken:
                     self._from_disk(task)
         finally:
@@ -240,7 +243,10 @@ class _Coordinator:
     def _from_disk(self, task: Task) -> None:
         disk = Outcomes(self.root, batches=[m.id for m in task.members])  # as it stands now
         for m in task.members:
-            result = disk.get(m.id) or unstarted(m)
+            result = disk.get(m.id)
+            if result is None:
+                _settle(self.root, m)
+            result = result or unstarted(m)
             self._row(m, result["record"], result["summary"])
 
     def _wind_down(self, running: dict[Future, Task]) -> None:
@@ -260,6 +266,26 @@ class _Coordinator:
             folder = None  # not started, or its batch stopped before it wrote anything
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
+
+
+def _settle(root: Path, m: Member) -> None:
+    """A member whose status.json still says "running" though its worker is gone (killed GRACE
+    s after a stop while it still wrote, or lost while it recorded its stop on a full disk) is
+    recorded "interrupted", as a stopped member is; where even that does not fit on the disk,
+    its folder goes (freeing room). It runs again on resume either way; only a SIGKILL of the
+    whole sweep leaves "running" (a worker of another machine, or one alive, is left alone)."""
+    folder = member_folder(root, m.id)
+    record = read_status(folder)
+    if record is None or record.get("status") != RUNNING:
+        return
+    host = record.get("provenance", {}).get("host") if isinstance(record.get("provenance"), dict) else None
+    if not marker.writer_gone({"state": marker.RUNNING, "host": host, "pid": record.get("pid")}):
+        return
+    try:
+        write_status(folder, record | {"status": INTERRUPTED, "ended": now()})
+    except (DiskFull, OSError):
+        with contextlib.suppress(OSError):
+            remove_tree(folder)
 
 
 def _with_engine(sweep: Sweep, engine: str | None) -> Sweep:

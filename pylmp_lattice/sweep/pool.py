@@ -48,9 +48,14 @@ class Pool:
         else:
             self._signal(signal.SIGINT)
 
-    def kill(self) -> None:
-        """SIGKILL the workers (when they did not stop on SIGTERM)."""
+    def kill(self, wait: bool = False) -> None:
+        """SIGKILL the workers (when they did not stop on SIGTERM); wait: until they are gone (a
+        process pool's; at most GRACE s each)."""
         self._signal(signal.SIGKILL)
+        if wait and isinstance(self.executor, ProcessPoolExecutor):
+            for process in list((self.executor._processes or {}).values()):  # noqa: SLF001 - as in _signal
+                with contextlib.suppress(AssertionError, ValueError):  # not started, or closed
+                    process.join(GRACE)
 
     def _signal(self, signum: int) -> None:
         if isinstance(self.executor, ProcessPoolExecutor):
