@@ -23,6 +23,11 @@ from ..units import to_h5md
 from . import marker
 from .claim import Claimed
 
+# HDF5's own bytes in traj.h5md beyond the dumps' values: its metadata, and up to a chunk of
+# 256 kB (`h5md._CHUNK_VALUES` doubles) of padding for each of x, v, f (a 2 ms run of the
+# experiment: 14 kB of dumps, a 100 kB file)
+H5MD_OVERHEAD = 1 << 20
+
 log = logging.getLogger(__name__)
 
 
@@ -71,9 +76,12 @@ def _convert(folder: Path, case: Case) -> bool:
 
 def _check_room(folder: Path, sources) -> int:
     """The bytes to reserve for traj.h5md: the binary dumps' size (it holds their x, v, f as
-    doubles: at most that); DiskFull naming it, before HDF5 writes, if the disk has less free
-    (HDF5 that ran out of space mid-file crashed the process: `h5md.write_file`)."""
-    need = sum(dump.path.stat().st_size for dump in sources.values())
+    doubles: at most that), the log's (its thermo rows become observables) and H5MD_OVERHEAD;
+    DiskFull naming it, before HDF5 writes, if the disk has less free (HDF5 that ran out of
+    space mid-file crashed the process: `h5md.write_file`)."""
+    log_file = folder / layout.LOG
+    need = sum(dump.path.stat().st_size for dump in sources.values()) + H5MD_OVERHEAD \
+        + (log_file.stat().st_size if log_file.is_file() else 0)
     free = free_bytes(folder)
     if free < need:
         raise DiskFull(folder / layout.H5MD, f"converting the binary dumps needs up to {need / 1e6:.3g} MB, "
