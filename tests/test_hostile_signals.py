@@ -190,3 +190,28 @@ def test_a_killed_cli_run_is_known_to_have_ended_at_once(tmp_path):
     proc.wait()
     assert state(tmp_path / "r") == "running"
     assert RunFolder(tmp_path / "r").status == "interrupted"
+
+
+def test_a_pool_workers_own_threads_leave_the_stop_signals_to_its_main_thread():
+    """A stop signal that the kernel hands to a worker's pipe-watching thread never runs the
+    handler (Python runs handlers in the main thread only): a worker whose main thread was
+    blocked on the task queue's lock stayed blocked, and the pool's shutdown with it (5 of 30
+    SIGTERMs to a sweep's process group at its table's write hung, with the pool's kill after
+    GRACE disabled). Its threads block the stop signals; the main thread takes them."""
+    code = """
+import json, multiprocessing, os, time
+from pylmp_lattice.sweep import pool
+alive, stop = multiprocessing.Pipe(duplex=False), multiprocessing.Pipe(duplex=False)
+pool._pool_worker_init(alive[0], stop[0])
+time.sleep(0.1)  # the threads set their masks
+masks = {}
+for tid in os.listdir("/proc/self/task"):
+    status = open(f"/proc/self/task/{tid}/status").read().splitlines()
+    masks[tid] = int(next(line for line in status if line.startswith("SigBlk")).split()[1], 16)
+print(json.dumps({"main": masks.pop(str(os.getpid())), "others": list(masks.values())}))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    masks = json.loads(done.stdout)
+    stops = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
+    assert masks["main"] & stops == 0
+    assert len(masks["others"]) == 2 and all(mask & stops == stops for mask in masks["others"]), masks
