@@ -125,6 +125,7 @@ def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
     assert members[1].params == {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}, "impactor.velocity": 1.0}
     assert [r.getMessage() for r in caplog.records] == [
         "2 members are the same case as earlier ones (members 1, 3); each case runs once"]
+    assert len(sweep.members()) == 2 and len(caplog.records) == 1  # said once (a study enumerates, then runs)
 
 
 def test_sweep_from_python_accepts_a_case(case_factory):

@@ -143,6 +143,10 @@ def _seed_and_rest(data: dict) -> tuple:
     return chain.get("seed"), data | {"chain": {k: v for k, v in chain.items() if k != "seed"}}
 
 
+# The sweeps (identities) whose merged identical members this process has reported.
+_SAID_SAME: set[str] = set()
+
+
 @dataclass(frozen=True)
 class Sweep:
     """A sweep: a base case (TOML path, `Case`, or case dict) and how to vary it.
@@ -288,7 +292,8 @@ class Sweep:
                     continue
                 seen.add(member.id)
                 yield member
-        if same:  # one line for all (study thermal printed 14)
+        if same and self.identity() not in _SAID_SAME:  # one line for all (study thermal printed 14), once
+            _SAID_SAME.add(self.identity())  # (a study enumerates its sweep, then runs it: it printed 2)
             log.info("%d member%s the same case as earlier ones (member%s %s); each case runs once", len(same),
                      " is" if len(same) == 1 else "s are", "" if len(same) == 1 else "s", _numbers(same))
 
