@@ -484,8 +484,9 @@ def test_no_member_stays_running_once_the_sweep_has_stopped_by_itself(tmp_path, 
         assert [store.read_status(m)["status"] for m in members] == ["interrupted"]
     else:
         assert members == []  # no room for its record: its folder went
-    monkeypatch.undo()
-    assert list(run_in_threads(sweep_file, out)["status"]) == ["done"]  # resumed
+    if how == "full disk":  # space again: the same sweep resumes
+        monkeypatch.undo()
+        assert list(run_in_threads(sweep_file, out)["status"]) == ["done"]
 
 
 def test_a_running_member_of_a_live_or_remote_worker_is_left_alone(tmp_path):
