@@ -11,10 +11,15 @@ for small runs and 100-1000 times low for small sweeps (issue 27, item 9).
 small to count (8 magnets, 100 steps): `pylmp-lattice run` (run_s: start-up, writes, measures,
 figure), and `pylmp-lattice sweep` of 1 and of SWEEP_MEMBERS members run alone on one worker
 (their difference: member_s a member; the rest: sweep_s, the sweep's start-up and table). The
-mean of two tries of each counts: on a shared machine the load moves each by +-20 %, and a
-command meets the load as it comes. The numbers are kept in the user's cache folder, one file
+mean of two tries of each counts. The numbers are kept in the user's cache folder, one file
 per host, Python and package version; until measured, the defaults below (measured on that
 machine, 2026-11-27, under a load of about 5) stand in.
+
+On a shared machine the load moves these times by a factor, not by noise: cached at a load of
+10 on 2 cores, a run's estimate was 4.6 s against 3.1 s taken at a load of 6 (+50 %). So the
+contention at the measurement is kept with the times, and they are scaled to the contention
+now: a command gets about min(1, cores / (load + 1)) of a core, so its time goes with
+`contention()` = max(1, (load + 1) / cores), the load the 1-minute load average.
 """
 
 from __future__ import annotations
@@ -65,6 +70,18 @@ class Overheads:
     sweep_s: float = 3.0
     member_s: float = 0.12
     measured: bool = False
+    contention: float = 3.0  # `contention()` when measured
+
+    def now(self) -> Overheads:
+        """These times at this moment's contention (`contention()`)."""
+        k = contention() / self.contention
+        return Overheads(self.run_s * k, self.sweep_s * k, self.member_s * k, self.measured, self.contention * k)
+
+
+def contention() -> float:
+    """How much longer a single-threaded command takes now than on an idle machine: (1-minute
+    load + 1) / cores, at least 1."""
+    return max(1.0, (os.getloadavg()[0] + 1.0) / (os.cpu_count() or 1))
 
 
 def cache_file() -> Path:
@@ -78,23 +95,23 @@ def cache_file() -> Path:
 
 
 def overheads(measure: bool = False) -> Overheads:
-    """The cached overheads of this machine; measured now (about 10-20 s, once) if `measure`
-    and none are cached, else the defaults."""
+    """The cached overheads of this machine, at this moment's contention (`Overheads.now`);
+    measured now (about 10-20 s, once) if `measure` and none are cached, else the defaults."""
     if os.environ.get(MEASURING):
         return Overheads()
     path = cache_file()
     try:
-        return Overheads(**{**json.loads(path.read_text()), "measured": True})
+        return Overheads(**{**json.loads(path.read_text()), "measured": True}).now()
     except (OSError, ValueError, TypeError):
         pass
     if not measure:
-        return Overheads()
+        return Overheads().now()
     log.info("measuring this machine's start-up and per-member costs once for the estimates (cached in %s)", path)
     try:
         found = _measure()
     except (OSError, subprocess.SubprocessError) as err:  # an estimate never stops the work it estimates
         log.warning("could not measure this machine's overheads (%s); the estimate uses the defaults", err)
-        return Overheads()
+        return Overheads().now()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, json.dumps({k: v for k, v in asdict(found).items() if k != "measured"}) + "\n")
@@ -104,6 +121,7 @@ def overheads(measure: bool = False) -> Overheads:
 
 
 def _measure() -> Overheads:
+    before = contention()
     with tempfile.TemporaryDirectory(prefix="pylmp_lattice_overhead_") as tmp:
         folder = Path(tmp)
         (folder / "tiny.toml").write_text(_TINY_CASE)
@@ -114,7 +132,8 @@ def _measure() -> Overheads:
             (folder / f"sweep{k}.toml").write_text(f'base = "tiny.toml"\n[grid]\n"impactor.velocity" = [{values}]\n')
             times[k] = _wall(["sweep", f"sweep{k}.toml", "-o", f"s{k}_{{}}", "--workers", "1", "--quiet"], folder)
     member_s = max(0.0, (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1))
-    return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3), round(member_s, 3), True)
+    return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3), round(member_s, 3), True,
+                     round((before + contention()) / 2, 3))
 
 
 def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:

@@ -8,16 +8,18 @@ import json
 import pytest
 
 from pylmp_lattice import overhead, preflight
-from pylmp_lattice.overhead import Overheads
+from pylmp_lattice.overhead import Overheads, contention
 
 from conftest import make_case
 
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    """A fresh cache folder, measuring allowed (conftest forbids it elsewhere)."""
+    """A fresh cache folder, measuring allowed (conftest forbids it elsewhere), at the defaults'
+    contention (the machine's load does not move the numbers asserted)."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.delenv(overhead.MEASURING)
+    monkeypatch.setattr(overhead, "contention", lambda: Overheads().contention)
     return tmp_path
 
 
@@ -35,8 +37,8 @@ def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cac
     assert overhead.overheads() == Overheads()  # not measured unless asked
     found = overhead.overheads(measure=True)
     assert found == Overheads(run_s=3.1, sweep_s=3.3, member_s=0.2, measured=True)
-    assert len(calls) == 3 and json.loads(overhead.cache_file().read_text()) == {"run_s": 3.1, "sweep_s": 3.3,
-                                                                                   "member_s": 0.2}
+    assert len(calls) == 3 and json.loads(overhead.cache_file().read_text()) == {
+        "run_s": 3.1, "sweep_s": 3.3, "member_s": 0.2, "contention": Overheads().contention}
     assert overhead.cache_file().parent == cache / "pylmp_lattice"
     assert overhead.overheads(measure=True) == found and len(calls) == 3  # once per machine
 
@@ -48,6 +50,21 @@ def test_a_runs_estimate_is_its_engine_and_output_plus_the_machines_run_overhead
     overhead.cache_file().write_text(json.dumps({"run_s": 2.5, "sweep_s": 3.0, "member_s": 0.1}))
     assert preflight.estimate(case).seconds == pytest.approx(2.5 + base, rel=1e-12)
     assert 0 < base < 0.1  # a small run is mostly its overhead: the engine's model alone was 24-55 % low
+
+
+def test_cached_times_scale_with_the_contention_now(cache, monkeypatch):
+    """Measured at load 10 on 2 cores (contention 5.5), read at load 6 (3.5): each time x 3.5/5.5.
+    The model: a single-threaded command gets cores / (load + 1) of a core when that is below 1."""
+    overhead.cache_file().parent.mkdir(parents=True)
+    overhead.cache_file().write_text(json.dumps({"run_s": 4.6, "sweep_s": 4.4, "member_s": 0.11, "contention": 5.5}))
+    monkeypatch.setattr(overhead.os, "getloadavg", lambda: (6.0, 0.0, 0.0))
+    monkeypatch.setattr(overhead.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(overhead, "contention", contention)  # the real one, not the fixture's stand-in
+    assert overhead.contention() == pytest.approx(3.5, rel=1e-15)
+    now = overhead.overheads()
+    assert (now.run_s, now.sweep_s, now.member_s) == pytest.approx((4.6 * 3.5 / 5.5, 4.4 * 3.5 / 5.5, 0.07), rel=1e-12)
+    monkeypatch.setattr(overhead.os, "getloadavg", lambda: (0.2, 0.0, 0.0))  # idle: never below 1
+    assert overhead.overheads().run_s == pytest.approx(4.6 / 5.5, rel=1e-12)
 
 
 @pytest.mark.slow
