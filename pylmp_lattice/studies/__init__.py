@@ -22,8 +22,10 @@ from __future__ import annotations
 import importlib
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .output import StudyResult, write_study
+if TYPE_CHECKING:
+    from .output import StudyResult
 
 __all__ = ["STUDIES", "StudyResult", "run_study", "write_study"]
 
@@ -68,6 +70,16 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
     out = Path(out)
     log.info("study %s: %s -> %s", name, STUDIES[name], out)
+    from .output import write_study
+
     result = importlib.import_module(study_module(name)).run(out, quick)
     write_study(result, out)
     return result
+
+
+def __getattr__(name):
+    # StudyResult and write_study from `output` (numpy) on first use: the command line reads
+    # STUDIES for its choices of every command
+    if name in ("StudyResult", "write_study"):
+        return getattr(importlib.import_module(".output", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

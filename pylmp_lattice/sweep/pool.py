@@ -20,9 +20,11 @@ from ..errors import ConfigError, Interrupted, UsageError
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds a local worker lives on after a stop signal (to stop its engine and report).
 GRACE = 1.0
-# What the fork server imports once for all workers (`forkserver`: the engine's libraries).
+# What the fork server imports once for all workers (`forkserver`: LAMMPS's libraries, which the
+# kernel engines need only for a member that falls back to LAMMPS).
+LIBRARIES = "pylmp_lattice.sweep.forkserver"
 PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.folder",
-           "pylmp_lattice.summary", "pylmp_lattice.engine", "pylmp_lattice.sweep.forkserver"]
+           "pylmp_lattice.summary", "pylmp_lattice.engine", LIBRARIES]
 
 
 class Pool:
@@ -138,16 +140,17 @@ def _end_workers(pool: ProcessPoolExecutor) -> None:
             process.kill()
 
 
-def start_forkserver():
-    """The forkserver context, its server started (at once: it loads PRELOAD while the caller
-    goes on), with the stop signals ignored in it (inherited): it and its workers are left to
+def start_forkserver(engine: str | None = None):
+    """The forkserver context, its server started (at once: it loads PRELOAD, without LAMMPS's
+    libraries for engine "cpu" or "gpu", while the caller goes on), with the stop signals ignored in it (inherited): it and its workers are left to
     the coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a
     SIGTERM to the process group (a batch system's) does not kill it, which would break the
     pool and leave the members in hand "running". It exits when the coordinator does."""
     from multiprocessing import forkserver
 
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(PRELOAD)
+    lammps = engine in (None, "lammps")
+    context.set_forkserver_preload([m for m in PRELOAD if lammps or m != LIBRARIES])
     if threading.current_thread() is not threading.main_thread():
         forkserver.ensure_running()
         return context

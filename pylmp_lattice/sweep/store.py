@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import importlib.metadata
 import json
 import math
 import os
@@ -253,6 +252,8 @@ def provenance() -> dict:
 
 
 def _version(dist: str) -> str | None:
+    import importlib.metadata  # here, not at import: the coordinator never needs it
+
     try:
         return importlib.metadata.version(dist)
     except importlib.metadata.PackageNotFoundError:
@@ -278,6 +279,7 @@ def _git_commit() -> str | None:
 
 def _installed_from() -> Path | None:
     """The local folder the package was installed from, if pip recorded one (PEP 610)."""
+    import importlib.metadata
     from urllib.parse import unquote, urlparse
 
     try:

