@@ -11,20 +11,23 @@ class _Progress:
     """A progress bar on stderr (terminals only): members finished of all, failed, running."""
 
     def __init__(self, total: int, enabled: bool):
-        from tqdm import tqdm
-
         self.failed = self.running = 0
-        self.bar = tqdm(total=total, file=sys.stderr, disable=None if enabled else True, unit="member",
-                        dynamic_ncols=True, mininterval=0.5)
+        self.bar = None
+        if enabled and sys.stderr.isatty():  # else no tqdm (its import is on the way to the first member)
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, file=sys.stderr, unit="member", dynamic_ncols=True, mininterval=0.5)
 
     def show(self, running: int) -> None:
         self.running = running
-        self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
 
     def advance(self, status: str) -> None:
         self.failed += status == FAILED
-        if status != INTERRUPTED:
+        if status != INTERRUPTED and self.bar is not None:
             self.bar.update(1)
 
     def close(self) -> None:
-        self.bar.close()
+        if self.bar is not None:
+            self.bar.close()
