@@ -20,11 +20,11 @@ from ..errors import ConfigError, Interrupted, UsageError
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Seconds a local worker lives on after a stop signal (to stop its engine and report).
 GRACE = 1.0
-# What the fork server imports once for all workers (`forkserver`: LAMMPS's libraries, which the
-# kernel engines need only for a member that falls back to LAMMPS).
+# What the fork server imports once for all workers: the package's modules (`preload`), and
+# LAMMPS's libraries (`forkserver`), which the kernel engines need only for a member that falls
+# back to LAMMPS.
 LIBRARIES = "pylmp_lattice.sweep.forkserver"
-PRELOAD = ["pylmp_lattice.sweep.batch", "pylmp_lattice.run_folder.execution", "pylmp_lattice.run_folder.folder",
-           "pylmp_lattice.summary", "pylmp_lattice.engine", LIBRARIES]
+PRELOAD = ["pylmp_lattice.sweep.preload", LIBRARIES]
 
 
 class Pool:
