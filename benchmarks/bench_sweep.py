@@ -71,11 +71,13 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps") -> dict:
-    """The sweep as a user runs it: wall time, start-up, first result, the table written, and
-    CPU (the coordinator's, and the workers' in their tasks), seconds."""
-    cmd = [sys.executable, "-m", "pylmp_lattice.cli", "sweep", str(path), "-o", str(out), "--workers", str(workers),
-           "--quiet", "--engine", engine]
+def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps",
+                      command: list[str] | None = None) -> dict:
+    """The sweep as a user runs it (or as `command`, a Python command line that takes the CLI's
+    arguments, runs it): wall time, start-up, first result, the table written, CPU (the
+    coordinator's, and the workers' in their tasks), seconds, and the command's stderr."""
+    cmd = [*(command or [sys.executable, "-m", "pylmp_lattice.cli"]), "sweep", str(path), "-o", str(out),
+           "--workers", str(workers), "--quiet", "--engine", engine]
     cpu = children_cpu()
     start = time.time()
     done = subprocess.run(cmd, capture_output=True, text=True)
@@ -100,7 +102,7 @@ def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps
     engine_cpu = sum(float(t) * float(use) / 100 for t, use in loops)  # the engine's own CPU, contention aside
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
             "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks, "engine": engine,
-            "engine_cpu": engine_cpu, "members": len(records), "batched": batched}
+            "engine_cpu": engine_cpu, "members": len(records), "batched": batched, "stderr": done.stderr}
 
 
 def loop_states(sweep_path: Path):

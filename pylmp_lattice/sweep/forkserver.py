@@ -1,7 +1,8 @@
-"""Imported once by the sweep workers' fork server (`pool.PRELOAD`): it loads the engine's shared
-libraries (libmpi, liblammps and the plugin: 0.1 s), so that every worker forked from it starts
-its first LAMMPS instance without loading them again. Loading a library is safe to fork; MPI
-itself starts in each worker, with its first instance, never here.
+"""Imported once by the sweep workers' fork server (`pool.PRELOAD`, for engine lammps; after
+`preload`): it loads the engine's shared libraries (libmpi, liblammps and the plugin: 0.1 s), so
+that every worker forked from it starts its first LAMMPS instance without loading them again.
+Loading a library is safe to fork; MPI itself starts in each worker, with its first instance,
+never here.
 """
 
 from __future__ import annotations

@@ -1,0 +1,96 @@
+"""A sweep's start-up: the command to its first member's start (issue 28: within 0.3 s for a
+1000-member ensemble), as wall time and as the CPU of the two paths that lead to it, which a
+loaded machine stretches less than the wall time.
+
+The first member starts once two things have happened, side by side on idle cores: the command
+(the coordinator) has read its arguments, started the workers' fork server, imported the sweep's
+modules, read the sweep file, checked the disk, claimed the folder and enumerated and sent the
+first task; and the fork server (a fresh Python started after the arguments are read) has
+imported the package once (`pool.PRELOAD`; LAMMPS's libraries with engine lammps) and forked
+the worker. Each run of `pylmp-lattice sweep` (--members thermal replicas of the 21-magnet
+experiment with friction, --workers 2; engines interleaved) reports:
+
+- start-up, wall: the command to the first member's "started", as bench_sweep.py measures it;
+- S: the command's CPU when it starts the fork server; C: its CPU when it sends the first task;
+  F: the fork server's CPU (its imports, and the forks of the workers);
+- on idle cores the start-up would be about max(C, S + F), plus the worker's own start (forked,
+  its task unpickled: a few tens of ms, not counted here).
+
+The command runs with `--quiet` under a small driver (`python -c DRIVER ARGS`) that notes S and
+C (it imports `sweep.pool` before the command line, a few ms); and, for reference, the CPU of
+Python and numpy's import in a fresh Python, best of --repeat, in the same run.
+
+    python benchmarks/bench_startup.py [--members 1000] [--repeat 5] [--engines cpu,lammps] [--dir /tmp]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+
+from bench_sweep import ROOT, import_cpu, run_sweep_command, write_sweep
+
+DRIVER = """
+import json, os, sys, time
+from multiprocessing import forkserver
+from pylmp_lattice.sweep import pool
+marks, submit, start = {}, pool.Pool.submit, pool.start_forkserver
+def first_submit(self, task):
+    marks.setdefault("C", time.process_time())
+    return submit(self, task)
+def starting(*args, **kwargs):
+    marks.setdefault("S", time.process_time())
+    return start(*args, **kwargs)
+pool.Pool.submit, pool.start_forkserver = first_submit, starting
+from pylmp_lattice.cli import main
+code = main(sys.argv[1:])
+with open(f"/proc/{forkserver._forkserver._forkserver_pid}/stat") as f:
+    marks["F"] = sum(map(int, f.read().rsplit(")", 1)[1].split()[11:13])) / os.sysconf("SC_CLK_TCK")
+print("startup-marks " + json.dumps(marks), file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--members", type=int, default=1000)
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--engines", default="cpu,lammps")
+    p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
+    args = p.parse_args()
+    engines = args.engines.split(",")
+    load = [os.getloadavg()[0]]
+    floor = {"Python": import_cpu(["sys"], args.repeat), "numpy": import_cpu(["numpy"], args.repeat)}
+    runs = {e: [] for e in engines}
+    with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_startup.") as tmp:
+        sweep = write_sweep(Path(tmp), args.members, 0.02, friction=True)
+        run_sweep_command(sweep, Path(tmp) / "warm-up", 2, engines[0])  # the libraries read from disk once
+        for k in range(args.repeat):
+            for e in engines:
+                load.append(os.getloadavg()[0])
+                s = run_sweep_command(sweep, Path(tmp) / f"{e}-{k}", 2, e, [sys.executable, "-c", DRIVER])
+                marks = json.loads(s["stderr"].split("startup-marks ")[-1].splitlines()[0])
+                runs[e].append({"wall": s["startup"], **marks, "idle": max(marks["C"], marks["S"] + marks["F"])})
+    load.append(os.getloadavg()[0])
+    print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; load average {min(load):.1f}-"
+          f"{max(load):.1f}; {args.members} members of the 21-magnet experiment with friction, 2 workers; "
+          f"medians of {args.repeat} runs (least in brackets), seconds")
+    print("| engine | start-up, wall | S: command, fork server started (CPU) | C: command, first task sent (CPU) "
+          "| F: fork server (CPU) | max(C, S + F) |")
+    print("|---|---|---|---|---|---|")
+    for e, rs in runs.items():
+        cells = [f"{statistics.median(r[k] for r in rs):.3f} ({min(r[k] for r in rs):.3f})"
+                 for k in ("wall", "S", "C", "F", "idle")]
+        print(f"| {e} | " + " | ".join(cells) + " |")
+    print(f"In a fresh Python, CPU, best of {args.repeat}: Python alone {floor['Python']:.3f} s, "
+          f"importing numpy {floor['numpy']:.3f} s.")
+
+
+if __name__ == "__main__":
+    main()
