@@ -86,7 +86,7 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
         for name in measures:
             values = used_values(group, name)
             row[f"{name}.mean"] = values.mean() if len(values) else np.nan
-            row[f"{name}.sem"] = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
+            row[f"{name}.sem"] = standard_error(values)
             row[f"{name}.count"] = len(values)
             row[f"{name}.coverage"] = len(values) / len(group) if len(group) else np.nan
             row[f"{name}.low_coverage"] = _low_coverage(len(values), len(group))
@@ -115,6 +115,11 @@ def low_coverage_warnings(stats: pd.DataFrame) -> list[str]:
             lines.append(f"{name}: below {COVERAGE_LIMIT:.0%} coverage at {int(low.sum())} of {len(stats)} points "
                          f"(lowest {worst:.0%} of the members done): a mean over the members that converged only")
     return lines
+
+
+def standard_error(values: np.ndarray) -> float:
+    """The standard error of the mean: std with ddof=1 over sqrt(count); NaN for fewer than two values."""
+    return values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
 
 
 def used_values(members: pd.DataFrame, name: str) -> np.ndarray:
@@ -226,11 +231,11 @@ def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int 
 
         ax = plt.figure().add_subplot()
     mean = values.mean()
-    sem = values.std(ddof=1) / np.sqrt(len(values)) if len(values) > 1 else np.nan
+    error = standard_error(values)
     ax.hist(values, bins=min(30, max(5, len(values) // 10)), color="0.7")
     ax.axvline(mean, color="C0")
-    if np.isfinite(sem):
-        ax.axvspan(mean - sem, mean + sem, color="C0", alpha=0.3, lw=0)
+    if np.isfinite(error):
+        ax.axvspan(mean - error, mean + error, color="C0", alpha=0.3, lw=0)
     _no_offset(ax.xaxis)
     ax.set_xlabel(label(measure))
     ax.set_ylabel("replicas")
@@ -238,7 +243,7 @@ def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int 
     if _low_coverage(len(values), members):
         used += f" (coverage {len(values) / members:.0%}, below {COVERAGE_LIMIT:.0%})"
     unit = MEASURES.get(measure, (None, None))[1]
-    spread = f" ± {sem:.2g}" if np.isfinite(sem) else ""
+    spread = f" ± {error:.2g}" if np.isfinite(error) else ""
     ax.set_title(f"{used}\nmean {mean:.5g}{spread}{' ' + unit if unit else ''} (± standard error)", fontsize="small")
     return ax
 
