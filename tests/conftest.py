@@ -74,6 +74,32 @@ def quick_studies(tmp_path_factory):
     return get
 
 
+@pytest.fixture(scope="session")
+def all_study(tmp_path_factory):
+    """Study `all` over fig2 alone (quick), run once per test session: returns (its folder, its
+    StudyResult, the lines it logged). tests/test_studies.py checks its files and progress lines
+    and fig2's numbers in the same folder, tests/test_figures.py its figure."""
+    import logging
+
+    import pylmp_lattice.studies as studies
+
+    out, lines = tmp_path_factory.mktemp("all"), []
+    keep = logging.Handler(logging.INFO)
+    keep.emit = lambda record: lines.append(record.getMessage())
+    logger = logging.getLogger("pylmp_lattice.studies")
+    level = logger.level
+    logger.setLevel(logging.INFO)
+    logger.addHandler(keep)
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(studies, "STUDIES", {"fig2": studies.STUDIES["fig2"], "all": studies.STUDIES["all"]})
+            result = studies.run_study("all", out, quick=True)
+    finally:
+        logger.removeHandler(keep)
+        logger.setLevel(level)
+    return out, result, lines
+
+
 # Set on CI (.ci/run): SLURM that cannot start fails the slurm tests instead of skipping them.
 REQUIRE_SLURM = "PYLMP_LATTICE_REQUIRE_SLURM"
 

@@ -106,11 +106,8 @@ def test_quick_figures_say_what_they_cannot_show(quick_studies):
 
 
 @pytest.mark.lammps
-def test_all_figure(tmp_path, monkeypatch):
-    import pylmp_lattice.studies as studies
-
-    monkeypatch.setattr(studies, "STUDIES", {"fig2": studies.STUDIES["fig2"], "all": studies.STUDIES["all"]})
-    result = studies.run_study("all", tmp_path, quick=True)
+def test_all_figure(all_study):
+    _, result, _ = all_study  # `all` over fig2 (conftest.all_study)
     check_figure(result.figure, quick=True)
 
 
