@@ -9,6 +9,7 @@ start a LAMMPS command (that the deck's commands are its own: `test_injection`).
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 
 import numpy as np
@@ -33,7 +34,15 @@ def base(**sections) -> dict:
 
 
 def render(data: dict) -> dict[str, str]:
-    return deck.render(case_from_dict(data))
+    """deck.render of the case `data` describes; the texts of one case are rendered once (the
+    field-by-field test renders the same base some 30 times: a force table each time)."""
+    key = json.dumps(data, sort_keys=True)
+    if key not in _RENDERED:
+        _RENDERED[key] = deck.render(case_from_dict(data))
+    return _RENDERED[key]
+
+
+_RENDERED: dict[str, dict[str, str]] = {}
 
 
 # ---------------------------------------------------------------- sections
