@@ -28,6 +28,7 @@ from pylmp_lattice.run_folder import marker
 from pylmp_lattice.serialize import dumps
 
 from conftest import held_elsewhere, make_case
+from test_architecture import import_nodes
 
 ROOT = Path(__file__).parent.parent
 PACKAGE = ROOT / "pylmp_lattice"
@@ -70,7 +71,7 @@ def _imports(path: Path) -> set[str]:
     module = ".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in import_nodes(path.read_text()):  # parsed once per session (test_architecture)
         if isinstance(node, ast.ImportFrom):
             base = package.split(".")
             base = base[: len(base) - node.level + 1] if node.level else []
