@@ -3,11 +3,14 @@ through the sweep layer and the study writer; their full numbers are in docs/lit
 
 from __future__ import annotations
 
+import dataclasses
+import io
 import json
 
 import pytest
 
-from pylmp_lattice.studies import run_study
+from pylmp_lattice.plots import pyplot
+from pylmp_lattice.studies import run_study, write_study
 from pylmp_lattice.studies.literature import harmonic, hugoniot, toda
 
 pytestmark = pytest.mark.lammps
@@ -46,7 +49,12 @@ def test_hugoniot_study(tmp_path, monkeypatch):
     """The Toda chain at u_p = 1 for 40 ms: the mean state's Rankine-Hugoniot particle velocity
     within 2 % of u_p, the front within 2 % of the exact lead soliton, faster than the R-H speed."""
     monkeypatch.setattr(hugoniot, "QUICK", {"toda": ((1.0,), 40.0)})
-    run_study("hugoniot", tmp_path, quick=True)
+    result = hugoniot.run(tmp_path, quick=True)
+    # its numbers through the study writer; its figure drawn once at low resolution (the PNG at
+    # 120 dpi and the PDF took half this test; tests/test_figures.py checks the figure's style)
+    write_study(dataclasses.replace(result, figure=None), tmp_path)
+    result.figure.savefig(io.BytesIO(), format="png", dpi=30)
+    pyplot().close(result.figure)
     point = json.loads((tmp_path / "hugoniot.json").read_text())["points"][0]
     assert point["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(1.0, rel=0.02)
     assert point["U_s_m_per_s"] == pytest.approx(point["lead_soliton_speed_m_per_s"], rel=0.02)
