@@ -3,6 +3,8 @@ mass disorder; the zero-noise point is the noise-free run."""
 
 from __future__ import annotations
 
+import dataclasses
+import io
 import json
 from pathlib import Path
 
@@ -12,7 +14,9 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.case import load_case
 from pylmp_lattice.run_folder import RunFolder, run_case
-from pylmp_lattice.studies import STUDIES, run_study
+from pylmp_lattice.plots import pyplot
+from pylmp_lattice.studies import STUDIES, write_study
+from pylmp_lattice.studies.ensembles import thermal
 from pylmp_lattice.studies.ensembles.thermal import MAGNET, VI, WINDOW_PERIODS
 
 INPUTS = Path(__file__).parent.parent / "inputs"
@@ -21,7 +25,12 @@ INPUTS = Path(__file__).parent.parent / "inputs"
 @pytest.mark.lammps
 def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
     assert "thermal" in STUDIES
-    result = run_study("thermal", tmp_path, quick=True)
+    result = thermal.run(tmp_path, quick=True)
+    # its numbers and tables through the study writer; its figure drawn once at low resolution
+    # (a PNG at 120 dpi and a PDF cost more; tests/test_figures.py checks the figure's style)
+    write_study(dataclasses.replace(result, figure=None), tmp_path)
+    result.figure.savefig(io.BytesIO(), format="png", dpi=30)
+    pyplot().close(result.figure)
     data = json.loads((tmp_path / "thermal.json").read_text())
     assert data["quick"] is True and "[quick version]" in result.figure.get_suptitle()
     assert data["members"] == data["members_done"] == 1 + 2 * 2 + 2  # the noise-free point runs once
