@@ -96,13 +96,18 @@ namespace detail {
 enum class KickTo { none, in_place, out };
 
 /* the forces of a run's atoms from its bond forces F (F[k] left of atom first + k) into fb and
-   their second half kick from vh into vb (or in place): the arrays' atoms STRIDE doubles apart */
-template <bool FRICTION, bool ONE_TYPE, KickTo TO = KickTo::out, int STRIDE = 1>
+   their second half kick from vh into vb (or in place): the arrays' atoms STRIDE doubles apart.
+   MARK: with the front record's hot part in the same loop (mark: each atom's largest |v|; any:
+   set if an atom's new v reaches its start gate), so that the kick's stores and the record's
+   share one pass; `any` is an integer OR, which vectorises without reordering a sum */
+template <bool FRICTION, bool ONE_TYPE, KickTo TO = KickTo::out, int STRIDE = 1, bool MARK = false>
 PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const int len, const Masses &ms,
                            const Friction &fr, double kick, double *PL_RESTRICT vh, double *PL_RESTRICT fb,
-                           double *PL_RESTRICT vb, CoulombWork &work)
+                           double *PL_RESTRICT vb, CoulombWork &work, double *PL_RESTRICT mark = nullptr,
+                           const double *PL_RESTRICT gate = nullptr, long long *any = nullptr)
 {
   const double half_kick = ONE_TYPE ? ms.dtfm[1] : 0.0;
+  long long reached = 0;
   for (int k = 0; k < len; k++) {
     const int t = FRICTION || !ONE_TYPE ? ms.slot[first + k] : 1;
     const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vh[STRIDE * k], work);
@@ -110,8 +115,47 @@ PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const i
     if constexpr (TO != KickTo::none) {
       const double vn = vh[STRIDE * k] + (ONE_TYPE ? half_kick : ms.dtfm[t]) * ftot;
       (TO == KickTo::in_place ? vh : vb)[STRIDE * k] = vn;
+      if constexpr (MARK) {
+        mark[k] = front::mark_max(mark[k], vn);
+        reached |= vn >= gate[k];
+      }
     }
   }
+  if constexpr (MARK) *any = reached;
+}
+
+/* velocity Verlet's first half kick and drift of ndrift atoms (x, v, f, slots from their first;
+   vh: the velocities after the half kick, v0: before it, if KEEP), and the forces F[k] = law(X[k + 1] -
+   X[k]) of nbonds bonds of consecutive positions X of another run, their separations added to
+   gaps: one loop over both where they overlap, so that the drift's loads and stores run while
+   the law's division does (the bonds' atoms have drifted before, the drift's are not read) */
+template <bool ONE_TYPE, bool KEEP, class LawT>
+PL_HD inline void drift_and_bonds(const LawT law, const double *PL_RESTRICT X, int nbonds, double *PL_RESTRICT F,
+                                  Gaps &gaps, double *PL_RESTRICT x, const double *PL_RESTRICT v,
+                                  const double *PL_RESTRICT f, const int *PL_RESTRICT slot, int ndrift,
+                                  const double *PL_RESTRICT dtfm_of, double dtv, double *PL_RESTRICT vh,
+                                  double *PL_RESTRICT v0)
+{
+  const double half_kick = ONE_TYPE ? dtfm_of[1] : 0.0;
+  auto drift = [&](int k) {
+    if constexpr (KEEP) v0[k] = v[k];
+    vh[k] = v[k] + (ONE_TYPE ? half_kick : dtfm_of[slot[k]]) * f[k];
+    x[k] += dtv * vh[k];
+  };
+  const int both = nbonds < ndrift ? nbonds : ndrift;
+  double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+  PL_SIMD_REDUCE
+  for (int k = 0; k < both; k++) {
+    drift(k);
+    const double r = X[k + 1] - X[k];
+    r_min = r < r_min ? r : r_min;
+    r_max = r > r_max ? r : r_max;
+    r_sum += r;
+    F[k] = law(r);
+  }
+  gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
+  bond_forces(law, X + both, nbonds - both, F + both, gaps);
+  for (int k = both; k < ndrift; k++) drift(k);
 }
 }    // namespace detail
 
@@ -125,60 +169,58 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_REST
                      double *scratch, int block, const FrontPass<Hook> &front, Gaps &gaps)
 {
   const int *PL_RESTRICT type = ms.slot;
-  const double *PL_RESTRICT dtfm_of = ms.dtfm;
   const bool one_type = ms.one_type;
-  const double half_kick = one_type ? dtfm_of[1] : 0.0;
   const double dtv = dt, kick = dt;
-  // per run in flight (two): the velocities after the first half kick, and before it; then the
-  // run's bond forces, F[k] left of atom first + k
+  // per run in flight (two): the velocities after the first half kick, and before it (for the
+  // front record's hook); then the run's bond forces, F[k] left of atom first + k
   double *PL_RESTRICT half[2] = {scratch, scratch + block};
   double *PL_RESTRICT before[2] = {scratch + 2 * block, scratch + 3 * block};
   double *PL_RESTRICT F = scratch + 4 * block;
-  // velocity Verlet's first half kick and drift, with last step's forces
-  auto drift = [&](const Run &run, double *PL_RESTRICT vh, double *PL_RESTRICT v0) {
-    for (int i = run.first, k = 0; i <= run.last; i++, k++) {
-      v0[k] = v[i];
-      vh[k] = v[i] + (one_type ? half_kick : dtfm_of[type[i]]) * f[i];
-      x[i] += dtv * vh[k];
-    }
+  // the inner bonds of run b (none for b < 0) with the first half kick and drift of run b + 1 (with
+  // last step's forces; none past the last run): one loop for one atom type and one for several
+  auto drift_and_bonds = [&](int b) {
+    const int first = b >= 0 ? runs[b].first : 0, nbonds = b >= 0 ? runs[b].last - runs[b].first : 0;
+    const int next = b + 1 < nruns ? runs[b + 1].first : 0, ndrift = b + 1 < nruns ? runs[b + 1].last - next + 1 : 0;
+    double *vh = half[(b + 1) % 2], *v0 = before[(b + 1) % 2];
+    if (one_type)
+      detail::drift_and_bonds<true, FRONT>(law, x + first, nbonds, F + 1, gaps, x + next, v + next, f + next, nullptr, ndrift,
+                                    ms.dtfm, dtv, vh, v0);
+    else
+      detail::drift_and_bonds<false, FRONT>(law, x + first, nbonds, F + 1, gaps, x + next, v + next, f + next, type + next,
+                                     ndrift, ms.dtfm, dtv, vh, v0);
   };
-  if (nruns > 0) drift(runs[0], half[0], before[0]);
+  drift_and_bonds(-1);
   for (int b = 0; b < nruns; b++) {
     const Run &run = runs[b];
     const int first = run.first, last = run.last, len = last - first + 1;
     CoulombWork work;
     if constexpr (FRICTION) work = works[run.chain];
-    if (b + 1 < nruns) drift(runs[b + 1], half[(b + 1) % 2], before[(b + 1) % 2]);
-    double *PL_RESTRICT vh = half[b % 2];
-    // the two end bonds, then the inner ones from consecutive positions
+    drift_and_bonds(b);
+    // the two end bonds (both neighbours have moved now)
     const double r_left = x[first] - x[run.left], r_right = x[run.right] - x[last];
     gaps.add(r_left);
     gaps.add(r_right);
     F[0] = law(r_left);
     F[len] = law(r_right);
-    bond_forces(law, x + first, len - 1, F + 1, gaps);
-    // the forces and the second half kick: one loop for one atom type and one for several (a
-    // test inside would keep the loop from vectorising)
+    // the forces and the second half kick, with the front record's largest |v| of every atom (it
+    // may change at every step: atoms ahead of the front feel round-off forces from unequal
+    // gaps) and whether a waiting atom reaches the start level now; one loop for one atom type
+    // and one for several (a test inside would keep the loop from vectorising)
+    double *PL_RESTRICT vh = half[b % 2];
     double *PL_RESTRICT fb = f + first;
     double *PL_RESTRICT vb = v + first;
-    if (one_type) detail::kick_run<FRICTION, true>(F, first, len, ms, fr, kick, vh, fb, vb, work);
-    else detail::kick_run<FRICTION, false>(F, first, len, ms, fr, kick, vh, fb, vb, work);
+    using detail::KickTo;
+    long long starting = 0;
+    double *mark = FRONT ? front.mark + first : nullptr;
+    const double *gate = FRONT ? front.gate + first : nullptr;
+    if (one_type)
+      detail::kick_run<FRICTION, true, KickTo::out, 1, FRONT>(F, first, len, ms, fr, kick, vh, fb, vb, work, mark, gate,
+                                                              &starting);
+    else
+      detail::kick_run<FRICTION, false, KickTo::out, 1, FRONT>(F, first, len, ms, fr, kick, vh, fb, vb, work, mark,
+                                                               gate, &starting);
     if constexpr (FRICTION) works[run.chain] = work;
-    if constexpr (FRONT) {
-      // the front record's largest |v| of every atom (it may change at every step: atoms ahead
-      // of the front feel round-off forces from unequal gaps), and how many waiting atoms reach
-      // the start level now (a count as a double: an int would keep the loop from vectorising);
-      // a loop of its own, which vectorises also when the kicks (friction) do not
-      double *PL_RESTRICT mb = front.mark + first;
-      const double *PL_RESTRICT gate = front.gate + first;
-      double starting = 0.0;
-      PL_SIMD_SUM
-      for (int k = 0; k < len; k++) {
-        mb[k] = front::mark_max(mb[k], vb[k]);
-        starting += vb[k] >= gate[k] ? 1.0 : 0.0;
-      }
-      front.hook->sample_block(b, before[b % 2], starting > 0.0);
-    }
+    if constexpr (FRONT) front.hook->sample_block(b, before[b % 2], starting != 0);
   }
 }
 
