@@ -90,8 +90,8 @@ void FixLatticeChain::run_forces(const Law law, double kick, bool setup_kick, in
     pl_kernel::bond_forces(law, X, len + 1, F, gaps);
     // LAMMPS's arrays: an atom's x component every 3 doubles
     double *fo = f + 3 * first, *vr = v + 3 * first;
-    if (one_type) kick_run<FRICTION, true, TO, 3>(F, first, len, ms, fr, kick, vr, fo, nullptr, work);
-    else kick_run<FRICTION, false, TO, 3>(F, first, len, ms, fr, kick, vr, fo, nullptr, work);
+    if (one_type) kick_run<FRICTION, true, TO, 3>(F, first, len, ms, fr, kick, vr, fo, work);
+    else kick_run<FRICTION, false, TO, 3>(F, first, len, ms, fr, kick, vr, fo, work);
     if constexpr (FRICTION) works[run.chain] = work;
   }
   if (FRICTION) settle_work(kick, setup_kick);

@@ -9,12 +9,13 @@
 #if defined(__CUDACC__) || defined(__CUDACC_RTC__)
 #define PL_HD __host__ __device__
 #define PL_SIMD_REDUCE
-#define PL_SIMD_SUM
+#define PL_SIMD_STEP
 #define PL_RESTRICT __restrict__
 #else
 #define PL_HD
 #define PL_SIMD_REDUCE _Pragma("omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)")
-#define PL_SIMD_SUM _Pragma("omp simd reduction(+ : starting)")
+#define PL_SIMD_STEP \
+  _Pragma("omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum) reduction(+ : starting)")
 #define PL_RESTRICT __restrict
 #endif
 

@@ -6,9 +6,13 @@
    memory with consecutive IDs, in ID order), each with the index of the atom left of its first
    and right of its last (a chain end, an atom of the next run, or a slab-edge neighbour whose
    position the caller has set for this step). One pass over the runs does velocity Verlet's
-   whole step: the first half kick and drift of the next run, then the bond forces, friction and
-   second half kick of this one (both neighbours of a run have moved when its forces are due),
-   and, with FRONT, the front record's hot part and the caller's sampling of the run's rows. */
+   whole step, three runs at a time in one loop: the first half kick and drift of run b + 1, the
+   inner bond forces of run b (its atoms moved one run earlier) and the forces, friction and
+   second half kick of run b - 1 (its end bonds were computed after the loop one run earlier,
+   once both its neighbours had moved), with FRONT the front record's hot part and then the
+   caller's sampling of run b - 1's rows. Why one loop: the law's division limits the bond loop,
+   and the drift's and the kick's loads and stores run in its shadow (a loop each took 1.5x as
+   long); the same operations per atom as one loop per stage, so the same bits. */
 
 #ifndef PYLMP_LATTICE_KERNEL_STEP_H
 #define PYLMP_LATTICE_KERNEL_STEP_H
@@ -91,137 +95,165 @@ struct NoFront {
 };
 
 namespace detail {
-/* where a run's second half kick goes: nowhere (LAMMPS's force pass without it), onto the
-   velocities it read (in place) or into a separate row */
-enum class KickTo { none, in_place, out };
+/* a bool as a type (std::integral_constant, which NVRTC lacks) */
+template <bool B> struct Bool {
+  static constexpr bool value = B;
+  PL_HD constexpr operator bool() const { return B; }
+};
 
-/* the forces of a run's atoms from its bond forces F (F[k] left of atom first + k) into fb and
-   their second half kick from vh into vb (or in place): the arrays' atoms STRIDE doubles apart.
-   MARK: with the front record's hot part in the same loop (mark: each atom's largest |v|; any:
-   set if an atom's new v reaches its start gate), so that the kick's stores and the record's
-   share one pass; `any` is an integer OR, which vectorises without reordering a sum */
-template <bool FRICTION, bool ONE_TYPE, KickTo TO = KickTo::out, int STRIDE = 1, bool MARK = false>
-PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const int len, const Masses &ms,
-                           const Friction &fr, double kick, double *PL_RESTRICT vh, double *PL_RESTRICT fb,
-                           double *PL_RESTRICT vb, CoulombWork &work, double *PL_RESTRICT mark = nullptr,
-                           const double *PL_RESTRICT gate = nullptr, long long *any = nullptr)
+/* where a run's second half kick goes: nowhere (LAMMPS's force pass without it) or onto the
+   velocities it read (in place) */
+enum class KickTo { none, in_place };
+
+/* one free atom's force from its bonds' forces left and right into f and its second half kick
+   of v (after the first half kick) in place (TO), with slot t's mass terms (h: one type's
+   dt/2m); MARK: the front record's hot part too (mark: its largest |v|; starting: counts 1 if
+   its new v reaches its start gate, as a double, which vectorises with the doubles, and a sum of
+   ones is exact in any order) */
+template <bool FRICTION, bool ONE_TYPE, KickTo TO, bool MARK = false>
+PL_HD inline void kick_atom(double left, double right, int t, double h, const Masses &ms, const Friction &fr,
+                            double kick, double &v, double &f, CoulombWork &work, double *mark = nullptr,
+                            const double *gate = nullptr, double *starting = nullptr)
 {
-  const double half_kick = ONE_TYPE ? ms.dtfm[1] : 0.0;
-  long long reached = 0;
-  for (int k = 0; k < len; k++) {
-    const int t = FRICTION || !ONE_TYPE ? ms.slot[first + k] : 1;
-    const double ftot = total_force<FRICTION>(F[k], F[k + 1], t, ms, fr, kick, vh[STRIDE * k], work);
-    fb[STRIDE * k] = ftot;
-    if constexpr (TO != KickTo::none) {
-      const double vn = vh[STRIDE * k] + (ONE_TYPE ? half_kick : ms.dtfm[t]) * ftot;
-      (TO == KickTo::in_place ? vh : vb)[STRIDE * k] = vn;
-      if constexpr (MARK) {
-        mark[k] = front::mark_max(mark[k], vn);
-        reached |= vn >= gate[k];
-      }
+  const double ftot = total_force<FRICTION>(left, right, t, ms, fr, kick, v, work);
+  f = ftot;
+  if constexpr (TO == KickTo::in_place) {
+    const double vn = v + (ONE_TYPE ? h : ms.dtfm[t]) * ftot;
+    v = vn;
+    if constexpr (MARK) {
+      *mark = front::mark_max(*mark, vn);
+      *starting += vn >= *gate ? 1.0 : 0.0;
     }
   }
-  if constexpr (MARK) *any = reached;
 }
 
-/* velocity Verlet's first half kick and drift of ndrift atoms (x, v, f, slots from their first;
-   vh: the velocities after the half kick, v0: before it, if KEEP), and the forces F[k] = law(X[k + 1] -
-   X[k]) of nbonds bonds of consecutive positions X of another run, their separations added to
-   gaps: one loop over both where they overlap, so that the drift's loads and stores run while
-   the law's division does (the bonds' atoms have drifted before, the drift's are not read) */
-template <bool ONE_TYPE, bool KEEP, class LawT>
-PL_HD inline void drift_and_bonds(const LawT law, const double *PL_RESTRICT X, int nbonds, double *PL_RESTRICT F,
-                                  Gaps &gaps, double *PL_RESTRICT x, const double *PL_RESTRICT v,
-                                  const double *PL_RESTRICT f, const int *PL_RESTRICT slot, int ndrift,
-                                  const double *PL_RESTRICT dtfm_of, double dtv, double *PL_RESTRICT vh,
-                                  double *PL_RESTRICT v0)
+/* kick_atom for a run's atoms first .. first + len - 1 from its bond forces F (F[k] left of
+   atom first + k): v and f STRIDE doubles apart */
+template <bool FRICTION, bool ONE_TYPE, KickTo TO, int STRIDE = 1>
+PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const int len, const Masses &ms,
+                           const Friction &fr, double kick, double *PL_RESTRICT v, double *PL_RESTRICT f,
+                           CoulombWork &work)
 {
-  const double half_kick = ONE_TYPE ? dtfm_of[1] : 0.0;
-  auto drift = [&](int k) {
-    if constexpr (KEEP) v0[k] = v[k];
-    vh[k] = v[k] + (ONE_TYPE ? half_kick : dtfm_of[slot[k]]) * f[k];
-    x[k] += dtv * vh[k];
-  };
-  const int both = nbonds < ndrift ? nbonds : ndrift;
-  double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
-  PL_SIMD_REDUCE
-  for (int k = 0; k < both; k++) {
-    drift(k);
-    const double r = X[k + 1] - X[k];
+  const double h = ONE_TYPE ? ms.dtfm[1] : 0.0;
+  for (int k = 0; k < len; k++) {
+    const int t = FRICTION || !ONE_TYPE ? ms.slot[first + k] : 1;
+    kick_atom<FRICTION, ONE_TYPE, TO>(F[k], F[k + 1], t, h, ms, fr, kick, v[STRIDE * k], f[STRIDE * k], work);
+  }
+}
+
+/* The stages of the owned pass on the slab's arrays (x, v, f along x; see step_runs). Between
+   its drift and its kick a run's f holds the velocities after the first half kick (its forces of
+   the last step are spent then, and nothing else reads them in between), so that v keeps the
+   velocities before it for the front record's sampling of atoms that start now. */
+template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT> struct Stages {
+  const LawT law;
+  double *PL_RESTRICT x;
+  double *PL_RESTRICT v;
+  double *PL_RESTRICT f;
+  const Masses &ms;
+  const Friction &fr;
+  double dt, h;
+  double *mark;
+  const double *gate;
+
+  /* first half kick and drift of atom i */
+  PL_HD void drift(int i) const
+  {
+    const double vh = v[i] + (ONE_TYPE ? h : ms.dtfm[ms.slot[i]]) * f[i];
+    f[i] = vh;
+    x[i] += dt * vh;
+  }
+  /* a bond's force from its separation r, added to the separations seen */
+  PL_HD double bond_of(double r, double &r_min, double &r_max, double &r_sum) const
+  {
     r_min = r < r_min ? r : r_min;
     r_max = r > r_max ? r : r_max;
     r_sum += r;
-    F[k] = law(r);
+    return law(r);
   }
-  gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
-  bond_forces(law, X + both, nbonds - both, F + both, gaps);
-  for (int k = both; k < ndrift; k++) drift(k);
-}
+  /* the force of the bond right of atom i (to atom i + 1) */
+  PL_HD double bond(int i, double &r_min, double &r_max, double &r_sum) const
+  {
+    return bond_of(x[i + 1] - x[i], r_min, r_max, r_sum);
+  }
+  /* force and second half kick of atom i, F its left and right bonds' forces; v_old: where its
+     velocity before the step goes (FRONT) */
+  PL_HD void kick(int i, const double *F, double *v_old, CoulombWork &work, double &starting) const
+  {
+    const int t = FRICTION || !ONE_TYPE ? ms.slot[i] : 1;
+    double vh = f[i], ftot;
+    if constexpr (FRONT) {
+      *v_old = v[i];
+      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, true>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work, mark + i,
+                                                             gate + i, &starting);
+    } else {
+      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work);
+    }
+    v[i] = vh;
+    f[i] = ftot;
+  }
+};
 }    // namespace detail
 
 /* The whole step of the runs' atoms (the chain ends are the caller's: it has placed the
    impactors at this step's position before). x, v, f: the slab's arrays along x; works: per
-   chain, this step's friction work (each run adds to its chain's, in ID order); scratch: 4 block
-   + block + 1 doubles; gaps: every bond left of a run's atom and right of its last. */
+   chain, this step's friction work (each run adds to its chain's, in ID order); scratch: 3 block
+   + 2 doubles (at most 5 block + 1); gaps: every bond left of a run's atom and right of its
+   last. */
 template <bool FRICTION, bool FRONT, class LawT, class Hook>
 PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_RESTRICT x, double *PL_RESTRICT v,
                      double *PL_RESTRICT f, const Masses &ms, const Friction &fr, double dt, CoulombWork *works,
                      double *scratch, int block, const FrontPass<Hook> &front, Gaps &gaps)
 {
-  const int *PL_RESTRICT type = ms.slot;
-  const bool one_type = ms.one_type;
-  const double dtv = dt, kick = dt;
-  // per run in flight (two): the velocities after the first half kick, and before it (for the
-  // front record's hook); then the run's bond forces, F[k] left of atom first + k
-  double *PL_RESTRICT half[2] = {scratch, scratch + block};
-  double *PL_RESTRICT before[2] = {scratch + 2 * block, scratch + 3 * block};
-  double *PL_RESTRICT F = scratch + 4 * block;
-  // the inner bonds of run b (none for b < 0) with the first half kick and drift of run b + 1 (with
-  // last step's forces; none past the last run): one loop for one atom type and one for several
-  auto drift_and_bonds = [&](int b) {
-    const int first = b >= 0 ? runs[b].first : 0, nbonds = b >= 0 ? runs[b].last - runs[b].first : 0;
-    const int next = b + 1 < nruns ? runs[b + 1].first : 0, ndrift = b + 1 < nruns ? runs[b + 1].last - next + 1 : 0;
-    double *vh = half[(b + 1) % 2], *v0 = before[(b + 1) % 2];
-    if (one_type)
-      detail::drift_and_bonds<true, FRONT>(law, x + first, nbonds, F + 1, gaps, x + next, v + next, f + next, nullptr, ndrift,
-                                    ms.dtfm, dtv, vh, v0);
-    else
-      detail::drift_and_bonds<false, FRONT>(law, x + first, nbonds, F + 1, gaps, x + next, v + next, f + next, type + next,
-                                     ndrift, ms.dtfm, dtv, vh, v0);
+  auto pass = [&](auto one_type) {
+    const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT> S{
+        law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : 0.0, front.mark, front.gate};
+    // per run in flight: its bond forces (two runs), F[k] left of atom first + k; the kicked
+    // run's velocities before the step (FRONT)
+    double *PL_RESTRICT bonds[2] = {scratch, scratch + block + 1};
+    double *PL_RESTRICT v_old = scratch + 2 * block + 2;
+    double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+    for (int b = -1; b <= nruns; b++) {
+      // drift run d = b + 1, inner bonds of run b, kick run k = b - 1 (each if there is one)
+      const int d = b + 1, k = b - 1;
+      const int nd = d < nruns ? runs[d].last - runs[d].first + 1 : 0;
+      const int nb = b >= 0 && b < nruns ? runs[b].last - runs[b].first : 0;
+      const int nk = k >= 0 ? runs[k].last - runs[k].first + 1 : 0;
+      const int id = nd ? runs[d].first : 0, ib = nb ? runs[b].first : 0, ik = nk ? runs[k].first : 0;
+      double *PL_RESTRICT Fb = bonds[(b + 2) % 2];
+      const double *PL_RESTRICT Fk = bonds[(k + 2) % 2];
+      CoulombWork work;
+      if constexpr (FRICTION)
+        if (nk) work = works[runs[k].chain];
+      double starting = 0.0;
+      // one loop over what all three have (friction: the kick apart, in ID order: its work is a
+      // sum), then the rest of each
+      int both = nd < nb ? nd : nb;
+      if (!FRICTION) both = both < nk ? both : nk;
+      PL_SIMD_STEP
+      for (int j = 0; j < both; j++) {
+        S.drift(id + j);
+        Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
+        if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+      }
+      for (int j = both; j < nd; j++) S.drift(id + j);
+      for (int j = both; j < nb; j++) Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
+      for (int j = FRICTION ? 0 : both; j < nk; j++) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+      if (b >= 0 && b < nruns) {    // run b's end bonds: both its neighbours have moved now
+        const Run &run = runs[b];
+        const int len = run.last - run.first + 1;
+        Fb[0] = S.bond_of(x[run.first] - x[run.left], r_min, r_max, r_sum);
+        Fb[len] = S.bond_of(x[run.right] - x[run.last], r_min, r_max, r_sum);
+      }
+      if (nk) {
+        if constexpr (FRICTION) works[runs[k].chain] = work;
+        if constexpr (FRONT) front.hook->sample_block(k, v_old, starting > 0.0);
+      }
+    }
+    gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
   };
-  drift_and_bonds(-1);
-  for (int b = 0; b < nruns; b++) {
-    const Run &run = runs[b];
-    const int first = run.first, last = run.last, len = last - first + 1;
-    CoulombWork work;
-    if constexpr (FRICTION) work = works[run.chain];
-    drift_and_bonds(b);
-    // the two end bonds (both neighbours have moved now)
-    const double r_left = x[first] - x[run.left], r_right = x[run.right] - x[last];
-    gaps.add(r_left);
-    gaps.add(r_right);
-    F[0] = law(r_left);
-    F[len] = law(r_right);
-    // the forces and the second half kick, with the front record's largest |v| of every atom (it
-    // may change at every step: atoms ahead of the front feel round-off forces from unequal
-    // gaps) and whether a waiting atom reaches the start level now; one loop for one atom type
-    // and one for several (a test inside would keep the loop from vectorising)
-    double *PL_RESTRICT vh = half[b % 2];
-    double *PL_RESTRICT fb = f + first;
-    double *PL_RESTRICT vb = v + first;
-    using detail::KickTo;
-    long long starting = 0;
-    double *mark = FRONT ? front.mark + first : nullptr;
-    const double *gate = FRONT ? front.gate + first : nullptr;
-    if (one_type)
-      detail::kick_run<FRICTION, true, KickTo::out, 1, FRONT>(F, first, len, ms, fr, kick, vh, fb, vb, work, mark, gate,
-                                                              &starting);
-    else
-      detail::kick_run<FRICTION, false, KickTo::out, 1, FRONT>(F, first, len, ms, fr, kick, vh, fb, vb, work, mark,
-                                                               gate, &starting);
-    if constexpr (FRICTION) works[run.chain] = work;
-    if constexpr (FRONT) front.hook->sample_block(b, before[b % 2], starting != 0);
-  }
+  if (ms.one_type) pass(detail::Bool<true>());
+  else pass(detail::Bool<false>());
 }
 
 }    // namespace pl_kernel
