@@ -104,6 +104,7 @@ void FixLatticeChain::build_lists()
       in_order = false;
   }
   find_edges();
+  layout_tags.assign(tag, tag + nlocal);
 }
 
 /* Several ranks own the state only in a brick of slabs along x (each slab edge has one

@@ -152,6 +152,7 @@ Restrictions
 #include "timer.h"
 #include "update.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <limits>
@@ -341,6 +342,11 @@ void FixLatticeChain::pre_exchange()
 
 void FixLatticeChain::pre_neighbor()
 {
+  // one rank with no ghosts, every atom where it was: the layout stands (the rebuild and the
+  // front record's summary cost about 2% of a 10^4-magnet run at every 100th step)
+  if (comm->nprocs == 1 && atom->nghost == 0 && layout_tags.size() == static_cast<size_t>(atom->nlocal) &&
+      std::equal(layout_tags.begin(), layout_tags.end(), atom->tag))
+    return;
   build_lists();
   if (!own) return;
   front_summarised = false;    // the blocks changed: summarised again at the next sample

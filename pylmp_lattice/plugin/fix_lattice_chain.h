@@ -95,6 +95,7 @@ class FixLatticeChain : public Fix {
   };
   std::vector<End> impactors, held;
   bool in_order;                 // every free local neighbour of a block is in the block next to it
+  std::vector<tagint> layout_tags;    // the local atoms' IDs, in order, when the layout was built
   // slab edges: the ghosts, neighbours of this rank's atoms, whose x the rank left (0) or right (1)
   // in x sends at every owned step, and the local atoms whose x this rank sends it
   struct Edge {
