@@ -41,8 +41,8 @@ struct Gaps {
   PL_HD Gaps() : r_min(infinity()), r_max(-infinity()), r_sum(0.0) {}
   PL_HD void add(double r)
   {
-    r_min = r < r_min ? r : r_min;
-    r_max = r > r_max ? r : r_max;
+    r_min = r_min < r ? r_min : r;
+    r_max = r_max > r ? r_max : r;
     r_sum += r;
   }
   /* a contact (r <= 0), a separation outside [lo, hi], or a NaN */
@@ -59,8 +59,8 @@ PL_HD inline void bond_forces(const LawT law, const double *PL_RESTRICT X, int n
   PL_SIMD_REDUCE
   for (int k = 0; k < nbonds; k++) {
     const double r = X[k + 1] - X[k];
-    r_min = r < r_min ? r : r_min;
-    r_max = r > r_max ? r : r_max;
+    r_min = r_min < r ? r_min : r;
+    r_max = r_max > r ? r_max : r;
     r_sum += r;
     F[k] = law(r);
   }
@@ -166,8 +166,8 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT> struct Stages {
   /* a bond's force from its separation r, added to the separations seen */
   PL_HD double bond_of(double r, double &r_min, double &r_max, double &r_sum) const
   {
-    r_min = r < r_min ? r : r_min;
-    r_max = r > r_max ? r : r_max;
+    r_min = r_min < r ? r_min : r;
+    r_max = r_max > r ? r_max : r;
     r_sum += r;
     return law(r);
   }
