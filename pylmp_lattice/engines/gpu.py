@@ -9,8 +9,9 @@ Chains of up to 64 magnets (the ensembles') keep their whole state in each threa
 memory, which CUDA interleaves by thread (coalesced), and only the record's 7 output columns per
 magnet go back to global memory; longer chains run on chain-major rows of global arrays.
 
-Not yet run on a GPU (the sessions that wrote it had none; nvcc -ptx -arch=sm_90 compiles it):
-its tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py, marked gpu) and
+Not yet run on a GPU (the sessions that wrote it had none). NVRTC compiles it with
+`compile_options` (tests/test_gpu_build.py, on any machine with the nvidia-cuda-nvrtc wheel); its
+tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py, marked gpu) and
 benchmarks/bench_gpu.py --check compare it with the host engine within 1e-12 where CuPy finds a
 device.
 """
@@ -116,6 +117,13 @@ def run_arrays(a: Arrays):
     return x.get(), v.get(), out, work.get(), end_step.get(), status.get()
 
 
+def compile_options(local: int) -> tuple[str, ...]:
+    """NVRTC's options for engine_gpu.cu with local arrays `local` long (0: global rows).
+    -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
+    NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function."""
+    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}", "-default-device")
+
+
 def _local_size(n: int) -> int:
     """The local arrays' length for chains of n (PL_LOCAL_N: a multiple of 32), 0 for global rows."""
     return next((size for size in LOCAL_SIZES if n <= size), 0)
@@ -131,6 +139,5 @@ def _kernel(name: str, local: int):
         import cupy as cp
 
         source = (KERNEL / "engine_gpu.cu").read_text()
-        _MODULES[local] = cp.RawModule(code=source, options=("-std=c++17", f"-I{KERNEL}",
-                                                             f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}"))
+        _MODULES[local] = cp.RawModule(code=source, options=compile_options(local))
     return _MODULES[local].get_function(name)

@@ -1,0 +1,63 @@
+"""The GPU engine's kernel (plugin/kernel/engine_gpu.cu and the shared headers) compiles with
+NVRTC, as CuPy compiles it on a GPU machine (`engines.gpu.compile_options`), on any machine with
+NVIDIA's NVRTC wheel (nvidia-cuda-nvrtc, in the test extras): no GPU is needed to compile.
+
+The kernel had never been compiled by NVRTC before this test: without -default-device its
+lambdas are host code to NVRTC's JIT mode, and the GPU engine failed on its first launch."""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from pylmp_lattice.engines.gpu import KERNEL, LOCAL_SIZES, compile_options
+
+ARCH = "-arch=compute_90"  # the H100/H200 of issue 28; PTX, so no device is asked
+
+
+def _nvrtc():
+    """NVRTC from the nvidia-cuda-nvrtc wheel (its builtins loaded first: NVRTC opens them by
+    name), or None."""
+    spec = importlib.util.find_spec("nvidia")
+    for root in (spec.submodule_search_locations if spec else []):
+        for lib in sorted(Path(root).glob("*/lib/libnvrtc.so.*")):
+            for builtins in Path(lib.parent).glob("libnvrtc-builtins.so.*"):
+                ctypes.CDLL(str(builtins), mode=ctypes.RTLD_GLOBAL)
+            return ctypes.CDLL(str(lib))
+    return None
+
+
+def compile_ptx(options: tuple[str, ...]) -> tuple[int, str, bytes]:
+    """NVRTC's result code, log and PTX for engine_gpu.cu with `options`."""
+    lib = _nvrtc()
+    if lib is None:
+        pytest.skip("NVIDIA's NVRTC is not installed (pip install nvidia-cuda-nvrtc)")
+    prog = ctypes.c_void_p()
+    source = (KERNEL / "engine_gpu.cu").read_bytes()
+    assert lib.nvrtcCreateProgram(ctypes.byref(prog), source, b"engine_gpu.cu", 0, None, None) == 0
+    try:
+        opts = [o.encode() for o in options]
+        rc = lib.nvrtcCompileProgram(prog, len(opts), (ctypes.c_char_p * len(opts))(*opts))
+        size = ctypes.c_size_t()
+        lib.nvrtcGetProgramLogSize(prog, ctypes.byref(size))
+        log = ctypes.create_string_buffer(size.value)
+        lib.nvrtcGetProgramLog(prog, log)
+        lib.nvrtcGetPTXSize(prog, ctypes.byref(size))
+        ptx = ctypes.create_string_buffer(size.value)
+        if rc == 0:
+            lib.nvrtcGetPTX(prog, ptx)
+        return rc, log.value.decode(errors="replace"), ptx.value
+    finally:
+        lib.nvrtcDestroyProgram(ctypes.byref(prog))
+
+
+@pytest.mark.slow
+def test_nvrtc_compiles_both_kernels_with_the_engines_options():
+    """Both entry points in the PTX (the local arrays' code and the global rows' are one source:
+    PL_LOCAL_N only sizes the arrays). 25-45 s of NVRTC on this project's 2 cores: slow."""
+    rc, log, ptx = compile_ptx((*compile_options(LOCAL_SIZES[0]), ARCH))
+    assert rc == 0, log
+    assert b".entry pl_run_short_chains_gpu" in ptx and b".entry pl_run_chains_gpu" in ptx
