@@ -42,8 +42,6 @@ from __future__ import annotations
 import contextlib
 import getpass
 import os
-import sys
-import traceback
 from importlib.metadata import PackageNotFoundError, version
 from dataclasses import dataclass
 from pathlib import Path
@@ -91,82 +89,62 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
     `log` (LAMMPS's log file) as observables, and beside it the chain's topology (`psf`,
     layout.TOPOLOGY). The dumps are left as they are.
 
-    reserve: bytes to allocate on the disk for the file first (an OSError if they are not
-    there); HDF5 then writes into them through a Python file, which truncates it at the end.
-    HDF5 that ran out of space mid-file crashed the process (a segmentation fault on closing
-    it); a Python file turns a failed write into an OSError."""
+    HDF5 must never meet a full disk mid-file: writing through its own file it crashed the
+    process (a segmentation fault on closing it), and through a Python file that failed its
+    half-closed file stayed in HDF5's state and crashed a later close in the same process (the
+    suite, after the full-disk test). So `reserve` bytes are allocated on the disk first (an
+    OSError ENOSPC if they are not there) and HDF5 writes into them through a Python file,
+    which is truncated at the end; where nothing can be reserved (reserve 0, or a file system
+    without fallocate), HDF5 writes an image in memory and Python writes it out."""
+    import h5py
+
     masses = header.masses
     species = psf.species(masses)
     # beside it, its topology: what plain MDAnalysis needs for masses (see `psf`)
     atomic_write(Path(target).parent / TOPOLOGY, psf.psf_text(header.name, masses))
-    with _failed_writes_unreported(), open(target, "w+b") as f:
-        if reserve:
-            _reserve(f.fileno(), reserve)
-        try:
-            with _released(f):
-                _write_h5md(f, header, dumps, log, masses, species)
-        except BaseException as err:
-            # h5py's objects held by the failed call's frames go now, while the file is open
-            # and their failures unreported, not when the caller drops the error
-            traceback.clear_frames(err.__traceback__)
-            raise
+    with open(target, "w+b") as f:
+        if reserve and _reserve(f.fileno(), reserve):
+            with _released(f), h5py.File(f, "w") as h5:  # HDF5 closes the file first
+                _write_h5md(h5, header, dumps, log, masses, species)
+            return
+        with h5py.File(f"{target}.image", "w", driver="core", backing_store=False) as h5:
+            _write_h5md(h5, header, dumps, log, masses, species)
+            h5.flush()
+            image = h5.id.get_file_image()
+        f.write(image)
 
 
-def _write_h5md(f, header: Header, dumps: dict[str, BinaryDump], log: Path | None, masses, species) -> None:
-    """The H5MD file's groups written into the open file `f` (see `write_file`)."""
-    import h5py
-
-    with h5py.File(f, "w") as h5:  # HDF5 closes the file first
-        _write_header(h5, header.case_toml)
-        for group, dump in dumps.items():
-            chosen = slice(None) if group == "chain" else header.fine
-            _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
-                         species[chosen], header.compression)
-        # MDAnalysis reads observables at the frames of the first particle group
-        first_group = next(iter(dumps))
-        first = h5["particles"][GROUPS[first_group]]
-        _write_observables(h5.create_group("observables"), first, log, header.intervals[first_group])
+def _write_h5md(h5, header: Header, dumps: dict[str, BinaryDump], log: Path | None, masses, species) -> None:
+    """The H5MD file's groups written into the open h5py File `h5` (see `write_file`)."""
+    _write_header(h5, header.case_toml)
+    for group, dump in dumps.items():
+        chosen = slice(None) if group == "chain" else header.fine
+        _write_group(h5.require_group("particles").create_group(GROUPS[group]), dump, masses[chosen],
+                     species[chosen], header.compression)
+    # MDAnalysis reads observables at the frames of the first particle group
+    first_group = next(iter(dumps))
+    first = h5["particles"][GROUPS[first_group]]
+    _write_observables(h5.create_group("observables"), first, log, header.intervals[first_group])
 
 
-def _reserve(fd: int, size: int) -> None:
+def _reserve(fd: int, size: int) -> bool:
     """Allocate `size` bytes of disk for the open file `fd` without changing its length (Linux
-    fallocate, FALLOC_FL_KEEP_SIZE): HDF5's writes then need no new blocks. OSError ENOSPC if
-    the disk has less free; elsewhere, or on a file system without it, nothing is reserved."""
+    fallocate, FALLOC_FL_KEEP_SIZE): HDF5's writes then need no new blocks. True if reserved;
+    OSError ENOSPC if the disk has less free; False elsewhere, or on a file system without it."""
     import ctypes
     import errno
 
     try:
         fallocate = ctypes.CDLL(None, use_errno=True).fallocate
     except (OSError, AttributeError):
-        return
+        return False
     fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int64, ctypes.c_int64]
     if fallocate(fd, 1, 0, size) != 0:
         code = ctypes.get_errno()
         if code not in (errno.EOPNOTSUPP, errno.ENOSYS):
             raise OSError(code, os.strerror(code))
-
-
-@contextlib.contextmanager
-def _failed_writes_unreported():
-    """A write that fails (a full disk where nothing could be reserved) fails again in each of
-    h5py's objects as it is freed, which Python prints as tracebacks on stderr (through
-    sys.unraisablehook and sys.excepthook): left out here, since the failure itself is raised,
-    and named, by the write."""
-    hooks = sys.unraisablehook, sys.excepthook
-
-    def unraisable(info):
-        if not isinstance(info.exc_value, (OSError, ValueError)):  # ValueError: the file closed first
-            hooks[0](info)
-
-    def printed(kind, value, tb):
-        if not isinstance(value, (OSError, ValueError)):
-            hooks[1](kind, value, tb)
-
-    sys.unraisablehook, sys.excepthook = unraisable, printed
-    try:
-        yield
-    finally:
-        sys.unraisablehook, sys.excepthook = hooks
+        return False
+    return True
 
 
 @contextlib.contextmanager
