@@ -23,8 +23,28 @@ def identity_hash(data: dict) -> str:
 
 def normalised_hash(data: dict) -> str:
     """`identity_hash` of a dict that is `normalised` already."""
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return hashlib.sha256(_text(data).encode()).hexdigest()[:16]
+
+
+def seeded_hashes(data: dict):
+    """`normalised_hash` of `data` (normalised, with a "chain" section) with chain.seed set to a
+    given `int`, as a function of the seed: the text is made once, and each seed's hash goes on
+    from the hash of the text before the seed (a sweep's replicas differ only in their seed)."""
+    mark = "\x00seed\x00"  # a text no case holds (should one, each seed's text is made whole)
+    head, found, tail = _text(data | {"chain": data["chain"] | {"seed": mark}}).partition(json.dumps(mark))
+    if not found or json.dumps(mark) in tail:
+        return lambda seed: normalised_hash(data | {"chain": data["chain"] | {"seed": seed}})
+    start = hashlib.sha256(head.encode())
+
+    def seeded(seed: int) -> str:
+        h = start.copy()
+        h.update(f"{seed}{tail}".encode())
+        return h.hexdigest()[:16]
+    return seeded
+
+
+def _text(data: dict) -> str:
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
 
 
 def normalised(value):

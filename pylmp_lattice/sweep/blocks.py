@@ -3,6 +3,7 @@ allows, shared evenly by the workers (`_Blocks`)."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -26,7 +27,16 @@ GPU_MAX_ATOMS = 4_000_000
 
 def _point(m: Member) -> str:
     """The member's parameter point: members of one point differ only in their seed."""
-    return identity_hash({k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")})
+    values = {k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")}
+    try:  # a point's hash made once (a sweep asks for every member's): its values with their types
+        return _point_hash(tuple((k, type(v), v) for k, v in values.items()))
+    except TypeError:  # a table or list swept: not hashable
+        return identity_hash(values)
+
+
+@functools.lru_cache(maxsize=1024)
+def _point_hash(values: tuple) -> str:
+    return identity_hash({k: v for k, _, v in values})
 
 
 @dataclass

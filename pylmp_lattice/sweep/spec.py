@@ -54,10 +54,12 @@ from typing import Any
 import numpy as np
 
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
-                    normalised_hash, read_toml)
+                    read_toml)
+from ..case.identity import seeded_hashes
 from ..engine import RUNNERS
 from ..engines.road import ENGINES
 from ..errors import ConfigError
+from .seeds import member_seeds
 
 log = logging.getLogger(__name__)
 member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
@@ -269,12 +271,13 @@ class Sweep:
             random = _is_random(data)
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
             first = identity = None
+            seeds = member_seeds(self.seed, index, self.replicas) if seeded else None
             for replica in range(self.replicas):
                 params = dict(point)
                 if self.replicas > 1:
                     params["replica"] = replica
                 if seeded:
-                    params["chain.seed"] = member_seed(self.seed, index)
+                    params["chain.seed"] = next(seeds)
                 if first is None or first.case is None or not seeded:
                     if seeded:
                         data.setdefault("chain", {})["seed"] = params["chain.seed"]
@@ -282,10 +285,9 @@ class Sweep:
                 else:  # the point's resolved case with this replica's seed: validated when built
                     # (its sections are shared with the first's: a case dict is read, never changed)
                     resolved = first.data | {"chain": first.data["chain"] | {"seed": params["chain.seed"]}}
-                    if identity is None:  # the identity's normalised form, made once per point
-                        identity = normalised({k: v for k, v in first.data.items() if k != "name"})
-                    identity["chain"]["seed"] = params["chain.seed"]
-                    member = Member(index, normalised_hash(identity), params, resolved, self.base_dir)
+                    if identity is None:  # the identity's text, made once per point
+                        identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
+                    member = Member(index, identity(params["chain.seed"]), params, resolved, self.base_dir)
                 index += 1
                 if member.id in seen:
                     same.append(member.index)
