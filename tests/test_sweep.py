@@ -112,6 +112,33 @@ chain.thermal_velocity = 0.01
     assert {m.id for m in other_seed.members()}.isdisjoint(m.id for m in members)
 
 
+def test_member_seeds_a_block_at_a_time_are_numpys_seed_sequence():
+    """`seeds.member_seeds` (array operations) gives `member_seed` (NumPy's SeedSequence) of every
+    member: across its blocks, for sweep seeds of one, two and three words, up to index 2**32."""
+    from pylmp_lattice.sweep.seeds import BLOCK, member_seeds
+
+    for sweep_seed in (0, 9, 2**32 - 1, 2**32, 2**63 - 1):
+        for start, count in ((0, BLOCK + 3), (2**32 - 7, 7)):
+            got = list(member_seeds(sweep_seed, start, count))
+            assert got == [member_seed(sweep_seed, i) for i in range(start, start + count)]
+
+
+def test_csv_floats_are_short_floats_made_by_column():
+    """results.csv's float cells: what pandas writes with `short_float` per cell, for floats of
+    up to 17 digits, whole, tiny, huge and missing ones, a column name given twice."""
+    from pylmp_lattice.serialize import short_float
+    from pylmp_lattice.sweep.table import csv_text
+
+    rng = np.random.default_rng(1)
+    values = [0.0, -0.0, 1.0, 1e15, 1e16, 123456789012345.6, 0.1 + 0.2, 1 / 3, 5e-324, 1.7976931348623157e308, 2.81,
+              64.52499999999999, np.nan, -1234567890123.5, *rng.normal(0, 1e3, 200), *np.round(rng.normal(0, 9, 200), 4)]
+    df = pd.DataFrame({"id": [f"m{i}" for i in range(len(values))], "x": values, "y": values[::-1],
+                       "n": range(len(values)), "s": ["a,b", None] * (len(values) // 2)})
+    df.columns = ["id", "x", "y", "n", "x"]
+    df.isetitem(4, values)
+    assert csv_text(df) == df.to_csv(index=False, float_format=short_float)
+
+
 def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
     """... and say so in one line (study thermal printed 14 "member N is the same case" lines)."""
     caplog.set_level("INFO", logger="pylmp_lattice")
