@@ -65,6 +65,17 @@ def write_sweep(folder: Path, members: int, thermal: float, friction: bool) -> P
     return path
 
 
+# The CLI as `python -m pylmp_lattice.cli` runs it, saying on stderr, at its exit, its own CPU
+# (the coordinator's, its threads included; not the fork server's or the workers').
+COORDINATOR_CPU = ("import atexit, resource, sys\n"
+                   "def said():\n"
+                   "    u = resource.getrusage(resource.RUSAGE_SELF)\n"
+                   "    print(f'coordinator-cpu {u.ru_utime + u.ru_stime:.3f}', file=sys.stderr)\n"
+                   "atexit.register(said)\n"
+                   "from pylmp_lattice.cli import main\n"
+                   "sys.exit(main())")
+
+
 def children_cpu() -> float:
     """CPU seconds of this process's finished children (and theirs, once waited for)."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -76,13 +87,14 @@ def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps
     """The sweep as a user runs it (or as `command`, a Python command line that takes the CLI's
     arguments, runs it): wall time, start-up, first result, the table written, CPU (the
     coordinator's, and the workers' in their tasks), seconds, and the command's stderr."""
-    cmd = [*(command or [sys.executable, "-m", "pylmp_lattice.cli"]), "sweep", str(path), "-o", str(out),
+    cmd = [*(command or [sys.executable, "-c", COORDINATOR_CPU]), "sweep", str(path), "-o", str(out),
            "--workers", str(workers), "--quiet", "--engine", engine]
     cpu = children_cpu()
     start = time.time()
     done = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.time() - start
     cpu = children_cpu() - cpu
+    own = re.findall(r"^coordinator-cpu (\S+)$", done.stderr, re.M)
     if done.returncode != 0:
         raise SystemExit(f"sweep failed ({done.returncode}): {done.stderr}")
     from pylmp_lattice.sweep import load_results
@@ -102,7 +114,8 @@ def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps
     engine_cpu = sum(float(t) * float(use) / 100 for t, use in loops)  # the engine's own CPU, contention aside
     return {"wall": wall, "startup": stamp("started") - start, "first": stamp("ended") - start,
             "table": (out / "results.parquet").stat().st_mtime - start, "cpu": cpu + tasks, "engine": engine,
-            "engine_cpu": engine_cpu, "members": len(records), "batched": batched, "stderr": done.stderr}
+            "engine_cpu": engine_cpu, "members": len(records), "batched": batched, "stderr": done.stderr,
+            "coordinator": float(own[-1]) if own else float("nan")}
 
 
 def loop_states(sweep_path: Path):
@@ -219,18 +232,21 @@ def main() -> None:
           f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers, engine {args.engine}")
     print("| variant | members | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
           "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
-          "| C loop CPU (s) | sweep / loop, CPU | loop vs engine, member 0 (m/s) | load before, after |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| C loop CPU (s) | sweep / loop, CPU | coordinator CPU (s), per member (ms) | loop vs engine, member 0 (m/s) "
+          "| load before, after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for variant, members, s, loop_wall, loop_cpu, error, before, after in rows:
         print(f"| {variant} | {members} | {s['wall']:.2f} | {1e3 * s['wall'] / s['members']:.2f} | {s['startup']:.2f} | "
               f"{s['first']:.2f} | {s['table']:.2f} | {s['batched']}/{s['members']} | {lammps(s['engine'], '.2f')} | {loop_wall:.3f} | "
               f"{lammps(s['engine'] / loop_wall, '.1f')}x | "
               f"{s['wall'] / loop_wall:.1f}x | {s['cpu']:.2f} | {loop_cpu:.3f} | {s['cpu'] / loop_cpu:.1f}x | "
+              f"{s['coordinator']:.2f}, {1e3 * s['coordinator'] / s['members']:.3f} | "
               f"{error:.1e} | {before:.1f}, {after:.1f} |")
     print("start-up: the command to the first member's start; first result: to the first member done; table "
           "written: the command to results.parquet (the command then writes the replica statistics and figure). "
           "Engine: LAMMPS's loop time of every instance (log.lammps), summed, over the workers. Sweep CPU: the "
-          "coordinator's and the workers' in their tasks (not the fork server's imports).")
+          "coordinator's and the workers' in their tasks (not the fork server's imports). Coordinator CPU: the "
+          "command's own process (its imports, members, tasks, table, replica statistics and figure).")
     if len(sizes) == 2:
         print()
         print(f"| variant | marginal: sweep / loop, wall, from {sizes[0]} to {sizes[1]} members "
