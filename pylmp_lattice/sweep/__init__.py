@@ -13,7 +13,7 @@
 # Loaded on first use (PEP 562): `pylmp_lattice.sweep.pool` can start the workers' fork server
 # before numpy, pandas and the engine are loaded here.
 _WHERE = {"run_sweep": "execute", "Member": "spec", "Sweep": "spec", "load_sweep": "spec", "member_id": "spec",
-          "member_seed": "spec", "load_results": "table", "replica_stats": "stats", "plot_replica_stats": "stats",
+          "member_seed": "seeds", "load_results": "table", "replica_stats": "stats", "plot_replica_stats": "stats",
           "write_replica_stats": "stats", "plot_replica_spread": "stats"}
 __all__ = list(_WHERE)
 

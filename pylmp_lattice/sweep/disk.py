@@ -15,7 +15,8 @@ import math
 from pathlib import Path
 
 from ..errors import ConfigError, UsageError
-from .spec import Sweep, _is_random, member_seed
+from .seeds import member_seed
+from .spec import Sweep, _is_random
 
 SAMPLES = 8
 

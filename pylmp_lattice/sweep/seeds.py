@@ -1,4 +1,5 @@
-"""Members' seeds a block at a time (`member_seeds`): `spec.member_seed` of consecutive members,
+"""Members' seeds: `member_seed` of one member, and `member_seeds` a block at a time, the same
+numbers for consecutive members,
 the same numbers, made with array operations (a sweep of 10^4 replicas made one NumPy
 `SeedSequence` per member, about 8 us each, in the coordinator that feeds the workers)."""
 
@@ -17,8 +18,13 @@ MASK = 0xFFFFFFFF
 BLOCK = 4096  # members whose seeds are made at once
 
 
+def member_seed(sweep_seed: int, index: int) -> int:
+    """The seed of member `index`: independent streams for every (sweep seed, index) pair."""
+    return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
+
+
 def member_seeds(sweep_seed: int, start: int, count: int) -> Iterator[int]:
-    """`spec.member_seed(sweep_seed, i)` for i in start .. start + count - 1, in order."""
+    """`member_seed(sweep_seed, i)` for i in start .. start + count - 1, in order."""
     for first in range(start, start + count, BLOCK):
         yield from _block(sweep_seed, first, min(BLOCK, start + count - first))
 
@@ -26,8 +32,6 @@ def member_seeds(sweep_seed: int, start: int, count: int) -> Iterator[int]:
 def _block(sweep_seed: int, start: int, count: int) -> list[int]:
     words = _words(sweep_seed)
     if start + count > 2**32 or len(words) + 1 > POOL:  # an index of two words: as NumPy makes it
-        from .spec import member_seed
-
         return [member_seed(sweep_seed, i) for i in range(start, start + count)]
     entropy = [np.full(count, w, dtype=np.uint32) for w in words]
     entropy.append(np.arange(start, start + count, dtype=np.uint64).astype(np.uint32))

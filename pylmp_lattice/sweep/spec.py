@@ -51,7 +51,6 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
@@ -59,7 +58,7 @@ from ..case.identity import seeded_hashes
 from ..engine import RUNNERS
 from ..engines.road import ENGINES
 from ..errors import ConfigError
-from .seeds import member_seeds
+from .seeds import member_seed, member_seeds
 
 log = logging.getLogger(__name__)
 member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
@@ -405,11 +404,6 @@ def base_file(folder: Path, value) -> Path:
         raise ConfigError("base", f"got a {type(value).__name__}; expected the path of a case file (TOML), relative to "
                                   "the sweep file's folder or absolute")
     return (Path(folder) / value).resolve()
-
-
-def member_seed(sweep_seed: int, index: int) -> int:
-    """The seed of member `index`: independent streams for every (sweep seed, index) pair."""
-    return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
 
 
 def _case_id(data: dict) -> str:
