@@ -51,7 +51,6 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
 from ..case.identity import seeded_hashes
