@@ -1,0 +1,315 @@
+"""The GPU engine (engines.gpu) on the road of every batch with its CUDA kernels emulated on the
+host: engine_gpu.cu compiled by g++ (tests/cuda_host.h defines CUDA's qualifiers and thread
+indices) and run thread after thread, which is exact (one thread per chain, no shared memory, no
+barriers), behind a NumPy stand-in for CuPy that passes each kernel argument as CuPy passes it
+and refuses what CuPy would pass otherwise (a Python int or float, a host array, an argument
+that is not the kernel's parameter in kind or count). So everything but the device runs here:
+the arguments, their order and types, the launches and their chunks, the local and global-row
+paths, the copies back. Against the host engine (engines.cpu) on the same batch: x, v, the front
+record, work, end step and status, for every law, drive, friction on and off, thermal and
+disorder members, both far ends, chains on both local sizes and on global rows, and batches in
+several launches. Still only a device can check local memory's limits, launch limits, NVRTC's
+code (tests/test_gpu_build.py compiles it) and CuPy's own conversions (the gpu-marked tests)."""
+
+from __future__ import annotations
+
+import ctypes
+import re
+import shutil
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pylmp_lattice.case import Case
+from pylmp_lattice.engines import cpu, gpu
+from pylmp_lattice.engines.road import KernelEngine
+from pylmp_lattice.errors import ContactError
+from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
+from pylmp_lattice.run_folder import execute_batch
+
+from conftest import OTHER_LAWS, make_case
+
+SHIM = Path(__file__).resolve().parent / "cuda_host.h"
+SOURCE = gpu.KERNEL / "engine_gpu.cu"
+NVRTC_ONLY = ("-default-device",)  # options g++ has no use for (the shim's __device__ is nothing)
+# a kernel parameter's C type -> the NumPy type CuPy passes as it (scalars) or the array's dtype (pointers)
+C_TYPES = {"int": np.int32, "long long": np.int64, "double": np.float64, "unsigned char": np.uint8}
+CTYPES = {np.int32: ctypes.c_int, np.int64: ctypes.c_longlong, np.float64: ctypes.c_double}
+
+
+def kernel_signatures(text: str) -> dict[str, list[tuple[str, bool]]]:
+    """Each extern "C" __global__ kernel's parameters as (C type, pointer), PL_SETUP_PARAMS expanded."""
+    text = re.sub(r"/\*.*?\*/|//[^\n]*", "", text, flags=re.S).replace("\\\n", " ")
+    macros = dict(re.findall(r"#define\s+(PL_\w+_PARAMS)\s+([^\n]*)", text))
+    out = {}
+    for name, params in re.findall(r'extern\s+"C"\s+__global__\s+void\s+(\w+)\s*\(([^)]*)\)', text):
+        for macro, body in macros.items():
+            params = re.sub(rf"\b{macro}\b", body, params)
+        sig = []
+        for param in params.split(","):
+            words = param.replace("*", " * ").split()
+            pointer = "*" in words
+            base = " ".join(w for w in words[:-1] if w not in ("const", "*", "__restrict__"))
+            assert base in C_TYPES, f"{name}: parameter {param.strip()!r} of a type the emulator does not know"
+            sig.append((base, pointer))
+        out[name] = sig
+    return out
+
+
+class DeviceArray(np.ndarray):
+    """A "device" array: a NumPy array with CuPy's .get() (a host copy)."""
+
+    def get(self) -> np.ndarray:
+        return np.array(self)
+
+
+def _device(a) -> DeviceArray:
+    return np.array(a, copy=True).view(DeviceArray)  # CuPy's asarray copies host arrays to the device
+
+
+class Kernel:
+    """A kernel of the emulated module: called as CuPy's RawKernel, (grid, block, args)."""
+
+    def __init__(self, lib: ctypes.CDLL, name: str, signature: list[tuple[str, bool]], launches: list):
+        self.fn, self.name, self.signature, self.launches = getattr(lib, name), name, signature, launches
+        self.set_thread = lib.pl_emu_set_thread
+        self.set_thread.argtypes = [ctypes.c_uint] * 3
+
+    def marshal(self, args) -> list:
+        """The arguments as CuPy passes them (NumPy scalars by their type, arrays as their data
+        pointer); TypeError for anything the kernel's parameter is not."""
+        if len(args) != len(self.signature):
+            raise TypeError(f"{self.name}: {len(args)} arguments for {len(self.signature)} parameters")
+        out = []
+        for k, (arg, (base, pointer)) in enumerate(zip(args, self.signature)):
+            want = C_TYPES[base]
+            if pointer:
+                if not isinstance(arg, DeviceArray) or arg.dtype != want or not arg.flags.c_contiguous:
+                    raise TypeError(f"{self.name}: argument {k} is {type(arg).__name__} "
+                                    f"{getattr(arg, 'dtype', '')}, not a contiguous device array of {base}")
+                out.append(ctypes.c_void_p(arg.ctypes.data))
+            else:
+                if type(arg) is not want:  # a Python int or float: CuPy passes it as another type
+                    raise TypeError(f"{self.name}: argument {k} is {type(arg).__name__}, not {want.__name__} ({base})")
+                out.append(CTYPES[want](arg.item()))
+        return out
+
+    def __call__(self, grid, block, args):
+        assert len(grid) == 1 and len(block) == 1, "the engine's launches are 1-D"
+        c_args = self.marshal(args)
+        self.launches.append((self.name, grid[0], block[0]))
+        for b in range(grid[0]):
+            for t in range(block[0]):
+                self.set_thread(b, block[0], t)
+                self.fn(*c_args)
+
+
+class FakeCupy(types.ModuleType):
+    """The part of CuPy that engines.gpu uses, on NumPy and the emulated kernels."""
+
+    int32, int64, uint8, float64 = np.int32, np.int64, np.uint8, np.float64
+
+    def __init__(self, build):
+        super().__init__("cupy")
+        self.build, self.launches, self.modules = build, [], []
+        self.cuda = types.SimpleNamespace(Stream=types.SimpleNamespace(null=types.SimpleNamespace(synchronize=lambda: None)),
+                                          runtime=types.SimpleNamespace(getDeviceCount=lambda: 1))
+        fake = self
+
+        class RawModule:
+            def __init__(self, code: str, options: tuple[str, ...]):
+                assert code == SOURCE.read_text()
+                assert options in {gpu.compile_options(k) for k in (*gpu.LOCAL_SIZES, 0)}, options
+                fake.modules.append(options)
+                self.lib = fake.build(options)
+                self.signatures = kernel_signatures(code)
+
+            def get_function(self, name: str) -> Kernel:
+                return Kernel(self.lib, name, self.signatures[name], fake.launches)
+
+        self.RawModule = RawModule
+
+    @staticmethod
+    def asarray(a):
+        return _device(a)
+
+    @staticmethod
+    def zeros(n, dtype=np.float64):
+        return np.zeros(n, dtype).view(DeviceArray)
+
+    @staticmethod
+    def empty(n, dtype=np.float64):
+        return np.empty(n, dtype).view(DeviceArray)
+
+    @staticmethod
+    def full(n, value, dtype=np.float64):
+        return np.full(n, value, dtype).view(DeviceArray)
+
+    @staticmethod
+    def arange(n, dtype=None):
+        return np.arange(n, dtype=dtype).view(DeviceArray)
+
+
+@pytest.fixture(scope="session")
+def emulated_build(tmp_path_factory):
+    """options -> the g++ build of engine_gpu.cu with them (cached for the session)."""
+    gxx = shutil.which("g++")
+    if gxx is None:
+        pytest.skip("no g++ to build the emulated kernels")
+    folder, built = tmp_path_factory.mktemp("gpu_emulated"), {}
+
+    def build(options: tuple[str, ...]) -> ctypes.CDLL:
+        if options not in built:
+            flags = [o for o in options if o not in NVRTC_ONLY]
+            assert all(o.startswith(("-std=", "-I", "-D")) for o in flags), flags
+            lib = folder / f"engine_gpu_{len(built)}.so"
+            subprocess.run([gxx, "-O0", "-shared", "-fPIC", *flags, "-include", str(SHIM), "-x", "c++", str(SOURCE),
+                            "-o", str(lib)], check=True)
+            built[options] = ctypes.CDLL(str(lib))
+        return built[options]
+
+    return build
+
+
+@pytest.fixture
+def emulated_gpu(monkeypatch, emulated_build) -> FakeCupy:
+    """engines.gpu on the emulated kernels (its module cache emptied: they are not CuPy's)."""
+    fake = FakeCupy(emulated_build)
+    monkeypatch.setitem(sys.modules, "cupy", fake)
+    monkeypatch.setattr(gpu, "available", lambda: None)
+    monkeypatch.setattr(gpu, "_MODULES", {})
+    return fake
+
+
+def run_both(cases: list[Case], tmp_path: Path, monkeypatch) -> dict:
+    """The batch on the road with --engine cpu and --engine gpu: each engine's run_arrays
+    outputs (x, v, front, work, end_step, status) and the files each left, or its error."""
+    got = {}
+    for kind, module in (("cpu", cpu), ("gpu", gpu)):
+        original = module.run_arrays
+
+        def capture(*args, _run=original, _kind=kind, **kw):
+            got[_kind] = {"out": _run(*args, **kw)}
+            return got[_kind]["out"]
+
+        monkeypatch.setattr(module, "run_arrays", capture)
+        folder = tmp_path / kind
+        try:
+            execute_batch(cases, folder, KernelEngine(kind, cases))
+        except ContactError as err:
+            got[kind]["error"] = (err.pair, err.time_ms, err.gap_mm)
+        got[kind]["files"] = {name: (folder / name).read_bytes() for name in (FRONT_BIN, CHAIN_WORK)
+                              if (folder / name).exists()}
+    return got
+
+
+def assert_same_outputs(got: dict) -> bool:
+    """The GPU engine's outputs within 1e-12 relative of the host's, the same end steps, statuses,
+    errors and files; True if every bit is the same."""
+    names = ("x", "v", "front", "work", "end_step", "status")
+    host, dev = got["cpu"]["out"], got["gpu"]["out"]
+    for name, a, b in zip(names, host, dev):
+        if a is None or b is None:
+            assert a is None and b is None, name
+            continue
+        assert a.shape == b.shape and a.dtype == b.dtype, name
+        if a.dtype.kind == "f":
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=0, equal_nan=True, err_msg=name)
+        else:
+            assert np.array_equal(a, b), name
+    assert got["cpu"].get("error") == got["gpu"].get("error")
+    assert got["cpu"]["files"].keys() == got["gpu"]["files"].keys()
+    same_bits = all(a is None or np.array_equal(a, b, equal_nan=a.dtype.kind == "f") for a, b in zip(host, dev))
+    return same_bits and got["cpu"]["files"] == got["gpu"]["files"]
+
+
+FRICTION = {"mu": 0.285, "p": 0.012}
+_T = np.arange(0.0, 8.0 + 1e-9, 0.125)
+DRIVES = {
+    "ramp": {"profile": "ramp", "velocity": 2.0, "ramp_time": 1.3},
+    "sine": {"profile": "sine", "velocity": 2.0, "duration": 2.3},
+    "measured": {"profile": "measured", "t": list(_T), "values": list(4.0 / np.pi * (1 - np.cos(np.pi * np.minimum(_T, 2.0) / 2.0))),
+                 "column": "u", "after": "hold"},
+    "rest": {"profile": "rest"},
+}
+LAWS = {
+    "power_q3": {},  # the paper's, q an integer (the kernel's integer-power road)
+    "power_q2.7": {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 2.7}},
+    "linear": {"force": {"law": "linear", "k": 0.1, "r_free": 20.0}, "velocity": 0.5},
+    "table_morse": "morse",
+}
+
+
+def members(count: int = 6, particles: int | None = 21, duration: float = 10.0, chain: dict | None = None,
+            law: str = "power_q3", **kw) -> list[Case]:
+    """`count` thermal members of one point (the front record on), `particles` magnets."""
+    base = {"particles": particles, "duration": duration, "output": {"format": "none"}}
+    spec = LAWS[law]
+    if isinstance(spec, str):  # a law the kernel runs as a table
+        force, r0, table = OTHER_LAWS[spec]
+        base |= {"force": force, "table": table, "velocity": 0.5}
+        chain = {"mass": 1.0, "r0": r0} | (chain or {})
+    else:
+        base |= spec
+    chain = {"thermal_velocity": 0.02} | (chain or {})
+    return [make_case(**(base | kw), chain=chain | {"seed": s}) for s in range(count)]
+
+
+SCENARIOS = {
+    **{f"{law}-{'friction' if fr else 'frictionless'}": (lambda law=law, fr=fr: members(law=law, **({"friction": FRICTION} if fr else {})))
+       for law in LAWS for fr in (False, True)},
+    **{f"drive-{d}": (lambda d=d: members(impactor=DRIVES[d], friction=FRICTION)) for d in DRIVES},
+    "disorder": lambda: members(friction=FRICTION, chain={"thermal_velocity": None, "mass_disorder": 0.05, "r0_disorder": 0.05}),
+    "long-far-end": lambda: members(particles=None, duration=5.0, chain={"far_end": "long"}),
+    "40-magnets-local-64": lambda: members(particles=40, friction=FRICTION),
+    "64-magnets-local-64": lambda: members(particles=64, impactor=DRIVES["measured"]),
+    "120-magnets-global-rows": lambda: members(particles=120, friction=FRICTION),
+    "120-magnets-table-global-rows": lambda: members(particles=120, law="table_morse", impactor=DRIVES["sine"]),
+    "contact": lambda: members(count=4, duration=80.0),  # 21 magnets driven into the held end: a contact at about 68.6 ms
+    "contact-global-rows": lambda: members(count=3, particles=70, duration=80.0, velocity=4.0),
+}
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monkeypatch, emulated_gpu, scenario):
+    cases = SCENARIOS[scenario]()
+    got = run_both(cases, tmp_path, monkeypatch)
+    assert assert_same_outputs(got)  # bit for bit: one kernel, one compiler, no FMA contraction on x86-64
+    n = cases[0].chain.particles
+    local = gpu._local_size(n)
+    assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
+    assert emulated_gpu.modules == [gpu.compile_options(local)]
+    if scenario.startswith("contact"):
+        assert got["gpu"]["error"] is not None and got["gpu"]["out"][5].any()
+    else:
+        assert not got["gpu"]["out"][5].any() and "error" not in got["gpu"]
+
+
+@pytest.mark.parametrize("particles", [21, 100])
+def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, particles):
+    """300 chains in launches of 128 (CHUNK_ATOM_STEPS small): 3 launches, the last part-full."""
+    monkeypatch.setattr(gpu, "CHUNK_ATOM_STEPS", 1.0)
+    cases = members(count=300, particles=particles, duration=1.0, friction=FRICTION)
+    assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
+    assert [launch[1:] for launch in emulated_gpu.launches] == [(1, gpu.THREADS)] * 3
+
+
+def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
+    """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
+    sig = kernel_signatures(SOURCE.read_text())
+    assert len(sig["pl_run_short_chains_gpu"]) == 27 + 8 and len(sig["pl_run_chains_gpu"]) == 27 + 17
+    assert sig["pl_run_chains_gpu"][27 + 11] == ("unsigned char", True)  # phase
+    lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0]))
+    k = Kernel(lib, "pl_run_short_chains_gpu", sig["pl_run_short_chains_gpu"], [])
+    good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p in k.signature]
+    good = [FakeCupy.zeros(4, C_TYPES[b]) if p else g for g, (b, p) in zip(good, k.signature)]
+    assert len(k.marshal(good)) == len(good)
+    for k_arg, bad in ((1, 21), (3, 1e-5), (6, np.zeros(3)), (6, FakeCupy.zeros(3, np.int32)), (6, FakeCupy.zeros(6)[::2])):
+        with pytest.raises(TypeError, match=f"argument {k_arg} "):
+            k.marshal(good[:k_arg] + [bad] + good[k_arg + 1:])
+    with pytest.raises(TypeError, match="arguments for"):
+        k.marshal(good[:-1])
