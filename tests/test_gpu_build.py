@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import shutil
 from pathlib import Path
 
 import pytest
 
-from pylmp_lattice.engines.gpu import KERNEL, LOCAL_SIZES, compile_options
+from pylmp_lattice.engines.gpu import KERNEL, LOCAL_SIZES, _sources_digest, compile_options
 
 ARCH = "-arch=compute_90"  # the H100/H200 of issue 28; PTX, so no device is asked
 
@@ -61,3 +62,13 @@ def test_nvrtc_compiles_both_kernels_with_the_engines_options():
     rc, log, ptx = compile_ptx((*compile_options(LOCAL_SIZES[0]), ARCH))
     assert rc == 0, log
     assert b".entry pl_run_short_chains_gpu" in ptx and b".entry pl_run_chains_gpu" in ptx
+
+
+def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
+    """CuPy's disk cache keys a module by its source and options, not the headers it includes:
+    the options carry a digest of every kernel source, which an edit to a header changes."""
+    same, edited = shutil.copytree(KERNEL, tmp_path / "same"), shutil.copytree(KERNEL, tmp_path / "edited")
+    (edited / "step.h").write_text((edited / "step.h").read_text() + "\n")
+    digest = _sources_digest(KERNEL)
+    assert f"-DPL_KERNEL_SOURCES={digest}" in compile_options(LOCAL_SIZES[0])
+    assert _sources_digest(same) == digest != _sources_digest(edited)

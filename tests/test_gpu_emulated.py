@@ -30,6 +30,7 @@ from pylmp_lattice.engines.road import KernelEngine
 from pylmp_lattice.errors import ContactError
 from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
 from pylmp_lattice.run_folder import execute_batch
+from pylmp_lattice.sweep.store import Outcomes
 
 from conftest import OTHER_LAWS, make_case
 
@@ -38,11 +39,12 @@ SOURCE = gpu.KERNEL / "engine_gpu.cu"
 NVRTC_ONLY = ("-default-device",)  # options g++ has no use for (the shim's __device__ is nothing)
 # a kernel parameter's C type -> the NumPy type CuPy passes as it (scalars) or the array's dtype (pointers)
 C_TYPES = {"int": np.int32, "long long": np.int64, "double": np.float64, "unsigned char": np.uint8}
+GUARD = 4096  # bytes either side of each array argument, checked after a launch
 CTYPES = {np.int32: ctypes.c_int, np.int64: ctypes.c_longlong, np.float64: ctypes.c_double}
 
 
 def kernel_signatures(text: str) -> dict[str, list[tuple[str, bool]]]:
-    """Each extern "C" __global__ kernel's parameters as (C type, pointer), PL_SETUP_PARAMS expanded."""
+    """Each extern "C" __global__ kernel's parameters as (C type, pointer, const), PL_SETUP_PARAMS expanded."""
     text = re.sub(r"/\*.*?\*/|//[^\n]*", "", text, flags=re.S).replace("\\\n", " ")
     macros = dict(re.findall(r"#define\s+(PL_\w+_PARAMS)\s+([^\n]*)", text))
     out = {}
@@ -55,7 +57,7 @@ def kernel_signatures(text: str) -> dict[str, list[tuple[str, bool]]]:
             pointer = "*" in words
             base = " ".join(w for w in words[:-1] if w not in ("const", "*", "__restrict__"))
             assert base in C_TYPES, f"{name}: parameter {param.strip()!r} of a type the emulator does not know"
-            sig.append((base, pointer))
+            sig.append((base, pointer, "const" in words))
         out[name] = sig
     return out
 
@@ -74,7 +76,7 @@ def _device(a) -> DeviceArray:
 class Kernel:
     """A kernel of the emulated module: called as CuPy's RawKernel, (grid, block, args)."""
 
-    def __init__(self, lib: ctypes.CDLL, name: str, signature: list[tuple[str, bool]], launches: list):
+    def __init__(self, lib: ctypes.CDLL, name: str, signature: list[tuple[str, bool, bool]], launches: list):
         self.fn, self.name, self.signature, self.launches = getattr(lib, name), name, signature, launches
         self.set_thread = lib.pl_emu_set_thread
         self.set_thread.argtypes = [ctypes.c_uint] * 3
@@ -85,13 +87,13 @@ class Kernel:
         if len(args) != len(self.signature):
             raise TypeError(f"{self.name}: {len(args)} arguments for {len(self.signature)} parameters")
         out = []
-        for k, (arg, (base, pointer)) in enumerate(zip(args, self.signature)):
+        for k, (arg, (base, pointer, _)) in enumerate(zip(args, self.signature)):
             want = C_TYPES[base]
             if pointer:
                 if not isinstance(arg, DeviceArray) or arg.dtype != want or not arg.flags.c_contiguous:
                     raise TypeError(f"{self.name}: argument {k} is {type(arg).__name__} "
                                     f"{getattr(arg, 'dtype', '')}, not a contiguous device array of {base}")
-                out.append(ctypes.c_void_p(arg.ctypes.data))
+                out.append(arg)
             else:
                 if type(arg) is not want:  # a Python int or float: CuPy passes it as another type
                     raise TypeError(f"{self.name}: argument {k} is {type(arg).__name__}, not {want.__name__} ({base})")
@@ -99,13 +101,29 @@ class Kernel:
         return out
 
     def __call__(self, grid, block, args):
+        """Every thread of the launch, one after another, on guarded copies of the arrays (a
+        write outside an argument's array, or into a const one, fails the test)."""
         assert len(grid) == 1 and len(block) == 1, "the engine's launches are 1-D"
-        c_args = self.marshal(args)
+        args = self.marshal(args)
+        arrays = [a for a in args if isinstance(a, DeviceArray)]
+        for i, a in enumerate(arrays):  # distinct arrays (the kernels' pointers are __restrict__)
+            assert not any(np.shares_memory(a, b) for b in arrays[i + 1:]), f"{self.name}: arguments share memory"
+        guarded = {id(a): np.full(a.nbytes + 2 * GUARD, 0xA5, np.uint8) for a in arrays}
+        for a in arrays:
+            guarded[id(a)][GUARD:GUARD + a.nbytes] = a.view(np.uint8).reshape(-1)
+        c_args = [ctypes.c_void_p(guarded[id(a)].ctypes.data + GUARD) if isinstance(a, DeviceArray) else a for a in args]
         self.launches.append((self.name, grid[0], block[0]))
         for b in range(grid[0]):
             for t in range(block[0]):
                 self.set_thread(b, block[0], t)
                 self.fn(*c_args)
+        for k, (a, (_, pointer, const)) in enumerate(zip(args, self.signature)):
+            if pointer:
+                g, data = guarded[id(a)], a.view(np.uint8).reshape(-1)
+                assert (g[:GUARD] == 0xA5).all() and (g[GUARD + a.nbytes:] == 0xA5).all(), \
+                    f"{self.name}: argument {k} written outside its array"
+                assert not const or np.array_equal(g[GUARD:GUARD + a.nbytes], data), f"{self.name}: const argument {k} written"
+                data[:] = g[GUARD:GUARD + a.nbytes]
 
 
 class FakeCupy(types.ModuleType):
@@ -269,6 +287,7 @@ SCENARIOS = {
     "64-magnets-local-64": lambda: members(particles=64, impactor=DRIVES["measured"]),
     "120-magnets-global-rows": lambda: members(particles=120, friction=FRICTION),
     "120-magnets-table-global-rows": lambda: members(particles=120, law="table_morse", impactor=DRIVES["sine"]),
+    "120-magnets-rest-global-rows": lambda: members(particles=120, impactor=DRIVES["rest"]),  # no record
     "contact": lambda: members(count=4, duration=80.0),  # 21 magnets driven into the held end: a contact at about 68.6 ms
     "contact-global-rows": lambda: members(count=3, particles=70, duration=80.0, velocity=4.0),
 }
@@ -283,6 +302,7 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     local = gpu._local_size(n)
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
     assert emulated_gpu.modules == [gpu.compile_options(local)]
+    assert (got["gpu"]["out"][2] is None) == scenario.endswith(("rest", "rest-global-rows"))  # a drive at rest: no record
     if scenario.startswith("contact"):
         assert got["gpu"]["error"] is not None and got["gpu"]["out"][5].any()
     else:
@@ -291,25 +311,42 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
 
 @pytest.mark.parametrize("particles", [21, 100])
 def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, particles):
-    """300 chains in launches of 128 (CHUNK_ATOM_STEPS small): 3 launches, the last part-full."""
-    monkeypatch.setattr(gpu, "CHUNK_ATOM_STEPS", 1.0)
-    cases = members(count=300, particles=particles, duration=1.0, friction=FRICTION)
+    """40 chains in launches of 16 (CHUNK_ATOM_STEPS and THREADS small): grids of 2, 2 and 1
+    blocks of 8 threads, the last block part-full; each chain its own levels (thermal draws)."""
+    cases = members(count=40, particles=particles, friction=FRICTION)
+    monkeypatch.setattr(gpu, "THREADS", 8)
+    monkeypatch.setattr(gpu, "CHUNK_ATOM_STEPS", 16 * particles * cases[0].run.steps() + 1)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
-    assert [launch[1:] for launch in emulated_gpu.launches] == [(1, gpu.THREADS)] * 3
+    assert [launch[1:] for launch in emulated_gpu.launches] == [(2, 8), (2, 8), (1, 8)]
 
 
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
     """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
     sig = kernel_signatures(SOURCE.read_text())
     assert len(sig["pl_run_short_chains_gpu"]) == 27 + 8 and len(sig["pl_run_chains_gpu"]) == 27 + 17
-    assert sig["pl_run_chains_gpu"][27 + 11] == ("unsigned char", True)  # phase
+    assert sig["pl_run_chains_gpu"][27 + 11] == ("unsigned char", True, False)  # phase
+    assert sig["pl_run_chains_gpu"][27 + 2] == ("double", True, True)  # mass
     lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0]))
     k = Kernel(lib, "pl_run_short_chains_gpu", sig["pl_run_short_chains_gpu"], [])
-    good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p in k.signature]
-    good = [FakeCupy.zeros(4, C_TYPES[b]) if p else g for g, (b, p) in zip(good, k.signature)]
+    good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p, _ in k.signature]
+    good = [FakeCupy.zeros(4, C_TYPES[b]) if p else g for g, (b, p, _) in zip(good, k.signature)]
     assert len(k.marshal(good)) == len(good)
     for k_arg, bad in ((1, 21), (3, 1e-5), (6, np.zeros(3)), (6, FakeCupy.zeros(3, np.int32)), (6, FakeCupy.zeros(6)[::2])):
         with pytest.raises(TypeError, match=f"argument {k_arg} "):
             k.marshal(good[:k_arg] + [bad] + good[k_arg + 1:])
     with pytest.raises(TypeError, match="arguments for"):
         k.marshal(good[:-1])
+
+
+def test_an_emulated_gpu_sweep_gives_the_cpu_engine_s_results_table(tmp_path, emulated_gpu):
+    """test_sweep_engines's gpu sweep (6 replicas of the 21-magnet experiment, friction on the
+    rod) on the emulated kernels: the same table as --engine cpu, bit for bit."""
+    from test_sweep_engines import ENSEMBLES, assert_same_table, sweep_in_process, write_sweep
+
+    path = write_sweep(tmp_path, 6, ENSEMBLES["thermal with friction"])
+    cpu_table = sweep_in_process(path, tmp_path / "cpu", "cpu")
+    gpu_table = sweep_in_process(path, tmp_path / "gpu", "gpu")
+    assert set(gpu_table["status"]) == {"done"} and emulated_gpu.launches
+    disk = Outcomes(tmp_path / "gpu")
+    assert {disk.get(i)["record"]["engine"] for i in gpu_table["id"]} == {"gpu"}
+    assert_same_table(cpu_table, gpu_table, rtol=0)

@@ -18,6 +18,8 @@ device.
 
 from __future__ import annotations
 
+import hashlib
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -120,8 +122,21 @@ def run_arrays(a: Arrays):
 def compile_options(local: int) -> tuple[str, ...]:
     """NVRTC's options for engine_gpu.cu with local arrays `local` long (0: global rows).
     -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
-    NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function."""
-    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}", "-default-device")
+    NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function.
+    -DPL_KERNEL_SOURCES: CuPy's disk cache keys a compiled module by its source and options, not
+    the headers it includes, so their digest goes in the options (an edited header, a new version
+    of the package, compiles anew instead of loading the old kernel)."""
+    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}", "-default-device",
+            f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
+
+
+@lru_cache
+def _sources_digest(folder: Path) -> str:
+    """A digest of the kernel's sources in `folder` (names and contents)."""
+    h = hashlib.sha256()
+    for path in sorted(folder.glob("*.[hc]*")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
 
 
 def _local_size(n: int) -> int:
