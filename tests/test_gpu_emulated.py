@@ -287,6 +287,7 @@ SCENARIOS = {
     "64-magnets-local-64": lambda: members(particles=64, impactor=DRIVES["measured"]),
     "120-magnets-global-rows": lambda: members(particles=120, friction=FRICTION),
     "120-magnets-table-global-rows": lambda: members(particles=120, law="table_morse", impactor=DRIVES["sine"]),
+    "300-magnets-two-runs-global-rows": lambda: members(count=3, particles=300, duration=2.0, friction=FRICTION),  # n - 2 > block
     "120-magnets-rest-global-rows": lambda: members(particles=120, impactor=DRIVES["rest"]),  # no record
     "contact": lambda: members(count=4, duration=80.0),  # 21 magnets driven into the held end: a contact at about 68.6 ms
     "contact-global-rows": lambda: members(count=3, particles=70, duration=80.0, velocity=4.0),
