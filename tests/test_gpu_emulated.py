@@ -33,6 +33,7 @@ from pylmp_lattice.run_folder import execute_batch
 from pylmp_lattice.sweep.store import Outcomes
 
 from conftest import OTHER_LAWS, make_case
+from test_kernel_cpu import DRIVES, FRICTION  # its cases, which its gpu-marked tests run on a device
 
 SHIM = Path(__file__).resolve().parent / "cuda_host.h"
 SOURCE = gpu.KERNEL / "engine_gpu.cu"
@@ -245,15 +246,6 @@ def assert_same_outputs(got: dict) -> bool:
     return same_bits and got["cpu"]["files"] == got["gpu"]["files"]
 
 
-FRICTION = {"mu": 0.285, "p": 0.012}
-_T = np.arange(0.0, 8.0 + 1e-9, 0.125)
-DRIVES = {
-    "ramp": {"profile": "ramp", "velocity": 2.0, "ramp_time": 1.3},
-    "sine": {"profile": "sine", "velocity": 2.0, "duration": 2.3},
-    "measured": {"profile": "measured", "t": list(_T), "values": list(4.0 / np.pi * (1 - np.cos(np.pi * np.minimum(_T, 2.0) / 2.0))),
-                 "column": "u", "after": "hold"},
-    "rest": {"profile": "rest"},
-}
 LAWS = {
     "power_q3": {},  # the paper's, q an integer (the kernel's integer-power road)
     "power_q2.7": {"force": {"law": "power", "K": 413.8, "b": 3.917, "q": 2.7}},
