@@ -13,7 +13,8 @@ Not yet run on a GPU (the sessions that wrote it had none). NVRTC compiles it wi
 `compile_options` (tests/test_gpu_build.py, on any machine with the nvidia-cuda-nvrtc wheel); its
 tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py, marked gpu) and
 benchmarks/bench_gpu.py --check compare it with the host engine within 1e-12 where CuPy finds a
-device.
+device; tests/test_gpu_emulated.py runs everything here but the device on any machine (the kernels
+built by g++ and run thread after thread behind a stand-in for CuPy): bit for bit the host engine's.
 """
 
 from __future__ import annotations
