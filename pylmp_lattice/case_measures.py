@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -56,9 +57,10 @@ class ChainDraws:
     gaps: np.ndarray
     velocities: np.ndarray
 
-    @property
+    @cached_property
     def positions(self) -> np.ndarray:
-        """Initial positions (R, N), mm, x_1 = 0 (`Chain.positions` of each row)."""
+        """Initial positions (R, N), mm, x_1 = 0 (`Chain.positions` of each row); read by the
+        kernel's arrays and the summaries, made once."""
         return np.concatenate([np.zeros((len(self.gaps), 1)), np.cumsum(self.gaps, axis=1)], axis=1)
 
 

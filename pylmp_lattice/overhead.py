@@ -82,7 +82,11 @@ class Overheads:
 def contention() -> float:
     """How much longer a single-threaded command takes now than on an idle machine: 1-minute
     load / cores, at least 1."""
-    return max(1.0, os.getloadavg()[0] / (os.cpu_count() or 1))
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # no load average here: as if idle (an estimate never re-measures for it)
+        return 1.0
+    return max(1.0, load / (os.cpu_count() or 1))
 
 
 def cache_file() -> Path:

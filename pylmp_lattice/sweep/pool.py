@@ -182,16 +182,22 @@ def _pool_worker_init(alive, stop) -> None:
         signal.signal(s, on_signal)
 
     def watch(end, then):
-        # a stop signal must reach the main thread, the only one whose handler runs: one that
-        # the kernel gave this thread left a main thread blocked on the task queue's lock
-        # blocked for good (the pool's shutdown hung on it: 5 of 30 stops at the table's write)
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
         with contextlib.suppress(EOFError, OSError):
             end.recv()  # nothing is ever sent: returns when the coordinator's end closes
         then()
 
-    # the coordinator is gone: the members in hand stay unfinished on disk and run again on resume
-    threading.Thread(target=watch, args=(alive, lambda: os._exit(1)), daemon=True).start()
-    # the coordinator was told to stop: as if this worker got the signal itself (the handler above)
-    main = threading.main_thread().ident
-    threading.Thread(target=watch, args=(stop, lambda: signal.pthread_kill(main, signal.SIGINT)), daemon=True).start()
+    # A stop signal must reach the main thread, the only one whose handler runs: one that the
+    # kernel gave a watching thread left a main thread blocked on the task queue's lock blocked
+    # for good (the pool's shutdown hung on it: 5 of 30 stops at the table's write). The threads
+    # inherit the stop signals blocked from their start. (The cpu engine's OpenMP threads do not
+    # block them; a stop sent through the pipe reaches the main thread by pthread_kill all the same.)
+    unblocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        # the coordinator is gone: the members in hand stay unfinished on disk and run again on resume
+        threading.Thread(target=watch, args=(alive, lambda: os._exit(1)), daemon=True).start()
+        # the coordinator was told to stop: as if this worker got the signal itself (the handler above)
+        main = threading.main_thread().ident
+        threading.Thread(target=watch, args=(stop, lambda: signal.pthread_kill(main, signal.SIGINT)),
+                         daemon=True).start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, unblocked)

@@ -1,7 +1,8 @@
-"""Members' seeds: `member_seed` of one member, and `member_seeds` a block at a time, the same
-numbers for consecutive members,
-the same numbers, made with array operations (a sweep of 10^4 replicas made one NumPy
-`SeedSequence` per member, about 8 us each, in the coordinator that feeds the workers)."""
+"""Members' seeds: `member_seed` of one member (NumPy's SeedSequence), and `member_seeds`, the
+same numbers for consecutive members made a block at a time with array operations (a sweep of
+10^4 replicas made one SeedSequence per member, about 8 us each, in the coordinator that feeds
+the workers; the arrays cost about 0.2 us a member in a block of 4096, more than SeedSequence
+below SMALL)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ INIT_A, MULT_A, INIT_B, MULT_B = 0x43B0D7E5, 0x931E8875, 0x8B51F9DD, 0x58F38DED
 MIX_MULT_L, MIX_MULT_R, XSHIFT = 0xCA01F9DD, 0x4973F715, 16
 MASK = 0xFFFFFFFF
 BLOCK = 4096  # members whose seeds are made at once
+SMALL = 16  # fewer members: one SeedSequence each (blocks of 1-8 took 25-97 us a member)
 
 
 def member_seed(sweep_seed: int, index: int) -> int:
@@ -31,7 +33,8 @@ def member_seeds(sweep_seed: int, start: int, count: int) -> Iterator[int]:
 
 def _block(sweep_seed: int, start: int, count: int) -> list[int]:
     words = _words(sweep_seed)
-    if start + count > 2**32 or len(words) + 1 > POOL:  # an index of two words: as NumPy makes it
+    # few members, or an index of two words: as NumPy makes it
+    if count < SMALL or start + count > 2**32 or len(words) + 1 > POOL:
         return [member_seed(sweep_seed, i) for i in range(start, start + count)]
     entropy = [np.full(count, w, dtype=np.uint32) for w in words]
     entropy.append(np.arange(start, start + count, dtype=np.uint64).astype(np.uint32))
