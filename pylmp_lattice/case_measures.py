@@ -23,7 +23,7 @@ import numpy as np
 from . import measures
 from .case import Case, Chain
 from .errors import ConfigError
-from .formats.front_record import FrontRows, read_front_rows
+from .formats.front_record import read_front_rows
 
 
 def linear_constants(case: Case) -> tuple[float, float]:
@@ -129,17 +129,10 @@ def read_front_batch(cases, path: str | Path, arrival_method: str = "level",
 
     One pass for the batch: the drive's measures once, against each distinct noise velocity
     (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
-    return front_batch(cases, read_front_rows(path, len(cases), cases[0].chain.particles), arrival_method, str(path),
-                       draws)
-
-
-def front_batch(cases, record: FrontRows, arrival_method: str = "level", source: str = "the front record",
-                draws: ChainDraws | None = None) -> FrontRecord:
-    """`read_front_batch` from the record's rows (`formats.front_record`); source: where they
-    come from, for the error of a record with no step."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     case = cases[0]
+    record = read_front_rows(path, len(cases), case.chain.particles)
     rows, end = record.columns, record.end_time
     draws = draws or chain_draws(cases)
     noise = chain_noises(cases, draws)
@@ -147,7 +140,7 @@ def front_batch(cases, record: FrontRows, arrival_method: str = "level", source:
     imp, vi = case.impactor, case.impactor.peak_velocity()
     t = np.arange(round(end / case.run.dt) + 1) * case.run.dt
     if t.size < 2:
-        raise ConfigError(source, f"the record ends at t = {end:g} ms, before the run's first step "
+        raise ConfigError(str(path), f"the record ends at t = {end:g} ms, before the run's first step "
                                      f"({case.run.dt:g} ms); nothing to measure")
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]  # one signal, its measures per sigma
     drive = measures.first_peaks(t, v, a, vi, noise=sigma)

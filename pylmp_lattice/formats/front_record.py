@@ -38,12 +38,8 @@ def read_front_rows(path: str | Path, chains: int, particles: int) -> FrontRows:
     if dump.atoms != chains * particles:
         raise DumpFormatError(f"{path}: holds {dump.atoms} magnets; expected {chains * particles}")
     frame = dump.read()
-    return front_rows(frame.data[-1, :, 1:], frame.time[-1], chains, particles)
-
-
-def front_rows(data: np.ndarray, end_time: float, chains: int, particles: int) -> FrontRows:
-    """The record from its values in engine units: data (chains particles, 7), the columns
-    `layout.FRONT_FIELDS` of every atom in chain order; end_time: its last sample, s."""
+    # the last frame's columns `layout.FRONT_FIELDS` (engine units) of every atom in chain order
+    data, end_time = frame.data[-1, :, 1:], frame.time[-1]
     columns = {name: from_engine(data[:, k], quantity).reshape(chains, particles)
                for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     return FrontRows(columns, float(from_engine(end_time, "time")))
