@@ -64,7 +64,6 @@ def main() -> None:
 
     import pylmp_lattice
     from pylmp_lattice.sweep import load_sweep, run_sweep
-    from pylmp_lattice.sweep.blocks import _point
     from pylmp_lattice.sweep.store import Outcomes
     from pylmp_lattice.sweep.table import frame, member_row
 
@@ -93,7 +92,7 @@ def main() -> None:
                 for m, o in zip(members, outcomes)]
         df = frame(rows)
         parts = {
-            "enumeration": best(lambda: [_point(m) for m in sweep.iter_members()], args.repeat),
+            "enumeration": best(lambda: [m.point for m in sweep.iter_members()], args.repeat),
             "rows": best(lambda: [member_row(m.id, m.params, o["record"].get("batch"), o["record"], o["summary"])
                                   for m, o in zip(members, outcomes)], args.repeat),
             "frame": best(lambda: frame(rows), args.repeat),

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import measures
-from .case import Case, Chain
+from .case import Case, Chain, thermal_velocities
 from .errors import ConfigError
 from .formats.front_record import read_front_rows
 
@@ -65,10 +65,33 @@ class ChainDraws:
 
 
 def chain_draws(cases) -> ChainDraws:
-    """The chains of R cases (equal N) as arrays, each drawn once."""
+    """The chains of R cases (equal N) as arrays, each drawn once. Thermal chains that differ
+    only in their seed (a sweep's replicas without disorder) share their masses and gaps, drawn
+    once, and get their velocities together (`thermal_velocities`), each row its chain's bits."""
     chains = [case.chain for case in cases]
+    first = chains[0]
+    if len(chains) > 1 and all(map(_thermal_only, chains)) and all(_same_nominal(c, first) for c in chains):
+        masses, gaps, r = first.masses(), first.gaps(), len(chains)
+        v = np.zeros((r, first.particles))
+        v[:, 1:-1] = thermal_velocities(masses[1:-1], [c.thermal_velocity for c in chains],
+                                        np.stack([c.thermal_normals() for c in chains]))
+        return ChainDraws(np.repeat(masses[None], r, axis=0), np.repeat(gaps[None], r, axis=0), v)
     return ChainDraws(*(np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps,
                                                                                     Chain.velocities)))
+
+
+def _thermal_only(chain: Chain) -> bool:
+    """Whether the seed draws only the chain's thermal velocities (no disorder, no given velocity)."""
+    return bool(chain.thermal_velocity) and chain.velocity is None and not (chain.mass_disorder or chain.r0_disorder)
+
+
+def _same_nominal(chain: Chain, first: Chain) -> bool:
+    """Whether the chain's masses and gaps are `first`'s without drawing them (no disorder)."""
+    return chain is first or all(getattr(chain, f) is getattr(first, f) or getattr(chain, f) == getattr(first, f)
+                                 for f in _NOMINAL)
+
+
+_NOMINAL = ("particles", "mass", "r0", "defect_index", "defect_mass", "defect_r0")
 
 
 def chain_noise(case: Case) -> float:
@@ -79,12 +102,15 @@ def chain_noise(case: Case) -> float:
 def chain_noises(cases, draws: ChainDraws | None = None) -> np.ndarray:
     """The noise velocity of each of R cases, m/s, shape (R,): the cases of a batch (equal N,
     held ends and force law; `deck.render_replicas` checks), computed together with the bits of
-    each alone (`chain_noise` is a batch of one); draws: their `chain_draws`, if drawn."""
-    first = cases[0]
-    free = np.ones(first.chain.particles, bool)
-    free[[0, *first.held()]] = False
+    each alone (`chain_noise` is a batch of one); draws: their `chain_draws`, if drawn, which
+    keep the result (the draws are of these cases)."""
     d = draws or chain_draws(cases)
-    return measures.noise_velocity(d.masses, d.velocities, d.gaps, first.force.energy, free)
+    if "noise" not in d.__dict__:  # once per batch: the engine's levels, the deck's and the record's read it
+        first = cases[0]
+        free = np.ones(first.chain.particles, bool)
+        free[[0, *first.held()]] = False
+        d.__dict__["noise"] = measures.noise_velocity(d.masses, d.velocities, d.gaps, first.force.energy, free)
+    return d.__dict__["noise"]
 
 
 def front_levels(case: Case) -> measures.FrontLevels:

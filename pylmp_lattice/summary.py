@@ -8,7 +8,6 @@ magnet 1 counts from the start, also before a pulse's peak marks its arrival).""
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import warnings
@@ -40,14 +39,15 @@ def summary_of(case: Case, front: measures.Front | None, max_speed: np.ndarray |
 
 
 def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
-              draws: ChainDraws | None = None) -> list[dict]:
+              draws: ChainDraws | None = None, points: list | None = None) -> list[dict]:
     """`summary_of` for each of R cases of one drive (a batch), from their fronts as one Front of R
     chains (`measures.stack_fronts`) and max_speed (R, N): each the summary of the case alone,
     bit for bit (`summary_of` is a batch of one); draws: the cases' `chain_draws`, if drawn.
-    What depends on a case but not on its draws (the fit windows) is worked out once per
-    parameter point (`_points`), V0 and f0 once per mean gap and mass."""
+    points: a key per case, equal for cases that differ at most in chain.seed (a sweep's
+    `Member.point`): what depends on a case but not on its draws (the fit windows) is worked
+    out once per key (default: per case); V0 and f0 once per mean gap and mass."""
     draws = draws or chain_draws(cases)
-    points = _points(cases)
+    points = _points(range(len(cases)) if points is None else points)
     vi = cases[0].impactor.peak_velocity()
     vp = front.accepted_velocity  # gaps out of order or below the linear speed are flagged, not averaged
     speeds = measures.trailing_plateaus(vp)
@@ -99,15 +99,10 @@ def front_window(case: Case) -> tuple[int, int] | None:
     return (first, last) if last > first else None
 
 
-def _points(cases) -> list[list[int]]:
-    """The rows of the cases in groups that differ at most in chain.seed: every other field of
-    the case and of its chain is the same object (a sweep's replicas of one point are built so,
-    `spec.member_cases`), so anything worked out from those fields alone is the same for them."""
-    case_fields = [f.name for f in dataclasses.fields(cases[0]) if f.name != "chain"]
-    chain_fields = [f.name for f in dataclasses.fields(cases[0].chain) if f.name != "seed"]
-    groups: dict[tuple, list[int]] = {}
-    for r, case in enumerate(cases):
-        key = (tuple(id(getattr(case, f)) for f in case_fields), tuple(id(getattr(case.chain, f)) for f in chain_fields))
+def _points(keys) -> list[list[int]]:
+    """The rows of the cases grouped by their point keys, in order of first appearance."""
+    groups: dict = {}
+    for r, key in enumerate(keys):
         groups.setdefault(key, []).append(r)
     return list(groups.values())
 
@@ -174,14 +169,15 @@ def _linear_part(cases, draws: ChainDraws) -> list[dict]:
     for case, r0, mass in zip(cases, np.mean(draws.gaps, axis=1).tolist(), np.mean(draws.masses, axis=1).tolist()):
         key = (r0, mass, case.force)
         if key not in done:
-            done[key] = linear_constants_at(case.force, *key[:2])
+            v0, f0 = linear_constants_at(case.force, *key[:2])
+            done[key] = _round(v0, 6), _round(f0, 4)
         v0, f0 = done[key]
         out.append({
             "case": case.name,
             "particles": case.chain.particles,
             "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity(),
-            "linear_wave_speed_V0_m_per_s": _round(v0, 6),
-            "linear_frequency_f0_Hz": _round(f0, 4),
+            "linear_wave_speed_V0_m_per_s": v0,
+            "linear_frequency_f0_Hz": f0,
         })
     return out
 
@@ -248,6 +244,7 @@ def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
     """x to `decimals` decimals, or more where that would keep fewer than `significant` figures:
     a small number (a drift's standard error of 1e-6) stays a number, not 0."""
     x = float(x)  # numpy's round of an np.float64 multiplies by 10**n: a subnormal becomes NaN
-    if not math.isfinite(x) or x == 0:  # math, not numpy: a summary rounds some 20 numbers per member
+    if x == 0 or not math.isfinite(x):  # math, not numpy: a summary rounds some 20 numbers per member
         return round(x, decimals)
-    return round(x, max(decimals, significant - 1 - math.floor(math.log10(abs(x)))))
+    digits = significant - 1 - math.floor(math.log10(abs(x)))
+    return round(x, digits if digits > decimals else decimals)

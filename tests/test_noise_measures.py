@@ -85,8 +85,13 @@ def test_a_batch_s_chain_draws_are_each_chain_s_own():
             got, want = getattr(draws, name)[r], getattr(case.chain, name)()
             assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist(), (r, name)
     assert len({tuple(row) for row in draws.velocities.tolist()}) == 13
-    assert _points([*cases, other]) == [list(range(12)), [12]]
-    assert _points([make_case(particles=25), make_case(particles=25)]) == [[0], [1]]  # equal, not the same objects
+    thermal = [dataclasses.replace(other, chain=dataclasses.replace(other.chain, seed=s)) for s in range(12)]
+    together = chain_draws(thermal)  # masses and gaps drawn once, the velocities of all rows together
+    for r, case in enumerate(thermal):
+        for name in ("masses", "gaps", "velocities", "positions"):
+            got, want = getattr(together, name)[r], getattr(case.chain, name)()
+            assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist(), (r, name)
+    assert _points(["a"] * 6 + ["b"] + ["a"] * 6) == [[*range(6), *range(7, 13)], [6]]  # by key, in order
 
 
 def test_noise_velocity_of_a_thermal_chain_is_its_rms_velocity():

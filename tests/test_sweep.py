@@ -153,6 +153,8 @@ def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
     assert [r.getMessage() for r in caplog.records] == [
         "2 members are the same case as earlier ones (members 1, 3); each case runs once"]
     assert len(sweep.members()) == 2 and len(caplog.records) == 1  # said once (a study enumerates, then runs)
+    again = Sweep(base=tmp_path / "base.toml", grid=sweep.grid)  # once per sweep, not per process
+    assert len(again.members()) == 2 and len(caplog.records) == 2
 
 
 def test_sweep_from_python_accepts_a_case(case_factory):
@@ -504,7 +506,6 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
 
     from pylmp_lattice.run_folder import run_case
     from pylmp_lattice.sweep import batch
-    from pylmp_lattice.sweep.table import scalar_measures
 
     monkeypatch.setattr(batch, "FRICTION_PER_CHAIN", True)
     monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
@@ -525,9 +526,17 @@ def test_batched_members_have_the_measures_of_the_member_run_alone(tmp_path, mon
     for member in sweep.members()[:3]:
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
         batched = disk.get(member.id)["summary"]
-        assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
+        assert _measures(batched) == _measures(alone)
         assert ("friction_dissipated_energy_mJ" in batched) == friction
     assert table["shock_velocity_max_m_per_s.value"].nunique() == 5  # five different chains
+
+
+def _measures(summary: dict) -> dict:
+    """A summary's measures (all but `table.NOT_MEASURES`) as strict JSON, as members.json holds them."""
+    from pylmp_lattice.serialize import jsonable
+    from pylmp_lattice.sweep.table import NOT_MEASURES
+
+    return {k: v for k, v in jsonable(summary).items() if k not in NOT_MEASURES}
 
 
 def test_member_cases_are_the_cases_of_their_dicts(tmp_path):
@@ -550,6 +559,29 @@ def test_member_cases_are_the_cases_of_their_dicts(tmp_path):
         assert cases == expected and [m.case for m in group] == cases
         assert 0 < cases.count(None) < len(group) // 2  # a draw may give a mass <= 0 (1 % per magnet) or too small for dt
         assert {m.error.split(":")[0] for m in group if m.case is None} <= {"chain.mass_disorder", "run.dt"}
+
+
+def test_thermal_replicas_share_their_point_s_case_but_not_its_velocities(tmp_path):
+    """Without disorder a replica is its point's first case with its own seed (`spec._reseeded`:
+    nothing else is checked again): equal to the case built from its dict, with that case's
+    masses, gaps and velocities bit for bit, and one parameter point (`Member.point`) per point."""
+    from pylmp_lattice.case import case_from_dict
+    from pylmp_lattice.sweep import spec
+    from pylmp_lattice.sweep.spec import member_cases
+
+    text = THERMAL.format(replicas=6) + '[grid]\n"impactor.velocity" = [1.0, 1.5]\n'
+    members = load_sweep(write_sweep(tmp_path, text)).members()
+    cases = member_cases(members)
+    for m, case in zip(members, cases):
+        built = case_from_dict(m.data)
+        assert case == built and case.chain.seed == m.params["chain.seed"]
+        for name in ("masses", "gaps", "velocities"):
+            assert getattr(case.chain, name)().tobytes() == getattr(built.chain, name)().tobytes(), (m.index, name)
+    assert len({case.chain.velocities().tobytes() for case in cases}) == 12
+    assert [m.point for m in members] == [members[0].point] * 6 + [members[6].point] * 6
+    assert members[0].point != members[6].point
+    with pytest.raises(ConfigError, match="chain.seed"):
+        spec._reseeded(cases[0], -1)
 
 
 def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
@@ -752,7 +784,7 @@ def test_a_batch_whose_record_cannot_be_read_runs_its_members_alone(tmp_path, mo
 
     from pylmp_lattice.sweep import batch
 
-    def damaged(cases, folder, draws):
+    def damaged(*args):
         raise ValueError("front.bin: truncated")
 
     monkeypatch.setattr(batch, "_summaries", damaged)
@@ -897,7 +929,7 @@ def test_a_stop_while_a_batch_is_measured_interrupts_its_members(tmp_path, monke
     from pylmp_lattice.errors import Interrupted
     from pylmp_lattice.sweep import batch, signals
 
-    def stopped(cases, folder, draws):
+    def stopped(*args):
         raise Interrupted(signal.SIGINT)
 
     monkeypatch.setattr(batch, "_summaries", stopped)
@@ -922,8 +954,8 @@ def test_a_batch_stopped_by_its_narrowest_range_runs_its_members_alone(tmp_path,
 
     original = deck.render_replicas
 
-    def narrow(cases, front=False):
-        files = original(cases, front)
+    def narrow(cases, front=False, draws=None):
+        files = original(cases, front, draws)
         files[deck.DECK] = re.sub(r"(range \S+ )(\S+)", lambda m: m.group(1) + repr(float(m.group(2)) / 2.995),
                                   files[deck.DECK])
         return files
@@ -988,7 +1020,6 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     from pylmp_lattice import deck
     from pylmp_lattice.run_folder import run_case
     from pylmp_lattice.sweep import batch
-    from pylmp_lattice.sweep.table import scalar_measures
 
     monkeypatch.setattr(batch, "LEVELS_PER_CHAIN", True)
     sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=40.0))
@@ -1007,7 +1038,7 @@ def test_batched_chains_keep_their_own_front_levels(tmp_path, monkeypatch):
     for member in sweep.members():
         alone = run_case(member.case, tmp_path / "alone" / member.id, figure=False)
         batched = disk.get(member.id)["summary"]
-        assert scalar_measures(batched) == scalar_measures(json.loads(json.dumps(alone)))
+        assert _measures(batched) == _measures(alone)
 
 
 @pytest.mark.lammps

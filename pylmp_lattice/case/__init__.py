@@ -13,7 +13,7 @@ One concept a module:
 """
 
 from .case import LONG_LATTICE_MARGIN, Case, long_lattice_particles
-from .chain import CHUNK, DISORDER, FAR_ENDS, KEPT_DRAWS, Chain
+from .chain import CHUNK, DISORDER, FAR_ENDS, KEPT_DRAWS, Chain, thermal_velocities
 from .checks import MAX_PARTICLES, MAX_STEPS, NAME, NAME_RULE, brief, check_name
 from .identity import case_id, identity_hash, normalised, normalised_hash
 from .model import FORCE_LAWS, Friction, SecondNeighbour
@@ -25,5 +25,5 @@ __all__ = ["CHUNK", "COMPRESSIONS", "DISORDER", "ENGINES", "FAR_ENDS", "FORCE_LA
            "LONG_LATTICE_MARGIN", "MAX_PARTICLES", "MAX_STEPS", "NAME", "NAME_RULE", "OUTPUT_FORMATS", "SECTIONS",
            "Case", "Chain", "FieldKindError", "Friction", "OutputSettings", "RunSettings", "SecondNeighbour", "TableSettings",
            "apply_override", "brief", "case_from_dict", "case_id", "case_to_dict", "check_name", "data_file",
-           "identity_hash", "load_case", "long_lattice_particles", "normalised", "normalised_hash", "read_toml",
+           "identity_hash", "load_case", "long_lattice_particles", "normalised", "normalised_hash", "read_toml", "thermal_velocities",
            "unit_warnings"]

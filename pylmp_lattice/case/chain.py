@@ -240,17 +240,27 @@ class Chain:
 
     def _thermal_velocities(self) -> np.ndarray:
         v = np.zeros(self.particles)
-        m = self.masses()[1:-1]
-        n, total = len(m), float(np.sum(m))
-        c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))
-        z = self._stream(2).standard_normal(n)
-        free = c * self.thermal_velocity * z
-        v[1:-1] = free - np.sum(m * free) / total
+        v[1:-1] = thermal_velocities(self.masses()[1:-1], [self.thermal_velocity], self.thermal_normals()[None])[0]
         return v
+
+    def thermal_normals(self) -> np.ndarray:
+        """The standard normal draws, shape (N-2,), that `thermal_velocities` makes the free
+        magnets' thermal velocities of (from the seed's velocity stream)."""
+        return self._stream(2).standard_normal(self.particles - 2)
 
     def positions(self) -> np.ndarray:
         """Initial positions x_n, mm, with x_1 = 0."""
         return np.concatenate([[0.0], np.cumsum(self.gaps())])
+
+
+def thermal_velocities(m: np.ndarray, thermal, z: np.ndarray) -> np.ndarray:
+    """The free magnets' thermal velocities (`Chain.velocities`) of R chains with the same free
+    masses m (n,), g: RMS `thermal` (R,) m/s, from standard normal draws z (R, n); (R, n).
+    Each row has the bits of its chain alone (the sums run along a row)."""
+    n, total = len(m), float(np.sum(m))
+    c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))
+    free = (c * np.asarray(thermal, float))[:, None] * z
+    return free - (np.sum(m * free, axis=1) / total)[:, None]
 
 
 def _extremes(chunks: Iterator[np.ndarray]) -> tuple[float, float]:

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..case import Case, check_name
+from ..case_measures import chain_draws
 from ..formats.layout import DATA, in_deck
 from ..units import to_engine
 from .engine_args import _num
@@ -25,19 +26,21 @@ def data_text(case: Case, per_atom: bool | None = None) -> str:
     return chains_data_text([case], per_atom)
 
 
-def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None) -> str:
-    """The data file of R chains of equal N (one case: `data_text`), written from their arrays:
-    chain r has atom IDs r N + 1 .. r N + N and molecule r + 1, and sits at y = r times the box
-    height (its x values are those of its run alone). Atom types are the distinct masses of all
-    chains; with per-atom masses, the distinct masses of their first magnets."""
+def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=None) -> str:
+    """The data file of R chains of equal N (one case: `data_text`), written from their arrays
+    (draws: the cases' `case_measures.chain_draws`, if drawn): chain r has atom IDs r N + 1 ..
+    r N + N and molecule r + 1, and sits at y = r times the box height (its x values are those
+    of its run alone). Atom types are the distinct masses of all chains; with per-atom masses,
+    the distinct masses of their first magnets."""
     first, chains = cases[0], len(cases)
     n = first.chain.particles
     per_atom = per_atom_masses(first) if per_atom is None else per_atom
-    x = to_engine(np.stack([case.chain.positions() for case in cases]), "length")
-    each = np.stack([case.chain.masses() for case in cases])
+    draws = draws or chain_draws(cases)
+    x = to_engine(draws.positions, "length")
+    each = draws.masses
     masses, types = np.unique(each[:, :1] if per_atom else each, return_inverse=True)
     types = np.broadcast_to(types.reshape(chains, -1), (chains, n))
-    v = to_engine(np.stack([case.chain.velocities() for case in cases]), "velocity")
+    v = to_engine(draws.velocities, "velocity")
     ids = np.arange(1, n * chains + 1).reshape(chains, n).tolist()
     # The chain engine finds neighbours by atom ID: bonds would only make LAMMPS warn that no
     # bond style is set.

@@ -35,9 +35,19 @@ def law_params(law) -> tuple[str, tuple[float, ...]] | None:
 
 
 def _law_args(law) -> str | None:
-    """`law_params` as fix arguments."""
-    params = law_params(law)
-    return None if params is None else " ".join([params[0], *map(_num, params[1])])
+    """`law_params` as fix arguments; worked out once per law object (a sweep's batch asks for
+    each member's, and its members share their point's law: by identity, so that laws equal
+    but not alike, K = 0.0 and -0.0, keep their own text)."""
+    kept = _LAW_ARGS.get(id(law))
+    if kept is None or kept[0] is not law:
+        params = law_params(law)
+        if len(_LAW_ARGS) >= 64:
+            _LAW_ARGS.clear()
+        kept = _LAW_ARGS[id(law)] = (law, None if params is None else " ".join([params[0], *map(_num, params[1])]))
+    return kept[1]
+
+
+_LAW_ARGS: dict[int, tuple] = {}  # id(law) -> (law, its arguments): the law is held, so its id is not reused
 
 
 def impactor_params(imp) -> tuple[str, tuple[float, ...]]:

@@ -20,7 +20,7 @@ from .script import deck_text
 from .tables import _tables
 
 
-def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str]:
+def render_replicas(cases: Sequence[Case], front: bool = False, draws=None) -> dict[str, str]:
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
@@ -34,7 +34,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     chains (no fine output, no front record); read it back with RunFolder.replicas.
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
-    = "none", each chain with its own levels (`case_measures.chain_front_levels`).
+    = "none", each chain with its own levels (`case_measures.chain_front_levels`). draws: the
+    cases' `case_measures.chain_draws`, if drawn.
     """
     first = cases[0]
     batch = replica_batch(cases)
@@ -45,8 +46,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False) -> dict[str, str
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines() if front and first.friction else "")),
-             DATA: chains_data_text(cases, per_atom), **_tables(batch, table=_law_args(first.force) is None)}
-    levels = front_levels_file(cases) if front and records_front(batch) else None
+             DATA: chains_data_text(cases, per_atom, draws), **_tables(batch, table=_law_args(first.force) is None)}
+    levels = front_levels_file(cases, draws) if front and records_front(batch) else None
     if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
         files[FRONT_LEVELS] = levels
         files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
@@ -59,13 +60,14 @@ def replica_batch(cases: Sequence[Case]) -> Case:
     with the narrowest table range of all; ConfigError if they differ beyond what a batch allows."""
     first = cases[0]
     first_range = replica_range(first)
+    tabulated = first_range is not None  # of every replica: their laws are first's (checked below)
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
         if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
                for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
-        if case.chain.particles != first.chain.particles or replica_range(case) != first_range:
+        if case.chain.particles != first.chain.particles or (tabulated and case.table_range() != first_range):
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
     table = dataclasses.replace(first.table, r_max=min(case.table_range()[1] for case in cases))
     return dataclasses.replace(first, table=table)
@@ -89,10 +91,11 @@ _FRONT_FIX = re.compile(r"^fix +front +all +lattice/front +start (\S+) front (\S
                         r"(?: pulse_floor (\S+))?", re.MULTILINE)
 
 
-def front_levels_file(cases: Sequence[Case]) -> str | None:
+def front_levels_file(cases: Sequence[Case], draws=None) -> str | None:
     """fix lattice/front's levels file for a batch of chains, one row per chain, each the levels
-    its deck alone passes the fix (`_output_lines`); None when all chains have the same levels."""
-    rows = front_levels_rows(cases)
+    its deck alone passes the fix (`_output_lines`); None when all chains have the same levels
+    (draws: the cases' `case_measures.chain_draws`, if drawn)."""
+    rows = front_levels_rows(cases, draws)
     if np.all(rows == rows[0]):
         return None
     return "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(

@@ -96,7 +96,7 @@ def execute(case: Case, folder: str | Path, runner: str | Engine = "embedded", n
 
 
 def execute_batch(cases: Sequence[Case], folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1,
-                  echo: bool = False, overwrite: bool = False) -> RunFolder:
+                  echo: bool = False, overwrite: bool = False, draws=None) -> RunFolder:
     """Run equal-length chains, equal outside [chain], in one instance (`deck.render_replicas`),
     on the road of `execute`; return the batch's RunFolder (`RunFolder.cases`, and
     `RunFolder.replicas` for its chains' trajectories).
@@ -104,8 +104,9 @@ def execute_batch(cases: Sequence[Case], folder: str | Path, runner: str | Engin
     Cases with output.format = "none" record only each chain's front (front.bin, chain r's
     rows its atoms; with friction, each chain's friction work); others write one text dump of
     all chains. The machine check of a single run (`preflight`) is its sweep's here: a batch
-    is a sweep's members."""
-    with _road(list(cases), folder, _engine(runner, nprocs, echo), overwrite) as claimed:
+    is a sweep's members. draws: the cases' `case_measures.chain_draws`, if drawn (the deck's
+    data file and levels are made from them)."""
+    with _road(list(cases), folder, _engine(runner, nprocs, echo), overwrite, draws=draws) as claimed:
         return RunFolder(claimed.path)
 
 
@@ -134,7 +135,7 @@ def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
 
 @contextmanager
 def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool, progress: bool = False,
-          yes: bool = False, contact_ends: bool = False):
+          yes: bool = False, contact_ends: bool = False, draws=None):
     """The road: a single case checked against the machine, the deck rendered (a case the deck
     refuses leaves the folder as it was), the folder claimed, written, run and its dumps
     converted; the claimed folder is yielded with its lock still held (no other process
@@ -143,7 +144,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     engine.check(Path(folder))
     if len(cases) == 1:
         preflight.check(cases[0], folder, engine.nprocs, yes=yes)
-    files = deck.render_folder(cases)
+    files = deck.render_folder(cases, draws)
     with ExitStack() as held:
         claimed = claim(folder, overwrite, held)
         write(claimed, cases, files, marker.RUNNING)

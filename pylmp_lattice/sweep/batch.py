@@ -148,7 +148,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         engine, kind = runner, "lammps"
     batch = _fresh(root / BATCHES / group[0][0].id)
     try:
-        execute_batch(cases, batch, engine)  # ConfigError if they differ beyond [chain]
+        execute_batch(cases, batch, engine, draws=draws)  # ConfigError if they differ beyond [chain]
     except Interrupted as err:
         return _batch_stopped(group, batch, started, err)
     except DiskFull as err:  # the sweep stops (see execute): its members are run again on resume
@@ -162,7 +162,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
             LEVELS_PER_CHAIN = False
         return _alone(root, group, runner)
     try:
-        summaries = _summaries(cases, batch, draws)
+        summaries = _summaries(cases, batch, draws, [m.point for m, _ in group])
     except Interrupted as err:  # a stop while its measures were read: as one during the run
         return _batch_stopped(group, batch, started, err)
     except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
@@ -213,9 +213,9 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     return out
 
 
-def _summaries(cases: list[Case], batch: Path, draws) -> list[dict]:
+def _summaries(cases: list[Case], batch: Path, draws, points: list[str]) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it
-    (draws: the members' `case_measures.chain_draws`)."""
+    (draws: the members' `case_measures.chain_draws`; points: their `Member.point`)."""
     from .. import measures
     from ..case_measures import read_front_batch
     from ..formats import layout
@@ -223,7 +223,7 @@ def _summaries(cases: list[Case], batch: Path, draws) -> list[dict]:
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
     record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws)
-    out = summaries(cases, record.front, record.max_speed, draws)
+    out = summaries(cases, record.front, record.max_speed, draws, points)
     if cases[0].friction is not None:
         from ..units import from_engine
 

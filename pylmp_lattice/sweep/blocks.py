@@ -3,11 +3,9 @@ allows, shared evenly by the workers (`_Blocks`)."""
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 
-from ..case import identity_hash
 from . import batch
 from .spec import Member
 
@@ -23,20 +21,6 @@ MAX_TYPES = 1024
 # A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
 # and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
 GPU_MAX_ATOMS = 4_000_000
-
-
-def _point(m: Member) -> str:
-    """The member's parameter point: members of one point differ only in their seed."""
-    values = {k: v for k, v in m.params.items() if k not in ("replica", "chain.seed")}
-    try:  # a point's hash made once (a sweep asks for every member's): its values with their types
-        return _point_hash(tuple((k, type(v), v) for k, v in values.items()))
-    except TypeError:  # a table or list swept: not hashable
-        return identity_hash(values)
-
-
-@functools.lru_cache(maxsize=1024)
-def _point_hash(values: tuple) -> str:
-    return identity_hash({k: v for k, _, v in values})
 
 
 @dataclass
@@ -63,7 +47,7 @@ class _Blocks:
 
     def _cap(self, m: Member) -> int:
         """Members of this point one instance may hold (1 if they cannot be batched)."""
-        point = _point(m)
+        point = m.point
         if point not in self.limits:
             case = m.case
             if case is None or not batch.batchable(case):

@@ -34,7 +34,7 @@ from ..formats.files import DiskFull, remove_tree
 from ..run_folder import marker
 from . import disk
 from .batch import Task
-from .blocks import GPU_MAX_ATOMS, _Blocks, _point  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
+from .blocks import GPU_MAX_ATOMS, _Blocks  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
 from .estimate import _estimate
 from .folder import check_folder, claim, lock
 from .member import one_line, unstarted
@@ -197,7 +197,7 @@ class _Coordinator:
         for m in self.sweep.iter_members():
             if self._finished(m):
                 continue
-            point = _point(m)
+            point = m.point
             if group and (point != key or len(group) >= size):
                 yield self._task(group)
                 group = []

@@ -75,7 +75,8 @@ class Member:
     sweep sets them; data: the case as a dict (TOML form), resolved for all but the first
     replica of a point (whose case the sweep built to validate it). `case` is built on first
     use: None when the parameters are invalid (then `error` says why, and the member is
-    recorded as failed without running).
+    recorded as failed without running). point: its parameter point's key (`point_key`),
+    set once per point by the sweep; members of one point differ only in their seed.
     """
 
     index: int
@@ -84,6 +85,11 @@ class Member:
     data: dict = field(repr=False)
     base_dir: Path = field(default=Path("."), repr=False)
     built: Case | None = field(default=None, repr=False, compare=False)  # the case, when already built
+    point: str = field(default="", repr=False, compare=False)
+
+    def __post_init__(self):
+        if not self.point:  # a member made by hand: its key from its parameters
+            object.__setattr__(self, "point", point_key(self.params))
 
     @cached_property
     def _case(self) -> tuple[Case | None, str | None]:
@@ -111,10 +117,44 @@ class Member:
         if "_case" in self.__dict__ or self.built is not None:
             return
         try:
-            case = replace(template, chain=replace(template.chain, seed=seed)), None
+            case = _reseeded(template, seed), None
         except ConfigError as err:
             case = None, str(err)
         self.__dict__["_case"] = case  # where the cached property `_case` keeps its value
+
+
+def point_key(params: dict) -> str:
+    """The key of a member's parameter point: its swept values but "replica" and "chain.seed"."""
+    return identity_hash({k: v for k, v in params.items() if k not in ("replica", "chain.seed")})
+
+
+def _reseeded(template: Case, seed) -> Case:
+    """`template` with chain.seed `seed`. Without mass or gap disorder the seed draws only the
+    thermal velocities, and no check of the chain or the case reads those: the case is the
+    template's with the seed checked and the velocities it drew dropped (the masses, gaps and
+    the checks of their extremes are the template's, the same for every seed), at ~5 us
+    instead of `dataclasses.replace`'s ~70 us (which checks everything again, as it must where
+    the disorder draws masses and gaps from the seed)."""
+    chain = template.chain
+    if chain.mass_disorder or chain.r0_disorder or chain.seed is None:
+        return replace(template, chain=replace(chain, seed=seed))
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise ConfigError("chain.seed", f"got {seed!r}; expected an integer >= 0")
+    new = _copy(chain)  # its __dict__: the fields and what it keeps (draws, ranges)
+    new.__dict__["seed"] = seed
+    kept = new.__dict__.get("_draws")
+    if kept is not None:
+        new.__dict__["_draws"] = {k: v for k, v in kept.items() if k != "velocities"}
+    case = _copy(template)
+    case.__dict__["chain"] = new
+    return case
+
+
+def _copy(obj):
+    """A shallow copy of a frozen dataclass instance (its __dict__), without `copy.copy`'s reduce."""
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    return new
 
 
 def member_cases(members) -> list[Case | None]:
@@ -141,10 +181,6 @@ def _seed_and_rest(data: dict) -> tuple:
     if not isinstance(chain, dict):
         return None, data
     return chain.get("seed"), data | {"chain": {k: v for k, v in chain.items() if k != "seed"}}
-
-
-# The sweeps (identities) whose merged identical members this process has reported.
-_SAID_SAME: set[str] = set()
 
 
 @dataclass(frozen=True)
@@ -269,6 +305,7 @@ class Sweep:
             random = _is_random(data)
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
             first = identity = None
+            key = point_key(point)
             seeds = member_seeds(self.seed, index, self.replicas) if seeded else None
             for replica in range(self.replicas):
                 params = dict(point)
@@ -279,21 +316,21 @@ class Sweep:
                 if first is None or first.case is None or not seeded:
                     if seeded:
                         data.setdefault("chain", {})["seed"] = params["chain.seed"]
-                    member = first = self._member(index, copy.deepcopy(data), params)
+                    member = first = self._member(index, copy.deepcopy(data), params, key)
                 else:  # the point's resolved case with this replica's seed: validated when built
                     # (its sections are shared with the first's: a case dict is read, never changed)
                     resolved = first.data | {"chain": first.data["chain"] | {"seed": params["chain.seed"]}}
                     if identity is None:  # the identity's text, made once per point
                         identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
-                    member = Member(index, identity(params["chain.seed"]), params, resolved, self.base_dir)
+                    member = Member(index, identity(params["chain.seed"]), params, resolved, self.base_dir, point=key)
                 index += 1
                 if member.id in seen:
                     same.append(member.index)
                     continue
                 seen.add(member.id)
                 yield member
-        if same and self.identity() not in _SAID_SAME:  # one line for all (study thermal printed 14), once
-            _SAID_SAME.add(self.identity())  # (a study enumerates its sweep, then runs it: it printed 2)
+        if same and not self.__dict__.get("_said_same"):  # one line for all (study thermal printed 14), once
+            self.__dict__["_said_same"] = True  # per sweep (a study enumerates its sweep, then runs it: it printed 2)
             log.info("%d member%s the same case as earlier ones (member%s %s); each case runs once", len(same),
                      " is" if len(same) == 1 else "s are", "" if len(same) == 1 else "s", _numbers(same))
 
@@ -352,13 +389,13 @@ class Sweep:
             return err
         return None
 
-    def _member(self, index: int, data: dict, params: dict) -> Member:
+    def _member(self, index: int, data: dict, params: dict, point: str) -> Member:
         try:
             case = case_from_dict(data, base_dir=self.base_dir)
         except ConfigError as err:
             self._check_known(err)
-            return Member(index, _case_id(data), params, data, self.base_dir)
-        return Member(index, member_id(case), params, case_to_dict(case), self.base_dir, built=case)
+            return Member(index, _case_id(data), params, data, self.base_dir, point=point)
+        return Member(index, member_id(case), params, case_to_dict(case), self.base_dir, built=case, point=point)
 
     def _check_known(self, err: ConfigError) -> None:
         """Re-raise an unknown field or section named by the sweep as an error of the sweep file."""

@@ -133,12 +133,16 @@ def _strict(table: dict) -> dict:
     if "cols" in table:
         return {"cols": {key: _strict(column) for key, column in table["cols"].items()}}
     values = table["rows"]
-    if {type(v) for v in values} <= _PLAIN:
+    kinds = {type(v) for v in values}
+    if kinds <= _PLAIN:
         return {"rows": [None if type(v) is float and not math.isfinite(v) else v for v in values]}
+    if kinds == {list} and {type(x) for v in values for x in v} <= _EXACT:  # lists of gap or magnet numbers
+        return {"rows": values}
     return {"rows": jsonable(values)}
 
 
 _PLAIN = {float, int, bool, str, type(None)}
+_EXACT = _PLAIN - {float}  # strict JSON as they are
 
 
 def rows(table: dict) -> list:

@@ -48,13 +48,6 @@ def flat_params(params: dict) -> dict:
     return out
 
 
-def scalar_measures(summary: dict) -> dict:
-    """The numbers and flags of a summary, nested keys joined by '.' (lists are left out)."""
-    out: dict = {}
-    _scalars(summary, "", out, NOT_MEASURES)
-    return out
-
-
 def _scalars(table: dict, prefix: str, out: dict, skip: tuple = ()) -> None:
     """`table`'s numbers and flags into `out`, but the keys in `skip` (a row is made for every
     member in the coordinator: no dict is built per nested table, common types come first)."""
