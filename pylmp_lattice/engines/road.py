@@ -24,11 +24,11 @@ from ..formats import layout
 from ..formats.bindump import write_frame
 from ..formats.files import atomic_write
 from ..units import from_engine
+from . import ENGINES
 from .arrays import prepare
 from .library import Unsupported
 from .library import layout as kernel_layout
 
-ENGINES = ("lammps", "cpu", "gpu")
 KERNELS = ENGINES[1:]
 
 

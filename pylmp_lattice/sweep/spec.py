@@ -55,7 +55,7 @@ from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict,
                     read_toml)
 from ..case.identity import seeded_hashes
 from ..engine import RUNNERS
-from ..engines.road import ENGINES
+from ..engines import ENGINES
 from ..errors import ConfigError
 from .seeds import member_seed, member_seeds
 
