@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import dataclasses
 import gc
 import json
 import logging
@@ -191,6 +190,8 @@ def _load(args):
 
     case = load_case(args.case, args.set)
     if args.name is not None:  # validated by the Case, as a name from the file is
+        import dataclasses
+
         case = dataclasses.replace(case, name=args.name)
     overridden = args.set and args.name is None
     return case, _run_folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))

@@ -11,9 +11,10 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures import Executor, Future  # (ProcessPoolExecutor where used: after the fork server starts)
 
 from ..errors import ConfigError, Interrupted, UsageError
 
@@ -54,16 +55,22 @@ class Pool:
         """SIGKILL the workers (when they did not stop on SIGTERM); wait: until they are gone (a
         process pool's; at most GRACE s each)."""
         self._signal(signal.SIGKILL)
-        if wait and isinstance(self.executor, ProcessPoolExecutor):
+        if wait and _process_pool(self.executor):
             for process in list((self.executor._processes or {}).values()):  # noqa: SLF001 - as in _signal
                 with contextlib.suppress(AssertionError, ValueError):  # not started, or closed
                     process.join(GRACE)
 
     def _signal(self, signum: int) -> None:
-        if isinstance(self.executor, ProcessPoolExecutor):
+        if _process_pool(self.executor):
             for process in list((self.executor._processes or {}).values()):  # no public list of workers
                 with contextlib.suppress(ProcessLookupError, TypeError, AttributeError):
                     os.kill(process.pid, signum)
+
+
+def _process_pool(executor) -> bool:
+    """Whether `executor` is a ProcessPoolExecutor (its module looked at only if it was loaded)."""
+    process = sys.modules.get("concurrent.futures.process")
+    return process is not None and isinstance(executor, process.ProcessPoolExecutor)
 
 
 @contextlib.contextmanager
@@ -115,6 +122,8 @@ def _local_pool(workers: int):
     ends only this process holds: when "stop" closes (a stop signal), the worker stops, also
     one that the pool starts after the signal; when "alive" closes (this process died), the
     worker exits."""
+    from concurrent.futures import ProcessPoolExecutor
+
     context = start_forkserver()
     alive_r, alive_w = context.Pipe(duplex=False)
     stop_r, stop_w = context.Pipe(duplex=False)
@@ -130,7 +139,7 @@ def _local_pool(workers: int):
             end.close()
 
 
-def _end_workers(pool: ProcessPoolExecutor) -> None:
+def _end_workers(pool) -> None:
     """Kill the pool's workers still alive GRACE seconds from now (their members are on disk, or
     "interrupted" and redone on resume), so that its shutdown cannot wait on a dead worker's lock."""
     deadline = time.monotonic() + GRACE
