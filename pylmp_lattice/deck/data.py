@@ -53,13 +53,18 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
     height = half - -half
     atoms, bonds, magnet_masses, velocities = [], [], [], []
     moving = bool(np.any(v))  # a Velocities section has a line for every atom, or is left out
-    rows: dict[tuple, list[str]] = {}  # x values formatted once per distinct chain (a thermal batch has one)
+    # a chain's atom lines as a format of (ID, molecule, y) per atom, made once per distinct x and
+    # types (a thermal batch has one), filled per chain at C speed
+    templates: dict[tuple, str] = {}
     for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
                                                          to_engine(each, "mass").tolist())):
         y = _num(r * height) if r else "0"
-        key = tuple(xs)
-        xs = rows.get(key) or rows.setdefault(key, [repr(xi) for xi in xs])
-        atoms += [f"{i} {r + 1} {t} {xi} {y} 0" for i, t, xi in zip(chain_ids, ts, xs)]
+        key = (tuple(xs), tuple(ts))
+        template = templates.get(key) or templates.setdefault(key, "\n".join(f"%d %d {t} {xi!r} %s 0"
+                                                                              for t, xi in zip(ts, xs)))
+        fill = [y] * (3 * n)
+        fill[0::3], fill[1::3] = chain_ids, [r + 1] * n
+        atoms.append(template % tuple(fill))  # its lines joined, as the file joins them
         bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
         magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
         velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if moving else []
