@@ -218,7 +218,7 @@ def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
     mean is not a plateau; "unresolved" (never converged) when the arrival times come from
     frames too coarse for the gaps (`resolved` False; see `front_resolution`). Null, like the
     numbers, when the series has too few values."""
-    defined = bool(np.isfinite(p.mean))
+    defined = math.isfinite(p.mean)
     converged = defined and resolved and p.converged()
     trend = (None if not defined else "unresolved" if not resolved else "steady" if converged
              else "decaying" if p.drift < 0 else "growing")

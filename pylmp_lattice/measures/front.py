@@ -129,9 +129,8 @@ class Front:
         """`flags` of each chain (one for a single front)."""
         late, slow = np.atleast_2d(self.out_of_order), np.atleast_2d(self.below_linear_speed)
         slowest, noise = (np.broadcast_to(x, len(late)).tolist() for x in (self.slowest_linear_speed, self.noise))
-        return [{"out_of_order_gaps": (np.flatnonzero(a) + 1).tolist(), "below_linear_speed_gaps": (np.flatnonzero(b) + 1).tolist(),
-                 "slowest_linear_speed_m_per_s": c, "noise_velocity_m_per_s": d}
-                for a, b, c, d in zip(late, slow, slowest, noise)]
+        return [{"out_of_order_gaps": a, "below_linear_speed_gaps": b, "slowest_linear_speed_m_per_s": c,
+                 "noise_velocity_m_per_s": d} for a, b, c, d in zip(_gap_numbers(late), _gap_numbers(slow), slowest, noise)]
 
     def row(self, r: int) -> Front:
         """Chain r's front, of the fronts of R chains."""
@@ -139,6 +138,12 @@ class Front:
         return Front(self.arrival[r], self.propagation_velocity[r],
                      FirstPeaks(*(getattr(self.peaks, f.name)[r] for f in fields(FirstPeaks))), self.arrival_method,
                      pick(self.noise), pick(self.slowest_linear_speed), self.sample_interval)
+
+
+def _gap_numbers(flagged: np.ndarray) -> list[list[int]]:
+    """The flagged gaps (1-based) of each row of `flagged` (R, N-1); rows without any, most of a
+    batch's, take no search."""
+    return [(np.flatnonzero(row) + 1).tolist() if any_ else [] for row, any_ in zip(flagged, flagged.any(axis=1).tolist())]
 
 
 def stack_fronts(fronts) -> Front:
