@@ -123,9 +123,12 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
     from ..deck import deck_text, replica_range
 
     groups: dict[tuple, list] = {}
+    able: dict[str, bool] = {}  # `batchable` of each parameter point (it does not look at the seed)
     for i, (m, case) in enumerate(valid):
+        if m.point not in able:
+            able[m.point] = batchable(case)
         shared = None if LEVELS_PER_CHAIN else deck_text(case)
-        key = (case.chain.particles, replica_range(case), shared) if batchable(case) else ("alone", i)
+        key = (case.chain.particles, replica_range(case), shared) if able[m.point] else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
 
