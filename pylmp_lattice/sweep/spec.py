@@ -112,8 +112,8 @@ class Member:
 
     def build_from(self, template: Case, seed) -> None:
         """Build this member's case as `template` (a case of its parameter point) with chain.seed
-        `seed`, unless it is built already: `dataclasses.replace` checks the chain and its draws
-        again; the rest was checked when the template was built."""
+        `seed`, unless it is built already (`_reseeded`: what the seed draws is checked again;
+        the rest was checked when the template was built)."""
         if "_case" in self.__dict__ or self.built is not None:
             return
         try:
@@ -160,8 +160,8 @@ def _copy(obj):
 def member_cases(members) -> list[Case | None]:
     """`Member.case` of each member, built once per parameter point: a member whose case dict
     differs from an earlier one's only in chain.seed (a replica) is that case with its own seed
-    (`dataclasses.replace` checks the chain and its draws again; the rest was checked when the
-    first was built, so its `case_from_dict` would give the same case, ~0.1 ms more)."""
+    (`_reseeded`: what the seed draws is checked again; the rest was checked when the first was
+    built, so its `case_from_dict` would give the same case, ~0.1 ms more)."""
     points: list[tuple[dict, Case]] = []
     out = []
     for m in members:
