@@ -300,6 +300,36 @@ def test_the_h5md_reservation_holds_the_whole_file(dumped):
     assert (folder / "traj.h5md").stat().st_size <= need
 
 
+@pytest.mark.parametrize("cap", [1e9, 1e3])
+def test_without_a_reservation_a_file_over_the_cap_is_written_directly_not_held_twice_in_memory(dumped, monkeypatch,
+                                                                                             caplog, cap):
+    """Where nothing can be reserved, HDF5 writes an image in memory that Python then copies out:
+    the file twice in RAM. Up to h5md.IMAGE_BYTES that is how it writes (HDF5's core driver, no
+    warning); a file that may be larger (the reservation it asked for: here the dumps' 3 kB and
+    H5MD_OVERHEAD, over a cap of 1 kB) is written by HDF5 into the file itself, with one warning
+    naming the file, its size and the cap. Either way the file verifies and the dumps go."""
+    from pylmp_lattice.formats import h5md
+    from pylmp_lattice.run_folder import convert
+
+    folder, case = dumped
+    drivers = []
+    write = h5md._write_h5md
+    monkeypatch.setattr(h5md, "_reserve", lambda fd, size: False)  # a file system without fallocate
+    monkeypatch.setattr(h5md, "IMAGE_BYTES", cap)
+    monkeypatch.setattr(h5md, "_write_h5md", lambda h5, *args: (drivers.append(h5.driver), write(h5, *args))[1])
+    need = convert._check_room(folder, {"chain": open_dump(folder / "traj.bin")})
+    with caplog.at_level("WARNING", logger="pylmp_lattice.formats.h5md"):
+        assert convert._convert(folder, case)
+    assert drivers == (["core"] if cap == 1e9 else ["fileobj"])
+    warned = [r.getMessage() for r in caplog.records if r.name == "pylmp_lattice.formats.h5md"]
+    if cap == 1e9:
+        assert warned == []
+    else:
+        assert len(warned) == 1 and f"traj.h5md.part: this file system cannot reserve its up to {need / 1e6:.3g} MB" \
+            in warned[0] and "over the 0.001 MB written through memory" in warned[0], warned
+    assert h5md.frame_count(folder / "traj.h5md", "chain")[0] == 6 and not (folder / "traj.bin").exists()
+
+
 FAILED_THEN_GOOD = """
 import builtins, errno, io, sys
 from pathlib import Path

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import getpass
+import logging
 import os
 from importlib.metadata import PackageNotFoundError, version
 from dataclasses import dataclass
@@ -57,6 +58,8 @@ from .layout import TOPOLOGY
 from ..trajectory import Trajectory
 from ..units import H5MD_UNITS, from_engine, to_engine, to_h5md
 
+logger = logging.getLogger(__name__)  # "log" is write_file's LAMMPS log
+
 GROUPS = {"chain": "trajectory", "fine": "trajectory_fine"}  # the package's names -> the file's
 _FIELDS = (("position", "x", "length"), ("velocity", "vx", "velocity"), ("force", "fx", "force"))
 # observables: name -> (thermo column of the log, quantity)
@@ -66,6 +69,9 @@ OBSERVABLES = {"kinetic_energy": ("KinEng", "energy"), "potential_energy": ("E_b
 # SI size of each unit a file of this package names (files written before times were in ps: s)
 _SI = {name: size for name, size in H5MD_UNITS.values()} | {"s": 1.0}
 _CHUNK_VALUES, _CHUNK_FRAMES = 1 << 15, 1024  # 256 kB chunks, of up to 1024 frames
+# The largest file written as an image in memory where no disk can be reserved (`write_file`):
+# held twice there, HDF5's image and its copy, so at most 512 MB.
+IMAGE_BYTES = 256e6
 
 
 @dataclass(frozen=True)
@@ -95,7 +101,10 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
     suite, after the full-disk test). So `reserve` bytes are allocated on the disk first (an
     OSError ENOSPC if they are not there) and HDF5 writes into them through a Python file,
     which is truncated at the end; where nothing can be reserved (reserve 0, or a file system
-    without fallocate), HDF5 writes an image in memory and Python writes it out."""
+    without fallocate), HDF5 writes an image in memory and Python writes it out. That holds the
+    file twice in memory: a file that may be over IMAGE_BYTES (`reserve`, its size at most) is
+    written by HDF5 straight into the file instead, with a warning that a disk filled meanwhile
+    may crash the process (the caller keeps the dumps until the file verifies)."""
     import h5py
 
     masses = header.masses
@@ -105,6 +114,13 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
     with open(target, "w+b") as f:
         if reserve and _reserve(f.fileno(), reserve):
             with _released(f), h5py.File(f, "w") as h5:  # HDF5 closes the file first
+                _write_h5md(h5, header, dumps, log, masses, species)
+            return
+        if reserve > IMAGE_BYTES:
+            logger.warning("%s: this file system cannot reserve its up to %.3g MB (no fallocate), over the %.3g MB "
+                           "written through memory: HDF5 writes it directly, and a disk that fills meanwhile may crash "
+                           "this process", target, reserve / 1e6, IMAGE_BYTES / 1e6)
+            with h5py.File(f, "w") as h5:
                 _write_h5md(h5, header, dumps, log, masses, species)
             return
         with h5py.File(f"{target}.image", "w", driver="core", backing_store=False) as h5:
