@@ -7,20 +7,22 @@ after its last. On this project's shared 2-core machine these take 1.4-1.5 s for
 21-magnet experiment, whose engine needs 0.05 s: a model of the steps alone was 24-55 % low
 for small runs and 100-1000 times low for small sweeps (issue 27, item 9).
 
-`overheads(measure=True)` times the commands themselves, in child processes, on chains too
-small to count: `pylmp-lattice run` of 8 magnets (run_s: start-up, writes, measures, figure);
-`pylmp-lattice sweep` of 1 and of SWEEP_MEMBERS such members run alone on one worker (their
-difference: member_s a member; the rest: sweep_s, the sweep's start-up and table); and a sweep
-of 2 points x 2 replicas of the 21-magnet experiment with noise, batched, less its two tasks at
-member_s each (replica_s: start-up and table with the CLI's replica statistics and figure,
-which took 1 of the 12-member example's 2.7 s and were left out before). The mean of two
-tries of each counts. The numbers are kept in the user's cache folder, one file per host,
-Python and package version; until measured, the defaults below stand in.
+`overheads(measure=True)` times the commands themselves, in child processes:
+`pylmp-lattice run` of 8 magnets, too small to count (run_s: start-up, writes, measures,
+figure); `pylmp-lattice sweep` of 1 and of SWEEP_MEMBERS members of the 21-magnet experiment,
+keep = "measures", run alone on one worker (their difference less the engine's model:
+member_s a member; the rest: sweep_s, the sweep's start-up and table); and a sweep of 2 points
+x 2 replicas of it with noise, batched, less its two tasks at member_s each (replica_s:
+start-up and table with the CLI's replica statistics and figure, which took 1 of the 12-member
+example's 2.7 s and were left out before). The mean of two tries of each counts. The numbers
+are kept in the user's cache folder, one file per host, Python and package version; until
+measured, the defaults below stand in.
 
 On a shared machine the load moves these times by a factor. So each time is kept as on a
-machine to itself, a measured command's wall time over its own contention, which the kernel
-records for it (its main thread's time running and waiting for a core, /proc/PID/schedstat),
-and an estimate multiplies them by the contention of the command asking, over its own start-up
+machine to itself, a measured command's wall time over the contention its processes met
+(their main threads' time running and waiting for a core, which the kernel records,
+/proc/PID/schedstat: the command's and those under it, a sweep's workers, whose contention
+was up to twice the command's own), and an estimate multiplies them by the contention of the command asking, over its own start-up
 (`contention()`): now, not a lagging average. The 1-minute load average, used before, took
 the last minute for the coming seconds: a 12-member sweep estimated at 1.8 s took 4.8 s just
 after four busy loops started, a run estimated at 3.5 s took 1.5 s just after they ended, and
@@ -49,7 +51,7 @@ log = logging.getLogger(__name__)
 
 # Set (to anything): the defaults, never measured; the measuring commands and the tests set it.
 MEASURING = "PYLMP_LATTICE_NO_MEASURE"
-SWEEP_MEMBERS = 16  # enough that their difference stands above the load's noise
+SWEEP_MEMBERS = 32  # their difference stands above the load's noise (16: member_s 0.025-0.053 s, 32: 0.040-0.044)
 # A process younger than this is a command in its start-up: its contention is its own record's.
 YOUNG_S = 60.0
 _TINY_CASE = """\
@@ -96,6 +98,7 @@ mu = 0.285
 p = 0.012
 g = 9.81
 """
+_REPLICA_CHAIN = (21, 4800)  # its magnets and steps (60 ms / 0.0125 ms), for the engine's share
 _REPLICA_SWEEP = 'base = "replica.toml"\nreplicas = 2\nkeep = "measures"\n[grid]\n"impactor.velocity" = [2.0, 2.5]\n'
 
 
@@ -106,12 +109,12 @@ class Overheads:
     replica statistics and figure (replica_s); each member run alone, or each batched task,
     beyond its engine and output (member_s)."""
 
-    # This machine's, measured 3 times on 2026-11-27 (06:31, 06:35 under four busy loops and the
-    # neighbours' load, 06:42 UTC): run_s 1.48-1.91, sweep_s 0.75-0.87, replica_s 1.34-1.86,
-    # member_s 0.034-0.07.
-    run_s: float = 1.5
+    # This machine's, measured 4 times on 2026-11-27 (06:31, 06:35 under four busy loops and the
+    # neighbours' load, 06:42, 07:01 UTC with members of the experiment, load 5.7): run_s
+    # 1.48-1.91, sweep_s 0.68-0.87, replica_s 1.34-1.86, member_s 0.027-0.07.
+    run_s: float = 1.6
     sweep_s: float = 0.75
-    replica_s: float = 1.4
+    replica_s: float = 1.6
     member_s: float = 0.05
     measured: bool = False
 
@@ -195,6 +198,8 @@ def overheads(measure: bool = False) -> Overheads:
 
 def _measure() -> Overheads:
     """The overheads on a machine to itself: each command's wall time over its contention."""
+    from .preflight.estimate import engine_seconds
+
     with tempfile.TemporaryDirectory(prefix="pylmp_lattice_overhead_") as tmp:
         folder = Path(tmp)
         (folder / "tiny.toml").write_text(_TINY_CASE)
@@ -203,12 +208,14 @@ def _measure() -> Overheads:
         run_s = _wall(["run", "tiny.toml", "-o", "r{}", "--quiet"], folder)
         times = {}
         for k in (1, SWEEP_MEMBERS):
-            values = ", ".join(f"{0.5 + 0.01 * i:g}" for i in range(k))
-            (folder / f"sweep{k}.toml").write_text(f'base = "tiny.toml"\n[grid]\n"impactor.velocity" = [{values}]\n')
+            values = ", ".join(f"{2.0 + 0.01 * i:g}" for i in range(k))
+            (folder / f"sweep{k}.toml").write_text(f'base = "replica.toml"\nkeep = "measures"\n[grid]\n'
+                                                   f'"impactor.velocity" = [{values}]\n')
             times[k] = _wall(["sweep", f"sweep{k}.toml", "-o", f"s{k}_{{}}", "--workers", "1", "--quiet"], folder)
         replicas = _wall(["sweep", "replicas.toml", "-o", "p{}", "--workers", "1", "--quiet"], folder)
-    member_s = max(0.0, (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1))
-    return Overheads(round(run_s, 3), round(max(0.0, times[1] - member_s), 3),
+    each = (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1)  # a member run alone, its engine included
+    member_s = max(0.0, each - engine_seconds(*_REPLICA_CHAIN))
+    return Overheads(round(run_s, 3), round(max(0.0, times[1] - each), 3),
                      round(max(0.0, replicas - 2 * member_s), 3), round(member_s, 3), True)
 
 
@@ -222,28 +229,48 @@ def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:
         child = subprocess.Popen([sys.executable, "-m", "pylmp_lattice.cli", *(a.format(k) for a in args)], cwd=cwd,
                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            total += _finished(child, start) / _exited_contention(child)
+            wall, contended = _timed(child, start)
+            total += wall / contended
         finally:
             if child.wait():
                 raise subprocess.CalledProcessError(child.returncode, child.args)
     return total / tries
 
 
-def _finished(child: subprocess.Popen, start: float) -> float:
-    """Seconds from `start` until `child` exits, leaving it unreaped where the system can (its
-    record stays readable)."""
-    if hasattr(os, "waitid"):
-        os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOWAIT)
-    else:  # macOS before Python 3.13: reaped, so its contention is this process's
-        child.wait()
-    return time.perf_counter() - start
-
-
-def _exited_contention(child: subprocess.Popen) -> float:
-    """`contention()` of an exited, unreaped child over its life; without the kernel's record,
-    this process's."""
+def _timed(child: subprocess.Popen, start: float, every: float = 0.1) -> tuple[float, float]:
+    """Seconds from `start` until `child` exits, and the contention its processes met: (time on
+    a core + time waiting for one) / time on a core, summed over the child and the processes
+    under it (a sweep's fork server and workers, whose members take its time), these read
+    every `every` s while they live, the child's once it has exited, before it is reaped.
+    Without the kernel's records (not Linux): this process's `contention()`."""
+    seen: dict[int, tuple[float, float]] = {}
     try:
-        ran, waited = _schedstat(str(child.pid))
-        return max(1.0, (ran + waited) / ran)
-    except (OSError, ValueError, IndexError, ZeroDivisionError):
-        return contention()
+        while not os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOWAIT | os.WNOHANG):
+            seen.update(_records(child.pid))
+            time.sleep(every)
+        wall = time.perf_counter() - start
+        seen[child.pid] = _schedstat(str(child.pid))
+    except (OSError, ValueError, IndexError, AttributeError):  # no records, or no waitid (macOS before 3.13)
+        child.wait()
+        return time.perf_counter() - start, contention()
+    ran = sum(r for r, _ in seen.values())
+    return wall, max(1.0, (ran + sum(w for _, w in seen.values())) / ran) if ran > 0 else contention()
+
+
+def _records(pid: int) -> dict[int, tuple[float, float]]:
+    """`_schedstat` of the processes under `pid` (children, theirs, ...), those readable now."""
+    parents: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        try:
+            parents.setdefault(int(open(f"/proc/{entry}/stat").read().rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+        except (OSError, ValueError, IndexError):
+            continue
+    found, todo = {}, list(parents.get(pid, []))
+    while todo:
+        p = todo.pop()
+        todo += parents.get(p, [])
+        try:
+            found[p] = _schedstat(str(p))
+        except (OSError, ValueError, IndexError):
+            pass
+    return found

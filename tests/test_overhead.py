@@ -37,10 +37,12 @@ def write_cache(data: dict) -> None:
 
 
 def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cache, monkeypatch):
-    """run: 3.1 s; a sweep of 1 member: 3.5 s, of 16: 6.5 s -> 0.2 s a member, 3.3 s the sweep's
-    own; the replica sweep (2 points, 2 tasks): 5.4 s -> 5.0 s its own, statistics included."""
+    """run: 3.1 s; a sweep of 1 member: 3.5 s, of 32: 9.7 s -> 0.2 s a member, less the
+    engine's model of its 4800 steps of 21 magnets (0.0102 s): member_s 0.19 s; 3.3 s the
+    sweep's own; the replica sweep (2 points, 2 tasks): 5.4 s -> 5.02 s its own, statistics
+    included."""
     calls = []
-    walls = {"run": 3.1, "sweep1.toml": 3.5, "sweep16.toml": 6.5, "replicas.toml": 5.4}
+    walls = {"run": 3.1, "sweep1.toml": 3.5, "sweep32.toml": 9.7, "replicas.toml": 5.4}
 
     def wall(args, cwd, tries=2):
         calls.append(args)
@@ -50,13 +52,27 @@ def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cac
     monkeypatch.setattr(overhead, "_wall", wall)
     assert overhead.overheads() == Overheads()  # not measured unless asked
     found = overhead.overheads(measure=True)
-    assert found == Overheads(run_s=3.1, sweep_s=3.3, replica_s=5.0, member_s=0.2, measured=True)
+    member = 0.2 - 4800 * (2e-6 + 6e-9 * 21)
+    assert found == Overheads(run_s=3.1, sweep_s=3.3, replica_s=round(5.4 - 2 * member, 3), member_s=round(member, 3),
+                              measured=True)
+    assert (found.member_s, found.replica_s) == (0.19, 5.02)
     assert len(calls) == 4 and json.loads(overhead.cache_file().read_text()) == {
-        "run_s": 3.1, "sweep_s": 3.3, "replica_s": 5.0, "member_s": 0.2}
+        "run_s": 3.1, "sweep_s": 3.3, "replica_s": 5.02, "member_s": 0.19}
     assert overhead.cache_file().parent == cache / "pylmp_lattice"
     assert overhead.overheads(measure=True) == found and len(calls) == 4  # once per machine
     write_cache({"run_s": 1.0, "sweep_s": 1.0, "member_s": 0.1, "contention": 2.0})  # an older version's
     assert overhead.overheads(measure=True) == found and len(calls) == 8  # measured again, not half read
+
+
+def test_the_measured_member_is_the_21_magnet_experiment_its_engine_share_named():
+    import tomllib
+
+    from pylmp_lattice.case import case_from_dict
+
+    data = tomllib.loads(overhead._REPLICA_CASE)
+    data["chain"]["seed"] = 1  # the sweep gives each member one
+    case = case_from_dict(data)
+    assert (case.chain.particles, case.run.steps()) == overhead._REPLICA_CHAIN == (21, 4800)
 
 
 def test_a_runs_estimate_is_its_engine_and_output_plus_the_machines_run_overhead(cache, monkeypatch):
@@ -97,18 +113,19 @@ def test_contention_is_the_commands_own_wait_for_a_core(monkeypatch):
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/schedstat"), reason="the kernel's record is Linux's")
-def test_an_exited_childs_record_is_read_before_it_is_reaped():
-    """The measurement reads each command's own record once it has exited, before reaping it:
-    a child that computed for 0.1 s of its own CPU time shows at least that run time, and a wall
-    time over its contention that is no more than its wall time."""
-    spin = "import time\nt = time.thread_time()\nwhile time.thread_time() - t < 0.1: pass"
-    child = subprocess.Popen([sys.executable, "-c", spin])
-    wall = overhead._finished(child, 0.0)
-    ran, waited = overhead._schedstat(str(child.pid))
-    k = overhead._exited_contention(child)
-    assert child.wait() == 0
-    assert 0.1 <= ran < 5 and waited >= 0 and k == pytest.approx(max(1.0, (ran + waited) / ran), rel=1e-12)
-    assert 1.0 <= k and ran <= wall
+def test_the_records_of_a_command_and_the_processes_under_it_are_read():
+    """A sweep's time is its workers', grandchildren of the command: the measurement reads the
+    records of every process under the command while they live (a grandchild that sleeps 0.5 s
+    is among them) and the command's own once it has exited, before it is reaped."""
+    nap = "import time; time.sleep(0.5)"
+    parent = f"import subprocess, sys\np = subprocess.Popen([sys.executable, '-c', {nap!r}])\nprint(p.pid, flush=True)\np.wait()"
+    child = subprocess.Popen([sys.executable, "-c", parent], stdout=subprocess.PIPE, text=True)
+    grandchild = int(child.stdout.readline())
+    assert grandchild in overhead._records(child.pid) and overhead._records(grandchild) == {}
+    wall, contended = overhead._timed(child, 0.0, every=0.05)
+    ran, waited = overhead._schedstat(str(child.pid))  # exited, not reaped: still readable
+    assert child.wait() == 0 and child.stdout.read() == ""
+    assert 0 < ran < 5 and waited >= 0 and wall >= 0.5 and 1.0 <= contended < 100
 
 
 def test_a_measured_wall_time_counts_over_its_commands_contention(monkeypatch, tmp_path):
@@ -126,8 +143,7 @@ def test_a_measured_wall_time_counts_over_its_commands_contention(monkeypatch, t
             return 0
 
     monkeypatch.setattr(overhead.subprocess, "Popen", Child)
-    monkeypatch.setattr(overhead, "_finished", lambda child, start: 3.0 if len(seen) == 1 else 5.0)
-    monkeypatch.setattr(overhead, "_exited_contention", lambda child: 2.0)
+    monkeypatch.setattr(overhead, "_timed", lambda child, start: (3.0 if len(seen) == 1 else 5.0, 2.0))
     assert overhead._wall(["run", "tiny.toml", "-o", "r{}"], tmp_path) == pytest.approx((1.5 + 2.5) / 2, rel=1e-12)
     assert seen == [["run", "tiny.toml", "-o", "r0"], ["run", "tiny.toml", "-o", "r1"]]
 
