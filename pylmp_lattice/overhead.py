@@ -109,9 +109,9 @@ class Overheads:
     replica statistics and figure (replica_s); each member run alone, or each batched task,
     beyond its engine and output (member_s)."""
 
-    # This machine's, measured 4 times on 2026-11-27 (06:31, 06:35 under four busy loops and the
-    # neighbours' load, 06:42, 07:01 UTC with members of the experiment, load 5.7): run_s
-    # 1.48-1.91, sweep_s 0.68-0.87, replica_s 1.34-1.86, member_s 0.027-0.07.
+    # This machine's, measured 5 times on 2026-11-27 (06:31, 06:35 under four busy loops and the
+    # neighbours' load, 06:42; 07:01 and 07:07 UTC as now, load 4-6): run_s 1.48-1.94, sweep_s
+    # 0.68-0.87, replica_s 1.28-1.86, member_s 0.027-0.07.
     run_s: float = 1.6
     sweep_s: float = 0.75
     replica_s: float = 1.6
@@ -148,14 +148,14 @@ def contention() -> float:
 
 def _schedstat(pid: str) -> tuple[float, float]:
     """Seconds process `pid`'s main thread has run on a core and waited for one (Linux)."""
-    ran, waited = open(f"/proc/{pid}/schedstat").read().split()[:2]
+    ran, waited = Path(f"/proc/{pid}/schedstat").read_text().split()[:2]
     return int(ran) / 1e9, int(waited) / 1e9
 
 
 def _age() -> float:
     """Seconds since this process started (Linux)."""
-    ticks = int(open("/proc/self/stat").read().rsplit(")", 1)[1].split()[19])
-    return float(open("/proc/uptime").read().split()[0]) - ticks / os.sysconf("SC_CLK_TCK")
+    ticks = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
+    return float(Path("/proc/uptime").read_text().split()[0]) - ticks / os.sysconf("SC_CLK_TCK")
 
 
 def cache_file() -> Path:
@@ -170,7 +170,7 @@ def cache_file() -> Path:
 
 def overheads(measure: bool = False) -> Overheads:
     """The cached overheads of this machine, at this moment's contention (`Overheads.now`);
-    measured now (about 10-20 s, once) if `measure` and none are cached, else the defaults."""
+    measured now (15-40 s, once) if `measure` and none are cached, else the defaults."""
     if os.environ.get(MEASURING):
         return Overheads()
     path = cache_file()
@@ -262,7 +262,8 @@ def _records(pid: int) -> dict[int, tuple[float, float]]:
     parents: dict[int, list[int]] = {}
     for entry in os.listdir("/proc"):
         try:
-            parents.setdefault(int(open(f"/proc/{entry}/stat").read().rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+            parents.setdefault(int(Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()[1]), []).append(
+                int(entry))
         except (OSError, ValueError, IndexError):
             continue
     found, todo = {}, list(parents.get(pid, []))
