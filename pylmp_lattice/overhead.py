@@ -70,7 +70,7 @@ duration = 1.0
 dt = 0.01
 output_interval = 0.1
 """
-# The 12-member example's chain (inputs/paper_experiment.toml, with its noise): its measures
+# A chain like the 12-member example's (inputs/paper_experiment.toml with thermal and mass noise): its measures
 # scatter between replicas, so the CLI draws their figure.
 _REPLICA_CASE = """\
 name = "overhead"
@@ -98,13 +98,21 @@ mu = 0.285
 p = 0.012
 g = 9.81
 """
+# The engine's time, as measured (LAMMPS Loop time, 2026-11-25 22:15 UTC, load 2.5): 1.3 us a
+# step (1.27 for 21 magnets) plus 4.7 ns per atom-step (4.2-4.7 for 3000 and 10^5 magnets), the
+# front record included; like the overheads, multiplied by the contention of the command asking.
+SECONDS_PER_STEP = 1.3e-6
+SECONDS_PER_ATOM_STEP = 4.7e-9
+# A batched member beyond its atom-steps: its share of the worker's Python (0.23 ms,
+# docs/performance.md "Worker Python per batched member").
+BATCHED_SECONDS = 2.3e-4
 _REPLICA_CHAIN = (21, 4800)  # its magnets and steps (60 ms / 0.0125 ms), for the engine's share
 _REPLICA_SWEEP = 'base = "replica.toml"\nreplicas = 2\nkeep = "measures"\n[grid]\n"impactor.velocity" = [2.0, 2.5]\n'
 
 
 @dataclass(frozen=True)
 class Overheads:
-    """Seconds, on a machine to itself (contention 1), or at the contention now (`now`): `run`
+    """Seconds on a machine to itself (contention 1; an estimate multiplies them by `contention()`): `run`
     of a tiny case, command to exit (run_s); a sweep's own start-up and end (sweep_s), with the
     replica statistics and figure (replica_s); each member run alone, or each batched task,
     beyond its engine and output (member_s)."""
@@ -117,11 +125,6 @@ class Overheads:
     replica_s: float = 1.6
     member_s: float = 0.05
     measured: bool = False
-
-    def now(self) -> Overheads:
-        """These times at this moment's contention (`contention()`)."""
-        k = contention()
-        return Overheads(self.run_s * k, self.sweep_s * k, self.replica_s * k, self.member_s * k, self.measured)
 
 
 _CACHED = tuple(f.name for f in fields(Overheads) if f.name != "measured")
@@ -169,7 +172,7 @@ def cache_file() -> Path:
 
 
 def overheads(measure: bool = False) -> Overheads:
-    """The cached overheads of this machine, at this moment's contention (`Overheads.now`);
+    """The cached overheads of this machine, on a machine to itself (contention 1);
     measured now (15-40 s, once) if `measure` and none are cached, else the defaults."""
     if os.environ.get(MEASURING):
         return Overheads()
@@ -177,29 +180,27 @@ def overheads(measure: bool = False) -> Overheads:
     try:
         data = json.loads(path.read_text())
         if isinstance(data, dict) and sorted(data) == sorted(_CACHED):  # another version's file: measured again
-            return Overheads(**{k: float(data[k]) for k in _CACHED}, measured=True).now()
+            return Overheads(**{k: float(data[k]) for k in _CACHED}, measured=True)
     except (OSError, ValueError, TypeError):
         pass
     if not measure:
-        return Overheads().now()
+        return Overheads()
     log.info("measuring this machine's start-up and per-member costs once for the estimates (cached in %s)", path)
     try:
         found = _measure()
     except (OSError, subprocess.SubprocessError) as err:  # an estimate never stops the work it estimates
         log.warning("could not measure this machine's overheads (%s); the estimate uses the defaults", err)
-        return Overheads().now()
+        return Overheads()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, json.dumps({k: getattr(found, k) for k in _CACHED}) + "\n")
     except (OSError, LatticeError) as err:  # an unwritable cache (or a link there) measures again next time, no more
         log.warning("could not cache the overheads in %s (%s)", path, getattr(err, "strerror", None) or err)
-    return found.now()
+    return found
 
 
 def _measure() -> Overheads:
     """The overheads on a machine to itself: each command's wall time over its contention."""
-    from .preflight.estimate import engine_seconds
-
     with tempfile.TemporaryDirectory(prefix="pylmp_lattice_overhead_") as tmp:
         folder = Path(tmp)
         (folder / "tiny.toml").write_text(_TINY_CASE)
@@ -216,7 +217,23 @@ def _measure() -> Overheads:
     each = (times[SWEEP_MEMBERS] - times[1]) / (SWEEP_MEMBERS - 1)  # a member run alone, its engine included
     member_s = max(0.0, each - engine_seconds(*_REPLICA_CHAIN))
     return Overheads(round(run_s, 3), round(max(0.0, times[1] - each), 3),
-                     round(max(0.0, replicas - 2 * member_s), 3), round(member_s, 3), True)
+                     round(max(0.0, replicas - batched_seconds(2, 4, *_REPLICA_CHAIN, member_s)), 3),
+                     round(member_s, 3), True)
+
+
+def engine_seconds(magnets: int, steps: int, nprocs: int = 1) -> float:
+    """The engine's time for a chain of `magnets` over `steps` steps on `nprocs` ranks (s), on a
+    machine to itself."""
+    ranks = max(1, min(nprocs, os.cpu_count() or 1))
+    return steps * (SECONDS_PER_STEP + SECONDS_PER_ATOM_STEP * magnets / ranks)
+
+
+def batched_seconds(tasks: int, members: int, magnets: int, steps: int, member_s: float) -> float:
+    """The work of `members` batched members in `tasks` tasks (one point's replicas each) of a
+    chain of `magnets` over `steps` steps (s, on a machine to itself): each task member_s and the
+    instance's cost per step, each member its atom-steps and BATCHED_SECONDS."""
+    return tasks * (member_s + SECONDS_PER_STEP * steps) + members * (SECONDS_PER_ATOM_STEP * magnets * steps
+                                                                       + BATCHED_SECONDS)
 
 
 def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:

@@ -325,8 +325,8 @@ def test_without_a_reservation_a_file_over_the_cap_is_written_directly_not_held_
     if cap == 1e9:
         assert warned == []
     else:
-        assert len(warned) == 1 and f"traj.h5md.part: this file system cannot reserve its up to {need / 1e6:.3g} MB" \
-            in warned[0] and "over the 0.001 MB written through memory" in warned[0], warned
+        assert len(warned) == 1 and f"traj.h5md: up to {need / 1e6:.3g} MB, over the" \
+            in warned[0] and "over the 0.001 MB cap for writing through memory" in warned[0], warned
     assert h5md.frame_count(folder / "traj.h5md", "chain")[0] == 6 and not (folder / "traj.bin").exists()
 
 

@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -38,9 +39,9 @@ def write_cache(data: dict) -> None:
 
 def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cache, monkeypatch):
     """run: 3.1 s; a sweep of 1 member: 3.5 s, of 32: 9.7 s -> 0.2 s a member, less the
-    engine's model of its 4800 steps of 21 magnets (0.0102 s): member_s 0.19 s; 3.3 s the
-    sweep's own; the replica sweep (2 points, 2 tasks): 5.4 s -> 5.02 s its own, statistics
-    included."""
+    engine's model of its 4800 steps of 21 magnets (0.0067 s): member_s 0.193 s; 3.3 s the
+    sweep's own; the replica sweep (2 points, 2 tasks, 4 members): 5.4 s -> 4.998 s its own,
+    statistics included."""
     calls = []
     walls = {"run": 3.1, "sweep1.toml": 3.5, "sweep32.toml": 9.7, "replicas.toml": 5.4}
 
@@ -52,12 +53,15 @@ def test_measured_once_from_the_commands_wall_times_then_read_from_the_cache(cac
     monkeypatch.setattr(overhead, "_wall", wall)
     assert overhead.overheads() == Overheads()  # not measured unless asked
     found = overhead.overheads(measure=True)
-    member = 0.2 - 4800 * (2e-6 + 6e-9 * 21)
-    assert found == Overheads(run_s=3.1, sweep_s=3.3, replica_s=round(5.4 - 2 * member, 3), member_s=round(member, 3),
+    member = 0.2 - 4800 * (1.3e-6 + 4.7e-9 * 21)  # 0.193
+    # the replica sweep's 2 tasks (member_s and 4800 steps each) and 4 batched members (their
+    # atom-steps and worker Python) are its work, the rest its own
+    work = 2 * (member + 1.3e-6 * 4800) + 4 * (4.7e-9 * 21 * 4800 + 2.3e-4)
+    assert found == Overheads(run_s=3.1, sweep_s=3.3, replica_s=round(5.4 - work, 3), member_s=round(member, 3),
                               measured=True)
-    assert (found.member_s, found.replica_s) == (0.19, 5.02)
+    assert (found.member_s, found.replica_s) == (0.193, 4.998)
     assert len(calls) == 4 and json.loads(overhead.cache_file().read_text()) == {
-        "run_s": 3.1, "sweep_s": 3.3, "replica_s": 5.02, "member_s": 0.19}
+        "run_s": 3.1, "sweep_s": 3.3, "replica_s": 4.998, "member_s": 0.193}
     assert overhead.cache_file().parent == cache / "pylmp_lattice"
     assert overhead.overheads(measure=True) == found and len(calls) == 4  # once per machine
     write_cache({"run_s": 1.0, "sweep_s": 1.0, "member_s": 0.1, "contention": 2.0})  # an older version's
@@ -83,12 +87,22 @@ def test_a_runs_estimate_is_its_engine_and_output_plus_the_machines_run_overhead
     assert 0 < base < 0.1  # a small run is mostly its overhead: the engine's model alone was 24-55 % low
 
 
-def test_cached_times_are_scaled_to_the_contention_now(cache, monkeypatch):
-    """The cache holds the times on a machine to itself; at contention 2.5 each is 2.5 times."""
+def test_estimates_are_the_times_on_a_machine_to_itself_times_the_contention_now(cache, monkeypatch):
+    """The cache holds the times on a machine to itself; at contention 2.5 a run's estimate,
+    overhead and engine, and a sweep's are 2.5 times those at contention 1."""
+    from pylmp_lattice.sweep import load_sweep
+    from pylmp_lattice.sweep.estimate import _estimate
+
     write_cache(CACHED)
+    assert overhead.overheads() == Overheads(**CACHED, measured=True)  # as cached: not scaled
+    case = make_case(particles=2000, duration=60.0)  # the engine's part is 0.6 s of it
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+    alone, said = preflight.estimate(case).seconds, _estimate(example, 12, 2)
     monkeypatch.setattr(overhead, "contention", lambda: 2.5)
-    now = overhead.overheads()
-    assert (now.run_s, now.sweep_s, now.replica_s, now.member_s) == pytest.approx((6.25, 7.5, 10.0, 0.25), rel=1e-12)
+    assert preflight.estimate(case).seconds == pytest.approx(2.5 * alone, rel=1e-12)
+    # sweep_s 3.0 and (3 tasks (0.1 + 1.3e-6 4800) + 12 members (4.7e-9 21 4800 + 2.3e-4)) / 2: 3.16 s
+    assert said == "about 3.2 s on 2 workers (batched), if all are like the first"
+    assert _estimate(example, 12, 2) == "about 7.9 s on 2 workers (batched), if all are like the first"
 
 
 def test_contention_is_the_commands_own_wait_for_a_core(monkeypatch):
@@ -119,13 +133,14 @@ def test_the_records_of_a_command_and_the_processes_under_it_are_read():
     is among them) and the command's own once it has exited, before it is reaped."""
     nap = "import time; time.sleep(0.5)"
     parent = f"import subprocess, sys\np = subprocess.Popen([sys.executable, '-c', {nap!r}])\nprint(p.pid, flush=True)\np.wait()"
+    started = time.perf_counter()
     child = subprocess.Popen([sys.executable, "-c", parent], stdout=subprocess.PIPE, text=True)
     grandchild = int(child.stdout.readline())
     assert grandchild in overhead._records(child.pid) and overhead._records(grandchild) == {}
-    wall, contended = overhead._timed(child, 0.0, every=0.05)
+    wall, contended = overhead._timed(child, started, every=0.05)
     ran, waited = overhead._schedstat(str(child.pid))  # exited, not reaped: still readable
     assert child.wait() == 0 and child.stdout.read() == ""
-    assert 0 < ran < 5 and waited >= 0 and wall >= 0.5 and 1.0 <= contended < 100
+    assert 0 < ran < 5 and 0 <= waited < 60 and 0.5 <= wall < 60 and 1.0 <= contended < 100
 
 
 def test_a_measured_wall_time_counts_over_its_commands_contention(monkeypatch, tmp_path):
@@ -159,7 +174,7 @@ def test_a_sweep_estimate_adds_the_replica_statistics_where_the_cli_draws_them(c
 
     write_cache(CACHED)
     example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
-    work = (3 * (0.1 + 2e-6 * 4800) + 12 * (6e-9 * 21 * 4800 + 2.3e-4)) / 2
+    work = (3 * (0.1 + 1.3e-6 * 4800) + 12 * (4.7e-9 * 21 * 4800 + 2.3e-4)) / 2
     assert _estimate(example, 12, 2) == f"about {3.0 + work:.2g} s on 2 workers (batched), if all are like the first"
     assert _estimate(example, 12, 2, stats=True) == (f"about {4.0 + work:.2g} s on 2 workers (batched, the replica "
                                                      "statistics and figure included), if all are like the first")

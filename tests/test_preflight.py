@@ -224,10 +224,14 @@ def test_run_larger_than_the_free_disk_is_refused_before_anything_is_written(tmp
     assert not (tmp_path / "run").exists()
 
 
-def test_run_longer_than_an_hour_needs_yes(tmp_path):
-    # 10^5 magnets for 6e7 steps: 6e7 (2e-6 + 10^5 x 6e-9) s, about 10.0 h; output 61 frames
+def test_run_longer_than_an_hour_needs_yes(tmp_path, monkeypatch):
+    # 10^5 magnets for 6e7 steps at contention 1: 6e7 (1.3e-6 + 10^5 x 4.7e-9) s, about 7.86 h;
+    # output 61 frames
+    from pylmp_lattice import overhead
+
+    monkeypatch.setattr(overhead, "contention", lambda: 1.0)
     case = make_case(particles=100_000, duration=600_000.0, interval=10_000.0)
-    with pytest.raises(ConfigError, match=r"estimated .*time 10 h; pass --yes"):
+    with pytest.raises(ConfigError, match=r"estimated .*time 7.86 h; pass --yes"):
         preflight.check(case, tmp_path)
     assert preflight.check(case, tmp_path, yes=True).seconds > 3600
 

@@ -88,8 +88,8 @@ class Header:
     compression: str
 
 
-def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: Path | None = None,
-               reserve: int = 0) -> None:
+def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: Path | None = None, *,
+               reserve: int) -> None:
     """Write an H5MD file at `target` from the run's binary dumps, {group: dump} with group
     "chain" (every magnet) or "fine" (the output.fine magnets), and the thermo rows of its
     `log` (LAMMPS's log file) as observables, and beside it the chain's topology (`psf`,
@@ -100,8 +100,8 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
     half-closed file stayed in HDF5's state and crashed a later close in the same process (the
     suite, after the full-disk test). So `reserve` bytes are allocated on the disk first (an
     OSError ENOSPC if they are not there) and HDF5 writes into them through a Python file,
-    which is truncated at the end; where nothing can be reserved (reserve 0, or a file system
-    without fallocate), HDF5 writes an image in memory and Python writes it out. That holds the
+    which is truncated at the end; where nothing can be reserved (a file system without
+    fallocate), HDF5 writes an image in memory and Python writes it out. That holds the
     file twice in memory: a file that may be over IMAGE_BYTES (`reserve`, its size at most) is
     written by HDF5 straight into the file instead, with a warning that a disk filled meanwhile
     may crash the process (the caller keeps the dumps until the file verifies)."""
@@ -117,9 +117,11 @@ def write_file(target: Path, header: Header, dumps: dict[str, BinaryDump], log: 
                 _write_h5md(h5, header, dumps, log, masses, species)
             return
         if reserve > IMAGE_BYTES:
-            logger.warning("%s: this file system cannot reserve its up to %.3g MB (no fallocate), over the %.3g MB "
-                           "written through memory: HDF5 writes it directly, and a disk that fills meanwhile may crash "
-                           "this process", target, reserve / 1e6, IMAGE_BYTES / 1e6)
+            # named as the user will see it: the caller writes under a ".part" name first
+            logger.warning("%s: up to %.3g MB, over the %.3g MB cap for writing through memory where no disk can be "
+                           "reserved (no fallocate); HDF5 writes it directly, and a disk that fills meanwhile may "
+                           "crash this process", Path(target).with_suffix("") if Path(target).suffix == ".part"
+                           else target, reserve / 1e6, IMAGE_BYTES / 1e6)
             with h5py.File(f, "w") as h5:
                 _write_h5md(h5, header, dumps, log, masses, species)
             return

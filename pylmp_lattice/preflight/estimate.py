@@ -1,5 +1,5 @@
 """What a run will need before it runs: its output size, memory and time on this machine
-(`estimate`, `Estimate`; `file_bytes`, `frames`, `engine_seconds`).
+(`estimate`, `Estimate`; `file_bytes`, `frames`).
 
 The estimates are linear models calibrated on this project's 2-core machine: each constant
 below says on what (file sizes by `benchmarks/calibrate_preflight.py`); docs/guide.md, "A run
@@ -19,7 +19,7 @@ import numpy as np
 from ..case import Case
 from ..deck import per_atom_masses, records_front, uses_chain_engine
 from ..exact import weak_shock
-from ..overhead import overheads
+from .. import overhead
 from ..formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
 from ..table import bond_table
 from ..units import to_engine
@@ -65,13 +65,9 @@ BLOCK_BYTES = 64e6
 TRAJECTORY_BYTES_PER_ATOM_FRAME = 4 * 8.0
 # Python, numpy, LAMMPS and matplotlib loaded: 151 MB.
 BASE_MEMORY_BYTES = 151e6
-# Engine: 2e-6 s a step plus 6e-9 s per atom-step, the front record included. Measured (LAMMPS
-# Loop time, 2026-11-25 22:15 UTC, load 2.5): 1.27 us a step for 21 magnets, 4.2-4.7 ns per
-# atom-step for 3000 and 10^5 magnets; the constants add a third for load. Each written
-# atom-frame costs 3.3e-6 s as text (writing, reading back) and 5e-7 s as H5MD (conversion);
-# plus the command's start-up, writes, measures and figure: this machine's, `overhead`.
-SECONDS_PER_STEP = 2e-6
-SECONDS_PER_ATOM_STEP = 6e-9
+# Time: the engine's (`overhead.engine_seconds`); each written atom-frame 3.3e-6 s as text
+# (writing, reading back) and 5e-7 s as H5MD (conversion); the command's start-up, writes,
+# measures and figure (this machine's, `overhead`); all times the contention now.
 SECONDS_PER_ATOM_FRAME = {"text": 3.3e-6, "h5md": 5e-7, "none": 0.0}
 
 
@@ -257,15 +253,9 @@ def estimate(case: Case, nprocs: int = 1, measure: bool = False) -> Estimate:
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
     if not case.output.front:
         memory += TRAJECTORY_BYTES_PER_ATOM_FRAME * atom_frames(case)
-    seconds = overheads(measure).run_s + engine_seconds(n, steps, nprocs)
-    seconds += SECONDS_PER_ATOM_FRAME[fmt] * atom_frames(case)
+    seconds = overhead.overheads(measure).run_s + overhead.engine_seconds(n, steps, nprocs)
+    seconds = overhead.contention() * (seconds + SECONDS_PER_ATOM_FRAME[fmt] * atom_frames(case))
     return Estimate(frames(case), files, memory, seconds)
-
-
-def engine_seconds(magnets: int, steps: int, nprocs: int = 1) -> float:
-    """The engine's time for a chain of `magnets` over `steps` steps on `nprocs` ranks (s)."""
-    ranks = max(1, min(nprocs, os.cpu_count() or 1))
-    return steps * (SECONDS_PER_STEP + SECONDS_PER_ATOM_STEP * magnets / ranks)
 
 
 def _size(n: float) -> str:
