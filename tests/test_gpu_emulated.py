@@ -302,6 +302,17 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
         assert not got["gpu"]["out"][5].any() and "error" not in got["gpu"]
 
 
+def test_a_chain_that_ends_early_keeps_its_end_state_while_the_others_run_on(tmp_path, monkeypatch, emulated_gpu):
+    """The host engine runs chains side by side in the lanes of a vector (engine_cpu.cpp): 11
+    members (a batch of lanes and a part-full one) driven into a contact at different steps, each
+    lane's end state, record, work and end step against the GPU kernel's one chain per thread."""
+    cases = members(count=11, duration=80.0, chain={"thermal_velocity": 0.3})
+    got = run_both(cases, tmp_path, monkeypatch)
+    assert assert_same_outputs(got)
+    end_step, status = got["cpu"]["out"][4:]
+    assert status.any() and len(set(end_step[status != 0])) > 1 and end_step.max() > end_step.min()
+
+
 @pytest.mark.parametrize("particles", [21, 100])
 def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, particles):
     """40 chains in launches of 16 (CHUNK_ATOM_STEPS and THREADS small): grids of 2, 2 and 1

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .arrays import DRIVES, LAWS, Arrays
-from .library import layout, library, ptr
+from .library import layout, library, ptr, step_scratch
 
 __all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
@@ -92,7 +92,8 @@ def run_arrays(a: Arrays):
         gate = cp.zeros(per_atom if a.record else 1)
         phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
         scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
-        runs, scratch_runs = cp.zeros(chains * nruns * 5, cp.int32), cp.zeros(chains * (5 * block + 1))
+        per_chain = step_scratch(block)
+        runs, scratch_runs = cp.zeros(chains * nruns * 5, cp.int32), cp.zeros(chains * per_chain)
     chunk = max(THREADS, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // THREADS * THREADS)
     for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
         hi = min(chains, lo + chunk)
@@ -107,7 +108,7 @@ def run_arrays(a: Arrays):
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
                     index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
                     *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
-                    runs[lo * nruns * 5:hi * nruns * 5], scratch_runs[lo * (5 * block + 1):hi * (5 * block + 1)],
+                    runs[lo * nruns * 5:hi * nruns * 5], scratch_runs[lo * per_chain:hi * per_chain],
                     work[rows], end_step[rows], status[rows])
             _kernel("pl_run_chains_gpu", 0)(grid, (THREADS,), args)
         cp.cuda.Stream.null.synchronize()

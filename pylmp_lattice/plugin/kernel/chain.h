@@ -25,7 +25,7 @@ struct ChainSetup {
   Drive drive;
   Law law;
   bool record;                    // the front record
-  int block;                      // largest run of free atoms (scratch: 5 block + 1 doubles)
+  int block;                      // largest run of free atoms (scratch: step_scratch(block))
 };
 
 /* a batch's setup from the engines' shared arguments (engine_cpu.cpp, engine_gpu.cu): law_kind 0
@@ -58,7 +58,7 @@ PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, int block
 
 /* a chain's per-atom mass terms, as fix lattice/chain's: dt/2 in force-to-velocity units
    (ftm2v = 1 in units si) over m, and m g */
-PL_HD inline void chain_masses(const double *mass, int n, double dt, double g, double *dtfm, double *weight)
+template <class R> PL_HD inline void chain_masses(const R *mass, int n, double dt, double g, R *dtfm, R *weight)
 {
   const double dtf = 0.5 * dt * 1.0;
   for (int i = 0; i < n; i++) {
@@ -75,145 +75,205 @@ PL_HD inline front::Levels levels_row(const double *L)
   return levels;
 }
 
-/* one chain's arrays (n each, the record n NCOL) and its outcome */
-struct ChainData {
-  double *x, *v, *f;              // x, v in: initial; out: final
-  const double *dtfm, *mass, *weight;    // per atom: dt/2m, m, m g
+/* one chain's arrays (n each, the record n NCOL) and its outcome; with lanes (R a vector of W
+   doubles, device.h) W chains side by side: x[i] holds atom i of every lane's chain, the record
+   and phases are per lane (lane l's rows from rec + l n NCOL, phase + l n) */
+template <class R> struct ChainDataT {
+  static constexpr int W = Lanes<R>::W;
+  R *x, *v, *f;                   // x, v in: initial; out: final (lanes: see x_end)
+  const R *dtfm, *mass, *weight;  // per atom: dt/2m, m, m g
+  const R *dtm;                   // per atom: dt/m with friction, or null (MassesT)
   const int *index;               // 0, 1, ..., n - 1 (each atom is its own mass slot)
-  front::Levels levels;
-  double *rec, *mark, *gate;      // the front record (rec: n rows of NCOL), marks, start gates
+  front::Levels levels[W];
+  double *rec;                    // the front record (rec: n rows of NCOL per lane)
+  R *mark, *gate;                 // marks, start gates
   unsigned char *phase;
   Run *runs;                      // scratch: ceil((n - 2) / block) runs
-  double *scratch;                // scratch: 5 block + 1 doubles
-  // outcome
-  double work_done, work_pending; // friction work (as the fix's vector entry of the chain)
-  long long end_step;             // the last step done
-  int status;                     // ChainStatus
+  R *scratch;                     // scratch: step_scratch(block)
+  double *x_end, *v_end;          // lanes: each lane's x, v at its end (W rows of n), or null
+  bool alive[W];                  // in: the lanes to run (a lane past the last chain: false)
+  // outcome, per lane
+  double work[W];                 // friction work (as the fix's vector entry of the chain)
+  long long end_step[W];          // the last step done
+  int status[W];                  // ChainStatus
 };
+typedef ChainDataT<double> ChainData;
 
 enum ChainStatus { FINISHED = 0, CONTACT = 1, OUT_OF_RANGE = 2, DRIVE_ENDED = 3 };
 
 namespace detail {
-/* the front record's sampling of a run's rows (FrontPass's hook): the active atoms and those that
-   reach the start level now, with the rules of front.h */
-struct ChainFront {
+/* the front record's sampling of a run's rows (FrontPass's hook), per running lane: the active
+   atoms and those that reach the start level now, with the rules of front.h. An atom's gate
+   says which per lane, in one comparison for all lanes: its chain's start level while it waits
+   (due if v >= gate), -infinity while active (always due), NaN when finished (never). */
+template <class R> struct ChainFront {
+  using L = Lanes<R>;
+  static constexpr int W = L::W;
+  int n;
   const Run *runs;
-  const double *v, *f, *mass;
-  double *rec, *gate;
-  unsigned char *phase;
-  front::Levels levels;
+  const R *v, *f, *mass;
+  R *gate;
+  ChainDataT<R> *c;
   front::Sample sample;
-  int active;                     // atoms of the chain between their start and both peaks
+  int active[W];                  // per lane: atoms of the chain between their start and both peaks
 
-  PL_HD void row(int i, double v_prev)
+  PL_HD PL_COLD void row(int l, int i, double v_prev)    // cold: a call keeps the lanes' code small
   {
-    const unsigned char was = phase[i];
-    front::sample_row(rec + (long long) i * front::NCOL, phase[i], v[i], f[i], mass[i], v_prev, levels, sample);
-    if (was == front::WAITING && phase[i] != front::WAITING) gate[i] = infinity(), active++;
-    if (was != front::FINISHED && phase[i] == front::FINISHED) active--;
+    unsigned char &phase = c->phase[l * n + i];
+    const unsigned char was = phase;
+    front::sample_row(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
+                      L::get(mass[i], l), v_prev, c->levels[l], sample);
+    if (was == front::WAITING && phase != front::WAITING) L::set(gate[i], l, -infinity()), active[l]++;
+    if (was != front::FINISHED && phase == front::FINISHED) L::set(gate[i], l, quiet_nan()), active[l]--;
   }
-  PL_HD void sample_block(int b, const double *v_before, bool starting)
+  /* atom i's row in every running lane where it is due */
+  PL_HD void rows(int i, const R &v_prev)
   {
-    if (!starting && active == 0) return;
+    for (int l = 0; l < W; l++)
+      if (c->alive[l] && front::due(c->phase[l * n + i], L::get(v[i], l), c->levels[l])) row(l, i, L::get(v_prev, l));
+  }
+  PL_HD void sample_block(int b, const R *v_before, MaskOf<R> starting)
+  {
+    bool any_active = false;
+    for (int l = 0; l < W; l++) any_active = any_active || active[l] > 0;
+    if (!any_active && !L::any(starting)) return;
     const Run &run = runs[b];
-    for (int i = run.first; i <= run.last; i++)
-      if (phase[i] == front::ACTIVE || (starting && v[i] >= gate[i])) row(i, v_before[i - run.first]);
+    for (int i = run.first; i <= run.last; i++) {
+      const MaskOf<R> due = v[i] >= gate[i] || gate[i] == -infinity();
+      if (L::any(due))
+        for (int l = 0; l < W; l++)
+          if (L::on(due, l) && c->alive[l]) row(l, i, L::get(v_before[i - run.first], l));
+    }
   }
 };
 
 /* every bond's separation: the smallest (a contact if <= 0) */
-PL_HD inline double smallest_gap(const double *x, int n)
+template <class R> PL_HD inline R smallest_gap(const R *x, int n)
 {
-  double g = infinity();
+  R g = Lanes<R>::splat(infinity());
   for (int i = 0; i + 1 < n; i++) g = x[i + 1] - x[i] < g ? x[i + 1] - x[i] : g;
   return g;
 }
 
-template <bool FRICTION, bool FRONT, class LawT>
-PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainData &c)
+/* lane l's chain ends with `status` after c.end_step: its outcome, its record's largest |v|, and
+   with lanes its x, v kept in x_end, v_end (the lane runs on, unread) */
+template <bool FRONT, class R>
+PL_HD inline void end_lane(const ChainSetup &S, ChainDataT<R> &c, const R &work_done, long long step, int l,
+                           int status)
 {
+  using L = Lanes<R>;
   const int n = S.n;
-  double *x = c.x, *v = c.v, *f = c.f;
-  const Masses ms{c.index, c.dtfm, c.mass, c.weight, false};
+  c.alive[l] = false;
+  c.status[l] = status;
+  c.end_step[l] = step;
+  c.work[l] = L::get(work_done, l);
+  if (c.x_end)
+    for (int i = 0; i < n; i++) c.x_end[l * n + i] = L::get(c.x[i], l), c.v_end[l * n + i] = L::get(c.v[i], l);
+  if (FRONT)
+    for (int i = 0; i < n; i++) c.rec[((long long) l * n + i) * front::NCOL + front::V_ABS_MAX] = L::get(c.mark[i], l);
+}
+
+/* the running lanes whose gaps went bad end (a contact or out of range); true if none runs on */
+template <bool FRONT, class R>
+PL_HD inline bool end_bad(const ChainSetup &S, ChainDataT<R> &c, const GapsT<R> &gaps, const R &work_done,
+                          long long step)
+{
+  const MaskOf<R> bad = gaps.bad(S.range_lo, S.range_hi);
+  bool running = false;
+  if (Lanes<R>::any(bad)) {
+    const MaskOf<R> contact = smallest_gap(c.x, S.n) <= 0.0;
+    for (int l = 0; l < Lanes<R>::W; l++)
+      if (c.alive[l] && Lanes<R>::on(bad, l))
+        end_lane<FRONT>(S, c, work_done, step, l, Lanes<R>::on(contact, l) ? CONTACT : OUT_OF_RANGE);
+  }
+  for (int l = 0; l < Lanes<R>::W; l++) running = running || c.alive[l];
+  return !running;
+}
+
+/* every running lane ends with `status` */
+template <bool FRONT, class R>
+PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_done, long long step, int status)
+{
+  for (int l = 0; l < Lanes<R>::W; l++)
+    if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status);
+}
+
+template <bool FRICTION, bool FRONT, class LawT, class R>
+PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
+{
+  using L = Lanes<R>;
+  const int n = S.n;
+  R *x = c.x, *v = c.v, *f = c.f;
+  const MassesT<R> ms{c.index, c.dtfm, c.mass, c.weight, false, c.dtm};
   // the runs of free atoms 1 .. n - 2, each at most S.block long
   int nruns = 0;
   for (int first = 1; first <= n - 2; first += S.block) {
     const int last = first + S.block - 1 < n - 2 ? first + S.block - 1 : n - 2;
     c.runs[nruns++] = Run{first, last, first - 1, last + 1, 0};
   }
-  const double x0 = x[0];
+  const R x0 = x[0];
   double u, ud;
-  CoulombWork work;
-  c.work_done = c.work_pending = 0.0;
-  c.status = FINISHED;
-  c.end_step = 0;
+  CoulombWorkT<R> work;
+  R work_done = R(), work_pending = R();
 
   // ---- setup: the impactor's velocity at t = 0, the forces for the first half kick (friction
   // for a kick of dt/2, from v(0)), the ends, the record's first sample
   S.drive.at(0.0, S.dt, u, ud);
-  v[0] = ud;
-  Gaps gaps;
+  v[0] = L::splat(ud);
+  GapsT<R> gaps;
   {
-    double left = law(x[1] - x[0]);
+    R left = law(x[1] - x[0]);
     gaps.add(x[1] - x[0]);
     for (int i = 1; i <= n - 2; i++) {
-      const double r = x[i + 1] - x[i];
+      const R r = x[i + 1] - x[i];
       gaps.add(r);
-      const double right = law(r);
+      const R right = law(r);
       f[i] = total_force<FRICTION>(left, right, i, ms, S.fr, 0.5 * S.dt, v[i], work);
       left = right;
     }
   }
-  if (FRICTION) work.settle(0.5 * S.dt, true, c.work_done, c.work_pending), work = CoulombWork();
+  if (FRICTION) work.settle(0.5 * S.dt, true, work_done, work_pending), work = CoulombWorkT<R>();
   f[0] = -law(x[1] - x[0]);
-  f[n - 1] = 0.0;
-  ChainFront hook{c.runs, v, f, c.mass, c.rec, c.gate, c.phase, c.levels, front::Sample{0.0, 0.0, true}, 0};
+  f[n - 1] = L::splat(0.0);
+  ChainFront<R> hook{n, c.runs, v, f, c.mass, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
   if (FRONT) {
     for (int i = 0; i < n; i++) {
       c.mark[i] = front::mark_max(c.mark[i], v[i]);
-      c.gate[i] = c.levels.start;
-      hook.row(i, quiet_nan());
+      for (int l = 0; l < L::W; l++) L::set(c.gate[i], l, c.levels[l].start);
+      hook.rows(i, L::splat(quiet_nan()));
     }
   }
-  if (gaps.bad(S.range_lo, S.range_hi)) {
-    c.status = smallest_gap(x, n) <= 0.0 ? CONTACT : OUT_OF_RANGE;
-    return;
-  }
-  const FrontPass<ChainFront> pass{c.mark, c.gate, &hook};
+  if (end_bad<FRONT>(S, c, gaps, work_done, 0)) return;
+  const FrontPass<ChainFront<R>, R> pass{c.mark, c.gate, &hook};
   for (long long step = 1; step <= S.steps; step++) {
-    const double v_impactor = v[0];
+    const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)
-    if (!S.drive.at(static_cast<double>(step) * S.dt, S.dt, u, ud)) {
-      c.status = DRIVE_ENDED;
-      return;
-    }
+    if (!S.drive.at(static_cast<double>(step) * S.dt, S.dt, u, ud)) return end_all<FRONT>(S, c, work_done, step - 1, DRIVE_ENDED);
     x[0] = x0 + u;
-    v[0] = ud;
+    v[0] = L::splat(ud);
     hook.sample = front::Sample{0.0 + static_cast<double>(step) * S.dt, hook.sample.t, false};
-    Gaps g;
+    GapsT<R> g;
     step_runs<FRICTION, FRONT>(law, c.runs, nruns, x, v, f, ms, S.fr, S.dt, &work, c.scratch, S.block, pass, g);
-    if (FRICTION) work.settle(S.dt, false, c.work_done, c.work_pending), work = CoulombWork();
+    if (FRICTION) work.settle(S.dt, false, work_done, work_pending), work = CoulombWorkT<R>();
     f[0] = -law(x[1] - x[0]);
-    f[n - 1] = 0.0;
+    f[n - 1] = L::splat(0.0);
     if (FRONT) {
       c.mark[0] = front::mark_max(c.mark[0], v[0]);
-      hook.row(0, v_impactor);
+      hook.rows(0, v_impactor);
       c.mark[n - 1] = front::mark_max(c.mark[n - 1], v[n - 1]);
-      hook.row(n - 1, v[n - 1]);
+      hook.rows(n - 1, v[n - 1]);
     }
-    c.end_step = step;
-    if (g.bad(S.range_lo, S.range_hi)) {
-      c.status = smallest_gap(x, n) <= 0.0 ? CONTACT : OUT_OF_RANGE;
-      return;
-    }
+    if (end_bad<FRONT>(S, c, g, work_done, step)) return;
   }
+  end_all<FRONT>(S, c, work_done, S.steps, FINISHED);
 }
 }    // namespace detail
 
-/* Run one chain: c.x, c.v hold its initial state (c.x[0] the impactor's position at t = 0), the
-   record its NaN rows, marks and WAITING phases; on return its final state, record (the rows'
-   largest |v| refreshed), friction work and status. */
-PL_HD inline void run_chain(const ChainSetup &S, ChainData &c)
+/* Run one chain, or with lanes W chains (the running lanes: c.alive): c.x, c.v hold the initial
+   state (c.x[0] the impactor's position at t = 0), the record its NaN rows, marks and WAITING
+   phases; on return each lane's final state (with lanes in x_end, v_end), record (the rows'
+   largest |v| refreshed), friction work, last step and status. */
+template <class R> PL_HD inline void run_chain(const ChainSetup &S, ChainDataT<R> &c)
 {
   S.law.dispatch([&](auto law) {
     if (S.friction) {
@@ -224,8 +284,6 @@ PL_HD inline void run_chain(const ChainSetup &S, ChainData &c)
       else detail::run_chain<false, false>(law, S, c);
     }
   });
-  if (S.record)
-    for (int i = 0; i < S.n; i++) c.rec[(long long) i * front::NCOL + front::V_ABS_MAX] = c.mark[i];
 }
 
 }    // namespace pl_kernel

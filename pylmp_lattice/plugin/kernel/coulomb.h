@@ -12,46 +12,44 @@ namespace pl_kernel {
 /* One atom's kick of length `kick` from velocity v0 under the other forces fx and the
    friction limit `limit`, both held constant over the kick. Returns the constant total
    force that reproduces the exact Coulomb solution; `stuck` says the atom ends the kick at
-   rest (then v and f must be set to exactly zero). */
-PL_HD inline double coulomb_kick(double v0, double fx, double limit, double dvdf, bool &stuck)
+   rest (then v and f must be set to exactly zero). R: double or lanes (device.h), each lane's
+   case a select; the turning case's divisions run only where a lane turns. */
+template <class R>
+PL_HD inline R coulomb_kick(R v0, R fx, R limit, R dvdf, MaskOf<R> &stuck)
 {
-  stuck = false;
-  if (v0 == 0.0) {
-    if (fabs(fx) <= limit) stuck = true;
-    return stuck ? 0.0 : fx - copysign(limit, fx);
-  }
-  const double s = copysign(1.0, v0);
-  double ftot = fx - s * limit;
-  const double v1 = v0 + dvdf * ftot;
-  if (s * v1 <= 0.0) {    // the velocity reaches zero within the kick
-    if (fabs(fx) <= limit) {
-      stuck = true;
-      return 0.0;
-    }
-    // moves off the other way for the rest of the kick, a time m v1 / ftot
-    ftot = (v1 * (fx + s * limit) / ftot - v0) / dvdf;
-  }
-  return ftot;
+  using L = Lanes<R>;
+  const MaskOf<R> rest = v0 == 0.0, holds = fabs(fx) <= limit;
+  const R s = copysign(L::splat(1.0), v0);
+  R ftot = fx - s * limit;
+  const R v1 = v0 + dvdf * ftot;
+  const MaskOf<R> turns = s * v1 <= 0.0 && !rest;    // the velocity reaches zero within the kick
+  // at rest it stays there or slips off; turning it stops or moves off the other way for the
+  // rest of the kick, a time m v1 / ftot
+  if (L::any(turns && !holds)) ftot = turns ? (v1 * (fx + s * limit) / ftot - v0) / dvdf : ftot;
+  ftot = rest ? fx - copysign(limit, fx) : ftot;
+  stuck = holds && (rest || turns);
+  return stuck ? L::splat(0.0) : ftot;
 }
 
 /* The friction work of the kicks of one step, split at the full step: a stuck atom's loss is
    settled now; a slipping atom's velocity goes v0, v0 + h, v0 + 2h over the kick, so its halves
-   are -ffric kick/4 (2 v0 + h) and -ffric kick/4 (2 v0 + 3h). */
-struct CoulombWork {
-  double now = 0.0, sum_fv = 0.0, sum_fh = 0.0;
+   are -ffric kick/4 (2 v0 + h) and -ffric kick/4 (2 v0 + 3h). Per lane with lanes. */
+template <class R> struct CoulombWorkT {
+  R now = R(), sum_fv = R(), sum_fh = R();
 
-  PL_HD void stuck(double v0, double m, double kick, double fx) { now += 0.5 * v0 * (m * v0 + kick * fx); }
-  PL_HD void slip(double v0, double fx, double ftot, double dvdf)
+  /* an atom's kick: stuck (its loss now) or slipping with total force ftot */
+  PL_HD void add(MaskOf<R> stuck, R v0, R m, double kick, R fx, R ftot, R dvdf)
   {
-    const double ffric = ftot - fx;
-    sum_fv += ffric * v0;
-    sum_fh += ffric * (0.5 * dvdf * ftot);
+    const R ffric = ftot - fx;
+    now = stuck ? now + 0.5 * v0 * (m * v0 + kick * fx) : now;
+    sum_fv = stuck ? sum_fv : sum_fv + ffric * v0;
+    sum_fh = stuck ? sum_fh : sum_fh + ffric * (0.5 * dvdf * ftot);
   }
   /* add this step's work to `done`, and keep the part due at the next step in `pending`;
      the setup's half kick from v(0) replaces the half planned at the end of the last run */
-  PL_HD void settle(double kick, bool setup_kick, double &done, double &pending) const
+  PL_HD void settle(double kick, bool setup_kick, R &done, R &pending) const
   {
-    double next = 0.0, current = now;
+    R next = R(), current = now;
     if (setup_kick) {
       next -= kick * (sum_fv + sum_fh);
     } else {
@@ -63,31 +61,33 @@ struct CoulombWork {
     pending = next;
   }
 };
+typedef CoulombWorkT<double> CoulombWork;
 
 /* The friction coefficients: limit L = mu (m g + p (F_left + F_right)), clipped at zero should
    the bonds ever attract. */
 struct Friction {
   double mu = 0.0, p = 0.0, g = 0.0;
 
-  PL_HD double limit(double weight, double f_left, double f_right) const
+  template <class R> PL_HD R limit(R weight, R f_left, R f_right) const
   {
-    const double normal = weight + p * (f_left + f_right);
-    return normal > 0.0 ? mu * normal : 0.0;
+    const R normal = weight + p * (f_left + f_right);
+    return normal > 0.0 ? mu * normal : Lanes<R>::splat(0.0);
   }
 
   /* one atom of mass m and weight m g (precomputed by the caller, as m * g), velocity v (after
      the first half kick) and other force fx = f_left - f_right, for a kick of length `kick`:
      the total force of the exact stick-slip kick; v becomes 0 if the atom sticks (the force is
-     then 0); the work goes to `work` */
-  PL_HD double kick_force(double m, double weight, double f_left, double f_right, double fx, double kick, double &v,
-                          CoulombWork &work) const
+     then 0); the work goes to `work`; dvdf: kick / m, or null (then computed here) */
+  template <class R>
+  PL_HD R kick_force(R m, R weight, R f_left, R f_right, R fx, double kick, R &v, CoulombWorkT<R> &work,
+                     const R *dvdf_of = nullptr) const
   {
-    const double dvdf = kick / m;
-    const double v0 = v;
-    bool stuck;
-    const double ftot = coulomb_kick(v0, fx, limit(weight, f_left, f_right), dvdf, stuck);
-    if (stuck) work.stuck(v0, m, kick, fx), v = 0.0;
-    else work.slip(v0, fx, ftot, dvdf);
+    const R dvdf = dvdf_of ? *dvdf_of : kick / m;
+    const R v0 = v;
+    MaskOf<R> stuck;
+    const R ftot = coulomb_kick(v0, fx, limit(weight, f_left, f_right), dvdf, stuck);
+    work.add(stuck, v0, m, kick, fx, ftot, dvdf);
+    v = stuck ? Lanes<R>::splat(0.0) : v0;
     return ftot;
   }
 };

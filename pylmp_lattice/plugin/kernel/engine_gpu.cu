@@ -61,7 +61,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   const ChainSetup S = make_setup(PL_SETUP_ARGS);
   constexpr int N = PL_LOCAL_N;
   double xl[N], vl[N], fl[N], ml[N], dtfm[N], weight[N], rec[N * front::NCOL], mark[N], gate[N];
-  double scratch[5 * N + 1];
+  double scratch[step_scratch(N)];
   unsigned char phase[N];
   int index[N];
   Run runs[1];
@@ -75,9 +75,9 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   chain_masses(ml, n, dt, g, dtfm, weight);
   ChainData d{};
   d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = index;
-  d.runs = runs, d.scratch = scratch;
+  d.runs = runs, d.scratch = scratch, d.alive[0] = true;
   if (S.record) {
-    d.levels = levels_row(levels + 5 * static_cast<long long>(c));
+    d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec, d.mark = mark, d.gate = gate, d.phase = phase;
   }
   run_chain(S, d);
@@ -85,9 +85,9 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   if (S.record)
     for (int i = 0; i < n; i++)
       for (int k = 0; k < front::NOUT; k++) front_out[(at + i) * front::NOUT + k] = rec[i * front::NCOL + k];
-  work[c] = d.work_done;
-  end_step[c] = d.end_step;
-  status[c] = d.status;
+  work[c] = d.work[0];
+  end_step[c] = d.end_step[0];
+  status[c] = d.status[0];
 }
 
 /* Any n: each thread on its chain's rows of global arrays (chain-major); rec (chains x n x NCOL)
@@ -112,16 +112,17 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   d.weight = weight + at;
   d.index = index;
   d.runs = reinterpret_cast<Run *>(runs) + static_cast<long long>(c) * nruns;
-  d.scratch = scratch + static_cast<long long>(c) * (5 * block + 1);
+  d.scratch = scratch + static_cast<long long>(c) * step_scratch(block);
+  d.alive[0] = true;
   if (S.record) {
-    d.levels = levels_row(levels + 5 * static_cast<long long>(c));
+    d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec + at * front::NCOL;
     d.mark = mark + at;
     d.gate = gate + at;
     d.phase = phase + at;
   }
   run_chain(S, d);
-  work[c] = d.work_done;
-  end_step[c] = d.end_step;
-  status[c] = d.status;
+  work[c] = d.work[0];
+  end_step[c] = d.end_step[0];
+  status[c] = d.status[0];
 }

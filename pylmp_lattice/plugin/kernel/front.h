@@ -51,16 +51,21 @@ struct Sample {
 
 /* hot part, every atom at every sample: the largest |v| (NaN compares false, so the first
    sample replaces the NaN of an atom not sampled yet, and a NaN v is kept; written so that
-   x86 does it in one maxpd) */
-PL_HD inline double mark_max(double mark, double v)
+   x86 does it in one maxpd; per lane with lanes, device.h) */
+template <class R> PL_HD inline R mark_max(R mark, R v)
 {
-  const double a = fabs(v);
+  const R a = fabs(v);
   return mark > a ? mark : a;
 }
 /* an atom that waits and reaches the start level now: its row must be updated */
 PL_HD inline bool starts(unsigned char phase, double v, const Levels &L)
 {
   return phase == WAITING && v >= L.start;
+}
+/* an atom whose row this sample updates: active, or it starts now */
+PL_HD inline bool due(unsigned char phase, double v, const Levels &L)
+{
+  return phase == ACTIVE || starts(phase, v, L);
 }
 
 namespace detail {
@@ -169,7 +174,7 @@ PL_HD inline void sample_row(double *r, unsigned char &phase, double v, double f
                              const Levels &L, const Sample &s)
 {
   const unsigned char before = phase;
-  if (before == ACTIVE || starts(before, v, L))
+  if (due(before, v, L))
     advance(r, phase, v, before == WAITING ? v_waiting : r[V_PREV], f / m, L, s);
 }
 

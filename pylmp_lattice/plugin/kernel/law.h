@@ -44,29 +44,36 @@ struct Spline {
 };
 
 /* The laws as small value types: the force loop gets a copy, so its coefficients live in
-   registers and the loop over bonds vectorises. */
+   registers and the loop over bonds vectorises. Each takes r as a double or as lanes (device.h:
+   Lanes); pow and the table's lookup go lane by lane. */
 namespace laws {
   template <int Q> struct PowerInt {    // K / (r + b)^Q by multiplications: several times cheaper than pow
     double K, b;
-    PL_HD double operator()(double r) const
+    template <class R> PL_HD R operator()(R r) const
     {
-      const double s = r + b;
-      double sq = s;
+      const R s = r + b;
+      R sq = s;
       for (int m = 1; m < Q; m++) sq *= s;
       return K / sq;
     }
   };
   struct Power {
     double K, b, q;
-    PL_HD double operator()(double r) const { return K * pow(r + b, -q); }
+    template <class R> PL_HD R operator()(R r) const
+    {
+      return Lanes<R>::each(r, [this](double x) { return K * pow(x + b, -q); });
+    }
   };
   struct Linear {
     double k, r_free;
-    PL_HD double operator()(double r) const { return k * (r_free - r); }
+    template <class R> PL_HD R operator()(R r) const { return k * (r_free - r); }
   };
   struct Table {
     Spline spline;
-    PL_HD double operator()(double r) const { return spline(r); }
+    template <class R> PL_HD R operator()(R r) const
+    {
+      return Lanes<R>::each(r, [this](double x) { return spline(x); });
+    }
   };
 }    // namespace laws
 

@@ -13,7 +13,8 @@
    caller's sampling of run b - 1's rows. Why one loop: the drift's and the kick's loads and
    stores overlap the law's division (a loop per stage took about 1.2x as long: 10^4 magnets, a
    standalone driver against the C loop's code); the same operations per atom as one loop per
-   stage, so the same bits. */
+   stage, so the same bits. R: double (the fix, the GPU engine) or lanes (device.h; the host
+   engine: one chain per lane, x[i] atom i of every lane's chain). */
 
 #ifndef PYLMP_LATTICE_KERNEL_STEP_H
 #define PYLMP_LATTICE_KERNEL_STEP_H
@@ -28,27 +29,37 @@ struct Run {
   int first, last, left, right, chain;
 };
 
+/* step_runs' scratch, in R: two runs' bond forces and one run's velocities */
+PL_HD constexpr int step_scratch(int block) { return 3 * block + 2; }
+
 /* per-atom masses through slots: slot[i] (an atom type, or its own index) names its dt/2m, m and
-   m g; one_type: every atom has slot 1 (no lookup) */
-struct Masses {
+   m g; one_type: every atom has slot 1 (no lookup); dtm: dt / m for step_runs' kicks of dt with
+   friction (a division less per atom and step), or null */
+template <class R> struct MassesT {
   const int *slot;
-  const double *dtfm, *mass, *weight;
+  const R *dtfm, *mass, *weight;
   bool one_type;
+  const R *dtm = nullptr;
 };
+typedef MassesT<double> Masses;
 
 /* the separations seen: smallest, largest and a NaN probe (their sum) */
-struct Gaps {
-  double r_min, r_max, r_sum;
-  PL_HD Gaps() : r_min(infinity()), r_max(-infinity()), r_sum(0.0) {}
-  PL_HD void add(double r)
+template <class R> struct GapsT {
+  R r_min, r_max, r_sum;
+  PL_HD GapsT() : r_min(Lanes<R>::splat(infinity())), r_max(Lanes<R>::splat(-infinity())), r_sum(R()) {}
+  PL_HD void add(R r)
   {
     r_min = r_min < r ? r_min : r;
     r_max = r_max > r ? r_max : r;
     r_sum += r;
   }
   /* a contact (r <= 0), a separation outside [lo, hi], or a NaN */
-  PL_HD bool bad(double lo, double hi) const { return !(r_min > 0.0 && r_min >= lo && r_max <= hi) || isnan(r_sum); }
+  PL_HD MaskOf<R> bad(double lo, double hi) const
+  {
+    return !(r_min > 0.0 && r_min >= lo && r_max <= hi) || isnan(r_sum);
+  }
 };
+typedef GapsT<double> Gaps;
 
 /* the bond forces F[k] = law(X[k + 1] - X[k]), k < nbonds, of consecutive positions X, their
    separations added to gaps (vectorised reductions) */
@@ -69,26 +80,29 @@ PL_HD inline void bond_forces(const LawT law, const double *PL_RESTRICT X, int n
 }
 
 /* one free atom's total force from its bonds' forces left and right (slot t), with friction the
-   exact stick-slip kick of length `kick`: v (after the first half kick) becomes 0 if it sticks */
-template <bool FRICTION>
-PL_HD inline double total_force(double left, double right, int t, const Masses &ms, const Friction &fr, double kick,
-                                double &v, CoulombWork &work)
+   exact stick-slip kick of length `kick`: v (after the first half kick) becomes 0 if it sticks;
+   dtm: ms.dtm where kick is step_runs' dt, else null */
+template <bool FRICTION, class R>
+PL_HD inline R total_force(R left, R right, int t, const MassesT<R> &ms, const Friction &fr, double kick, R &v,
+                           CoulombWorkT<R> &work, const R *dtm = nullptr)
 {
-  const double fx = left - right;
+  const R fx = left - right;
   if constexpr (!FRICTION) {
     return fx;
   } else {
-    return fr.kick_force(ms.mass[t], ms.weight[t], left, right, fx, kick, v, work);
+    return fr.kick_force(ms.mass[t], ms.weight[t], left, right, fx, kick, v, work, dtm ? dtm + t : nullptr);
   }
 }
 
 /* the front record of the runs' atoms, as the step needs it: per atom its largest |v| (mark)
-   and its start gate (its chain's start level while it waits, else infinity); Hook is the
+   and its start gate (its chain's start level while it waits; while not, a value no v reaches:
+   infinity, or NaN; -infinity: counted as starting at every step); Hook is the
    caller's: sample_block(b, v_before, starting) samples run b's rows (v_before: the run's
-   velocities of the previous step; starting: an atom reached its start gate now) */
-template <class Hook> struct FrontPass {
-  double *mark;
-  const double *gate;
+   velocities of the previous step; starting: an atom reached its start gate now, a mask with
+   lanes) */
+template <class Hook, class R = double> struct FrontPass {
+  R *mark;
+  const R *gate;
   Hook *hook;
 };
 struct NoFront {
@@ -111,19 +125,19 @@ enum class KickTo { none, in_place };
    dt/2m); MARK: the front record's hot part too (mark: its largest |v|; starting: counts 1 if
    its new v reaches its start gate, as a double, which vectorises with the doubles, and a sum of
    ones is exact in any order) */
-template <bool FRICTION, bool ONE_TYPE, KickTo TO, bool MARK = false>
-PL_HD inline void kick_atom(double left, double right, int t, double h, const Masses &ms, const Friction &fr,
-                            double kick, double &v, double &f, CoulombWork &work, double *mark = nullptr,
-                            const double *gate = nullptr, double *starting = nullptr)
+template <bool FRICTION, bool ONE_TYPE, KickTo TO, bool MARK = false, class R>
+PL_HD inline void kick_atom(R left, R right, int t, R h, const MassesT<R> &ms, const Friction &fr, double kick, R &v,
+                            R &f, CoulombWorkT<R> &work, R *mark = nullptr, const R *gate = nullptr,
+                            R *starting = nullptr, const R *dtm = nullptr)
 {
-  const double ftot = total_force<FRICTION>(left, right, t, ms, fr, kick, v, work);
+  const R ftot = total_force<FRICTION>(left, right, t, ms, fr, kick, v, work, dtm);
   f = ftot;
   if constexpr (TO == KickTo::in_place) {
-    const double vn = v + (ONE_TYPE ? h : ms.dtfm[t]) * ftot;
+    const R vn = v + (ONE_TYPE ? h : ms.dtfm[t]) * ftot;
     v = vn;
     if constexpr (MARK) {
       *mark = front::mark_max(*mark, vn);
-      *starting += vn >= *gate ? 1.0 : 0.0;
+      *starting += vn >= *gate ? Lanes<R>::splat(1.0) : Lanes<R>::splat(0.0);
     }
   }
 }
@@ -146,26 +160,27 @@ PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const i
    its drift and its kick a run's f holds the velocities after the first half kick (its forces of
    the last step are spent then, and nothing else reads them in between), so that v keeps the
    velocities before it for the front record's sampling of atoms that start now. */
-template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT> struct Stages {
+template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct Stages {
   const LawT law;
-  double *PL_RESTRICT x;
-  double *PL_RESTRICT v;
-  double *PL_RESTRICT f;
-  const Masses &ms;
+  R *PL_RESTRICT x;
+  R *PL_RESTRICT v;
+  R *PL_RESTRICT f;
+  const MassesT<R> &ms;
   const Friction &fr;
-  double dt, h;
-  double *mark;
-  const double *gate;
+  double dt;
+  R h;
+  R *mark;
+  const R *gate;
 
   /* first half kick and drift of atom i */
   PL_HD void drift(int i) const
   {
-    const double vh = v[i] + (ONE_TYPE ? h : ms.dtfm[ms.slot[i]]) * f[i];
+    const R vh = v[i] + (ONE_TYPE ? h : ms.dtfm[ms.slot[i]]) * f[i];
     f[i] = vh;
     x[i] += dt * vh;
   }
   /* a bond's force from its separation r, added to the separations seen */
-  PL_HD double bond_of(double r, double &r_min, double &r_max, double &r_sum) const
+  PL_HD R bond_of(R r, R &r_min, R &r_max, R &r_sum) const
   {
     r_min = r_min < r ? r_min : r;
     r_max = r_max > r ? r_max : r;
@@ -173,22 +188,23 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT> struct Stages {
     return law(r);
   }
   /* the force of the bond right of atom i (to atom i + 1) */
-  PL_HD double bond(int i, double &r_min, double &r_max, double &r_sum) const
+  PL_HD R bond(int i, R &r_min, R &r_max, R &r_sum) const
   {
     return bond_of(x[i + 1] - x[i], r_min, r_max, r_sum);
   }
   /* force and second half kick of atom i, F its left and right bonds' forces; v_old: where its
      velocity before the step goes (FRONT) */
-  PL_HD void kick(int i, const double *F, double *v_old, CoulombWork &work, double &starting) const
+  PL_HD void kick(int i, const R *F, R *v_old, CoulombWorkT<R> &work, R &starting) const
   {
     const int t = FRICTION || !ONE_TYPE ? ms.slot[i] : 1;
-    double vh = f[i], ftot;
+    R vh = f[i], ftot;
     if constexpr (FRONT) {
       *v_old = v[i];
       kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, true>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work, mark + i,
-                                                             gate + i, &starting);
+                                                             gate + i, &starting, ms.dtm);
     } else {
-      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work);
+      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, false, R>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work, nullptr,
+                                                                 nullptr, nullptr, ms.dtm);
     }
     v[i] = vh;
     f[i] = ftot;
@@ -198,22 +214,21 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT> struct Stages {
 
 /* The whole step of the runs' atoms (the chain ends are the caller's: it has placed the
    impactors at this step's position before). x, v, f: the slab's arrays along x; works: per
-   chain, this step's friction work (each run adds to its chain's, in ID order); scratch: 3 block
-   + 2 doubles (at most 5 block + 1); gaps: every bond left of a run's atom and right of its
-   last. */
-template <bool FRICTION, bool FRONT, class LawT, class Hook>
-PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_RESTRICT x, double *PL_RESTRICT v,
-                     double *PL_RESTRICT f, const Masses &ms, const Friction &fr, double dt, CoulombWork *works,
-                     double *scratch, int block, const FrontPass<Hook> &front, Gaps &gaps)
+   chain, this step's friction work (each run adds to its chain's, in ID order); scratch:
+   step_scratch(block) R; gaps: every bond left of a run's atom and right of its last. */
+template <bool FRICTION, bool FRONT, class LawT, class Hook, class R>
+PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT x, R *PL_RESTRICT v,
+                     R *PL_RESTRICT f, const MassesT<R> &ms, const Friction &fr, double dt, CoulombWorkT<R> *works,
+                     R *scratch, int block, const FrontPass<Hook, R> &front, GapsT<R> &gaps)
 {
   auto pass = [&](auto one_type) {
-    const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT> S{
-        law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : 0.0, front.mark, front.gate};
+    const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT, R> S{
+        law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : Lanes<R>::splat(0.0), front.mark, front.gate};
     // per run in flight: its bond forces (two runs), F[k] left of atom first + k; the kicked
     // run's velocities before the step (FRONT)
-    double *PL_RESTRICT bonds[2] = {scratch, scratch + block + 1};
-    double *PL_RESTRICT v_old = scratch + 2 * block + 2;
-    double r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+    R *PL_RESTRICT bonds[2] = {scratch, scratch + block + 1};
+    R *PL_RESTRICT v_old = scratch + 2 * block + 2;
+    R r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
     for (int b = -1; b <= nruns; b++) {
       // drift run d = b + 1, inner bonds of run b, kick run k = b - 1 (each if there is one)
       const int d = b + 1, k = b - 1;
@@ -221,21 +236,29 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, double *PL_REST
       const int nb = b >= 0 && b < nruns ? runs[b].last - runs[b].first : 0;
       const int nk = k >= 0 ? runs[k].last - runs[k].first + 1 : 0;
       const int id = nd ? runs[d].first : 0, ib = nb ? runs[b].first : 0, ik = nk ? runs[k].first : 0;
-      double *PL_RESTRICT Fb = bonds[(b + 2) % 2];
-      const double *PL_RESTRICT Fk = bonds[(k + 2) % 2];
-      CoulombWork work;
+      R *PL_RESTRICT Fb = bonds[(b + 2) % 2];
+      const R *PL_RESTRICT Fk = bonds[(k + 2) % 2];
+      CoulombWorkT<R> work;
       if constexpr (FRICTION)
         if (nk) work = works[runs[k].chain];
-      double starting = 0.0;
+      R starting = R();
       // one loop over what all three have (friction: the kick apart, in ID order: its work is a
-      // sum), then the rest of each
+      // sum), then the rest of each; with lanes each atom is a vector op already
       int both = nd < nb ? nd : nb;
       if (!FRICTION) both = both < nk ? both : nk;
-      PL_SIMD_STEP
-      for (int j = 0; j < both; j++) {
-        S.drift(id + j);
-        Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
-        if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+      if constexpr (Lanes<R>::W == 1) {
+        PL_SIMD_STEP
+        for (int j = 0; j < both; j++) {
+          S.drift(id + j);
+          Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
+          if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+        }
+      } else {
+        for (int j = 0; j < both; j++) {
+          S.drift(id + j);
+          Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
+          if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+        }
       }
       for (int j = both; j < nd; j++) S.drift(id + j);
       for (int j = both; j < nb; j++) Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
