@@ -63,8 +63,8 @@ struct LaneStore {
 };
 
 /* Chains c0 .. c0 + W - 1 of the batch (those < chains; the other lanes run a copy of chain c0,
-   unread) in the lanes of R: their state in, run_chain, their outcome out. */
-template <class R> inline void run_lanes(const Batch &B, LaneStore &st, int c0)
+   unread) in the lanes of R: their state in, run(S, data) (run_chain), their outcome out. */
+template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &st, int c0, Run &&run)
 {
   using L = Lanes<R>;
   constexpr int W = L::W;
@@ -99,7 +99,7 @@ template <class R> inline void run_lanes(const Batch &B, LaneStore &st, int c0)
     for (unsigned char &p : st.phase) p = front::WAITING;
     d.rec = st.rec.data(), d.mark = mark, d.gate = reinterpret_cast<R *>(st.array(7)), d.phase = st.phase.data();
   }
-  run_chain(S, d);
+  run(S, d);
   for (int l = 0; l < W && c0 + l < B.chains; l++) {
     const int c = c0 + l;
     const size_t at = static_cast<size_t>(c) * n;
@@ -114,19 +114,39 @@ template <class R> inline void run_lanes(const Batch &B, LaneStore &st, int c0)
   }
 }
 
-// run_lanes for each instruction set, every kernel call inlined into it (flatten) so that the
-// lanes' operations are its instructions; chosen in pl_run_chains. No AVX-512, nor 8 lanes with
-// AVX2: GCC 12 computes their masks (a comparison not in a select: && of two, an output) lane
-// by lane, 5x slower (21-magnet chains with friction, AMD EPYC).
-__attribute__((target("avx2"), flatten)) void run_lanes_avx2(const Batch &B, LaneStore &st, int c0)
+// run_chain's chain for each instruction set, every kernel call inlined into it (flatten) so that
+// the lanes' operations are its instructions (one function per law, friction and record: a
+// function of them all spills the hot loops' registers). No AVX-512, nor 8 lanes with AVX2:
+// GCC 12 computes their masks (a comparison not in a select: && of two, an output) lane by
+// lane, 5x slower (21-magnet chains with friction, AMD EPYC).
+template <bool FRICTION, bool FRONT, class LawT>
+__attribute__((target("avx2"), flatten)) void chain_avx2(const LawT law, const ChainSetup &S, ChainDataT<Lanes4> &c)
 {
-  run_lanes<Lanes4>(B, st, c0);
+  detail::run_chain<FRICTION, FRONT>(law, S, c);
 }
-__attribute__((flatten)) void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
+template <bool FRICTION, bool FRONT, class LawT>
+__attribute__((flatten)) void chain_sse2(const LawT law, const ChainSetup &S, ChainDataT<Lanes2> &c)
 {
-  run_lanes<Lanes2>(B, st, c0);
+  detail::run_chain<FRICTION, FRONT>(law, S, c);
 }
+
+void run_lanes_avx2(const Batch &B, LaneStore &st, int c0)
+{
+  run_lanes<Lanes4>(B, st, c0, [&](const ChainSetup &S, ChainDataT<Lanes4> &d) {
+    dispatch_chain(S, [&](auto law, auto friction, auto record) {
+      chain_avx2<decltype(friction)::value, decltype(record)::value>(law, S, d);
+    });
+  });
 }
+void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
+{
+  run_lanes<Lanes2>(B, st, c0, [&](const ChainSetup &S, ChainDataT<Lanes2> &d) {
+    dispatch_chain(S, [&](auto law, auto friction, auto record) {
+      chain_sse2<decltype(friction)::value, decltype(record)::value>(law, S, d);
+    });
+  });
+}
+}    // namespace
 
 extern "C" {
 

@@ -126,11 +126,15 @@ template <class R> struct ChainFront {
     if (was == front::WAITING && phase != front::WAITING) L::set(gate[i], l, -infinity()), active[l]++;
     if (was != front::FINISHED && phase == front::FINISHED) L::set(gate[i], l, quiet_nan()), active[l]--;
   }
+  /* the lanes where atom i's row is due (front::due) */
+  PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
   /* atom i's row in every running lane where it is due */
   PL_HD void rows(int i, const R &v_prev)
   {
-    for (int l = 0; l < W; l++)
-      if (c->alive[l] && front::due(c->phase[l * n + i], L::get(v[i], l), c->levels[l])) row(l, i, L::get(v_prev, l));
+    const MaskOf<R> m = due(i);
+    if (L::any(m))
+      for (int l = 0; l < W; l++)
+        if (L::on(m, l) && c->alive[l]) row(l, i, L::get(v_prev, l));
   }
   PL_HD void sample_block(int b, const R *v_before, MaskOf<R> starting)
   {
@@ -138,12 +142,7 @@ template <class R> struct ChainFront {
     for (int l = 0; l < W; l++) any_active = any_active || active[l] > 0;
     if (!any_active && !L::any(starting)) return;
     const Run &run = runs[b];
-    for (int i = run.first; i <= run.last; i++) {
-      const MaskOf<R> due = v[i] >= gate[i] || gate[i] == -infinity();
-      if (L::any(due))
-        for (int l = 0; l < W; l++)
-          if (L::on(due, l) && c->alive[l]) row(l, i, L::get(v_before[i - run.first], l));
-    }
+    for (int i = run.first; i <= run.last; i++) rows(i, v_before[i - run.first]);
   }
 };
 
@@ -269,20 +268,29 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
 }
 }    // namespace detail
 
+/* f(law, friction, record): the batch's law as its value type (Law::dispatch), whether it has
+   friction and a front record as detail::Bool */
+template <class F> PL_HD inline void dispatch_chain(const ChainSetup &S, F &&f)
+{
+  S.law.dispatch([&](auto law) {
+    if (S.friction) {
+      if (S.record) f(law, detail::Bool<true>(), detail::Bool<true>());
+      else f(law, detail::Bool<true>(), detail::Bool<false>());
+    } else {
+      if (S.record) f(law, detail::Bool<false>(), detail::Bool<true>());
+      else f(law, detail::Bool<false>(), detail::Bool<false>());
+    }
+  });
+}
+
 /* Run one chain, or with lanes W chains (the running lanes: c.alive): c.x, c.v hold the initial
    state (c.x[0] the impactor's position at t = 0), the record its NaN rows, marks and WAITING
    phases; on return each lane's final state (with lanes in x_end, v_end), record (the rows'
    largest |v| refreshed), friction work, last step and status. */
 template <class R> PL_HD inline void run_chain(const ChainSetup &S, ChainDataT<R> &c)
 {
-  S.law.dispatch([&](auto law) {
-    if (S.friction) {
-      if (S.record) detail::run_chain<true, true>(law, S, c);
-      else detail::run_chain<true, false>(law, S, c);
-    } else {
-      if (S.record) detail::run_chain<false, true>(law, S, c);
-      else detail::run_chain<false, false>(law, S, c);
-    }
+  dispatch_chain(S, [&](auto law, auto friction, auto record) {
+    detail::run_chain<decltype(friction)::value, decltype(record)::value>(law, S, c);
   });
 }
 

@@ -261,8 +261,17 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT 
         }
       }
       for (int j = both; j < nd; j++) S.drift(id + j);
-      for (int j = both; j < nb; j++) Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
-      for (int j = FRICTION ? 0 : both; j < nk; j++) S.kick(ik + j, Fk + j, v_old + j, work, starting);
+      {    // the separations seen in registers (GCC keeps lanes' references in memory)
+        R mn = r_min, mx = r_max, sm = r_sum;
+        for (int j = both; j < nb; j++) Fb[j + 1] = S.bond(ib + j, mn, mx, sm);
+        r_min = mn, r_max = mx, r_sum = sm;
+      }
+      {    // the friction work and starts in registers, as the separations
+        CoulombWorkT<R> w = work;
+        R st = starting;
+        for (int j = FRICTION ? 0 : both; j < nk; j++) S.kick(ik + j, Fk + j, v_old + j, w, st);
+        work = w, starting = st;
+      }
       if (b >= 0 && b < nruns) {    // run b's end bonds: both its neighbours have moved now
         const Run &run = runs[b];
         const int len = run.last - run.first + 1;
@@ -276,8 +285,10 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT 
     }
     gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
   };
-  if (ms.one_type) pass(detail::Bool<true>());
-  else pass(detail::Bool<false>());
+  if constexpr (Lanes<R>::W == 1) {    // lanes: a mass per lane, never one type
+    if (ms.one_type) return pass(detail::Bool<true>());
+  }
+  pass(detail::Bool<false>());
 }
 
 }    // namespace pl_kernel
