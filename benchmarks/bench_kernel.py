@@ -6,7 +6,9 @@ and without friction, as bench_sweep.py builds them. Engine: the sweep's batch r
 (`run_folder.execute_batch` with `engines.road.KernelEngine("cpu")` on --workers threads), timed
 from the engine's arrays to the measures read from its front record, with the record (as a
 sweep's members) and without (output.front = false: the loop's work alone); kernel: the library's
-call alone (engines.cpu.run_arrays on the batch's arrays, with the record). Loop: ensemble_loop.c on
+call alone (engines.cpu.run_arrays on the batch's arrays, with the record), wall and CPU time (the
+CPU ratio to the loop's CPU time holds on a loaded machine with --workers 1; with more, it counts
+OpenMP's threads spinning at each call's end). Loop: ensemble_loop.c on
 --workers processes (bench_sweep.run_loop). Check: every chain's final velocities, engine against
 loop, within 1e-9 m/s (the same equations and operations).
 
@@ -65,25 +67,27 @@ def main() -> None:
                         read_front_batch(members_, folder / f"record-{record}" / FRONT_BIN)
                     engine[record] = time.perf_counter() - start
                     if record:
-                        start = time.perf_counter()
+                        start, cpu = time.perf_counter(), time.process_time()
                         run_arrays(batch.arrays, args.workers)
                         engine["kernel"] = time.perf_counter() - start
-                loop_wall, _, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+                        engine["kernel_cpu"] = time.process_time() - cpu
+                loop_wall, loop_cpu, final = run_loop(exe, folder, cases, x, v, m, args.workers)
+                engine["kernel_cpu"] /= loop_cpu
                 error = float(np.max(np.abs(batch.final[1] - final)))
                 assert error < 1e-9, f"engine and loop differ by {error} m/s"
                 rows.append((friction, members, engine, loop_wall, error, load))
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "
           f"processes; 21 magnets, 4800 steps, thermal {args.thermal} m/s")
     print("| friction | members | engine (s) | per member (ms) | C loop (s) | engine / loop | atom-steps/s | "
-          "engine without the record (s) | its / loop | kernel alone (s) | its / loop | "
+          "engine without the record (s) | its / loop | kernel alone (s) | its / loop | its CPU / loop's | "
           "max |v engine - v loop| (m/s) | load before |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for friction, members, engine, loop_wall, error, load in rows:
         e = engine[True]
         print(f"| {'yes' if friction else 'no'} | {members} | {e:.3f} | {1e3 * e / members:.4f} | "
               f"{loop_wall:.3f} | {e / loop_wall:.2f}x | {members * 21 * 4800 / e:.3g} | {engine[False]:.3f} | "
               f"{engine[False] / loop_wall:.2f}x | {engine['kernel']:.3f} | {engine['kernel'] / loop_wall:.2f}x | "
-              f"{error:.1e} | {load:.1f} |")
+              f"{engine['kernel_cpu']:.2f}x | {error:.1e} | {load:.1f} |")
     if len(rows) == 4:
         print()
         for friction in (True, False):

@@ -21,9 +21,10 @@ from .library import layout, library, ptr
 
 __all__ = ["run_arrays"]
 # A chunk of chains per call of the library, per thread: about 0.1 s of one core (the 21-magnet
-# experiment with friction and the record runs 4.5e7 atom-steps/s per thread on a 2-core AMD EPYC,
-# benchmarks/bench_kernel.py --members 1000), so a stop waits at most that long.
-CHUNK_ATOM_STEPS = 5e6
+# experiment with friction and the record runs 2.4e8 atom-steps/s per thread on a 2-core AMD EPYC,
+# benchmarks/bench_kernel.py --members 1000 --workers 1, kernel CPU time), so a stop waits at most
+# that long, and the threads' wait at each call's end stays small.
+CHUNK_ATOM_STEPS = 2e7
 
 
 def run_arrays(a: Arrays, threads: int | None = None):
