@@ -157,6 +157,7 @@ class FixLatticeChain : public Fix {
   // chain_step.cpp
   void forces(double kick, bool setup_kick, bool kick_v);
   void own_pass();
+  void own_steps(bool record, int &bad);
   void end_forces();
   void settle_work(double kick, bool setup_kick);
   pl_kernel::Masses masses() const;
