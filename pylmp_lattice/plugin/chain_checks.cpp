@@ -39,8 +39,9 @@ void FixLatticeChain::bond_scan(double &pe, double &gap_min, tagint &tag_min, do
 
 void FixLatticeChain::check_gaps(int bad)
 {
-  int any = 0;
-  MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, world);
+  int any = bad;
+  // one rank: no reduction (an MPI_Allreduce at every step, 0.1 us of a 10^4-magnet step's 15)
+  if (comm->nprocs > 1) MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, world);
   if (!any) return;
   double pe;
   struct {
