@@ -122,9 +122,11 @@ void FixLatticeChain::own_step(const Law law, int &bad)
    both give the same bits (the separations' sum, a NaN probe only, is added in another order).
    AVX2: 1.2-1.4x the pass's speed at 10^4 magnets (benchmarks/bench_engine.py). */
 
+#ifndef PASS_COPIES    // a build may set it (-DPASS_COPIES=...: tests of one copy alone)
 #if defined(__x86_64__) && defined(__has_attribute)
 #if __has_attribute(target_clones) && __has_attribute(flatten)
 #define PASS_COPIES __attribute__((target_clones("avx2", "default"), flatten))
+#endif
 #endif
 #endif
 #ifndef PASS_COPIES
