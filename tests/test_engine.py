@@ -326,7 +326,7 @@ def test_owned_state_gives_the_bits_of_the_general_path(tmp_path, other_fix):
     """On one rank with only the front record beside it, the chain fix keeps x, v, f in its own
     arrays and samples the record in its pass; another fix during the steps (a zero viscous
     force after it, or one that only prints) makes it work in LAMMPS's arrays and the record
-    sample itself. 700 magnets (blocks of 256), friction, a pulse: the same x, v, f and
+    sample itself. 700 magnets (blocks of 129), friction, a pulse: the same x, v, f and
     front record, bit for bit."""
     case = make_case(particles=700, duration=150.0, interval=5.0, impactor=PROFILES["sine"], friction=FRICTION)
     runs = {}
