@@ -11,7 +11,7 @@ One concept a module:
 - `data`: the data file of one chain or a batch (`data_text`, `chains_data_text`);
 - `tables`: the other files a deck reads (force tables, the measured drive's samples);
 - `replicas`: a batch of chains in one deck (`render_replicas`, `replica_batch`);
-- `kind`: which deck a case gets (`uses_chain_engine`, `per_atom_masses`, `records_front`);
+- `kind`: which deck a case gets (`uses_chain_engine`, `per_atom_masses`, `atom_types`, `records_front`);
 - `engine_args`: the law, drive and front levels in SI as the plugin's fixes and the kernel
   engines take them (`law_params`, `impactor_params`, `impactor_samples`, `front_levels_rows`).
 """
@@ -24,13 +24,13 @@ from ..case import Case
 from ..formats.layout import DATA, DECK
 from .data import chains_data_text, data_text
 from .engine_args import front_levels_rows, impactor_params, impactor_samples, law_params
-from .kind import per_atom_masses, records_front, uses_chain_engine
+from .kind import atom_types, per_atom_masses, records_front, uses_chain_engine
 from .replicas import _FRONT_FIX, render_replicas, replica_batch, replica_range  # _FRONT_FIX: tests/test_sweep.py
 from .script import deck_text
 from .tables import _tables
 
-__all__ = ["DATA", "DECK", "chains_data_text", "data_text", "deck_text", "front_levels_rows", "impactor_params",
-           "impactor_samples", "law_params", "per_atom_masses", "records_front", "render", "render_folder",
+__all__ = ["DATA", "DECK", "atom_types", "chains_data_text", "data_text", "deck_text", "front_levels_rows",
+           "impactor_params", "impactor_samples", "law_params", "per_atom_masses", "records_front", "render", "render_folder",
            "render_replicas", "replica_batch", "replica_range", "uses_chain_engine"]
 
 

@@ -22,6 +22,13 @@ def per_atom_masses(case: Case) -> bool:
                                                and len(set(case.chain.mass)) > MAX_ATOM_TYPES)
 
 
+def atom_types(case: Case) -> int:
+    """The deck's atom types: one with masses per magnet, else one per distinct mass (a set, not
+    np.unique: that imports numpy.ma, tens of ms before a sweep's first task)."""
+    mass = case.chain.mass
+    return 1 if per_atom_masses(case) or np.isscalar(mass) else len(set(mass))
+
+
 def uses_chain_engine(case: Case) -> bool:
     """`run.engine = "chain"`, unless second neighbours need the stock path's second bonds."""
     return case.run.engine == "chain" and case.second_neighbour is None

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..case import Case
-from ..deck import per_atom_masses, records_front, uses_chain_engine
+from ..deck import atom_types, per_atom_masses, records_front, uses_chain_engine
 from ..exact import weak_shock
 from .. import overhead
 from ..formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
@@ -152,7 +152,7 @@ class _ChainSample:
         self.x = to_engine(np.concatenate([[0.0], np.cumsum(gaps)]), "length")  # m, as in the data file
         self.mass = to_engine(masses, "mass")  # kg, as in the data file
         self.per_atom = per_atom_masses(case)
-        self.types = 1 if self.per_atom else len(np.unique(np.asarray(chain.mass)))
+        self.types = atom_types(case)
         # magnets whose two gaps differ in the engine's doubles feel a force from the first step
         spacing = np.diff(self.x)
         self.uneven = float(np.mean(spacing[1:] != spacing[:-1]))
@@ -247,7 +247,7 @@ def estimate(case: Case, nprocs: int = 1, measure: bool = False) -> Estimate:
     not fit this machine."""
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)
-    types = 1 if per_atom_masses(case) else len(np.unique(np.asarray(case.chain.mass)))
+    types = atom_types(case)
     memory = BASE_MEMORY_BYTES + ENGINE_BYTES_PER_ATOM * n + ENGINE_BYTES_PER_TYPE_PAIR * (types + 1) ** 2
     dump = files.get(DUMP, 0.0)
     memory += READ_BYTES_PER_DUMP_BYTE * dump if fmt == "text" else BLOCK_BYTES if fmt == "h5md" else 0.0
