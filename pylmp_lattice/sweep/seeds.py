@@ -1,8 +1,8 @@
 """Members' seeds: `member_seed` of one member (NumPy's SeedSequence), and `member_seeds`, the
 same numbers for consecutive members made a block at a time with array operations (a sweep of
-10^4 replicas made one SeedSequence per member, about 8 us each, in the coordinator that feeds
-the workers; the arrays cost about 0.2 us a member in a block of 4096, more than SeedSequence
-below SMALL)."""
+10^4 replicas made one SeedSequence per member, about 8-14 us each, in the coordinator that feeds
+the workers; the arrays cost 0.06-0.2 us a member in a block of 4096, and 140-250 us a block of
+1-16, still less than numpy.random's import, 14-18 ms CPU, which the coordinator does not need)."""
 
 from __future__ import annotations
 
@@ -17,11 +17,14 @@ INIT_A, MULT_A, INIT_B, MULT_B = 0x43B0D7E5, 0x931E8875, 0x8B51F9DD, 0x58F38DED
 MIX_MULT_L, MIX_MULT_R, XSHIFT = 0xCA01F9DD, 0x4973F715, 16
 MASK = 0xFFFFFFFF
 BLOCK = 4096  # members whose seeds are made at once
-SMALL = 16  # fewer members: one SeedSequence each (blocks of 1-8 took 25-97 us a member)
 
 
 def member_seed(sweep_seed: int, index: int) -> int:
-    """The seed of member `index`: independent streams for every (sweep seed, index) pair."""
+    """The seed of member `index`: independent streams for every (sweep seed, index) pair.
+    With the arrays where they hold it: the coordinator asks for member 0's seed before its
+    first task, and numpy.random's import is 14-18 ms CPU of its start-up."""
+    if _arrays_hold(sweep_seed, index, 1):
+        return _mixed(sweep_seed, index, 1)[0]
     return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
 
 
@@ -32,10 +35,20 @@ def member_seeds(sweep_seed: int, start: int, count: int) -> Iterator[int]:
 
 
 def _block(sweep_seed: int, start: int, count: int) -> list[int]:
-    words = _words(sweep_seed)
-    # few members, or an index of two words: as NumPy makes it
-    if count < SMALL or start + count > 2**32 or len(words) + 1 > POOL:
+    if not _arrays_hold(sweep_seed, start, count):  # as NumPy makes them
         return [member_seed(sweep_seed, i) for i in range(start, start + count)]
+    return _mixed(sweep_seed, start, count)
+
+
+def _arrays_hold(sweep_seed: int, start: int, count: int) -> bool:
+    """Whether `_mixed` makes these seeds: the index of one word, the entropy within the pool."""
+    return start + count <= 2**32 and len(_words(sweep_seed)) + 1 <= POOL
+
+
+def _mixed(sweep_seed: int, start: int, count: int) -> list[int]:
+    """SeedSequence([sweep_seed, i]).generate_state(1, np.uint64)[0] >> 1 for `count` members from
+    `start`, with array operations (see `_arrays_hold`)."""
+    words = _words(sweep_seed)
     entropy = [np.full(count, w, dtype=np.uint32) for w in words]
     entropy.append(np.arange(start, start + count, dtype=np.uint64).astype(np.uint32))
     const = INIT_A
