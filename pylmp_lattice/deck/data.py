@@ -9,7 +9,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..case import Case, check_name
-from ..case_measures import chain_draws
 from ..formats.layout import DATA, in_deck
 from ..units import to_engine
 from .engine_args import _num
@@ -32,6 +31,8 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
     r N + N and molecule r + 1, and sits at y = r times the box height (its x values are those
     of its run alone). Atom types are the distinct masses of all chains; with per-atom masses,
     the distinct masses of their first magnets."""
+    from ..case_measures import chain_draws  # (with the measures: a sweep's coordinator asks `kind` only)
+
     first, chains = cases[0], len(cases)
     n = first.chain.particles
     per_atom = per_atom_masses(first) if per_atom is None else per_atom

@@ -10,7 +10,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..case import Case
-from ..case_measures import chain_front_levels
 from ..forcelaw import LinearSpring, PowerLaw
 from ..formats.layout import IMPACTOR, in_deck
 from ..impactor import Constant, Measured, Ramp, Rest, SinePulse
@@ -85,6 +84,8 @@ def front_levels_rows(cases: Sequence[Case], draws=None) -> np.ndarray:
     """Each chain's front levels as fix lattice/front takes them (SI): (R, 5), a row "start front
     drop pulse_drop pulse_floor" per chain (`case_measures.chain_front_levels`; draws: the
     cases' `case_measures.chain_draws`, if drawn)."""
+    from ..case_measures import chain_front_levels  # (as in data.chains_data_text)
+
     lv = chain_front_levels(cases, draws)
     speeds = [to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop)]
     return np.stack([*speeds, np.full(len(cases), lv.pulse_drop), to_engine(lv.pulse_floor, "velocity")], axis=1)

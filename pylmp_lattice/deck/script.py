@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 from ..case import Case, check_name
-from ..case_measures import front_levels
 from ..formats.layout import (BIN_COLUMNS, DECK, DIR_VARIABLE, DUMP, DUMP_COLUMNS, FINE_BIN, FINE_DUMP, FRONT_BIN,
                               FRONT_COLUMNS, TRAJ_BIN, in_deck)
 from ..units import to_engine
@@ -72,6 +71,8 @@ def _output_lines(case: Case) -> str:
                   f"dump            fine fine custom {fine_every} {in_deck(name)} {columns}",
                   "dump_modify     fine sort id" + (" format float %.12g" if out.format == "text" else " time yes")]
     if records_front(case):
+        from ..case_measures import front_levels  # (as in data.chains_data_text)
+
         lv = front_levels(case)
         levels = (to_engine(x, "velocity") for x in (lv.start, lv.front, lv.drop))
         floor = f" pulse_floor {_num(to_engine(lv.pulse_floor, 'velocity'))}" if lv.pulse_floor > 0 else ""

@@ -13,7 +13,6 @@ import tempfile
 from pathlib import Path
 
 from ..case import Case, unit_warnings
-from ..case_measures import linear_constants
 from ..errors import ConfigError, UsageError
 from ..formats.files import free_bytes
 from ..ranks import rank_warnings
@@ -62,6 +61,8 @@ def coarse_dt_warning(case: Case) -> str | None:
     Behind a shock the chain is compressed and stiffer, so shock measures err more: for the
     paper's long lattice at dt = 0.4 ms, V_P by +0.20 % and the first peak by -0.68 %.
     """
+    from ..case_measures import linear_constants  # (and the measures: none is needed before a sweep's first task)
+
     f0 = linear_constants(case)[1]  # Hz
     t0 = period(f0)  # ms
     if case.run.dt <= COARSE_DT_FRACTION * t0:

@@ -18,7 +18,6 @@ import time
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from ..formats.dump import find_contact, log_ended
 from ..errors import Interrupted, UsageError
 from ..file_lock import Held, exclusive, is_held
 from ..formats import files, layout
@@ -174,6 +173,8 @@ def status(folder: Path) -> str:
 def log_state(text: str) -> str | None:
     """How a log says its run ended: "contact", "failed" (an ERROR line) or "done"; None
     while it has not ended."""
+    from ..formats.dump import find_contact, log_ended  # (not needed before a sweep's first task)
+
     error = lammps_error(text)
     if not log_ended(text) and error is None:
         return None
