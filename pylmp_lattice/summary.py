@@ -25,6 +25,8 @@ log = logging.getLogger(__name__)
 QUIET_FRACTION = 1e-3
 # Each number keeps its decimals, and at least this many significant figures when it is small.
 SIGNIFICANT = 3
+# 10**k, k = -30 .. 30, raised by far more than math.log10's error (`_round`)
+_PLAIN = {k: 10.0**k * (1 + 1e-9) for k in range(-30, 31)}
 
 
 def summary_of(case: Case, front: measures.Front | None, max_speed: np.ndarray | None = None) -> dict:
@@ -244,7 +246,10 @@ def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:
     """x to `decimals` decimals, or more where that would keep fewer than `significant` figures:
     a small number (a drift's standard error of 1e-6) stays a number, not 0."""
     x = float(x)  # numpy's round of an np.float64 multiplies by 10**n: a subnormal becomes NaN
-    if x == 0 or not math.isfinite(x):  # math, not numpy: a summary rounds some 20 numbers per member
+    # math, not numpy: a summary rounds some 20 numbers per member. Where |x| is above 10**k
+    # (k = significant - 1 - decimals) by more than log10's error, `decimals` keeps enough figures:
+    # as below, without the logarithm (inf too)
+    if abs(x) > _PLAIN.get(significant - 1 - decimals, math.inf) or x == 0 or not math.isfinite(x):
         return round(x, decimals)
     digits = significant - 1 - math.floor(math.log10(abs(x)))
     return round(x, digits if digits > decimals else decimals)

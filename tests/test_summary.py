@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -55,6 +56,32 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
     assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
     assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123
     assert _round(np.float64(1e-310), 5) == 1e-310  # numpy's round of a subnormal gave NaN
+
+
+def test_rounding_without_the_logarithm_is_the_rounding_with_it():
+    """`_round`'s short way (|x| well above 10**(significant - 1 - decimals): `decimals` alone) gives
+    what the logarithm's way gives, bit for bit: values of every size, around the powers of ten
+    within a few ulps, and 0, -0, inf, nan, subnormals."""
+    def by_logarithm(x, decimals, significant=3):
+        x = float(x)
+        if x == 0 or not math.isfinite(x):
+            return round(x, decimals)
+        digits = significant - 1 - math.floor(math.log10(abs(x)))
+        return round(x, digits if digits > decimals else decimals)
+
+    rng = np.random.default_rng(3)
+    values = [*(rng.choice([-1, 1], 20000) * 10 ** rng.uniform(-12, 6, 20000)).tolist(), 0.0, -0.0, math.inf,
+              -math.inf, math.nan, 5e-324, 1e-310, 1.7976931348623157e308]
+    for k in range(-8, 3):
+        for x in (10.0**k, float(f"1e{k}")):
+            values += (x + np.arange(-4, 5) * np.spacing(x)).tolist()
+            values += [-x, *(x * (1 + np.array([-1, 1])[:, None] * 10.0 ** -np.arange(1, 12))).ravel().tolist()]
+            values += (x * rng.uniform(0.99, 1.01, 200)).tolist()
+    for decimals in (4, 5, 6):
+        for significant in (1, 3, 5):
+            got = [_round(v, decimals, significant) for v in values]
+            want = [by_logarithm(v, decimals, significant) for v in values]
+            assert np.array_equal(np.array(got).view(np.int64), np.array(want).view(np.int64))
 
 
 def test_summary_writer_writes_null_for_values_that_are_not_finite():
