@@ -67,8 +67,11 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
         fill[0::3], fill[1::3] = chain_ids, [r + 1] * n
         atoms.append(template % tuple(fill))  # its lines joined, as the file joins them
         bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
-        magnet_masses += [f"{i} {m!r}" for i, m in zip(chain_ids, ms)] if per_atom else []
-        velocities += [f"{i} {vi!r} 0 0" for i, vi in zip(chain_ids, vs)] if moving else []
+        # a chain's lines as one text, filled by one format (%r: repr, as f"{m!r}")
+        if per_atom:
+            magnet_masses.append(_lines("%d %r", n) % _pairs(chain_ids, ms))
+        if moving:
+            velocities.append(_lines("%d %r 0 0", n) % _pairs(chain_ids, vs))
     name = check_name(first.name)
     lines = [
         f"# {name}: {n} magnets on the x axis (LAMMPS units si)" if chains == 1 else
@@ -95,6 +98,19 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
         if section_lines:
             lines += ["", section, "", *section_lines]
     return "\n".join(lines) + "\n"
+
+
+def _lines(line: str, n: int, made: dict = {}) -> str:  # noqa: B006 - the formats made in this process
+    """n copies of a line's format, joined by newlines."""
+    key = (line, n)
+    return made.get(key) or made.setdefault(key, "\n".join([line] * n))
+
+
+def _pairs(ids: list, values: list) -> tuple:
+    """(ids[0], values[0], ids[1], values[1], ...)."""
+    out = [*ids, *values]
+    out[0::2], out[1::2] = ids, values
+    return tuple(out)
 
 
 # Both engines: atoms of the bond style (the stock engine's data file has bonds) on the x axis
