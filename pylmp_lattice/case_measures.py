@@ -56,6 +56,15 @@ class ChainDraws:
     masses: np.ndarray
     gaps: np.ndarray
     velocities: np.ndarray
+    case: Case  # the first: the batch's held ends and force law
+
+    @cached_property
+    def noise(self) -> np.ndarray:
+        """The noise velocity of each chain, m/s, shape (R,) (`chain_noises`): once per batch, read
+        by the engine's levels, the deck's and the record's."""
+        free = np.ones(self.case.chain.particles, bool)
+        free[[0, *self.case.held()]] = False
+        return measures.noise_velocity(self.masses, self.velocities, self.gaps, self.case.force.energy, free)
 
     @cached_property
     def positions(self) -> np.ndarray:
@@ -75,9 +84,9 @@ def chain_draws(cases) -> ChainDraws:
         v = np.zeros((r, first.particles))
         v[:, 1:-1] = thermal_velocities(masses[1:-1], [c.thermal_velocity for c in chains],
                                         np.stack([c.thermal_normals() for c in chains]))
-        return ChainDraws(np.repeat(masses[None], r, axis=0), np.repeat(gaps[None], r, axis=0), v)
+        return ChainDraws(np.repeat(masses[None], r, axis=0), np.repeat(gaps[None], r, axis=0), v, cases[0])
     return ChainDraws(*(np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps,
-                                                                                    Chain.velocities)))
+                                                                                    Chain.velocities)), cases[0])
 
 
 def _thermal_only(chain: Chain) -> bool:
@@ -104,13 +113,7 @@ def chain_noises(cases, draws: ChainDraws | None = None) -> np.ndarray:
     held ends and force law; `deck.render_replicas` checks), computed together with the bits of
     each alone (`chain_noise` is a batch of one); draws: their `chain_draws`, if drawn, which
     keep the result (the draws are of these cases)."""
-    d = draws or chain_draws(cases)
-    if "noise" not in d.__dict__:  # once per batch: the engine's levels, the deck's and the record's read it
-        first = cases[0]
-        free = np.ones(first.chain.particles, bool)
-        free[[0, *first.held()]] = False
-        d.__dict__["noise"] = measures.noise_velocity(d.masses, d.velocities, d.gaps, first.force.energy, free)
-    return d.__dict__["noise"]
+    return (draws or chain_draws(cases)).noise
 
 
 def front_levels(case: Case) -> measures.FrontLevels:

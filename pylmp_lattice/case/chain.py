@@ -23,6 +23,12 @@ CHUNK = 1 << 20
 KEPT_DRAWS = 4096
 
 
+def check_seed(seed) -> None:
+    """chain.seed's rule, for a chain and for a sweep's reseeded replica: an integer in [0, 2^63)."""
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise ConfigError("chain.seed", f"got {seed!r}; expected an integer >= 0")
+
+
 @dataclass(frozen=True)
 class Chain:
     """N magnets on a line; particle 1 is the impactor, particle N is held at rest.
@@ -115,9 +121,8 @@ class Chain:
                 if (getattr(self, name) or 0) >= 1 / math.sqrt(3):
                     raise ConfigError(f"chain.{name}", f"got {getattr(self, name)}; expected < 0.5774 "
                                       "(uniform disorder of relative std w spans 1 +- sqrt(3) w)")
-        if self.seed is not None and not (isinstance(self.seed, int) and not isinstance(self.seed, bool)
-                                          and 0 <= self.seed < 2**63):
-            raise ConfigError("chain.seed", f"got {self.seed!r}; expected an integer >= 0")
+        if self.seed is not None:
+            check_seed(self.seed)
         if self.random() and self.seed is None:
             raise ConfigError("chain.seed", "missing; required when thermal_velocity, mass_disorder or r0_disorder is set")
         for name, unit in (("defect_mass", "g"), ("defect_r0", "mm")):

@@ -27,6 +27,9 @@ problem's lead pulse and period two), `wake` (the mean state behind a shock). Ty
     steady = steady_oscillation(tr.t, tr.v[:, 50], vi, window=(400.0, 500.0))
 """
 
+from typing import TYPE_CHECKING
+
+from ..lazy import lazy_names
 from .arrival import ARRIVAL_METHODS, arrival_times, default_arrival_method, particles_reached
 from .front import Front, front, stack_fronts
 from .levels import (
@@ -48,6 +51,15 @@ from .propagation import (
 
 # Loaded on first use (PEP 562): a run's and a sweep's measures (above) need none of these, and
 # a sweep's command and its workers' fork server import this package before their first member.
+# The same imports for type checkers and the API reference (griffe reads them; nothing runs them).
+if TYPE_CHECKING:
+    from .critical import KNEE_METHODS, CriticalVelocity, critical_velocities, critical_velocity
+    from .friction_fit import FrictionFit, RigMotion, fit_friction, rig_motion
+    from .oscillation import Oscillations, SteadyOscillation, oscillations, steady_oscillation
+    from .phase import PhasePortrait, phase_portrait
+    from .pulse import centroid_speed, lead_pulse, staggered_amplitude
+    from .transition import TransitionZone, steady_onset_times, transition_zone
+    from .wake import WakeState, wake_state
 _LAZY = {
     "critical": ["KNEE_METHODS", "CriticalVelocity", "critical_velocities", "critical_velocity"],
     "friction_fit": ["FrictionFit", "RigMotion", "fit_friction", "rig_motion"],  # Fig. S4 calibration
@@ -57,20 +69,7 @@ _LAZY = {
     "transition": ["TransitionZone", "steady_onset_times", "transition_zone"],
     "wake": ["WakeState", "wake_state"],
 }
-_WHERE = {name: module for module, names in _LAZY.items() for name in names}
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        from importlib import import_module
-
-        return getattr(import_module(f".{_WHERE[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted({*globals(), *_WHERE})
-
+__getattr__, __dir__ = lazy_names(__name__, {name: module for module, names in _LAZY.items() for name in names})
 
 __all__ = [
     "FRONT_FRACTION", "NOISE_FALL", "NOISE_LEVEL", "PROMINENCE", "PULSE_DROP", "START_FRACTION",

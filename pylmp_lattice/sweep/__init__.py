@@ -12,15 +12,10 @@
 
 # Loaded on first use (PEP 562): `pylmp_lattice.sweep.pool` can start the workers' fork server
 # before numpy, pandas and the engine are loaded here.
+from ..lazy import lazy_names
+
 _WHERE = {"run_sweep": "execute", "Member": "spec", "Sweep": "spec", "load_sweep": "spec", "member_id": "spec",
           "member_seed": "seeds", "load_results": "table", "replica_stats": "stats", "plot_replica_stats": "stats",
           "write_replica_stats": "stats", "plot_replica_spread": "stats"}
 __all__ = list(_WHERE)
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        from importlib import import_module
-
-        return getattr(import_module(f".{_WHERE[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = lazy_names(__name__, _WHERE)

@@ -53,6 +53,7 @@ from typing import Any
 
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
+from ..case.chain import check_seed
 from ..case.identity import seeded_hashes
 from ..engine import RUNNERS
 from ..engines import ENGINES
@@ -138,8 +139,7 @@ def _reseeded(template: Case, seed) -> Case:
     chain = template.chain
     if chain.mass_disorder or chain.r0_disorder or chain.seed is None:
         return replace(template, chain=replace(chain, seed=seed))
-    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**63):
-        raise ConfigError("chain.seed", f"got {seed!r}; expected an integer >= 0")
+    check_seed(seed)
     new = _copy(chain)  # its __dict__: the fields and what it keeps (draws, ranges)
     new.__dict__["seed"] = seed
     kept = new.__dict__.get("_draws")
