@@ -3,7 +3,10 @@
 The chain: N magnets, F = K/(r+b)^3 (K = 413.8 N mm^3, b = 3.917 mm), m = 1.084 g, r0 = 12 mm,
 magnet 1 pushed at a constant 2 m/s, magnet N held, dt = 0.01 ms. Ways of integrating it:
 - "C loop": benchmarks/chain_loop.c, velocity Verlet, compiled here with gcc -O3; it times its
-  own loop and writes its final velocities, against which every other row is compared;
+  own loop and writes its final velocities, against which every other row is compared; the
+  ratios are to it. Where the CPU has AVX2 a second row builds the same loop with -mavx2
+  -mno-fma (the vectors the chain fix's AVX2 copy uses, no fused multiply-add): like for like
+  with the plugin on such a machine;
 - "LAMMPS default" / "LAMMPS stock": the package's path, case_from_dict ->
   runner.write_run_folder -> runner.run_executable (`lmp`), with `[run] engine` left at its
   default, and with engine = "stock" once the package has that field (detected, not assumed);
@@ -135,10 +138,18 @@ def run_lammps(folder: Path, nprocs: int = 1) -> Took:
     return Took(loop - output, cpu, output / loop)
 
 
-def build_c_loop(folder: Path) -> Path:
-    exe = folder / "chain_loop"
-    subprocess.run(["gcc", "-O3", "-o", str(exe), str(C_SOURCE)], check=True)
+def build_c_loop(folder: Path, flags: tuple[str, ...] = ()) -> Path:
+    exe = folder / ("chain_loop" + "".join(flags).replace("-", "_"))
+    subprocess.run(["gcc", "-O3", *flags, "-o", str(exe), str(C_SOURCE)], check=True)
     return exe
+
+
+def has_avx2() -> bool:
+    """Whether this CPU has AVX2 (Linux's /proc/cpuinfo; False elsewhere)."""
+    try:
+        return " avx2" in Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return False
 
 
 def run_c_loop(exe: Path, n: int, steps: int) -> Took:
@@ -243,6 +254,7 @@ class Bench:
     def __init__(self, args, tmp: Path):
         self.args, self.tmp = args, tmp
         self.exe = build_c_loop(tmp)
+        self.exe_avx2 = build_c_loop(tmp, ("-mavx2", "-mno-fma")) if has_avx2() else None
         # the deck as the package writes it (`[run] engine` and `[output] front` at their
         # defaults); the default without the per-step front record; the stock path where the
         # package has one
@@ -269,6 +281,9 @@ class Bench:
         steps = self.steps_for(n)
         rows = {"C": Row("C loop (gcc -O3)", steps), "numpy": Row("numpy velocity Verlet", steps)}
         ways = {"C": lambda: run_c_loop(self.exe, n, steps), "numpy": lambda: run_numpy(n, steps)}
+        if self.exe_avx2 is not None:
+            rows["C_avx2"] = Row("C loop (gcc -O3 -mavx2 -mno-fma)", steps)
+            ways["C_avx2"] = lambda: run_c_loop(self.exe_avx2, n, steps)
         folders = {}
         for name, variant in self.variants.items():
             folders[name] = simulation.RunFolder.create(paper_case(n, steps, variant), self.tmp / f"{name}_{n}").path
