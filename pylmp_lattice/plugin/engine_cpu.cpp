@@ -119,17 +119,20 @@ template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &s
 // function of them all spills the hot loops' registers). No AVX-512, nor 8 lanes with AVX2:
 // GCC 12 computes their masks (a comparison not in a select: && of two, an output) lane by
 // lane, 5x slower (21-magnet chains with friction, AMD EPYC).
+#if defined(__x86_64__)
 template <bool FRICTION, bool FRONT, class LawT>
 __attribute__((target("avx2"), flatten)) void chain_avx2(const LawT law, const ChainSetup &S, ChainDataT<Lanes4> &c)
 {
   detail::run_chain<FRICTION, FRONT>(law, S, c);
 }
+#endif
 template <bool FRICTION, bool FRONT, class LawT>
 __attribute__((flatten)) void chain_sse2(const LawT law, const ChainSetup &S, ChainDataT<Lanes2> &c)
 {
   detail::run_chain<FRICTION, FRONT>(law, S, c);
 }
 
+#if defined(__x86_64__)
 void run_lanes_avx2(const Batch &B, LaneStore &st, int c0)
 {
   run_lanes<Lanes4>(B, st, c0, [&](const ChainSetup &S, ChainDataT<Lanes4> &d) {
@@ -138,6 +141,7 @@ void run_lanes_avx2(const Batch &B, LaneStore &st, int c0)
     });
   });
 }
+#endif
 void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
 {
   run_lanes<Lanes2>(B, st, c0, [&](const ChainSetup &S, ChainDataT<Lanes2> &d) {
@@ -203,8 +207,10 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
   const Batch B{S, chains, n, x, v, mass, levels, front_out, work, end_step, status};
   void (*run)(const Batch &, LaneStore &, int) = run_lanes_sse2;
   int W = 2;
+#if defined(__x86_64__)    // elsewhere the 2-lane build, in the machine's own vectors
   __builtin_cpu_init();
   if (__builtin_cpu_supports("avx2")) run = run_lanes_avx2, W = 4;
+#endif
 #ifdef _OPENMP
   if (threads > 0) omp_set_num_threads(threads);
 #else

@@ -91,7 +91,9 @@ template <> struct Lanes<double> {
 typedef double Lanes2 __attribute__((vector_size(16)));
 typedef double Lanes4 __attribute__((vector_size(32)));
 
-/* any lane set: one movmskpd (Lanes4: only in code built for AVX, as the host engine's) */
+#if defined(__x86_64__)
+/* any lane set: one movmskpd (Lanes4: only in code built for AVX, as the host engine's); other
+   machines OR the lanes (the template above) */
 template <> inline bool Lanes<Lanes2>::any(const MaskOf<Lanes2> &m)
 {
   return __builtin_ia32_movmskpd((Lanes2) m) != 0;
@@ -100,6 +102,7 @@ template <> __attribute__((target("avx"))) inline bool Lanes<Lanes4>::any(const 
 {
   return __builtin_ia32_movmskpd256((Lanes4) m) != 0;
 }
+#endif
 
 template <class R> struct LaneBits;
 template <> struct LaneBits<Lanes2> {
