@@ -4,6 +4,7 @@ system and read it."""
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -100,10 +101,10 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
     return "\n".join(lines) + "\n"
 
 
-def _lines(line: str, n: int, made: dict = {}) -> str:  # noqa: B006 - the formats made in this process
-    """n copies of a line's format, joined by newlines."""
-    key = (line, n)
-    return made.get(key) or made.setdefault(key, "\n".join([line] * n))
+@functools.lru_cache(maxsize=64)
+def _lines(line: str, n: int) -> str:
+    """n copies of a line's format, joined by newlines (made once per format and n)."""
+    return "\n".join([line] * n)
 
 
 def _pairs(ids: list, values: list) -> tuple:
