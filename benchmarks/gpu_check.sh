@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The one prepared script a session with a GPU machine runs (issue 28, "Checks on a GPU machine"),
-# in under 5 minutes: a venv on the image's Python (its numpy and CuPy) with the carried wheels,
-# then `bench_gpu.py --check`, then the benchmark. Prepare on the dev machine first:
+# in under 5 minutes: the image's Python (its numpy, CuPy, pandas, pyarrow, matplotlib) with the
+# carried wheels, the gpu-marked tests, `bench_gpu.py --check`, then the benchmark, the
+# 10^6-member sweep from command to exit included. Prepare on the dev machine first:
 #   bash benchmarks/gpu_wheels.sh          # wheels/ (ignored by git)
 #   cmake -S . -B /tmp/b -DPython_EXECUTABLE=$(which python) && cmake --build /tmp/b -j2 \
 #     && cmake --install /tmp/b --prefix /tmp/b/inst   # then copy latticeengine.so into pylmp_lattice/plugin/
@@ -9,20 +10,32 @@
 # "pylmp_lattice/plugin/latticeengine.so"], timeout_s 330. Output also in $OUT/gpu_check.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-log="${OUT:-/tmp}/gpu_check.txt"
-exec > >(tee "$log") 2>&1
+out="${OUT:-/tmp}"
+exec > >(tee "$out/gpu_check.txt") 2>&1
+export PYTHONUNBUFFERED=1
 started=$SECONDS
+stage() { echo "== $* (at $((SECONDS - started)) s)"; }
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader || true
-venv=/tmp/pylmp-gpu-venv
-python3 -m venv --system-site-packages "$venv" && py="$venv/bin/python" || py=python3
-"$py" -m pip install -q --no-index --find-links wheels tomli-w tqdm || echo "gpu_check: could not install tomli-w, tqdm from wheels/"
-"$py" -c "import numpy, cupy, sys; print('python', sys.version.split()[0], 'numpy', numpy.__version__, 'cupy', cupy.__version__)"
-export PYTHONPATH="$PWD"
-echo "== bench_gpu.py --check"
-timeout 150 "$py" benchmarks/bench_gpu.py --check
+nproc; lscpu | grep -m1 "Model name" || true
+py=python3
+site=/tmp/pylmp-gpu-site
+"$py" -m pip install -q --no-index --no-deps --target "$site" wheels/tomli_w-*.whl \
+  || echo "gpu_check: could not install tomli-w from wheels/"
+export PYTHONPATH="$site:$PWD"
+"$py" -c "import numpy, cupy, pandas, pyarrow, matplotlib, sys; print('python', sys.version.split()[0], 'numpy', \
+numpy.__version__, 'cupy', cupy.__version__, 'cuda runtime', cupy.cuda.runtime.runtimeGetVersion())"
+stage "gpu-marked tests: the GPU engine against the host build"
+timeout 60 "$py" -m pytest -q -x -m gpu -p no:cacheprovider tests/test_kernel_cpu.py 2>&1 | tail -25
+stage "bench_gpu.py --check"
+timeout 60 "$py" benchmarks/bench_gpu.py --check
 check=$?
-echo "check exit $check after $((SECONDS - started)) s"
-echo "== bench_gpu.py"
-left=$((280 - (SECONDS - started))); timeout $((left > 30 ? left : 30)) "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 10000 --sweep 10000
-echo "benchmark exit $? after $((SECONDS - started)) s"
+stage "check exit $check"
+stage "bench_gpu.py: 21 magnets, kernel and command to exit"
+timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
+  --loop-limit 2e10
+stage "benchmark exit $?"
+left=$((300 - (SECONDS - started)))
+stage "bench_gpu.py: 1000 magnets (for at most ${left} s)"
+timeout $((left > 20 ? left : 20)) "$py" benchmarks/bench_gpu.py --sizes "" --long 10000 --sweep ""
+stage "benchmark exit $?"
 exit $check

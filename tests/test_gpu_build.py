@@ -55,13 +55,23 @@ def compile_ptx(options: tuple[str, ...]) -> tuple[int, str, bytes]:
         lib.nvrtcDestroyProgram(ctypes.byref(prog))
 
 
-@pytest.mark.slow
-def test_nvrtc_compiles_both_kernels_with_the_engines_options():
-    """Both entry points in the PTX (the local arrays' code and the global rows' are one source:
-    PL_LOCAL_N only sizes the arrays). 25-45 s of NVRTC on this project's 2 cores: slow."""
-    rc, log, ptx = compile_ptx((*compile_options(LOCAL_SIZES[0]), ARCH))
+CASES = [  # (law kind, q, friction, record): engines.gpu.batch_case's, each law type of Law::dispatch
+    (0, 3.0, True, True), (0, 3.0, False, False), (0, 1.0, True, False), (0, 8.0, False, True), (0, 2.5, True, True),
+    (1, 0.0, True, True), (2, 0.0, False, True)]
+
+
+@pytest.mark.parametrize("local", [*LOCAL_SIZES, 0])
+@pytest.mark.parametrize("case", CASES)
+def test_nvrtc_compiles_the_kernel_for_each_case_of_a_batch(local, case):
+    """One entry point (the local arrays' kernel, or the global rows' with local 0) and one copy
+    of the run per module: under 2 s of NVRTC each. With every case in one module (44 copies of
+    the run, twice), NVRTC took 25-45 s to PTX here and 3 minutes to sm_90 code on the GPU
+    machine, which stalled its first check."""
+    rc, log, ptx = compile_ptx((*compile_options(local, case), ARCH))
     assert rc == 0, log
-    assert b".entry pl_run_short_chains_gpu" in ptx and b".entry pl_run_chains_gpu" in ptx
+    entries = [line.split()[-1] for line in ptx.decode().splitlines() if ".entry" in line]
+    assert entries == ["pl_run_short_chains_gpu(" if local else "pl_run_chains_gpu("], entries
+    assert len(ptx) < 400_000, len(ptx)  # one copy of the run: 90-130 kB (all 44 were 4.5 MB)
 
 
 def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
@@ -70,5 +80,5 @@ def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
     same, edited = shutil.copytree(KERNEL, tmp_path / "same"), shutil.copytree(KERNEL, tmp_path / "edited")
     (edited / "step.h").write_text((edited / "step.h").read_text() + "\n")
     digest = _sources_digest(KERNEL)
-    assert f"-DPL_KERNEL_SOURCES={digest}" in compile_options(LOCAL_SIZES[0])
+    assert f"-DPL_KERNEL_SOURCES={digest}" in compile_options(LOCAL_SIZES[0], CASES[0])
     assert _sources_digest(same) == digest != _sources_digest(edited)

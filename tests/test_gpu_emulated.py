@@ -26,6 +26,7 @@ import pytest
 
 from pylmp_lattice.case import Case
 from pylmp_lattice.engines import cpu, gpu
+from pylmp_lattice.engines.arrays import prepare
 from pylmp_lattice.engines.road import KernelEngine
 from pylmp_lattice.errors import ContactError
 from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
@@ -37,7 +38,8 @@ from test_kernel_cpu import DRIVES, FRICTION  # its cases, which its gpu-marked 
 
 SHIM = Path(__file__).resolve().parent / "cuda_host.h"
 SOURCE = gpu.KERNEL / "engine_gpu.cu"
-NVRTC_ONLY = ("-default-device",)  # options g++ has no use for (the shim's __device__ is nothing)
+NVRTC_ONLY = ("-default-device", "-fmad=false")  # options g++ has no use for (the shim's __device__ is nothing;
+# g++ contracts nothing on x86-64 without -mfma)
 # a kernel parameter's C type -> the NumPy type CuPy passes as it (scalars) or the array's dtype (pointers)
 C_TYPES = {"int": np.int32, "long long": np.int64, "double": np.float64, "unsigned char": np.uint8}
 GUARD = 4096  # bytes either side of each array argument, checked after a launch
@@ -142,7 +144,9 @@ class FakeCupy(types.ModuleType):
         class RawModule:
             def __init__(self, code: str, options: tuple[str, ...]):
                 assert code == SOURCE.read_text()
-                assert options in {gpu.compile_options(k) for k in (*gpu.LOCAL_SIZES, 0)}, options
+                d = dict(o[2:].split("=", 1) for o in options if o.startswith("-D"))
+                case = int(d["PL_LAW_KIND"]), float(d["PL_LAW_Q"]), d["PL_FRICTION"] == "1", d["PL_RECORD"] == "1"
+                assert options == gpu.compile_options(int(d["PL_LOCAL_N"]), case), options
                 fake.modules.append(options)
                 self.lib = fake.build(options)
                 self.signatures = kernel_signatures(code)
@@ -294,7 +298,7 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     n = cases[0].chain.particles
     local = gpu._local_size(n)
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
-    assert emulated_gpu.modules == [gpu.compile_options(local)]
+    assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(prepare(cases, "gpu")))]
     assert (got["gpu"]["out"][2] is None) == scenario.endswith(("rest", "rest-global-rows"))  # a drive at rest: no record
     if scenario.startswith("contact"):
         assert got["gpu"]["error"] is not None and got["gpu"]["out"][5].any()
@@ -324,13 +328,25 @@ def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, partic
     assert [launch[1:] for launch in emulated_gpu.launches] == [(2, 8), (2, 8), (1, 8)]
 
 
+def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path, monkeypatch, emulated_gpu):
+    """A module holds one case of the law, friction and record (engine_gpu.cu's run_compiled):
+    given a batch of another case, its chains are not run, and the engine says so."""
+    a = prepare(members(count=3, friction=FRICTION), "gpu")
+    assert gpu.batch_case(a) == (0, 3.0, True, True)
+    for other in ((0, 2.0, True, True), (0, 3.5, True, True), (1, 0.0, True, True), (0, 3.0, False, True),
+                  (0, 3.0, True, False)):
+        monkeypatch.setattr(gpu, "batch_case", lambda _a, _other=other: _other)
+        with pytest.raises(RuntimeError, match="did not run this batch's chains"):
+            gpu.run_arrays(a)
+
+
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
     """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
     sig = kernel_signatures(SOURCE.read_text())
     assert len(sig["pl_run_short_chains_gpu"]) == 27 + 8 and len(sig["pl_run_chains_gpu"]) == 27 + 17
     assert sig["pl_run_chains_gpu"][27 + 11] == ("unsigned char", True, False)  # phase
     assert sig["pl_run_chains_gpu"][27 + 2] == ("double", True, True)  # mass
-    lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0]))
+    lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0], (0, 3.0, True, True)))
     k = Kernel(lib, "pl_run_short_chains_gpu", sig["pl_run_short_chains_gpu"], [])
     good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p, _ in k.signature]
     good = [FakeCupy.zeros(4, C_TYPES[b]) if p else g for g, (b, p, _) in zip(good, k.signature)]

@@ -9,10 +9,10 @@ Chains of up to 64 magnets (the ensembles') keep their whole state in each threa
 memory, which CUDA interleaves by thread (coalesced), and only the record's 7 output columns per
 magnet go back to global memory; longer chains run on chain-major rows of global arrays.
 
-Not yet run on a GPU (the sessions that wrote it had none). NVRTC compiles it with
-`compile_options` (tests/test_gpu_build.py, on any machine with the nvidia-cuda-nvrtc wheel); its
-tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py, marked gpu) and
-benchmarks/bench_gpu.py --check compare it with the host engine within 1e-12 where CuPy finds a
+Run on an NVIDIA H200 on 2026-11-27 (benchmarks/gpu_check.sh; numbers in docs/performance.md).
+NVRTC compiles it with `compile_options` (tests/test_gpu_build.py, on any machine with the
+nvidia-cuda-nvrtc wheel); its tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py,
+marked gpu) and benchmarks/bench_gpu.py --check compare it with the host engine where CuPy finds a
 device; tests/test_gpu_emulated.py runs everything here but the device on any machine (the kernels
 built by g++ and run thread after thread behind a stand-in for CuPy): bit for bit the host engine's.
 """
@@ -83,6 +83,7 @@ def run_arrays(a: Arrays):
              np.int32(a.given_velocity), np.int32(a.hold), np.int32(a.friction is not None), np.float64(mu),
              np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record))
     local = _local_size(n)
+    options = compile_options(local, batch_case(a))
     if local:
         front = cp.empty(chains * n * NOUT if a.record else 1)
     else:  # each chain's rows of global arrays: its whole record (NCOL columns), the output copied out
@@ -102,7 +103,7 @@ def run_arrays(a: Arrays):
         if local:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_short_chains_gpu", local)(grid, (THREADS,), args)
+            _kernel("pl_run_short_chains_gpu", options)(grid, (THREADS,), args)
         else:
             f, dtfm, weight, index = scratch
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
@@ -110,8 +111,10 @@ def run_arrays(a: Arrays):
                     *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
                     runs[lo * nruns * 5:hi * nruns * 5], scratch_runs[lo * per_chain:hi * per_chain],
                     work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_chains_gpu", 0)(grid, (THREADS,), args)
+            _kernel("pl_run_chains_gpu", options)(grid, (THREADS,), args)
         cp.cuda.Stream.null.synchronize()
+    if int(end_step.min()) < 0:  # a module built for another law, friction or record (run_compiled)
+        raise RuntimeError(f"the GPU kernel compiled with {options} did not run this batch's chains")
     if not a.record:
         out = None
     elif local:
@@ -121,14 +124,28 @@ def run_arrays(a: Arrays):
     return x.get(), v.get(), out, work.get(), end_step.get(), status.get()
 
 
-def compile_options(local: int) -> tuple[str, ...]:
-    """NVRTC's options for engine_gpu.cu with local arrays `local` long (0: global rows).
+def batch_case(a: Arrays) -> tuple[int, float, bool, bool]:
+    """The batch's case of the kernel's dispatch: law kind (LAWS), a power law's q (else 0),
+    friction, record."""
+    return LAWS[a.law], float(a.law_values[2]) if a.law == "power" else 0.0, a.friction is not None, bool(a.record)
+
+
+def compile_options(local: int, case: tuple[int, float, bool, bool]) -> tuple[str, ...]:
+    """NVRTC's options for engine_gpu.cu: local arrays `local` long (0: the global rows' kernel),
+    only the batch's `case` (`batch_case`) of the law, friction and record (one copy of the run,
+    not 44: seconds to compile, not minutes).
+    -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
+    are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's
+    entries still differ from the host build's by up to 2.6e-11 relative, with or without it:
+    not bit for bit, for a reason not yet found (docs/performance.md).
     -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
     NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function.
     -DPL_KERNEL_SOURCES: CuPy's disk cache keys a compiled module by its source and options, not
     the headers it includes, so their digest goes in the options (an edited header, a new version
     of the package, compiles anew instead of loading the old kernel)."""
-    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local or LOCAL_SIZES[0]}", "-default-device",
+    law, q, friction, record = case
+    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_LAW_KIND={law}", f"-DPL_LAW_Q={q!r}",
+            f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}", "-fmad=false", "-default-device",
             f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 
@@ -149,12 +166,11 @@ def _local_size(n: int) -> int:
 _MODULES: dict = {}
 
 
-def _kernel(name: str, local: int):
-    """A compiled kernel of engine_gpu.cu, its local arrays `local` long (CuPy caches the
-    compilation on disk)."""
-    if local not in _MODULES:
+def _kernel(name: str, options: tuple[str, ...]):
+    """A kernel of engine_gpu.cu compiled with `options` (CuPy caches the compilation on disk)."""
+    if options not in _MODULES:
         import cupy as cp
 
         source = (KERNEL / "engine_gpu.cu").read_text()
-        _MODULES[local] = cp.RawModule(code=source, options=compile_options(local))
-    return _MODULES[local].get_function(name)
+        _MODULES[options] = cp.RawModule(code=source, options=options)
+    return _MODULES[options].get_function(name)

@@ -1,6 +1,6 @@
 /* The GPU engine's kernels: one thread per chain, each running the chain kernel's run_chain
    (chain.h). Compiled at run time by NVRTC through CuPy (pylmp_lattice/engines/gpu.py, with -I
-   this folder and -DPL_LOCAL_N). Part of pylmp_lattice, GPL-2.0.
+   this folder and the batch's -D options, below). Part of pylmp_lattice, GPL-2.0.
 
    Short chains (n <= PL_LOCAL_N, the ensembles' case): pl_run_short_chains_gpu keeps a chain's
    whole state (x, v, f, masses, the front record's rows, marks, phases, scratch) in per-thread
@@ -11,12 +11,18 @@
    running state) and the final x, v are written back: the per-chain record leaves the chip
    compact, 7 doubles per magnet.
    Long chains: pl_run_chains_gpu runs on chain-major slices of global arrays (each thread its
-   own rows: not coalesced; a block per chain would be the next step). */
+   own rows: not coalesced; a block per chain would be the next step).
+
+   A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
+   the short chains' kernel with local arrays that long, 0 the global rows' kernel; PL_LAW_KIND
+   (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the one case of
+   chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
+   NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
 
 #include "chain.h"
 
-#ifndef PL_LOCAL_N
-#define PL_LOCAL_N 32
+#if !defined(PL_LOCAL_N) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) || !defined(PL_RECORD)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD"
 #endif
 
 using namespace pl_kernel;
@@ -37,6 +43,35 @@ __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, i
   return chain_setup(n, steps, dt, block, law_kind, law_values, table, drive_profile, V, T, measured, friction != 0,
                      mu, p, g, range_lo, range_hi, record != 0);
 }
+
+/* the law types of Law::dispatch this module runs: the batch's alone */
+template <class T> struct Compiled {
+  static constexpr bool value = false;
+};
+template <int Q> struct Compiled<laws::PowerInt<Q>> {
+  static constexpr bool value = PL_LAW_KIND == Law::POWER && Law::qint_of(PL_LAW_Q) == Q;
+};
+template <> struct Compiled<laws::Power> {
+  static constexpr bool value = PL_LAW_KIND == Law::POWER && Law::qint_of(PL_LAW_Q) == 0;
+};
+template <> struct Compiled<laws::Linear> {
+  static constexpr bool value = PL_LAW_KIND == Law::LINEAR;
+};
+template <> struct Compiled<laws::Table> {
+  static constexpr bool value = PL_LAW_KIND == Law::TABLE;
+};
+
+/* chain.h's run_chain for the compiled case alone; a chain of another case is not run and keeps
+   end step -1, which the host refuses (a module built for another batch never passes unseen) */
+__device__ void run_compiled(const ChainSetup &S, ChainData &d)
+{
+  d.end_step[0] = -1;
+  dispatch_chain(S, [&](auto law, auto friction, auto record) {
+    if constexpr (Compiled<decltype(law)>::value && decltype(friction)::value == (PL_FRICTION != 0) &&
+                  decltype(record)::value == (PL_RECORD != 0))
+      detail::run_chain<decltype(friction)::value, decltype(record)::value>(law, S, d);
+  });
+}
 }    // namespace
 
 #define PL_SETUP_PARAMS                                                                                             \
@@ -50,6 +85,7 @@ __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, i
       measured_n, measured_t, measured_y, measured_fit, given_velocity, hold_after, friction, mu, p, g, range_lo,  \
       range_hi, record
 
+#if PL_LOCAL_N > 0
 /* n <= PL_LOCAL_N, n - 2 <= block: one run of free atoms. x, v (chains x n, chain-major) in and
    out; front_out (chains x n x NOUT) with a record. */
 extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass,
@@ -80,7 +116,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec, d.mark = mark, d.gate = gate, d.phase = phase;
   }
-  run_chain(S, d);
+  run_compiled(S, d);
   for (int i = 0; i < n; i++) x[at + i] = xl[i], v[at + i] = vl[i];
   if (S.record)
     for (int i = 0; i < n; i++)
@@ -90,6 +126,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   status[c] = d.status[0];
 }
 
+#else
 /* Any n: each thread on its chain's rows of global arrays (chain-major); rec (chains x n x NCOL)
    NaN, mark NaN, gate and phase 0 on entry. */
 extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass, double *f,
@@ -121,8 +158,9 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
     d.gate = gate + at;
     d.phase = phase + at;
   }
-  run_chain(S, d);
+  run_compiled(S, d);
   work[c] = d.work[0];
   end_step[c] = d.end_step[0];
   status[c] = d.status[0];
 }
+#endif

@@ -90,8 +90,13 @@ struct Law {
     Law law;
     law.kind = POWER;
     law.K = K, law.b = b, law.q = q;
-    law.qint = (q >= 1.0 && q <= 8.0 && q == static_cast<double>(static_cast<int>(q))) ? static_cast<int>(q) : 0;
+    law.qint = qint_of(q);
     return law;
+  }
+  /* q if it is an integer 1..8 (laws::PowerInt<q>), else 0 (laws::Power) */
+  PL_HD static constexpr int qint_of(double q)
+  {
+    return (q >= 1.0 && q <= 8.0 && q == static_cast<double>(static_cast<int>(q))) ? static_cast<int>(q) : 0;
   }
   PL_HD static Law linear(double k, double r_free)
   {
