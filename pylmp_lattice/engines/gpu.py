@@ -33,8 +33,10 @@ KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 THREADS = 128
 # Chains of up to 64 magnets keep their state in each thread's local memory (engine_gpu.cu)
 LOCAL_SIZES = (32, 64)
-# Atom-steps per launch: about 0.5 s at 1e11 atom-steps/s (issue 28's target), so Ctrl-C waits at most that long
-CHUNK_ATOM_STEPS = 5e10
+# Atom-steps per launch: about 1 s at the 1.03e10 atom-steps/s an H200 ran (docs/performance.md), so a
+# signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
+# fast per atom-step as 10^6 in two, so smaller launches cost no speed there
+CHUNK_ATOM_STEPS = 1e10
 
 
 def available() -> str | None:
@@ -51,7 +53,7 @@ def available() -> str | None:
 
 
 def run_arrays(a: Arrays):
-    """`engines.cpu.run_arrays` on the GPU (one launch: Ctrl-C waits for it)."""
+    """`engines.cpu.run_arrays` on the GPU (in launches of CHUNK_ATOM_STEPS: Ctrl-C waits for one)."""
     import cupy as cp
 
     lib, lay = library(), layout()
