@@ -2,7 +2,7 @@
 # The one prepared script a session with a GPU machine runs (issue 28, "Checks on a GPU machine"),
 # in under 5 minutes: the image's Python (its numpy, CuPy, pandas, pyarrow, matplotlib) with the
 # carried wheels, the gpu-marked tests, `bench_gpu.py --check`, then the benchmark, the
-# 10^6-member sweep from command to exit included. Prepare on the dev machine first:
+# 10^6-member sweep from command to exit included, and one kernel launch under Nsight Compute. Prepare on the dev machine first:
 #   bash benchmarks/gpu_wheels.sh          # wheels/ (ignored by git)
 #   cmake -S . -B /tmp/b -DPython_EXECUTABLE=$(which python) && cmake --build /tmp/b -j2 \
 #     && cmake --install /tmp/b --prefix /tmp/b/inst   # then copy latticeengine.so into pylmp_lattice/plugin/
@@ -38,4 +38,11 @@ left=$((300 - (SECONDS - started)))
 stage "bench_gpu.py: 1000 magnets (for at most ${left} s)"
 timeout $((left > 20 ? left : 20)) "$py" benchmarks/bench_gpu.py --sizes "" --long 10000 --sweep ""
 stage "benchmark exit $?"
+# Is the kernel bound by memory (its local arrays streaming from HBM, docs/performance.md)? Nsight
+# Compute's speed-of-light and memory sections for one launch of 20000 chains (the warm-up's skipped)
+stage "ncu: one launch of 20000 chains"
+command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
+  -k pl_run_short_chains_gpu --launch-skip 1 --launch-count 1 "$py" benchmarks/bench_gpu.py --sizes 20000 --long 0 \
+  --sweep "" --loop-limit 0 2>&1 | grep -v "^==PROF==" | tail -60
+stage "ncu exit $?"
 exit $check
