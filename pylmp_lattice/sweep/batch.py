@@ -38,6 +38,7 @@ from .member import _cpu_time, _fresh, _invalid, _record, one_line, run_member, 
 from .spec import Member, member_cases
 from .store import (BATCHES, DONE, INTERRUPTED, MEMBERS, Outcomes, listing, member_folder, now, provenance, task_lock,
                     write_batch)
+from .table import Rows, batch_rows
 
 log = logging.getLogger(__name__)
 # Whether the plugin's fix lattice/chain writes each chain's friction work (`fix_modify chain
@@ -63,9 +64,11 @@ class Task:
     threads: int | None = None
 
 
-def run_task(task: Task) -> list[dict]:
-    """Run the task's members; one result per member, in order: {"id", "record", "summary"}.
-    Every member's outcome is on disk (its status written last) before it is returned."""
+def run_task(task: Task) -> list[dict | Rows]:
+    """Run the task's members: the table's rows of the members done in a batch (`table.Rows`,
+    one per batch: no dict per member), then one result per other member, in order: {"id",
+    "record", "summary"}. Every member's outcome is on disk (its status written last) before
+    it is returned."""
     signals.IN_TASK.set()
     try:
         return _run_task(task)
@@ -73,13 +76,14 @@ def run_task(task: Task) -> list[dict]:
         signals.IN_TASK.clear()
 
 
-def _run_task(task: Task) -> list[dict]:
+def _run_task(task: Task) -> list[dict | Rows]:
     with task_lock(task.root, [m.id for m in task.members]):  # copies of a task (Dask) take turns
         return _run_members(Path(task.root), task)
 
 
-def _run_members(root: Path, task: Task) -> list[dict]:
+def _run_members(root: Path, task: Task) -> list[dict | Rows]:
     results: dict[str, dict] = {}
+    rows: list[Rows] = []  # of the batches done
     # a task run again (e.g. by Dask after its worker died) keeps what is done: its batches are
     # named by their first member
     done = Outcomes(root, batches=[m.id for m in task.members])
@@ -98,12 +102,17 @@ def _run_members(root: Path, task: Task) -> list[dict]:
         if signals.STOP.is_set():
             break
         if len(group) > 1:
-            results |= _run_batch(root, group, task.runner, started, task.engine, task.threads)
+            done = _run_batch(root, group, task.runner, started, task.engine, task.threads)
+            if isinstance(done, list):
+                rows += done
+            else:
+                results |= done
         else:
             if task.engine != "lammps":
                 _note(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
-    return [results.get(m.id) or unstarted(m) for m in task.members]
+    batched = {i for r in rows for i in r.columns["id"]}
+    return [*rows, *(results.get(m.id) or unstarted(m) for m in task.members if m.id not in batched)]
 
 
 def batchable(case: Case) -> bool:
@@ -134,9 +143,11 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
 
 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str, kind: str = "lammps",
-               threads: int | None = None) -> dict[str, dict]:
+               threads: int | None = None) -> list[Rows] | dict[str, dict]:
     """Run the group as one batch, a run folder on the road of every run (`execute_batch`), by
-    the `kind` engine (LAMMPS if the kernel cannot run it); on a failed batch, each member alone."""
+    the `kind` engine (LAMMPS if the kernel cannot run it): its members' rows of the table
+    (`table.batch_rows`). A failed batch runs each member alone, a stopped one leaves them
+    interrupted: their results by id."""
     from ..case_measures import chain_draws
     from ..engines.road import kernel_engine
     from ..formats import layout
@@ -181,12 +192,13 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data,
                 "summary": summary | {"status": DONE, "files": where, "wall_time_s": round(wall, 4)}}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
-    outcomes = write_batch(batch, record, members)  # last: the members are done
+    written = write_batch(batch, record, members)  # last: the members are done
     alone = listing(root / MEMBERS)
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
         if m.id in alone:
             remove_tree(member_folder(root, m.id))
-    return {m.id: {"id": m.id} | outcomes[m.id] for m, _ in group}
+    return batch_rows([m.index for m, _ in group], [m.id for m, _ in group], [m.params for m, _ in group],
+                      record["batch"], record, written["cols"]["summary"])
 
 
 def _note(kind: str, why: str, noted: set = set()) -> None:  # noqa: B006 - the reasons noted in this process

@@ -42,9 +42,9 @@ from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
 from .signals import _StopSignals
 from .spec import Member, Sweep
-from .store import (FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
+from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
                     write_status)
-from .table import CSV, Table, frame, member_row
+from .table import CSV, Rows, Table, member_row
 
 log = logging.getLogger(__name__)
 
@@ -157,7 +157,7 @@ class _Coordinator:
                 log.info("%s: %d of %d members had an outcome before this run (%d done, %d failed): kept, not run "
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
-        done = sum(row["status"] == "done" for row in self.table.rows.values())
+        done = int((table["status"] == DONE).sum())
         if self.stop.signals:
             # a warning: where a stopped sweep stands is said under --quiet too
             log.warning("%s: stopped with %d of %d members done", self.root.name, done, self.total)
@@ -178,7 +178,7 @@ class _Coordinator:
         except DiskFull as err:
             if self.full is None:
                 self._disk_full(err)
-            return frame([self.table.rows[i] for i in sorted(self.table.rows)])
+            return self.table.frame()
 
     def _disk_full(self, err: DiskFull) -> None:
         """Stop as on a signal: no task is sent, the workers stop their members."""
@@ -240,8 +240,14 @@ class _Coordinator:
                 self.lost = True
             self.broken.append(task)
             return
-        for m, result in zip(task.members, results):
-            self._row(m, result["record"], result["summary"])
+        members = None
+        for result in results:
+            if isinstance(result, Rows):  # a batch's members, done
+                self.table.add(result)
+                self.bar.advance(DONE, len(result))
+                continue
+            members = members or {m.id: m for m in task.members}
+            self._row(members[result["id"]], result["record"], result["summary"])
 
     def _from_disk(self, task: Task) -> None:
         disk = Outcomes(self.root, batches=[m.id for m in task.members])  # as it stands now

@@ -23,10 +23,11 @@ class _Progress:
         if self.bar is not None:
             self.bar.set_postfix_str(f"failed {self.failed}, tasks running {running}", refresh=False)
 
-    def advance(self, status: str) -> None:
-        self.failed += status == FAILED
+    def advance(self, status: str, count: int = 1) -> None:
+        """`count` members finished with this status."""
+        self.failed += count * (status == FAILED)
         if status != INTERRUPTED and self.bar is not None:
-            self.bar.update(1)
+            self.bar.update(count)
 
     def close(self) -> None:
         if self.bar is not None:

@@ -104,16 +104,16 @@ def listing(folder: Path) -> set[str]:
         return set()
 
 
-def write_batch(folder: Path, record: dict, members: list[dict]) -> dict[str, dict]:
+def write_batch(folder: Path, record: dict, members: list[dict]) -> dict:
     """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
-    summary} each) as columns (`columns`), written last and atomically. Returns the outcomes
-    as `read_batch` gives them."""
+    summary} each) as columns (`columns`), written last and atomically. Returns those columns
+    as written (strict: what `read_batch` reads back), for the table's rows (`table.batch_rows`)."""
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
     data = {**record, "columns": _strict(columns(members))}
     atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n", sync=False)
-    return _batch_outcomes(data)
+    return data["columns"]
 
 
 def columns(rows: list):

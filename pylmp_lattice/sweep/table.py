@@ -13,7 +13,9 @@ from __future__ import annotations
 import io
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..serialize import short_float
 from .store import atomic_write
@@ -35,6 +37,7 @@ def member_row(member_id: str, params: dict, folder: str, record: dict, summary:
     if summary:
         _scalars(summary, "", row, NOT_MEASURES)
     return row
+
 
 
 def flat_params(params: dict) -> dict:
@@ -63,25 +66,153 @@ def _scalars(table: dict, prefix: str, out: dict, skip: tuple = ()) -> None:
             out[prefix + key] = value
 
 
-def frame(rows: list[dict]):
-    """Rows (in member order) as a DataFrame: id, swept fields, status .. wall_time_s, measures."""
+@dataclass
+class Rows:
+    """Some members' rows as columns (one object for a batch of 10^5 members, not a dict each):
+    `index`, the members' numbers (int64, in row order); `params` and `measures`, the keys of
+    the swept fields and of the measures, in a row's order; `columns`, every column's values
+    (a list, or a numpy array of numbers without gaps), keyed id, params, FIXED[1:], measures.
+    Every row has every key."""
+
+    index: Any
+    params: tuple
+    measures: tuple
+    columns: dict
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    @classmethod
+    def one(cls, index: int, row: dict) -> Rows:
+        """The rows of one member (`member_row`)."""
+        import numpy as np
+
+        keys = list(row)
+        first, last = keys.index("status"), keys.index("wall_time_s")
+        return cls(np.array([index], dtype=np.int64), tuple(keys[1:first]), tuple(keys[last + 1:]),
+                   {k: [v] for k, v in row.items()})
+
+
+def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str, record: dict,
+               summaries: dict) -> list[Rows]:
+    """The rows of a batch's members, done, from their summaries as columns (`store.columns`,
+    made strict): `member_row` of each, made a column at a time, as one Rows. A batch whose
+    rows differ in their keys (summaries of other shapes) gets one Rows per member."""
+    import numpy as np
+
+    from .store import columns, rows
+
+    flat = columns([flat_params(p) for p in params])
+    measures: dict = {}
+    if "cols" in flat and "cols" in summaries and _scalar_columns(summaries["cols"], "", measures, NOT_MEASURES):
+        n = len(ids)
+        cols = {"id": ids} | {k: _packed(c["rows"]) for k, c in flat["cols"].items()}
+        cols |= {"status": [record["status"]] * n, "error": [record.get("error")] * n, "folder": [folder] * n,
+                 "wall_time_s": _packed([record.get("wall_time_s")] * n)}
+        cols |= {k: _packed(v) for k, v in measures.items()}
+        return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols)]
+    return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
+
+
+def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = ()) -> bool:
+    """`_scalars` of every row at once, on columns (`store.columns`): a column of numbers, flags
+    and None is a column of the table, a column of other values (text, lists) is not; False
+    where a column mixes them, or holds tables that differ in their keys (rows then differ)."""
+    for key, column in cols.items():
+        if key in skip:
+            continue
+        if "cols" in column:
+            if not _scalar_columns(column["cols"], f"{prefix}{key}.", out):
+                return False
+            continue
+        kinds = set(map(type, column["rows"]))
+        scalar = {k for k in kinds if k is type(None) or issubclass(k, (bool, int, float))}
+        if scalar == kinds:
+            out[prefix + key] = column["rows"]
+        elif scalar or any(issubclass(k, dict) for k in kinds):
+            return False
+    return True
+
+
+def _packed(values: list):
+    """A column's values as a numpy array where that is what the table makes of them (all floats,
+    or floats and None; all ints; all flags): small to send, and a column at once later."""
+    import numpy as np
+
+    kinds = set(map(type, values))
+    try:
+        if kinds == {float} or kinds == {float, type(None)}:
+            return np.array(values, dtype=np.float64)
+        if kinds == {int}:
+            return np.array(values, dtype=np.int64)
+    except OverflowError:  # an int beyond int64: the table keeps it as an object
+        return values
+    return np.array(values, dtype=bool) if kinds == {bool} else values
+
+
+
+
+def frame(parts: list[Rows]):
+    """Rows (`Rows`; a member's row set again is its last) as a DataFrame in member order: id,
+    swept fields, status .. wall_time_s, measures; what `pd.DataFrame` makes of the rows as
+    dicts, each key a column in the order the rows first name it, a missing cell NaN."""
+    import numpy as np
     import pandas as pd
 
-    params, measures = {}, {}
-    for row in rows:
-        keys = list(row)
-        params |= dict.fromkeys(keys[1:keys.index("status")])
-        measures |= dict.fromkeys(keys[keys.index("wall_time_s") + 1:])
-    df = pd.DataFrame(rows, columns=["id", *params, *FIXED[1:], *measures])
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        return pd.DataFrame([], columns=["id", *FIXED[1:]])
+    index = np.concatenate([p.index for p in parts])
+    order = np.lexsort((np.arange(len(index)), index))  # by member, then as set
+    last = order[np.r_[index[order][1:] != index[order][:-1], True]]
+    n = len(last)
+    where = np.full(len(index), -1)
+    where[last] = np.arange(n)
+    starts = np.cumsum([0, *map(len, parts)])
+    targets = [where[a:b] for a, b in zip(starts, starts[1:])]  # each part's rows in the table (-1: set again later)
+    firsts = [t[t >= 0].min(initial=n) for t in targets]  # each part's first row (n: none left)
+    ranked = sorted((f, k) for k, f in enumerate(firsts) if f < n)
+    params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
+    measures = dict.fromkeys(key for _, k in ranked for key in parts[k].measures)
+    df = pd.DataFrame({key: _column(key, n, parts, targets) for key in ["id", *params, *FIXED[1:], *measures]})
     for col in df.columns:  # parquet needs one type per column
         if df[col].dtype == object and len({type(v) for v in df[col].dropna()}) > 1:
             df[col] = df[col].map(lambda v: None if v is None else str(v))
     return df
 
 
-def write_table(root: str | Path, rows: list[dict]):
+def _column(key: str, n: int, parts: list[Rows], targets: list):
+    """One column of `frame`: a numpy array where every row has it as numbers of one kind, else
+    a list of its cells (NaN where a row lacks it), which pandas types as it types rows."""
+    import numpy as np
+
+    held = [(p.columns[key], t) for p, t in zip(parts, targets) if key in p.columns]
+    kinds = {c.dtype.kind if isinstance(c, np.ndarray) else None for c, _ in held}
+    if len(kinds) == 1 and None not in kinds and sum((t >= 0).sum() for _, t in held) == n:
+        out = np.empty(n, dtype=held[0][0].dtype)
+    else:
+        out = np.full(n, np.nan, dtype=object)
+    for values, t in held:
+        kept = t >= 0
+        if kept.all():
+            out[t] = values if isinstance(values, np.ndarray) or out.dtype != object else _objects(values)
+        else:
+            out[t[kept]] = _objects(values)[kept]
+    return out if out.dtype != object else out.tolist()
+
+
+def _objects(values):
+    """Values as an object array (each value one cell, whatever it is)."""
+    import numpy as np
+
+    out = np.empty(len(values), dtype=object)
+    out[:] = values if isinstance(values, np.ndarray) else list(values)
+    return out
+
+
+def write_table(root: str | Path, parts: list[Rows]):
     """Write results.csv and results.parquet in `root` atomically; return the table."""
-    df = frame(rows)
+    df = frame(parts)
     root = Path(root)
     atomic_write(root / CSV, csv_text(df), sync=True)
     buffer = io.BytesIO()
@@ -92,36 +223,58 @@ def write_table(root: str | Path, rows: list[dict]):
 
 def csv_text(df) -> str:
     """The table as CSV, floats to 15 significant digits as in the JSON (`short_float`), an empty
-    cell for a missing one: what `df.to_csv(index=False, float_format=short_float)` writes, with
-    the floats' texts made a column at a time (a float whose shortest text is at most 16
-    characters has at most 15 digits, so that text is already its 15-digit form; pandas called
-    `short_float` for every cell, about half the time of the whole file)."""
-    import numpy as np
+    cell for a missing one: what `df.to_csv(index=False, float_format=short_float)` writes
+    (Python's csv module: a cell with a comma, a quote or a line end quoted), made a column at a
+    time (a float whose shortest text is at most 16 characters has at most 15 digits, so that
+    text is already its 15-digit form; pandas called `short_float` for every cell and its csv
+    writer for every row, most of the coordinator's time with 10^5 members)."""
+    cells = [_texts(df.iloc[:, i]) for i in range(df.shape[1])]
+    lines = [",".join(map(_quoted, map(str, df.columns))), *map(",".join, zip(*cells))]
+    return "\n".join(lines) + "\n"
 
-    out = df.copy(deep=False)
-    for i in range(df.shape[1]):
-        values = df.iloc[:, i].to_numpy()
-        if values.dtype.kind == "f":
-            floats = values.tolist()
-            out.isetitem(i, np.array([None if x != x else t if len(t) <= 16 else short_float(x)
-                                      for x, t in zip(floats, map(repr, floats))], dtype=object))
-    return out.to_csv(index=False)
+
+def _texts(column) -> list[str]:
+    """A column's cells as `to_csv` writes them (floats as `csv_text` says)."""
+    values = column.to_numpy()
+    kind = values.dtype.kind
+    if kind == "f":
+        floats = values.tolist()
+        return ["" if x != x else t if len(t) <= 16 else short_float(x) for x, t in zip(floats, map(repr, floats))]
+    if kind in "iub":
+        return list(map(str, values.tolist()))
+    missing = column.isna().to_numpy().tolist()
+    return ["" if gone else _quoted(str(v)) for v, gone in zip(values.tolist(), missing)]
+
+
+def _quoted(text: str) -> str:
+    """A cell as the csv module's QUOTE_MINIMAL writes it."""
+    if "," in text or '"' in text or "\n" in text or "\r" in text:
+        return '"' + text.replace('"', '""') + '"'
+    return text
 
 
 class Table:
-    """The rows of a running sweep by member index: a row is set in O(1), and the files are
-    rewritten at most every `every` seconds (`flush`) and at the end (`write`)."""
+    """The rows of a running sweep (`Rows`, a batch's or a member's): added in O(1), and the
+    files rewritten at most every `every` seconds (`flush`) and at the end (`write`)."""
 
     def __init__(self, root: str | Path, every: float = 30.0):
         self.root, self.every = Path(root), every
-        self.rows: dict[int, dict] = {}
+        self.parts: list[Rows] = []
         self.written = time.monotonic()
         self.dirty = False
 
     def set(self, index: int, row: dict) -> None:
-        """Set member `index`'s row; written at the next `flush`."""
-        self.rows[index] = row
+        """Set member `index`'s row (`member_row`); written at the next `flush`."""
+        self.add(Rows.one(index, row))
+
+    def add(self, rows: Rows) -> None:
+        """Set these members' rows; written at the next `flush`."""
+        self.parts.append(rows)
         self.dirty = True
+
+    def frame(self):
+        """The table as it stands (`frame`)."""
+        return frame(self.parts)
 
     def flush(self) -> None:
         """Write the files if rows changed and the last write is `every` seconds old."""
@@ -130,7 +283,7 @@ class Table:
 
     def write(self):
         """Write the files now; return the table."""
-        df = write_table(self.root, [self.rows[i] for i in sorted(self.rows)])
+        df = write_table(self.root, self.parts)
         self.written, self.dirty = time.monotonic(), False
         return df
 
