@@ -145,6 +145,56 @@ def test_csv_floats_are_short_floats_made_by_column():
     assert csv_text(df) == df.to_csv(index=False, float_format=short_float)
 
 
+def _frame_of_dicts(rows: dict) -> pd.DataFrame:
+    """The table as pandas makes it of rows as dicts (by member index): keys in the order the
+    rows first name them, swept fields before status, measures after wall_time_s."""
+    from pylmp_lattice.sweep.table import FIXED
+
+    params, measures = {}, {}
+    for row in (rows[i] for i in sorted(rows)):
+        keys = list(row)
+        params |= dict.fromkeys(keys[1:keys.index("status")])
+        measures |= dict.fromkeys(keys[keys.index("wall_time_s") + 1:])
+    return pd.DataFrame([rows[i] for i in sorted(rows)], columns=["id", *params, *FIXED[1:], *measures])
+
+
+@pytest.mark.parametrize("mixed", [False, True])
+def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
+    """`table.frame` of batches' rows as columns (`batch_rows`) and members' own rows is what
+    pandas makes of the rows as dicts, and `csv_text` with the measures' texts the workers made
+    is what pandas writes. mixed: a row set again later, a member without measures, a measure
+    some rows lack, one that is a whole number in one batch and a float in the other (the
+    workers' texts do not fit then: the coordinator makes its own)."""
+    from pylmp_lattice.serialize import short_float
+    from pylmp_lattice.sweep.store import columns
+    from pylmp_lattice.sweep.table import Rows, _measures_ready, batch_rows, csv_text, frame, member_row
+
+    rng = np.random.default_rng(3)
+    record = {"status": "done", "error": None, "wall_time_s": 0.0123}
+    def summary(k, batch):
+        out = {"n": 21, "v": {"mean": float(rng.normal()), "ok": bool(k % 2)}, "e": float(rng.normal()) * 1e-5,
+               "gap": (k if batch == 0 else k + 0.5) if mixed else k, "files": {"log": "x"}, "note": "a,b"}
+        return out | ({"extra": 1.5} if mixed and batch == 1 else {})
+    parts, rows = [], {}
+    for batch, indices in enumerate(([0, 1, 2], [4, 5])):
+        ids = [f"m{i}" for i in indices]
+        params = [{"replica": i, "chain.seed": 10**18 + i} for i in indices]
+        sums = [summary(i, batch) for i in indices]
+        parts += batch_rows(indices, ids, params, f"batches/b{batch}", record, columns(sums))
+        rows |= {i: member_row(m, p, f"batches/b{batch}", record, s) for i, m, p, s in zip(indices, ids, params, sums)}
+    assert len(parts) == 2 and all(p.texts is not None for p in parts)
+    if mixed:
+        failed = {"status": "failed", "error": 'bad "q", here', "wall_time_s": 0.0}
+        for i in (3, 1):
+            rows[i] = member_row(f"m{i}", {"replica": i, "chain.seed": 10**18 + i}, None, failed, None)
+            parts.append(Rows.one(i, rows[i]))
+    expected = _frame_of_dicts(rows)
+    df = frame(parts)
+    pd.testing.assert_frame_equal(df, expected)
+    assert (_measures_ready(df, parts) is None) == mixed  # the workers' texts are used where they fit
+    assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
+
+
 def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
     """... and say so in one line (study thermal printed 14 "member N is the same case" lines)."""
     caplog.set_level("INFO", logger="pylmp_lattice")

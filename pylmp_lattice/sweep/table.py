@@ -78,6 +78,7 @@ class Rows:
     params: tuple
     measures: tuple
     columns: dict
+    texts: list | None = None  # each row's measures as its CSV cells, where the rows were made (`measure_texts`)
 
     def __len__(self) -> int:
         return len(self.index)
@@ -110,8 +111,20 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
         cols |= {"status": [record["status"]] * n, "error": [record.get("error")] * n, "folder": [folder] * n,
                  "wall_time_s": _packed([record.get("wall_time_s")] * n)}
         cols |= {k: _packed(v) for k, v in measures.items()}
-        return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols)]
+        return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols,
+                     measure_texts([cols[k] for k in measures]))]
     return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
+
+
+def measure_texts(columns: list) -> list[str] | None:
+    """Each row's measures as results.csv writes them (`csv_text`), made by the worker (the
+    texts of 10^5 members' floats are most of the table's time): where every column is a
+    numpy array, whose kind the table's column then has (else `csv_text` makes its own)."""
+    import numpy as np
+
+    if not columns or not all(isinstance(c, np.ndarray) for c in columns):
+        return None
+    return list(map(",".join, zip(*map(_array_texts, columns))))
 
 
 def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = ()) -> bool:
@@ -162,14 +175,7 @@ def frame(parts: list[Rows]):
     parts = [p for p in parts if len(p)]
     if not parts:
         return pd.DataFrame([], columns=["id", *FIXED[1:]])
-    index = np.concatenate([p.index for p in parts])
-    order = np.lexsort((np.arange(len(index)), index))  # by member, then as set
-    last = order[np.r_[index[order][1:] != index[order][:-1], True]]
-    n = len(last)
-    where = np.full(len(index), -1)
-    where[last] = np.arange(n)
-    starts = np.cumsum([0, *map(len, parts)])
-    targets = [where[a:b] for a, b in zip(starts, starts[1:])]  # each part's rows in the table (-1: set again later)
+    n, targets = _placed(parts)
     firsts = [t[t >= 0].min(initial=n) for t in targets]  # each part's first row (n: none left)
     ranked = sorted((f, k) for k, f in enumerate(firsts) if f < n)
     params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
@@ -179,6 +185,20 @@ def frame(parts: list[Rows]):
         if df[col].dtype == object and len({type(v) for v in df[col].dropna()}) > 1:
             df[col] = df[col].map(lambda v: None if v is None else str(v))
     return df
+
+
+def _placed(parts: list[Rows]) -> tuple[int, list]:
+    """The table's rows (n) and where each part's rows go in it (-1: that member's row set
+    again by a later part), parts of no rows left out."""
+    import numpy as np
+
+    index = np.concatenate([p.index for p in parts])
+    order = np.lexsort((np.arange(len(index)), index))  # by member, then as set
+    last = order[np.r_[index[order][1:] != index[order][:-1], True]]
+    where = np.full(len(index), -1)
+    where[last] = np.arange(len(last))
+    starts = np.cumsum([0, *map(len, parts)])
+    return len(last), [where[a:b] for a, b in zip(starts, starts[1:])]
 
 
 def _column(key: str, n: int, parts: list[Rows], targets: list):
@@ -214,36 +234,76 @@ def write_table(root: str | Path, parts: list[Rows]):
     """Write results.csv and results.parquet in `root` atomically; return the table."""
     df = frame(parts)
     root = Path(root)
-    atomic_write(root / CSV, csv_text(df), sync=True)
+    atomic_write(root / CSV, csv_text(df, parts), sync=True)
     buffer = io.BytesIO()
     df.to_parquet(buffer, index=False)
     atomic_write(root / PARQUET, buffer.getvalue(), sync=True)
     return df
 
 
-def csv_text(df) -> str:
+def csv_text(df, parts: list[Rows] | None = None) -> str:
     """The table as CSV, floats to 15 significant digits as in the JSON (`short_float`), an empty
     cell for a missing one: what `df.to_csv(index=False, float_format=short_float)` writes
     (Python's csv module: a cell with a comma, a quote or a line end quoted), made a column at a
     time (a float whose shortest text is at most 16 characters has at most 15 digits, so that
     text is already its 15-digit form; pandas called `short_float` for every cell and its csv
-    writer for every row, most of the coordinator's time with 10^5 members)."""
-    cells = [_texts(df.iloc[:, i]) for i in range(df.shape[1])]
+    writer for every row, most of the coordinator's time with 10^5 members). With the `parts`
+    the table is `frame` of: their rows' measures as the workers wrote them (`Rows.texts`),
+    where every part has them and the table's columns are theirs."""
+    import numpy as np
+
+    ready = _measures_ready(df, parts)
+    upto = df.shape[1] if ready is None else df.shape[1] - len(parts[0].measures)
+    cells = [_texts(df.iloc[:, i]) for i in range(upto)]
+    if ready is not None:
+        n, targets = ready
+        texts = np.empty(n, dtype=object)
+        for part, t in zip(parts, targets):
+            texts[t] = part.texts
+        cells.append(texts.tolist())
     lines = [",".join(map(_quoted, map(str, df.columns))), *map(",".join, zip(*cells))]
     return "\n".join(lines) + "\n"
+
+
+def _measures_ready(df, parts: list[Rows] | None):
+    """`_placed` of the parts where their `texts` are the table's measure cells: every part has
+    them, for the table's measures, each column of one kind with the table's, no row set twice."""
+    if not parts:
+        return None
+    parts = [p for p in parts if len(p)]
+    measures = parts[0].measures if parts else ()
+    if (not measures or list(df.columns[-len(measures):]) != list(measures) or len(set(df.columns)) != df.shape[1]
+            or any(p.texts is None or p.measures != measures for p in parts)):
+        return None
+    kinds = df.dtypes.iloc[-len(measures):].map(lambda d: d.kind).tolist()
+    if any(p.columns[k].dtype.kind != kind for p in parts for k, kind in zip(measures, kinds)):
+        return None
+    n, targets = _placed(parts)
+    return (n, targets) if all((t >= 0).all() for t in targets) and n == len(df) else None
 
 
 def _texts(column) -> list[str]:
     """A column's cells as `to_csv` writes them (floats as `csv_text` says)."""
     values = column.to_numpy()
-    kind = values.dtype.kind
-    if kind == "f":
-        floats = values.tolist()
-        return ["" if x != x else t if len(t) <= 16 else short_float(x) for x, t in zip(floats, map(repr, floats))]
-    if kind in "iub":
-        return list(map(str, values.tolist()))
+    if values.dtype.kind in "fiub":
+        return _array_texts(values)
     missing = column.isna().to_numpy().tolist()
     return ["" if gone else _quoted(str(v)) for v, gone in zip(values.tolist(), missing)]
+
+
+def _array_texts(values) -> list[str]:
+    """A numpy array of numbers or flags as CSV cells (floats as `csv_text` says)."""
+    import numpy as np
+
+    if values.dtype.kind != "f":
+        return list(map(str, values.tolist()))
+    floats = values.tolist()
+    texts = list(map(repr, floats))  # at C speed; then the few missing or long ones
+    for i in np.flatnonzero(np.isnan(values)).tolist():
+        texts[i] = ""
+    for i in np.flatnonzero(np.fromiter(map(len, texts), dtype=np.int64, count=len(texts)) > 16).tolist():
+        texts[i] = short_float(floats[i])
+    return texts
 
 
 def _quoted(text: str) -> str:
