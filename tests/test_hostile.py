@@ -437,7 +437,7 @@ class _DyingWorker(Executor):
 
         from pylmp_lattice.sweep.member import _record
 
-        m = task.members[0]
+        m = task.each()[0]
         folder = store.member_folder(task.root, m.id)
         folder.mkdir(parents=True)
         record = _record(m) | {"pid": self.pid}

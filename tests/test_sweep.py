@@ -650,8 +650,8 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
         coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, slots), execute._StopSignals(), False, False,
                                            sweep.count())
         tasks = list(coordinator._tasks())
-        assert [m.index for t in tasks for m in t.members] == list(range(200))
-        return [len(t.members) for t in tasks]
+        assert [m.index for t in tasks for m in t.each()] == list(range(200))
+        return [len(t.each()) for t in tasks]
 
     assert sizes(2) == [100, 100]
     assert sizes(3) == [67, 67, 66]
@@ -659,7 +659,7 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
     grid = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=40) + '[grid]\n"impactor.velocity" = [1.5, 2.0, 2.5]\n',
                                   particles=12, duration=20.0))
     coordinator = execute._Coordinator(grid, tmp_path, Pool(None, 2), execute._StopSignals(), False, False, grid.count())
-    assert [len(t.members) for t in coordinator._tasks()] == [20] * 6
+    assert [len(t.each()) for t in coordinator._tasks()] == [20] * 6
     # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
     monkeypatch.setattr(blocks, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
     assert sizes(2) == [25] * 8
@@ -669,8 +669,10 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
     for done in (range(180), range(20, 200)):
         coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
                                            sweep.count())
-        coordinator._finished = lambda m, done=done: m.index in done
-        assert [len(t.members) for t in coordinator._tasks()] == [10, 10]
+        ids = {m.id for m in sweep.members() if m.index in done}  # their outcomes on disk, as Outcomes gives them
+        coordinator.disk.get = lambda i, ids=ids: {"record": {"status": "done"}, "summary": None} if i in ids else None
+        assert [len(t.each()) for t in coordinator._tasks()] == [10, 10]
+        assert coordinator.kept == 180
 
 
 # ----------------------------------------------------------------------------- integrity

@@ -35,7 +35,7 @@ from ..errors import Interrupted, LatticeError
 from ..formats.files import DiskFull, remove_tree
 from . import signals
 from .member import _cpu_time, _fresh, _invalid, _record, one_line, run_member, unstarted
-from .spec import Member, member_cases
+from .spec import Member, Replicas, member_cases
 from .store import (BATCHES, DONE, INTERRUPTED, MEMBERS, Outcomes, listing, member_folder, now, provenance, task_lock,
                     write_batch)
 from .table import Rows, batch_rows
@@ -55,13 +55,18 @@ LEVELS_PER_CHAIN = True
 @dataclass(frozen=True)
 class Task:
     """What a worker needs to run some members (small and picklable): the sweep folder
-    (absolute), the members, the runner, the batches' engine and its threads (cpu)."""
+    (absolute), the members (a point's replicas as one `spec.Replicas`), the runner, the
+    batches' engine and its threads (cpu)."""
 
     root: str
-    members: tuple[Member, ...]
+    members: tuple[Member | Replicas, ...]
     runner: str
     engine: str = "lammps"
     threads: int | None = None
+
+    def each(self) -> tuple[Member, ...]:
+        """The task's members, its `Replicas` made members."""
+        return tuple(m for part in self.members for m in (part if isinstance(part, Replicas) else (part,)))
 
 
 def run_task(task: Task) -> list[dict | Rows]:
@@ -77,21 +82,22 @@ def run_task(task: Task) -> list[dict | Rows]:
 
 
 def _run_task(task: Task) -> list[dict | Rows]:
-    with task_lock(task.root, [m.id for m in task.members]):  # copies of a task (Dask) take turns
-        return _run_members(Path(task.root), task)
+    members = task.each()
+    with task_lock(task.root, [m.id for m in members]):  # copies of a task (Dask) take turns
+        return _run_members(Path(task.root), task, members)
 
 
-def _run_members(root: Path, task: Task) -> list[dict | Rows]:
+def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[dict | Rows]:
     results: dict[str, dict] = {}
     rows: list[Rows] = []  # of the batches done
     # a task run again (e.g. by Dask after its worker died) keeps what is done: its batches are
     # named by their first member
-    done = Outcomes(root, batches=[m.id for m in task.members])
-    for m in task.members:
+    done = Outcomes(root, batches=[m.id for m in members])
+    for m in members:
         found = done.get(m.id)
         if found is not None and found["record"]["status"] == DONE:
             results[m.id] = {"id": m.id} | found
-    todo = [m for m in task.members if m.id not in results]
+    todo = [m for m in members if m.id not in results]
     cases = member_cases(todo)
     for m, case in zip(todo, cases):
         if case is None:  # invalid parameters (a replica's own draw): failed without running
@@ -112,7 +118,7 @@ def _run_members(root: Path, task: Task) -> list[dict | Rows]:
                 _note(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     batched = {i for r in rows for i in r.columns["id"]}
-    return [*rows, *(results.get(m.id) or unstarted(m) for m in task.members if m.id not in batched)]
+    return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched)]
 
 
 def batchable(case: Case) -> bool:

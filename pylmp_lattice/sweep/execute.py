@@ -41,7 +41,7 @@ from .member import one_line, unstarted
 from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
 from .signals import _StopSignals
-from .spec import Member, Sweep
+from .spec import Member, Replicas, Sweep
 from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
                     write_status)
 from .table import CSV, Rows, Table, member_row
@@ -194,23 +194,40 @@ class _Coordinator:
         return task is not None
 
     def _tasks(self):
-        """Tasks of members not done, in sweep order (members are enumerated as tasks are needed)."""
-        group: list[Member] = []
+        """Tasks of members not done, in sweep order (members are enumerated as tasks are needed,
+        a point's replicas as columns: `spec.Replicas`)."""
+        group: list[Member | Replicas] = []
         key = size = None
-        for m in self.sweep.iter_members():
-            if self._finished(m):
-                continue
-            point = m.point
-            if group and (point != key or len(group) >= size):
-                yield self._task(group)
-                group = []
-            if not group:
-                key, size = point, self.blocks.next_size(m)
-            group.append(m)
+        count = 0  # members in the group
+        for run in self.sweep.iter_runs():
+            todo = self._todo(run)
+            first = run.first if isinstance(run, Replicas) else run[0]
+            start = 0
+            while start < len(todo):
+                if group and (first.point != key or count >= size):
+                    yield self._task(group)
+                    group, count = [], 0
+                if not group:
+                    key, size = first.point, self.blocks.next_size(first)
+                stop = min(len(todo), start + size - count)
+                group += [todo.take(range(start, stop))] if isinstance(todo, Replicas) else todo[start:stop]
+                count += stop - start
+                start = stop
         if group:
             yield self._task(group)
 
-    def _task(self, group: list[Member]) -> Task:
+    def _todo(self, run):
+        """The members of a run (`Sweep.iter_runs`) not done; those whose outcome on disk stands
+        get their rows (`_finished`)."""
+        if not isinstance(run, Replicas):
+            return [m for m in run if not self._finished(m)]
+        todo = [k for k, member_id in enumerate(run.ids) if self.disk.get(member_id) is None]
+        if len(todo) < len(run):  # some have an outcome on disk: it stands, unless failed and retried
+            had = sorted(set(range(len(run))) - set(todo))
+            todo = sorted(todo + [k for k, m in zip(had, run.take(had)) if not self._finished(m)])
+        return run if len(todo) == len(run) else run.take(todo)
+
+    def _task(self, group: list[Member | Replicas]) -> Task:
         """A task of these members; the cpu engine gets this machine's cores shared by its workers."""
         threads = max(1, (os.cpu_count() or 1) // self.pool.slots) if self.sweep.engine == "cpu" else None
         return Task(str(self.root), tuple(group), self.sweep.runner, self.sweep.engine, threads)
@@ -246,12 +263,13 @@ class _Coordinator:
                 self.table.add(result)
                 self.bar.advance(DONE, len(result))
                 continue
-            members = members or {m.id: m for m in task.members}
+            members = members or {m.id: m for m in task.each()}
             self._row(members[result["id"]], result["record"], result["summary"])
 
     def _from_disk(self, task: Task) -> None:
-        disk = Outcomes(self.root, batches=[m.id for m in task.members])  # as it stands now
-        for m in task.members:
+        members = task.each()
+        disk = Outcomes(self.root, batches=[m.id for m in members])  # as it stands now
+        for m in members:
             result = disk.get(m.id)
             if result is None:
                 _settle(self.root, m)

@@ -124,6 +124,37 @@ class Member:
         self.__dict__["_case"] = case  # where the cached property `_case` keeps its value
 
 
+@dataclass(frozen=True)
+class Replicas:
+    """Seeded replicas of one parameter point, as columns: their numbers, identities and seeds
+    (a sweep of 10^6 replicas makes no object per member until a worker runs them). `first`:
+    the point's first member, its case built; the others' data is its data with their seed.
+    point: the swept values; start: the point's first number, params' "replica" counting from
+    it (None: params hold no "replica"). Iterating gives the Members, in order; `take` some."""
+
+    first: Member
+    point: dict
+    start: int | None
+    index: list
+    ids: list
+    seeds: list
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def __iter__(self) -> Iterator[Member]:
+        first = self.first
+        for i, member_id, seed in zip(self.index, self.ids, self.seeds):
+            params = dict(self.point) | ({} if self.start is None else {"replica": i - self.start}) | {"chain.seed": seed}
+            resolved = first.data | {"chain": first.data["chain"] | {"seed": seed}}
+            yield Member(i, member_id, params, resolved, first.base_dir, point=first.point)
+
+    def take(self, positions) -> Replicas:
+        """These members at `positions` (in order)."""
+        return replace(self, index=[self.index[k] for k in positions], ids=[self.ids[k] for k in positions],
+                       seeds=[self.seeds[k] for k in positions])
+
+
 def point_key(params: dict) -> str:
     """The key of a member's parameter point: its swept values but "replica" and "chain.seed"."""
     return identity_hash({k: v for k, v in params.items() if k not in ("replica", "chain.seed")})
@@ -294,6 +325,12 @@ class Sweep:
 
     def iter_members(self) -> Iterator[Member]:
         """The members one by one (see `members`): the first ones are ready before the last are made."""
+        for run in self.iter_runs():
+            yield from run
+
+    def iter_runs(self) -> Iterator[Replicas | tuple[Member, ...]]:
+        """The members (see `members`) in runs: a point's seeded replicas as one `Replicas` (no
+        object per member), any other member alone."""
         axes = [[{k: v} for v in values] for k, values in self.grid.items()]
         if self.zip:
             axes.append([dict(zip(self.zip, row)) for row in zip(*self.zip.values())])
@@ -304,31 +341,38 @@ class Sweep:
             data = self._data(point)
             random = _is_random(data)
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
-            first = identity = None
+            first = None
             key = point_key(point)
-            seeds = member_seeds(self.seed, index, self.replicas) if seeded else None
+            seeds = list(member_seeds(self.seed, index, self.replicas)) if seeded else None
             for replica in range(self.replicas):
                 params = dict(point)
                 if self.replicas > 1:
                     params["replica"] = replica
                 if seeded:
-                    params["chain.seed"] = next(seeds)
-                if first is None or first.case is None or not seeded:
-                    if seeded:
-                        data.setdefault("chain", {})["seed"] = params["chain.seed"]
-                    member = first = self._member(index, copy.deepcopy(data), params, key)
-                else:  # the point's resolved case with this replica's seed: validated when built
-                    # (its sections are shared with the first's: a case dict is read, never changed)
-                    resolved = first.data | {"chain": first.data["chain"] | {"seed": params["chain.seed"]}}
-                    if identity is None:  # the identity's text, made once per point
-                        identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
-                    member = Member(index, identity(params["chain.seed"]), params, resolved, self.base_dir, point=key)
-                index += 1
+                    params["chain.seed"] = seeds[replica]
+                if first is not None and first.case is not None and seeded:
+                    break  # the point's other replicas: its resolved case with their seeds
+                if seeded:
+                    data.setdefault("chain", {})["seed"] = params["chain.seed"]
+                member = first = self._member(index + replica, copy.deepcopy(data), params, key)
                 if member.id in seen:
                     same.append(member.index)
-                    continue
-                seen.add(member.id)
-                yield member
+                else:
+                    seen.add(member.id)
+                    yield (member,)
+            else:
+                index += self.replicas
+                continue
+            # (its sections are shared with the first's: a case dict is read, never changed)
+            identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
+            ids = list(map(identity, seeds[replica:]))
+            kept = [k for k, i in enumerate(ids, replica) if not (i in seen or seen.add(i))]
+            if len(kept) < len(ids):
+                same += [index + k for k in sorted(set(range(replica, self.replicas)) - set(kept))]
+            if kept:
+                yield Replicas(first, point, index if self.replicas > 1 else None, [index + k for k in kept],
+                               [ids[k - replica] for k in kept], [seeds[k] for k in kept])
+            index += self.replicas
         if same and not self.__dict__.get("_said_same"):  # one line for all (study thermal printed 14), once
             self.__dict__["_said_same"] = True  # per sweep (a study enumerates its sweep, then runs it: it printed 2)
             log.info("%d member%s the same case as earlier ones (member%s %s); each case runs once", len(same),
