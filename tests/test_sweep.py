@@ -173,7 +173,8 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     record = {"status": "done", "error": None, "wall_time_s": 0.0123}
     def summary(k, batch):
         out = {"n": 21, "v": {"mean": float(rng.normal()), "ok": bool(k % 2)}, "e": float(rng.normal()) * 1e-5,
-               "gap": (k if batch == 0 else k + 0.5) if mixed else k, "files": {"log": "x"}, "note": "a,b"}
+               "gap": (k if batch == 0 else k + 0.5) if mixed else k, "files": {"log": "x"}, "note": "a,b",
+               "lab": None if batch == 0 else 2.5}
         return out | ({"extra": 1.5} if mixed and batch == 1 else {})
     parts, rows = [], {}
     for batch, indices in enumerate(([0, 1, 2], [4, 5])):

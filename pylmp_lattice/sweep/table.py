@@ -119,12 +119,22 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
 def measure_texts(columns: list) -> list[str] | None:
     """Each row's measures as results.csv writes them (`csv_text`), made by the worker (the
     texts of 10^5 members' floats are most of the table's time): where every column is a
-    numpy array, whose kind the table's column then has (else `csv_text` makes its own)."""
-    import numpy as np
-
-    if not columns or not all(isinstance(c, np.ndarray) for c in columns):
+    numpy array or all None (`_texted`; `csv_text` uses them where the table's columns are of
+    the arrays' kinds, else makes its own)."""
+    if not columns or not all(map(_texted, columns)):
         return None
-    return list(map(",".join, zip(*map(_array_texts, columns))))
+    return list(map(",".join, zip(*(_array_texts(c) if _kind(c) else [""] * len(c) for c in columns))))
+
+
+def _texted(column) -> bool:
+    """Whether `measure_texts` can write the column: a numpy array, or nothing but None (empty
+    cells, whatever the table's column turns out to be)."""
+    return _kind(column) is not None or all(v is None for v in column)
+
+
+def _kind(column) -> str | None:
+    """A numpy array's kind ("f", "i", "b"); None for a list."""
+    return getattr(getattr(column, "dtype", None), "kind", None)
 
 
 def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = ()) -> bool:
@@ -276,8 +286,8 @@ def _measures_ready(df, parts: list[Rows] | None):
             or any(p.texts is None or p.measures != measures for p in parts)):
         return None
     kinds = df.dtypes.iloc[-len(measures):].map(lambda d: d.kind).tolist()
-    if any(p.columns[k].dtype.kind != kind for p in parts for k, kind in zip(measures, kinds)):
-        return None
+    if any(_kind(p.columns[k]) not in (None, kind) for p in parts for k, kind in zip(measures, kinds)):
+        return None  # (a list: all None, see `_texted`)
     n, targets = _placed(parts)
     return (n, targets) if all((t >= 0).all() for t in targets) and n == len(df) else None
 
