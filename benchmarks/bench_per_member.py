@@ -8,8 +8,9 @@ worker's Python, this tree against a reference commit's, measured in the same ru
    per extra member between the sizes (start-up, imports and the replica figure left out).
 2. Worker: the coordinator's second task of a 10^4-member sweep (`_Coordinator._tasks`, about
    1000 members: what one instance holds), pickled as the pool sends it, then unpickled and run
-   by `batch.run_task` in a fresh process, as a pool worker does (after the first task, which
-   warms it up): its CPU less the engine's (`engines.cpu.run_arrays`, one thread), per member.
+   by `batch.run_task` in a fresh process, its results pickled, as a pool worker does (after
+   the first task, which warms it up): its CPU less the engine's (`engines.cpu.run_arrays`,
+   one thread), per member.
 
 Ratio = reference / this tree (above 1: this tree spends less). Each size runs the reference
 first, then this tree, in turn (--repeat times, the least CPU kept).
@@ -59,6 +60,7 @@ run_task(pickle.loads(pickle.dumps(warm)))
 blob, engine[0] = pickle.dumps(task), 0.0
 start = time.process_time()
 results = run_task(pickle.loads(blob))
+pickle.dumps(results)  # as the pool sends them back
 total = time.process_time() - start
 members = sum(len(r) if hasattr(r, "index") else 1 for r in results)
 print(f"worker {members} {total:.4f} {engine[0]:.4f}")

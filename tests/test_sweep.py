@@ -196,6 +196,25 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
 
 
+def test_a_running_sweep_s_table_is_written_no_sooner_than_ten_times_its_last_write_took(tmp_path):
+    """Table.flush: due `every` seconds after the last write, and not before 10 times what that
+    write took (a large table's write holds up the coordinator)."""
+    from pylmp_lattice.sweep.table import CSV, Table, member_row
+
+    table = Table(tmp_path, every=0.0)
+    record = {"status": "done", "error": None, "wall_time_s": 1.0}
+    table.set(0, member_row("a", {}, "members/a", record, {"x": 1.5}))
+    table.write()
+    table.set(1, member_row("b", {}, "members/b", record, {"x": 2.5}))
+    table.took = 3600.0  # as if the last write took an hour
+    table.flush()
+    assert table.dirty and len((tmp_path / CSV).read_text().splitlines()) == 2
+    table.took = 0.0
+    table.flush()
+    assert not table.dirty and (tmp_path / CSV).read_text().splitlines()[1:] == ["a,done,,members/a,1.0,1.5",
+                                                                                 "b,done,,members/b,1.0,2.5"]
+
+
 def test_sections_as_tables_and_identical_members_run_once(tmp_path, caplog):
     """... and say so in one line (study thermal printed 14 "member N is the same case" lines)."""
     caplog.set_level("INFO", logger="pylmp_lattice")

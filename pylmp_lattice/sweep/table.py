@@ -298,7 +298,9 @@ def _texts(column) -> list[str]:
     if values.dtype.kind in "fiub":
         return _array_texts(values)
     missing = column.isna().to_numpy().tolist()
-    return ["" if gone else _quoted(str(v)) for v, gone in zip(values.tolist(), missing)]
+    texts = ["" if gone else str(v) for v, gone in zip(values.tolist(), missing)]
+    every = "".join(texts)  # most columns (ids, folders) need no quotes: one look for the whole column
+    return list(map(_quoted, texts)) if any(c in every for c in ',"\n\r') else texts
 
 
 def _array_texts(values) -> list[str]:
@@ -325,12 +327,15 @@ def _quoted(text: str) -> str:
 
 class Table:
     """The rows of a running sweep (`Rows`, a batch's or a member's): added in O(1), and the
-    files rewritten at most every `every` seconds (`flush`) and at the end (`write`)."""
+    files rewritten at most every `every` seconds, and no sooner than 10 times the last write
+    took (`flush`: a table of 10^5 rows takes about a second, which the coordinator's other
+    work waits for), and at the end (`write`)."""
 
     def __init__(self, root: str | Path, every: float = 30.0):
         self.root, self.every = Path(root), every
         self.parts: list[Rows] = []
         self.written = time.monotonic()
+        self.took = 0.0  # seconds the last write took
         self.dirty = False
 
     def set(self, index: int, row: dict) -> None:
@@ -348,13 +353,15 @@ class Table:
 
     def flush(self) -> None:
         """Write the files if rows changed and the last write is `every` seconds old."""
-        if self.dirty and time.monotonic() - self.written >= self.every:
+        if self.dirty and time.monotonic() - self.written >= max(self.every, 10 * self.took):
             self.write()
 
     def write(self):
         """Write the files now; return the table."""
+        start = time.monotonic()
         df = write_table(self.root, self.parts)
         self.written, self.dirty = time.monotonic(), False
+        self.took = self.written - start
         return df
 
 
