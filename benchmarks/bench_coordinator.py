@@ -67,6 +67,15 @@ def main() -> None:
     from pylmp_lattice.sweep.store import Outcomes
     from pylmp_lattice.sweep.table import frame, member_row
 
+    try:  # a tree whose frame takes the rows as parts (`table.Rows`: a batch's, or a member's)
+        from pylmp_lattice.sweep.table import Rows
+
+        dict_frame = frame
+
+        def frame(rows):
+            return dict_frame([Rows.one(i, row) for i, row in enumerate(rows)])
+    except ImportError:
+        pass
     try:
         from pylmp_lattice.sweep.table import csv_text
     except ImportError:  # a tree before it: pandas called short_float per cell
