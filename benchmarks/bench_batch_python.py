@@ -93,7 +93,10 @@ def timed_run(t: batch.Task) -> dict[str, float]:
     finally:
         for module, name, fn in originals:
             setattr(module, name, fn)
-    assert {r["record"]["status"] for r in results} == {"done"} and "batch" in results[0]["record"], "not batched"
+    if isinstance(results[0], dict):  # a tree before table.Rows: a result per member
+        assert {r["record"]["status"] for r in results} == {"done"} and "batch" in results[0]["record"], "not batched"
+    else:  # the batch's rows (`table.Rows`), and no member alone
+        assert len(results) == 1 and set(results[0].columns["status"]) == {"done"}, "not batched"
     [log] = Path(t.root).glob(f"{store.BATCHES}/*/log.lammps")
     loop = re.search(r"Loop time of (\S+)", log.read_text())  # (LAMMPS's; none for the kernel)
     spent["loop"] = float(loop[1]) if loop else float("nan")
