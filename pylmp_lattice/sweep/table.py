@@ -39,7 +39,6 @@ def member_row(member_id: str, params: dict, folder: str, record: dict, summary:
     return row
 
 
-
 def flat_params(params: dict) -> dict:
     """Swept values as table cells: a section's table is split by field, a list is JSON text."""
     out = {}
@@ -171,8 +170,6 @@ def _packed(values: list):
     except OverflowError:  # an int beyond int64: the table keeps it as an object
         return values
     return np.array(values, dtype=bool) if kinds == {bool} else values
-
-
 
 
 def frame(parts: list[Rows]):
