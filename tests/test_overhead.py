@@ -190,3 +190,12 @@ def test_the_real_measurement_runs_the_commands(cache):
     found = overhead._measure()
     assert found.measured and 0.3 < found.run_s < 60 and 0 < found.sweep_s < 60 and 0 <= found.member_s < 10
     assert found.sweep_s < found.replica_s < 60  # the statistics and their figure cost something
+
+
+def test_an_estimate_of_100_to_119_s_is_written_in_seconds():
+    """.2g wrote 100-119 s as "1e+02 s" (the 1000-member sweep under load: the battery could not
+    read it); two digits below 99.5 s, whole seconds up to 2 min."""
+    from pylmp_lattice.preflight.estimate import _duration
+
+    assert [_duration(s) for s in (3.16, 64.0, 99.4, 99.6, 112.7, 119.4, 121.0)] == [
+        "3.2 s", "64 s", "99 s", "100 s", "113 s", "119 s", "2.02 min"]

@@ -267,8 +267,8 @@ def _size(n: float) -> str:
 
 
 def _duration(seconds: float) -> str:
-    if seconds < 120:
-        return f"{seconds:.2g} s"
+    if seconds < 120:  # 2 digits below 99.5 s (.2g of 100-119 is "1e+02")
+        return f"{seconds:.2g} s" if seconds < 99.5 else f"{seconds:.0f} s"
     if seconds < 7200:
         return f"{seconds / 60:.3g} min"
     return f"{seconds / 3600:.3g} h"
