@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+from itertools import repeat
 
 import numpy as np
 
@@ -60,18 +61,20 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     fits = _front_speeds(cases, points, front.arrival, positions)
     labs = _lab_speeds(cases, points, front.arrival, positions)
     out = _linear_part(cases, draws)
-    for r, (case, res, flags) in enumerate(zip(cases, front.resolutions(), front.all_flags())):
-        resolution = _resolution(res)
-        speed, first_peak = speeds[r], first_peaks[r]
+    resolutions = _resolutions(front.resolutions())
+    resolved = [res["resolved"] for res in resolutions]
+    plateaus, peak_plateaus = _plateaus(speeds, resolved), _plateaus(first_peaks, resolved)
+    over_vi = _rounds([p.mean / vi for p in first_peaks], 4)
+    for r, (case, flags, resolution) in enumerate(zip(cases, _flags(front.all_flags()), resolutions)):
         out[r] |= {
             "particles_reached_by_front": reached[r],
-            "shock_velocity_plateau_m_per_s": _plateau(speed, resolution["resolved"]),
+            "shock_velocity_plateau_m_per_s": plateaus[r],
             "front_speed_m_per_s": fits[r],
             # with friction V_P peaks early and decays (Fig. S6): where and how high
             "shock_velocity_max_m_per_s": maxima[r],
-            "first_peak_velocity_plateau_m_per_s": _plateau(first_peak, resolution["resolved"]),
-            "first_peak_velocity_over_V_I": _round(first_peak.mean / vi, 4),
-            "front_flags": _flags(flags),
+            "first_peak_velocity_plateau_m_per_s": peak_plateaus[r],
+            "first_peak_velocity_over_V_I": over_vi[r],
+            "front_flags": flags,
             "front_resolution": resolution,
         }
         if labs[r] is not None:
@@ -122,8 +125,8 @@ def _front_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions
             by_window.setdefault(window, []).extend(rows)
     for (first, last), rows in by_window.items():
         speed, stderr = measures.fit_front_speeds(arrival[rows], positions[rows], first, last + 1)
-        for r, v, e in zip(rows, speed.tolist(), stderr.tolist()):
-            out[r] = {"value": _fitted(v), "stderr": _fitted(e), "first_gap": first, "last_gap": last}
+        for r, v, e in zip(rows, _fitted(speed.tolist()), _fitted(stderr.tolist())):
+            out[r] = {"value": v, "stderr": e, "first_gap": first, "last_gap": last}
     return out
 
 
@@ -157,9 +160,9 @@ def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: 
                                                  first, last)
         k = len(rows)
         pitch = np.mean(np.diff(centres, axis=1), axis=1)
-        for r, lab, gap, e, p in zip(rows, speed[:k].tolist(), speed[k:].tolist(), error[:k].tolist(), pitch.tolist()):
-            out[r] = {"value": _fitted(lab), "stderr": _fitted(e), "gap_frame_m_per_s": _fitted(gap),
-                      "magnets": [first, last], "pitch_mm": _round(p, 6)}
+        for r, lab, gap, e, p in zip(rows, _fitted(speed[:k].tolist()), _fitted(speed[k:].tolist()),
+                                     _fitted(error[:k].tolist()), _rounds(pitch.tolist(), 6)):
+            out[r] = {"value": lab, "stderr": e, "gap_frame_m_per_s": gap, "magnets": [first, last], "pitch_mm": p}
     return out
 
 
@@ -191,55 +194,81 @@ def _maxima(vp: np.ndarray) -> list[dict | None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None)
         top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(found[:, None], vp, 0.0), axis=1).tolist()
-    return [{"value": _round(v, 5), "gap": number(i)} if ok else None for v, i, ok in zip(top, where, found.tolist())]
+    return [{"value": v, "gap": number(i)} if ok else None for v, i, ok in zip(_rounds(top, 5), where, found.tolist())]
 
 
-def _flags(flags: dict) -> dict:
-    """The flagged gaps (`Front.flags`: out of order, below the slowest linear speed), as counts and gap numbers."""
-    return {"out_of_order": len(flags["out_of_order_gaps"]), "below_linear_speed": len(flags["below_linear_speed_gaps"]),
-            **{k: _round(v, 6) if isinstance(v, float) else v for k, v in flags.items()}}
+def _flags(flags: list[dict]) -> list[dict]:
+    """The flagged gaps of each chain (`Front.all_flags`: out of order, below the slowest linear
+    speed), as counts and gap numbers."""
+    return [{"out_of_order": len(f["out_of_order_gaps"]), "below_linear_speed": len(f["below_linear_speed_gaps"]),
+             **rounded} for f, rounded in zip(flags, _floats_rounded(flags, 6))]
 
 
-def _resolution(res: dict) -> dict:
-    """`Front.resolution`, rounded, with its `source`: "engine record" (the engine's arrivals of
-    every step, sample_interval_ms 0) or "frames" (read from frames sample_interval_ms apart),
-    and a warning when the frames are too coarse for the gaps."""
-    if not res["resolved"]:
-        log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
-                    "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
-                    "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
-                    res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
-    source = "engine record" if res["sample_interval_ms"] == 0 else "frames"
-    return {k: _round(v, 6) if isinstance(v, float) else v for k, v in res.items()} | {"source": source}
+def _resolutions(resolutions: list[dict]) -> list[dict]:
+    """`Front.resolutions`, rounded, each with its `source`: "engine record" (the engine's
+    arrivals of every step, sample_interval_ms 0) or "frames" (read from frames
+    sample_interval_ms apart), and a warning when the frames are too coarse for the gaps."""
+    for res in resolutions:
+        if not res["resolved"]:
+            log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
+                        "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
+                        "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
+                        res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
+    return [rounded | {"source": "engine record" if res["sample_interval_ms"] == 0 else "frames"}
+            for res, rounded in zip(resolutions, _floats_rounded(resolutions, 6))]
 
 
-def _plateau(p: measures.Plateau, resolved: bool = True) -> dict:
-    """A plateau as JSON, its window as first_gap, last_gap (or first_magnet, last_magnet).
-    trend: "steady" when converged (drift within 1 %, or 3 standard errors, and a scatter within
-    20 % of the mean), else "decaying" (e.g. V_P with friction) or "growing": a drifting
-    mean is not a plateau; "unresolved" (never converged) when the arrival times come from
-    frames too coarse for the gaps (`resolved` False; see `front_resolution`). Null, like the
-    numbers, when the series has too few values."""
-    defined = math.isfinite(p.mean)
-    converged = defined and resolved and p.converged()
-    trend = (None if not defined else "unresolved" if not resolved else "steady" if converged
-             else "decaying" if p.drift < 0 else "growing")
-    return {
-        "mean": _round(p.mean, 5),
-        "std": _round(p.std, 5),
-        "relative_drift": _round(p.drift, 5),
-        "relative_drift_stderr": _round(p.drift_stderr, 5),
-        "converged": converged,
-        "trend": trend,
-        f"first_{p.over}": p.first,
-        f"last_{p.over}": p.last,
-    }
+def _floats_rounded(rows: list[dict], decimals: int) -> list[dict]:
+    """Each dict with its floats `_round`ed (its other values as they are), a key's values at a
+    time where every dict has the same keys (`_rounds`)."""
+    keys = tuple(rows[0]) if rows else ()
+    if any(tuple(row) != keys for row in rows):
+        return [{k: _round(v, decimals) if isinstance(v, float) else v for k, v in row.items()} for row in rows]
+    columns = []
+    for key in keys:
+        values = [row[key] for row in rows]
+        floats = [isinstance(v, float) for v in values]
+        columns.append(_rounds(values, decimals) if all(floats) else values if not any(floats)
+                       else [_round(v, decimals) if f else v for v, f in zip(values, floats)])
+    return [dict(zip(keys, values)) for values in zip(*columns)]
 
 
-def _fitted(x: float) -> float | None:
-    """A fitted front speed or its error, m/s, to 5 decimals; None (JSON null, as summary.json
+def _plateaus(plateaus: list[measures.Plateau], resolved: list[bool]) -> list[dict]:
+    """Each plateau as JSON (its chain's arrival times `resolved` or not), its window as
+    first_gap, last_gap (or first_magnet, last_magnet). trend: "steady" when converged (drift
+    within 1 %, or 3 standard errors, and a scatter within 20 % of the mean), else "decaying"
+    (e.g. V_P with friction) or "growing": a drifting mean is not a plateau; "unresolved" (never
+    converged) when the arrival times come from frames too coarse for the gaps (`resolved`
+    False; see `front_resolution`). Null, like the numbers, when the series has too few values.
+    The numbers are rounded a column at a time (`_rounds`)."""
+    numbers = zip(*(_rounds([getattr(p, f) for p in plateaus], 5) for f in ("mean", "std", "drift", "drift_stderr")))
+    out = []
+    for p, ok, (mean, std, drift, stderr) in zip(plateaus, resolved, numbers):
+        defined = math.isfinite(p.mean)
+        converged = defined and ok and p.converged()
+        trend = (None if not defined else "unresolved" if not ok else "steady" if converged
+                 else "decaying" if p.drift < 0 else "growing")
+        out.append({"mean": mean, "std": std, "relative_drift": drift, "relative_drift_stderr": stderr,
+                    "converged": converged, "trend": trend, f"first_{p.over}": p.first, f"last_{p.over}": p.last})
+    return out
+
+
+def _fitted(xs: list[float]) -> list[float | None]:
+    """Fitted front speeds or their errors, m/s, to 5 decimals; None (JSON null, as summary.json
     reads back) where the front did not cross the window."""
-    return _round(x, 5) if math.isfinite(x) else None
+    return [v if math.isfinite(x) else None for x, v in zip(xs, _rounds(xs, 5))]
+
+
+def _rounds(xs: list[float], decimals: int) -> list[float]:
+    """`_round` of each of some floats (a batch's column): those that `decimals` keeps enough
+    figures of by one `round` each at C speed, the small ones by `_round`."""
+    out = list(map(round, map(float, xs), repeat(decimals)))
+    a = np.asarray(xs, dtype=float)
+    with np.errstate(invalid="ignore"):
+        small = ~((np.abs(a) > _PLAIN.get(SIGNIFICANT - 1 - decimals, math.inf)) | (a == 0) | ~np.isfinite(a))
+    for k in np.flatnonzero(small).tolist():
+        out[k] = _round(xs[k], decimals)
+    return out
 
 
 def _round(x: float, decimals: int, significant: int = SIGNIFICANT) -> float:

@@ -11,7 +11,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
-from pylmp_lattice.summary import _plateau, _round, summary_of
+from pylmp_lattice.summary import _plateaus, _round, _rounds, summary_of
 
 from conftest import make_case
 
@@ -40,7 +40,7 @@ def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
     steady = measures.trailing_plateau(3.9 + 1e-4 * np.sin(gaps))
     decaying = measures.trailing_plateau(3.9 - 0.004 * gaps)  # loses 0.2 of 3.9 m/s over the last 50
     growing = measures.trailing_plateau(3.0 + 0.004 * gaps)
-    s, d, g = (_plateau(p) for p in (steady, decaying, growing))
+    s, d, g = _plateaus([steady, decaying, growing], [True] * 3)
     assert (s["converged"], s["trend"]) == (True, "steady") and (s["first_gap"], s["last_gap"]) == (151, 200)
     assert (d["converged"], d["trend"]) == (False, "decaying") and d["relative_drift"] < -0.01
     assert (g["converged"], g["trend"]) == (False, "growing")
@@ -51,7 +51,7 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
     (5 decimals); it stays 1.09e-6 (3 significant figures), while a V_P of 3.9012345 m/s keeps
     its 5 decimals (3.90123) as before."""
     p = measures.Plateau(3.9012345, 4.2345e-6, 2.01e-4, 1, 50, drift_stderr=1.0912e-6)
-    d = _plateau(p)
+    d = _plateaus([p], [True])[0]
     assert d["relative_drift_stderr"] == pytest.approx(1.09e-6, rel=1e-12)
     assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
     assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123
@@ -61,7 +61,7 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
 def test_rounding_without_the_logarithm_is_the_rounding_with_it():
     """`_round`'s short way (|x| well above 10**(significant - 1 - decimals): `decimals` alone) gives
     what the logarithm's way gives, bit for bit: values of every size, around the powers of ten
-    within a few ulps, and 0, -0, inf, nan, subnormals."""
+    within a few ulps, and 0, -0, inf, nan, subnormals; and so does `_rounds`, a column at a time."""
     def by_logarithm(x, decimals, significant=3):
         x = float(x)
         if x == 0 or not math.isfinite(x):
@@ -82,6 +82,10 @@ def test_rounding_without_the_logarithm_is_the_rounding_with_it():
             got = [_round(v, decimals, significant) for v in values]
             want = [by_logarithm(v, decimals, significant) for v in values]
             assert np.array_equal(np.array(got).view(np.int64), np.array(want).view(np.int64))
+            if significant == 3:  # the summaries' (SIGNIFICANT)
+                column = _rounds(values, decimals)
+                assert set(map(type, column)) == {float}
+                assert np.array_equal(np.array(column).view(np.int64), np.array(want).view(np.int64))
 
 
 def test_summary_writer_writes_null_for_values_that_are_not_finite():

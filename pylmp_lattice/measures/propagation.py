@@ -8,6 +8,7 @@ Arrival times in ms and positions/gaps in mm give velocities in mm/ms = m/s. Arr
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -167,7 +168,7 @@ class Plateau:
         Gaussian scatter is called drifting 0.3 % of the time), but a series that scatters by
         about its mean has no level, whatever its drift (e.g. arrival times read from frames far
         coarser than a gap's crossing; `Front.resolution` says when they are)."""
-        noisy = 3.0 * self.drift_stderr if np.isfinite(self.drift_stderr) else 0.0
+        noisy = 3.0 * self.drift_stderr if math.isfinite(self.drift_stderr) else 0.0  # (numpy's: 1 us a plateau)
         return bool(abs(self.drift) <= max(rtol, noisy) and self.std <= SCATTER_LIMIT * abs(self.mean))
 
     def to_dict(self, rtol: float = 0.01) -> dict:
