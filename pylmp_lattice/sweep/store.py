@@ -29,7 +29,8 @@ import socket
 import subprocess
 from datetime import datetime, timezone
 from functools import cache
-from operator import itemgetter
+from itertools import repeat
+from operator import is_, itemgetter
 from pathlib import Path
 
 import numpy as np
@@ -120,10 +121,19 @@ def columns(rows: list):
     """Rows as columns, for a batch of up to 10^6 members: dicts with the same keys become
     {"cols": {key: columns(their values)}} (each key once), anything else {"rows": rows}."""
     first = rows[0] if rows else None
+    if rows and all(map(is_, rows, repeat(first))):  # one value n times (replicas' cases share most of theirs)
+        return _repeated(first, len(rows))
     if type(first) is dict and first and set(map(type, rows)) == {dict} and all(map(first.keys().__eq__,
                                                                                       map(dict.keys, rows))):
         return {"cols": {key: columns(list(map(itemgetter(key), rows))) for key in first}}  # (map: at C speed)
     return {"rows": rows}
+
+
+def _repeated(value, n: int) -> dict:
+    """`columns` of `n` times one value, without looking at each."""
+    if type(value) is dict and value:
+        return {"cols": {key: _repeated(v, n) for key, v in value.items()}}
+    return {"rows": [value] * n}
 
 
 def _strict(table: dict) -> dict:
