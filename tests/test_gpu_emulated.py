@@ -27,6 +27,7 @@ import pytest
 from pylmp_lattice.case import Case
 from pylmp_lattice.engines import cpu, gpu
 from pylmp_lattice.engines.arrays import prepare
+from pylmp_lattice.engines.library import library, ptr
 from pylmp_lattice.engines.road import KernelEngine
 from pylmp_lattice.errors import ContactError
 from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
@@ -343,9 +344,10 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
     """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
     sig = kernel_signatures(SOURCE.read_text())
-    assert len(sig["pl_run_short_chains_gpu"]) == 27 + 8 and len(sig["pl_run_chains_gpu"]) == 27 + 17
-    assert sig["pl_run_chains_gpu"][27 + 11] == ("unsigned char", True, False)  # phase
-    assert sig["pl_run_chains_gpu"][27 + 2] == ("double", True, True)  # mass
+    assert len(sig["pl_run_short_chains_gpu"]) == 29 + 8 and len(sig["pl_run_chains_gpu"]) == 29 + 17
+    assert sig["pl_run_chains_gpu"][29 + 11] == ("unsigned char", True, False)  # phase
+    assert sig["pl_run_chains_gpu"][29 + 2] == ("double", True, True)  # mass
+    assert sig["pl_run_chains_gpu"][27:29] == [("double", True, True), ("long long", False, False)]  # drive path
     lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0], (0, 3.0, True, True)))
     k = Kernel(lib, "pl_run_short_chains_gpu", sig["pl_run_short_chains_gpu"], [])
     good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p, _ in k.signature]
@@ -370,3 +372,28 @@ def test_an_emulated_gpu_sweep_gives_the_cpu_engine_s_results_table(tmp_path, em
     disk = Outcomes(tmp_path / "gpu")
     assert {disk.get(i)["record"]["engine"] for i in gpu_table["id"]} == {"gpu"}
     assert_same_table(cpu_table, gpu_table, rtol=0)
+
+
+def test_the_sine_drive_runs_on_the_host_s_path(tmp_path, monkeypatch, emulated_gpu):
+    """The GPU's sin and cos are not glibc's to the last bit, so the sine drive's u, ud reach the
+    kernel as the host build computed them (gpu.drive_path, Drive::path) for every step with t < T
+    (T = 2.3 ms of a 10 ms run): they are the half-sine's to 1e-15, and the kernel reads
+    them: a path of u 1e-9 off moves magnets 1 and 2 of every chain."""
+    cases = members(impactor=DRIVES["sine"], friction=FRICTION)
+    a = prepare(cases, "gpu")
+    path = gpu.drive_path(a).reshape(-1, 2)
+    t = np.arange(len(path)) * a.dt
+    assert t[-1] > a.T and t[-2] <= a.T + a.dt and len(path) < a.steps  # every step before T, and no more
+    inside = t < a.T
+    np.testing.assert_allclose(path[inside, 1], a.V * np.sin(np.pi * t[inside] / a.T), rtol=0, atol=1e-15 * a.V)
+    np.testing.assert_allclose(path[inside, 0], a.V * a.T / np.pi * (1 - np.cos(np.pi * t[inside] / a.T)), rtol=0,
+                               atol=1e-15 * a.V * a.T)
+    assert np.all(path[~inside] == [2 * a.V * a.T / np.pi, 0.0])
+    assert gpu.drive_path(prepare(members(), "gpu")).size == 0  # a constant drive: no path
+    assert library().pl_drive_path(4, 1.0, 1.0, 1e-3, 10, ptr(np.zeros(20))) == -1  # measured: refused
+    (tmp_path / "true").mkdir(), (tmp_path / "off").mkdir()
+    assert assert_same_outputs(run_both(cases, tmp_path / "true", monkeypatch))
+    off = gpu.drive_path(a) * np.tile([1.0 + 1e-9, 1.0], len(path))
+    monkeypatch.setattr(gpu, "drive_path", lambda _a: off)
+    got = run_both(cases, tmp_path / "off", monkeypatch)
+    assert (got["gpu"]["out"][0][:, 1:3] != got["cpu"]["out"][0][:, 1:3]).all()  # magnets 1 and 2 (the rest stuck)

@@ -76,6 +76,7 @@ def run_arrays(a: Arrays):
     else:
         t_s = y_s = fit = empty
     mu, p, g = a.friction or (0.0, 0.0, 0.0)
+    path = drive_path(a)
     d = cp.asarray
     x, v, mass, levels = d(a.x), d(a.v), d(a.mass), d(a.levels)
     work, end_step, status = cp.zeros(chains), cp.zeros(chains, cp.int64), cp.zeros(chains, cp.int32)
@@ -83,7 +84,8 @@ def run_arrays(a: Arrays):
              np.int32(LAWS[a.law]), d(a.law_values), np.int32(table_n), np.float64(x0), np.float64(dx), d(yd2),
              np.int32(DRIVES[a.drive]), np.float64(a.V), np.float64(a.T), np.int32(len(t_s)), d(t_s), d(y_s), d(fit),
              np.int32(a.given_velocity), np.int32(a.hold), np.int32(a.friction is not None), np.float64(mu),
-             np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record))
+             np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record),
+             d(path if len(path) else empty), np.int64(len(path) // 2))
     local = _local_size(n)
     options = compile_options(local, batch_case(a))
     if local:
@@ -126,6 +128,18 @@ def run_arrays(a: Arrays):
     return x.get(), v.get(), out, work.get(), end_step.get(), status.get()
 
 
+def drive_path(a: Arrays) -> np.ndarray:
+    """The sine drive's u, ud at steps 0, 1, ... while t < T (pairs), from the host build (Drive::path):
+    the GPU's own sin and cos differ from glibc's in the last bit, which parts its chains from the
+    host's and LAMMPS's. Empty for the other drives, whose operations round alike on both."""
+    if a.drive != "sine":
+        return np.zeros(0)
+    steps = min(a.steps, int(np.ceil(a.T / a.dt)) + 1) + 1  # beyond, t > T: the drive's constant branch
+    out = np.empty(2 * steps)
+    library().pl_drive_path(DRIVES[a.drive], a.V, a.T, a.dt, steps, ptr(out))
+    return out
+
+
 def batch_case(a: Arrays) -> tuple[int, float, bool, bool]:
     """The batch's case of the kernel's dispatch: law kind (LAWS), a power law's q (else 0),
     friction, record."""
@@ -138,8 +152,9 @@ def compile_options(local: int, case: tuple[int, float, bool, bool]) -> tuple[st
     not 44: seconds to compile, not minutes).
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
     are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's
-    entries still differ from the host build's by up to 2.6e-11 relative, with or without it:
-    not bit for bit, for a reason not yet found (docs/performance.md).
+    entries still differ from the host build's by up to 2.6e-11 relative, with or without it;
+    the sine drive's sin and cos were the likely cause, now taken from the host (`drive_path`;
+    not yet run on a device: docs/performance.md).
     -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
     NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function.
     -DPL_KERNEL_SOURCES: CuPy's disk cache keys a compiled module by its source and options, not

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import LatticeError, RunError
 
-ABI = 3
+ABI = 4
 
 
 class Unsupported(LatticeError):
@@ -76,6 +76,8 @@ def _load() -> tuple[ctypes.CDLL, Layout]:
     lib.pl_fit_table.restype = None
     lib.pl_fit_measured.argtypes = [p, p, i, p]
     lib.pl_fit_measured.restype = None
+    lib.pl_drive_path.argtypes = [i, d, d, d, ll, p]
+    lib.pl_drive_path.restype = i
     lib.pl_engine_scratch.argtypes = [i]
     lib.pl_engine_scratch.restype = i
     lib.pl_engine_status.argtypes = [i]

@@ -155,7 +155,7 @@ void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
 extern "C" {
 
 /* The version of this ABI: engines/library.py refuses a library of another. */
-int pl_engine_abi() { return 3; }
+int pl_engine_abi() { return 4; }
 
 /* The engines' layout, read by engines/library.py so that Python never restates it: the block,
    a front record row's output columns (front::NOUT, those of fix lattice/front) and all of its
@@ -239,6 +239,19 @@ void pl_fit_table(const double *r, const double *u, const double *f, int n, doub
 void pl_fit_measured(const double *t, const double *y, int n, double *out)
 {
   fit_measured(t, y, n, false, false, out);
+}
+
+/* The GPU engine's drive path (Drive::path): u, ud of steps 0 .. steps - 1 of dt (out: 2 steps
+   doubles, pairs) for drive_profile 0-3 with V, T, as the host's chains see them. Returns 0, or -1
+   for a measured drive (its path needs the fit, and has no sin or cos to replace). */
+int pl_drive_path(int drive_profile, double V, double T, double dt, long long steps, double *out)
+{
+  if (drive_profile < Drive::CONSTANT || drive_profile >= Drive::MEASURED) return -1;
+  Drive drive;
+  drive.profile = static_cast<Drive::Profile>(drive_profile);
+  drive.V = V, drive.T = T;
+  for (long long k = 0; k < steps; k++) drive.at_step(k, dt, out[2 * k], out[2 * k + 1]);
+  return 0;
 }
 
 }    // extern "C"

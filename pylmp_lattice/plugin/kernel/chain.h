@@ -217,7 +217,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
 
   // ---- setup: the impactor's velocity at t = 0, the forces for the first half kick (friction
   // for a kick of dt/2, from v(0)), the ends, the record's first sample
-  S.drive.at(0.0, S.dt, u, ud);
+  S.drive.at_step(0, S.dt, u, ud);
   v[0] = L::splat(ud);
   GapsT<R> gaps;
   {
@@ -247,7 +247,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   for (long long step = 1; step <= S.steps; step++) {
     const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)
-    if (!S.drive.at(static_cast<double>(step) * S.dt, S.dt, u, ud)) return end_all<FRONT>(S, c, work_done, step - 1, DRIVE_ENDED);
+    if (!S.drive.at_step(step, S.dt, u, ud)) return end_all<FRONT>(S, c, work_done, step - 1, DRIVE_ENDED);
     x[0] = x0 + u;
     v[0] = L::splat(ud);
     hook.sample = front::Sample{0.0 + static_cast<double>(step) * S.dt, hook.sample.t, false};

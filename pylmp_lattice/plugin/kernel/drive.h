@@ -66,6 +66,11 @@ struct Drive {
   Profile profile = REST;
   double V = 0.0, T = 0.0;    // peak velocity; ramp time or pulse length
   Measured measured;
+  /* the host's u, ud of steps 0 .. path_steps - 1 (at(step dt), pairs), or none: the GPU engine's
+     sine drive, since CUDA's sin and cos are within 1-2 ulp where glibc's round correctly, and
+     one ulp of the impactor at one step parts the chains by 1e-11 after thousands */
+  const double *path = nullptr;
+  long long path_steps = 0;
 
   /* displacement u and velocity ud at time t from the origin; dt: the time step (a measured
      run meant to end on the last sample may overshoot it by round-off); false: past the end of
@@ -91,6 +96,16 @@ struct Drive {
         u = ud = 0.0;
         return true;
     }
+  }
+
+  /* at(step dt): from the path where it has the step */
+  PL_HD bool at_step(long long step, double dt, double &u, double &ud) const
+  {
+    if (step < path_steps) {
+      u = path[2 * step], ud = path[2 * step + 1];
+      return true;
+    }
+    return at(static_cast<double>(step) * dt, dt, u, ud);
   }
 };
 

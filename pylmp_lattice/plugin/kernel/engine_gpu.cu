@@ -34,14 +34,16 @@ __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, i
                                  int drive_profile, double V, double T, int measured_n, const double *measured_t,
                                  const double *measured_y, const double *measured_fit, int given_velocity,
                                  int hold_after, int friction, double mu, double p, double g, double range_lo,
-                                 double range_hi, int record)
+                                 double range_hi, int record, const double *drive_path, long long drive_path_steps)
 {
   // the host's fits (engine_cpu.cpp: pl_fit_table, pl_fit_measured)
   const Law table = Law::table(table_x0, table_dx, table_n, table_yd2);
   const Measured measured{measured_n, measured_t, measured_y, measured_fit, measured_fit + measured_n,
                           given_velocity != 0, hold_after != 0};
-  return chain_setup(n, steps, dt, block, law_kind, law_values, table, drive_profile, V, T, measured, friction != 0,
-                     mu, p, g, range_lo, range_hi, record != 0);
+  ChainSetup S = chain_setup(n, steps, dt, block, law_kind, law_values, table, drive_profile, V, T, measured,
+                             friction != 0, mu, p, g, range_lo, range_hi, record != 0);
+  S.drive.path = drive_path, S.drive.path_steps = drive_path_steps;    // the host's (pl_drive_path)
+  return S;
 }
 
 /* the law types of Law::dispatch this module runs: the batch's alone */
@@ -79,11 +81,11 @@ __device__ void run_compiled(const ChainSetup &S, ChainData &d)
       double table_x0, double table_dx, const double *table_yd2, int drive_profile, double V, double T,            \
       int measured_n, const double *measured_t, const double *measured_y, const double *measured_fit,             \
       int given_velocity, int hold_after, int friction, double mu, double p, double g, double range_lo,           \
-      double range_hi, int record
+      double range_hi, int record, const double *drive_path, long long drive_path_steps
 #define PL_SETUP_ARGS                                                                                               \
   n, steps, dt, block, law_kind, law_values, table_n, table_x0, table_dx, table_yd2, drive_profile, V, T,           \
       measured_n, measured_t, measured_y, measured_fit, given_velocity, hold_after, friction, mu, p, g, range_lo,  \
-      range_hi, record
+      range_hi, record, drive_path, drive_path_steps
 
 #if PL_LOCAL_N > 0
 /* n <= PL_LOCAL_N, n - 2 <= block: one run of free atoms. x, v (chains x n, chain-major) in and
