@@ -26,7 +26,13 @@ under about 40 s each; `pylmp-lattice sweep --engine gpu` from the command to it
 
     python benchmarks/bench_gpu.py --check
     python benchmarks/bench_gpu.py --write-reference   # with LAMMPS, no GPU needed
+--variants N: the kernel alone on N of the same members with parts of its work left out (the
+front record, the friction, both; then also the sine drive's path, a constant drive instead, as
+the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
+mean steps its chains ran (a chain that ends early, by a contact, costs less).
+
     python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000]
+    python benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 1000000
 """
 
 from __future__ import annotations
@@ -220,6 +226,31 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
         print(f"| {count} | {wall:.2f} | {1e3 * wall / count:.4f} | {coordinator:.2f} | {workers:.2f} |", flush=True)
 
 
+def variants(tmp: Path, count: int) -> None:
+    """The kernel alone on `count` members, as benchmarked and with parts of its work left out."""
+    from pylmp_lattice.engines import gpu
+
+    a = members(tmp / "variants", count)[1]
+    left_out = {"as benchmarked": {}, "no front record": {"record": False}, "no friction": {"friction": None},
+                "neither": {"record": False, "friction": None},
+                "neither, constant drive": {"record": False, "friction": None, "drive": "constant", "V": 0.5 * a.V}}
+    print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {count} thermal replicas of the 21-magnet "
+          f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it)")
+    print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
+    print("|---|---|---|---|---|")
+    first = None
+    for name, changes in left_out.items():
+        b = dataclasses.replace(a, **changes)
+        gpu.run_arrays(dataclasses.replace(b, chains=64, x=b.x[:64], v=b.v[:64], mass=b.mass[:64],
+                                           levels=b.levels[:64]))  # compiles its module
+        start = time.perf_counter()
+        end_step = gpu.run_arrays(b)[4]
+        took = time.perf_counter() - start
+        first = first or took
+        print(f"| {name} | {took:.3f} | {np.sum(end_step) * a.n / took:.3g} | {np.mean(end_step):.0f} | "
+              f"{first / took:.2f}x |", flush=True)
+
+
 def gpu_name() -> str:
     import cupy
 
@@ -236,6 +267,7 @@ def main() -> None:
     p.add_argument("--sweep", default="10000", help="members for the command to exit ('' for none)")
     p.add_argument("--loop-limit", type=float, default=LOOP_LIMIT, help="atom-steps over which the CPU rows are skipped")
     p.add_argument("--log", type=Path, help="a folder for each sweep's output (sweep-N.log)")
+    p.add_argument("--variants", type=int, default=0, help="members for the kernel with parts left out (0: none)")
     args = p.parse_args()
     from pylmp_lattice.engines.gpu import available
 
@@ -250,6 +282,8 @@ def main() -> None:
             raise SystemExit(0 if check(Path(tmp)) else 1)
         bench(Path(tmp), [int(n) for n in args.sizes.split(",") if n], args.long,
               [int(n) for n in args.sweep.split(",") if n], args.log, args.loop_limit)
+        if args.variants:
+            variants(Path(tmp), args.variants)
 
 
 if __name__ == "__main__":

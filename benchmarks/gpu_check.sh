@@ -34,6 +34,9 @@ stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
   --loop-limit 2e10
 stage "benchmark exit $?"
+stage "bench_gpu.py --variants: the kernel with the record, the friction, the sine drive left out"
+timeout 40 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 200000
+stage "variants exit $?"
 left=$((220 - (SECONDS - started)))
 stage "bench_gpu.py: 1000 magnets (for at most ${left} s)"
 timeout $((left > 20 ? left : 20)) "$py" benchmarks/bench_gpu.py --sizes "" --long 10000 --sweep ""
