@@ -20,7 +20,13 @@ The command runs with `--quiet` under a small driver (`python -c DRIVER ARGS`) t
 C (it imports `sweep.pool` before the command line, a few ms); and, for reference, the CPU of
 Python and numpy's import in a fresh Python, best of --repeat, in the same run.
 
+With --reference COMMIT it also runs that commit's package, interleaved with this tree's (run by
+run, engine by engine), so that both see the same load. Both then run from copies in the
+temporary folder, the installed compiled libraries and Python's bytecode beside their sources,
+as an installed package has them (neither compiles its sources on the way).
+
     python benchmarks/bench_startup.py [--members 1000] [--repeat 5] [--engines cpu,lammps] [--dir /tmp]
+                                       [--reference main]
 """
 
 from __future__ import annotations
@@ -28,7 +34,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 from datetime import datetime, timezone
@@ -57,37 +65,73 @@ sys.exit(code)
 """
 
 
+def tree_copy(commit: str | None, folder: Path) -> Path:
+    """The package at `commit` (None: this tree's files as they are), with the installed compiled
+    libraries and the bytecode of its sources, in `folder`."""
+    folder.mkdir(parents=True)
+    if commit is None:
+        files = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z", "pylmp_lattice"], check=True,
+                               capture_output=True).stdout.decode().split("\0")
+        for name in filter(None, files):
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, folder / name)
+    else:
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "pylmp_lattice"], check=True,
+                                 capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
+    from pylmp_lattice.plugin import ENGINE, LIBRARY, library_file
+
+    for name in (LIBRARY, ENGINE):
+        shutil.copy2(library_file(name), folder / "pylmp_lattice" / "plugin" / name)
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(folder / "pylmp_lattice")], check=True,
+                   env=os.environ | {"PYTHONDONTWRITEBYTECODE": ""}, stdout=subprocess.DEVNULL)
+    return folder
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--members", type=int, default=1000)
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--engines", default="cpu,lammps")
     p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
+    p.add_argument("--reference", metavar="COMMIT", help="also run this commit's package, interleaved with this tree's")
     args = p.parse_args()
     engines = args.engines.split(",")
     load = [os.getloadavg()[0]]
     floor = {"Python": import_cpu(["sys"], args.repeat), "numpy": import_cpu(["numpy"], args.repeat)}
-    runs = {e: [] for e in engines}
     with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_startup.") as tmp:
+        trees = ({"this tree": tree_copy(None, Path(tmp) / "this"),
+                  args.reference: tree_copy(args.reference, Path(tmp) / "reference")} if args.reference
+                 else {"this tree": None})
+        runs = {(t, e): [] for t in trees for e in engines}
         sweep = write_sweep(Path(tmp), args.members, 0.02, friction=True)
         run_sweep_command(sweep, Path(tmp) / "warm-up", 2, engines[0])  # the libraries read from disk once
         for k in range(args.repeat):
             for e in engines:
-                load.append(os.getloadavg()[0])
-                s = run_sweep_command(sweep, Path(tmp) / f"{e}-{k}", 2, e, [sys.executable, "-c", DRIVER])
-                marks = json.loads(s["stderr"].split("startup-marks ")[-1].splitlines()[0])
-                runs[e].append({"wall": s["startup"], **marks, "idle": max(marks["C"], marks["S"] + marks["F"])})
+                for i, (t, tree) in enumerate(trees.items()):
+                    load.append(os.getloadavg()[0])
+                    env = dict(os.environ)
+                    if tree is not None:
+                        os.environ["PYTHONPATH"] = str(tree)
+                    try:
+                        s = run_sweep_command(sweep, Path(tmp) / f"{e}-{k}-{i}", 2, e,
+                                              [sys.executable, "-c", DRIVER])
+                    finally:
+                        os.environ.clear()
+                        os.environ.update(env)
+                    marks = json.loads(s["stderr"].split("startup-marks ")[-1].splitlines()[0])
+                    runs[t, e].append({"wall": s["startup"], **marks, "idle": max(marks["C"], marks["S"] + marks["F"])})
     load.append(os.getloadavg()[0])
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; load average {min(load):.1f}-"
           f"{max(load):.1f}; {args.members} members of the 21-magnet experiment with friction, 2 workers; "
           f"medians of {args.repeat} runs (least in brackets), seconds")
-    print("| engine | start-up, wall | S: command, fork server started (CPU) | C: command, first task sent (CPU) "
-          "| F: fork server (CPU) | max(C, S + F) |")
-    print("|---|---|---|---|---|---|")
-    for e, rs in runs.items():
+    print("| tree | engine | start-up, wall | S: command, fork server started (CPU) "
+          "| C: command, first task sent (CPU) | F: fork server (CPU) | max(C, S + F) |")
+    print("|---|---|---|---|---|---|---|")
+    for (t, e), rs in runs.items():
         cells = [f"{statistics.median(r[k] for r in rs):.3f} ({min(r[k] for r in rs):.3f})"
                  for k in ("wall", "S", "C", "F", "idle")]
-        print(f"| {e} | " + " | ".join(cells) + " |")
+        print(f"| {t} | {e} | " + " | ".join(cells) + " |")
     print(f"In a fresh Python, CPU, best of {args.repeat}: Python alone {floor['Python']:.3f} s, "
           f"importing numpy {floor['numpy']:.3f} s.")
 

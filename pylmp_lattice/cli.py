@@ -317,11 +317,11 @@ def _export(args) -> int:
 
 def _sweep(args) -> int:
     try:
-        if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile
-            from .sweep.pool import start_forkserver
+        from .sweep.pool import one_blas_thread, start_forkserver
 
+        if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile
             start_forkserver(args.engine)
-        with _no_collection():
+        with _no_collection(), one_blas_thread():  # numpy, loaded here, needs no BLAS threads in the coordinator
             from .preflight import check_writable
             from .sweep import load_sweep, run_sweep
             from .sweep.cluster import sweep_workers

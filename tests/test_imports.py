@@ -61,3 +61,44 @@ def test_the_coordinator_loads_neither_the_kernel_nor_measures_a_sweep_never_tak
                   "pylmp_lattice.sweep.cluster, pylmp_lattice.sweep.disk",
                   ["pylmp_lattice.engines.road", "pylmp_lattice.engines.library", "pylmp_lattice.measures.oscillation",
                    "pylmp_lattice.measures.friction_fit", "pylmp_lattice.measures.wake"]) == []
+
+
+def threads_after(code: str, env: dict[str, str] | None = None) -> tuple[int, str | None]:
+    """This process's threads after a fresh Python ran `code` (numpy's OpenBLAS starts its own as it
+    loads), and OPENBLAS_NUM_THREADS in its environment then."""
+    script = (f"import os\n{code}\nprint(len(os.listdir('/proc/self/task')), os.environ.get('OPENBLAS_NUM_THREADS'))")
+    base = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env = base | (env or {}) | {"PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=ROOT)
+    threads, value = done.stdout.split()
+    return int(threads), None if value == "None" else value
+
+
+needs_threads = pytest.mark.skipif(not Path("/proc/self/task").is_dir() or (os.cpu_count() or 1) < 2,
+                                   reason="counts threads in /proc; OpenBLAS starts none on one core")
+
+
+@needs_threads
+def test_the_check_sees_blas_threads():
+    """numpy loaded as a user's script loads it starts OpenBLAS's threads (one per core)."""
+    assert threads_after("import numpy")[0] > 1
+
+
+@needs_threads
+def test_the_fork_server_and_the_command_load_numpy_with_one_blas_thread():
+    """OpenBLAS's threads spin as numpy loads: the fork server's preload and the sweep command
+    (numpy loaded in `cli._sweep`, here stopped at once by a missing sweep file, exit 2) start
+    none, and leave the environment as they found it."""
+    assert threads_after("import pylmp_lattice.sweep.preload") == (1, None)
+    code = ("import pylmp_lattice.cli as cli, sys\n"
+            "assert cli.main(['sweep', 'no-such-file.toml', '-o', 'out', '--scheduler', 'tcp://127.0.0.1:1']) == 2\n"
+            "assert 'numpy' in sys.modules")
+    assert threads_after(code) == (1, None)
+
+
+def test_one_blas_thread_keeps_the_users_setting():
+    """A number the environment gives OpenBLAS stays (`pool.one_blas_thread` sets one only where
+    none is given)."""
+    assert threads_after("import pylmp_lattice.sweep.preload", {"OPENBLAS_NUM_THREADS": "2"})[1] == "2"
+    assert threads_after("from pylmp_lattice.sweep.pool import one_blas_thread\nwith one_blas_thread():\n"
+                         "    assert os.environ['OPENBLAS_NUM_THREADS'] == '1'") == (1, None)

@@ -26,6 +26,12 @@ GRACE = 1.0
 # back to LAMMPS.
 LIBRARIES = "pylmp_lattice.sweep.forkserver"
 PRELOAD = ["pylmp_lattice.sweep.preload", LIBRARIES]
+# numpy's OpenBLAS starts a thread per core as it loads, which spins while a core is free: import
+# numpy took 0.128 s of CPU, 0.083 s with one thread (fresh Pythons, 2-core VM), and the sweep
+# command and the fork server each paid it on the cores they share on the way to the first member.
+# A sweep's processes do no linear algebra that a thread pool would speed up, and a local pool has
+# a worker per core already.
+ONE_BLAS_THREAD = {"OPENBLAS_NUM_THREADS": "1"}
 
 
 class Pool:
@@ -170,6 +176,19 @@ def start_forkserver(engine: str | None = None):
         for s, handler in previous.items():
             signal.signal(s, handler)
     return context
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """numpy imported in the block gets one OpenBLAS thread (unless the environment says how many);
+    the environment is as it was after it (processes started later inherit the user's)."""
+    added = {k: v for k, v in ONE_BLAS_THREAD.items() if k not in os.environ}
+    os.environ.update(added)
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
 
 
 def _pool_worker_init(alive, stop) -> None:
