@@ -16,9 +16,10 @@ experiment with friction, --workers 2; engines interleaved) reports:
 - on idle cores the start-up would be about max(C, S + F), plus the worker's own start (forked,
   its task unpickled: a few tens of ms, not counted here).
 
-The command runs with `--quiet` under a small driver (`python -c DRIVER ARGS`) that notes S and
-C (it imports `sweep.pool` before the command line, a few ms); and, for reference, the CPU of
-Python and numpy's import in a fresh Python, best of --repeat, in the same run.
+The command runs with `--quiet` as the `pylmp-lattice` script runs it (`DRIVER`, a script, which
+each worker runs again, as multiprocessing does a main script), noting S and C; and, for
+reference, the CPU of Python and numpy's import in a fresh Python, best of --repeat, in the same
+run.
 
 With --reference COMMIT it also runs that commit's package, interleaved with this tree's (run by
 run, engine by engine), so that both see the same load. Both then run from copies in the
@@ -44,24 +45,29 @@ from pathlib import Path
 
 from bench_sweep import ROOT, import_cpu, run_sweep_command, write_sweep
 
-DRIVER = """
-import json, os, sys, time
-from multiprocessing import forkserver
-from pylmp_lattice.sweep import pool
-marks, submit, start = {}, pool.Pool.submit, pool.start_forkserver
-def first_submit(self, task):
-    marks.setdefault("C", time.process_time())
-    return submit(self, task)
-def starting(*args, **kwargs):
-    marks.setdefault("S", time.process_time())
-    return start(*args, **kwargs)
-pool.Pool.submit, pool.start_forkserver = first_submit, starting
+# The pylmp-lattice script (pip's console script: it imports the command line, then runs it under
+# the main guard; the workers run it again, as multiprocessing does a main script), noting S and C.
+DRIVER = """import sys
+
 from pylmp_lattice.cli import main
-code = main(sys.argv[1:])
-with open(f"/proc/{forkserver._forkserver._forkserver_pid}/stat") as f:
-    marks["F"] = sum(map(int, f.read().rsplit(")", 1)[1].split()[11:13])) / os.sysconf("SC_CLK_TCK")
-print("startup-marks " + json.dumps(marks), file=sys.stderr)
-sys.exit(code)
+
+if __name__ == "__main__":
+    import json, os, time
+    from multiprocessing import forkserver
+    from pylmp_lattice.sweep import pool
+    marks, submit, start = {}, pool.Pool.submit, pool.start_forkserver
+    def first_submit(self, task):
+        marks.setdefault("C", time.process_time())
+        return submit(self, task)
+    def starting(*args, **kwargs):
+        marks.setdefault("S", time.process_time())
+        return start(*args, **kwargs)
+    pool.Pool.submit, pool.start_forkserver = first_submit, starting
+    code = main(sys.argv[1:])
+    with open(f"/proc/{forkserver._forkserver._forkserver_pid}/stat") as f:
+        marks["F"] = sum(map(int, f.read().rsplit(")", 1)[1].split()[11:13])) / os.sysconf("SC_CLK_TCK")
+    print("startup-marks " + json.dumps(marks), file=sys.stderr)
+    sys.exit(code)
 """
 
 
@@ -105,6 +111,8 @@ def main() -> None:
                  else {"this tree": None})
         runs = {(t, e): [] for t in trees for e in engines}
         sweep = write_sweep(Path(tmp), args.members, 0.02, friction=True)
+        driver = Path(tmp) / "pylmp-lattice"
+        driver.write_text(DRIVER)
         run_sweep_command(sweep, Path(tmp) / "warm-up", 2, engines[0])  # the libraries read from disk once
         for k in range(args.repeat):
             for e in engines:
@@ -115,7 +123,7 @@ def main() -> None:
                         os.environ["PYTHONPATH"] = str(tree)
                     try:
                         s = run_sweep_command(sweep, Path(tmp) / f"{e}-{k}-{i}", 2, e,
-                                              [sys.executable, "-c", DRIVER])
+                                              [sys.executable, str(driver)])
                     finally:
                         os.environ.clear()
                         os.environ.update(env)

