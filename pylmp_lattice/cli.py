@@ -318,8 +318,10 @@ def _sweep(args) -> int:
     try:
         from .sweep.pool import one_blas_thread, start_forkserver
 
-        if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile
-            start_forkserver(args.engine)
+        if args.scheduler is None and args.cluster is None:  # the local workers' fork server loads the engine meanwhile,
+            # and this module: each worker runs the pylmp-lattice script again (multiprocessing does so with a main
+            # script), which imports it
+            start_forkserver(args.engine, also=(__spec__.name if __spec__ else __name__,))
         with _no_collection(), one_blas_thread():  # numpy, loaded here, needs no BLAS threads in the coordinator
             from .preflight import check_writable
             from .sweep import load_sweep, run_sweep

@@ -105,8 +105,12 @@ def test_one_blas_thread_keeps_the_users_setting():
                          "    assert os.environ['OPENBLAS_NUM_THREADS'] == '1'") == (1, None)
 
 
-def test_the_fork_server_loads_the_command_line_each_worker_runs_again():
+def test_the_fork_server_loads_the_command_line_each_worker_runs_again(monkeypatch, tmp_path):
     """A worker runs the pylmp-lattice script again before its first task (multiprocessing does so
     with a main script): the command line it imports is loaded once, in the fork server."""
-    assert loaded("import pylmp_lattice.sweep.preload", ["pylmp_lattice.cli", "argparse"]) == ["pylmp_lattice.cli",
-                                                                                                "argparse"]
+    from pylmp_lattice import cli
+
+    started = []
+    monkeypatch.setattr("pylmp_lattice.sweep.pool.start_forkserver", lambda *a, **kw: started.append(kw["also"]))
+    assert cli.main(["sweep", "no-such-file.toml", "-o", str(tmp_path / "out")]) == 2
+    assert started == [("pylmp_lattice.cli",)]

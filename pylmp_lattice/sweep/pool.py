@@ -155,9 +155,9 @@ def _end_workers(pool) -> None:
             process.kill()
 
 
-def start_forkserver(engine: str | None = None):
+def start_forkserver(engine: str | None = None, also: tuple[str, ...] = ()):
     """The forkserver context, its server started (at once: it loads PRELOAD, without LAMMPS's
-    libraries for engine "cpu" or "gpu", while the caller goes on), with the stop signals ignored in it (inherited): it and its workers are left to
+    libraries for engine "cpu" or "gpu", then the modules `also`, while the caller goes on), with the stop signals ignored in it (inherited): it and its workers are left to
     the coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a
     SIGTERM to the process group (a batch system's) does not kill it, which would break the
     pool and leave the members in hand "running". It exits when the coordinator does."""
@@ -165,7 +165,7 @@ def start_forkserver(engine: str | None = None):
 
     context = multiprocessing.get_context("forkserver")
     lammps = engine in (None, "lammps")
-    context.set_forkserver_preload([m for m in PRELOAD if lammps or m != LIBRARIES])
+    context.set_forkserver_preload([*(m for m in PRELOAD if lammps or m != LIBRARIES), *also])
     if threading.current_thread() is not threading.main_thread():
         forkserver.ensure_running()
         return context

@@ -11,8 +11,7 @@ from .pool import one_blas_thread
 with one_blas_thread():
     gc.disable()
     try:
-        from .. import cli, engine, summary  # noqa: F401 - cli: each worker runs the pylmp-lattice script again
-        # (as multiprocessing does a main script), which imports it
+        from .. import engine, summary  # noqa: F401
         from ..run_folder import execution, folder  # noqa: F401
         from . import batch  # noqa: F401
     finally:
