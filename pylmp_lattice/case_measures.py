@@ -22,6 +22,7 @@ import numpy as np
 
 from . import measures
 from .case import Case, Chain, thermal_velocities
+from .case.chain import thermal_normals
 from .errors import ConfigError
 from .formats.front_record import read_front_rows
 
@@ -83,7 +84,7 @@ def chain_draws(cases) -> ChainDraws:
         masses, gaps, r = first.masses(), first.gaps(), len(chains)
         v = np.zeros((r, first.particles))
         v[:, 1:-1] = thermal_velocities(masses[1:-1], [c.thermal_velocity for c in chains],
-                                        np.stack([c.thermal_normals() for c in chains]))
+                                        thermal_normals(chains))
         return ChainDraws(np.repeat(masses[None], r, axis=0), np.repeat(gaps[None], r, axis=0), v, cases[0])
     return ChainDraws(*(np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps,
                                                                                     Chain.velocities)), cases[0])

@@ -114,14 +114,15 @@ chain.thermal_velocity = 0.01
 
 def test_member_seeds_a_block_at_a_time_are_numpys_seed_sequence():
     """`seeds.member_seeds` and `member_seed` (array operations where they hold it) give NumPy's
-    SeedSequence of every member: across blocks, blocks of one and a few, for sweep seeds of one,
-    two and three words (the pool's limit), indices up to and past 2**32 (NumPy's there)."""
+    SeedSequence of every member: across blocks, blocks of one and a few, for sweep seeds of one
+    to five words (with the index, up to and past the pool's 4), indices up to and past 2**32
+    (NumPy's there)."""
     from pylmp_lattice.sweep.seeds import BLOCK, member_seeds
 
     def numpys(sweep_seed, index):
         return int(np.random.SeedSequence([sweep_seed, index]).generate_state(1, np.uint64)[0] >> 1)
 
-    for sweep_seed in (0, 9, 2**32 - 1, 2**32, 2**63 - 1, 2**96 + 5):
+    for sweep_seed in (0, 9, 2**32 - 1, 2**32, 2**63 - 1, 2**96 + 5, 2**128 + 7):
         for start, count in ((0, BLOCK + 3), (5, 1), (7, 3), (2**32 - 20, 20), (2**32 - 7, 7), (2**32 - 3, 6)):
             expected = [numpys(sweep_seed, i) for i in range(start, start + count)]
             assert list(member_seeds(sweep_seed, start, count)) == expected

@@ -21,6 +21,8 @@ CHUNK = 1 << 20
 # sweep's batched member asks for them again in its deck, levels, front record and summary (each
 # draw sets up three random streams, ~0.1 ms). Larger chains draw on each call (bounded memory).
 KEPT_DRAWS = 4096
+# The seed's independent streams: masses, gaps, velocities (`Chain._stream`)
+MASS_STREAM, GAP_STREAM, VELOCITY_STREAM = 0, 1, 2
 
 
 def check_seed(seed) -> None:
@@ -176,10 +178,10 @@ class Chain:
             yield part
 
     def _masses(self, chunk: int) -> Iterator[np.ndarray]:
-        return self._series(self.mass, self.particles, self.mass_disorder, 0, self.defect_mass, chunk)
+        return self._series(self.mass, self.particles, self.mass_disorder, MASS_STREAM, self.defect_mass, chunk)
 
     def _gaps(self, chunk: int) -> Iterator[np.ndarray]:
-        return self._series(self.r0, self.particles - 1, self.r0_disorder, 1, self.defect_r0, chunk)
+        return self._series(self.r0, self.particles - 1, self.r0_disorder, GAP_STREAM, self.defect_r0, chunk)
 
     def masses(self, first: int | None = None) -> np.ndarray:
         """Mass of each particle, g, shape (N,), with disorder and defect; of particles 1 ..
@@ -250,12 +252,21 @@ class Chain:
 
     def thermal_normals(self) -> np.ndarray:
         """The standard normal draws, shape (N-2,), that `thermal_velocities` makes the free
-        magnets' thermal velocities of (from the seed's velocity stream)."""
-        return self._stream(2).standard_normal(self.particles - 2)
+        magnets' thermal velocities of (from the seed's velocity stream; of many chains at once:
+        `thermal_normals`)."""
+        return self._stream(VELOCITY_STREAM).standard_normal(self.particles - 2)
 
     def positions(self) -> np.ndarray:
         """Initial positions x_n, mm, with x_1 = 0."""
         return np.concatenate([[0.0], np.cumsum(self.gaps())])
+
+
+def thermal_normals(chains) -> np.ndarray:
+    """`Chain.thermal_normals` of chains of equal N, shape (R, N-2), bit for bit, drawn together
+    from one generator re-seeded per chain (`seeding.stream_normals`)."""
+    from .seeding import stream_normals
+
+    return stream_normals([chain.seed or 0 for chain in chains], VELOCITY_STREAM, chains[0].particles - 2)
 
 
 def thermal_velocities(m: np.ndarray, thermal, z: np.ndarray) -> np.ndarray:

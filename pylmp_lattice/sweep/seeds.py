@@ -10,12 +10,8 @@ from collections.abc import Iterator
 
 import numpy as np
 
-# NumPy's SeedSequence (numpy/random/bit_generator.pyx): its pool of 4 words mixed from the
-# entropy, then the words of generate_state. All arithmetic is on 32-bit words, modulo 2**32.
-POOL = 4
-INIT_A, MULT_A, INIT_B, MULT_B = 0x43B0D7E5, 0x931E8875, 0x8B51F9DD, 0x58F38DED
-MIX_MULT_L, MIX_MULT_R, XSHIFT = 0xCA01F9DD, 0x4973F715, 16
-MASK = 0xFFFFFFFF
+from ..case.seeding import _words, seed_words, uint64s
+
 BLOCK = 4096  # members whose seeds are made at once
 
 
@@ -41,45 +37,12 @@ def _block(sweep_seed: int, start: int, count: int) -> list[int]:
 
 
 def _arrays_hold(sweep_seed: int, start: int, count: int) -> bool:
-    """Whether `_mixed` makes these seeds: the index of one word, the entropy within the pool."""
-    return start + count <= 2**32 and len(_words(sweep_seed)) + 1 <= POOL
+    """Whether `_mixed` makes these seeds: the index of one word (any sweep seed)."""
+    return start + count <= 2**32
 
 
 def _mixed(sweep_seed: int, start: int, count: int) -> list[int]:
     """SeedSequence([sweep_seed, i]).generate_state(1, np.uint64)[0] >> 1 for `count` members from
     `start`, with array operations (see `_arrays_hold`)."""
-    words = _words(sweep_seed)
-    entropy = [np.full(count, w, dtype=np.uint32) for w in words]
-    entropy.append(np.arange(start, start + count, dtype=np.uint64).astype(np.uint32))
-    const = INIT_A
-
-    def hashmix(value):
-        nonlocal const
-        value = value ^ np.uint32(const)
-        const = const * MULT_A & MASK
-        value = value * np.uint32(const)
-        return value ^ (value >> np.uint32(XSHIFT))
-
-    zero = np.zeros(count, dtype=np.uint32)
-    pool = [hashmix(entropy[i] if i < len(entropy) else zero) for i in range(POOL)]
-    for src in range(POOL):
-        for dst in range(POOL):
-            if src != dst:
-                mixed = np.uint32(MIX_MULT_L) * pool[dst] - np.uint32(MIX_MULT_R) * hashmix(pool[src])
-                pool[dst] = mixed ^ (mixed >> np.uint32(XSHIFT))
-    const, state = INIT_B, []
-    for word in pool[:2]:  # generate_state(1, np.uint64): two 32-bit words, the low one first
-        word = word ^ np.uint32(const)
-        const = const * MULT_B & MASK
-        word = word * np.uint32(const)
-        state.append((word ^ (word >> np.uint32(XSHIFT))).astype(np.uint64))
-    return ((state[0] | state[1] << np.uint64(32)) >> np.uint64(1)).tolist()
-
-
-def _words(n: int) -> list[int]:
-    """An integer's 32-bit words, the low one first (0 is one word), as SeedSequence reads it."""
-    words = [0] if n == 0 else []
-    while n > 0:
-        words.append(n & MASK)
-        n >>= 32
-    return words
+    index = np.arange(start, start + count, dtype=np.uint64).astype(np.uint32)
+    return (uint64s(seed_words([*_words(sweep_seed), index], count, 2))[0] >> np.uint64(1)).tolist()
