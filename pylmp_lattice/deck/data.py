@@ -4,7 +4,6 @@ system and read it."""
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -14,6 +13,9 @@ from ..formats.layout import DATA, in_deck
 from ..units import to_engine
 from .engine_args import _num
 from .kind import MAGNET_MASSES, per_atom_masses, uses_chain_engine
+
+# Chains whose data lines are made by one %-format (bounds the format's temporaries)
+CHAINS = 1024
 
 
 def data_text(case: Case, per_atom: bool | None = None) -> str:
@@ -43,7 +45,6 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
     masses, types = np.unique(each[:, :1] if per_atom else each, return_inverse=True)
     types = np.broadcast_to(types.reshape(chains, -1), (chains, n))
     v = to_engine(draws.velocities, "velocity")
-    ids = np.arange(1, n * chains + 1).reshape(chains, n).tolist()
     # The chain engine finds neighbours by atom ID: bonds would only make LAMMPS warn that no
     # bond style is set.
     pairs = [] if uses_chain_engine(first) else [(i, i + 1, 1) for i in range(n - 1)]
@@ -53,26 +54,36 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
     # the chains lie one box height apart in y
     half = to_engine(first.table_range()[1], "length")
     height = half - -half
-    atoms, bonds, magnet_masses, velocities = [], [], [], []
+    ids = np.arange(1, n * chains + 1)
+    bonds = [f"{k + 1 + r * len(pairs)} {kind} {r * n + i + 1} {r * n + j + 1}"
+             for r in range(chains) for k, (i, j, kind) in enumerate(pairs)]
+    atoms, magnet_masses, velocities = [], [], []
     moving = bool(np.any(v))  # a Velocities section has a line for every atom, or is left out
-    # a chain's atom lines as a format of (ID, molecule, y) per atom, made once per distinct x and
-    # types (a thermal batch has one), filled per chain at C speed
+    # Each section's lines for CHAINS chains at a time from one %-format filled at C speed (%r:
+    # repr, as f"{x!r}"). A chain's atom lines are a format of (ID, molecule, y) per atom, made
+    # once per distinct x and types (a thermal batch has one).
+    same = bool(np.all(x.view(np.uint64) == x[:1].view(np.uint64)) and np.all(types == types[0]))
     templates: dict[tuple, str] = {}
-    for r, (chain_ids, xs, ts, vs, ms) in enumerate(zip(ids, x.tolist(), (types + 1).tolist(), v.tolist(),
-                                                         to_engine(each, "mass").tolist())):
-        y = _num(r * height) if r else "0"
-        key = (tuple(xs), tuple(ts))
-        template = templates.get(key) or templates.setdefault(key, "\n".join(f"%d %d {t} {xi!r} %s 0"
-                                                                              for t, xi in zip(ts, xs)))
-        fill = [y] * (3 * n)
-        fill[0::3], fill[1::3] = chain_ids, [r + 1] * n
-        atoms.append(template % tuple(fill))  # its lines joined, as the file joins them
-        bonds += [f"{k + 1 + r * len(pairs)} {kind} {chain_ids[i]} {chain_ids[j]}" for k, (i, j, kind) in enumerate(pairs)]
-        # a chain's lines as one text, filled by one format (%r: repr, as f"{m!r}")
+    for lo in range(0, chains, CHAINS):
+        hi = min(chains, lo + CHAINS)
+        part = ids[lo * n:hi * n].tolist()
+        rows = [0] if same else range(lo, hi)
+        formats = []
+        for r in rows:
+            key = (x[r].tobytes(), types[r].tobytes())
+            if key not in templates:
+                templates[key] = "\n".join(f"%d %d {t} {xi!r} %s 0" for t, xi in zip((types[r] + 1).tolist(),
+                                                                                      x[r].tolist()))
+            formats.append(templates[key])
+        fill = [None] * (3 * len(part))
+        fill[0::3], fill[1::3] = part, np.repeat(np.arange(lo + 1, hi + 1), n).tolist()
+        fill[2::3] = np.repeat(np.array([_num(r * height) if r else "0" for r in range(lo, hi)], dtype=object), n).tolist()
+        atoms.append("\n".join(formats * (hi - lo) if same else formats) % tuple(fill))
         if per_atom:
-            magnet_masses.append(_lines("%d %r", n) % _pairs(chain_ids, ms))
+            ms = to_engine(each[lo:hi], "mass").ravel().tolist()
+            magnet_masses.append("\n".join(["%d %r"] * len(part)) % _pairs(part, ms))
         if moving:
-            velocities.append(_lines("%d %r 0 0", n) % _pairs(chain_ids, vs))
+            velocities.append("\n".join(["%d %r 0 0"] * len(part)) % _pairs(part, v[lo:hi].ravel().tolist()))
     name = check_name(first.name)
     lines = [
         f"# {name}: {n} magnets on the x axis (LAMMPS units si)" if chains == 1 else
@@ -99,12 +110,6 @@ def chains_data_text(cases: Sequence[Case], per_atom: bool | None = None, draws=
         if section_lines:
             lines += ["", section, "", *section_lines]
     return "\n".join(lines) + "\n"
-
-
-@functools.lru_cache(maxsize=64)
-def _lines(line: str, n: int) -> str:
-    """n copies of a line's format, joined by newlines (made once per format and n)."""
-    return "\n".join([line] * n)
 
 
 def _pairs(ids: list, values: list) -> tuple:
