@@ -20,7 +20,7 @@ from .script import deck_text
 from .tables import _tables
 
 
-def render_replicas(cases: Sequence[Case], front: bool = False, draws=None) -> dict[str, str]:
+def render_replicas(cases: Sequence[Case], front: bool = False, draws=None, data: bool = True) -> dict[str, str]:
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
@@ -35,7 +35,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False, draws=None) -> d
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
     = "none", each chain with its own levels (`case_measures.chain_front_levels`). draws: the
-    cases' `case_measures.chain_draws`, if drawn.
+    cases' `case_measures.chain_draws`, if drawn. Without `data`, no data file (for an engine
+    that takes the chains as arrays: their text is most of a batch's files' cost).
     """
     first = cases[0]
     batch = replica_batch(cases)
@@ -46,7 +47,8 @@ def render_replicas(cases: Sequence[Case], front: bool = False, draws=None) -> d
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines() if front and first.friction else "")),
-             DATA: chains_data_text(cases, per_atom, draws), **_tables(batch, table=_law_args(first.force) is None)}
+             **({DATA: chains_data_text(cases, per_atom, draws)} if data else {}),
+             **_tables(batch, table=_law_args(first.force) is None)}
     levels = front_levels_file(cases, draws) if front and records_front(batch) else None
     if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
         files[FRONT_LEVELS] = levels

@@ -48,7 +48,8 @@ from .write import write
 class Engine(Protocol):
     """What runs a written folder: `nprocs` (for the estimate), `check(path)` (refuse a folder
     it cannot run, before anything is written) and `engine(path, on_step)`, which raises
-    ContactError, RunError or Interrupted as `runner.run_deck` does."""
+    ContactError, RunError or Interrupted as `runner.run_deck` does. An engine with `reads_data`
+    False (one that takes a batch's chains as arrays) gets no data file in a batch's folder."""
 
     nprocs: int
 
@@ -144,7 +145,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     engine.check(Path(folder))
     if len(cases) == 1:
         preflight.check(cases[0], folder, engine.nprocs, yes=yes)
-    files = deck.render_folder(cases, draws)
+    files = deck.render_folder(cases, draws, data=getattr(engine, "reads_data", True))
     with ExitStack() as held:
         claimed = claim(folder, overwrite, held)
         write(claimed, cases, files, marker.RUNNING)
