@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 from functools import cached_property
+from operator import attrgetter
 from pathlib import Path
 
 import numpy as np
@@ -80,7 +81,7 @@ def chain_draws(cases) -> ChainDraws:
     once, and get their velocities together (`thermal_velocities`), each row its chain's bits."""
     chains = [case.chain for case in cases]
     first = chains[0]
-    if len(chains) > 1 and all(map(_thermal_only, chains)) and all(_same_nominal(c, first) for c in chains):
+    if len(chains) > 1 and all(map(_thermal_only, chains)) and all(map(_NOMINAL(first).__eq__, map(_NOMINAL, chains))):
         masses, gaps, r = first.masses(), first.gaps(), len(chains)
         v = np.zeros((r, first.particles))
         v[:, 1:-1] = thermal_velocities(masses[1:-1], [c.thermal_velocity for c in chains],
@@ -95,13 +96,9 @@ def _thermal_only(chain: Chain) -> bool:
     return bool(chain.thermal_velocity) and chain.velocity is None and not (chain.mass_disorder or chain.r0_disorder)
 
 
-def _same_nominal(chain: Chain, first: Chain) -> bool:
-    """Whether the chain's masses and gaps are `first`'s without drawing them (no disorder)."""
-    return chain is first or all(getattr(chain, f) is getattr(first, f) or getattr(chain, f) == getattr(first, f)
-                                 for f in _NOMINAL)
-
-
-_NOMINAL = ("particles", "mass", "r0", "defect_index", "defect_mass", "defect_r0")
+# What sets a chain's masses and gaps without disorder, as one tuple (chains with equal tuples have
+# the same; a tuple's == tries `is` first: a sweep's replicas share these objects)
+_NOMINAL = attrgetter("particles", "mass", "r0", "defect_index", "defect_mass", "defect_r0")
 
 
 def chain_noise(case: Case) -> float:

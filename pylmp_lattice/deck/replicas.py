@@ -5,6 +5,7 @@ levels when they differ."""
 from __future__ import annotations
 
 import dataclasses
+import operator
 import re
 from collections.abc import Sequence
 
@@ -63,11 +64,11 @@ def replica_batch(cases: Sequence[Case]) -> Case:
     first = cases[0]
     first_range = replica_range(first)
     tabulated = first_range is not None  # of every replica: their laws are first's (checked below)
+    outside = _OUTSIDE_CHAIN(first)
     for r, case in enumerate(cases):
         if not uses_chain_engine(case):
             raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
-        if any(getattr(case, name) is not getattr(first, name) and getattr(case, name) != getattr(first, name)
-               for name in _OUTSIDE_CHAIN):  # (a sweep's replicas share these objects)
+        if _OUTSIDE_CHAIN(case) != outside:  # (a tuple's == tries `is` first: a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or (tabulated and case.table_range() != first_range):
             raise ConfigError("replicas", f"replica {r}: N and the table range must equal replica 0's")
@@ -83,9 +84,10 @@ def replica_range(case: Case) -> tuple[float, float] | None:
     return case.table_range() if _law_args(case.force) is None else None
 
 
-# What of a case reaches its deck beyond the data file and the front levels: everything but the
-# chain, whose N and table range render_replicas checks (its name is in comments only).
-_OUTSIDE_CHAIN = tuple(f.name for f in dataclasses.fields(Case) if f.name not in ("chain", "name"))
+# What of a case reaches its deck beyond the data file and the front levels, as one tuple:
+# everything but the chain, whose N and table range render_replicas checks (its name is in
+# comments only).
+_OUTSIDE_CHAIN = operator.attrgetter(*(f.name for f in dataclasses.fields(Case) if f.name not in ("chain", "name")))
 
 
 # fix lattice/front's line in a deck, its levels as groups (pulse_floor optional)
