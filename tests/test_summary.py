@@ -77,6 +77,11 @@ def test_rounding_without_the_logarithm_is_the_rounding_with_it():
             values += (x + np.arange(-4, 5) * np.spacing(x)).tolist()
             values += [-x, *(x * (1 + np.array([-1, 1])[:, None] * 10.0 ** -np.arange(1, 12))).ravel().tolist()]
             values += (x * rng.uniform(0.99, 1.01, 200)).tolist()
+    for decimals in (4, 5, 6):  # ties and near-ties of each: the array way steps aside there
+        half = (np.arange(-3000, 3000) + 0.5) / 10.0**decimals
+        values += [*half.tolist(), *np.nextafter(half, np.inf).tolist(), *np.nextafter(half, -np.inf).tolist(),
+                   *(half * 10.0 ** rng.integers(-3, 4, half.size)).tolist()]
+    values += [2.675, 0.125, 0.375, -2.5e-5, 1.00005, 2**52 + 0.5, 2.0**60, 1e22, 123456.78905]
     for decimals in (4, 5, 6):
         for significant in (1, 3, 5):
             got = [_round(v, decimals, significant) for v in values]
