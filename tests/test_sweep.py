@@ -495,6 +495,41 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
     assert list(out.iterdir()) == []
 
 
+def test_tasks_pause_the_cyclic_collector_and_leave_it_as_they_found_it():
+    """The collector is off while any task of this process runs (threads share it), and back
+    as it was once the last one ends: on if it was on, off if it was off."""
+    import gc
+    import threading
+
+    from pylmp_lattice.sweep import batch
+
+    seen, inner_started, outer_may_end = [], threading.Event(), threading.Event()
+
+    def other_task():
+        with batch._collector_paused():
+            inner_started.set()
+            outer_may_end.wait(5)
+            seen.append(gc.isenabled())
+
+    assert gc.isenabled()
+    with batch._collector_paused():
+        thread = threading.Thread(target=other_task)
+        thread.start()
+        inner_started.wait(5)
+        seen.append(gc.isenabled())
+    seen.append(gc.isenabled())  # the other task still runs
+    outer_may_end.set()
+    thread.join(5)
+    assert seen == [False, False, False] and gc.isenabled()
+    gc.disable()
+    try:
+        with batch._collector_paused():
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
 def test_copies_of_a_task_take_turns_on_its_lock_and_no_lock_file_stays(tmp_path):
     """As Dask may run a task twice: copy B waits for copy A; A removes the lock file as it lets
     go, and a copy C that came after the removal holds a new file: B, woken on the removed file,
