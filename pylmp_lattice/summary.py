@@ -260,15 +260,25 @@ def _fitted(xs: list[float]) -> list[float | None]:
 
 
 def _rounds(xs: list[float], decimals: int) -> list[float]:
-    """`_round` of each of some floats (a batch's column), with array operations where they give
-    `round`'s bits (`_decimals_rounded`), `round` or `_round` (the small ones) for the rest."""
+    """`_round` of each of some floats (a batch's column): `rounds` where `decimals` keeps enough
+    figures, `_round` for the small ones."""
     a = np.asarray(xs, dtype=float)
     with np.errstate(invalid="ignore"):
-        big = (np.abs(a) > _PLAIN.get(SIGNIFICANT - 1 - decimals, math.inf)) | (a == 0)
+        small = ~((np.abs(a) > _PLAIN.get(SIGNIFICANT - 1 - decimals, math.inf)) | (a == 0) | ~np.isfinite(a))
+    out = rounds(a, decimals)
+    for k in np.flatnonzero(small).tolist():
+        out[k] = _round(xs[k], decimals)
+    return out
+
+
+def rounds(xs, decimals: int) -> list[float]:
+    """round(float(x), decimals) of each x (a list or array of numbers), bit for bit, with array
+    operations where they give its bits (`_decimals_rounded`), `round` for the rest."""
+    a = np.asarray(xs, dtype=float)
     out, exact = _decimals_rounded(a, decimals)
     out = out.tolist()
-    for k in np.flatnonzero(~(big & exact)).tolist():
-        out[k] = round(float(xs[k]), decimals) if big[k] else _round(xs[k], decimals)
+    for k in np.flatnonzero(~exact).tolist():
+        out[k] = round(float(a[k]), decimals)
     return out
 
 

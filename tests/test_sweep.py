@@ -1070,8 +1070,8 @@ def test_a_batch_stopped_by_its_narrowest_range_runs_its_members_alone(tmp_path,
 
     original = deck.render_replicas
 
-    def narrow(cases, front=False, draws=None, data=True):
-        files = original(cases, front, draws, data)
+    def narrow(cases, front=False, draws=None, chain_files=True):
+        files = original(cases, front, draws, chain_files)
         files[deck.DECK] = re.sub(r"(range \S+ )(\S+)", lambda m: m.group(1) + repr(float(m.group(2)) / 2.995),
                                   files[deck.DECK])
         return files

@@ -59,10 +59,10 @@ def assert_same_table(a: pd.DataFrame, b: pd.DataFrame, rtol: float = 1e-9) -> N
 def test_the_cpu_engine_gives_the_lammps_results_table(tmp_path, ensemble):
     """Six replicas of the 21-magnet experiment (friction on the rod), one batch each way: the
     table's measures within 1e-9 (the kernel is the fixes' physics: in fact bit for bit), the
-    replica statistics alike, and the batch folders hold the same files but the log and the
-    data file, which the kernel does not read: `write_folder` of the batch's cases writes the
-    LAMMPS batch's deck and data file again, byte for byte."""
-    from pylmp_lattice.formats.layout import DATA, DECK
+    replica statistics alike, and the batch folders hold the same files but the log, the data
+    and the levels file, which the kernel does not read: `write_folder` of the batch's cases
+    writes the LAMMPS batch's deck, data and levels files again, byte for byte."""
+    from pylmp_lattice.formats.layout import DATA, DECK, FRONT_LEVELS
     from pylmp_lattice.run_folder import RunFolder, write_folder
 
     path = write_sweep(tmp_path, 6, ENSEMBLES[ensemble])
@@ -77,12 +77,15 @@ def test_the_cpu_engine_gives_the_lammps_results_table(tmp_path, ensemble):
     assert {r["engine"] for r in records} == {"cpu"} and len({r["batch"] for r in records}) == 1
     folder = tmp_path / "cpu" / records[0]["batch"]
     same = tmp_path / "lammps" / records[0]["batch"]
-    assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in same.iterdir() if p.name != DATA)
+    assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in same.iterdir()
+                                                           if p.name not in (DATA, FRONT_LEVELS))
     assert (folder / "front.bin").read_bytes()[:200] != b"" and "cpu engine" in (folder / "log.lammps").read_text()
     again = write_folder(RunFolder(folder).cases, tmp_path / "again")  # as the log says
     assert "write_folder(RunFolder(THIS).cases, NEW)" in (folder / "log.lammps").read_text()
-    for name in (DECK, DATA):
-        assert (again / name).read_bytes() == (same / name).read_bytes(), name
+    assert (same / FRONT_LEVELS).exists() == ensemble.startswith("thermal")  # each chain its noise's levels
+    for name in (DECK, DATA, FRONT_LEVELS):
+        texts = [p.read_bytes() if p.exists() else None for p in (again / name, same / name)]
+        assert texts[0] == texts[1] and (texts[0] is not None or name == FRONT_LEVELS), name
     states = [json.loads((f / "run.json").read_text())["state"] for f in (folder, same)]
     assert states == [DONE, DONE]
 

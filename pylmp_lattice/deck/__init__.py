@@ -47,11 +47,12 @@ def render(case: Case) -> dict[str, str]:
 
 # render_folder calls render_replicas through this module, so that replacing
 # deck.render_replicas (tests/test_sweep.py) reaches every run folder's deck.
-def render_folder(cases: Sequence[Case], draws=None, data: bool = True) -> dict[str, str]:
+def render_folder(cases: Sequence[Case], draws=None, chain_files: bool = True) -> dict[str, str]:
     """The deck files of a run folder of one case (`render`) or of a batch of chains
-    (`render_replicas`; draws: their `case_measures.chain_draws`, if drawn; without `data`, no
-    data file): a batch whose cases write no per-frame output (output.format = "none") records
-    every chain's front; else it writes one text dump of all chains."""
+    (`render_replicas`; draws: their `case_measures.chain_draws`, if drawn; without
+    `chain_files`, no data and levels files): a batch whose cases write no per-frame output
+    (output.format = "none") records every chain's front; else it writes one text dump of all
+    chains."""
     if len(cases) == 1:
         return render(cases[0])
-    return render_replicas(cases, front=cases[0].output.format == "none", draws=draws, data=data)
+    return render_replicas(cases, front=cases[0].output.format == "none", draws=draws, chain_files=chain_files)

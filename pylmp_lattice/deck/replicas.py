@@ -21,7 +21,7 @@ from .script import deck_text
 from .tables import _tables
 
 
-def render_replicas(cases: Sequence[Case], front: bool = False, draws=None, data: bool = True) -> dict[str, str]:
+def render_replicas(cases: Sequence[Case], front: bool = False, draws=None, chain_files: bool = True) -> dict[str, str]:
     """R cases as R independent chains in one deck (chain engine): {file name: text}.
 
     The cases may differ only in their [chain] (masses, gaps, and what else the data file
@@ -36,8 +36,9 @@ def render_replicas(cases: Sequence[Case], front: bool = False, draws=None, data
     With `front` it writes no per-frame output, only the front record of every atom (one
     front.bin; replica r's rows are its atoms), as each case alone would with output.format
     = "none", each chain with its own levels (`case_measures.chain_front_levels`). draws: the
-    cases' `case_measures.chain_draws`, if drawn. Without `data`, no data file (for an engine
-    that takes the chains as arrays: their text is most of a batch's files' cost).
+    cases' `case_measures.chain_draws`, if drawn. Without `chain_files`, no data file and no
+    levels file, only the deck that reads them (for an engine that takes the chains as arrays:
+    these texts, some 25 floats a chain, are most of a batch's files' cost).
     """
     first = cases[0]
     batch = replica_batch(cases)
@@ -48,11 +49,12 @@ def render_replicas(cases: Sequence[Case], front: bool = False, draws=None, data
     per_atom = any(per_atom_masses(case) for case in cases)
     files = {DECK: (deck_text(batch, replicas=len(cases), per_atom=per_atom)
                     + (_chain_work_lines() if front and first.friction else "")),
-             **({DATA: chains_data_text(cases, per_atom, draws)} if data else {}),
+             **({DATA: chains_data_text(cases, per_atom, draws)} if chain_files else {}),
              **_tables(batch, table=_law_args(first.force) is None)}
-    levels = front_levels_file(cases, draws) if front and records_front(batch) else None
-    if levels is not None:  # the chains' levels differ: fix lattice/front reads one row per chain
-        files[FRONT_LEVELS] = levels
+    rows = front_levels_rows(cases, draws) if front and records_front(batch) else None
+    if rows is not None and np.any(rows != rows[0]):  # the chains' levels differ: fix lattice/front reads one row per chain
+        if chain_files:
+            files[FRONT_LEVELS] = _levels_text(rows)
         files[DECK] = _FRONT_FIX.sub(lambda m: f"{m.group(0)} length {first.chain.particles} levels "
                                                f"{in_deck(FRONT_LEVELS)}", files[DECK], count=1)
     return files
@@ -100,8 +102,10 @@ def front_levels_file(cases: Sequence[Case], draws=None) -> str | None:
     its deck alone passes the fix (`_output_lines`); None when all chains have the same levels
     (draws: the cases' `case_measures.chain_draws`, if drawn)."""
     rows = front_levels_rows(cases, draws)
-    if np.all(rows == rows[0]):
-        return None
+    return None if np.all(rows == rows[0]) else _levels_text(rows)
+
+
+def _levels_text(rows: np.ndarray) -> str:
     return "# start front drop pulse_drop pulse_floor, one chain per row (SI)\n" + "".join(
         f"{a!r} {b!r} {c!r} {d!r} {e!r}\n" for a, b, c, d, e in rows.tolist())
 

@@ -3,12 +3,13 @@ run by the host build (`cpu`) or the GPU build (`gpu`) of the chain kernel into 
 that looks as LAMMPS leaves it.
 
 `run_folder.execute_batch` writes the folder (deck, replicas.toml, run.json "running"; no data
-file, which this engine does not read: its text cost 20-35 us a member of the worker's Python),
+file and no levels file, which this engine does not read: their text cost 20-40 us a member of
+the worker's Python),
 this engine runs it and writes what fix lattice/front and fix lattice/chain write at the end
 of a batch: front.bin (one frame, a row per atom, `layout.FRONT_COLUMNS`, engine units) and,
 with friction, chain_work.txt (each chain's work, %.17g); the log says which engine ran and how
 to run the same chains with LAMMPS: `run_folder.write_folder(RunFolder(folder).cases, NEW)`
-writes the deck and the data file of the chains in replicas.toml. A chain that
+writes the deck, the data and the levels files of the chains in replicas.toml. A chain that
 stops early (a contact, a gap out of the table range, a measured drive's end) fails the batch
 as it fails LAMMPS's: ContactError or RunError.
 """
@@ -32,9 +33,9 @@ from .library import Unsupported
 from .library import layout as kernel_layout
 
 KERNELS = ENGINES[1:]
-# the log's word on the data file this engine's folder lacks
-NO_DATA = ("no data file: the chains are replicas.toml's; pylmp_lattice.run_folder.write_folder(RunFolder(THIS).cases, "
-           "NEW) writes them into NEW, which `pylmp-lattice lmp -in in.lattice` runs with LAMMPS")
+# the log's word on the files this engine's folder lacks
+NO_DATA = ("no data or levels file: the chains are replicas.toml's; pylmp_lattice.run_folder.write_folder("
+           "RunFolder(THIS).cases, NEW) writes them into NEW, which `pylmp-lattice lmp -in in.lattice` runs with LAMMPS")
 
 
 class KernelEngine:
@@ -45,7 +46,7 @@ class KernelEngine:
     them at the end of its batch."""
 
     nprocs = 1
-    reads_data = False  # the chains come as arrays: the folder gets no data file
+    reads_chain_files = False  # the chains come as arrays: the folder gets no data or levels file
     final: tuple[np.ndarray, np.ndarray] | None = None
 
     def __init__(self, kind: str, cases: list[Case], threads: int | None = None, draws=None):
@@ -79,7 +80,7 @@ class KernelEngine:
             ids = np.arange(1, a.chains * a.n + 1, dtype=float)[:, None]
             write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, np.hstack([ids, front]))
         if a.friction is not None:
-            atomic_write(path / layout.CHAIN_WORK, "".join(f"{w:.17g}\n" for w in work))
+            atomic_write(path / layout.CHAIN_WORK, "%.17g\n" * len(work) % tuple(work.tolist()))
         stopped, names = np.flatnonzero(status), kernel_layout().status
         if stopped.size:
             c = int(stopped[np.argmin(end_step[stopped])])  # the first to stop, as LAMMPS stops at it

@@ -48,8 +48,9 @@ from .write import write
 class Engine(Protocol):
     """What runs a written folder: `nprocs` (for the estimate), `check(path)` (refuse a folder
     it cannot run, before anything is written) and `engine(path, on_step)`, which raises
-    ContactError, RunError or Interrupted as `runner.run_deck` does. An engine with `reads_data`
-    False (one that takes a batch's chains as arrays) gets no data file in a batch's folder."""
+    ContactError, RunError or Interrupted as `runner.run_deck` does. An engine with
+    `reads_chain_files` False (one that takes a batch's chains as arrays) gets no data file and
+    no levels file in a batch's folder (`deck.render_folder`)."""
 
     nprocs: int
 
@@ -145,7 +146,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     engine.check(Path(folder))
     if len(cases) == 1:
         preflight.check(cases[0], folder, engine.nprocs, yes=yes)
-    files = deck.render_folder(cases, draws, data=getattr(engine, "reads_data", True))
+    files = deck.render_folder(cases, draws, chain_files=getattr(engine, "reads_chain_files", True))
     with ExitStack() as held:
         claimed = claim(folder, overwrite, held)
         write(claimed, cases, files, marker.RUNNING)

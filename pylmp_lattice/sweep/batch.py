@@ -275,10 +275,16 @@ def _summaries(cases: list[Case], batch: Path, draws, points: list[str]) -> list
     record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws)
     out = summaries(cases, record.front, record.max_speed, draws, points)
     if cases[0].friction is not None:
+        import numpy as np
+
+        from ..summary import rounds
         from ..units import from_engine
 
         # as a run alone reads it from its log: the thermo column's 8 significant digits
         works = (batch / layout.CHAIN_WORK).read_text().split()
-        for summary, work in zip(out, works, strict=True):
-            summary["friction_dissipated_energy_mJ"] = round(float(from_engine(float(f"{float(work):.8g}"), "energy")), 6)
+        if len(works) != len(out):
+            raise ValueError(f"{layout.CHAIN_WORK}: {len(works)} chains' work for {len(out)} chains")
+        logged = (" ".join(["%.8g"] * len(works)) % tuple(map(float, works))).split()
+        for summary, work in zip(out, rounds(from_engine(np.array(list(map(float, logged))), "energy"), 6)):
+            summary["friction_dissipated_energy_mJ"] = work
     return out
