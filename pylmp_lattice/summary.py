@@ -60,11 +60,11 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     positions = draws.positions
     fits = _front_speeds(cases, points, front.arrival, positions)
     labs = _lab_speeds(cases, points, front.arrival, positions)
-    out = _linear_part(cases, draws)
+    out = _linear_part(cases, draws, points)
     resolutions = _resolutions(front.resolutions())
     resolved = [res["resolved"] for res in resolutions]
     plateaus, peak_plateaus = _plateaus(speeds, resolved), _plateaus(first_peaks, resolved)
-    over_vi = _rounds([p.mean / vi for p in first_peaks], 4)
+    over_vi = _rounds(first_peaks.mean / vi, 4)
     for r, (case, flags, resolution) in enumerate(zip(cases, _flags(front.all_flags()), resolutions)):
         out[r] |= {
             "particles_reached_by_front": reached[r],
@@ -106,6 +106,9 @@ def front_window(case: Case) -> tuple[int, int] | None:
 
 def _points(keys) -> list[list[int]]:
     """The rows of the cases grouped by their point keys, in order of first appearance."""
+    keys = list(keys)
+    if keys and keys.count(keys[0]) == len(keys):  # one point (a sweep's task): at C speed
+        return [list(range(len(keys)))]
     groups: dict = {}
     for r, key in enumerate(keys):
         groups.setdefault(key, []).append(r)
@@ -166,24 +169,24 @@ def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: 
     return out
 
 
-def _linear_part(cases, draws: ChainDraws) -> list[dict]:
+def _linear_part(cases, draws: ChainDraws, points: list[list[int]] | None = None) -> list[dict]:
     """The part of each summary without a front: the case, N, V_I and the linear V0 and f0
-    (computed once for chains of equal mean gap and mass)."""
-    done: dict[tuple, tuple[float, float]] = {}
-    out = []
-    for case, r0, mass in zip(cases, np.mean(draws.gaps, axis=1).tolist(), np.mean(draws.masses, axis=1).tolist()):
-        key = (r0, mass, case.force)
-        if key not in done:
-            v0, f0 = linear_constants_at(case.force, *key[:2])
-            done[key] = _round(v0, 6), _round(f0, 4)
-        v0, f0 = done[key]
-        out.append({
-            "case": case.name,
-            "particles": case.chain.particles,
-            "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity(),
-            "linear_wave_speed_V0_m_per_s": v0,
-            "linear_frequency_f0_Hz": f0,
-        })
+    (computed once for chains of equal mean gap and mass); points: the rows grouped by
+    `_points` (cases that differ at most in chain.seed share all but V0 and f0's means)."""
+    out: list = [None] * len(cases)
+    r0s, masses = np.mean(draws.gaps, axis=1).tolist(), np.mean(draws.masses, axis=1).tolist()
+    for rows in points or _points(range(len(cases))):
+        case = cases[rows[0]]
+        done: dict[tuple, tuple[float, float]] = {}
+        part = {"case": case.name, "particles": case.chain.particles,
+                "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity()}
+        for r in rows:
+            key = (r0s[r], masses[r])
+            if key not in done:
+                v0, f0 = linear_constants_at(case.force, *key)
+                done[key] = _round(v0, 6), _round(f0, 4)
+            v0, f0 = done[key]
+            out[r] = part | {"linear_wave_speed_V0_m_per_s": v0, "linear_frequency_f0_Hz": f0}
     return out
 
 
@@ -233,23 +236,25 @@ def _floats_rounded(rows: list[dict], decimals: int) -> list[dict]:
     return [dict(zip(keys, values)) for values in zip(*columns)]
 
 
-def _plateaus(plateaus: list[measures.Plateau], resolved: list[bool]) -> list[dict]:
+def _plateaus(plateaus: measures.Plateaus, resolved: list[bool]) -> list[dict]:
     """Each plateau as JSON (its chain's arrival times `resolved` or not), its window as
     first_gap, last_gap (or first_magnet, last_magnet). trend: "steady" when converged (drift
     within 1 %, or 3 standard errors, and a scatter within 20 % of the mean), else "decaying"
     (e.g. V_P with friction) or "growing": a drifting mean is not a plateau; "unresolved" (never
     converged) when the arrival times come from frames too coarse for the gaps (`resolved`
     False; see `front_resolution`). Null, like the numbers, when the series has too few values.
-    The numbers are rounded a column at a time (`_rounds`)."""
-    numbers = zip(*(_rounds([getattr(p, f) for p in plateaus], 5) for f in ("mean", "std", "drift", "drift_stderr")))
+    The numbers are rounded, and convergence judged, a column at a time."""
+    numbers = zip(*(_rounds(getattr(plateaus, f), 5) for f in ("mean", "std", "drift", "drift_stderr")))
+    defined = np.isfinite(plateaus.mean)
+    converged = (defined & np.asarray(resolved, dtype=bool) & plateaus.converged()).tolist()
+    first, last = f"first_{plateaus.over}", f"last_{plateaus.over}"
     out = []
-    for p, ok, (mean, std, drift, stderr) in zip(plateaus, resolved, numbers):
-        defined = math.isfinite(p.mean)
-        converged = defined and ok and p.converged()
-        trend = (None if not defined else "unresolved" if not ok else "steady" if converged
-                 else "decaying" if p.drift < 0 else "growing")
+    for ok, known, steady, decaying, (mean, std, drift, stderr), a, b in zip(
+            resolved, defined.tolist(), converged, (plateaus.drift < 0).tolist(), numbers, plateaus.first, plateaus.last):
+        trend = (None if not known else "unresolved" if not ok else "steady" if steady
+                 else "decaying" if decaying else "growing")
         out.append({"mean": mean, "std": std, "relative_drift": drift, "relative_drift_stderr": stderr,
-                    "converged": converged, "trend": trend, f"first_{p.over}": p.first, f"last_{p.over}": p.last})
+                    "converged": steady, "trend": trend, first: a, last: b})
     return out
 
 

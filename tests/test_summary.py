@@ -40,7 +40,7 @@ def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
     steady = measures.trailing_plateau(3.9 + 1e-4 * np.sin(gaps))
     decaying = measures.trailing_plateau(3.9 - 0.004 * gaps)  # loses 0.2 of 3.9 m/s over the last 50
     growing = measures.trailing_plateau(3.0 + 0.004 * gaps)
-    s, d, g = _plateaus([steady, decaying, growing], [True] * 3)
+    s, d, g = _plateaus(measures.Plateaus.of([steady, decaying, growing]), [True] * 3)
     assert (s["converged"], s["trend"]) == (True, "steady") and (s["first_gap"], s["last_gap"]) == (151, 200)
     assert (d["converged"], d["trend"]) == (False, "decaying") and d["relative_drift"] < -0.01
     assert (g["converged"], g["trend"]) == (False, "growing")
@@ -51,7 +51,7 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
     (5 decimals); it stays 1.09e-6 (3 significant figures), while a V_P of 3.9012345 m/s keeps
     its 5 decimals (3.90123) as before."""
     p = measures.Plateau(3.9012345, 4.2345e-6, 2.01e-4, 1, 50, drift_stderr=1.0912e-6)
-    d = _plateaus([p], [True])[0]
+    d = _plateaus(measures.Plateaus.of([p]), [True])[0]
     assert d["relative_drift_stderr"] == pytest.approx(1.09e-6, rel=1e-12)
     assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
     assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123

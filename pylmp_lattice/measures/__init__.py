@@ -41,6 +41,7 @@ from .peaks import FirstPeaks, first_peaks
 from .propagation import (
     FrontFit,
     Plateau,
+    Plateaus,
     centred_propagation_velocity,
     fit_front_speeds,
     fit_propagation_velocity,
@@ -75,7 +76,7 @@ __all__ = [
     "FRONT_FRACTION", "NOISE_FALL", "NOISE_LEVEL", "PROMINENCE", "PULSE_DROP", "START_FRACTION",
     "ARRIVAL_METHODS", "KNEE_METHODS", "CriticalVelocity", "FirstPeaks", "Front", "FrontFit", "FrontLevels",
     "Oscillations",
-    "PhasePortrait", "Plateau", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
+    "PhasePortrait", "Plateau", "Plateaus", "SteadyOscillation", "TransitionZone", "arrival_times", "centred_propagation_velocity",
     "critical_velocities", "critical_velocity", "default_arrival_method", "first_peaks", "fit_front_speeds", "fit_propagation_velocity",
     "front", "front_levels", "particles_reached", "stack_fronts", "linear_frequency", "linear_wave_speed", "noise_velocity", "oscillations",
     "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",

@@ -8,7 +8,6 @@ Arrival times in ms and positions/gaps in mm give velocities in mm/ms = m/s. Arr
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -168,14 +167,56 @@ class Plateau:
         Gaussian scatter is called drifting 0.3 % of the time), but a series that scatters by
         about its mean has no level, whatever its drift (e.g. arrival times read from frames far
         coarser than a gap's crossing; `Front.resolution` says when they are)."""
-        noisy = 3.0 * self.drift_stderr if math.isfinite(self.drift_stderr) else 0.0  # (numpy's: 1 us a plateau)
-        return bool(abs(self.drift) <= max(rtol, noisy) and self.std <= SCATTER_LIMIT * abs(self.mean))
+        return bool(_converged(self.mean, self.std, self.drift, self.drift_stderr, rtol))
 
     def to_dict(self, rtol: float = 0.01) -> dict:
         """The plateau as a dict of plain values (JSON), with `converged(rtol)`."""
         return {"mean": self.mean, "std": self.std, "relative_drift": self.drift,
                 "relative_drift_stderr": self.drift_stderr, f"first_{self.over}": self.first,
                 f"last_{self.over}": self.last, "converged": self.converged(rtol), "converged_rtol": rtol}
+
+
+def _converged(mean, std, drift, drift_stderr, rtol: float):
+    """`Plateau.converged` of values or of arrays of them (`Plateaus.converged`)."""
+    noisy = np.where(np.isfinite(drift_stderr), 3.0 * np.asarray(drift_stderr, dtype=float), 0.0)
+    return (np.abs(drift) <= np.maximum(rtol, noisy)) & (std <= SCATTER_LIMIT * np.abs(mean))
+
+
+@dataclass(frozen=True)
+class Plateaus:
+    """The `Plateau`s of R series (`trailing_plateaus`) as columns: mean, std, drift,
+    drift_stderr arrays (R,); first, last lists of R numbers (None where undefined); over. A
+    sequence of Plateau (len, index, iterate); `converged` of all at once."""
+
+    mean: np.ndarray
+    std: np.ndarray
+    drift: np.ndarray
+    drift_stderr: np.ndarray
+    first: list
+    last: list
+    over: str = "gap"
+
+    @classmethod
+    def of(cls, plateaus) -> Plateaus:
+        """Plateaus of one `over` as columns."""
+        plateaus = list(plateaus)
+        column = lambda name: np.array([getattr(p, name) for p in plateaus], dtype=float)  # noqa: E731
+        return cls(column("mean"), column("std"), column("drift"), column("drift_stderr"), [p.first for p in plateaus],
+                   [p.last for p in plateaus], plateaus[0].over if plateaus else "gap")
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+    def __getitem__(self, r: int) -> Plateau:
+        return Plateau(float(self.mean[r]), float(self.std[r]), float(self.drift[r]), self.first[r], self.last[r],
+                       float(self.drift_stderr[r]), self.over)
+
+    def __iter__(self):
+        return map(self.__getitem__, range(len(self)))
+
+    def converged(self, rtol: float = 0.01) -> np.ndarray:
+        """`Plateau.converged` of each, (R,) bool."""
+        return _converged(self.mean, self.std, self.drift, self.drift_stderr, rtol)
 
 
 def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3, over: str = "gap") -> Plateau:
@@ -193,10 +234,11 @@ def trailing_plateau(values, fraction: float = 0.25, min_points: int = 3, over: 
     return trailing_plateaus(values[None], fraction, min_points, over)[0]
 
 
-def trailing_plateaus(values, fraction: float = 0.25, min_points: int = 3, over: str = "gap") -> list[Plateau]:
-    """`trailing_plateau` of each row of values (R, M), e.g. the V_P of R chains: row by row the
-    plateau of the row alone, bit for bit (the windows of equal length are gathered into a
-    C-ordered array, whose rows numpy reduces as it reduces a 1-D array)."""
+def trailing_plateaus(values, fraction: float = 0.25, min_points: int = 3, over: str = "gap") -> Plateaus:
+    """`trailing_plateau` of each row of values (R, M), e.g. the V_P of R chains, as columns
+    (`Plateaus`): row by row the plateau of the row alone, bit for bit (the windows of equal
+    length are gathered into a C-ordered array, whose rows numpy reduces as it reduces a 1-D
+    array)."""
     values = np.ascontiguousarray(values, dtype=float)
     if values.ndim != 2:
         raise ValueError(f"values: got shape {values.shape}; expected (R, N)")
@@ -211,22 +253,24 @@ def trailing_plateaus(values, fraction: float = 0.25, min_points: int = 3, over:
     count = np.maximum(np.ceil(fraction * n_finite).astype(int), min_points)
     # rank of each finite entry from the row's end (1: its last finite entry)
     rank = np.cumsum(finite[:, ::-1], axis=1)[:, ::-1]
-    out: list[Plateau] = [Plateau(NAN, NAN, NAN, None, None, NAN, over)] * len(values)
+    r = len(values)
+    out = Plateaus(np.full(r, NAN), np.full(r, NAN), np.full(r, NAN), np.full(r, NAN), [None] * r, [None] * r, over)
     for c, tail in set(zip(count.tolist(), np.minimum(2 * count, n_finite).tolist())):
         rows = np.flatnonzero((count == c) & (np.minimum(2 * count, n_finite) == tail) & (n_finite >= c))
         if rows.size == 0:
             continue
         index = np.nonzero(finite[rows] & (rank[rows] <= c))[1].reshape(rows.size, c)
         window = values[rows[:, None], index]
-        for r, plateau in zip(rows.tolist(), _plateaus(window, index, values[rows[:, None], np.nonzero(
-                finite[rows] & (rank[rows] <= tail))[1].reshape(rows.size, tail)], over)):
-            out[r] = plateau
+        tails = values[rows[:, None], np.nonzero(finite[rows] & (rank[rows] <= tail))[1].reshape(rows.size, tail)]
+        out.mean[rows], out.std[rows], out.drift[rows], out.drift_stderr[rows] = _plateaus(window, index, tails)
+        for k, first, last in zip(rows.tolist(), map(number, index[:, 0].tolist()), map(number, index[:, -1].tolist())):
+            out.first[k], out.last[k] = first, last
     return out
 
 
-def _plateaus(window, index, tail, over: str) -> list[Plateau]:
-    """Plateaus of windows (R, c) of values at entries index (R, c), with the tails (R, <= 2 c)
-    the scatter is estimated from (see trailing_plateau)."""
+def _plateaus(window, index, tail) -> tuple[np.ndarray, ...]:
+    """mean, std, drift and drift_stderr (R,) of windows (R, c) of values at entries index
+    (R, c), with the tails (R, <= 2 c) the scatter is estimated from (see trailing_plateau)."""
     count = window.shape[1]
     mean = window.mean(axis=1)
     x = index.astype(float)
@@ -238,9 +282,7 @@ def _plateaus(window, index, tail, over: str) -> list[Plateau]:
     # series (any noise-free one) has s, hence the error, near 0.
     scatter = np.sqrt(np.mean(np.diff(tail, 2) ** 2, axis=1) / 6) if tail.shape[1] > 2 else np.full(len(window), NAN)
     stderr = scatter / np.abs(mean) * (count - 1) * np.sqrt(12 / (count * (count**2 - 1)))
-    std = window.std(axis=1)
-    return [Plateau(m, s, d, number(i[0]), number(i[-1]), e, over)
-            for m, s, d, e, i in zip(mean.tolist(), std.tolist(), drift.tolist(), stderr.tolist(), index.tolist())]
+    return mean, window.std(axis=1), drift, stderr
 
 
 def _arrival(arrival):
