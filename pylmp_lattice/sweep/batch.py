@@ -31,6 +31,7 @@ import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
+from itertools import repeat
 from pathlib import Path
 
 from ..case import Case
@@ -127,7 +128,7 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
         if found is not None and found["record"]["status"] == DONE:
             results[m.id] = {"id": m.id} | found
     todo = [m for m in members if m.id not in results]
-    cases = member_cases(todo)
+    cases = _cases(task, todo)
     for m, case in zip(todo, cases):
         if case is None:  # invalid parameters (a replica's own draw): failed without running
             results[m.id] = _invalid(root, m)
@@ -148,6 +149,21 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     batched = {i for r in rows for i in r.columns["id"]}
     return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched)]
+
+
+def _cases(task: Task, members: list[Member]) -> list[Case | None]:
+    """Each member's case (`spec.member_cases`): the seeded replicas of a point (`spec.Replicas`)
+    straight from their first member's case with their own seed (`Member.build_from`), without
+    comparing their case dicts, which differ in chain.seed alone."""
+    seeded = {}
+    for part in task.members:
+        if isinstance(part, Replicas) and part.first.case is not None:
+            seeded.update(zip(part.ids, zip(repeat(part.first.case), part.seeds)))
+    for m in members:
+        if m.id in seeded:
+            m.build_from(*seeded[m.id])
+    others = iter(member_cases([m for m in members if m.id not in seeded]))
+    return [m.case if m.id in seeded else next(others) for m in members]
 
 
 def batchable(case: Case) -> bool:
