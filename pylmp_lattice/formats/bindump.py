@@ -110,17 +110,21 @@ def open_dump(path: str | Path) -> BinaryDump:
 def write_frame(path: str | Path, step: int, time: float, columns: str, data: np.ndarray) -> None:
     """One frame (`columns`: names, the first "id"; data (atoms, columns)) as one rank of
     LAMMPS writes it (no box: an engine without one, `engines.road`), atomically."""
-    from .files import atomic_write
+    from .files import replacing
 
     data = np.ascontiguousarray(data, "<f8")
     names = columns.encode("ascii")
     frame = _Frame(tuple(columns.split()), data.shape[0], step, time, 1, 2, len(names), None)
-    rec = np.zeros(1, _frame_dtype(frame))
-    rec["magic_len"], rec["magic"], rec["endian"], rec["revision"] = -len(_MAGIC), _MAGIC, 1, _REVISION
-    rec["step"], rec["atoms"], rec["ncol"], rec["unit_len"], rec["unit"] = step, data.shape[0], data.shape[1], 2, b"si"
-    rec["time_flag"], rec["time"], rec["names_len"], rec["names"] = 1, time, len(names), names
-    rec["chunks"], rec["n"], rec["data"] = 1, data.size, data
-    atomic_write(path, rec.tobytes())
+    # the record's fields before its data, then the data as it is in memory (a batch's frame is
+    # megabytes: no copy into the record)
+    head = np.zeros(1, _frame_dtype(frame))  # (calloc: its data's pages are never touched)
+    head["magic_len"], head["magic"], head["endian"], head["revision"] = -len(_MAGIC), _MAGIC, 1, _REVISION
+    head["step"], head["atoms"], head["ncol"], head["unit_len"], head["unit"] = step, data.shape[0], data.shape[1], 2, b"si"
+    head["time_flag"], head["time"], head["names_len"], head["names"] = 1, time, len(names), names
+    head["chunks"], head["n"] = 1, data.size
+    with replacing(path) as tmp, open(tmp, "r+b") as f:  # (atomic: see formats.files)
+        f.write(head.view(np.uint8)[:head.dtype.fields["data"][1]].tobytes())
+        f.write(memoryview(data).cast("B"))
 
 
 @dataclass(frozen=True)
