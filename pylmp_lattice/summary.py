@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
-from itertools import repeat
+from operator import itemgetter
 
 import numpy as np
 
@@ -225,14 +225,14 @@ def _floats_rounded(rows: list[dict], decimals: int) -> list[dict]:
     """Each dict with its floats `_round`ed (its other values as they are), a key's values at a
     time where every dict has the same keys (`_rounds`)."""
     keys = tuple(rows[0]) if rows else ()
-    if any(tuple(row) != keys for row in rows):
+    if rows and not all(map(rows[0].keys().__eq__, map(dict.keys, rows))):  # (at C speed)
         return [{k: _round(v, decimals) if isinstance(v, float) else v for k, v in row.items()} for row in rows]
     columns = []
     for key in keys:
-        values = [row[key] for row in rows]
-        floats = [isinstance(v, float) for v in values]
+        values = list(map(itemgetter(key), rows))
+        floats = [issubclass(kind, float) for kind in set(map(type, values))]
         columns.append(_rounds(values, decimals) if all(floats) else values if not any(floats)
-                       else [_round(v, decimals) if f else v for v, f in zip(values, floats)])
+                       else [_round(v, decimals) if isinstance(v, float) else v for v in values])
     return [dict(zip(keys, values)) for values in zip(*columns)]
 
 

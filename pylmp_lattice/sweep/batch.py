@@ -240,8 +240,10 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
               "provenance": provenance(), "engine": kind, "batch": f"{BATCHES}/{batch.name}", "wall_time_s": round(wall, 4),
               "cpu_time_s": round(cpu, 4)}
     where = {"folder": str(batch), "log": str(batch / layout.LOG)}
-    members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data,
-                "summary": summary | {"status": DONE, "files": where, "wall_time_s": round(wall, 4)}}
+    outcome = {"status": DONE, "files": where, "wall_time_s": round(wall, 4)}
+    for summary in summaries:  # (each summary is this batch's own: extended in place)
+        summary.update(outcome)
+    members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data, "summary": summary}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
     written = write_batch(batch, record, members)  # last: the members are done
     alone = listing(root / MEMBERS)
