@@ -65,29 +65,31 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     resolved = [res["resolved"] for res in resolutions]
     plateaus, peak_plateaus = _plateaus(speeds, resolved), _plateaus(first_peaks, resolved)
     over_vi = _rounds(first_peaks.mean / vi, 4)
-    for r, (case, flags, resolution) in enumerate(zip(cases, _flags(front.all_flags()), resolutions)):
-        out[r] |= {
-            "particles_reached_by_front": reached[r],
-            "shock_velocity_plateau_m_per_s": plateaus[r],
-            "front_speed_m_per_s": fits[r],
-            # with friction V_P peaks early and decays (Fig. S6): where and how high
-            "shock_velocity_max_m_per_s": maxima[r],
-            "first_peak_velocity_plateau_m_per_s": peak_plateaus[r],
-            "first_peak_velocity_over_V_I": over_vi[r],
-            "front_flags": flags,
-            "front_resolution": resolution,
-        }
-        if labs[r] is not None:
-            out[r]["front_speed_lab_m_per_s"] = labs[r]
-        if case.chain.far_end == "long" and max_speed is not None:
-            last_free = min(case.held()) - 1  # 0-based
+    columns = (reached, plateaus, fits, maxima, peak_plateaus, over_vi, _flags(front.all_flags()), resolutions)
+    for row, values, lab in zip(out, zip(*columns), labs):  # (the keys in `_FRONT_KEYS`' order)
+        row.update(zip(_FRONT_KEYS, values))
+        if lab is not None:
+            row["front_speed_lab_m_per_s"] = lab
+    for rows in points:  # (a point's cases share their far end)
+        case = cases[rows[0]]
+        if case.chain.far_end != "long" or max_speed is None:
+            continue
+        last_free = min(case.held()) - 1  # 0-based
+        noises = np.broadcast_to(front.noise, len(cases))
+        for r in rows:
             last = float(max_speed[r, last_free])
-            noise = float(np.broadcast_to(front.noise, len(cases))[r])
-            out[r]["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, noise))
+            out[r]["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, float(noises[r])))
             if not out[r]["far_end_quiet"]:
                 log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
                             number(last_free), last)
     return out
+
+
+# A summary's front measures, in its order; shock_velocity_max_m_per_s: with friction V_P peaks
+# early and decays (Fig. S6), where and how high
+_FRONT_KEYS = ("particles_reached_by_front", "shock_velocity_plateau_m_per_s", "front_speed_m_per_s",
+               "shock_velocity_max_m_per_s", "first_peak_velocity_plateau_m_per_s", "first_peak_velocity_over_V_I",
+               "front_flags", "front_resolution")
 
 
 def front_window(case: Case) -> tuple[int, int] | None:
