@@ -172,16 +172,16 @@ def read_front_batch(cases, path: str | Path, arrival_method: str = "level",
     v, a = imp.velocity_at(t)[:, None], imp.acceleration_at(t)[:, None]  # one signal, its measures per sigma
     drive = measures.first_peaks(t, v, a, vi, noise=sigma)
     column = "arrival" if arrival_method == "level" else "pulse_arrival"
-    arrival = rows[column].copy()
+    arrival = rows[column]  # (the record's columns are this call's own arrays: filled in place)
     arrival[:, 0] = measures.arrival_times(t, v, vi, method=arrival_method, noise=sigma)[level_of]
     peaks = []
     for f in fields(measures.FirstPeaks):  # magnet 1's are the drive's
-        peaks.append(rows[f.name].copy())
+        peaks.append(rows[f.name])
         peaks[-1][:, 0] = getattr(drive, f.name)[level_of]
     gaps = draws.gaps
     front = measures.Front(arrival, measures.propagation_velocity(arrival, gaps), measures.FirstPeaks(*peaks),
                            arrival_method, noise, slowest_linear_speeds(cases, gaps, draws.masses))
-    return FrontRecord(front, rows["max_speed"].copy(), end)
+    return FrontRecord(front, rows["max_speed"], end)
 
 
 def case_front(case: Case, t, v, a, arrival_method: str = "level") -> measures.Front:

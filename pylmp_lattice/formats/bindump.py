@@ -80,6 +80,8 @@ class BinaryDump:
         parts = list(self.blocks(start, stop))
         if not parts:
             return Frames(np.empty(0, np.int64), np.empty(0), np.empty((0, self.atoms, len(self.columns))))
+        if len(parts) == 1:  # (a batch's front record: one frame of megabytes, not copied again)
+            return parts[0]
         return Frames(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("step", "time", "data")))
 
 
