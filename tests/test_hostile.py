@@ -263,7 +263,7 @@ def no_forkserver(monkeypatch):
     in a thread)."""
     from pylmp_lattice.sweep import pool
 
-    monkeypatch.setattr(pool, "start_forkserver", lambda engine=None: None)
+    monkeypatch.setattr(pool, "start_forkserver", lambda engine=None, also=(): None)
 
 
 @pytest.fixture(scope="module")
