@@ -15,7 +15,7 @@ worker's Python, this tree against a reference commit's, measured in the same ru
 Ratio = reference / this tree (above 1: this tree spends less). Each size runs the reference
 first, then this tree, in turn (--repeat times, the least CPU kept).
 
-    python benchmarks/bench_per_member.py [--members 10000,100000] [--reference dc6ec46] [--repeat 1] [--workers 2]
+    python benchmarks/bench_per_member.py [--members 10000,100000] [--reference 434a71e] [--repeat 1] [--workers 2]
 """
 
 from __future__ import annotations
@@ -33,6 +33,16 @@ from pathlib import Path
 from bench_sweep import COORDINATOR_CPU, write_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
+# bench_sweep.COORDINATOR_CPU, also saying how often the table was written (`Table.write`: the
+# writes while the sweep runs depend on its wall time, which the machine's load stretches)
+COUNTED = ("import atexit, sys\n"
+           "from pylmp_lattice.sweep import table\n"
+           "writes, write = [], table.Table.write\n"
+           "def counted(self):\n"
+           "    writes.append(1)\n"
+           "    return write(self)\n"
+           "table.Table.write = counted\n"
+           "atexit.register(lambda: print(f'table-writes {len(writes)}', file=sys.stderr))\n") + COORDINATOR_CPU
 
 WORKER = """
 import pickle, sys, time
@@ -85,12 +95,13 @@ def python(tree: Path, args: list[str], cwd: Path) -> str:
     return done.stdout + done.stderr
 
 
-def coordinator_cpu(tree: Path, sweep: Path, out: Path, workers: int) -> tuple[float, float]:
-    """The sweep command's own CPU seconds and its wall time."""
+def coordinator_cpu(tree: Path, sweep: Path, out: Path, workers: int) -> tuple[float, float, int]:
+    """The sweep command's own CPU seconds, its wall time and how often it wrote the table."""
     start = time.time()
-    text = python(tree, ["-c", COORDINATOR_CPU, "sweep", str(sweep), "-o", str(out), "--workers", str(workers),
+    text = python(tree, ["-c", COUNTED, "sweep", str(sweep), "-o", str(out), "--workers", str(workers),
                          "--engine", "cpu", "--yes", "--quiet"], out.parent)
-    return float(re.findall(r"^coordinator-cpu (\S+)$", text, re.M)[-1]), time.time() - start
+    return (float(re.findall(r"^coordinator-cpu (\S+)$", text, re.M)[-1]), time.time() - start,
+            int(re.findall(r"^table-writes (\S+)$", text, re.M)[-1]))
 
 
 def worker_cpu(tree: Path, sweep: Path, out: Path) -> tuple[float, float]:
@@ -103,7 +114,7 @@ def worker_cpu(tree: Path, sweep: Path, out: Path) -> tuple[float, float]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--members", default="10000,100000")
-    p.add_argument("--reference", default="dc6ec46", help="commit of the reference tree")
+    p.add_argument("--reference", default="434a71e", help="commit of the reference tree")
     p.add_argument("--repeat", type=int, default=1)
     p.add_argument("--workers", type=int, default=2)
     args = p.parse_args()
@@ -112,11 +123,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix=".bench_per_member.") as tmp:
         tmp = Path(tmp)
         trees = {"reference": tree_of(args.reference, tmp / "reference"), "this": ROOT}
+        for tree in trees.values():  # compiled before: no run pays for it (the first one did)
+            subprocess.run([sys.executable, "-m", "compileall", "-q", str(tree / "pylmp_lattice")], check=True)
         sweeps = {}
         for n in sorted({*sizes, 10000}):
             (tmp / f"s{n}").mkdir()
             sweeps[n] = write_sweep(tmp / f"s{n}", n, 0.02, friction=True)
-        coordinator = {}  # (tree, n) -> (cpu s, wall s)
+        coordinator = {}  # (tree, n) -> (cpu s, wall s, table writes)
         worker = {}  # tree -> (CPU per member, the engine's)
         for k in range(args.repeat):
             for name, tree in trees.items():
@@ -144,8 +157,9 @@ def main() -> None:
     print(f"| worker's engine (one thread) | ~1000 | {1e6 * ref_engine:.1f} | {1e6 * new_engine:.1f} | "
           f"{ref_engine / new_engine:.2f}x |")
     for n in sizes:
-        print(f"sweep wall at {n}: reference {coordinator['reference', n][1]:.1f} s, this tree "
-              f"{coordinator['this', n][1]:.1f} s")
+        (_, ref_wall, ref_writes), (_, wall, writes) = (coordinator[name, n] for name in trees)
+        print(f"sweep at {n}: wall reference {ref_wall:.1f} s, this tree {wall:.1f} s; table written "
+              f"{ref_writes} and {writes} times")
 
 
 if __name__ == "__main__":

@@ -165,10 +165,10 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     pandas makes of the rows as dicts, and `csv_text` with the measures' texts the workers made
     is what pandas writes. mixed: a row set again later, a member without measures, a measure
     some rows lack, one that is a whole number in one batch and a float in the other (the
-    workers' texts do not fit then: the coordinator makes its own)."""
+    workers' texts do not fit then: the coordinator makes those rows' own)."""
     from pylmp_lattice.serialize import short_float
     from pylmp_lattice.sweep.store import columns
-    from pylmp_lattice.sweep.table import Rows, _measures_ready, batch_rows, csv_text, frame, member_row
+    from pylmp_lattice.sweep.table import Rows, _text_fits, batch_rows, csv_text, frame, member_row
 
     rng = np.random.default_rng(3)
     record = {"status": "done", "error": None, "wall_time_s": 0.0123}
@@ -184,7 +184,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
         sums = [summary(i, batch) for i in indices]
         parts += batch_rows(indices, ids, params, f"batches/b{batch}", record, columns(sums))
         rows |= {i: member_row(m, p, f"batches/b{batch}", record, s) for i, m, p, s in zip(indices, ids, params, sums)}
-    assert len(parts) == 2 and all(p.texts is not None for p in parts)
+    assert len(parts) == 2 and all(p.text is not None for p in parts)
     if mixed:
         failed = {"status": "failed", "error": 'bad "q", here', "wall_time_s": 0.0}
         for i in (3, 1):
@@ -193,8 +193,68 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     expected = _frame_of_dicts(rows)
     df = frame(parts)
     pd.testing.assert_frame_equal(df, expected)
-    assert (_measures_ready(df, parts) is None) == mixed  # the workers' texts are used where they fit
+    assert [_text_fits(df, p) for p in parts[:2]] == [not mixed] * 2  # the workers' texts are used where they fit
     assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
+
+
+def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
+    """`csv_text` of batches' rows that came out of order, one whose rows another batch set
+    again later (its lines are split, the later ones kept), a cell quoted: what pandas writes."""
+    from pylmp_lattice.serialize import short_float
+    from pylmp_lattice.sweep.store import columns
+    from pylmp_lattice.sweep.table import _tiled, _placed, batch_rows, csv_text, frame
+
+    rng = np.random.default_rng(5)
+    record = {"status": "done", "error": None, "wall_time_s": 0.5}
+    parts, batches = [], []
+    for batch, indices in enumerate(([3, 4, 5], [0, 1, 2], [6], [1, 2])):  # the last sets rows 1 and 2 again
+        params = [{"replica": i, "tag": "a,b" if i % 2 else "c"} for i in indices]
+        sums = [{"v": float(rng.normal()) * 10 ** float(rng.integers(-8, 17)), "n": int(rng.integers(0, 9)),
+                 "ok": bool(rng.integers(0, 2))} for _ in indices]
+        parts += batch_rows(indices, [f"m{i}" for i in indices], params, f"batches/b{batch}", record, columns(sums))
+        batches.append({i: {"id": f"m{i}", **p, "status": "done", "error": None, "folder": f"batches/b{batch}",
+                            "wall_time_s": 0.5, **s} for i, p, s in zip(indices, params, sums)})
+    assert all(p.text is not None for p in parts)
+    for k in (3, 4):  # in one piece each (their lines joined as they came); one batch set again
+        rows = {}
+        for batch in batches[:k]:
+            rows |= batch
+        expected = pd.DataFrame([rows[i] for i in sorted(rows)])
+        df = frame(parts[:k])
+        assert (_tiled(_placed(parts[:k])[1]) is None) == (k == 4)
+        pd.testing.assert_frame_equal(df, expected)
+        assert csv_text(df, parts[:k]) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
+
+
+def test_a_running_sweep_s_table_is_not_rewritten_when_its_end_is_nearer_or_its_rows_have_not_doubled(tmp_path):
+    """Table.flush(total): the last rows due sooner, at the rate they came, than `every` seconds:
+    no write (the end writes them); due later, written. Then again only once the rows have
+    doubled, or LONGEST seconds after the last write."""
+    from pylmp_lattice.sweep.table import CSV, LONGEST, Table, member_row
+
+    table = Table(tmp_path, every=30.0)
+    record = {"status": "done", "error": None, "wall_time_s": 1.0}
+    for i in range(10):
+        table.set(i, member_row(f"m{i}", {}, "members/a", record, {"x": 1.5}))
+    table.started = table.written = time.monotonic() - 60  # 10 rows in 60 s: 6 s a row
+    table.flush(total=14)  # 4 rows left: 24 s, before the next write
+    assert table.dirty
+    table.flush(total=16)  # 6 rows left: 36 s
+    assert not table.dirty
+    for i in range(10, 19):  # 9 more rows since: not yet twice the 10 written, unless LONGEST s passed
+        table.set(i, member_row(f"m{i}", {}, "members/a", record, {"x": 1.5}))
+    table.written -= 60
+    table.flush()
+    assert table.dirty
+    table.written -= LONGEST
+    table.flush()
+    assert not table.dirty
+    for i in range(19, 38):  # 38 rows: twice the 19 written
+        table.set(i, member_row(f"m{i}", {}, "members/a", record, {"x": 1.5}))
+        table.written = time.monotonic() - 60
+        table.flush()
+        assert table.dirty == (i < 37)
+    assert len((tmp_path / CSV).read_text().splitlines()) == 39
 
 
 def test_a_running_sweep_s_table_is_written_no_sooner_than_ten_times_its_last_write_took(tmp_path):
@@ -727,6 +787,7 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
                                            sweep.count())
         ids = {m.id for m in sweep.members() if m.index in done}  # their outcomes on disk, as Outcomes gives them
         coordinator.disk.get = lambda i, ids=ids: {"record": {"status": "done"}, "summary": None} if i in ids else None
+        coordinator.disk.none_of = ids.isdisjoint
         assert [len(t.each()) for t in coordinator._tasks()] == [10, 10]
         assert coordinator.kept == 180
 
@@ -1205,6 +1266,49 @@ def test_a_batch_s_members_json_is_strict_and_reads_back_each_member_s_summary(t
     back = read_batch(tmp_path / BATCH_FILE)
     assert [back[i]["summary"] for i in "ab"] == [json.loads(json.dumps(jsonable(s))) for s in summaries]
     assert back["b"]["summary"]["a"] is None and back["a"]["summary"]["c"] == {"mean": 2.0, "flag": True}
+
+
+def _typed(value):
+    """A value with the type of each number, flag and text beside it (1 == 1.0 == True in Python)."""
+    if isinstance(value, dict):
+        return {k: _typed(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_typed(v) for v in value]
+    return type(value).__name__, value
+
+
+def test_a_batch_s_members_arrow_is_its_members_json_s_columns_and_counts_only_beside_it(tmp_path):
+    """write_batch writes members.arrow before members.json where every column is exact in
+    Arrow; read back (`read_batch`) each member's outcome is what the JSON gives, each type
+    kept. It does not count beside another members.json (its digest) or damaged, and is not
+    written for a column of whole and fractional numbers (1 and 2.5: the JSON keeps them apart)."""
+    from pylmp_lattice.sweep.columns_file import COLUMNS_FILE, read_columns
+    from pylmp_lattice.sweep.store import BATCH_FILE, read_batch, write_batch
+
+    summaries = [{"a": 1.5, "n": 2, "ok": True, "t": "x,y", "gaps": [1, 2], "none": None, "m": {"v": 2.0, "f": None}},
+                 {"a": float("nan"), "n": 3, "ok": False, "t": None, "gaps": [], "none": None, "m": {"v": -0.0, "f": 1.25}}]
+    members = [{"id": i, "index": k, "params": {"replica": k, "chain.seed": 2**62 + k}, "chain": k,
+                "case": {"x": [1.0, 2]}, "summary": s} for k, (i, s) in enumerate(zip("ab", summaries))]
+    record = {"status": "done", "error": None, "wall_time_s": 0.5, "batch": "batches/a"}
+    write_batch(tmp_path, record, members)
+    text = (tmp_path / BATCH_FILE).read_bytes()
+    found = read_columns(tmp_path, text)
+    assert found is not None and found[0] == record
+    columns = json.loads(text)["columns"]["cols"]
+    assert _typed(found[1]) == _typed({"cols": {k: v for k, v in columns.items() if k != "case"}})
+    outcomes = read_batch(tmp_path / BATCH_FILE)
+    (tmp_path / COLUMNS_FILE).rename(tmp_path / "kept")
+    assert _typed(read_batch(tmp_path / BATCH_FILE)) == _typed(outcomes)  # from the JSON alone: the same
+    (tmp_path / "kept").rename(tmp_path / COLUMNS_FILE)
+    (tmp_path / BATCH_FILE).write_bytes(text.replace(b'"x,y"', b'"x,z"'))  # another members.json
+    assert read_columns(tmp_path, (tmp_path / BATCH_FILE).read_bytes()) is None
+    assert read_batch(tmp_path / BATCH_FILE)["a"]["summary"]["t"] == "x,z"
+    (tmp_path / BATCH_FILE).write_bytes(text)
+    (tmp_path / COLUMNS_FILE).write_bytes((tmp_path / COLUMNS_FILE).read_bytes()[:200])  # damaged
+    assert read_columns(tmp_path, text) is None and _typed(read_batch(tmp_path / BATCH_FILE)) == _typed(outcomes)
+    (tmp_path / COLUMNS_FILE).unlink()
+    write_batch(tmp_path, record, [m | {"summary": m["summary"] | {"n": 2.5 if m["id"] == "b" else 1}} for m in members])
+    assert not (tmp_path / COLUMNS_FILE).exists() and read_batch(tmp_path / BATCH_FILE)["a"]["summary"]["n"] == 1
 
 
 def test_sweep_files_are_readable_as_the_umask_says(tmp_path):

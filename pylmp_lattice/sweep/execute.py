@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import itertools
 import logging
 import os
 import threading
@@ -44,7 +45,7 @@ from .signals import _StopSignals
 from .spec import Member, Replicas, Sweep
 from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
                     write_status)
-from .table import CSV, Rows, Table, member_row
+from .table import CSV, Rows, Table, batch_rows, member_row
 
 log = logging.getLogger(__name__)
 
@@ -174,7 +175,7 @@ class _Coordinator:
         """The table written (`flush`: if due); on a full disk the files keep their last rows and
         the sweep stops."""
         try:
-            return self.table.flush() if flush else self.table.write()
+            return self.table.flush(self.total) if flush else self.table.write()
         except DiskFull as err:
             if self.full is None:
                 self._disk_full(err)
@@ -221,11 +222,31 @@ class _Coordinator:
         get their rows (`_finished`)."""
         if not isinstance(run, Replicas):
             return [m for m in run if not self._finished(m)]
-        todo = [k for k, member_id in enumerate(run.ids) if self.disk.get(member_id) is None]
-        if len(todo) < len(run):  # some have an outcome on disk: it stands, unless failed and retried
-            had = sorted(set(range(len(run))) - set(todo))
-            todo = sorted(todo + [k for k, m in zip(had, run.take(had)) if not self._finished(m)])
+        if self.disk.none_of(run.ids):  # (a new sweep's: no look at each member)
+            return run
+        found = list(map(self.disk.batched, run.ids))
+        self._kept(run, [k for k, f in enumerate(found) if f is not None], found)  # done in a batch: they stand
+        todo = [k for k, f in enumerate(found) if f is None and self.disk.get(run.ids[k]) is None]
+        had = sorted(set(k for k, f in enumerate(found) if f is None) - set(todo))  # in a folder of their own
+        todo = sorted(todo + [k for k, m in zip(had, run.take(had)) if not self._finished(m)])  # unless failed and retried
         return run if len(todo) == len(run) else run.take(todo)
+
+    def _kept(self, run: Replicas, places: list[int], found: list) -> None:
+        """The rows of the members at these places of the run, done in a batch on disk (`found`:
+        its `store.Batch` and their place there), made a batch at a time (`table.batch_rows`)."""
+        for batch, group in itertools.groupby(places, key=lambda k: found[k][0]):
+            group = list(group)
+            record = batch.record
+            if not record.get("batch"):  # (a batch names its folder; one that does not: member by member)
+                for m in run.take(group):
+                    self._finished(m)
+                continue
+            rows = batch_rows([run.index[k] for k in group], [run.ids[k] for k in group], list(map(run.params, group)),
+                              record["batch"], record, batch.summaries([found[k][1] for k in group]))
+            for part in rows:
+                self.table.add(part)
+            self.bar.advance(DONE, len(group))
+            self.kept += len(group)
 
     def _task(self, group: list[Member | Replicas]) -> Task:
         """A task of these members; the cpu engine gets this machine's cores shared by its workers."""

@@ -144,13 +144,20 @@ class Replicas:
 
     def __iter__(self) -> Iterator[Member]:
         first = self.first
-        for i, member_id, seed in zip(self.index, self.ids, self.seeds):
-            params = dict(self.point) | ({} if self.start is None else {"replica": i - self.start}) | {"chain.seed": seed}
+        for k, (i, member_id, seed) in enumerate(zip(self.index, self.ids, self.seeds)):
             resolved = first.data | {"chain": first.data["chain"] | {"seed": seed}}
-            yield Member(i, member_id, params, resolved, first.base_dir, point=first.point)
+            yield Member(i, member_id, self.params(k), resolved, first.base_dir, point=first.point)
+
+    def params(self, k: int) -> dict:
+        """The swept values of the member at position k (`Member.params`)."""
+        i = self.index[k]
+        return dict(self.point) | ({} if self.start is None else {"replica": i - self.start}) | {"chain.seed": self.seeds[k]}
 
     def take(self, positions) -> Replicas:
-        """These members at `positions` (in order)."""
+        """These members at `positions` (in order; a range: a slice of the columns)."""
+        if isinstance(positions, range) and positions.step == 1:
+            part = slice(positions.start, positions.stop)
+            return replace(self, index=self.index[part], ids=self.ids[part], seeds=self.seeds[part])
         return replace(self, index=[self.index[k] for k in positions], ids=[self.ids[k] for k in positions],
                        seeds=[self.seeds[k] for k in positions])
 
@@ -366,6 +373,13 @@ class Sweep:
             # (its sections are shared with the first's: a case dict is read, never changed)
             identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
             ids = list(map(identity, seeds[replica:]))
+            fresh = set(ids)
+            if len(fresh) == len(ids) and seen.isdisjoint(fresh):  # all new (as good as always): as a whole
+                seen |= fresh
+                yield Replicas(first, point, index if self.replicas > 1 else None,
+                               list(range(index + replica, index + self.replicas)), ids, seeds[replica:])
+                index += self.replicas
+                continue
             kept = [k for k, i in enumerate(ids, replica) if not (i in seen or seen.add(i))]
             if len(kept) < len(ids):
                 same += [index + k for k in sorted(set(range(replica, self.replicas)) - set(kept))]

@@ -12,6 +12,8 @@ replicas.toml, run.json, log and front record), and `members.json`, their outcom
 (`write_batch`): the record above once (status "done", times, provenance, engine), and per
 member its id, index, parameters, chain number in the batch, case and summary, as columns
 (each key once for the batch: `columns`); O(1) files for the batch instead of five per member.
+Beside it, members.arrow holds the same columns in binary (`columns_file`), which a resumed
+sweep reads instead of parsing the JSON's numbers.
 A member counts as done only when its record says so and its summary parses; status.json and
 members.json are each replaced in one step after everything else is written: a member killed
 half-way is re-run. DIR/sweep.json names the sweep the folder holds.
@@ -39,6 +41,7 @@ from ..file_lock import Held, exclusive
 from ..formats.files import atomic_write
 from ..formats.layout import BATCHES, MEMBERS, SWEEP_FILE
 from ..run_folder.marker import DONE, FAILED, INTERRUPTED, RUNNING
+from .columns_file import read_columns, write_columns
 
 BATCH_FILE = "members.json"  # in a batch's folder: its members' outcomes
 STATUS = "status.json"
@@ -67,34 +70,101 @@ class Outcomes:
     """The members' outcomes on disk, {"record", "summary"}, if they stand (see `get`).
 
     batches: the names of the batch folders that may hold them (default: all in DIR/batches/,
-    read once, at the first `get`)."""
+    read once, at the first `get`). A batch's outcomes are kept as columns (`Batch`): a
+    member's dict is made when asked for."""
 
     def __init__(self, root: str | Path, batches: list[str] | None = None):
         self.root, self.batches = Path(root), batches
-        self._batched: dict[str, dict] | None = None
+        self._batched: dict[str, tuple[Batch, int]] | None = None  # member id -> its batch, its place there
         self._folders: set[str] = set()
 
     def get(self, member_id: str) -> dict | None:
         """The member's outcome: done in a batch, else from its folder (`outcome`)."""
+        found = self.batched(member_id)
+        if found is not None:
+            return found[0].outcome(found[1])
+        return None if member_id not in self._folders else outcome(self.root, member_id)
+
+    def batched(self, member_id: str) -> tuple[Batch, int] | None:
+        """The batch whose members.json holds the member done, and its place there; or None."""
         self._read()
-        found = self._batched.get(member_id)
-        return found if found is not None or member_id not in self._folders else outcome(self.root, member_id)
+        return self._batched.get(member_id)
 
     def at_most(self) -> int:
         """How many members may have an outcome on disk (done in a batch, or a folder of their
         own, finished or not): an upper bound, known without reading any member's folder."""
         self._read()
-        return len(self._batched) + len(self._folders - set(self._batched))
+        return len(self._batched) + len(self._folders - self._batched.keys())
+
+    def none_of(self, member_ids: list[str]) -> bool:
+        """Whether none of these members has an outcome on disk, or a folder of its own."""
+        self._read()
+        return self._batched.keys().isdisjoint(member_ids) and self._folders.isdisjoint(member_ids)
 
     def _read(self) -> None:
         if self._batched is None:  # what is on disk now: the batch files and the member folders
             folder = self.root / BATCHES
             names = listing(folder)  # one listing, not a look per possible batch
-            files = [folder / name / BATCH_FILE for name in (names if self.batches is None else names & set(self.batches))]
             self._batched = {}
-            for path in files:
-                self._batched |= read_batch(path)
+            for name in sorted(names if self.batches is None else names & set(self.batches)):
+                batch = read_batch_columns(folder / name / BATCH_FILE)
+                if batch is not None:
+                    self._batched |= zip(batch.ids(), zip(repeat(batch), batch.done))
             self._folders = listing(self.root / MEMBERS)  # one listing, not a look per member
+
+
+class Batch:
+    """A batch's outcomes as its members.json holds them: the record they share, and their
+    columns (`columns`: id, index, params, chain, summary); `done`, the places of the members
+    whose summary is a table (those whose outcome stands)."""
+
+    KEYS = ("id", "index", "params", "chain")  # what a member's record adds to the batch's
+
+    def __init__(self, record: dict, table: dict):
+        self.record, self.table = record, table
+        summaries = table["cols"]["summary"]
+        n = len(self.ids())
+        if ({len(rows) if type(rows) is list else -1 for rows in _leaves(table)} - {n} or not set(map(type, self.ids())) <= {str}
+                or not table["cols"].keys() >= {*self.KEYS, "summary"}):
+            raise ValueError("not a batch's columns: of unequal lengths, an id not text, or a column missing")
+        self.done = range(n) if "cols" in summaries else [k for k, v in enumerate(summaries["rows"]) if isinstance(v, dict)]
+
+    def ids(self) -> list[str]:
+        """The members' ids, in the batch's order."""
+        return self.table["cols"]["id"]["rows"]
+
+    def outcome(self, k: int) -> dict:
+        """Member k's outcome, {"record", "summary"}."""
+        cols = self.table["cols"]
+        return {"record": self.record | {key: _at(cols[key], k) for key in self.KEYS}, "summary": _at(cols["summary"], k)}
+
+    def summaries(self, places: list[int]):
+        """The summaries of the members at these places, as columns (`columns`)."""
+        every = len(places) == len(self.ids()) and places == list(range(len(places)))
+        return self.table["cols"]["summary"] if every else _taken(self.table["cols"]["summary"], places)
+
+
+def _at(table: dict, k: int):
+    """Row k of a table of columns (`columns`)."""
+    if "rows" in table:
+        return table["rows"][k]
+    return {key: _at(column, k) for key, column in table["cols"].items()}
+
+
+def _taken(table: dict, places: list[int]) -> dict:
+    """The rows at these places of a table of columns (`columns`)."""
+    if "rows" in table:
+        return {"rows": [table["rows"][k] for k in places]}
+    return {"cols": {key: _taken(column, places) for key, column in table["cols"].items()}}
+
+
+def _leaves(table: dict):
+    """The lists of a table of columns (`columns`), each leaf's."""
+    if "rows" in table:
+        yield table["rows"]
+        return
+    for column in table["cols"].values():
+        yield from _leaves(column)
 
 
 def listing(folder: Path) -> set[str]:
@@ -113,7 +183,9 @@ def write_batch(folder: Path, record: dict, members: list[dict]) -> dict:
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
     data = {**record, "columns": _strict(columns(members))}
-    atomic_write(Path(folder) / BATCH_FILE, json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n", sync=False)
+    text = (json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n").encode()
+    write_columns(Path(folder), record, data["columns"], text)  # read back on resume, where it fits
+    atomic_write(Path(folder) / BATCH_FILE, text, sync=False)
     return data["columns"]
 
 
@@ -169,22 +241,35 @@ def rows(table: dict) -> list:
 
 def read_batch(path: Path) -> dict[str, dict]:
     """The outcomes in a batch's members.json by member id; none if it is missing or does not parse."""
-    data = read_json(path)
+    batch = read_batch_columns(path)
+    return {} if batch is None else {batch.ids()[k]: batch.outcome(k) for k in batch.done}
+
+
+def read_batch_columns(path: Path) -> Batch | None:
+    """A batch's outcomes (`Batch`) from its members.json (its columns from members.arrow where
+    that is members.json's, `columns_file`); None if it is missing, does not parse, or is not
+    done."""
     try:
-        return _batch_outcomes(data) if data is not None and data["status"] == DONE else {}
+        text = Path(path).read_bytes()
+    except (FileNotFoundError, NotADirectoryError, IsADirectoryError):
+        return None
+    found = read_columns(Path(path).parent, text)
+    if found is None:
+        from ..serialize import loads_object
+
+        data = loads_object(text)
+        if data is None:
+            return None
+        table = data.get("columns") if "columns" in data else {"rows": data.get("members")}  # (a list, before columns)
+        found = {k: v for k, v in data.items() if k not in ("members", "columns")}, table
+    record, table = found
+    try:
+        if "rows" in table:  # members as a list of tables (columns of unequal rows, or before columns)
+            members = table["rows"]
+            table = {"cols": {key: {"rows": [m[key] for m in members]} for key in (*Batch.KEYS, "summary")}}
+        return Batch(record, table) if record["status"] == DONE else None
     except (KeyError, TypeError, AttributeError, ValueError):
-        return {}
-
-
-def _batch_outcomes(data: dict) -> dict[str, dict]:
-    record = {k: v for k, v in data.items() if k not in ("members", "columns")}
-    if "columns" in data:  # the rows without their cases (only the outcomes' keys are read)
-        table = data["columns"]
-        members = rows({"cols": {k: v for k, v in table["cols"].items() if k != "case"}} if "cols" in table else table)
-    else:
-        members = data["members"]  # "members": a list, before columns
-    return {m["id"]: {"record": record | {k: m[k] for k in ("id", "index", "params", "chain")}, "summary": m["summary"]}
-            for m in members if isinstance(m["summary"], dict)}
+        return None
 
 
 def outcome(root: str | Path, member_id: str) -> dict | None:

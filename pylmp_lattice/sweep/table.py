@@ -14,6 +14,7 @@ import io
 import json
 import time
 from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,7 @@ PARQUET = "results.parquet"
 STATS_CSV, STATS_PNG = "replica_stats.csv", "replica_stats.png"  # with replicas: their statistics (`stats`)
 FILES = (CSV, PARQUET, STATS_CSV, STATS_PNG)
 FIXED = ("id", "status", "error", "folder", "wall_time_s")
+LONGEST = 600.0  # seconds a running sweep's table may wait for its rows to double (`Table.flush`)
 # Not measures: labels, file paths, and the run's own timing (the member's is wall_time_s).
 NOT_MEASURES = ("case", "files", "wall_time_s")
 
@@ -77,7 +79,7 @@ class Rows:
     params: tuple
     measures: tuple
     columns: dict
-    texts: list | None = None  # each row's measures as its CSV cells, where the rows were made (`measure_texts`)
+    text: str | None = None  # the rows as results.csv lines, made where the rows were made (`row_text`)
 
     def __len__(self) -> int:
         return len(self.index)
@@ -111,24 +113,36 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
                  "wall_time_s": _packed([record.get("wall_time_s")] * n)}
         cols |= {k: _packed(v) for k, v in measures.items()}
         return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols,
-                     measure_texts([cols[k] for k in measures]))]
+                     row_text(list(cols.values())))]
     return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
 
 
-def measure_texts(columns: list) -> list[str] | None:
-    """Each row's measures as results.csv writes them (`csv_text`), made by the worker (the
-    texts of 10^5 members' floats are most of the table's time): where every column is a
-    numpy array or all None (`_texted`; `csv_text` uses them where the table's columns are of
-    the arrays' kinds, else makes its own)."""
+def row_text(columns: list) -> str | None:
+    """The rows as results.csv writes them (`csv_text`), a line each, joined by newlines: made
+    by the worker (the texts of 10^5 members' floats were most of the table's time), used by
+    the coordinator where the table's columns are these, of the same kinds (`_text_fits`).
+    None unless every column is a numpy array, or holds text and None only (`_texted`), and no
+    cell holds a line end (the lines are split again where a row is set twice)."""
     if not columns or not all(map(_texted, columns)):
         return None
-    return list(map(",".join, zip(*(_array_texts(c) if _kind(c) else [""] * len(c) for c in columns))))
+    cells = [_array_texts(c) if _kind(c) else _list_texts(c, lines=False) for c in columns]
+    return None if None in cells else "\n".join(map(",".join, zip(*cells)))
+
+
+def _list_texts(values: list, lines: bool = True) -> list[str] | None:
+    """Text and None as CSV cells (None empty, a cell with a comma, quote or line end quoted);
+    None if a cell holds a line end and not `lines`."""
+    texts = ["" if v is None else v for v in values]
+    every = "".join(texts)  # most columns (ids, folders) need no quotes: one look for the whole column
+    if not lines and ("\n" in every or "\r" in every):
+        return None
+    return list(map(_quoted, texts)) if any(c in every for c in ',"\n\r') else texts
 
 
 def _texted(column) -> bool:
-    """Whether `measure_texts` can write the column: a numpy array, or nothing but None (empty
-    cells, whatever the table's column turns out to be)."""
-    return _kind(column) is not None or all(v is None for v in column)
+    """Whether `row_text` can write the column: a numpy array, or text and None only (the
+    table's column is text then, or empty cells where all are None)."""
+    return _kind(column) is not None or set(map(type, column)) <= {str, type(None)}
 
 
 def _kind(column) -> str | None:
@@ -175,8 +189,8 @@ def _packed(values: list):
 def frame(parts: list[Rows]):
     """Rows (`Rows`; a member's row set again is its last) as a DataFrame in member order: id,
     swept fields, status .. wall_time_s, measures; what `pd.DataFrame` makes of the rows as
-    dicts, each key a column in the order the rows first name it, a missing cell NaN."""
-    import numpy as np
+    dicts, each key a column in the order the rows first name it, a missing cell NaN. Made a
+    column at a time (no step per row or per part and column in Python)."""
     import pandas as pd
 
     parts = [p for p in parts if len(p)]
@@ -187,11 +201,35 @@ def frame(parts: list[Rows]):
     ranked = sorted((f, k) for k, f in enumerate(firsts) if f < n)
     params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
     measures = dict.fromkeys(key for _, k in ranked for key in parts[k].measures)
-    df = pd.DataFrame({key: _column(key, n, parts, targets) for key in ["id", *params, *FIXED[1:], *measures]})
+    where, tiled = _concatenated(targets), _tiled(targets)
+    df = pd.DataFrame({key: _column(key, n, parts, targets, where, tiled)
+                       for key in ["id", *params, *FIXED[1:], *measures]})
     for col in df.columns:  # parquet needs one type per column
-        if df[col].dtype == object and len({type(v) for v in df[col].dropna()}) > 1:
+        if df[col].dtype == object and _mixed(df[col]):
             df[col] = df[col].map(lambda v: None if v is None else str(v))
     return df
+
+
+def _mixed(column) -> bool:
+    """Whether a column of Python objects holds values of more than one type (missing ones aside)."""
+    kinds = set(map(type, column.to_numpy().tolist())) - {type(None)}  # at C speed: most columns pass here
+    return len(kinds) > 1 and len({type(v) for v in column.dropna()}) > 1  # (NaN: a float, and missing)
+
+
+def _tiled(targets: list) -> list[int] | None:
+    """The parts in table order where each one's rows are consecutive rows of the table, none
+    set twice (so a column is its parts' values one after the other); else None."""
+    import numpy as np
+
+    if any(len(t) > 1 and not (np.diff(t) == 1).all() for t in targets) or min(t[0] for t in targets) < 0:
+        return None
+    return sorted(range(len(targets)), key=lambda k: targets[k][0])
+
+
+def _concatenated(arrays: list):
+    import numpy as np
+
+    return np.concatenate(arrays) if arrays else np.empty(0, dtype=np.int64)
 
 
 def _placed(parts: list[Rows]) -> tuple[int, list]:
@@ -208,32 +246,39 @@ def _placed(parts: list[Rows]) -> tuple[int, list]:
     return len(last), [where[a:b] for a, b in zip(starts, starts[1:])]
 
 
-def _column(key: str, n: int, parts: list[Rows], targets: list):
+def _column(key: str, n: int, parts: list[Rows], targets: list, where, tiled: list[int] | None):
     """One column of `frame`: a numpy array where every row has it as numbers of one kind, else
-    a list of its cells (NaN where a row lacks it), which pandas types as it types rows."""
+    a list of its cells (NaN where a row lacks it), which pandas types as it types rows. `where`:
+    the targets of all parts, concatenated; `tiled`: `_tiled` of the targets."""
     import numpy as np
 
-    held = [(p.columns[key], t) for p, t in zip(parts, targets) if key in p.columns]
-    kinds = {c.dtype.kind if isinstance(c, np.ndarray) else None for c, _ in held}
-    if len(kinds) == 1 and None not in kinds and sum((t >= 0).sum() for _, t in held) == n:
-        out = np.empty(n, dtype=held[0][0].dtype)
+    held = [k for k, p in enumerate(parts) if key in p.columns]
+    if tiled is not None and len(held) == len(parts):  # the parts' values one after the other
+        values = [parts[k].columns[key] for k in tiled]
+        if all(isinstance(c, np.ndarray) for c in values) and len({c.dtype for c in values}) == 1:
+            return np.concatenate(values)
+        if all(isinstance(c, list) for c in values):
+            return list(chain.from_iterable(values))
+    values = [parts[k].columns[key] for k in held]
+    t = where if len(held) == len(parts) else _concatenated([targets[k] for k in held])
+    kept = t >= 0
+    kinds = {c.dtype.kind if isinstance(c, np.ndarray) else None for c in values}
+    if len(kinds) == 1 and None not in kinds and int(kept.sum()) == n:
+        out = np.empty(n, dtype=values[0].dtype)
+        cells = np.concatenate(values)
     else:
         out = np.full(n, np.nan, dtype=object)
-    for values, t in held:
-        kept = t >= 0
-        if kept.all():
-            out[t] = values if isinstance(values, np.ndarray) or out.dtype != object else _objects(values)
-        else:
-            out[t[kept]] = _objects(values)[kept]
+        cells = _objects(list(chain.from_iterable(c.tolist() if isinstance(c, np.ndarray) else c for c in values)))
+    out[t[kept]] = cells[kept]
     return out if out.dtype != object else out.tolist()
 
 
-def _objects(values):
+def _objects(values: list):
     """Values as an object array (each value one cell, whatever it is)."""
     import numpy as np
 
     out = np.empty(len(values), dtype=object)
-    out[:] = values if isinstance(values, np.ndarray) else list(values)
+    out[:] = values
     return out
 
 
@@ -255,38 +300,48 @@ def csv_text(df, parts: list[Rows] | None = None) -> str:
     time (a float whose shortest text is at most 16 characters has at most 15 digits, so that
     text is already its 15-digit form; pandas called `short_float` for every cell and its csv
     writer for every row, most of the coordinator's time with 10^5 members). With the `parts`
-    the table is `frame` of: their rows' measures as the workers wrote them (`Rows.texts`),
-    where every part has them and the table's columns are theirs."""
+    the table is `frame` of: their rows as the workers wrote them (`Rows.text`) where they fit
+    (`_text_fits`), the others' rows made here."""
     import numpy as np
 
-    ready = _measures_ready(df, parts)
-    upto = df.shape[1] if ready is None else df.shape[1] - len(parts[0].measures)
-    cells = [_texts(df.iloc[:, i]) for i in range(upto)]
-    if ready is not None:
-        n, targets = ready
-        texts = np.empty(n, dtype=object)
-        for part, t in zip(parts, targets):
-            texts[t] = part.texts
-        cells.append(texts.tolist())
-    lines = [",".join(map(_quoted, map(str, df.columns))), *map(",".join, zip(*cells))]
-    return "\n".join(lines) + "\n"
+    header = ",".join(map(_quoted, map(str, df.columns)))
+    parts = [p for p in parts or () if len(p)]
+    fits = [_text_fits(df, p) for p in parts]
+    if not any(fits):
+        return "\n".join([header, *_row_texts(df)]) + "\n"
+    _, targets = _placed(parts)
+    tiled = _tiled(targets) if all(fits) else None
+    if tiled is not None:  # each part's lines as they came, one after the other
+        return "\n".join([header, *(parts[k].text for k in tiled)]) + "\n"
+    lines = np.empty(len(df), dtype=object)
+    made = np.zeros(len(df), dtype=bool)
+    for part, t, fit in zip(parts, targets, fits):
+        if fit:
+            kept = t >= 0
+            lines[t[kept]] = _objects(part.text.split("\n"))[kept]
+            made[t[kept]] = True
+    rest = np.flatnonzero(~made)
+    if len(rest):
+        lines[rest] = _row_texts(df.iloc[rest])
+    return "\n".join([header, *lines.tolist()]) + "\n"
 
 
-def _measures_ready(df, parts: list[Rows] | None):
-    """`_placed` of the parts where their `texts` are the table's measure cells: every part has
-    them, for the table's measures, each column of one kind with the table's, no row set twice."""
-    if not parts:
-        return None
-    parts = [p for p in parts if len(p)]
-    measures = parts[0].measures if parts else ()
-    if (not measures or list(df.columns[-len(measures):]) != list(measures) or len(set(df.columns)) != df.shape[1]
-            or any(p.texts is None or p.measures != measures for p in parts)):
-        return None
-    kinds = df.dtypes.iloc[-len(measures):].map(lambda d: d.kind).tolist()
-    if any(_kind(p.columns[k]) not in (None, kind) for p in parts for k, kind in zip(measures, kinds)):
-        return None  # (a list: all None, see `_texted`)
-    n, targets = _placed(parts)
-    return (n, targets) if all((t >= 0).all() for t in targets) and n == len(df) else None
+def _row_texts(df) -> list[str]:
+    """The table's rows as CSV lines (`csv_text`), made a column at a time."""
+    return list(map(",".join, zip(*(_texts(df.iloc[:, i]) for i in range(df.shape[1])))))
+
+
+def _text_fits(df, part: Rows) -> bool:
+    """Whether the part's `text` is its rows as `csv_text` writes them in this table: its
+    columns are the table's, in order, each a numpy array of the table column's kind, or text
+    (the table's column then holds text: it is of kind "O") or nothing but None (empty cells)."""
+    if part.text is None or tuple(part.columns) != tuple(df.columns) or len(set(df.columns)) != df.shape[1]:
+        return False
+    for values, dtype in zip(part.columns.values(), df.dtypes):
+        kind = _kind(values)
+        if not (kind == dtype.kind or kind is None and (dtype.kind == "O" or values.count(None) == len(values))):
+            return False
+    return True
 
 
 def _texts(column) -> list[str]:
@@ -323,17 +378,21 @@ def _quoted(text: str) -> str:
 
 
 class Table:
-    """The rows of a running sweep (`Rows`, a batch's or a member's): added in O(1), and the
-    files rewritten at most every `every` seconds, and no sooner than 10 times the last write
-    took (`flush`: a table of 10^5 rows takes about a second, which the coordinator's other
-    work waits for), and at the end (`write`)."""
+    """The rows of a running sweep (`Rows`, a batch's or a member's): added in O(1), written at
+    the end (`write`) and while the sweep runs (`flush`): at most every `every` seconds, no
+    sooner than 10 times the last write took, only once the rows have doubled since (or after
+    LONGEST seconds), and not when the sweep's end is nearer than the next write would be. A
+    write takes time in proportion to the rows (a quarter of a second at 10^5), which the
+    coordinator's other work waits for: so the writes while it runs cost at most about twice
+    the last one, however long the sweep."""
 
     def __init__(self, root: str | Path, every: float = 30.0):
         self.root, self.every = Path(root), every
         self.parts: list[Rows] = []
-        self.written = time.monotonic()
+        self.started = self.written = time.monotonic()
         self.took = 0.0  # seconds the last write took
         self.dirty = False
+        self.rows = self.rows_written = 0  # rows set, and at the last write (a row set twice counts twice)
 
     def set(self, index: int, row: dict) -> None:
         """Set member `index`'s row (`member_row`); written at the next `flush`."""
@@ -342,22 +401,31 @@ class Table:
     def add(self, rows: Rows) -> None:
         """Set these members' rows; written at the next `flush`."""
         self.parts.append(rows)
+        self.rows += len(rows)
         self.dirty = True
 
     def frame(self):
         """The table as it stands (`frame`)."""
         return frame(self.parts)
 
-    def flush(self) -> None:
-        """Write the files if rows changed and the last write is `every` seconds old."""
-        if self.dirty and time.monotonic() - self.written >= max(self.every, 10 * self.took):
-            self.write()
+    def flush(self, total: int | None = None) -> None:
+        """Write the files if due (see the class): with the sweep's `total` rows, not when at
+        the rate the rows came so far the last one is due within `every` seconds."""
+        now = time.monotonic()
+        since = now - self.written
+        if not self.dirty or since < max(self.every, 10 * self.took):
+            return
+        if self.rows < 2 * self.rows_written and since < LONGEST:
+            return
+        if total is not None and self.rows and (total - self.rows) * (now - self.started) < self.every * self.rows:
+            return
+        self.write()
 
     def write(self):
         """Write the files now; return the table."""
         start = time.monotonic()
         df = write_table(self.root, self.parts)
-        self.written, self.dirty = time.monotonic(), False
+        self.written, self.dirty, self.rows_written = time.monotonic(), False, self.rows
         self.took = self.written - start
         return df
 

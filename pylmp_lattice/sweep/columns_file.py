@@ -1,0 +1,130 @@
+"""A batch's members.json as columns in an Arrow IPC file beside it, DIR/batches/<name>/
+members.arrow: what a resumed sweep reads of its finished members. Parsing members.json's
+numbers takes about 15 us a member (some 60 of them, each a Python float made from text), this
+file's columns a small part of that; members.json stays the record, read where this file does
+not fit.
+
+The file holds members.json's record (as JSON, in the schema's metadata) and its columns
+(`store.columns`) but the cases' (not read back), one Arrow column a leaf, named by its path of
+keys as JSON. It is written before members.json, which names the batch done, and counts only
+where it names the SHA-256 of the members.json beside it. It is written only where every leaf
+is exact in Arrow: numbers of one kind, flags, text, lists of integers, each with nulls (else
+the JSON is read back, as before).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from itertools import chain
+from pathlib import Path
+
+from ..formats.files import atomic_write
+
+COLUMNS_FILE = "members.arrow"
+DIGEST, RECORD = b"members.json sha256", b"record"
+LEFT_OUT = "case"  # the column of members.json this file leaves out
+
+
+def write_columns(folder: Path, record: dict, table: dict, text: bytes) -> None:
+    """members.arrow for a batch whose members.json is `text`, holding `record` and the columns
+    `table` (strict, `store.columns`): written where every leaf is exact in Arrow."""
+    if "cols" not in table:
+        return
+    leaves: dict = {}
+    if not _leaves({k: v for k, v in table["cols"].items() if k != LEFT_OUT}, [], leaves):
+        return
+    import pyarrow as pa
+
+    meta = {DIGEST: hashlib.sha256(text).hexdigest().encode(), RECORD: json.dumps(record).encode()}
+    arrow = pa.Table.from_arrays(list(leaves.values()), names=list(leaves)).replace_schema_metadata(meta)
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_file(sink, arrow.schema) as writer:
+        writer.write_table(arrow)
+    atomic_write(folder / COLUMNS_FILE, sink.getvalue().to_pybytes(), sync=False)
+
+
+def _leaves(cols: dict, path: list, out: dict) -> bool:
+    """Each leaf column of `cols` as an Arrow array into `out` by its path (JSON); False if one
+    is not exact in Arrow."""
+    for key, column in cols.items():
+        where = [*path, key]
+        if "cols" in column:
+            if not _leaves(column["cols"], where, out):
+                return False
+            continue
+        array = _exact(column["rows"])
+        if array is None:
+            return False
+        out[json.dumps(where)] = array
+    return True
+
+
+def _exact(values: list):
+    """The values as an Arrow array that gives them back as they are (`to_pylist`), or None."""
+    import pyarrow as pa
+
+    kinds = set(map(type, values)) - {type(None)}
+    kind = {frozenset(): pa.null(), frozenset({float}): pa.float64(), frozenset({int}): pa.int64(),
+            frozenset({bool}): pa.bool_(), frozenset({str}): pa.string()}.get(frozenset(kinds))
+    if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in values if v))) <= {int}:
+        kind = pa.list_(pa.int64())
+    if kind is None:
+        return None
+    try:
+        array = pa.array(values, type=kind)
+        return array.dictionary_encode() if kind == pa.string() else array  # (text repeats: folders, labels)
+    except (pa.ArrowException, OverflowError, TypeError, ValueError):  # an int beyond int64, odd text
+        return None
+
+
+def _values(array) -> list:
+    """An Arrow array's values as Python objects: as `to_pylist` gives them, for text and numbers
+    without gaps through numpy (`to_pylist` makes an Arrow scalar of each text first)."""
+    import numpy as np
+    import pyarrow as pa
+
+    if pa.types.is_dictionary(array.type):
+        values = np.array([*array.dictionary.to_pylist(), None], dtype=object)
+        return values[array.indices.fill_null(len(values) - 1).to_numpy()].tolist()
+    if array.null_count == 0 and (pa.types.is_floating(array.type) or pa.types.is_integer(array.type)
+                                  or pa.types.is_boolean(array.type)):
+        return array.to_numpy(zero_copy_only=False).tolist()
+    return array.to_pylist()
+
+
+def read_columns(folder: Path, text: bytes) -> tuple[dict, dict] | None:
+    """The record and the columns (`store.columns`, the cases' left out) of the batch whose
+    members.json is `text`, from its members.arrow; None if that is missing, unreadable, or
+    not that members.json's."""
+    from ..serialize import loads_object
+
+    try:
+        data = (folder / COLUMNS_FILE).read_bytes()
+    except OSError:
+        return None
+    import pyarrow as pa
+
+    try:
+        reader = pa.ipc.open_file(pa.py_buffer(data))
+        meta = reader.schema.metadata or {}
+        if meta.get(DIGEST) != hashlib.sha256(text).hexdigest().encode():
+            return None
+        record = loads_object(meta[RECORD])
+        arrow = reader.read_all()
+        table: dict = {"cols": {}}
+        for name, column in zip(arrow.column_names, arrow.columns):
+            path = json.loads(name)
+            if not (isinstance(path, list) and path and all(isinstance(key, str) for key in path)):
+                return None
+            place = table
+            for key in path:
+                if "rows" in place:
+                    return None
+                place = place.setdefault("cols", {}).setdefault(key, {})
+            if place:  # a path named twice, or a leaf above another
+                return None
+            place["rows"] = _values(column.combine_chunks())
+    except (pa.ArrowException, KeyError, ValueError, TypeError, AttributeError):
+        return None
+    return (record, table) if record is not None else None
