@@ -202,8 +202,8 @@ def frame(parts: list[Rows]):
     params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
     measures = dict.fromkeys(key for _, k in ranked for key in parts[k].measures)
     where, tiled = _concatenated(targets), _tiled(targets)
-    df = pd.DataFrame({key: _column(key, n, parts, targets, where, tiled)
-                       for key in ["id", *params, *FIXED[1:], *measures]})
+    df = pd.DataFrame({key: _column(key, n, parts, targets, where, tiled)  # (its arrays are new: not copied again)
+                       for key in ["id", *params, *FIXED[1:], *measures]}, copy=False)
     for col in df.columns:  # parquet needs one type per column
         if df[col].dtype == object and _mixed(df[col]):
             df[col] = df[col].map(lambda v: None if v is None else str(v))
