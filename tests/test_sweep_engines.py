@@ -114,6 +114,27 @@ def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_pat
     assert len([n for n in notes if "runs alone" in n]) == 1, notes
 
 
+def test_a_host_build_of_another_abi_is_noted_once_and_the_members_run_with_lammps(tmp_path, caplog, monkeypatch):
+    """A latticeengine.so left from an older install (another ABI): every batch runs with LAMMPS,
+    and the log says why once, not a refusal hidden in each batch's run.json."""
+    from pylmp_lattice.engines import library
+    from pylmp_lattice.engines.library import Unsupported
+
+    def old(*_a):
+        raise Unsupported("latticeengine.so has ABI 3; this package needs 4: reinstall it")
+
+    monkeypatch.setattr(library, "_LOADED", [])
+    monkeypatch.setattr(library, "_load", old)
+    with caplog.at_level(logging.WARNING, logger="pylmp_lattice"):
+        table = sweep_in_process(write_sweep(tmp_path, 4, ENSEMBLES["thermal with friction"], duration=5.0),
+                                 tmp_path / "out", "cpu")
+    assert set(table["status"]) == {"done"}
+    assert {Outcomes(tmp_path / "out").get(i)["record"]["engine"] for i in table["id"]} == {"lammps"}
+    notes = [r.getMessage() for r in caplog.records if "run with LAMMPS" in r.getMessage()]
+    assert notes == ["engine cpu cannot run some members (latticeengine.so has ABI 3; this package needs 4: reinstall "
+                     "it): they run with LAMMPS"]
+
+
 @pytest.mark.lammps
 def test_a_cpu_sweep_resumes_only_what_is_missing(tmp_path):
     """A batch whose members.json is gone runs again (only it), and the table is as before;

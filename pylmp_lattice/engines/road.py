@@ -29,7 +29,7 @@ from ..formats.files import atomic_write
 from ..units import from_engine
 from . import ENGINES
 from .arrays import prepare
-from .library import Unsupported
+from .library import Unsupported, library
 from .library import layout as kernel_layout
 
 KERNELS = ENGINES[1:]
@@ -58,6 +58,7 @@ class KernelEngine:
             why = available()
             if why:
                 raise Unsupported(why)
+        library()  # the host build (both engines use it): one not built or of another ABI is refused here, noted once
         self.kind, self.threads = kind, threads
         self.arrays = prepare(list(cases), kind, draws)
 
