@@ -4,9 +4,10 @@ before any member runs (`check`), with or without --yes.
 A member's files are `preflight.file_bytes` of its case: run alone, its whole run folder (the
 force table is most of it when no trajectory is kept); batched (replicas of a point the chain
 engine holds together, `batch.batchable`), its chain's data and front record, and its share
-of the batch's table and small files, one batch per point and worker at most. The bytes of a
-member are the mean over up to SAMPLES parameter points spread over the grid, built without
-enumerating the members: a grid over N or the duration is seen at both ends.
+of the batch's table and small files, one batch per point and worker at most; and its share of
+the sweep's records (RECORD_BYTES). The bytes of a member are the mean over up to SAMPLES
+parameter points spread over the grid, built without enumerating the members: a grid over N or
+the duration is seen at both ends.
 """
 
 from __future__ import annotations
@@ -19,6 +20,10 @@ from .seeds import member_seed
 from .spec import Sweep, _is_random
 
 SAMPLES = 8
+# A member's share of the sweep's own records, beyond its run folder: its rows of results.csv and
+# .parquet and, batched, its entries in members.json and members.arrow (about 330, 360, 690 and
+# 590 bytes for a thermal replica of the 21-magnet experiment, 2026-11-27)
+RECORD_BYTES = 2000.0
 
 
 def member_bytes(sweep: Sweep, slots: int) -> float | None:
@@ -48,9 +53,9 @@ def member_bytes(sweep: Sweep, slots: int) -> float | None:
         files = file_bytes(case)
         if sweep.replicas > 1 and batchable(case):
             own = files[DATA] + files.get(FRONT_BIN, 0.0)
-            sizes.append(own + (sum(files.values()) - own) * min(sweep.replicas, slots) / sweep.replicas)
+            sizes.append(own + (sum(files.values()) - own) * min(sweep.replicas, slots) / sweep.replicas + RECORD_BYTES)
         else:
-            sizes.append(sum(files.values()))
+            sizes.append(sum(files.values()) + RECORD_BYTES)
     return sum(sizes) / len(sizes) if sizes else None
 
 
