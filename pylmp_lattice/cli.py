@@ -11,10 +11,12 @@ import contextlib
 import gc
 import json
 import logging
+import os
 import re
 import shlex
 import signal
 import sys
+import threading
 from pathlib import Path
 
 from .engine import RUNNERS
@@ -40,7 +42,11 @@ def main(argv: list[str] | None = None) -> int:
     # SIGTERM outside an engine run ends the command like Ctrl-C does (runs stop the engine themselves).
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
-        return args.func(args)
+        code = args.func(args)
+        if _RETRY:  # a SIGTERM during an import at the very end, not yet sent again
+            _RETRY.pop().cancel()
+            raise Interrupted(signal.SIGTERM)
+        return code
     except (ConfigError, DumpFormatError) as err:  # bad input: a case, an argument or a file
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -75,7 +81,27 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {_one_line(Exception(message))}; see {self.prog} --help\n")
 
 
+# A SIGTERM that arrives while a module is imported is sent again this much later (s), until none is.
+RETRY_S = 0.02
+_RETRY: list = []  # the timer that sends it again, while one waits
+
+
 def _raise_interrupted(signum, frame):
+    """SIGTERM's handler: Interrupted, but not inside an import. An exception raised in a module's
+    initialisation leaves it half made: matplotlib's C extensions then failed as "ImportError:
+    initialization failed", the figure's error, not a stop, and Python aborted at exit (rc -6, 1
+    run in 30 with SIGTERM 0.06-0.12 s into 'drawing shock.png'). Then the signal goes again a
+    moment later, to whichever handler is current then (an engine run's stops the engine)."""
+    if _RETRY:
+        _RETRY.pop().cancel()
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
+            timer.daemon = True
+            _RETRY.append(timer)
+            timer.start()
+            return
+        frame = frame.f_back
     raise Interrupted(signum)
 
 

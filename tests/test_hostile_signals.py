@@ -13,6 +13,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -215,3 +216,39 @@ print(json.dumps({"main": masks.pop(str(os.getpid())), "others": list(masks.valu
     stops = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
     assert masks["main"] & stops == 0
     assert len(masks["others"]) == 2 and all(mask & stops == stops for mask in masks["others"]), masks
+
+
+SLOW_IMPORT = "import os, signal, time\nos.kill(os.getpid(), signal.SIGTERM)\ntime.sleep(0.2)\nDONE = True\n"
+
+
+def test_sigterm_inside_an_import_stops_the_command_after_it(tmp_path, monkeypatch):
+    """A SIGTERM that arrives while a module initialises (matplotlib's C extensions as the figure
+    is drawn) is not raised there, which left the module broken, the stop read as the figure's
+    ImportError and Python aborting at exit: it is sent again once the import is done. Here a
+    module that signals itself in its own import: it loads whole, and the stop comes after it,
+    in the work that follows or, when the command ends first, as its exit code."""
+    from pylmp_lattice import cli
+    from pylmp_lattice.errors import Interrupted
+
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "slow_import_a.py").write_text(SLOW_IMPORT)
+    (tmp_path / "slow_import_b.py").write_text(SLOW_IMPORT)
+    previous = signal.signal(signal.SIGTERM, cli._raise_interrupted)
+    try:
+        import slow_import_a
+
+        assert slow_import_a.DONE
+        with pytest.raises(Interrupted):
+            for _ in range(100):  # 1 s; the signal comes again after RETRY_S
+                time.sleep(0.01)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+    def info_then_import(args):
+        import slow_import_b  # noqa: F401
+
+        return 0
+
+    monkeypatch.setattr(cli, "_info", info_then_import)
+    assert cli.main(["info"]) == 128 + signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is previous
