@@ -157,10 +157,11 @@ def _end_workers(pool) -> None:
 
 def start_forkserver(engine: str | None = None, also: tuple[str, ...] = ()):
     """The forkserver context, its server started (at once: it loads PRELOAD, without LAMMPS's
-    libraries for engine "cpu" or "gpu", then the modules `also`, while the caller goes on), with the stop signals ignored in it (inherited): it and its workers are left to
-    the coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a
-    SIGTERM to the process group (a batch system's) does not kill it, which would break the
-    pool and leave the members in hand "running". It exits when the coordinator does."""
+    libraries for engine "cpu" or "gpu", then the modules `also`, while the caller goes on),
+    with the stop signals ignored in it (inherited): it and its workers are left to the
+    coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a SIGTERM
+    to the process group (a batch system's) does not kill it, which would break the pool and
+    leave the members in hand "running". It exits when the coordinator does."""
     from multiprocessing import forkserver
 
     context = multiprocessing.get_context("forkserver")
