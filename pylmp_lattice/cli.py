@@ -42,28 +42,39 @@ def main(argv: list[str] | None = None) -> int:
     # SIGTERM outside an engine run ends the command like Ctrl-C does (runs stop the engine themselves).
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
-        code = args.func(args)
-        if _RETRY:  # a SIGTERM during an import at the very end, not yet sent again
+        code = _outcome(args)
+        if _RETRY:  # a SIGTERM during an import at the very end (an error's too), not yet sent again
             _RETRY.pop().cancel()
-            raise Interrupted(signal.SIGTERM)
+            if code not in (128 + signal.SIGINT, 128 + signal.SIGTERM):  # not a stop already
+                code = _report(Interrupted(signal.SIGTERM))
         return code
+    finally:
+        root.setLevel(level)
+        signal.signal(signal.SIGTERM, previous)
+        if argv is None:  # this process is the command, about to exit: its objects need no last
+            gc.freeze()  # garbage collection (0.2-1 s once a sweep loaded pandas and matplotlib)
+
+
+def _outcome(args) -> int:
+    """The subcommand's exit code, its errors reported on stderr as one line."""
+    try:
+        return args.func(args)
     except (ConfigError, DumpFormatError) as err:  # bad input: a case, an argument or a file
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Interrupted as err:
-        print(f"pylmp-lattice: {err}", file=sys.stderr)
-        return err.exit_code
+        return _report(err)
     except KeyboardInterrupt:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
-    finally:
-        root.setLevel(level)
-        signal.signal(signal.SIGTERM, previous)
-        if argv is None:  # this process is the command, about to exit: its objects need no last
-            gc.freeze()  # garbage collection (0.2-1 s once a sweep loaded pandas and matplotlib)
+
+
+def _report(stop: Interrupted) -> int:
+    print(f"pylmp-lattice: {stop}", file=sys.stderr)
+    return stop.exit_code
 
 
 def _one_line(err: Exception) -> str:

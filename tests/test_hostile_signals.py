@@ -228,7 +228,7 @@ def test_sigterm_inside_an_import_stops_the_command_after_it(tmp_path, monkeypat
     module that signals itself in its own import: it loads whole, and the stop comes after it,
     in the work that follows or, when the command ends first, as its exit code."""
     from pylmp_lattice import cli
-    from pylmp_lattice.errors import Interrupted
+    from pylmp_lattice.errors import ConfigError, Interrupted
 
     monkeypatch.syspath_prepend(str(tmp_path))
     (tmp_path / "slow_import_a.py").write_text(SLOW_IMPORT)
@@ -252,3 +252,17 @@ def test_sigterm_inside_an_import_stops_the_command_after_it(tmp_path, monkeypat
     monkeypatch.setattr(cli, "_info", info_then_import)
     assert cli.main(["info"]) == 128 + signal.SIGTERM
     assert signal.getsignal(signal.SIGTERM) is previous
+
+    def import_then_fail(args):  # an error's path: the stop is its exit code, not a kill by SIGTERM later
+        import slow_import_c  # noqa: F401
+
+        raise ConfigError("impactor.velocity", "must be > 0")
+
+    (tmp_path / "slow_import_c.py").write_text(SLOW_IMPORT)
+    monkeypatch.setattr(cli, "_info", import_then_fail)
+    try:
+        assert cli.main(["info"]) == 128 + signal.SIGTERM
+        assert not cli._RETRY  # no signal left to come, which would end the process after its error
+    finally:
+        while cli._RETRY:
+            cli._RETRY.pop().cancel()
