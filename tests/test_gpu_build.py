@@ -7,52 +7,22 @@ lambdas are host code to NVRTC's JIT mode, and the GPU engine failed on its firs
 
 from __future__ import annotations
 
-import ctypes
-import importlib.util
+import re
 import shutil
-from pathlib import Path
 
 import pytest
 
-from pylmp_lattice.engines.gpu import KERNEL, LOCAL_SIZES, _sources_digest, compile_options
+from pylmp_lattice.engines import nvrtc
+from pylmp_lattice.engines.gpu import KERNEL, _sources_digest, compile_options, local_size
 
 ARCH = "-arch=compute_90"  # the H100/H200 of issue 28; PTX, so no device is asked
 
 
-def _nvrtc():
-    """NVRTC from the nvidia-cuda-nvrtc wheel (its builtins loaded first: NVRTC opens them by
-    name), or None."""
-    spec = importlib.util.find_spec("nvidia")
-    for root in (spec.submodule_search_locations if spec else []):
-        for lib in sorted(Path(root).glob("*/lib/libnvrtc.so.*")):
-            for builtins in Path(lib.parent).glob("libnvrtc-builtins.so.*"):
-                ctypes.CDLL(str(builtins), mode=ctypes.RTLD_GLOBAL)
-            return ctypes.CDLL(str(lib))
-    return None
-
-
 def compile_ptx(options: tuple[str, ...]) -> tuple[int, str, bytes]:
     """NVRTC's result code, log and PTX for engine_gpu.cu with `options`."""
-    lib = _nvrtc()
-    if lib is None:
+    if nvrtc.load() is None:
         pytest.skip("NVIDIA's NVRTC is not installed (pip install nvidia-cuda-nvrtc)")
-    prog = ctypes.c_void_p()
-    source = (KERNEL / "engine_gpu.cu").read_bytes()
-    assert lib.nvrtcCreateProgram(ctypes.byref(prog), source, b"engine_gpu.cu", 0, None, None) == 0
-    try:
-        opts = [o.encode() for o in options]
-        rc = lib.nvrtcCompileProgram(prog, len(opts), (ctypes.c_char_p * len(opts))(*opts))
-        size = ctypes.c_size_t()
-        lib.nvrtcGetProgramLogSize(prog, ctypes.byref(size))
-        log = ctypes.create_string_buffer(size.value)
-        lib.nvrtcGetProgramLog(prog, log)
-        lib.nvrtcGetPTXSize(prog, ctypes.byref(size))
-        ptx = ctypes.create_string_buffer(size.value)
-        if rc == 0:
-            lib.nvrtcGetPTX(prog, ptx)
-        return rc, log.value.decode(errors="replace"), ptx.value
-    finally:
-        lib.nvrtcDestroyProgram(ctypes.byref(prog))
+    return tuple(nvrtc.compile_kernel(KERNEL / "engine_gpu.cu", options))
 
 
 CASES = [  # (law kind, q, friction, record): engines.gpu.batch_case's, each law type of Law::dispatch
@@ -60,18 +30,18 @@ CASES = [  # (law kind, q, friction, record): engines.gpu.batch_case's, each law
     (1, 0.0, True, True), (2, 0.0, False, True)]
 
 
-@pytest.mark.parametrize("local", [*LOCAL_SIZES, 0])
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize(("case", "local"), [*((case, local) for case in CASES for local in (21, 0)), (CASES[0], 64)])
 def test_nvrtc_compiles_the_kernel_for_each_case_of_a_batch(local, case):
-    """One entry point (the local arrays' kernel, or the global rows' with local 0) and one copy
-    of the run per module: under 2 s of NVRTC each. With every case in one module (44 copies of
+    """One entry point (the short chains' kernel for chains of `local` magnets, or the global
+    rows' with local 0) and one copy of the run per module: under 2 s of NVRTC each (64 magnets,
+    unrolled: 4-8 s, so one case only). With every case in one module (44 copies of
     the run, twice), NVRTC took 25-45 s to PTX here and 3 minutes to sm_90 code on the GPU
     machine, which stalled its first check."""
     rc, log, ptx = compile_ptx((*compile_options(local, case), ARCH))
     assert rc == 0, log
     entries = [line.split()[-1] for line in ptx.decode().splitlines() if ".entry" in line]
     assert entries == ["pl_run_short_chains_gpu(" if local else "pl_run_chains_gpu("], entries
-    assert len(ptx) < 400_000, len(ptx)  # one copy of the run: 90-130 kB (all 44 were 4.5 MB)
+    assert len(ptx) < 1_500_000, len(ptx)  # one copy of the run: 90-570 kB (unrolled for 64 magnets; all 44: 4.5 MB)
 
 
 def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
@@ -80,5 +50,28 @@ def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
     same, edited = shutil.copytree(KERNEL, tmp_path / "same"), shutil.copytree(KERNEL, tmp_path / "edited")
     (edited / "step.h").write_text((edited / "step.h").read_text() + "\n")
     digest = _sources_digest(KERNEL)
-    assert f"-DPL_KERNEL_SOURCES={digest}" in compile_options(LOCAL_SIZES[0], CASES[0])
+    assert f"-DPL_KERNEL_SOURCES={digest}" in compile_options(21, CASES[0])
     assert _sources_digest(same) == digest != _sources_digest(edited)
+
+
+def test_the_paper_s_chains_keep_their_step_s_state_in_registers():
+    """The short chains' kernel is compiled for the batch's length (gpu.local_size) and runs, so
+    its loops unroll and a chain's x, v, f live in registers (ptxas's report, sm_90; the numbers
+    of benchmarks/gpu_resources.py). At ece083f (local arrays of 32, loops over a run-time n) the
+    stack frame was 11472 bytes a thread without friction and record, 12592 with both (9216 of
+    them the record's rows), all in local memory, which 50688 resident threads on an H200 held
+    at 638 MB, 13x its L2. Now: under 1.5 kB without, and the record's rows plus under 2.5 kB
+    with both, at most 64 bytes spilled; the bounds leave room for another NVRTC's choices."""
+    from pylmp_lattice.engines.library import layout
+
+    if nvrtc.load() is None:
+        pytest.skip("NVIDIA's NVRTC is not installed (pip install nvidia-cuda-nvrtc)")
+    n = 21
+    assert local_size(n) == n and local_size(64) == 64 and local_size(65) == 0
+    for case, bound in (((0, 3.0, False, False), 1500), ((0, 3.0, True, True), n * layout().ncol * 8 + 2500)):
+        got = nvrtc.compile_kernel(KERNEL / "engine_gpu.cu", (*compile_options(n, case), "-arch=sm_90", "-Xptxas=-v"))
+        assert got.rc == 0, got.log
+        m = re.search(r"Function properties for pl_run_short_chains_gpu\n[^\n]*?(\d+) bytes stack frame, (\d+) bytes "
+                      r"spill stores, (\d+) bytes spill loads", got.log)
+        stack, stores, loads = map(int, m.groups())
+        assert stack < bound and stores <= 64 and loads <= 64, (case, got.log)

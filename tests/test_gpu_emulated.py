@@ -280,8 +280,8 @@ SCENARIOS = {
     **{f"drive-{d}": (lambda d=d: members(impactor=DRIVES[d], friction=FRICTION)) for d in DRIVES},
     "disorder": lambda: members(friction=FRICTION, chain={"thermal_velocity": None, "mass_disorder": 0.05, "r0_disorder": 0.05}),
     "long-far-end": lambda: members(particles=None, duration=5.0, chain={"far_end": "long"}),
-    "40-magnets-local-64": lambda: members(particles=40, friction=FRICTION),
-    "64-magnets-local-64": lambda: members(particles=64, impactor=DRIVES["measured"]),
+    "40-magnets-short": lambda: members(particles=40, friction=FRICTION),
+    "64-magnets-short": lambda: members(particles=64, impactor=DRIVES["measured"]),
     "120-magnets-global-rows": lambda: members(particles=120, friction=FRICTION),
     "120-magnets-table-global-rows": lambda: members(particles=120, law="table_morse", impactor=DRIVES["sine"]),
     "300-magnets-two-runs-global-rows": lambda: members(count=3, particles=300, duration=2.0, friction=FRICTION),  # n - 2 > block
@@ -297,7 +297,7 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     got = run_both(cases, tmp_path, monkeypatch)
     assert assert_same_outputs(got)  # bit for bit: one kernel, one compiler, no FMA contraction on x86-64
     n = cases[0].chain.particles
-    local = gpu._local_size(n)
+    local = gpu.local_size(n)
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
     assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(prepare(cases, "gpu")))]
     assert (got["gpu"]["out"][2] is None) == scenario.endswith(("rest", "rest-global-rows"))  # a drive at rest: no record
@@ -333,22 +333,39 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
     """A module holds one case of the law, friction and record (engine_gpu.cu's run_compiled):
     given a batch of another case, its chains are not run, and the engine says so."""
     a = prepare(members(count=3, friction=FRICTION), "gpu")
+    batch_case = gpu.batch_case
     assert gpu.batch_case(a) == (0, 3.0, True, True)
     for other in ((0, 2.0, True, True), (0, 3.5, True, True), (1, 0.0, True, True), (0, 3.0, False, True),
                   (0, 3.0, True, False)):
         monkeypatch.setattr(gpu, "batch_case", lambda _a, _other=other: _other)
         with pytest.raises(RuntimeError, match="did not run this batch's chains"):
             gpu.run_arrays(a)
+    monkeypatch.setattr(gpu, "batch_case", batch_case)
+    monkeypatch.setattr(gpu, "local_size", lambda n: n + 1)  # a module for chains of 22 magnets
+    with pytest.raises(RuntimeError, match="did not run this batch's chains"):
+        gpu.run_arrays(a)
+
+
+@pytest.mark.parametrize("block", [1, 4, 19])
+def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block):
+    """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
+    compile-time constant, chosen by the registers it leaves, benchmarks/gpu_resources.py): one
+    atom, a few runs, or one run of all 19, bit for bit the host engine's (runs of its BLOCK)."""
+    monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
+    cases = members(friction=FRICTION)
+    assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
+    assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(prepare(cases, "gpu")))
+    assert f"-DPL_BLOCK={block}" in emulated_gpu.modules[0]
 
 
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
     """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
     sig = kernel_signatures(SOURCE.read_text())
-    assert len(sig["pl_run_short_chains_gpu"]) == 29 + 8 and len(sig["pl_run_chains_gpu"]) == 29 + 17
+    assert len(sig["pl_run_short_chains_gpu"]) == 29 + 8 and len(sig["pl_run_chains_gpu"]) == 29 + 16
     assert sig["pl_run_chains_gpu"][29 + 11] == ("unsigned char", True, False)  # phase
     assert sig["pl_run_chains_gpu"][29 + 2] == ("double", True, True)  # mass
     assert sig["pl_run_chains_gpu"][27:29] == [("double", True, True), ("long long", False, False)]  # drive path
-    lib = emulated_build(gpu.compile_options(gpu.LOCAL_SIZES[0], (0, 3.0, True, True)))
+    lib = emulated_build(gpu.compile_options(21, (0, 3.0, True, True)))
     k = Kernel(lib, "pl_run_short_chains_gpu", sig["pl_run_short_chains_gpu"], [])
     good = [np.int32(1) if b == "int" else np.int64(1) if b == "long long" else np.float64(1.0) for b, p, _ in k.signature]
     good = [FakeCupy.zeros(4, C_TYPES[b]) if p else g for g, (b, p, _) in zip(good, k.signature)]

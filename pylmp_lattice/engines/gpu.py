@@ -5,9 +5,12 @@ The same batch as `engines.cpu` (`arrays.prepare`), the splines fitted on the ho
 engine's library (`library`: the plugin's fits, fit.h), the same results (`cpu.run_arrays`'s).
 CuPy is an optional dependency: without it, or without a device, `available` says why.
 
-Chains of up to 64 magnets (the ensembles') keep their whole state in each thread's local
-memory, which CUDA interleaves by thread (coalesced), and only the record's 7 output columns per
-magnet go back to global memory; longer chains run on chain-major rows of global arrays.
+Chains of up to 64 magnets (the ensembles') run in a module compiled for their length: its
+loops unroll, so that the chain's x, v, f live in registers where they fit, the rest in each
+thread's local memory, which CUDA interleaves by thread (coalesced); only the record's 7 output
+columns per magnet go back to global memory. Longer chains run on chain-major rows of global
+arrays. benchmarks/gpu_resources.py prints each module's registers and local memory (NVRTC, no
+device needed).
 
 Run on an NVIDIA H200 on 2026-11-27 (benchmarks/gpu_check.sh; numbers in docs/performance.md).
 NVRTC compiles it with `compile_options` (tests/test_gpu_build.py, on any machine with the
@@ -31,8 +34,11 @@ from .library import layout, library, ptr, step_scratch
 __all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 THREADS = 128
-# Chains of up to 64 magnets keep their state in each thread's local memory (engine_gpu.cu)
-LOCAL_SIZES = (32, 64)
+# Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
+LOCAL_MAX = 64
+# ... in runs of free atoms of at most SHORT_BLOCK: the fewest ptxas spills for the paper's 21 magnets
+# with friction and the record (benchmarks/gpu_resources.py --blocks); the bits do not depend on it
+SHORT_BLOCK = 10
 # Atom-steps per launch: about 1 s at the 1.03e10 atom-steps/s an H200 ran (docs/performance.md), so a
 # signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
 # fast per atom-step as 10^6 in two, so smaller launches cost no speed there
@@ -60,7 +66,6 @@ def run_arrays(a: Arrays):
     NOUT, NCOL = lay.nout, lay.ncol  # noqa: N806 - the kernel's names
     n, chains = a.n, a.chains
     block = min(lay.block, n - 2)
-    nruns = (n - 2 + block - 1) // block
     empty = np.zeros(1)
     if a.table:  # the host's fit, as the plugin's
         r, u, f = (np.ascontiguousarray(t, float) for t in a.table[:3])
@@ -86,7 +91,7 @@ def run_arrays(a: Arrays):
              np.int32(a.given_velocity), np.int32(a.hold), np.int32(a.friction is not None), np.float64(mu),
              np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record),
              d(path if len(path) else empty), np.int64(len(path) // 2))
-    local = _local_size(n)
+    local = local_size(n)
     options = compile_options(local, batch_case(a))
     if local:
         front = cp.empty(chains * n * NOUT if a.record else 1)
@@ -98,7 +103,7 @@ def run_arrays(a: Arrays):
         phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
         scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
         per_chain = step_scratch(block)
-        runs, scratch_runs = cp.zeros(chains * nruns * 5, cp.int32), cp.zeros(chains * per_chain)
+        scratch_runs = cp.zeros(chains * per_chain)
     chunk = max(THREADS, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // THREADS * THREADS)
     for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
         hi = min(chains, lo + chunk)
@@ -113,7 +118,7 @@ def run_arrays(a: Arrays):
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
                     index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
                     *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
-                    runs[lo * nruns * 5:hi * nruns * 5], scratch_runs[lo * per_chain:hi * per_chain],
+                    scratch_runs[lo * per_chain:hi * per_chain],
                     work[rows], end_step[rows], status[rows])
             _kernel("pl_run_chains_gpu", options)(grid, (THREADS,), args)
         cp.cuda.Stream.null.synchronize()
@@ -146,10 +151,11 @@ def batch_case(a: Arrays) -> tuple[int, float, bool, bool]:
     return LAWS[a.law], float(a.law_values[2]) if a.law == "power" else 0.0, a.friction is not None, bool(a.record)
 
 
-def compile_options(local: int, case: tuple[int, float, bool, bool]) -> tuple[str, ...]:
-    """NVRTC's options for engine_gpu.cu: local arrays `local` long (0: the global rows' kernel),
-    only the batch's `case` (`batch_case`) of the law, friction and record (one copy of the run,
-    not 44: seconds to compile, not minutes).
+def compile_options(local: int, case: tuple[int, float, bool, bool], block: int | None = None) -> tuple[str, ...]:
+    """NVRTC's options for engine_gpu.cu: the short chains' kernel for chains of `local` magnets
+    in runs of at most `block` (default `short_block(local)`), or with local 0 the global rows'
+    kernel; only the batch's `case` (`batch_case`) of the law, friction and record (one copy of
+    the run, not 44: seconds to compile, not minutes).
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
     are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's
     entries still differ from the host build's by up to 2.6e-11 relative, with or without it;
@@ -161,9 +167,10 @@ def compile_options(local: int, case: tuple[int, float, bool, bool]) -> tuple[st
     the headers it includes, so their digest goes in the options (an edited header, a new version
     of the package, compiles anew instead of loading the old kernel)."""
     law, q, friction, record = case
-    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_LAW_KIND={law}", f"-DPL_LAW_Q={q!r}",
-            f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}", "-fmad=false", "-default-device",
-            f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
+    block = short_block(local) if block is None else block
+    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
+            f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}", "-fmad=false",
+            "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 
 @lru_cache
@@ -175,9 +182,16 @@ def _sources_digest(folder: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def _local_size(n: int) -> int:
-    """The local arrays' length for chains of n (PL_LOCAL_N: a multiple of 32), 0 for global rows."""
-    return next((size for size in LOCAL_SIZES if n <= size), 0)
+def local_size(n: int) -> int:
+    """PL_LOCAL_N for chains of n magnets: n itself (a module per length, compiled in about a
+    second and cached by CuPy), 0 for the global rows' kernel."""
+    return n if 3 <= n <= LOCAL_MAX else 0
+
+
+def short_block(local: int) -> int:
+    """PL_BLOCK, the short chains' largest run of free atoms (0 for the global rows' kernel, which
+    takes the batch's block as an argument)."""
+    return min(SHORT_BLOCK, local - 2) if local else 0
 
 
 _MODULES: dict = {}

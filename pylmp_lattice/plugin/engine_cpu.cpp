@@ -45,11 +45,10 @@ struct LaneStore {
   std::vector<double> lanes, rec, x_end, v_end;
   std::vector<unsigned char> phase;
   std::vector<int> index;
-  std::vector<Run> runs;
   LaneStore(const ChainSetup &S, int W)
       : n(S.n), per_array(S.n * W), lanes((ARRAYS * S.n + step_scratch(S.block)) * W + 8),
         rec(S.record ? static_cast<size_t>(S.n) * W * front::NCOL : 0), x_end(S.n * W), v_end(S.n * W),
-        phase(S.record ? S.n * W : 0), index(S.n), runs(S.n > 2 ? (S.n - 2 + S.block - 1) / S.block : 1)
+        phase(S.record ? S.n * W : 0), index(S.n)
   {
     for (int i = 0; i < n; i++) index[i] = i;
   }
@@ -90,7 +89,6 @@ template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &s
   }
   d.x = x, d.v = v, d.f = reinterpret_cast<R *>(st.array(2));
   d.dtfm = dtfm, d.mass = mass, d.weight = weight, d.index = st.index.data();
-  d.runs = st.runs.data();
   d.scratch = reinterpret_cast<R *>(st.array(LaneStore::ARRAYS));
   d.x_end = st.x_end.data(), d.v_end = st.v_end.data();
   if (S.record) {

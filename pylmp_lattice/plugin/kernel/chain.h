@@ -61,6 +61,7 @@ PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, int block
 template <class R> PL_HD inline void chain_masses(const R *mass, int n, double dt, double g, R *dtfm, R *weight)
 {
   const double dtf = 0.5 * dt * 1.0;
+  PL_UNROLL
   for (int i = 0; i < n; i++) {
     dtfm[i] = dtf / mass[i];
     weight[i] = mass[i] * g;
@@ -88,7 +89,6 @@ template <class R> struct ChainDataT {
   double *rec;                    // the front record (rec: n rows of NCOL per lane)
   R *mark, *gate;                 // marks, start gates
   unsigned char *phase;
-  Run *runs;                      // scratch: ceil((n - 2) / block) runs
   R *scratch;                     // scratch: step_scratch(block)
   double *x_end, *v_end;          // lanes: each lane's x, v at its end (W rows of n), or null
   bool alive[W];                  // in: the lanes to run (a lane past the last chain: false)
@@ -102,27 +102,35 @@ typedef ChainDataT<double> ChainData;
 enum ChainStatus { FINISHED = 0, CONTACT = 1, OUT_OF_RANGE = 2, DRIVE_ENDED = 3 };
 
 namespace detail {
+/* front::sample_row, cold: a call keeps the lanes' code small; it takes values, so that the
+   caller's arrays of x, v, f (the GPU's, in registers) are not handed to a call */
+PL_HD PL_COLD inline void sample_cold(double *r, unsigned char &phase, double v, double f, double m, double v_prev,
+                                      const front::Levels L, const front::Sample s)
+{
+  front::sample_row(r, phase, v, f, m, v_prev, L, s);
+}
+
 /* the front record's sampling of a run's rows (FrontPass's hook), per running lane: the active
    atoms and those that reach the start level now, with the rules of front.h. An atom's gate
    says which per lane, in one comparison for all lanes: its chain's start level while it waits
    (due if v >= gate), -infinity while active (always due), NaN when finished (never). */
-template <class R> struct ChainFront {
+template <class R, class Runs> struct ChainFront {
   using L = Lanes<R>;
   static constexpr int W = L::W;
   int n;
-  const Run *runs;
+  Runs runs;
   const R *v, *f, *mass;
   R *gate;
   ChainDataT<R> *c;
   front::Sample sample;
   int active[W];                  // per lane: atoms of the chain between their start and both peaks
 
-  PL_HD PL_COLD void row(int l, int i, double v_prev)    // cold: a call keeps the lanes' code small
+  PL_HD void row(int l, int i, double v_prev)
   {
     unsigned char &phase = c->phase[l * n + i];
     const unsigned char was = phase;
-    front::sample_row(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
-                      L::get(mass[i], l), v_prev, c->levels[l], sample);
+    sample_cold(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
+                L::get(mass[i], l), v_prev, c->levels[l], sample);
     if (was == front::WAITING && phase != front::WAITING) L::set(gate[i], l, -infinity()), active[l]++;
     if (was != front::FINISHED && phase == front::FINISHED) L::set(gate[i], l, quiet_nan()), active[l]--;
   }
@@ -141,7 +149,8 @@ template <class R> struct ChainFront {
     bool any_active = false;
     for (int l = 0; l < W; l++) any_active = any_active || active[l] > 0;
     if (!any_active && !L::any(starting)) return;
-    const Run &run = runs[b];
+    const Run run = runs[b];
+    PL_UNROLL
     for (int i = run.first; i <= run.last; i++) rows(i, v_before[i - run.first]);
   }
 };
@@ -150,6 +159,7 @@ template <class R> struct ChainFront {
 template <class R> PL_HD inline R smallest_gap(const R *x, int n)
 {
   R g = Lanes<R>::splat(infinity());
+  PL_UNROLL
   for (int i = 0; i + 1 < n; i++) g = x[i + 1] - x[i] < g ? x[i + 1] - x[i] : g;
   return g;
 }
@@ -167,8 +177,10 @@ PL_HD inline void end_lane(const ChainSetup &S, ChainDataT<R> &c, const R &work_
   c.end_step[l] = step;
   c.work[l] = L::get(work_done, l);
   if (c.x_end)
+    PL_UNROLL
     for (int i = 0; i < n; i++) c.x_end[l * n + i] = L::get(c.x[i], l), c.v_end[l * n + i] = L::get(c.v[i], l);
   if (FRONT)
+    PL_UNROLL
     for (int i = 0; i < n; i++) c.rec[((long long) l * n + i) * front::NCOL + front::V_ABS_MAX] = L::get(c.mark[i], l);
 }
 
@@ -197,19 +209,15 @@ PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_d
     if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status);
 }
 
-template <bool FRICTION, bool FRONT, class LawT, class R>
+template <bool FRICTION, bool FRONT, class Runs = ChainRuns, class LawT, class R>
 PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
 {
   using L = Lanes<R>;
-  const int n = S.n;
+  // the runs of free atoms 1 .. n - 2, each at most S.block long (FixedRuns: n and they are constants)
+  const Runs runs = Runs::of(S.n, S.block);
+  const int n = runs.n, nruns = runs.count();
   R *x = c.x, *v = c.v, *f = c.f;
   const MassesT<R> ms{c.index, c.dtfm, c.mass, c.weight, false, c.dtm};
-  // the runs of free atoms 1 .. n - 2, each at most S.block long
-  int nruns = 0;
-  for (int first = 1; first <= n - 2; first += S.block) {
-    const int last = first + S.block - 1 < n - 2 ? first + S.block - 1 : n - 2;
-    c.runs[nruns++] = Run{first, last, first - 1, last + 1, 0};
-  }
   const R x0 = x[0];
   double u, ud;
   CoulombWorkT<R> work;
@@ -223,6 +231,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   {
     R left = law(x[1] - x[0]);
     gaps.add(x[1] - x[0]);
+    PL_UNROLL
     for (int i = 1; i <= n - 2; i++) {
       const R r = x[i + 1] - x[i];
       gaps.add(r);
@@ -234,8 +243,9 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   if (FRICTION) work.settle(0.5 * S.dt, true, work_done, work_pending), work = CoulombWorkT<R>();
   f[0] = -law(x[1] - x[0]);
   f[n - 1] = L::splat(0.0);
-  ChainFront<R> hook{n, c.runs, v, f, c.mass, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
+  ChainFront<R, Runs> hook{n, runs, v, f, c.mass, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
   if (FRONT) {
+    PL_UNROLL
     for (int i = 0; i < n; i++) {
       c.mark[i] = front::mark_max(c.mark[i], v[i]);
       for (int l = 0; l < L::W; l++) L::set(c.gate[i], l, c.levels[l].start);
@@ -243,7 +253,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
     }
   }
   if (end_bad<FRONT>(S, c, gaps, work_done, 0)) return;
-  const FrontPass<ChainFront<R>, R> pass{c.mark, c.gate, &hook};
+  const FrontPass<ChainFront<R, Runs>, R> pass{c.mark, c.gate, &hook};
   for (long long step = 1; step <= S.steps; step++) {
     const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)
@@ -252,7 +262,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
     v[0] = L::splat(ud);
     hook.sample = front::Sample{0.0 + static_cast<double>(step) * S.dt, hook.sample.t, false};
     GapsT<R> g;
-    step_runs<FRICTION, FRONT>(law, c.runs, nruns, x, v, f, ms, S.fr, S.dt, &work, c.scratch, S.block, pass, g);
+    step_runs<FRICTION, FRONT>(law, runs, nruns, x, v, f, ms, S.fr, S.dt, &work, c.scratch, S.block, pass, g);
     if (FRICTION) work.settle(S.dt, false, work_done, work_pending), work = CoulombWorkT<R>();
     f[0] = -law(x[1] - x[0]);
     f[n - 1] = L::splat(0.0);

@@ -12,6 +12,7 @@
 #define PL_SIMD_STEP
 #define PL_RESTRICT __restrict__
 #define PL_COLD __noinline__
+#define PL_UNROLL _Pragma("unroll")
 #else
 #define PL_HD
 #define PL_SIMD_REDUCE _Pragma("omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum)")
@@ -19,6 +20,7 @@
   _Pragma("omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum) reduction(+ : starting)")
 #define PL_RESTRICT __restrict
 #define PL_COLD __attribute__((noinline))
+#define PL_UNROLL
 #endif
 
 #ifndef __CUDACC_RTC__

@@ -2,27 +2,33 @@
    (chain.h). Compiled at run time by NVRTC through CuPy (pylmp_lattice/engines/gpu.py, with -I
    this folder and the batch's -D options, below). Part of pylmp_lattice, GPL-2.0.
 
-   Short chains (n <= PL_LOCAL_N, the ensembles' case): pl_run_short_chains_gpu keeps a chain's
-   whole state (x, v, f, masses, the front record's rows, marks, phases, scratch) in per-thread
-   local arrays. CUDA interleaves local memory by thread (word k of the 32 threads of a warp is
-   one 128-byte line), so when the warp's threads step their chains in lockstep every access is
-   coalesced, and what stays hot sits in L1/L2; only the inputs (x, v, masses, levels) are read
-   from global memory once, and only the record's NOUT output columns (not its NCOL columns of
-   running state) and the final x, v are written back: the per-chain record leaves the chip
-   compact, 7 doubles per magnet.
+   Short chains (n = PL_LOCAL_N, up to 64, the ensembles' case): pl_run_short_chains_gpu is
+   compiled for the batch's n and runs of at most PL_BLOCK free atoms (FixedRuns, step.h), so
+   every loop over the atoms unrolls and a chain's arrays (x, v, f, masses, marks, gates,
+   scratch) are indexed by constants: ptxas keeps what fits in registers, the rest (and the front
+   record's rows, touched only for the few atoms between their start and both peaks) in
+   per-thread local memory. At ece083f (arrays of 32 or 64, loops over a run-time n) all of it
+   was local memory: 12.6 kB a thread for 21 magnets with friction and record, 638 MB for the
+   threads an H100/H200 holds at once, 13x its L2 (benchmarks/gpu_resources.py prints both).
+   CUDA interleaves local memory by thread (word k of the 32 threads of a warp is one 128-byte
+   line), so when the warp's threads step their chains in lockstep every access is coalesced;
+   only the inputs (x, v, masses, levels) are read from global memory once, and only the
+   record's NOUT output columns (not its NCOL columns of running state) and the final x, v are
+   written back: the per-chain record leaves the chip compact, 7 doubles per magnet.
    Long chains: pl_run_chains_gpu runs on chain-major slices of global arrays (each thread its
    own rows: not coalesced; a block per chain would be the next step).
 
    A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
-   the short chains' kernel with local arrays that long, 0 the global rows' kernel; PL_LAW_KIND
+   the short chains' kernel for chains that long (PL_BLOCK its runs), 0 the global rows' kernel; PL_LAW_KIND
    (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the one case of
    chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
    NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
 
 #include "chain.h"
 
-#if !defined(PL_LOCAL_N) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) || !defined(PL_RECORD)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD"
+#if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
+    || !defined(PL_RECORD)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD"
 #endif
 
 using namespace pl_kernel;
@@ -65,13 +71,13 @@ template <> struct Compiled<laws::Table> {
 
 /* chain.h's run_chain for the compiled case alone; a chain of another case is not run and keeps
    end step -1, which the host refuses (a module built for another batch never passes unseen) */
-__device__ void run_compiled(const ChainSetup &S, ChainData &d)
+template <class Runs> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
 {
   d.end_step[0] = -1;
   dispatch_chain(S, [&](auto law, auto friction, auto record) {
     if constexpr (Compiled<decltype(law)>::value && decltype(friction)::value == (PL_FRICTION != 0) &&
                   decltype(record)::value == (PL_RECORD != 0))
-      detail::run_chain<decltype(friction)::value, decltype(record)::value>(law, S, d);
+      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs>(law, S, d);
   });
 }
 }    // namespace
@@ -88,40 +94,59 @@ __device__ void run_compiled(const ChainSetup &S, ChainData &d)
       range_hi, record, drive_path, drive_path_steps
 
 #if PL_LOCAL_N > 0
-/* n <= PL_LOCAL_N, n - 2 <= block: one run of free atoms. x, v (chains x n, chain-major) in and
-   out; front_out (chains x n x NOUT) with a record. */
+/* 0, 1, ..., N - 1 (each atom its own mass slot) as constants: once the loops unroll, the mass
+   arrays are read at constant indices, which lets them live in registers */
+template <int N> struct OwnSlots {
+  int slot[N];
+};
+template <int N> constexpr OwnSlots<N> own_slots()
+{
+  OwnSlots<N> out{};
+  for (int i = 0; i < N; i++) out.slot[i] = i;
+  return out;
+}
+
+/* n = PL_LOCAL_N (a chain of another n ends at once with end step -1, which the host refuses),
+   in runs of at most PL_BLOCK (bit for bit the same for any: the host's runs are longer). x, v
+   (chains x n, chain-major) in and out; front_out (chains x n x NOUT) with a record. */
 extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass,
                                                    const double *levels, double *front_out, double *work,
                                                    long long *end_step, int *status)
 {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
   if (c >= chains) return;
-  const ChainSetup S = make_setup(PL_SETUP_ARGS);
   constexpr int N = PL_LOCAL_N;
-  double xl[N], vl[N], fl[N], ml[N], dtfm[N], weight[N], rec[N * front::NCOL], mark[N], gate[N];
-  double scratch[step_scratch(N)];
+  if (n != N) {    // a module built for another length (engines/gpu.py refuses the batch)
+    end_step[c] = -1;
+    return;
+  }
+  ChainSetup S = make_setup(PL_SETUP_ARGS);
+  S.n = N, S.block = PL_BLOCK;    // as constants: the loops over the atoms unroll
+  double xl[N], vl[N], fl[N], ml[N], dtfm[N], weight[N], rec[PL_RECORD ? N * front::NCOL : 1], mark[N], gate[N];
+  double scratch[step_scratch(PL_BLOCK)];
   unsigned char phase[N];
-  int index[N];
-  Run runs[1];
-  const long long at = static_cast<long long>(c) * n;
-  for (int i = 0; i < n; i++) {
-    xl[i] = x[at + i], vl[i] = v[at + i], ml[i] = mass[at + i], index[i] = i;
+  constexpr OwnSlots<N> slots = own_slots<N>();
+  const long long at = static_cast<long long>(c) * N;
+  PL_UNROLL
+  for (int i = 0; i < N; i++) {
+    xl[i] = x[at + i], vl[i] = v[at + i], ml[i] = mass[at + i];
     mark[i] = quiet_nan(), gate[i] = 0.0, phase[i] = front::WAITING;
   }
-  if (S.record)
-    for (int k = 0; k < n * front::NCOL; k++) rec[k] = quiet_nan();
-  chain_masses(ml, n, dt, g, dtfm, weight);
+  if (PL_RECORD)
+    for (int k = 0; k < N * front::NCOL; k++) rec[k] = quiet_nan();
+  chain_masses(ml, N, dt, g, dtfm, weight);
   ChainData d{};
-  d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = index;
-  d.runs = runs, d.scratch = scratch, d.alive[0] = true;
-  if (S.record) {
+  d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = slots.slot;
+  d.scratch = scratch, d.alive[0] = true;
+  if (PL_RECORD) {
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec, d.mark = mark, d.gate = gate, d.phase = phase;
   }
-  run_compiled(S, d);
-  for (int i = 0; i < n; i++) x[at + i] = xl[i], v[at + i] = vl[i];
-  if (S.record)
-    for (int i = 0; i < n; i++)
+  run_compiled<FixedRuns<N, PL_BLOCK>>(S, d);
+  PL_UNROLL
+  for (int i = 0; i < N; i++) x[at + i] = xl[i], v[at + i] = vl[i];
+  if (PL_RECORD)
+    for (int i = 0; i < N; i++)
       for (int k = 0; k < front::NOUT; k++) front_out[(at + i) * front::NOUT + k] = rec[i * front::NCOL + k];
   work[c] = d.work[0];
   end_step[c] = d.end_step[0];
@@ -133,7 +158,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
    NaN, mark NaN, gate and phase 0 on entry. */
 extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass, double *f,
                                              double *dtfm, double *weight, const int *index, const double *levels,
-                                             double *rec, double *mark, double *gate, unsigned char *phase, int *runs,
+                                             double *rec, double *mark, double *gate, unsigned char *phase,
                                              double *scratch, double *work, long long *end_step, int *status)
 {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
@@ -141,7 +166,6 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   const ChainSetup S = make_setup(PL_SETUP_ARGS);
   const long long at = static_cast<long long>(c) * n;
   chain_masses(mass + at, n, dt, g, dtfm + at, weight + at);
-  const int nruns = (n - 2 + block - 1) / block;
   ChainData d{};
   d.x = x + at;
   d.v = v + at;
@@ -150,7 +174,6 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   d.mass = mass + at;
   d.weight = weight + at;
   d.index = index;
-  d.runs = reinterpret_cast<Run *>(runs) + static_cast<long long>(c) * nruns;
   d.scratch = scratch + static_cast<long long>(c) * step_scratch(block);
   d.alive[0] = true;
   if (S.record) {
@@ -160,7 +183,7 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
     d.gate = gate + at;
     d.phase = phase + at;
   }
-  run_compiled(S, d);
+  run_compiled<ChainRuns>(S, d);
   work[c] = d.work[0];
   end_step[c] = d.end_step[0];
   status[c] = d.status[0];

@@ -29,6 +29,49 @@ struct Run {
   int first, last, left, right, chain;
 };
 
+/* the runs of one chain's free atoms 1 .. n - 2, each at most `block` long (step_runs' runs[b]
+   of run_chain, chain.h), computed, not stored */
+struct ChainRuns {
+  int n, block;
+  PL_HD static constexpr ChainRuns of(int n, int block) { return ChainRuns{n, block}; }
+  PL_HD constexpr int count() const { return n > 2 ? (n - 2 + block - 1) / block : 0; }
+  PL_HD constexpr Run operator[](int b) const
+  {
+    const int first = 1 + b * block, last = first + block - 1 < n - 2 ? first + block - 1 : n - 2;
+    return Run{first, last, first - 1, last + 1, 0};
+  }
+};
+/* the same for an n and block known at compile time (the GPU's short chains): the loops over
+   the runs and their atoms unroll in step_runs' own code, so that a chain's arrays can live in
+   registers (ptxas: benchmarks/gpu_resources.py) */
+template <int N, int BLOCK> struct FixedRuns {
+  static constexpr int n = N, block = BLOCK;
+  PL_HD static constexpr FixedRuns of(int, int) { return FixedRuns{}; }
+  PL_HD static constexpr int count() { return ChainRuns{N, BLOCK}.count(); }
+  struct Table {
+    Run r[count() > 0 ? count() : 1];
+  };
+  PL_HD static constexpr Table table()
+  {
+    Table t{};
+    for (int b = 0; b < count(); b++) t.r[b] = ChainRuns{N, BLOCK}[b];
+    return t;
+  }
+  /* from a table of constants, not computed: NVRTC's loop unrolling folds loads of constants
+     before arithmetic (computed, the runs' loops did not unroll: ptxas, 2026-11-27) */
+  PL_HD Run operator[](int b) const
+  {
+    constexpr Table t = table();
+    return t.r[b];
+  }
+};
+/* how many runs step_runs steps: nruns, or a FixedRuns' constant */
+template <class Runs> PL_HD constexpr int run_count(const Runs &, int nruns) { return nruns; }
+template <int N, int BLOCK> PL_HD constexpr int run_count(const FixedRuns<N, BLOCK> &runs, int)
+{
+  return runs.count();
+}
+
 /* step_runs' scratch, in R: two runs' bond forces and one run's velocities */
 PL_HD constexpr int step_scratch(int block) { return 3 * block + 2; }
 
@@ -216,11 +259,12 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct 
    impactors at this step's position before). x, v, f: the slab's arrays along x; works: per
    chain, this step's friction work (each run adds to its chain's, in ID order); scratch:
    step_scratch(block) R; gaps: every bond left of a run's atom and right of its last. */
-template <bool FRICTION, bool FRONT, class LawT, class Hook, class R>
-PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT x, R *PL_RESTRICT v,
+template <bool FRICTION, bool FRONT, class LawT, class Hook, class R, class Runs>
+PL_HD void step_runs(const LawT law, const Runs runs, int nruns, R *PL_RESTRICT x, R *PL_RESTRICT v,
                      R *PL_RESTRICT f, const MassesT<R> &ms, const Friction &fr, double dt, CoulombWorkT<R> *works,
                      R *scratch, int block, const FrontPass<Hook, R> &front, GapsT<R> &gaps)
 {
+  nruns = run_count(runs, nruns);
   auto pass = [&](auto one_type) {
     const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT, R> S{
         law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : Lanes<R>::splat(0.0), front.mark, front.gate};
@@ -229,6 +273,7 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT 
     R *PL_RESTRICT bonds[2] = {scratch, scratch + block + 1};
     R *PL_RESTRICT v_old = scratch + 2 * block + 2;
     R r_min = gaps.r_min, r_max = gaps.r_max, r_sum = gaps.r_sum;
+    PL_UNROLL
     for (int b = -1; b <= nruns; b++) {
       // drift run d = b + 1, inner bonds of run b, kick run k = b - 1 (each if there is one)
       const int d = b + 1, k = b - 1;
@@ -248,32 +293,37 @@ PL_HD void step_runs(const LawT law, const Run *runs, int nruns, R *PL_RESTRICT 
       if (!FRICTION) both = both < nk ? both : nk;
       if constexpr (Lanes<R>::W == 1) {
         PL_SIMD_STEP
+        PL_UNROLL
         for (int j = 0; j < both; j++) {
           S.drift(id + j);
           Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
           if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
         }
       } else {
+        PL_UNROLL
         for (int j = 0; j < both; j++) {
           S.drift(id + j);
           Fb[j + 1] = S.bond(ib + j, r_min, r_max, r_sum);
           if constexpr (!FRICTION) S.kick(ik + j, Fk + j, v_old + j, work, starting);
         }
       }
+      PL_UNROLL
       for (int j = both; j < nd; j++) S.drift(id + j);
       {    // the separations seen in registers (GCC keeps lanes' references in memory)
         R mn = r_min, mx = r_max, sm = r_sum;
+        PL_UNROLL
         for (int j = both; j < nb; j++) Fb[j + 1] = S.bond(ib + j, mn, mx, sm);
         r_min = mn, r_max = mx, r_sum = sm;
       }
       {    // the friction work and starts in registers, as the separations
         CoulombWorkT<R> w = work;
         R st = starting;
+        PL_UNROLL
         for (int j = FRICTION ? 0 : both; j < nk; j++) S.kick(ik + j, Fk + j, v_old + j, w, st);
         work = w, starting = st;
       }
       if (b >= 0 && b < nruns) {    // run b's end bonds: both its neighbours have moved now
-        const Run &run = runs[b];
+        const Run run = runs[b];
         const int len = run.last - run.first + 1;
         Fb[0] = S.bond_of(x[run.first] - x[run.left], r_min, r_max, r_sum);
         Fb[len] = S.bond_of(x[run.right] - x[run.last], r_min, r_max, r_sum);

@@ -1,0 +1,152 @@
+"""What each GPU kernel keeps per thread, without a device: NVRTC (the nvidia-cuda-nvrtc wheel)
+compiles engine_gpu.cu to sm_90 machine code with the GPU engine's own options
+(engines.gpu.compile_options) and ptxas's report (-Xptxas=-v): registers per thread, stack frame
+(local memory per thread) and spill bytes. From these, on an H100/H200 (132 SMs, 65536 registers
+and at most 2048 threads per SM, the engine's blocks of 128 threads): the threads resident per
+SM, and the local memory all resident threads hold, beside the 50 MB of L2. The stack frame is
+split into the front record's rows (N x NCOL doubles, touched only for the few atoms between
+their start and both peaks) and the rest (the per-step state that did not fit in registers).
+
+Cases: the paper's experiment (power law q = 3, friction, front record) and the same law without
+friction or record; chains of --particles magnets. --reference REV adds the same rows for the
+kernel of a git revision (its folder plugin/kernel at REV, its local arrays 32 or 64 long, as
+ece083f rounded n), compiled with this tree's options: the old and the new kernel side by side.
+
+    python benchmarks/gpu_resources.py [--particles 21,40,64] [--reference ece083f]
+    python benchmarks/gpu_resources.py --particles 21 --blocks 4,8,10,19   # the short chains' block
+
+Exit 2 with one line where NVRTC is not installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import math
+import re
+import subprocess
+import sys
+import tarfile
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from pylmp_lattice.engines import gpu, nvrtc  # noqa: E402
+from pylmp_lattice.engines.library import layout  # noqa: E402
+
+ARCH = "sm_90"  # H100 and H200
+SMS, REGISTERS_PER_SM, THREADS_PER_SM, BLOCKS_PER_SM, L2_MB = 132, 65536, 2048, 32, 50
+CASES = {"q=3, friction, record": (0, 3.0, True, True), "q=3, neither": (0, 3.0, False, False)}
+LOCAL_BYTES = {"": 4, ".U8": 1, ".S8": 1, ".U16": 2, ".S16": 2, ".64": 8, ".128": 16}
+
+
+@dataclass
+class Resources:
+    registers: int
+    stack: int  # bytes per thread (the entry's stack frame)
+    spill_stores: int
+    spill_loads: int
+
+    def threads_per_sm(self, threads: int = gpu.THREADS) -> int:
+        """Resident threads per SM for blocks of `threads` (registers allocated per warp, in 256s)."""
+        per_warp = math.ceil(self.registers * 32 / 256) * 256
+        warps = REGISTERS_PER_SM // per_warp
+        blocks = min(warps // (threads // 32), BLOCKS_PER_SM, THREADS_PER_SM // threads)
+        return blocks * threads
+
+
+def entry_report(log: str, entry: str) -> tuple[int, int, int, int]:
+    """ptxas's registers, stack frame, spill stores and loads of the entry `entry`."""
+    m = re.search(rf"Function properties for {entry}\n[^\n]*?(\d+) bytes stack frame, (\d+) bytes spill stores, "
+                  rf"(\d+) bytes spill loads\n[^\n]*?Used (\d+) registers", log)
+    if not m:
+        raise RuntimeError(f"no ptxas report for {entry} in NVRTC's log:\n{log}")
+    stack, stores, loads, registers = map(int, m.groups())
+    return registers, stack, stores, loads
+
+
+def measure(kernel: Path, options: tuple[str, ...], entry: str) -> Resources:
+    got = nvrtc.compile_kernel(kernel / "engine_gpu.cu", (*options, f"-arch={ARCH}", "-Xptxas=-v"))
+    if got.rc != 0:
+        raise RuntimeError(f"NVRTC failed ({got.rc}) with {options}:\n{got.log[-3000:]}")
+    registers, stack, stores, loads = entry_report(got.log, entry)
+    return Resources(registers, stack, stores, loads)
+
+
+def reference_kernel(rev: str, into: Path) -> Path:
+    """plugin/kernel of git revision `rev`, extracted into `into`."""
+    folder = "pylmp_lattice/plugin/kernel"
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev, folder], capture_output=True, check=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        tar.extractall(into, filter="data")
+    return into / folder
+
+
+def with_kernel(options: tuple[str, ...], kernel: Path, local: int) -> tuple[str, ...]:
+    """`options` for the kernel folder `kernel` with local arrays `local` long."""
+    out = []
+    for o in options:
+        o = f"-I{kernel}" if o.startswith("-I") else o
+        o = f"-DPL_LOCAL_N={local}" if o.startswith("-DPL_LOCAL_N=") else o
+        out.append(o)
+    return tuple(out)
+
+
+def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resources) -> str:
+    per_sm = r.threads_per_sm()
+    resident = per_sm * SMS
+    rows = local * layout().ncol * 8 if record else 0  # the record's rows (engine_gpu.cu's rec)
+    rest = r.stack - rows
+    mb = lambda b: f"{resident * b / 1e6:.0f} MB ({resident * b / 1e6 / L2_MB:.1f}x L2)"  # noqa: E731
+    return (f"| {label} | {n} | {local} | {block} | {r.registers} | {r.stack} | {rows} | {rest} | "
+            f"{r.spill_stores} / {r.spill_loads} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} |")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--particles", default="21", help="chain lengths, comma separated (3-64: the short chains' kernel)")
+    p.add_argument("--blocks", default="", help="PL_BLOCK values to try (default: the engine's, gpu.short_block)")
+    p.add_argument("--reference", help="a git revision whose kernel gets the same rows (e.g. ece083f)")
+    args = p.parse_args()
+    if nvrtc.load() is None:
+        print("gpu_resources: NVIDIA's NVRTC is not installed (pip install nvidia-cuda-nvrtc)", file=sys.stderr)
+        raise SystemExit(2)
+    try:
+        sizes = [int(n) for n in args.particles.split(",") if n]
+        blocks = [int(b) for b in args.blocks.split(",") if b]
+    except ValueError:
+        print(f"gpu_resources: --particles and --blocks take integers, not {args.particles!r}, {args.blocks!r}",
+              file=sys.stderr)
+        raise SystemExit(2) from None
+    if not sizes or any(not 3 <= n <= gpu.LOCAL_MAX for n in sizes) or any(b < 1 for b in blocks):
+        print(f"gpu_resources: --particles in 3-{gpu.LOCAL_MAX} (the short chains' kernel), --blocks >= 1",
+              file=sys.stderr)
+        raise SystemExit(2)
+    entry = "pl_run_short_chains_gpu"
+    print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
+    print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
+          "the rest | spill stores / loads (B) | threads/SM | resident threads | their stack | their rest |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        ref = reference_kernel(args.reference, Path(tmp)) if args.reference else None
+        for name, case in CASES.items():
+            for n in sizes:
+                local = gpu.local_size(n)
+                if ref is not None:
+                    old_local = 32 if n <= 32 else 64
+                    options = with_kernel(gpu.compile_options(local, case), ref, old_local)
+                    print(row(f"{args.reference}, {name}", n, old_local, "at run time", case[3],
+                              measure(ref, options, entry)), flush=True)
+                for block in blocks or [gpu.short_block(local)]:
+                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block), entry)
+                    print(row(f"this tree, {name}", n, local, block, case[3], r), flush=True)
+    print("threads/SM: by registers (blocks of 128); their stack: resident threads x stack frame, the local memory "
+          f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "
+          "the record's rows.")
+
+
+if __name__ == "__main__":
+    main()
