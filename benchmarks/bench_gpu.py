@@ -29,15 +29,21 @@ under about 40 s each; `pylmp-lattice sweep --engine gpu` from the command to it
 --variants N: the kernel alone on N of the same members with parts of its work left out (the
 front record, the friction, both; then also the sine drive's path, a constant drive instead, as
 the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
-mean steps its chains ran (a chain that ends early, by a contact, costs less).
+mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
+members as benchmarked in runs of n - 2 atoms (gpu.SHORT_BLOCK: one run, every loop unrolled)
+and, with --reference-kernel DIR, on the kernel in DIR (another revision's plugin/kernel folder,
+its local arrays 32 or 64 long as ece083f's engine rounded n): the old and the new kernel in one
+run, on the same device. benchmarks/gpu_resources.py prints what each keeps per thread.
 
     python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000]
-    python benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 1000000
+    python benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 1000000 [--reference-kernel DIR]
+    mkdir -p DIR && git archive ece083f pylmp_lattice/plugin/kernel | tar -x -C DIR --strip-components=3
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import importlib.util
 import os
@@ -226,26 +232,48 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
         print(f"| {count} | {wall:.2f} | {1e3 * wall / count:.4f} | {coordinator:.2f} | {workers:.2f} |", flush=True)
 
 
-def variants(tmp: Path, count: int) -> None:
-    """The kernel alone on `count` members, as benchmarked and with parts of its work left out."""
+@contextlib.contextmanager
+def patched(module, **values):
+    """`module`'s attributes set to `values` inside the block."""
+    saved = {name: getattr(module, name) for name in values}
+    try:
+        for name, value in values.items():
+            setattr(module, name, value)
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(module, name, value)
+
+
+def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
+    """The kernel alone on `count` members, as benchmarked and with parts of its work left out;
+    in one run of n - 2 atoms; with the kernel in `reference` (ece083f's local arrays)."""
     from pylmp_lattice.engines import gpu
 
     a = members(tmp / "variants", count)[1]
-    left_out = {"as benchmarked": {}, "no front record": {"record": False}, "no friction": {"friction": None},
-                "neither": {"record": False, "friction": None},
-                "neither, constant drive": {"record": False, "friction": None, "drive": "constant", "V": 0.5 * a.V}}
+    rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
+            "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
+            "neither, constant drive": ({"record": False, "friction": None, "drive": "constant", "V": 0.5 * a.V}, {}),
+            f"as benchmarked, runs of {a.n - 2} (one)": ({}, {"SHORT_BLOCK": a.n - 2}),
+            f"neither, runs of {a.n - 2} (one)": ({"record": False, "friction": None}, {"SHORT_BLOCK": a.n - 2})}
+    if reference:
+        old = {"KERNEL": reference.resolve(), "local_size": lambda n: 32 if n <= 32 else 64 if n <= 64 else 0}
+        rows |= {f"as benchmarked, kernel of {reference.name}": ({}, old),
+                 f"neither, kernel of {reference.name}": ({"record": False, "friction": None}, old)}
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {count} thermal replicas of the 21-magnet "
-          f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it)")
+          f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it); runs of "
+          f"{gpu.short_block(a.n)} atoms unless said")
     print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
     print("|---|---|---|---|---|")
     first = None
-    for name, changes in left_out.items():
+    for name, (changes, module) in rows.items():
         b = dataclasses.replace(a, **changes)
-        gpu.run_arrays(dataclasses.replace(b, chains=64, x=b.x[:64], v=b.v[:64], mass=b.mass[:64],
-                                           levels=b.levels[:64]))  # compiles its module
-        start = time.perf_counter()
-        end_step = gpu.run_arrays(b)[4]
-        took = time.perf_counter() - start
+        with patched(gpu, **module):
+            gpu.run_arrays(dataclasses.replace(b, chains=64, x=b.x[:64], v=b.v[:64], mass=b.mass[:64],
+                                               levels=b.levels[:64]))  # compiles its module
+            start = time.perf_counter()
+            end_step = gpu.run_arrays(b)[4]
+            took = time.perf_counter() - start
         first = first or took
         print(f"| {name} | {took:.3f} | {np.sum(end_step) * a.n / took:.3g} | {np.mean(end_step):.0f} | "
               f"{first / took:.2f}x |", flush=True)
@@ -268,7 +296,10 @@ def main() -> None:
     p.add_argument("--loop-limit", type=float, default=LOOP_LIMIT, help="atom-steps over which the CPU rows are skipped")
     p.add_argument("--log", type=Path, help="a folder for each sweep's output (sweep-N.log)")
     p.add_argument("--variants", type=int, default=0, help="members for the kernel with parts left out (0: none)")
+    p.add_argument("--reference-kernel", type=Path, help="--variants also on the kernel folder DIR (another revision's)")
     args = p.parse_args()
+    if args.reference_kernel and not (args.reference_kernel / "engine_gpu.cu").is_file():
+        raise SystemExit(f"bench_gpu: --reference-kernel {args.reference_kernel} has no engine_gpu.cu")
     from pylmp_lattice.engines.gpu import available
 
     if args.write_reference:
@@ -283,7 +314,7 @@ def main() -> None:
         bench(Path(tmp), [int(n) for n in args.sizes.split(",") if n], args.long,
               [int(n) for n in args.sweep.split(",") if n], args.log, args.loop_limit)
         if args.variants:
-            variants(Path(tmp), args.variants)
+            variants(Path(tmp), args.variants, args.reference_kernel)
 
 
 if __name__ == "__main__":

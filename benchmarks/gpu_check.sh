@@ -6,6 +6,8 @@
 #   bash benchmarks/gpu_wheels.sh          # wheels/ (ignored by git)
 #   cmake -S . -B /tmp/b -DPython_EXECUTABLE=$(which python) && cmake --build /tmp/b -j2 \
 #     && cmake --install /tmp/b --prefix /tmp/b/inst   # then copy latticeengine.so into pylmp_lattice/plugin/
+#   mkdir -p wheels/kernel-ece083f && git archive ece083f pylmp_lattice/plugin/kernel \
+#     | tar -x -C wheels/kernel-ece083f --strip-components=3   # the old kernel, timed beside the new
 # and run it with the device tool: command "bash benchmarks/gpu_check.sh", carry ["wheels",
 # "pylmp_lattice/plugin/latticeengine.so"], timeout_s 330. Output also in $OUT/gpu_check.txt.
 set -uo pipefail
@@ -34,8 +36,10 @@ stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
   --loop-limit 2e10
 stage "benchmark exit $?"
-stage "bench_gpu.py --variants: the kernel with the record, the friction, the sine drive left out"
-timeout 40 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 200000
+stage "bench_gpu.py --variants: the kernel with the record, the friction, the sine drive left out; one run; the old kernel"
+reference=()
+[ -f wheels/kernel-ece083f/engine_gpu.cu ] && reference=(--reference-kernel wheels/kernel-ece083f)
+timeout 60 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 200000 "${reference[@]}"
 stage "variants exit $?"
 left=$((220 - (SECONDS - started)))
 stage "bench_gpu.py: 1000 magnets (for at most ${left} s)"
