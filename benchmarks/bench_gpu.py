@@ -30,8 +30,9 @@ under about 40 s each; `pylmp-lattice sweep --engine gpu` from the command to it
 front record, the friction, both; then also the sine drive's path, a constant drive instead, as
 the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
 mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
-members as benchmarked in runs of n - 2 atoms (gpu.SHORT_BLOCK: one run, every loop unrolled)
-and, with --reference-kernel DIR, on the kernel in DIR (another revision's plugin/kernel folder,
+members as benchmarked in runs of n - 2 atoms (gpu.SHORT_BLOCK: one run, every loop unrolled),
+with at most 128 registers a thread (twice the threads resident, more spilled) and, with
+--reference-kernel DIR, on the kernel in DIR (another revision's plugin/kernel folder,
 its local arrays 32 or 64 long as ece083f's engine rounded n): the old and the new kernel in one
 run, on the same device. benchmarks/gpu_resources.py prints what each keeps per thread.
 
@@ -245,6 +246,13 @@ def patched(module, **values):
             setattr(module, name, value)
 
 
+def capped(compile_options, registers: int):
+    """`compile_options` with NVRTC's -maxrregcount: more threads resident, more spilled (the
+    paper's case at 128: 512 threads per SM, not 256, and 908 bytes of spill stores, not 8;
+    benchmarks/gpu_resources.py)."""
+    return lambda *args, **kw: (*compile_options(*args, **kw), f"-maxrregcount={registers}")
+
+
 def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     """The kernel alone on `count` members, as benchmarked and with parts of its work left out;
     in one run of n - 2 atoms; with the kernel in `reference` (ece083f's local arrays)."""
@@ -255,7 +263,8 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
             "neither, constant drive": ({"record": False, "friction": None, "drive": "constant", "V": 0.5 * a.V}, {}),
             f"as benchmarked, runs of {a.n - 2} (one)": ({}, {"SHORT_BLOCK": a.n - 2}),
-            f"neither, runs of {a.n - 2} (one)": ({"record": False, "friction": None}, {"SHORT_BLOCK": a.n - 2})}
+            f"neither, runs of {a.n - 2} (one)": ({"record": False, "friction": None}, {"SHORT_BLOCK": a.n - 2}),
+            "as benchmarked, at most 128 registers": ({}, {"compile_options": capped(gpu.compile_options, 128)})}
     if reference:
         old = {"KERNEL": reference.resolve(), "local_size": lambda n: 32 if n <= 32 else 64 if n <= 64 else 0}
         rows |= {f"as benchmarked, kernel of {reference.name}": ({}, old),
@@ -269,8 +278,9 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     for name, (changes, module) in rows.items():
         b = dataclasses.replace(a, **changes)
         with patched(gpu, **module):
-            gpu.run_arrays(dataclasses.replace(b, chains=64, x=b.x[:64], v=b.v[:64], mass=b.mass[:64],
-                                               levels=b.levels[:64]))  # compiles its module
+            k = min(64, b.chains)
+            gpu.run_arrays(dataclasses.replace(b, chains=k, x=b.x[:k], v=b.v[:k], mass=b.mass[:k],
+                                               levels=b.levels[:k]))  # compiles its module
             start = time.perf_counter()
             end_step = gpu.run_arrays(b)[4]
             took = time.perf_counter() - start
