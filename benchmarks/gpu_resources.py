@@ -40,7 +40,6 @@ from pylmp_lattice.engines.library import layout  # noqa: E402
 ARCH = "sm_90"  # H100 and H200
 SMS, REGISTERS_PER_SM, THREADS_PER_SM, BLOCKS_PER_SM, L2_MB = 132, 65536, 2048, 32, 50
 CASES = {"q=3, friction, record": (0, 3.0, True, True), "q=3, neither": (0, 3.0, False, False)}
-LOCAL_BYTES = {"": 4, ".U8": 1, ".S8": 1, ".U16": 2, ".S16": 2, ".64": 8, ".128": 16}
 
 
 @dataclass
@@ -101,8 +100,9 @@ def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resou
     rows = local * layout().ncol * 8 if record else 0  # the record's rows (engine_gpu.cu's rec)
     rest = r.stack - rows
     mb = lambda b: f"{resident * b / 1e6:.0f} MB ({resident * b / 1e6 / L2_MB:.1f}x L2)"  # noqa: E731
+    full = SMS * THREADS_PER_SM * r.stack / 1e9
     return (f"| {label} | {n} | {local} | {block} | {r.registers} | {r.stack} | {rows} | {rest} | "
-            f"{r.spill_stores} / {r.spill_loads} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} |")
+            f"{r.spill_stores} / {r.spill_loads} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} | {full:.2f} GB |")
 
 
 def main() -> None:
@@ -126,12 +126,19 @@ def main() -> None:
               file=sys.stderr)
         raise SystemExit(2)
     entry = "pl_run_short_chains_gpu"
-    print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
-    print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
-          "the rest | spill stores / loads (B) | threads/SM | resident threads | their stack | their rest |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        ref = reference_kernel(args.reference, Path(tmp)) if args.reference else None
+        try:
+            ref = reference_kernel(args.reference, Path(tmp)) if args.reference else None
+        except subprocess.CalledProcessError as err:
+            why = err.stderr.decode(errors="replace").strip().splitlines()
+            print(f"gpu_resources: --reference {args.reference}: git archive failed: {why[-1] if why else err}",
+                  file=sys.stderr)
+            raise SystemExit(2) from None
+        print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
+        print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
+              "the rest | spill stores / loads (B) | threads/SM | resident threads | their stack | their rest "
+              "| stack at 2048 threads/SM |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, case in CASES.items():
             for n in sizes:
                 local = gpu.local_size(n)
@@ -145,7 +152,7 @@ def main() -> None:
                     print(row(f"this tree, {name}", n, local, block, case[3], r), flush=True)
     print("threads/SM: by registers (blocks of 128); their stack: resident threads x stack frame, the local memory "
           f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "
-          "the record's rows.")
+          "the record's rows; at 2048 threads/SM: the stack if registers did not limit the threads resident.")
 
 
 if __name__ == "__main__":
