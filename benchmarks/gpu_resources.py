@@ -6,6 +6,9 @@ and at most 2048 threads per SM, the engine's blocks of 128 threads): the thread
 SM, and the local memory all resident threads hold, beside the 50 MB of L2. The stack frame is
 split into the front record's rows (N x NCOL doubles, touched only for the few atoms between
 their start and both peaks) and the rest (the per-step state that did not fit in registers).
+With nvdisasm (the nvidia-cuda-nvdisasm wheel, on PATH, or --nvdisasm PATH) also the local loads
+and stores (LDL/STL) in the machine code of the kernel's largest loop, its time step, and the
+loops inside it: with none inside, each LDL/STL runs at most once a step.
 
 Cases: the paper's experiment (power law q = 3, friction, front record) and the same law without
 friction or record; chains of --particles magnets. --reference REV adds the same rows for the
@@ -15,15 +18,17 @@ ece083f rounded n), compiled with this tree's options: the old and the new kerne
     python benchmarks/gpu_resources.py [--particles 21,40,64] [--reference ece083f]
     python benchmarks/gpu_resources.py --particles 21 --blocks 4,8,10,19   # the short chains' block
 
-Exit 2 with one line where NVRTC is not installed.
+Exit 2 with one line where NVRTC is not installed (nvdisasm is optional: '-' without it).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import io
 import math
 import re
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -48,6 +53,7 @@ class Resources:
     stack: int  # bytes per thread (the entry's stack frame)
     spill_stores: int
     spill_loads: int
+    step_local: str = "-"  # the time step's LDL/STL (nvdisasm)
 
     def threads_per_sm(self, threads: int = gpu.THREADS) -> int:
         """Resident threads per SM for blocks of `threads` (registers allocated per warp, in 256s)."""
@@ -67,12 +73,58 @@ def entry_report(log: str, entry: str) -> tuple[int, int, int, int]:
     return registers, stack, stores, loads
 
 
-def measure(kernel: Path, options: tuple[str, ...], entry: str) -> Resources:
+def step_local(sass: str, entry: str) -> str:
+    """LDL/STL instructions (their bytes) in the largest loop of `entry`'s machine code, and how
+    many loops it holds."""
+    body = sass.split(f".text.{entry}:", 1)[1].split(".section", 1)[0]
+    labels, branches, local, pending = {}, [], [], []
+    for line in body.splitlines():
+        if re.match(r"^\.L_x_\d+:", line):
+            pending.append(line[:-1])
+            continue
+        m = re.match(r"\s*/\*([0-9a-f]{4,})\*/\s+(.*)", line)
+        if not m:
+            continue
+        addr, text = int(m.group(1), 16), m.group(2)
+        labels |= dict.fromkeys(pending, addr)
+        pending = []
+        if b := re.search(r"\bBRA\b.*`\((\.L_x_\d+)\)", text):
+            branches.append((addr, b.group(1)))
+        if op := re.search(r"\b(?:LDL|STL)(\.\w+)?\b", text):
+            local.append((addr, {".U8": 1, ".S8": 1, ".U16": 2, ".S16": 2, ".64": 8, ".128": 16}.get(op.group(1), 4)))
+    loops = {(labels[t], addr) for addr, t in branches if t in labels and labels[t] <= addr}
+    if not loops:
+        return "no loop"
+    lo, hi = max(loops, key=lambda span: span[1] - span[0])
+    inner = sum(1 for a, b in loops if lo <= a and b <= hi and (a, b) != (lo, hi))
+    inside = [size for addr, size in local if lo <= addr <= hi]
+    return f"{len(inside)} ({sum(inside)} B); {inner} loops in it"
+
+
+def find_nvdisasm(given: str | None) -> str | None:
+    """nvdisasm: `given`, on PATH, or in the nvidia-cuda-nvdisasm wheel."""
+    if given or shutil.which("nvdisasm"):
+        return given or shutil.which("nvdisasm")
+    spec = importlib.util.find_spec("nvidia")
+    for root in (spec.submodule_search_locations if spec else []):
+        for path in Path(root).glob("*/bin/nvdisasm"):
+            return str(path)
+    return None
+
+
+def measure(kernel: Path, options: tuple[str, ...], entry: str, nvdisasm: str | None = None) -> Resources:
     got = nvrtc.compile_kernel(kernel / "engine_gpu.cu", (*options, f"-arch={ARCH}", "-Xptxas=-v"))
     if got.rc != 0:
         raise RuntimeError(f"NVRTC failed ({got.rc}) with {options}:\n{got.log[-3000:]}")
     registers, stack, stores, loads = entry_report(got.log, entry)
-    return Resources(registers, stack, stores, loads)
+    step = "-"
+    if nvdisasm:
+        with tempfile.NamedTemporaryFile(suffix=".cubin") as f:
+            f.write(got.code)
+            f.flush()
+            step = step_local(subprocess.run([nvdisasm, f.name], capture_output=True, text=True, check=True).stdout,
+                              entry)
+    return Resources(registers, stack, stores, loads, step)
 
 
 def reference_kernel(rev: str, into: Path) -> Path:
@@ -102,13 +154,14 @@ def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resou
     mb = lambda b: f"{resident * b / 1e6:.0f} MB ({resident * b / 1e6 / L2_MB:.1f}x L2)"  # noqa: E731
     full = SMS * THREADS_PER_SM * r.stack / 1e9
     return (f"| {label} | {n} | {local} | {block} | {r.registers} | {r.stack} | {rows} | {rest} | "
-            f"{r.spill_stores} / {r.spill_loads} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} | {full:.2f} GB |")
+            f"{r.spill_stores} / {r.spill_loads} | {r.step_local} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} | {full:.2f} GB |")
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--particles", default="21", help="chain lengths, comma separated (3-64: the short chains' kernel)")
     p.add_argument("--blocks", default="", help="PL_BLOCK values to try (default: the engine's, gpu.short_block)")
+    p.add_argument("--nvdisasm", help="nvdisasm's path (else PATH, then the nvidia-cuda-nvdisasm wheel)")
     p.add_argument("--reference", help="a git revision whose kernel gets the same rows (e.g. ece083f)")
     args = p.parse_args()
     if nvrtc.load() is None:
@@ -126,6 +179,10 @@ def main() -> None:
               file=sys.stderr)
         raise SystemExit(2)
     entry = "pl_run_short_chains_gpu"
+    nvdisasm = find_nvdisasm(args.nvdisasm)
+    if args.nvdisasm and not Path(args.nvdisasm).is_file():
+        print(f"gpu_resources: --nvdisasm {args.nvdisasm} is not a file", file=sys.stderr)
+        raise SystemExit(2)
     with tempfile.TemporaryDirectory() as tmp:
         try:
             ref = reference_kernel(args.reference, Path(tmp)) if args.reference else None
@@ -136,9 +193,9 @@ def main() -> None:
             raise SystemExit(2) from None
         print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
         print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
-              "the rest | spill stores / loads (B) | threads/SM | resident threads | their stack | their rest "
+              "the rest | spill stores / loads (B) | the step's LDL/STL (static) | threads/SM | resident threads | their stack | their rest "
               "| stack at 2048 threads/SM |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, case in CASES.items():
             for n in sizes:
                 local = gpu.local_size(n)
@@ -146,13 +203,15 @@ def main() -> None:
                     old_local = 32 if n <= 32 else 64
                     options = with_kernel(gpu.compile_options(local, case), ref, old_local)
                     print(row(f"{args.reference}, {name}", n, old_local, "at run time", case[3],
-                              measure(ref, options, entry)), flush=True)
+                              measure(ref, options, entry, nvdisasm)), flush=True)
                 for block in blocks or [gpu.short_block(local)]:
-                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block), entry)
+                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block), entry, nvdisasm)
                     print(row(f"this tree, {name}", n, local, block, case[3], r), flush=True)
     print("threads/SM: by registers (blocks of 128); their stack: resident threads x stack frame, the local memory "
           f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "
-          "the record's rows; at 2048 threads/SM: the stack if registers did not limit the threads resident.")
+          "the record's rows; at 2048 threads/SM: the stack if registers did not limit the threads resident; the "
+          "step's LDL/STL: in the machine code of the kernel's largest loop (nvdisasm; '-' without it), run at most "
+          "once a step where no loop is in it.")
 
 
 if __name__ == "__main__":

@@ -54,9 +54,9 @@ def test_the_options_change_with_any_header_of_the_kernel(tmp_path):
     assert _sources_digest(same) == digest != _sources_digest(edited)
 
 
-def test_the_paper_s_chains_keep_their_step_s_state_in_registers():
+def test_the_paper_s_chains_hold_a_fraction_of_the_local_memory_they_held():
     """The short chains' kernel is compiled for the batch's length (gpu.local_size) and runs, so
-    its loops unroll and a chain's x, v, f live in registers (ptxas's report, sm_90; the numbers
+    its loops unroll and less of a chain stays in local memory (ptxas's report, sm_90; the numbers
     of benchmarks/gpu_resources.py). At ece083f (local arrays of 32, loops over a run-time n) the
     stack frame was 11472 bytes a thread without friction and record, 12592 with both (9216 of
     them the record's rows), all in local memory, which 50688 resident threads on an H200 held

@@ -4,12 +4,13 @@
 
    Short chains (n = PL_LOCAL_N, up to 64, the ensembles' case): pl_run_short_chains_gpu is
    compiled for the batch's n and runs of at most PL_BLOCK free atoms (FixedRuns, step.h), so
-   every loop over the atoms unrolls and a chain's arrays (x, v, f, masses, marks, gates,
-   scratch) are indexed by constants: ptxas keeps what fits in registers, the rest (and the front
-   record's rows, touched only for the few atoms between their start and both peaks) in
-   per-thread local memory. At ece083f (arrays of 32 or 64, loops over a run-time n) all of it
-   was local memory: 12.6 kB a thread for 21 magnets with friction and record, 638 MB for the
-   threads an H100/H200 holds at once, 13x its L2 (benchmarks/gpu_resources.py prints both).
+   the loops over the atoms unroll; where the loop over the runs does too (one run: PL_BLOCK =
+   n - 2), a chain's arrays (x, v, f, masses, marks, gates, scratch) are indexed by constants and
+   ptxas keeps them in registers as far as they fit; the rest, and the front record's rows
+   (touched only for the few atoms between their start and both peaks), in per-thread local
+   memory. At ece083f (arrays of 32 or 64, loops over a run-time n) all of it was local memory:
+   12.6 kB a thread for 21 magnets with friction and record, 638 MB for the threads an H100/H200
+   holds at once, 13x its L2 (benchmarks/gpu_resources.py prints both).
    CUDA interleaves local memory by thread (word k of the 32 threads of a warp is one 128-byte
    line), so when the warp's threads step their chains in lockstep every access is coalesced;
    only the inputs (x, v, masses, levels) are read from global memory once, and only the
