@@ -125,7 +125,7 @@ template <class R, class Runs> struct ChainFront {
   front::Sample sample;
   int active[W];                  // per lane: atoms of the chain between their start and both peaks
 
-  PL_HD void row(int l, int i, double v_prev)
+  PL_HD PL_HOST_COLD void row(int l, int i, double v_prev)    // host: a call keeps the lanes' code small
   {
     unsigned char &phase = c->phase[l * n + i];
     const unsigned char was = phase;
