@@ -202,12 +202,28 @@ def frame(parts: list[Rows]):
     params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
     measures = dict.fromkeys(key for _, k in ranked for key in parts[k].measures)
     where, tiled = _concatenated(targets), _tiled(targets)
-    df = pd.DataFrame({key: _column(key, n, parts, targets, where, tiled)  # (its arrays are new: not copied again)
+    df = pd.DataFrame({key: _texts_typed(_column(key, n, parts, targets, where, tiled))  # (new arrays: not copied)
                        for key in ["id", *params, *FIXED[1:], *measures]}, copy=False)
     for col in df.columns:  # parquet needs one type per column
         if df[col].dtype == object and _mixed(df[col]):
             df[col] = df[col].map(lambda v: None if v is None else str(v))
     return df
+
+
+def _texts_typed(values):
+    """A column of text only (ids, statuses, folders) as the array pandas would make of it, made
+    by Arrow where pandas keeps text in Arrow (pandas 3's "str"): 2-3 times faster than pandas
+    typing the list (0.37 -> 0.13 s for the 3 such columns of 10^6 members). Else `values`."""
+    if not isinstance(values, list) or not values or set(map(type, values)) != {str}:
+        return values
+    import pandas as pd
+
+    dtype = pd.Series(["text"]).dtype
+    if getattr(dtype, "storage", None) != "pyarrow":
+        return values
+    import pyarrow as pa
+
+    return pd.array(pa.array(values, pa.large_string()), dtype=dtype)
 
 
 def _mixed(column) -> bool:
