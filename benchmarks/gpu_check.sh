@@ -9,7 +9,8 @@
 #   mkdir -p wheels/kernel-ece083f && git archive ece083f pylmp_lattice/plugin/kernel \
 #     | tar -x -C wheels/kernel-ece083f --strip-components=3   # the old kernel, timed beside the new
 # and run it with the device tool: command "bash benchmarks/gpu_check.sh", carry ["wheels",
-# "pylmp_lattice/plugin/latticeengine.so"], timeout_s 330. Output also in $OUT/gpu_check.txt.
+# "pylmp_lattice/plugin/latticeengine.so"], timeout_s 540 (its stages' timeouts add up to at most
+# 510 s; the two full runs of 2026-11-27, 09:17 and 09:20 UTC, took under 3 minutes each). Output also in $OUT/gpu_check.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out="${OUT:-/tmp}"
