@@ -61,21 +61,65 @@ def _leaves(cols: dict, path: list, out: dict) -> bool:
 
 
 def _exact(values: list):
-    """The values as an Arrow array that gives them back as they are (`to_pylist`), or None."""
+    """The values as an Arrow array that gives them back as they are (`to_pylist`), or None.
+    Made from its buffers, as `pa.array(values, type)` (then `dictionary_encode` for text) makes
+    it, buffer for buffer: `pa.array` imports pandas (pyarrow's check for pandas arrays), 0.3 s
+    of each sweep worker's first task."""
     import pyarrow as pa
 
     kinds = set(map(type, values)) - {type(None)}
-    kind = {frozenset(): pa.null(), frozenset({float}): pa.float64(), frozenset({int}): pa.int64(),
-            frozenset({bool}): pa.bool_(), frozenset({str}): pa.string()}.get(frozenset(kinds))
+    if not kinds:
+        return pa.nulls(len(values))
+    kind = {frozenset({float}): float, frozenset({int}): int, frozenset({bool}): bool, frozenset({str}): str}.get(frozenset(kinds))
     if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in values if v))) <= {int}:
-        kind = pa.list_(pa.int64())
+        kind = list
     if kind is None:
         return None
     try:
-        array = pa.array(values, type=kind)
-        return array.dictionary_encode() if kind == pa.string() else array  # (text repeats: folders, labels)
-    except (pa.ArrowException, OverflowError, TypeError, ValueError):  # an int beyond int64, odd text
+        return _array(values, kind)
+    except (OverflowError, UnicodeError):  # an int beyond int64, text that is not UTF-8 (a lone surrogate)
         return None
+
+
+def _array(values: list, kind: type):
+    """`_exact`'s array of values of one `kind` (float, int, bool, str, list of int) and None."""
+    import numpy as np
+    import pyarrow as pa
+
+    n = len(values)
+    valid = np.fromiter((v is not None for v in values), bool, n)
+    nulls = n - int(valid.sum())
+    bitmap = pa.py_buffer(np.packbits(valid, bitorder="little")) if nulls else None
+    if kind is float or kind is int:
+        data = np.array([0 if v is None else v for v in values], np.float64 if kind is float else np.int64)
+        return pa.Array.from_buffers(pa.float64() if kind is float else pa.int64(), n, [bitmap, pa.py_buffer(data)], nulls)
+    if kind is bool:
+        data = np.packbits(np.array([bool(v) for v in values], bool), bitorder="little")
+        return pa.Array.from_buffers(pa.bool_(), n, [bitmap, pa.py_buffer(data)], nulls)
+    if kind is list:
+        lengths = np.fromiter((len(v) if v is not None else 0 for v in values), np.int64, n)
+        items = np.array(list(chain.from_iterable(v for v in values if v)), np.int64)
+        offsets = _offsets(lengths)
+        child = pa.Array.from_buffers(pa.int64(), len(items), [None, pa.py_buffer(items)], 0)
+        return pa.Array.from_buffers(pa.list_(pa.int64()), n, [bitmap, pa.py_buffer(offsets)], nulls, children=[child])
+    # text: dictionary-encoded, its dictionary in order of first appearance (as `dictionary_encode`)
+    codes: dict[str, int] = {}
+    indices = np.fromiter((codes.setdefault(v, len(codes)) if v is not None else 0 for v in values), np.int32, n)
+    texts = [t.encode() for t in codes]
+    offsets = _offsets(np.fromiter(map(len, texts), np.int64, len(texts)))
+    dictionary = pa.Array.from_buffers(pa.string(), len(texts), [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(texts))], 0)
+    return pa.DictionaryArray.from_arrays(pa.Array.from_buffers(pa.int32(), n, [bitmap, pa.py_buffer(indices)], nulls),
+                                          dictionary)
+
+
+def _offsets(lengths):
+    """Arrow's 32-bit offsets of items of these lengths (OverflowError past them)."""
+    import numpy as np
+
+    ends = np.concatenate([[0], np.cumsum(lengths)])
+    if ends[-1] > np.iinfo(np.int32).max:
+        raise OverflowError("more than 2**31 - 1 items")
+    return ends.astype(np.int32)
 
 
 def _values(array) -> list:
