@@ -123,7 +123,7 @@ def test_one_point_s_figure_shows_the_spread_over_the_replicas(tmp_path):
     ax = plot_replica_spread(values, f"{VP}.mean", ax=Figure().add_subplot(), members=len(done))
     assert ax.get_xlabel() == "shock velocity plateau $V_P$ (m/s)" and ax.get_ylabel() == "replicas"
     assert ax.get_title() == "3 of 4 replicas (coverage 75%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
-    assert sum(bar.get_height() for bar in ax.containers[0]) == 3  # the histogram holds the 3 values
+    assert ax.patches[0].get_data().values.sum() == 3  # the histogram (one step patch) holds the 3 values
     stats = write_replica_stats(tmp_path, one.drop(columns=["impactor.velocity"]))
     assert len(stats) == 1 and (tmp_path / "replica_stats.png").stat().st_size > 0
 
@@ -257,7 +257,7 @@ def test_the_legend_fits_in_the_figure_under_the_axes(monkeypatch, tmp_path, pan
 
 def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path):
     """A pure ensemble: a histogram per panel (as before), no legend, panels of PANEL inches."""
-    from matplotlib.container import BarContainer
+    from matplotlib.patches import StepPatch
 
     from pylmp_lattice.sweep.stats import PANEL
 
@@ -266,7 +266,7 @@ def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path)
     fig = _drawn_figure(monkeypatch, tmp_path, one)
     assert tuple(fig.get_size_inches()) == (2 * PANEL[0], PANEL[1]) and not fig.legends
     ax = fig.axes[0]
-    assert isinstance(ax.containers[0], BarContainer) and sum(bar.get_height() for bar in ax.containers[0]) == 3
+    assert isinstance(ax.patches[0], StepPatch) and ax.patches[0].get_data().values.sum() == 3
     assert ax.get_title() == "3 of 4 replicas (coverage 75%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
 
 
