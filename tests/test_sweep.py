@@ -776,9 +776,10 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
                                   particles=12, duration=20.0))
     coordinator = execute._Coordinator(grid, tmp_path, Pool(None, 2), execute._StopSignals(), False, False, grid.count())
     assert [len(t.each()) for t in coordinator._tasks()] == [20] * 6
-    # an instance holds at most 30 of these members (12 magnets): 8 tasks, 4 per worker
+    # an instance holds at most 30 of these members (12 magnets): 8 tasks' worth, 4 per worker, the
+    # last ones smaller (at most a quarter of what is left for each worker, at least 25 // TAIL)
     monkeypatch.setattr(blocks, "MAX_ATOM_STEPS", 30 * 12 * sweep.members()[0].case.run.steps())
-    assert sizes(2) == [25] * 8
+    assert sizes(2) == [25] * 5 + [19, 14, 11, 8, 6, 6, 6, 5] and blocks.TAIL == 4
     # resumed with 180 done on disk, the first ones or the last ones: the 20 left, shared by both
     # workers (the sizes come from what the folder holds, before any member is enumerated)
     monkeypatch.setattr(execute.Outcomes, "at_most", lambda self: 180)  # what the folder holds
