@@ -51,6 +51,7 @@ log = logging.getLogger(__name__)
 
 # A grid this large needs yes=True (--yes): enumerating it alone takes minutes.
 MANY_MEMBERS = 100_000
+PRELOAD_THREAD = "sweep-preload"  # the coordinator's thread that loads what the end needs (`_preload`)
 
 
 def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, scheduler: str | None = None,
@@ -99,7 +100,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         try:
             with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
                 stop.on_signal = pool.on_signal
-                return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total).run()
+                return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
+                                    figure=stats and sweep.replicas > 1).run()
         finally:
             remove_stale_locks(root)  # those of tasks whose worker was killed
 
@@ -108,8 +110,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
 
 class _Coordinator:
     def __init__(self, sweep: Sweep, root: Path, pool: Pool, stop: _StopSignals, retry_failed: bool,
-                 progress: bool, total: int):
+                 progress: bool, total: int, figure: bool = False):
         self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
+        self.figure = figure  # the caller draws the replica statistics' figure next
         self.retry_failed, self.total = retry_failed, total
         self.table = Table(root)
         self.disk = Outcomes(root)
@@ -138,7 +141,7 @@ class _Coordinator:
                 busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
                 if self.preload is None and not busy:  # what the end needs, loaded while members run
                     # (not earlier: its imports hold the GIL, and the workers wait for the tasks)
-                    self.preload = threading.Thread(target=_preload, args=(self.sweep,), daemon=True)
+                    self.preload = threading.Thread(target=_preload, args=(self.figure,), name=PRELOAD_THREAD, daemon=True)
                     self.preload.start()
                 done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
@@ -159,6 +162,8 @@ class _Coordinator:
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = int((table["status"] == DONE).sum())
+        if self.preload is not None and not self.stop.signals:  # the caller's figure: not while it warms up
+            self.preload.join()
         if self.stop.signals:
             # a warning: where a stopped sweep stands is said under --quiet too
             log.warning("%s: stopped with %d of %d members done", self.root.name, done, self.total)
@@ -360,11 +365,13 @@ def _from_worker_import() -> bool:
     return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
 
 
-def _preload(sweep: Sweep) -> None:
+def _preload(figure: bool) -> None:
     """Import what the end of the sweep needs: the table's pandas and parquet writer (about a
-    second), and with replicas the figure of their statistics (which the command draws)."""
-    modules = ["pandas", "pyarrow.parquet"]
-    if sweep.replicas > 1:
-        modules += ["matplotlib.figure", "matplotlib.backends.backend_agg"]
-    for name in modules:
+    second), and for the `figure` of the replica statistics (which the command draws) matplotlib,
+    its first drawing done (`stats.warm_up`)."""
+    for name in ["pandas", "pyarrow.parquet"]:
         importlib.import_module(name)
+    if figure:
+        from .stats import warm_up
+
+        warm_up()

@@ -308,6 +308,20 @@ def _entry_width(labels: list[str]) -> float:
     return LEGEND_HANDLE + LEGEND_CHAR * chars
 
 
+def warm_up() -> None:
+    """A panel of the replica figure drawn with made-up values and dropped: matplotlib's first
+    drawing finds and loads the fonts and builds the mathtext parser, some 0.05-0.1 s of the
+    figure that a sweep's command draws after its last member, which its coordinator spends
+    while the workers run instead (`execute._preload`)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=PANEL)
+    ax = fig.add_axes(_panel(0, 0, 1, 1))
+    plot_replica_spread(np.linspace(4.0, 4.1, 50), "shock_velocity_plateau_m_per_s.mean", ax=ax, members=50)
+    FigureCanvasAgg(fig).draw()
+
+
 def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
                         panels: int = 6) -> pd.DataFrame:
     """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
