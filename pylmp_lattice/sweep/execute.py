@@ -374,4 +374,7 @@ def _preload(figure: bool) -> None:
     if figure:
         from .stats import warm_up
 
-        warm_up()
+        try:
+            warm_up()
+        except Exception:  # noqa: BLE001 - only a head start: the figure itself says what is wrong
+            log.debug("the replica figure's warm-up failed", exc_info=True)
