@@ -20,7 +20,7 @@ def test_the_figure_is_loaded_and_drawn_once_only_for_a_caller_that_draws_it(fig
     where the replica figure follows (the CLI's sweep), not for run_sweep's table alone."""
     code = ("import sys\n"
             "from pylmp_lattice.sweep.execute import _preload\n"
-            f"_preload({figure})\n"
+            f"_preload({figure}, lambda: False)\n"
             "print(*(m in sys.modules for m in ('pandas', 'pyarrow.parquet', 'matplotlib', 'matplotlib.mathtext')))\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["True", "True", str(figure), str(figure)]

@@ -141,7 +141,8 @@ class _Coordinator:
                 busy = not stopping and len(ready) < self.pool.slots and self._more(tasks, ready)
                 if self.preload is None and not busy:  # what the end needs, loaded while members run
                     # (not earlier: its imports hold the GIL, and the workers wait for the tasks)
-                    self.preload = threading.Thread(target=_preload, args=(self.figure,), name=PRELOAD_THREAD, daemon=True)
+                    self.preload = threading.Thread(target=_preload, args=(self.figure, self._stopping), name=PRELOAD_THREAD,
+                                                    daemon=True)
                     self.preload.start()
                 done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
@@ -162,7 +163,8 @@ class _Coordinator:
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = int((table["status"] == DONE).sum())
-        if self.preload is not None and not self.stop.signals:  # the caller's figure: not while it warms up
+        if self.preload is not None:  # ended (after a stop: at its next step), so that the caller's figure does not
+            # draw beside it, nor does the command exit while it runs an extension's code (an abort at exit)
             self.preload.join()
         if self.stop.signals:
             # a warning: where a stopped sweep stands is said under --quiet too
@@ -175,6 +177,10 @@ class _Coordinator:
             raise DiskFull(self.full.path, f"the sweep stopped with {done} of {self.total} members done, kept in "
                                            f"{self.root} {csv}; free space and run the same command to resume")
         return table
+
+    def _stopping(self) -> bool:
+        """Whether the sweep is stopping (a signal, a lost worker, a full disk)."""
+        return bool(self.stop.signals or self.lost or self.full)
 
     def _write_table(self, flush: bool = False):
         """The table written (`flush`: if due); on a full disk the files keep their last rows and
@@ -365,13 +371,15 @@ def _from_worker_import() -> bool:
     return bool(getattr(multiprocessing.current_process(), "_inheriting", False))
 
 
-def _preload(figure: bool) -> None:
+def _preload(figure: bool, stopping) -> None:
     """Import what the end of the sweep needs: the table's pandas and parquet writer (about a
     second), and for the `figure` of the replica statistics (which the command draws) matplotlib,
-    its first drawing done (`stats.warm_up`)."""
+    its first drawing done (`stats.warm_up`); each step only while not `stopping()`."""
     for name in ["pandas", "pyarrow.parquet"]:
+        if stopping():
+            return
         importlib.import_module(name)
-    if figure:
+    if figure and not stopping():
         from .stats import warm_up
 
         try:
