@@ -192,6 +192,23 @@ def one_blas_thread():
             os.environ.pop(name, None)
 
 
+def _send_whole() -> None:
+    """This worker's results go whole: its exit after a stop waits while one is sent
+    (`signals.SENDING`). A pool worker's results go through the executor's SimpleQueue (its only
+    one it puts to), whose `put` is wrapped in this process alone."""
+    from multiprocessing.queues import SimpleQueue
+
+    from . import signals
+
+    put = SimpleQueue.put
+
+    def whole(self, obj):
+        with signals.SENDING:
+            put(self, obj)
+
+    SimpleQueue.put = whole
+
+
 def _pool_worker_init(alive, stop) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
     any later start, and the worker exits GRACE seconds later; it exits at once when the
@@ -209,6 +226,7 @@ def _pool_worker_init(alive, stop) -> None:
     signals.EXIT_AFTER_STOP = GRACE
     for s in STOP_SIGNALS:
         signal.signal(s, on_signal)
+    _send_whole()
 
     def watch(end, then):
         with contextlib.suppress(EOFError, OSError):

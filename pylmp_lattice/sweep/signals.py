@@ -18,6 +18,11 @@ STOP = threading.Event()
 EXIT_AFTER_STOP: float | None = None
 # Whether this process is inside run_task (a pool worker's signal handler stops it there).
 IN_TASK = threading.Event()
+# Held by a pool worker while it sends a result (`pool._pool_worker_init`): its exit after a stop
+# waits for the send, at most SEND_LIMIT s. Cut off halfway, a result was lost (the pool broken),
+# and the coordinator's reader could wait for the rest of it forever.
+SENDING = threading.Lock()
+SEND_LIMIT = 30.0
 
 
 class _StopSignals:
@@ -47,4 +52,9 @@ def stopping(signum: int) -> None:
     """A stop signal arrived: no member starts from now on; a pool worker exits soon after."""
     STOP.set()
     if EXIT_AFTER_STOP is not None:
-        threading.Timer(EXIT_AFTER_STOP, os._exit, (128 + signum,)).start()
+        threading.Timer(EXIT_AFTER_STOP, _exit_between_sends, (128 + signum,)).start()
+
+
+def _exit_between_sends(code: int) -> None:
+    SENDING.acquire(timeout=SEND_LIMIT)
+    os._exit(code)
