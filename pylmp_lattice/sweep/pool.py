@@ -221,6 +221,8 @@ def _pool_worker_init(alive, stop) -> None:
         signals.stopping(signum)
         if signals.IN_TASK.is_set():  # stop the member in hand (an engine run has its own handler)
             raise Interrupted(signum)
+        if signals.SENDING.locked():  # a task's result half sent (this handler runs between its writes):
+            return  # the exit after the stop waits for the rest (`stopping`)
         os._exit(128 + signum)  # between tasks: nothing in hand
 
     signals.EXIT_AFTER_STOP = GRACE
