@@ -211,8 +211,8 @@ def _send_whole() -> None:
 
 def _pool_worker_init(alive, stop) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
-    any later start, and the worker exits GRACE seconds later; it exits at once when the
-    coordinator is gone."""
+    any later start, and the worker exits GRACE seconds later, once a result it is sending is
+    sent (`_send_whole`); it exits at once when the coordinator is gone."""
     from . import signals
 
     def on_signal(signum, frame):
