@@ -49,7 +49,7 @@ stage "benchmark exit $?"
 # Is the kernel bound by memory (its local arrays streaming from HBM, docs/performance.md)? Nsight
 # Compute's speed-of-light and memory sections for one launch of 20000 chains (the warm-up's skipped)
 stage "ncu: one launch of 20000 chains"
-command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
+command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy --section WarpStateStats --section ComputeWorkloadAnalysis --section LaunchStats \
   -k pl_run_short_chains_gpu --launch-skip 1 --launch-count 1 "$py" benchmarks/bench_gpu.py --sizes 20000 --long 0 \
   --sweep "" --loop-limit 0 2>&1 | grep -v "^==PROF==" | tail -60
 stage "ncu exit $?"

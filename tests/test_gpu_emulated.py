@@ -147,7 +147,7 @@ class FakeCupy(types.ModuleType):
                 assert code == SOURCE.read_text()
                 d = dict(o[2:].split("=", 1) for o in options if o.startswith("-D"))
                 case = int(d["PL_LAW_KIND"]), float(d["PL_LAW_Q"]), d["PL_FRICTION"] == "1", d["PL_RECORD"] == "1"
-                assert options == gpu.compile_options(int(d["PL_LOCAL_N"]), case), options
+                assert options == gpu.compile_options(int(d["PL_LOCAL_N"]), case, one_mass=d["PL_ONE_MASS"] == "1"), options
                 fake.modules.append(options)
                 self.lib = fake.build(options)
                 self.signatures = kernel_signatures(code)
@@ -299,7 +299,10 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     n = cases[0].chain.particles
     local = gpu.local_size(n)
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
-    assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(prepare(cases, "gpu")))]
+    a = prepare(cases, "gpu")
+    assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(a), one_mass=gpu.one_mass(a))]
+    # a module with one of each mass term for chains of one mass; n of them with mass disorder
+    assert ("-DPL_ONE_MASS=1" in emulated_gpu.modules[0]) == (bool(local) and scenario != "disorder")
     assert (got["gpu"]["out"][2] is None) == scenario.endswith(("rest", "rest-global-rows"))  # a drive at rest: no record
     if scenario.startswith("contact"):
         assert got["gpu"]["error"] is not None and got["gpu"]["out"][5].any()
@@ -354,7 +357,8 @@ def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu
     monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
     cases = members(friction=FRICTION)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
-    assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(prepare(cases, "gpu")))
+    a = prepare(cases, "gpu")
+    assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
     assert f"-DPL_BLOCK={block}" in emulated_gpu.modules[0]
 
 

@@ -92,7 +92,7 @@ def run_arrays(a: Arrays):
              np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record),
              d(path if len(path) else empty), np.int64(len(path) // 2))
     local = local_size(n)
-    options = compile_options(local, batch_case(a))
+    options = compile_options(local, batch_case(a), one_mass=one_mass(a))
     if local:
         front = cp.empty(chains * n * NOUT if a.record else 1)
     else:  # each chain's rows of global arrays: its whole record (NCOL columns), the output copied out
@@ -151,11 +151,19 @@ def batch_case(a: Arrays) -> tuple[int, float, bool, bool]:
     return LAWS[a.law], float(a.law_values[2]) if a.law == "power" else 0.0, a.friction is not None, bool(a.record)
 
 
-def compile_options(local: int, case: tuple[int, float, bool, bool], block: int | None = None) -> tuple[str, ...]:
+def one_mass(a: Arrays) -> bool:
+    """Every magnet of the batch has one mass (no mass disorder): the short chains' module then
+    keeps one of each mass term, not n (engine_gpu.cu's PL_ONE_MASS)."""
+    return bool(a.mass.size) and bool(np.all(a.mass == a.mass.flat[0]))
+
+
+def compile_options(local: int, case: tuple[int, float, bool, bool], block: int | None = None,
+                    one_mass: bool = False) -> tuple[str, ...]:
     """NVRTC's options for engine_gpu.cu: the short chains' kernel for chains of `local` magnets
     in runs of at most `block` (default `short_block(local)`), or with local 0 the global rows'
     kernel; only the batch's `case` (`batch_case`) of the law, friction and record (one copy of
-    the run, not 44: seconds to compile, not minutes).
+    the run, not 44: seconds to compile, not minutes); with `one_mass`, for a batch whose magnets
+    all have one mass (`one_mass`: the mass terms in registers, 1 of each, not n).
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
     are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's
     entries still differ from the host build's by up to 2.6e-11 relative, with or without it;
@@ -169,7 +177,8 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     law, q, friction, record = case
     block = short_block(local) if block is None else block
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
-            f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}", "-fmad=false",
+            f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
+            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 

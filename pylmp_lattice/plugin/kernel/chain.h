@@ -82,9 +82,10 @@ PL_HD inline front::Levels levels_row(const double *L)
 template <class R> struct ChainDataT {
   static constexpr int W = Lanes<R>::W;
   R *x, *v, *f;                   // x, v in: initial; out: final (lanes: see x_end)
-  const R *dtfm, *mass, *weight;  // per atom: dt/2m, m, m g
-  const R *dtm;                   // per atom: dt/m with friction, or null (MassesT)
-  const int *index;               // 0, 1, ..., n - 1 (each atom is its own mass slot)
+  const R *dtfm, *mass, *weight;  // per mass slot: dt/2m, m, m g
+  const R *dtm;                   // per mass slot: dt/m with friction, or null (MassesT)
+  const int *index;               // atom i's mass slot: i (each atom its own), or 1 for all (the GPU's
+                                  // batches of one mass)
   front::Levels levels[W];
   double *rec;                    // the front record (rec: n rows of NCOL per lane)
   R *mark, *gate;                 // marks, start gates
@@ -120,6 +121,7 @@ template <class R, class Runs> struct ChainFront {
   int n;
   Runs runs;
   const R *v, *f, *mass;
+  const int *slot;                // atom i's mass is mass[slot[i]]
   R *gate;
   ChainDataT<R> *c;
   front::Sample sample;
@@ -130,7 +132,7 @@ template <class R, class Runs> struct ChainFront {
     unsigned char &phase = c->phase[l * n + i];
     const unsigned char was = phase;
     sample_cold(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
-                L::get(mass[i], l), v_prev, c->levels[l], sample);
+                L::get(mass[slot[i]], l), v_prev, c->levels[l], sample);
     if (was == front::WAITING && phase != front::WAITING) L::set(gate[i], l, -infinity()), active[l]++;
     if (was != front::FINISHED && phase == front::FINISHED) L::set(gate[i], l, quiet_nan()), active[l]--;
   }
@@ -236,14 +238,14 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
       const R r = x[i + 1] - x[i];
       gaps.add(r);
       const R right = law(r);
-      f[i] = total_force<FRICTION>(left, right, i, ms, S.fr, 0.5 * S.dt, v[i], work);
+      f[i] = total_force<FRICTION>(left, right, ms.slot[i], ms, S.fr, 0.5 * S.dt, v[i], work);
       left = right;
     }
   }
   if (FRICTION) work.settle(0.5 * S.dt, true, work_done, work_pending), work = CoulombWorkT<R>();
   f[0] = -law(x[1] - x[0]);
   f[n - 1] = L::splat(0.0);
-  ChainFront<R, Runs> hook{n, runs, v, f, c.mass, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
+  ChainFront<R, Runs> hook{n, runs, v, f, c.mass, c.index, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
   if (FRONT) {
     PL_UNROLL
     for (int i = 0; i < n; i++) {

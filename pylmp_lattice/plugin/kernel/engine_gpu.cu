@@ -28,8 +28,8 @@
 #include "chain.h"
 
 #if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
-    || !defined(PL_RECORD)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD"
+    || !defined(PL_RECORD) || !defined(PL_ONE_MASS)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS"
 #endif
 
 using namespace pl_kernel;
@@ -95,49 +95,57 @@ template <class Runs> __device__ void run_compiled(const ChainSetup &S, ChainDat
       range_hi, record, drive_path, drive_path_steps
 
 #if PL_LOCAL_N > 0
-/* 0, 1, ..., N - 1 (each atom its own mass slot) as constants: once the loops unroll, the mass
-   arrays are read at constant indices, which lets them live in registers */
-template <int N> struct OwnSlots {
+/* each atom's mass slot as constants: 0, 1, ..., N - 1 (each atom its own), or 1 for all where
+   every magnet of the batch has one mass (PL_ONE_MASS); once the loops unroll, the mass terms are
+   read at constant indices, which lets them live in registers: N of each, or one */
+template <int N> struct Slots {
   int slot[N];
 };
-template <int N> constexpr OwnSlots<N> own_slots()
+template <int N> constexpr Slots<N> mass_slots(bool one_mass)
 {
-  OwnSlots<N> out{};
-  for (int i = 0; i < N; i++) out.slot[i] = i;
+  Slots<N> out{};
+  for (int i = 0; i < N; i++) out.slot[i] = one_mass ? 1 : i;
   return out;
 }
 
 /* n = PL_LOCAL_N (a chain of another n ends at once with end step -1, which the host refuses),
    in runs of at most PL_BLOCK (bit for bit the same for any: the host's runs are longer). x, v
-   (chains x n, chain-major) in and out; front_out (chains x n x NOUT) with a record. */
+   (chains x n, chain-major) in and out; front_out (chains x n x NOUT) with a record; mass
+   (chains x n), all one value with PL_ONE_MASS (engines/gpu.py checks). */
 extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass,
                                                    const double *levels, double *front_out, double *work,
                                                    long long *end_step, int *status)
 {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
   if (c >= chains) return;
-  constexpr int N = PL_LOCAL_N;
+  constexpr int N = PL_LOCAL_N, M = PL_ONE_MASS ? 2 : N;    // mass slots (one mass: slot 1)
   if (n != N) {    // a module built for another length (engines/gpu.py refuses the batch)
     end_step[c] = -1;
     return;
   }
   ChainSetup S = make_setup(PL_SETUP_ARGS);
   S.n = N, S.block = PL_BLOCK;    // as constants: the loops over the atoms unroll
-  double xl[N], vl[N], fl[N], ml[N], dtfm[N], weight[N], rec[PL_RECORD ? N * front::NCOL : 1], mark[N], gate[N];
+  double xl[N], vl[N], fl[N], ml[M], dtfm[M], weight[M], dtm[M], rec[PL_RECORD ? N * front::NCOL : 1], mark[N],
+      gate[N];
   double scratch[step_scratch(PL_BLOCK)];
   unsigned char phase[N];
-  constexpr OwnSlots<N> slots = own_slots<N>();
+  constexpr Slots<N> slots = mass_slots<N>(PL_ONE_MASS);
   const long long at = static_cast<long long>(c) * N;
   PL_UNROLL
   for (int i = 0; i < N; i++) {
-    xl[i] = x[at + i], vl[i] = v[at + i], ml[i] = mass[at + i];
+    xl[i] = x[at + i], vl[i] = v[at + i];
     mark[i] = quiet_nan(), gate[i] = 0.0, phase[i] = front::WAITING;
   }
+  PL_UNROLL
+  for (int i = 0; i < M; i++) ml[i] = mass[at + (PL_ONE_MASS ? 0 : i)];
   if (PL_RECORD)
     for (int k = 0; k < N * front::NCOL; k++) rec[k] = quiet_nan();
-  chain_masses(ml, N, dt, g, dtfm, weight);
+  chain_masses(ml, M, dt, g, dtfm, weight);
+  PL_UNROLL
+  for (int i = 0; i < M; i++) dtm[i] = dt / ml[i];    // the friction kick's dt / m, once (as the host engine's)
   ChainData d{};
   d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = slots.slot;
+  if (PL_FRICTION) d.dtm = dtm;
   d.scratch = scratch, d.alive[0] = true;
   if (PL_RECORD) {
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
