@@ -1,8 +1,10 @@
 /* CUDA's kernel qualifiers and thread indices on the host, so that g++ compiles engine_gpu.cu
    into a library whose kernels tests/test_gpu_emulated.py runs thread after thread (exact: the
-   kernels have one thread per chain, no shared memory, no barriers). Passed with -include. */
+   kernels have one thread per chain and no barriers; a __shared__ array is one static array, in
+   which each thread uses only its own row). Passed with -include. */
 
 #define __global__
+#define __shared__ static
 #define __device__
 #define __host__
 #define __restrict__ __restrict

@@ -298,8 +298,13 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     assert assert_same_outputs(got)  # bit for bit: one kernel, one compiler, no FMA contraction on x86-64
     n = cases[0].chain.particles
     local = gpu.local_size(n)
-    assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, gpu.THREADS)]
     a = prepare(cases, "gpu")
+    threads = gpu.block_threads(local, bool(a.record))  # blocks whose rows of shared memory fit 48 KB
+    assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, threads)]
+    row = gpu.shared_row(local, bool(a.record))
+    assert 32 <= threads <= gpu.THREADS and (not local or threads * row * 8 <= gpu.SHARED_LIMIT < 2 * threads * row * 8
+                                             or threads == gpu.THREADS), (threads, row)
+    assert gpu.shared_state(local) == (0 < local <= 47) and row % 2 == 1  # x, v, f in the row where 32 threads fit
     assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(a), one_mass=gpu.one_mass(a))]
     # a module with one of each mass term for chains of one mass; n of them with mass disorder
     assert ("-DPL_ONE_MASS=1" in emulated_gpu.modules[0]) == (bool(local) and scenario != "disorder")

@@ -34,11 +34,16 @@ from .library import layout, library, ptr, step_scratch
 __all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 THREADS = 128
+# The short chains' kernel keeps a row per thread in static shared memory, at most 48 KB a block:
+# the chain's marks (n doubles), and with SHARED_STATE its x, v and f too (4 n), where blocks of at
+# least 32 threads fit (`block_threads`: fewer threads per block for longer chains)
+SHARED_LIMIT = 48 * 1024
+SHARED_STATE = True
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
 LOCAL_MAX = 64
 # ... in runs of free atoms of at most SHORT_BLOCK: the fewest ptxas spills for the paper's 21 magnets
 # with friction and the record (benchmarks/gpu_resources.py --blocks); the bits do not depend on it
-SHORT_BLOCK = 10
+SHORT_BLOCK = 32
 # Atom-steps per launch: about 1 s at the 1.03e10 atom-steps/s an H200 ran (docs/performance.md), so a
 # signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
 # fast per atom-step as 10^6 in two, so smaller launches cost no speed there
@@ -104,15 +109,16 @@ def run_arrays(a: Arrays):
         scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
         per_chain = step_scratch(block)
         scratch_runs = cp.zeros(chains * per_chain)
-    chunk = max(THREADS, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // THREADS * THREADS)
+    threads = block_threads(local, bool(a.record))
+    chunk = max(threads, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // threads * threads)
     for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
         hi = min(chains, lo + chunk)
         rows, atoms = slice(lo, hi), slice(lo * n, hi * n)
-        grid = (-(-(hi - lo) // THREADS),)
+        grid = (-(-(hi - lo) // threads),)
         if local:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_short_chains_gpu", options)(grid, (THREADS,), args)
+            _kernel("pl_run_short_chains_gpu", options)(grid, (threads,), args)
         else:
             f, dtfm, weight, index = scratch
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
@@ -120,7 +126,7 @@ def run_arrays(a: Arrays):
                     *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
                     scratch_runs[lo * per_chain:hi * per_chain],
                     work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_chains_gpu", options)(grid, (THREADS,), args)
+            _kernel("pl_run_chains_gpu", options)(grid, (threads,), args)
         cp.cuda.Stream.null.synchronize()
     if int(end_step.min()) < 0:  # a module built for another law, friction or record (run_compiled)
         raise RuntimeError(f"the GPU kernel compiled with {options} did not run this batch's chains")
@@ -178,7 +184,8 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     block = short_block(local) if block is None else block
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
-            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", "-fmad=false",
+            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local, record)}",
+            f"-DPL_SHARED_STATE={int(shared_state(local))}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 
@@ -189,6 +196,27 @@ def _sources_digest(folder: Path) -> str:
     for path in sorted(folder.glob("*.[hc]*")):
         h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()[:16]
+
+
+def shared_row(local: int, record: bool) -> int:
+    """The doubles of a thread's row of shared memory in the short chains' kernel (engine_gpu.cu:
+    odd, so that a half-warp's threads hit distinct banks): 4 n with x, v, f in it (`shared_state`),
+    else n for the marks with a record, else 1."""
+    return (4 * local if shared_state(local) else local if record else 0) | 1
+
+
+def shared_state(local: int) -> bool:
+    """x, v, f of the short chains in shared memory: SHARED_STATE, where a block of 32 threads fits."""
+    return SHARED_STATE and bool(local) and 32 * ((4 * local) | 1) * 8 <= SHARED_LIMIT
+
+
+def block_threads(local: int, record: bool = True) -> int:
+    """Threads per block: THREADS, halved until the short chains' rows of shared memory
+    (`shared_row`) fit in SHARED_LIMIT."""
+    threads = THREADS
+    while local and threads > 32 and threads * shared_row(local, record) * 8 > SHARED_LIMIT:
+        threads //= 2
+    return threads
 
 
 def local_size(n: int) -> int:

@@ -166,6 +166,7 @@ class FixLatticeChain : public Fix {
   pl_kernel::Masses masses() const;
   // the owned step's hook into the front record (kernel/step.h's FrontPass)
   struct FrontHook {
+    static constexpr bool PER_ATOM = false;    // a block's rows after its kicks
     FixLatticeChain *fix;
     void sample_block(int b, const double *v_before, bool starting)
     {

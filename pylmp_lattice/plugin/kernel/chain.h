@@ -103,6 +103,54 @@ typedef ChainDataT<double> ChainData;
 enum ChainStatus { FINISHED = 0, CONTACT = 1, OUT_OF_RANGE = 2, DRIVE_ENDED = 3 };
 
 namespace detail {
+/* A chain's start gates (ChainFront): atom i's is its chain's start level while it waits, -infinity
+   while active, NaN when finished. ArrayGates: an array of R (the host engine: per lane); with
+   lanes the per-run sampling compares a whole run at once. */
+template <class R> struct ArrayGates {
+  static constexpr bool PER_ATOM = false;    // the hook samples a run after its kicks
+  R *g;
+  PL_HD R operator[](int i) const { return g[i]; }
+  PL_HD void wait(int i, int l, double start) { Lanes<R>::set(g[i], l, start); }
+  PL_HD void activate(int i, int l) { Lanes<R>::set(g[i], l, -infinity()); }
+  PL_HD void finish(int i, int l) { Lanes<R>::set(g[i], l, quiet_nan()); }
+  PL_HD ArrayGates view() const { return *this; }
+};
+/* BitGates: one chain of at most 64 atoms (a GPU thread), its gates as two bit masks and the start
+   level, 5 registers rather than 2n; each atom sampled right after its kick (PER_ATOM), so that no
+   run's velocities are held either (benchmarks/gpu_resources.py) */
+struct BitGates {
+  static constexpr bool PER_ATOM = true;
+  unsigned long long active = 0, finished = 0;
+  double start = 0.0;
+  PL_HD double operator[](int i) const
+  {
+    const unsigned long long bit = 1ull << i;
+    return (active & bit) ? -infinity() : (finished & bit) ? quiet_nan() : start;
+  }
+  PL_HD void wait(int i, int, double level)
+  {
+    active &= ~(1ull << i), finished &= ~(1ull << i);
+    start = level;
+  }
+  PL_HD void activate(int i, int) { active |= 1ull << i, finished &= ~(1ull << i); }
+  PL_HD void finish(int i, int) { finished |= 1ull << i, active &= ~(1ull << i); }
+  struct View {    // what the step reads: the hook's gates as they change
+    const BitGates *g;
+    PL_HD double operator[](int i) const { return (*g)[i]; }
+  };
+  PL_HD View view() const { return View{this}; }
+};
+
+/* the gates run_chain keeps: BitGates for one chain alone (BITS), else an array of c.gate */
+template <bool BITS, class R> struct GatesFor {
+  using type = ArrayGates<R>;
+  PL_HD static type of(ChainDataT<R> &c) { return type{c.gate}; }
+};
+template <> struct GatesFor<true, double> {
+  using type = BitGates;
+  PL_HD static type of(ChainData &) { return type{}; }
+};
+
 /* front::sample_row, cold: a call keeps the lanes' code small; it takes values, so that the
    caller's arrays of x, v, f (the GPU's, in registers) are not handed to a call */
 PL_HD PL_COLD inline void sample_cold(double *r, unsigned char &phase, double v, double f, double m, double v_prev,
@@ -115,14 +163,15 @@ PL_HD PL_COLD inline void sample_cold(double *r, unsigned char &phase, double v,
    atoms and those that reach the start level now, with the rules of front.h. An atom's gate
    says which per lane, in one comparison for all lanes: its chain's start level while it waits
    (due if v >= gate), -infinity while active (always due), NaN when finished (never). */
-template <class R, class Runs> struct ChainFront {
+template <class R, class Runs, class Gates> struct ChainFront {
   using L = Lanes<R>;
   static constexpr int W = L::W;
+  static constexpr bool PER_ATOM = Gates::PER_ATOM;
   int n;
   Runs runs;
   const R *v, *f, *mass;
   const int *slot;                // atom i's mass is mass[slot[i]]
-  R *gate;
+  Gates gate;
   ChainDataT<R> *c;
   front::Sample sample;
   int active[W];                  // per lane: atoms of the chain between their start and both peaks
@@ -133,8 +182,8 @@ template <class R, class Runs> struct ChainFront {
     const unsigned char was = phase;
     sample_cold(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
                 L::get(mass[slot[i]], l), v_prev, c->levels[l], sample);
-    if (was == front::WAITING && phase != front::WAITING) L::set(gate[i], l, -infinity()), active[l]++;
-    if (was != front::FINISHED && phase == front::FINISHED) L::set(gate[i], l, quiet_nan()), active[l]--;
+    if (was == front::WAITING && phase != front::WAITING) gate.activate(i, l), active[l]++;
+    if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, l), active[l]--;
   }
   /* the lanes where atom i's row is due (front::due) */
   PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
@@ -146,6 +195,8 @@ template <class R, class Runs> struct ChainFront {
       for (int l = 0; l < W; l++)
         if (L::on(m, l) && c->alive[l]) row(l, i, L::get(v_prev, l));
   }
+  /* PER_ATOM: atom i just kicked, its velocity before the step v_before */
+  PL_HD void sample_atom(int i, const R &v_before) { rows(i, v_before); }
   PL_HD void sample_block(int b, const R *v_before, MaskOf<R> starting)
   {
     bool any_active = false;
@@ -211,7 +262,8 @@ PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_d
     if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status);
 }
 
-template <bool FRICTION, bool FRONT, class Runs = ChainRuns, class LawT, class R>
+/* BIT_GATES: the start gates as bits (BitGates; one chain in a GPU thread), else in c.gate */
+template <bool FRICTION, bool FRONT, class Runs = ChainRuns, bool BIT_GATES = false, class LawT, class R>
 PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
 {
   using L = Lanes<R>;
@@ -245,17 +297,19 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   if (FRICTION) work.settle(0.5 * S.dt, true, work_done, work_pending), work = CoulombWorkT<R>();
   f[0] = -law(x[1] - x[0]);
   f[n - 1] = L::splat(0.0);
-  ChainFront<R, Runs> hook{n, runs, v, f, c.mass, c.index, c.gate, &c, front::Sample{0.0, 0.0, true}, {}};
+  using Gates = typename GatesFor<BIT_GATES, R>::type;
+  ChainFront<R, Runs, Gates> hook{n, runs, v, f, c.mass, c.index, GatesFor<BIT_GATES, R>::of(c), &c,
+                                  front::Sample{0.0, 0.0, true}, {}};
   if (FRONT) {
     PL_UNROLL
     for (int i = 0; i < n; i++) {
       c.mark[i] = front::mark_max(c.mark[i], v[i]);
-      for (int l = 0; l < L::W; l++) L::set(c.gate[i], l, c.levels[l].start);
+      for (int l = 0; l < L::W; l++) hook.gate.wait(i, l, c.levels[l].start);
       hook.rows(i, L::splat(quiet_nan()));
     }
   }
   if (end_bad<FRONT>(S, c, gaps, work_done, 0)) return;
-  const FrontPass<ChainFront<R, Runs>, R> pass{c.mark, c.gate, &hook};
+  const FrontPass<ChainFront<R, Runs, Gates>, R, decltype(hook.gate.view())> pass{c.mark, hook.gate.view(), &hook};
   for (long long step = 1; step <= S.steps; step++) {
     const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)

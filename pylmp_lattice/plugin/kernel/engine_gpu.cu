@@ -28,8 +28,8 @@
 #include "chain.h"
 
 #if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
-    || !defined(PL_RECORD) || !defined(PL_ONE_MASS)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS"
+    || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_STATE)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_STATE"
 #endif
 
 using namespace pl_kernel;
@@ -72,13 +72,13 @@ template <> struct Compiled<laws::Table> {
 
 /* chain.h's run_chain for the compiled case alone; a chain of another case is not run and keeps
    end step -1, which the host refuses (a module built for another batch never passes unseen) */
-template <class Runs> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
+template <class Runs, bool BIT_GATES> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
 {
   d.end_step[0] = -1;
   dispatch_chain(S, [&](auto law, auto friction, auto record) {
     if constexpr (Compiled<decltype(law)>::value && decltype(friction)::value == (PL_FRICTION != 0) &&
                   decltype(record)::value == (PL_RECORD != 0))
-      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs>(law, S, d);
+      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs, BIT_GATES>(law, S, d);
   });
 }
 }    // namespace
@@ -125,8 +125,25 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   }
   ChainSetup S = make_setup(PL_SETUP_ARGS);
   S.n = N, S.block = PL_BLOCK;    // as constants: the loops over the atoms unroll
-  double xl[N], vl[N], fl[N], ml[M], dtfm[M], weight[M], dtm[M], rec[PL_RECORD ? N * front::NCOL : 1], mark[N],
-      gate[N];
+  double ml[M], dtfm[M], weight[M], dtm[M], rec[PL_RECORD ? N * front::NCOL : 1];
+  /* Each thread's row of shared memory (PL_THREADS: the block's threads, engines/gpu.py's
+     block_threads), ROW doubles (odd: a half-warp's 16 threads hit 16 distinct pairs of banks):
+     the marks (each atom's largest |v|, read and written at every step), and with
+     PL_SHARED_STATE also x, v and f. In registers, the marks pushed the chain's x, v, f out into
+     local memory (ptxas, 21 magnets with friction); with x, v, f too in shared memory, a thread
+     needs few registers, and the step's loads and stores stay on the SM. */
+  constexpr int ROW = (PL_SHARED_STATE ? 4 * N : PL_RECORD ? N : 0) | 1;
+  __shared__ double rows[PL_THREADS * ROW];
+  if (threadIdx.x >= PL_THREADS) {    // launched with more threads than compiled for (never: refused)
+    end_step[c] = -1;
+    return;
+  }
+  double *row = rows + threadIdx.x * ROW;
+#if PL_SHARED_STATE
+  double *xl = row, *vl = row + N, *fl = row + 2 * N, *mark = row + 3 * N;
+#else
+  double xl[N], vl[N], fl[N], *mark = row;
+#endif
   double scratch[step_scratch(PL_BLOCK)];
   unsigned char phase[N];
   constexpr Slots<N> slots = mass_slots<N>(PL_ONE_MASS);
@@ -134,7 +151,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   PL_UNROLL
   for (int i = 0; i < N; i++) {
     xl[i] = x[at + i], vl[i] = v[at + i];
-    mark[i] = quiet_nan(), gate[i] = 0.0, phase[i] = front::WAITING;
+    mark[i] = quiet_nan(), phase[i] = front::WAITING;
   }
   PL_UNROLL
   for (int i = 0; i < M; i++) ml[i] = mass[at + (PL_ONE_MASS ? 0 : i)];
@@ -149,9 +166,9 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   d.scratch = scratch, d.alive[0] = true;
   if (PL_RECORD) {
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
-    d.rec = rec, d.mark = mark, d.gate = gate, d.phase = phase;
+    d.rec = rec, d.mark = mark, d.phase = phase;    // the start gates as bits (chain.h's BitGates)
   }
-  run_compiled<FixedRuns<N, PL_BLOCK>>(S, d);
+  run_compiled<FixedRuns<N, PL_BLOCK>, true>(S, d);
   PL_UNROLL
   for (int i = 0; i < N; i++) x[at + i] = xl[i], v[at + i] = vl[i];
   if (PL_RECORD)
@@ -192,7 +209,7 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
     d.gate = gate + at;
     d.phase = phase + at;
   }
-  run_compiled<ChainRuns>(S, d);
+  run_compiled<ChainRuns, false>(S, d);
   work[c] = d.work[0];
   end_step[c] = d.end_step[0];
   status[c] = d.status[0];

@@ -143,12 +143,16 @@ PL_HD inline R total_force(R left, R right, int t, const MassesT<R> &ms, const F
    caller's: sample_block(b, v_before, starting) samples run b's rows (v_before: the run's
    velocities of the previous step; starting: an atom reached its start gate now, a mask with
    lanes) */
-template <class Hook, class R = double> struct FrontPass {
+template <class HookT, class R = double, class Gates = const R *> struct FrontPass {
+  using Hook = HookT;
   R *mark;
-  const R *gate;
-  Hook *hook;
+  Gates gate;    // gate[i]: atom i's start gate (an array, or a view that computes it)
+  HookT *hook;
 };
+/* PER_ATOM: the hook samples each atom right after its kick, sample_atom(i, v_before), instead of
+   a run after its kicks (one chain in a GPU thread: no run's velocities kept in registers) */
 struct NoFront {
+  static constexpr bool PER_ATOM = false;
   PL_HD void sample_block(int, const double *, bool) {}
 };
 
@@ -170,8 +174,8 @@ enum class KickTo { none, in_place };
    ones is exact in any order) */
 template <bool FRICTION, bool ONE_TYPE, KickTo TO, bool MARK = false, class R>
 PL_HD inline void kick_atom(R left, R right, int t, R h, const MassesT<R> &ms, const Friction &fr, double kick, R &v,
-                            R &f, CoulombWorkT<R> &work, R *mark = nullptr, const R *gate = nullptr,
-                            R *starting = nullptr, const R *dtm = nullptr)
+                            R &f, CoulombWorkT<R> &work, R *mark = nullptr, R gate = R(), R *starting = nullptr,
+                            const R *dtm = nullptr)
 {
   const R ftot = total_force<FRICTION>(left, right, t, ms, fr, kick, v, work, dtm);
   f = ftot;
@@ -180,7 +184,7 @@ PL_HD inline void kick_atom(R left, R right, int t, R h, const MassesT<R> &ms, c
     v = vn;
     if constexpr (MARK) {
       *mark = front::mark_max(*mark, vn);
-      *starting += vn >= *gate ? Lanes<R>::splat(1.0) : Lanes<R>::splat(0.0);
+      *starting += vn >= gate ? Lanes<R>::splat(1.0) : Lanes<R>::splat(0.0);
     }
   }
 }
@@ -203,7 +207,7 @@ PL_HD inline void kick_run(const double *PL_RESTRICT F, const int first, const i
    its drift and its kick a run's f holds the velocities after the first half kick (its forces of
    the last step are spent then, and nothing else reads them in between), so that v keeps the
    velocities before it for the front record's sampling of atoms that start now. */
-template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct Stages {
+template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R, class Front> struct Stages {
   const LawT law;
   R *PL_RESTRICT x;
   R *PL_RESTRICT v;
@@ -212,8 +216,7 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct 
   const Friction &fr;
   double dt;
   R h;
-  R *mark;
-  const R *gate;
+  const Front &front;
 
   /* first half kick and drift of atom i */
   PL_HD void drift(int i) const
@@ -236,21 +239,25 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct 
     return bond_of(x[i + 1] - x[i], r_min, r_max, r_sum);
   }
   /* force and second half kick of atom i, F its left and right bonds' forces; v_old: where its
-     velocity before the step goes (FRONT) */
+     velocity before the step goes (FRONT; a PER_ATOM hook samples the atom now instead) */
   PL_HD void kick(int i, const R *F, R *v_old, CoulombWorkT<R> &work, R &starting) const
   {
     const int t = FRICTION || !ONE_TYPE ? ms.slot[i] : 1;
     R vh = f[i], ftot;
+    const R before = v[i];
     if constexpr (FRONT) {
-      *v_old = v[i];
-      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, true>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work, mark + i,
-                                                             gate + i, &starting, ms.dtm);
+      kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, true>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work,
+                                                             front.mark + i, front.gate[i], &starting, ms.dtm);
     } else {
       kick_atom<FRICTION, ONE_TYPE, KickTo::in_place, false, R>(F[0], F[1], t, h, ms, fr, dt, vh, ftot, work, nullptr,
-                                                                 nullptr, nullptr, ms.dtm);
+                                                                 R(), nullptr, ms.dtm);
     }
     v[i] = vh;
     f[i] = ftot;
+    if constexpr (FRONT) {
+      if constexpr (Front::Hook::PER_ATOM) front.hook->sample_atom(i, before);
+      else *v_old = before;
+    }
   }
 };
 }    // namespace detail
@@ -259,15 +266,15 @@ template <bool FRICTION, bool FRONT, bool ONE_TYPE, class LawT, class R> struct 
    impactors at this step's position before). x, v, f: the slab's arrays along x; works: per
    chain, this step's friction work (each run adds to its chain's, in ID order); scratch:
    step_scratch(block) R; gaps: every bond left of a run's atom and right of its last. */
-template <bool FRICTION, bool FRONT, class LawT, class Hook, class R, class Runs>
+template <bool FRICTION, bool FRONT, class LawT, class Hook, class R, class Gates, class Runs>
 PL_HD void step_runs(const LawT law, const Runs runs, int nruns, R *PL_RESTRICT x, R *PL_RESTRICT v,
                      R *PL_RESTRICT f, const MassesT<R> &ms, const Friction &fr, double dt, CoulombWorkT<R> *works,
-                     R *scratch, int block, const FrontPass<Hook, R> &front, GapsT<R> &gaps)
+                     R *scratch, int block, const FrontPass<Hook, R, Gates> &front, GapsT<R> &gaps)
 {
   nruns = run_count(runs, nruns);
   auto pass = [&](auto one_type) {
-    const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT, R> S{
-        law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : Lanes<R>::splat(0.0), front.mark, front.gate};
+    const detail::Stages<FRICTION, FRONT, decltype(one_type)::value, LawT, R, FrontPass<Hook, R, Gates>> S{
+        law, x, v, f, ms, fr, dt, one_type ? ms.dtfm[1] : Lanes<R>::splat(0.0), front};
     // per run in flight: its bond forces (two runs), F[k] left of atom first + k; the kicked
     // run's velocities before the step (FRONT)
     R *PL_RESTRICT bonds[2] = {scratch, scratch + block + 1};
@@ -330,7 +337,7 @@ PL_HD void step_runs(const LawT law, const Runs runs, int nruns, R *PL_RESTRICT 
       }
       if (nk) {
         if constexpr (FRICTION) works[runs[k].chain] = work;
-        if constexpr (FRONT) front.hook->sample_block(k, v_old, starting > 0.0);
+        if constexpr (FRONT && !Hook::PER_ATOM) front.hook->sample_block(k, v_old, starting > 0.0);
       }
     }
     gaps.r_min = r_min, gaps.r_max = r_max, gaps.r_sum = r_sum;
