@@ -1,17 +1,19 @@
 """What each GPU kernel keeps per thread, without a device: NVRTC (the nvidia-cuda-nvrtc wheel)
 compiles engine_gpu.cu to sm_90 machine code with the GPU engine's own options
 (engines.gpu.compile_options) and ptxas's report (-Xptxas=-v): registers per thread, stack frame
-(local memory per thread) and spill bytes. From these, on an H100/H200 (132 SMs, 65536 registers
-and at most 2048 threads per SM, the engine's blocks of 128 threads): the threads resident per
-SM, and the local memory all resident threads hold, beside the 50 MB of L2. The stack frame is
+(local memory per thread), spill bytes and shared memory per block. From these, on an H100/H200
+(132 SMs, each with 65536 registers and at most 2048 threads and 228 KB of shared memory; the
+engine's blocks, gpu.block_threads): the threads resident per SM, and the local memory all
+resident threads hold, beside the 50 MB of L2. The stack frame is
 split into the front record's rows (N x NCOL doubles, touched only for the few atoms between
 their start and both peaks) and the rest (the per-step state that did not fit in registers).
 With nvdisasm (the nvidia-cuda-nvdisasm wheel, on PATH, or --nvdisasm PATH) also the local loads
 and stores (LDL/STL) in the machine code of the kernel's largest loop, its time step, and the
 loops inside it: with none inside, each LDL/STL runs at most once a step.
 
-Cases: the paper's experiment (power law q = 3, friction, front record) and the same law without
-friction or record; chains of --particles magnets. --reference REV adds the same rows for the
+Cases: the paper's experiment (power law q = 3, friction, front record) for chains of one mass (the
+thermal ensembles) and of per-atom masses (disorder), and the same law without friction or record;
+chains of --particles magnets. --reference REV adds the same rows for the
 kernel of a git revision (its folder plugin/kernel at REV, its local arrays 32 or 64 long, as
 ece083f rounded n), compiled with this tree's options: the old and the new kernel side by side.
 
@@ -44,7 +46,11 @@ from pylmp_lattice.engines.library import layout  # noqa: E402
 
 ARCH = "sm_90"  # H100 and H200
 SMS, REGISTERS_PER_SM, THREADS_PER_SM, BLOCKS_PER_SM, L2_MB = 132, 65536, 2048, 32, 50
-CASES = {"q=3, friction, record": (0, 3.0, True, True), "q=3, neither": (0, 3.0, False, False)}
+SHARED_PER_SM, SHARED_RESERVED = 228 * 1024, 1024  # bytes; the driver's reserve per block
+# (law kind, q, friction, record) and one mass (the thermal ensembles) or per-atom masses (disorder)
+CASES = {"q=3, friction, record, one mass": ((0, 3.0, True, True), True),
+         "q=3, friction, record, per-atom masses": ((0, 3.0, True, True), False),
+         "q=3, neither, one mass": ((0, 3.0, False, False), True)}
 
 
 @dataclass
@@ -54,12 +60,15 @@ class Resources:
     spill_stores: int
     spill_loads: int
     step_local: str = "-"  # the time step's LDL/STL (nvdisasm)
+    shared: int = 0  # bytes of shared memory per block
 
-    def threads_per_sm(self, threads: int = gpu.THREADS) -> int:
-        """Resident threads per SM for blocks of `threads` (registers allocated per warp, in 256s)."""
+    def threads_per_sm(self, threads: int) -> int:
+        """Resident threads per SM for blocks of `threads` (registers allocated per warp, in 256s;
+        shared memory per block)."""
         per_warp = math.ceil(self.registers * 32 / 256) * 256
         warps = REGISTERS_PER_SM // per_warp
-        blocks = min(warps // (threads // 32), BLOCKS_PER_SM, THREADS_PER_SM // threads)
+        by_shared = SHARED_PER_SM // (self.shared + SHARED_RESERVED) if self.shared else BLOCKS_PER_SM
+        blocks = min(warps // (threads // 32), BLOCKS_PER_SM, THREADS_PER_SM // threads, by_shared)
         return blocks * threads
 
 
@@ -117,6 +126,7 @@ def measure(kernel: Path, options: tuple[str, ...], entry: str, nvdisasm: str | 
     if got.rc != 0:
         raise RuntimeError(f"NVRTC failed ({got.rc}) with {options}:\n{got.log[-3000:]}")
     registers, stack, stores, loads = entry_report(got.log, entry)
+    shared = re.search(rf"Function properties for {entry}\n[^\n]*\n[^\n]*?(\d+) bytes smem", got.log)
     step = "-"
     if nvdisasm:
         with tempfile.NamedTemporaryFile(suffix=".cubin") as f:
@@ -124,7 +134,7 @@ def measure(kernel: Path, options: tuple[str, ...], entry: str, nvdisasm: str | 
             f.flush()
             step = step_local(subprocess.run([nvdisasm, f.name], capture_output=True, text=True, check=True).stdout,
                               entry)
-    return Resources(registers, stack, stores, loads, step)
+    return Resources(registers, stack, stores, loads, step, int(shared.group(1)) if shared else 0)
 
 
 def reference_kernel(rev: str, into: Path) -> Path:
@@ -146,15 +156,16 @@ def with_kernel(options: tuple[str, ...], kernel: Path, local: int) -> tuple[str
     return tuple(out)
 
 
-def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resources) -> str:
-    per_sm = r.threads_per_sm()
+def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resources, threads: int) -> str:
+    per_sm = r.threads_per_sm(threads)
     resident = per_sm * SMS
     rows = local * layout().ncol * 8 if record else 0  # the record's rows (engine_gpu.cu's rec)
     rest = r.stack - rows
     mb = lambda b: f"{resident * b / 1e6:.0f} MB ({resident * b / 1e6 / L2_MB:.1f}x L2)"  # noqa: E731
     full = SMS * THREADS_PER_SM * r.stack / 1e9
     return (f"| {label} | {n} | {local} | {block} | {r.registers} | {r.stack} | {rows} | {rest} | "
-            f"{r.spill_stores} / {r.spill_loads} | {r.step_local} | {per_sm} | {resident} | {mb(r.stack)} | {mb(rest)} | {full:.2f} GB |")
+            f"{r.spill_stores} / {r.spill_loads} | {r.step_local} | {r.shared} B x {threads} | {per_sm} | {resident} | "
+            f"{mb(r.stack)} | {mb(rest)} | {full:.2f} GB |")
 
 
 def main() -> None:
@@ -193,21 +204,22 @@ def main() -> None:
             raise SystemExit(2) from None
         print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
         print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
-              "the rest | spill stores / loads (B) | the step's LDL/STL (static) | threads/SM | resident threads | their stack | their rest "
-              "| stack at 2048 threads/SM |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-        for name, case in CASES.items():
+              "the rest | spill stores / loads (B) | the step's LDL/STL (static) | shared memory per block | threads/SM | "
+              "resident threads | their stack | their rest | stack at 2048 threads/SM |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for name, (case, one_mass) in CASES.items():
             for n in sizes:
                 local = gpu.local_size(n)
                 if ref is not None:
                     old_local = 32 if n <= 32 else 64
-                    options = with_kernel(gpu.compile_options(local, case), ref, old_local)
+                    options = with_kernel(gpu.compile_options(local, case, one_mass=one_mass), ref, old_local)
                     print(row(f"{args.reference}, {name}", n, old_local, "at run time", case[3],
-                              measure(ref, options, entry, nvdisasm)), flush=True)
+                              measure(ref, options, entry, nvdisasm), gpu.THREADS), flush=True)
                 for block in blocks or [gpu.short_block(local)]:
-                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block), entry, nvdisasm)
-                    print(row(f"this tree, {name}", n, local, block, case[3], r), flush=True)
-    print("threads/SM: by registers (blocks of 128); their stack: resident threads x stack frame, the local memory "
+                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block, one_mass), entry, nvdisasm)
+                    print(row(f"this tree, {name}", n, local, block, case[3], r, gpu.block_threads(local, case[3])),
+                          flush=True)
+    print("threads/SM: by registers and shared memory (blocks of gpu.block_threads); their stack: resident threads x stack frame, the local memory "
           f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "
           "the record's rows; at 2048 threads/SM: the stack if registers did not limit the threads resident; the "
           "step's LDL/STL: in the machine code of the kernel's largest loop (nvdisasm; '-' without it), run at most "
