@@ -9,8 +9,9 @@
 #   mkdir -p wheels/kernel-ece083f && git archive ece083f pylmp_lattice/plugin/kernel \
 #     | tar -x -C wheels/kernel-ece083f --strip-components=3   # the old kernel, timed beside the new
 # and run it with the device tool: command "bash benchmarks/gpu_check.sh", carry ["wheels",
-# "pylmp_lattice/plugin/latticeengine.so"], timeout_s 540 (its stages' timeouts add up to at most
-# 510 s; the two full runs of 2026-11-27, 09:17 and 09:20 UTC, took under 3 minutes each). Output also in $OUT/gpu_check.txt.
+# "pylmp_lattice/plugin/latticeengine.so"], timeout_s 500: correctness first, then the kernel's
+# variants, the benchmark with the sweeps, Nsight Compute, the long chains last (each stage with
+# its own timeout; the run of 2026-11-27 15:50 UTC took 231 s). Output also in $OUT/gpu_check.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out="${OUT:-/tmp}"
@@ -33,24 +34,27 @@ stage "bench_gpu.py --check"
 timeout 60 "$py" benchmarks/bench_gpu.py --check
 check=$?
 stage "check exit $check"
+stage "bench_gpu.py --variants: the kernel with parts left out, the engine's choices one at a time, the old kernel"
+reference=()
+[ -f wheels/kernel-ece083f/engine_gpu.cu ] && reference=(--reference-kernel wheels/kernel-ece083f)
+timeout 150 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 100000 "${reference[@]}"
+stage "variants exit $?"
 stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
   --loop-limit 2e10
 stage "benchmark exit $?"
-stage "bench_gpu.py --variants: the kernel with the record, the friction, the sine drive left out; one run; the old kernel"
-reference=()
-[ -f wheels/kernel-ece083f/engine_gpu.cu ] && reference=(--reference-kernel wheels/kernel-ece083f)
-timeout 60 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 100000 "${reference[@]}"
-stage "variants exit $?"
-left=$((220 - (SECONDS - started)))
-stage "bench_gpu.py: 1000 magnets (for at most ${left} s)"
-timeout $((left > 20 ? left : 20)) "$py" benchmarks/bench_gpu.py --sizes "" --long 10000 --sweep ""
-stage "benchmark exit $?"
-# Is the kernel bound by memory (its local arrays streaming from HBM, docs/performance.md)? Nsight
-# Compute's speed-of-light and memory sections for one launch of 20000 chains (the warm-up's skipped)
+# What bounds the kernel now (memory, FP64, the stalls of its warps)? Nsight Compute's sections
+# for one launch of 20000 chains (the warm-up's skipped); the whole report in $OUT/ncu.txt
 stage "ncu: one launch of 20000 chains"
-command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy --section WarpStateStats --section ComputeWorkloadAnalysis --section LaunchStats \
+command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
+  --section WarpStateStats --section ComputeWorkloadAnalysis --section LaunchStats --section InstructionStats \
   -k pl_run_short_chains_gpu --launch-skip 1 --launch-count 1 "$py" benchmarks/bench_gpu.py --sizes 20000 --long 0 \
-  --sweep "" --loop-limit 0 2>&1 | grep -v "^==PROF==" | tail -60
+  --sweep "" --loop-limit 0 >"$out/ncu.txt" 2>&1
 stage "ncu exit $?"
+grep -E "Duration|Throughput|Registers Per|Occupancy|Stall|Issue Slots|Executed Ipc|Pipe|Shared Memory|Local" "$out/ncu.txt" \
+  | head -40
+left=$((450 - (SECONDS - started)))
+stage "bench_gpu.py: 1000 members of 1000 magnets, the global rows' kernel (for at most ${left} s)"
+timeout $((left > 20 ? left : 20)) "$py" benchmarks/bench_gpu.py --sizes "" --long 1000 --sweep "" --loop-limit 5e9
+stage "benchmark exit $?"
 exit $check
