@@ -30,12 +30,13 @@ under about 40 s each; `pylmp-lattice sweep --engine gpu` from the command to it
 front record, the friction, both; then also the sine drive's path, a constant drive instead, as
 the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
 mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
-members with the engine's choices changed one at a time: runs of 10 atoms, not one run
-(gpu.SHORT_BLOCK); x, v, f in registers, not in shared memory (gpu.SHARED_STATE); blocks of 32
-threads; a module for per-atom masses; at most 128 registers a thread; and, with
---reference-kernel DIR, the kernel in DIR (another revision's plugin/kernel folder, its local
-arrays 32 or 64 long as ece083f's engine rounded n, blocks of 128): the old and the new kernel in
-one run, on the same device. benchmarks/gpu_resources.py prints what each keeps per thread.
+members with the engine's choices changed one at a time: the due rows of the front record
+listed and sampled after the step, not each after its atom's kick (gpu.SAMPLE_LISTED); blocks of
+64 threads; x, v, f in registers, not in shared memory (gpu.SHARED_STATE); caps on the registers;
+a module for per-atom masses; and, with --reference-kernel DIR, the kernel in DIR (another
+revision's plugin/kernel folder, its local arrays 32 or 64 long as ece083f's engine rounded n,
+blocks of 128): the old and the new kernel in one run, on the same device.
+benchmarks/gpu_resources.py prints what each keeps per thread.
 
     python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000]
     python benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 1000000 [--reference-kernel DIR]
@@ -263,24 +264,25 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     one = f"runs of {a.n - 2} (one)"
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
-            "neither, constant drive": ({"record": False, "friction": None, "drive": "constant", "V": 0.5 * a.V}, {}),
-            "runs of 10": ({}, {"SHORT_BLOCK": 10}),
+            "the due rows listed, sampled after the step": ({}, {"SAMPLE_LISTED": True}),
+            "blocks of 64 threads": ({}, {"SHARED_THREADS": 64}),
             "x, v, f in registers (marks alone in shared memory)": ({}, {"SHARED_STATE": False}),
-            "x, v, f in registers, runs of 10": ({}, {"SHARED_STATE": False, "SHORT_BLOCK": 10}),
-            "neither, x, v, f in registers": ({"record": False, "friction": None}, {"SHARED_STATE": False}),
-            "blocks of 32 threads": ({}, {"THREADS": 32}),
-            "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False}),
-            "at most 128 registers": ({}, {"compile_options": capped(gpu.compile_options, 128)})}
+            "x, v, f in registers, listed": ({}, {"SHARED_STATE": False, "SAMPLE_LISTED": True}),
+            "x, v, f in registers, at most 128 registers": ({}, {"SHARED_STATE": False, "compile_options": capped(
+                gpu.compile_options, 128)}),
+            "listed, at most 200 registers": ({}, {"SAMPLE_LISTED": True, "compile_options": capped(
+                gpu.compile_options, 200)}),
+            "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)
         old = {"KERNEL": reference.resolve(), "local_size": lambda n: 32 if n <= 32 else 64 if n <= 64 else 0,
                "block_threads": lambda local, record=True: 128}
-        rows |= {f"as benchmarked, kernel of {reference.name}": ({}, old),
-                 f"neither, kernel of {reference.name}": ({"record": False, "friction": None}, old)}
+        rows |= {f"as benchmarked, kernel of {reference.name}": ({}, old)}
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {count} thermal replicas of the 21-magnet "
           f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it); unless said "
           f"runs of {gpu.short_block(a.n)} atoms ({one}), x, v, f and the marks in shared memory "
-          f"({gpu.shared_state(a.n)}), blocks of {gpu.block_threads(a.n)} threads, one mass")
+          f"({gpu.shared_state(a.n)}), blocks of {gpu.block_threads(a.n)} threads, rows listed "
+          f"({gpu.SAMPLE_LISTED}), one mass")
     print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
     print("|---|---|---|---|---|")
     first = None

@@ -302,8 +302,10 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     threads = gpu.block_threads(local, bool(a.record))  # blocks whose rows of shared memory fit 48 KB
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, threads)]
     row = gpu.shared_row(local, bool(a.record))
-    assert 32 <= threads <= gpu.THREADS and (not local or threads * row * 8 <= gpu.SHARED_LIMIT < 2 * threads * row * 8
-                                             or threads == gpu.THREADS), (threads, row)
+    # x, v, f in shared memory: blocks of SHARED_THREADS; else THREADS, halved until the marks fit
+    first = gpu.SHARED_THREADS if gpu.shared_state(local) else gpu.THREADS
+    assert threads * row * 8 <= gpu.SHARED_LIMIT and (threads == first or 2 * threads * row * 8 > gpu.SHARED_LIMIT), \
+        (threads, row)
     assert gpu.shared_state(local) == (0 < local <= 47) and row % 2 == 1  # x, v, f in the row where 32 threads fit
     assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(a), one_mass=gpu.one_mass(a))]
     # a module with one of each mass term for chains of one mass; n of them with mass disorder
@@ -332,6 +334,7 @@ def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, partic
     blocks of 8 threads, the last block part-full; each chain its own levels (thermal draws)."""
     cases = members(count=40, particles=particles, friction=FRICTION)
     monkeypatch.setattr(gpu, "THREADS", 8)
+    monkeypatch.setattr(gpu, "SHARED_THREADS", 8)
     monkeypatch.setattr(gpu, "CHUNK_ATOM_STEPS", 16 * particles * cases[0].run.steps() + 1)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
     assert [launch[1:] for launch in emulated_gpu.launches] == [(2, 8), (2, 8), (1, 8)]
@@ -354,17 +357,23 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
         gpu.run_arrays(a)
 
 
-@pytest.mark.parametrize("block", [1, 4, 19])
-def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block):
+@pytest.mark.parametrize("block,shared,listed", [(1, True, False), (4, False, True), (19, True, True),
+                                                 (19, False, False)])
+def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, listed):
     """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
     compile-time constant, chosen by the registers it leaves, benchmarks/gpu_resources.py): one
-    atom, a few runs, or one run of all 19, bit for bit the host engine's (runs of its BLOCK)."""
+    atom, a few runs, or one run of all 19; x, v, f in shared memory or registers; the record's
+    rows sampled per atom or listed after the step: bit for bit the host engine's (runs of its
+    BLOCK, sampled per run)."""
     monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
+    monkeypatch.setattr(gpu, "SHARED_STATE", shared)
+    monkeypatch.setattr(gpu, "SAMPLE_LISTED", listed)
     cases = members(friction=FRICTION)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
     a = prepare(cases, "gpu")
     assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
-    assert f"-DPL_BLOCK={block}" in emulated_gpu.modules[0]
+    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_STATE={int(shared)}", f"-DPL_SAMPLE_LISTED={int(listed)}"} <= set(
+        emulated_gpu.modules[0])
 
 
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):

@@ -39,6 +39,12 @@ THREADS = 128
 # least 32 threads fit (`block_threads`: fewer threads per block for longer chains)
 SHARED_LIMIT = 48 * 1024
 SHARED_STATE = True
+# ... in blocks of 32 threads then: an SM's shared memory fills in finer steps (10 blocks of 21.8 kB
+# for 21 magnets, not 4 of 43.5 kB: 1.28x the kernel's speed, bench_gpu.py --variants, H200)
+SHARED_THREADS = 32
+# The front record's due rows, sampled each right after its atom's kick (False) or listed and
+# sampled together after the step (True; chain.h's Sampling)
+SAMPLE_LISTED = False
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
 LOCAL_MAX = 64
 # ... in runs of free atoms of at most SHORT_BLOCK: the fewest ptxas spills for the paper's 21 magnets
@@ -185,7 +191,7 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local, record)}",
-            f"-DPL_SHARED_STATE={int(shared_state(local))}", "-fmad=false",
+            f"-DPL_SHARED_STATE={int(shared_state(local))}", f"-DPL_SAMPLE_LISTED={int(SAMPLE_LISTED)}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 
@@ -211,9 +217,9 @@ def shared_state(local: int) -> bool:
 
 
 def block_threads(local: int, record: bool = True) -> int:
-    """Threads per block: THREADS, halved until the short chains' rows of shared memory
-    (`shared_row`) fit in SHARED_LIMIT."""
-    threads = THREADS
+    """Threads per block: SHARED_THREADS with x, v, f in shared memory, else THREADS, halved until
+    the short chains' rows of shared memory (`shared_row`) fit in SHARED_LIMIT."""
+    threads = SHARED_THREADS if shared_state(local) else THREADS
     while local and threads > 32 and threads * shared_row(local, record) * 8 > SHARED_LIMIT:
         threads //= 2
     return threads

@@ -103,11 +103,17 @@ typedef ChainDataT<double> ChainData;
 enum ChainStatus { FINISHED = 0, CONTACT = 1, OUT_OF_RANGE = 2, DRIVE_ENDED = 3 };
 
 namespace detail {
+/* How ChainFront samples the rows due: per_run, a run's rows after its kicks (with lanes, a whole
+   run compared at once); per_atom, each atom's right after its kick; listed, the step's due rows
+   listed and sampled together after the step, in one loop that a warp's threads (other chains,
+   each with its own atoms due) run side by side, where per_atom runs one atom's sampling after
+   another for the few threads due at each (bench_gpu.py --variants times both). */
+enum class Sampling { per_run, per_atom, listed };
+
 /* A chain's start gates (ChainFront): atom i's is its chain's start level while it waits, -infinity
-   while active, NaN when finished. ArrayGates: an array of R (the host engine: per lane); with
-   lanes the per-run sampling compares a whole run at once. */
+   while active, NaN when finished. ArrayGates: an array of R (the host engine: per lane). */
 template <class R> struct ArrayGates {
-  static constexpr bool PER_ATOM = false;    // the hook samples a run after its kicks
+  static constexpr Sampling SAMPLING = Sampling::per_run;
   R *g;
   PL_HD R operator[](int i) const { return g[i]; }
   PL_HD void wait(int i, int l, double start) { Lanes<R>::set(g[i], l, start); }
@@ -116,10 +122,11 @@ template <class R> struct ArrayGates {
   PL_HD ArrayGates view() const { return *this; }
 };
 /* BitGates: one chain of at most 64 atoms (a GPU thread), its gates as two bit masks and the start
-   level, 5 registers rather than 2n; each atom sampled right after its kick (PER_ATOM), so that no
-   run's velocities are held either (benchmarks/gpu_resources.py) */
-struct BitGates {
-  static constexpr bool PER_ATOM = true;
+   level, 5 registers rather than 2n; sampled per atom or listed, so that no run's velocities are
+   held either (benchmarks/gpu_resources.py) */
+template <Sampling S> struct BitGates {
+  static constexpr Sampling SAMPLING = S;
+  static constexpr int ATOMS = 64;    // the most atoms a chain may have
   unsigned long long active = 0, finished = 0;
   double start = 0.0;
   PL_HD double operator[](int i) const
@@ -141,14 +148,14 @@ struct BitGates {
   PL_HD View view() const { return View{this}; }
 };
 
-/* the gates run_chain keeps: BitGates for one chain alone (BITS), else an array of c.gate */
-template <bool BITS, class R> struct GatesFor {
+/* the gates run_chain keeps for a sampling: an array of c.gate per run, else bits (one chain) */
+template <Sampling S, class R> struct GatesFor {
+  using type = BitGates<S>;
+  PL_HD static type of(ChainDataT<R> &) { return type{}; }
+};
+template <class R> struct GatesFor<Sampling::per_run, R> {
   using type = ArrayGates<R>;
   PL_HD static type of(ChainDataT<R> &c) { return type{c.gate}; }
-};
-template <> struct GatesFor<true, double> {
-  using type = BitGates;
-  PL_HD static type of(ChainData &) { return type{}; }
 };
 
 /* front::sample_row, cold: a call keeps the lanes' code small; it takes values, so that the
@@ -166,7 +173,8 @@ PL_HD PL_COLD inline void sample_cold(double *r, unsigned char &phase, double v,
 template <class R, class Runs, class Gates> struct ChainFront {
   using L = Lanes<R>;
   static constexpr int W = L::W;
-  static constexpr bool PER_ATOM = Gates::PER_ATOM;
+  static constexpr Sampling SAMPLING = Gates::SAMPLING;
+  static constexpr bool PER_ATOM = SAMPLING != Sampling::per_run;    // step.h's hooks: sample_atom
   int n;
   Runs runs;
   const R *v, *f, *mass;
@@ -175,25 +183,49 @@ template <class R, class Runs, class Gates> struct ChainFront {
   ChainDataT<R> *c;
   front::Sample sample;
   int active[W];                  // per lane: atoms of the chain between their start and both peaks
+  /* listed (one chain, W = 1, a GPU thread): the rows due at this step, sampled by flush() */
+  struct Due {
+    int i;
+    double v, f, m, v_prev;
+  };
+  Due *due_now;                   // listed: room for n (an array apart, so that the hook's own
+  int due_count = 0;              // state, its gates, stays in registers)
 
-  PL_HD PL_HOST_COLD void row(int l, int i, double v_prev)    // host: a call keeps the lanes' code small
+  /* lane l's row of atom i, with its v, f and m at this sample and v_prev at the last one */
+  PL_HD PL_HOST_COLD void row(int l, int i, double vi, double fi, double m, double v_prev)    // host: a call keeps the lanes' code small
   {
     unsigned char &phase = c->phase[l * n + i];
     const unsigned char was = phase;
-    sample_cold(c->rec + ((long long) l * n + i) * front::NCOL, phase, L::get(v[i], l), L::get(f[i], l),
-                L::get(mass[slot[i]], l), v_prev, c->levels[l], sample);
+    double *r = c->rec + ((long long) l * n + i) * front::NCOL;
+    sample_cold(r, phase, vi, fi, m, v_prev, c->levels[l], sample);
     if (was == front::WAITING && phase != front::WAITING) gate.activate(i, l), active[l]++;
     if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, l), active[l]--;
   }
   /* the lanes where atom i's row is due (front::due) */
   PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
-  /* atom i's row in every running lane where it is due */
+  /* atom i's row in every running lane where it is due (listed: at the next flush) */
   PL_HD void rows(int i, const R &v_prev)
   {
     const MaskOf<R> m = due(i);
-    if (L::any(m))
+    if (!L::any(m)) return;
+    if constexpr (SAMPLING == Sampling::listed) {
+      if (c->alive[0]) due_now[due_count++] = Due{i, v[i], f[i], mass[slot[i]], v_prev};
+    } else {
       for (int l = 0; l < W; l++)
-        if (L::on(m, l) && c->alive[l]) row(l, i, L::get(v_prev, l));
+        if (L::on(m, l) && c->alive[l])
+          row(l, i, L::get(v[i], l), L::get(f[i], l), L::get(mass[slot[i]], l), L::get(v_prev, l));
+    }
+  }
+  /* listed: the rows listed since the last flush */
+  PL_HD void flush()
+  {
+    if constexpr (SAMPLING == Sampling::listed) {
+      for (int k = 0; k < due_count; k++) {
+        const Due d = due_now[k];
+        row(0, d.i, d.v, d.f, d.m, d.v_prev);
+      }
+      due_count = 0;
+    }
   }
   /* PER_ATOM: atom i just kicked, its velocity before the step v_before */
   PL_HD void sample_atom(int i, const R &v_before) { rows(i, v_before); }
@@ -262,8 +294,9 @@ PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_d
     if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status);
 }
 
-/* BIT_GATES: the start gates as bits (BitGates; one chain in a GPU thread), else in c.gate */
-template <bool FRICTION, bool FRONT, class Runs = ChainRuns, bool BIT_GATES = false, class LawT, class R>
+/* SAMPLING: how the front record's rows are sampled (per_atom and listed: one chain, W = 1, its
+   start gates as bits; per_run: in c.gate) */
+template <bool FRICTION, bool FRONT, class Runs = ChainRuns, Sampling SAMPLING = Sampling::per_run, class LawT, class R>
 PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
 {
   using L = Lanes<R>;
@@ -297,9 +330,11 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   if (FRICTION) work.settle(0.5 * S.dt, true, work_done, work_pending), work = CoulombWorkT<R>();
   f[0] = -law(x[1] - x[0]);
   f[n - 1] = L::splat(0.0);
-  using Gates = typename GatesFor<BIT_GATES, R>::type;
-  ChainFront<R, Runs, Gates> hook{n, runs, v, f, c.mass, c.index, GatesFor<BIT_GATES, R>::of(c), &c,
-                                  front::Sample{0.0, 0.0, true}, {}};
+  using Gates = typename GatesFor<SAMPLING, R>::type;
+  using Hook = ChainFront<R, Runs, Gates>;
+  typename Hook::Due due_now[SAMPLING == Sampling::listed ? 64 : 1];    // BitGates' most atoms
+  Hook hook{n, runs, v, f, c.mass, c.index, GatesFor<SAMPLING, R>::of(c), &c, front::Sample{0.0, 0.0, true}, {},
+            due_now};
   if (FRONT) {
     PL_UNROLL
     for (int i = 0; i < n; i++) {
@@ -307,9 +342,10 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
       for (int l = 0; l < L::W; l++) hook.gate.wait(i, l, c.levels[l].start);
       hook.rows(i, L::splat(quiet_nan()));
     }
+    hook.flush();
   }
   if (end_bad<FRONT>(S, c, gaps, work_done, 0)) return;
-  const FrontPass<ChainFront<R, Runs, Gates>, R, decltype(hook.gate.view())> pass{c.mark, hook.gate.view(), &hook};
+  const FrontPass<Hook, R, decltype(hook.gate.view())> pass{c.mark, hook.gate.view(), &hook};
   for (long long step = 1; step <= S.steps; step++) {
     const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)
@@ -327,6 +363,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
       hook.rows(0, v_impactor);
       c.mark[n - 1] = front::mark_max(c.mark[n - 1], v[n - 1]);
       hook.rows(n - 1, v[n - 1]);
+      hook.flush();
     }
     if (end_bad<FRONT>(S, c, g, work_done, step)) return;
   }

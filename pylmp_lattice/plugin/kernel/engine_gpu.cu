@@ -28,8 +28,9 @@
 #include "chain.h"
 
 #if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
-    || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_STATE)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_STATE"
+    || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_STATE) \
+    || !defined(PL_SAMPLE_LISTED)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_STATE, -DPL_SAMPLE_LISTED"
 #endif
 
 using namespace pl_kernel;
@@ -72,13 +73,13 @@ template <> struct Compiled<laws::Table> {
 
 /* chain.h's run_chain for the compiled case alone; a chain of another case is not run and keeps
    end step -1, which the host refuses (a module built for another batch never passes unseen) */
-template <class Runs, bool BIT_GATES> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
+template <class Runs, detail::Sampling SAMPLING> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
 {
   d.end_step[0] = -1;
   dispatch_chain(S, [&](auto law, auto friction, auto record) {
     if constexpr (Compiled<decltype(law)>::value && decltype(friction)::value == (PL_FRICTION != 0) &&
                   decltype(record)::value == (PL_RECORD != 0))
-      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs, BIT_GATES>(law, S, d);
+      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs, SAMPLING>(law, S, d);
   });
 }
 }    // namespace
@@ -168,7 +169,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec, d.mark = mark, d.phase = phase;    // the start gates as bits (chain.h's BitGates)
   }
-  run_compiled<FixedRuns<N, PL_BLOCK>, true>(S, d);
+  run_compiled<FixedRuns<N, PL_BLOCK>, PL_SAMPLE_LISTED ? detail::Sampling::listed : detail::Sampling::per_atom>(S, d);
   PL_UNROLL
   for (int i = 0; i < N; i++) x[at + i] = xl[i], v[at + i] = vl[i];
   if (PL_RECORD)
@@ -209,7 +210,7 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
     d.gate = gate + at;
     d.phase = phase + at;
   }
-  run_compiled<ChainRuns, false>(S, d);
+  run_compiled<ChainRuns, detail::Sampling::per_run>(S, d);
   work[c] = d.work[0];
   end_step[c] = d.end_step[0];
   status[c] = d.status[0];
