@@ -32,7 +32,7 @@ the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel 
 mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
 members with the engine's choices changed one at a time: the due rows of the front record
 listed and sampled after the step, not each after its atom's kick (gpu.SAMPLE_LISTED); blocks of
-64 threads; x, v, f in registers, not in shared memory (gpu.SHARED_STATE); caps on the registers;
+64 threads; fewer of the marks, x, v, f in shared memory (gpu.SHARED_ARRAYS); caps on the registers;
 a module for per-atom masses; and, with --reference-kernel DIR, the kernel in DIR (another
 revision's plugin/kernel folder, its local arrays 32 or 64 long as ece083f's engine rounded n,
 blocks of 128): the old and the new kernel in one run, on the same device.
@@ -262,27 +262,27 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
 
     a = members(tmp / "variants", count)[1]
     one = f"runs of {a.n - 2} (one)"
+    cap = lambda registers: capped(gpu.compile_options, registers)  # noqa: E731
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
             "the due rows listed, sampled after the step": ({}, {"SAMPLE_LISTED": True}),
             "blocks of 64 threads": ({}, {"SHARED_THREADS": 64}),
-            "x, v, f in registers (marks alone in shared memory)": ({}, {"SHARED_STATE": False}),
-            "x, v, f in registers, listed": ({}, {"SHARED_STATE": False, "SAMPLE_LISTED": True}),
-            "x, v, f in registers, at most 128 registers": ({}, {"SHARED_STATE": False, "compile_options": capped(
-                gpu.compile_options, 128)}),
-            "listed, at most 200 registers": ({}, {"SAMPLE_LISTED": True, "compile_options": capped(
-                gpu.compile_options, 200)}),
+            "marks, x, v in shared memory, at most 160 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(160)}),
+            "marks, x, v in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(128)}),
+            "marks, x in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 2, "compile_options": cap(128)}),
+            "at most 128 registers": ({}, {"compile_options": cap(128)}),
+            "marks alone in shared memory (x, v, f in registers)": ({}, {"SHARED_ARRAYS": 1}),
+            "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLE_LISTED": True}),
             "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)
         old = {"KERNEL": reference.resolve(), "local_size": lambda n: 32 if n <= 32 else 64 if n <= 64 else 0,
-               "block_threads": lambda local, record=True: 128}
+               "block_threads": lambda local: 128}
         rows |= {f"as benchmarked, kernel of {reference.name}": ({}, old)}
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {count} thermal replicas of the 21-magnet "
           f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it); unless said "
-          f"runs of {gpu.short_block(a.n)} atoms ({one}), x, v, f and the marks in shared memory "
-          f"({gpu.shared_state(a.n)}), blocks of {gpu.block_threads(a.n)} threads, rows listed "
-          f"({gpu.SAMPLE_LISTED}), one mass")
+          f"runs of {gpu.short_block(a.n)} atoms ({one}), {gpu.shared_arrays(a.n)} of the marks, x, v, f in "
+          f"shared memory, blocks of {gpu.block_threads(a.n)} threads, rows listed ({gpu.SAMPLE_LISTED}), one mass")
     print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
     print("|---|---|---|---|---|")
     first = None

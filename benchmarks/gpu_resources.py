@@ -217,7 +217,7 @@ def main() -> None:
                               measure(ref, options, entry, nvdisasm), gpu.THREADS), flush=True)
                 for block in blocks or [gpu.short_block(local)]:
                     r = measure(gpu.KERNEL, gpu.compile_options(local, case, block, one_mass), entry, nvdisasm)
-                    print(row(f"this tree, {name}", n, local, block, case[3], r, gpu.block_threads(local, case[3])),
+                    print(row(f"this tree, {name}", n, local, block, case[3], r, gpu.block_threads(local)),
                           flush=True)
     print("threads/SM: by registers and shared memory (blocks of gpu.block_threads); their stack: resident threads x stack frame, the local memory "
           f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "

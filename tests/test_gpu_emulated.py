@@ -299,14 +299,15 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     n = cases[0].chain.particles
     local = gpu.local_size(n)
     a = prepare(cases, "gpu")
-    threads = gpu.block_threads(local, bool(a.record))  # blocks whose rows of shared memory fit 48 KB
+    threads = gpu.block_threads(local)  # blocks whose rows of shared memory fit 48 KB
     assert emulated_gpu.launches == [("pl_run_short_chains_gpu" if local else "pl_run_chains_gpu", 1, threads)]
-    row = gpu.shared_row(local, bool(a.record))
+    row = gpu.shared_row(local)
     # x, v, f in shared memory: blocks of SHARED_THREADS; else THREADS, halved until the marks fit
-    first = gpu.SHARED_THREADS if gpu.shared_state(local) else gpu.THREADS
+    first = gpu.SHARED_THREADS if gpu.shared_arrays(local) > 1 else gpu.THREADS
     assert threads * row * 8 <= gpu.SHARED_LIMIT and (threads == first or 2 * threads * row * 8 > gpu.SHARED_LIMIT), \
         (threads, row)
-    assert gpu.shared_state(local) == (0 < local <= 47) and row % 2 == 1  # x, v, f in the row where 32 threads fit
+    # the marks, x, v, f in the row where 32 threads fit, else the marks alone
+    assert gpu.shared_arrays(local) == (4 if 0 < local <= 47 else 1 if local else 0) and row % 2 == 1
     assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(a), one_mass=gpu.one_mass(a))]
     # a module with one of each mass term for chains of one mass; n of them with mass disorder
     assert ("-DPL_ONE_MASS=1" in emulated_gpu.modules[0]) == (bool(local) and scenario != "disorder")
@@ -357,22 +358,23 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
         gpu.run_arrays(a)
 
 
-@pytest.mark.parametrize("block,shared,listed", [(1, True, False), (4, False, True), (19, True, True),
-                                                 (19, False, False)])
+@pytest.mark.parametrize("block,shared,listed", [(1, 4, False), (4, 1, True), (19, 4, True), (19, 3, False),
+                                                 (19, 2, True)])
 def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, listed):
     """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
     compile-time constant, chosen by the registers it leaves, benchmarks/gpu_resources.py): one
-    atom, a few runs, or one run of all 19; x, v, f in shared memory or registers; the record's
+    atom, a few runs, or one run of all 19; x, v, f in shared memory or registers (the first
+    `shared` of marks, x, v, f in shared memory); the record's
     rows sampled per atom or listed after the step: bit for bit the host engine's (runs of its
     BLOCK, sampled per run)."""
     monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
-    monkeypatch.setattr(gpu, "SHARED_STATE", shared)
+    monkeypatch.setattr(gpu, "SHARED_ARRAYS", shared)
     monkeypatch.setattr(gpu, "SAMPLE_LISTED", listed)
     cases = members(friction=FRICTION)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
     a = prepare(cases, "gpu")
     assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
-    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_STATE={int(shared)}", f"-DPL_SAMPLE_LISTED={int(listed)}"} <= set(
+    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLE_LISTED={int(listed)}"} <= set(
         emulated_gpu.modules[0])
 
 

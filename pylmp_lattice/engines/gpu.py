@@ -35,10 +35,10 @@ __all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 THREADS = 128
 # The short chains' kernel keeps a row per thread in static shared memory, at most 48 KB a block:
-# the chain's marks (n doubles), and with SHARED_STATE its x, v and f too (4 n), where blocks of at
-# least 32 threads fit (`block_threads`: fewer threads per block for longer chains)
+# the first SHARED_ARRAYS of the chain's marks, x, v and f (n doubles each; the rest in registers),
+# where a block of 32 threads fits (`shared_arrays`; else the marks alone)
 SHARED_LIMIT = 48 * 1024
-SHARED_STATE = True
+SHARED_ARRAYS = 4
 # ... in blocks of 32 threads then: an SM's shared memory fills in finer steps (10 blocks of 21.8 kB
 # for 21 magnets, not 4 of 43.5 kB: 1.28x the kernel's speed, bench_gpu.py --variants, H200)
 SHARED_THREADS = 32
@@ -115,7 +115,7 @@ def run_arrays(a: Arrays):
         scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
         per_chain = step_scratch(block)
         scratch_runs = cp.zeros(chains * per_chain)
-    threads = block_threads(local, bool(a.record))
+    threads = block_threads(local)
     chunk = max(threads, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // threads * threads)
     for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
         hi = min(chains, lo + chunk)
@@ -190,8 +190,8 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     block = short_block(local) if block is None else block
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
-            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local, record)}",
-            f"-DPL_SHARED_STATE={int(shared_state(local))}", f"-DPL_SAMPLE_LISTED={int(SAMPLE_LISTED)}", "-fmad=false",
+            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local)}",
+            f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLE_LISTED={int(SAMPLE_LISTED)}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 
@@ -204,23 +204,25 @@ def _sources_digest(folder: Path) -> str:
     return h.hexdigest()[:16]
 
 
-def shared_row(local: int, record: bool) -> int:
+def shared_row(local: int) -> int:
     """The doubles of a thread's row of shared memory in the short chains' kernel (engine_gpu.cu:
-    odd, so that a half-warp's threads hit distinct banks): 4 n with x, v, f in it (`shared_state`),
-    else n for the marks with a record, else 1."""
-    return (4 * local if shared_state(local) else local if record else 0) | 1
+    odd, so that a half-warp's threads hit distinct banks): n for each of its `shared_arrays`."""
+    return (shared_arrays(local) * local) | 1
 
 
-def shared_state(local: int) -> bool:
-    """x, v, f of the short chains in shared memory: SHARED_STATE, where a block of 32 threads fits."""
-    return SHARED_STATE and bool(local) and 32 * ((4 * local) | 1) * 8 <= SHARED_LIMIT
+def shared_arrays(local: int) -> int:
+    """How many of the short chains' marks, x, v, f (in that order) sit in shared memory:
+    SHARED_ARRAYS where a block of 32 threads fits, else 1 (the marks); 0 for the global rows' kernel."""
+    if not local:
+        return 0
+    return SHARED_ARRAYS if 32 * ((SHARED_ARRAYS * local) | 1) * 8 <= SHARED_LIMIT else 1
 
 
-def block_threads(local: int, record: bool = True) -> int:
-    """Threads per block: SHARED_THREADS with x, v, f in shared memory, else THREADS, halved until
-    the short chains' rows of shared memory (`shared_row`) fit in SHARED_LIMIT."""
-    threads = SHARED_THREADS if shared_state(local) else THREADS
-    while local and threads > 32 and threads * shared_row(local, record) * 8 > SHARED_LIMIT:
+def block_threads(local: int) -> int:
+    """Threads per block: SHARED_THREADS with more than the marks in shared memory, else THREADS,
+    halved until the short chains' rows of shared memory (`shared_row`) fit in SHARED_LIMIT."""
+    threads = SHARED_THREADS if shared_arrays(local) > 1 else THREADS
+    while local and threads > 32 and threads * shared_row(local) * 8 > SHARED_LIMIT:
         threads //= 2
     return threads
 

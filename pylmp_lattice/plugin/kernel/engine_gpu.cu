@@ -28,9 +28,9 @@
 #include "chain.h"
 
 #if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
-    || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_STATE) \
+    || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_ARRAYS) \
     || !defined(PL_SAMPLE_LISTED)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_STATE, -DPL_SAMPLE_LISTED"
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_ARRAYS, -DPL_SAMPLE_LISTED"
 #endif
 
 using namespace pl_kernel;
@@ -129,22 +129,21 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   double ml[M], dtfm[M], weight[M], dtm[M], rec[PL_RECORD ? N * front::NCOL : 1];
   /* Each thread's row of shared memory (PL_THREADS: the block's threads, engines/gpu.py's
      block_threads), ROW doubles (odd: a half-warp's 16 threads hit 16 distinct pairs of banks):
-     the marks (each atom's largest |v|, read and written at every step), and with
-     PL_SHARED_STATE also x, v and f. In registers, the marks pushed the chain's x, v, f out into
-     local memory (ptxas, 21 magnets with friction); with x, v, f too in shared memory, a thread
-     needs few registers, and the step's loads and stores stay on the SM. */
-  constexpr int ROW = (PL_SHARED_STATE ? 4 * N : PL_RECORD ? N : 0) | 1;
+     the first PL_SHARED_ARRAYS of the chain's marks (each atom's largest |v|, read and written at
+     every step), x, v and f, the rest in registers. In registers, the marks pushed the chain's x,
+     v, f out into local memory (ptxas, 21 magnets with friction); with x, v, f in shared memory
+     too, what does not fit in registers waits on the SM, not in local memory. */
+  constexpr int ROW = (PL_SHARED_ARRAYS * N) | 1;
   __shared__ double rows[PL_THREADS * ROW];
   if (threadIdx.x >= PL_THREADS) {    // launched with more threads than compiled for (never: refused)
     end_step[c] = -1;
     return;
   }
   double *row = rows + threadIdx.x * ROW;
-#if PL_SHARED_STATE
-  double *xl = row, *vl = row + N, *fl = row + 2 * N, *mark = row + 3 * N;
-#else
-  double xl[N], vl[N], fl[N], *mark = row;
-#endif
+  constexpr bool X_ROW = PL_SHARED_ARRAYS > 1, V_ROW = PL_SHARED_ARRAYS > 2, F_ROW = PL_SHARED_ARRAYS > 3;
+  double x_regs[X_ROW ? 1 : N], v_regs[V_ROW ? 1 : N], f_regs[F_ROW ? 1 : N];
+  double *mark = row, *xl = X_ROW ? row + N : x_regs, *vl = V_ROW ? row + 2 * N : v_regs,
+         *fl = F_ROW ? row + 3 * N : f_regs;
   double scratch[step_scratch(PL_BLOCK)];
   unsigned char phase[N];
   constexpr Slots<N> slots = mass_slots<N>(PL_ONE_MASS);
