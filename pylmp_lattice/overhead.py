@@ -105,6 +105,9 @@ g = 9.81
 # front record included; like the overheads, multiplied by the contention of the command asking.
 SECONDS_PER_STEP = 1.3e-6
 SECONDS_PER_ATOM_STEP = 4.7e-9
+# The GPU engine's kernel with friction and the front record: 1.03e10 atom-steps/s on an H200
+# (docs/performance.md, "10^6 x 21"), one device for all the workers.
+GPU_SECONDS_PER_ATOM_STEP = 1 / 1.03e10
 # A batched member beyond its atom-steps: its share of the worker's Python (0.23 ms,
 # docs/performance.md "Worker Python per batched member").
 BATCHED_SECONDS = 2.3e-4
@@ -236,6 +239,11 @@ def batched_seconds(tasks: int, members: int, magnets: int, steps: int, member_s
     instance's cost per step, each member its atom-steps and BATCHED_SECONDS."""
     return tasks * (member_s + SECONDS_PER_STEP * steps) + members * (SECONDS_PER_ATOM_STEP * magnets * steps
                                                                        + BATCHED_SECONDS)
+
+
+def gpu_seconds(atom_steps: float) -> float:
+    """The GPU kernel's time for these atom-steps (s): the device's, shared by every worker."""
+    return atom_steps * GPU_SECONDS_PER_ATOM_STEP
 
 
 def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:

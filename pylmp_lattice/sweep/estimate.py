@@ -13,21 +13,31 @@ def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> st
     its workers each task's overhead (a member run alone, or a point's batch of replicas) and,
     per member, a batched one's atom-steps (the instance's cost per step is the task's) and
     worker Python (`overhead.batched_seconds`), one run alone its engine and output; all times the
-    contention now."""
-    from ..overhead import batched_seconds, contention, engine_seconds, overheads
+    contention now. With engine "gpu" a batched member's atom-steps run on the one device, not
+    in the workers (`overhead.gpu_seconds`). The overheads are measured (LAMMPS commands in child
+    processes) only for engine "lammps": a kernel engine's sweep runs none, and a machine without
+    LAMMPS (a GPU machine's image) failed the measurement, uncached, on every sweep (1-3 s).
+    """
+    from ..overhead import batched_seconds, contention, engine_seconds, gpu_seconds, overheads
     from ..preflight.estimate import SECONDS_PER_ATOM_FRAME, _duration, atom_frames
 
     first = next(sweep.iter_members(), None)
     if first is None or first.case is None:
         return "no estimate"
-    case, costs = first.case, overheads(measure=True)
+    case, costs = first.case, overheads(measure=sweep.engine == "lammps")
     n, steps = case.chain.particles, case.run.steps()
+    device = 0.0  # the GPU's seconds: its kernels do not run in parallel over the workers
     if sweep.replicas > 1 and batch.batchable(case):  # a task holds one point's members
-        work, kind = batched_seconds(-(-total // sweep.replicas), total, n, steps, costs.member_s), "batched"
+        tasks = -(-total // sweep.replicas)
+        if sweep.engine == "gpu":
+            work, device = batched_seconds(tasks, total, 0, 0, costs.member_s), gpu_seconds(total * n * steps)
+        else:
+            work = batched_seconds(tasks, total, n, steps, costs.member_s)
+        kind = "batched"
     else:
         each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
         work, kind = total * (each + costs.member_s), "each run alone"
     stats = stats and sweep.replicas > 1
-    seconds = contention() * ((costs.replica_s if stats else costs.sweep_s) + work / workers)
+    seconds = contention() * ((costs.replica_s if stats else costs.sweep_s) + work / workers) + device
     return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}"
             f"{', the replica statistics and figure included' if stats else ''}), if all are like the first")
