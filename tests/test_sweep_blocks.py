@@ -51,3 +51,16 @@ def test_one_round_of_tasks_and_the_gpu_s_keep_equal_tasks(todo, engine, expecte
     """One task per worker (nothing to balance later) keeps equal shares; so does engine "gpu",
     whose workers share one device that needs large launches."""
     assert _sizes(todo, 2, engine) == expected
+
+
+@pytest.mark.parametrize(("todo", "expected"), [(1000, [1000]), (10_000, [5000] * 2), (100_000, [6250] * 16),
+                                                (10**6, [62500] * 16)])
+def test_a_small_gpu_sweep_runs_in_fewer_tasks_than_workers(todo, expected):
+    """Engine "gpu" on 16 workers: a task has at least GPU_MIN_MEMBERS members where the sweep
+    has them (each task's process starts a CUDA context, and the processes' launches of a wave
+    each run one after another), so 10^4 members run in 2 tasks, not 16 of 625; from 8e4
+    members on, one task per worker."""
+    from pylmp_lattice.sweep.blocks import GPU_MIN_MEMBERS
+
+    assert GPU_MIN_MEMBERS == 5000 and _sizes(todo, 16, "gpu") == expected
+    assert _sizes(todo, 16, "cpu")[0] <= -(-todo // 16)  # the other engines: every worker from the start

@@ -27,6 +27,12 @@ MAX_TYPES = 1024
 # A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
 # and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
 GPU_MAX_ATOMS = 4_000_000
+# ... and at least this many members where the sweep has enough: each GPU task's process starts
+# CuPy and a CUDA context, and its launches run after the other processes' (no MPS), each at least
+# one wave of the device (10^4 chains took as long as 3e4), while a task's Python costs about 0.1 ms
+# a member (0.9 s for 10^4 in one task on this 2-core VM): so 10^4 members run as 2 tasks, not 16
+# of 625 (16 starts and 16 waves), and 10^5-10^6 as one task per worker.
+GPU_MIN_MEMBERS = 5000
 
 
 @dataclass
@@ -35,7 +41,8 @@ class _Blocks:
     multiple of the workers, so that every worker gets an equal share; a task holds one point's
     members, so the few points of a sweep are split in equal parts (3 points on 2 workers: 6
     tasks, not 3 of which one worker would run 2). With several rounds of tasks (not with engine
-    "gpu": the workers share one device, which needs large launches), the last ones shrink (TAIL)."""
+    "gpu": the workers share one device, which needs large launches), the last ones shrink (TAIL).
+    With engine "gpu" a sweep of fewer than GPU_MIN_MEMBERS a worker has fewer tasks than workers."""
 
     todo: int  # members to run (at least)
     slots: int
@@ -48,9 +55,12 @@ class _Blocks:
     def next_size(self, m: Member) -> int:
         """The size of the task that starts with member `m`."""
         tasks = self.slots * math.ceil(self.todo / (self.slots * self._cap(m)))
-        # parts per point: until the tasks fill the workers evenly, or are too many to matter
-        parts = next(k for k in range(1, self.slots + 1)
-                     if (self.points * k) % self.slots == 0 or self.points * k >= 4 * self.slots)
+        if self.engine == "gpu":
+            tasks = min(tasks, max(math.ceil(self.todo / GPU_MIN_MEMBERS), math.ceil(self.todo / self._cap(m))))
+        ways = min(tasks, self.slots)  # the workers that share the members
+        # parts per point: until the tasks fill those workers evenly, or are too many to matter
+        parts = next(k for k in range(1, ways + 1)
+                     if (self.points * k) % ways == 0 or self.points * k >= 4 * ways)
         size = max(1, min(math.ceil(self.todo / tasks), math.ceil(self.replicas / parts)))
         left = self.todo if self.left is None else self.left
         if tasks > self.slots and self.engine != "gpu":
