@@ -756,6 +756,39 @@ def test_thermal_replicas_share_their_point_s_case_but_not_its_velocities(tmp_pa
         spec._reseeded(cases[0], -1)
 
 
+def test_a_point_s_replicas_come_in_runs_with_the_same_members_and_tasks(tmp_path, monkeypatch):
+    """A point's replicas are enumerated RUN at a time (the coordinator's first task goes out
+    before the point's 10^6 identities are made): runs of 5 give the members (numbers,
+    identities, seeds, parameters) and the tasks (their members, in order) of one run a point,
+    also where a replica repeats an earlier member's case (one run alone, the rest kept)."""
+    from pylmp_lattice.sweep import execute, spec
+    from pylmp_lattice.sweep.pool import Pool
+    from pylmp_lattice.sweep.spec import Replicas
+
+    text = THERMAL.format(replicas=12) + '[grid]\n"impactor.velocity" = [1.0, 1.5]\n'
+    sweep = load_sweep(write_sweep(tmp_path, text))
+
+    def enumerated():
+        runs = list(sweep.iter_runs())
+        members = [(m.index, m.id, m.params) for run in runs for m in run]
+        coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
+                                           sweep.count())
+        return runs, members, [[m.id for m in t.each()] for t in coordinator._tasks()]
+
+    whole, members, tasks = enumerated()
+    assert [len(r) for r in whole] == [1, 11, 1, 11] and len({m[1] for m in members}) == 24
+    monkeypatch.setattr(spec, "RUN", 5)
+    runs, *rest = enumerated()
+    assert [len(r) for r in runs] == [1, 5, 5, 1, 1, 5, 5, 1] and all(isinstance(r, Replicas) for r in runs[1:3])
+    assert rest == [members, tasks]
+    # seeds 1, 2, 3, 1, 2, 3, ... by member: a point's members past its third repeat the first three's cases
+    monkeypatch.setattr(spec, "member_seeds", lambda seed, start, count: [(start + k) % 3 + 1 for k in range(count)])
+    runs, *chunked = enumerated()
+    assert [len(r) for r in runs] == [1, 2, 1, 2] and [m[0] for m in chunked[0]] == [0, 1, 2, 12, 13, 14]
+    monkeypatch.setattr(spec, "RUN", 10**6)
+    assert list(enumerated()[1:]) == chunked
+
+
 def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
     from pylmp_lattice.sweep import blocks, execute
     from pylmp_lattice.sweep.pool import Pool

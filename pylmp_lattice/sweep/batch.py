@@ -59,7 +59,7 @@ LEVELS_PER_CHAIN = True
 @dataclass(frozen=True)
 class Task:
     """What a worker needs to run some members (small and picklable): the sweep folder
-    (absolute), the members (a point's replicas as one `spec.Replicas`), the runner, the
+    (absolute), the members (a point's replicas as `spec.Replicas`, one or more), the runner, the
     batches' engine and its threads (cpu)."""
 
     root: str

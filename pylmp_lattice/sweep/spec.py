@@ -66,6 +66,11 @@ member_id = case_id  # a member's identity is its case's (one identity for run f
 KEYS = ("base", "set", "grid", "zip", "replicas", "seed", "keep", "runner", "engine", "cluster")
 KEEP = ("all", "measures")
 RANDOM_FIELDS = ("thermal_velocity", "mass_disorder", "r0_disorder")
+# A point's seeded replicas come in runs (`Sweep.iter_runs`) of at most this many: the coordinator's
+# first task goes out once its members are made, not all of the point's (their identities, 1.5-2.3
+# us each: 10^6 replicas held the first of 16 GPU tasks back 2.3 s on this VM, while the device,
+# whose launches run one after another, waited).
+RUN = 16384
 
 
 @dataclass(frozen=True)
@@ -160,6 +165,22 @@ class Replicas:
             return replace(self, index=self.index[part], ids=self.ids[part], seeds=self.seeds[part])
         return replace(self, index=[self.index[k] for k in positions], ids=[self.ids[k] for k in positions],
                        seeds=[self.seeds[k] for k in positions])
+
+
+class _Seeds:
+    """The seeds of a point's `count` members from member `start` (`member_seeds`), made RUN at a
+    time as they are asked for."""
+
+    def __init__(self, sweep_seed: int, start: int, count: int):
+        self.sweep_seed, self.start, self.count = sweep_seed, start, count
+        self.lo, self.made = 0, []  # the seeds of members lo .. lo + len(made) - 1 of the point
+
+    def run(self, lo: int, hi: int) -> list[int]:
+        """The seeds of the point's members lo .. hi - 1."""
+        if not (self.lo <= lo and hi <= self.lo + len(self.made)):
+            self.lo = lo
+            self.made = list(member_seeds(self.sweep_seed, self.start + lo, min(self.count, max(hi, lo + RUN)) - lo))
+        return self.made[lo - self.lo:hi - self.lo]
 
 
 def point_key(params: dict) -> str:
@@ -336,8 +357,8 @@ class Sweep:
             yield from run
 
     def iter_runs(self) -> Iterator[Replicas | tuple[Member, ...]]:
-        """The members (see `members`) in runs: a point's seeded replicas as one `Replicas` (no
-        object per member), any other member alone."""
+        """The members (see `members`) in runs: a point's seeded replicas as `Replicas` (no
+        object per member) of at most RUN each, any other member alone."""
         axes = [[{k: v} for v in values] for k, values in self.grid.items()]
         if self.zip:
             axes.append([dict(zip(self.zip, row)) for row in zip(*self.zip.values())])
@@ -350,13 +371,13 @@ class Sweep:
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
             first = None
             key = point_key(point)
-            seeds = list(member_seeds(self.seed, index, self.replicas)) if seeded else None
+            seeds = _Seeds(self.seed, index, self.replicas) if seeded else None
             for replica in range(self.replicas):
                 params = dict(point)
                 if self.replicas > 1:
                     params["replica"] = replica
                 if seeded:
-                    params["chain.seed"] = seeds[replica]
+                    params["chain.seed"] = seeds.run(replica, replica + 1)[0]
                 if first is not None and first.case is not None and seeded:
                     break  # the point's other replicas: its resolved case with their seeds
                 if seeded:
@@ -372,20 +393,22 @@ class Sweep:
                 continue
             # (its sections are shared with the first's: a case dict is read, never changed)
             identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
-            ids = list(map(identity, seeds[replica:]))
-            fresh = set(ids)
-            if len(fresh) == len(ids) and seen.isdisjoint(fresh):  # all new (as good as always): as a whole
-                seen |= fresh
-                yield Replicas(first, point, index if self.replicas > 1 else None,
-                               list(range(index + replica, index + self.replicas)), ids, seeds[replica:])
-                index += self.replicas
-                continue
-            kept = [k for k, i in enumerate(ids, replica) if not (i in seen or seen.add(i))]
-            if len(kept) < len(ids):
-                same += [index + k for k in sorted(set(range(replica, self.replicas)) - set(kept))]
-            if kept:
-                yield Replicas(first, point, index if self.replicas > 1 else None, [index + k for k in kept],
-                               [ids[k - replica] for k in kept], [seeds[k] for k in kept])
+            start = index if self.replicas > 1 else None
+            for lo in range(replica, self.replicas, RUN):  # the rest in runs of RUN
+                hi = min(self.replicas, lo + RUN)
+                part = seeds.run(lo, hi)
+                ids = list(map(identity, part))
+                fresh = set(ids)
+                if len(fresh) == len(ids) and seen.isdisjoint(fresh):  # all new (as good as always): as a whole
+                    seen |= fresh
+                    yield Replicas(first, point, start, list(range(index + lo, index + hi)), ids, part)
+                    continue
+                kept = [k for k, i in enumerate(ids, lo) if not (i in seen or seen.add(i))]
+                if len(kept) < len(ids):
+                    same += [index + k for k in sorted(set(range(lo, hi)) - set(kept))]
+                if kept:
+                    yield Replicas(first, point, start, [index + k for k in kept], [ids[k - lo] for k in kept],
+                                   [part[k - lo] for k in kept])
             index += self.replicas
         if same and not self.__dict__.get("_said_same"):  # one line for all (study thermal printed 14), once
             self.__dict__["_said_same"] = True  # per sweep (a study enumerates its sweep, then runs it: it printed 2)
