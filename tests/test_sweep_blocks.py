@@ -54,13 +54,14 @@ def test_one_round_of_tasks_and_the_gpu_s_keep_equal_tasks(todo, engine, expecte
 
 
 @pytest.mark.parametrize(("todo", "expected"), [(1000, [1000]), (10_000, [5000] * 2), (100_000, [6250] * 16),
-                                                (10**6, [62500] * 16)])
-def test_a_small_gpu_sweep_runs_in_fewer_tasks_than_workers(todo, expected):
+                                                (10**6, [31250] * 32)])
+def test_gpu_tasks_hold_from_5000_members_to_a_wave_of_the_device(todo, expected):
     """Engine "gpu" on 16 workers: a task has at least GPU_MIN_MEMBERS members where the sweep
-    has them (each task's process starts a CUDA context, and the processes' launches of a wave
-    each run one after another), so 10^4 members run in 2 tasks, not 16 of 625; from 8e4
-    members on, one task per worker."""
-    from pylmp_lattice.sweep.blocks import GPU_MIN_MEMBERS
+    has them (each task's process starts a CUDA context, and the processes' launches run one
+    after another), so 10^4 members run in 2 tasks, not 16 of 625; from 8e4 members on, one
+    task per worker, and at most GPU_TASK_CHAINS (about a wave of the device): 10^6 members in 2
+    rounds of 16 tasks, whose launches take turns with the other tasks' Python."""
+    from pylmp_lattice.sweep.blocks import GPU_MIN_MEMBERS, GPU_TASK_CHAINS
 
-    assert GPU_MIN_MEMBERS == 5000 and _sizes(todo, 16, "gpu") == expected
+    assert (GPU_MIN_MEMBERS, GPU_TASK_CHAINS) == (5000, 32768) and _sizes(todo, 16, "gpu") == expected
     assert _sizes(todo, 16, "cpu")[0] <= -(-todo // 16)  # the other engines: every worker from the start

@@ -213,9 +213,10 @@ def test_the_gpu_engine_gives_the_cpu_engine_s_results_table(tmp_path):
 
 def test_gpu_tasks_hold_enough_chains_to_fill_a_device(tmp_path):
     """With engine = "gpu" a task is not bounded by a LAMMPS instance's limits (at most 992
-    members of the experiment) but by GPU_MAX_ATOMS: 10^6 members on 16 workers, 16 tasks of 62500."""
+    members of the experiment) but by GPU_MAX_ATOMS and GPU_TASK_CHAINS (about a wave of the
+    device): 10^6 members on 16 workers, 32 tasks of 31250."""
     from pylmp_lattice.sweep.execute import GPU_MAX_ATOMS, _Blocks
 
     first = next(load_sweep(write_sweep(tmp_path, 2, ENSEMBLES["mass disorder"])).iter_members())
     sizes = {engine: _Blocks(10**6, 16, 1, 10**6, engine=engine).next_size(first) for engine in ("lammps", "gpu")}
-    assert sizes["lammps"] <= 992 and sizes["gpu"] == 62500 and 62500 * 21 <= GPU_MAX_ATOMS
+    assert sizes["lammps"] <= 992 and sizes["gpu"] == 31250 and 31250 * 21 <= GPU_MAX_ATOMS

@@ -27,11 +27,16 @@ MAX_TYPES = 1024
 # A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
 # and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
 GPU_MAX_ATOMS = 4_000_000
-# ... and at least this many members where the sweep has enough: each GPU task's process starts
-# CuPy and a CUDA context, and its launches run after the other processes' (no MPS), each at least
-# one wave of the device (10^4 chains took as long as 3e4), while a task's Python costs about 0.1 ms
-# a member (0.9 s for 10^4 in one task on this 2-core VM): so 10^4 members run as 2 tasks, not 16
-# of 625 (16 starts and 16 waves), and 10^5-10^6 as one task per worker.
+# ... and at most GPU_TASK_CHAINS members, about one wave of the device (some 34k threads of the
+# kernel resident on an H200): the processes' launches run one after another (no MPS) while each
+# task's Python, about 0.1 ms a member (0.9 s for 10^4 in one task on this 2-core VM), 20 % of it
+# before its launch, runs in parallel, so 10^6 members in 32 tasks of 31250 (2 rounds) keep the
+# device and the cores busy together, where 16 of 62500 (2 waves each: the same device time) had
+# every worker wait for the queue of launches, then work alone.
+GPU_TASK_CHAINS = 32768
+# ... and at least GPU_MIN_MEMBERS where the sweep has them: each GPU task's process starts CuPy
+# and a CUDA context, and each launch takes at least one chain's run: 10^4 members run as 2 tasks,
+# not 16 of 625 (16 starts and 16 launches one after another); 10^5 as one task per worker.
 GPU_MIN_MEMBERS = 5000
 
 
@@ -80,8 +85,8 @@ class _Blocks:
 
                 n = case.chain.particles
                 caps = [MAX_ATOMS // n, int(MAX_ATOM_STEPS // (n * case.run.steps()))]
-                if self.engine == "gpu":  # a launch fills the device only with 10^5 chains or so
-                    caps = [GPU_MAX_ATOMS // n]
+                if self.engine == "gpu":
+                    caps = [GPU_MAX_ATOMS // n, GPU_TASK_CHAINS]
                 elif per_atom_masses(case):  # each chain may add an atom type; else the chains share theirs
                     caps.append(MAX_TYPES)
                 self.limits[point] = max(1, min(caps))
