@@ -4,8 +4,9 @@ before any member runs (`check`), with or without --yes.
 A member's files are `preflight.file_bytes` of its case: run alone, its whole run folder (the
 force table is most of it when no trajectory is kept); batched (replicas of a point the chain
 engine holds together, `batch.batchable`), its chain's data and front record, and its share
-of the batch's table and small files, one batch per point and worker at most; and its share of
-the sweep's records (RECORD_BYTES). The bytes of a member are the mean over up to SAMPLES
+of the batch's table and small files, one batch per point and worker at most (a kernel engine's
+batch, engine cpu or gpu, has no data file and no force table: `engines.road`); and its share
+of the sweep's records (RECORD_BYTES). The bytes of a member are the mean over up to SAMPLES
 parameter points spread over the grid, built without enumerating the members: a grid over N or
 the duration is seen at both ends.
 """
@@ -21,15 +22,18 @@ from .spec import Sweep, _is_random
 
 SAMPLES = 8
 # A member's share of the sweep's own records, beyond its run folder: its rows of results.csv and
-# .parquet and, batched, its entries in members.json and members.arrow (about 330, 360, 690 and
-# 590 bytes for a thermal replica of the 21-magnet experiment, 2026-11-27)
-RECORD_BYTES = 2000.0
+# .parquet and, batched, its entries in members.json and members.arrow and its lines of the
+# batch's replicas.toml and chain_work.txt (1175 bytes for a thermal replica of the 21-magnet
+# experiment in a 600-member sweep, 1480 in one of 10^5, engine cpu and gpu alike, 2026-11-27 16:20
+# UTC; 2000 before overestimated a 10^6-member GPU sweep's disk by 1.7x with the data file below)
+RECORD_BYTES = 1500.0
 
 
 def member_bytes(sweep: Sweep, slots: int) -> float | None:
     """Mean bytes on disk of a member (see the module); None if no sampled point is a valid case."""
     from ..case import case_from_dict
-    from ..formats.layout import DATA, FRONT_BIN
+    from ..engines.road import KERNELS
+    from ..formats.layout import DATA, FRONT_BIN, TABLE
     from ..preflight import file_bytes
     from .batch import batchable
 
@@ -53,7 +57,10 @@ def member_bytes(sweep: Sweep, slots: int) -> float | None:
         files = file_bytes(case)
         if sweep.replicas > 1 and batchable(case):
             own = files[DATA] + files.get(FRONT_BIN, 0.0)
-            sizes.append(own + (sum(files.values()) - own) * min(sweep.replicas, slots) / sweep.replicas + RECORD_BYTES)
+            shared = sum(files.values()) - own
+            if sweep.engine in KERNELS:  # its chains go to the kernel as arrays: no data file, no force table
+                own, shared = own - files[DATA], shared - files.get(TABLE, 0.0)
+            sizes.append(own + shared * min(sweep.replicas, slots) / sweep.replicas + RECORD_BYTES)
         else:
             sizes.append(sum(files.values()) + RECORD_BYTES)
     return sum(sizes) / len(sizes) if sizes else None
