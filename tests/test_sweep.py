@@ -193,7 +193,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     expected = _frame_of_dicts(rows)
     df = frame(parts)
     pd.testing.assert_frame_equal(df, expected)
-    assert [_text_fits(df, p) for p in parts[:2]] == [not mixed] * 2  # the workers' texts are used where they fit
+    assert list(map(_text_fits(df), parts[:2])) == [not mixed] * 2  # the workers' texts are used where they fit
     assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
 
 
