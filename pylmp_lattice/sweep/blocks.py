@@ -27,12 +27,13 @@ MAX_TYPES = 1024
 # A task's atoms with engine = "gpu" (no LAMMPS instance: a batch as large as the host's arrays
 # and the device allow; 4e6 atoms are about 0.4 GB on the device, 2e5 members of 21 magnets)
 GPU_MAX_ATOMS = 4_000_000
-# ... and at most GPU_TASK_CHAINS members, about one wave of the device (some 34k threads of the
-# kernel resident on an H200): the processes' launches run one after another (no MPS) while each
-# task's Python, about 0.1 ms a member (0.9 s for 10^4 in one task on this 2-core VM), 20 % of it
-# before its launch, runs in parallel, so 10^6 members in 32 tasks of 31250 (2 rounds) keep the
-# device and the cores busy together, where 16 of 62500 (2 waves each: the same device time) had
-# every worker wait for the queue of launches, then work alone.
+# ... and at most GPU_TASK_CHAINS members, about one wave of the device (an H200's 132 SMs hold
+# 34k of the kernel's threads at 254 registers, docs/performance.md; more at fewer): the
+# processes' launches run one after another (no MPS) while each task's Python, about 0.1 ms a
+# member (0.9 s for 10^4 in one task on this 2-core VM), 20 % of it before its launch, runs in
+# parallel, so 10^6 members in 32 tasks of 31250 (2 rounds) keep the device and the cores busy
+# together, where 16 of 62500 (2 waves each: the same device time) had every worker wait for the
+# queue of launches, then work alone.
 GPU_TASK_CHAINS = 32768
 # ... and at least GPU_MIN_MEMBERS where the sweep has them: each GPU task's process starts CuPy
 # and a CUDA context, and each launch takes at least one chain's run: 10^4 members run as 2 tasks,
