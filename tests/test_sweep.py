@@ -761,7 +761,7 @@ def test_a_point_s_replicas_come_in_runs_with_the_same_members_and_tasks(tmp_pat
     before the point's 10^6 identities are made): runs of 5 give the members (numbers,
     identities, seeds, parameters) and the tasks (their members, in order) of one run a point,
     also where a replica repeats an earlier member's case (one run alone, the rest kept)."""
-    from pylmp_lattice.sweep import execute, spec
+    from pylmp_lattice.sweep import execute, seeds, spec
     from pylmp_lattice.sweep.pool import Pool
     from pylmp_lattice.sweep.spec import Replicas
 
@@ -782,7 +782,7 @@ def test_a_point_s_replicas_come_in_runs_with_the_same_members_and_tasks(tmp_pat
     assert [len(r) for r in runs] == [1, 5, 5, 1, 1, 5, 5, 1] and all(isinstance(r, Replicas) for r in runs[1:3])
     assert rest == [members, tasks]
     # seeds 1, 2, 3, 1, 2, 3, ... by member: a point's members past its third repeat the first three's cases
-    monkeypatch.setattr(spec, "member_seeds", lambda seed, start, count: [(start + k) % 3 + 1 for k in range(count)])
+    monkeypatch.setattr(seeds, "member_seeds", lambda seed, start, count: [(start + k) % 3 + 1 for k in range(count)])
     runs, *chunked = enumerated()
     assert [len(r) for r in runs] == [1, 2, 1, 2] and [m[0] for m in chunked[0]] == [0, 1, 2, 12, 13, 14]
     monkeypatch.setattr(spec, "RUN", 10**6)

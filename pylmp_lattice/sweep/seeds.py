@@ -46,3 +46,20 @@ def _mixed(sweep_seed: int, start: int, count: int) -> list[int]:
     `start`, with array operations (see `_arrays_hold`)."""
     index = np.arange(start, start + count, dtype=np.uint64).astype(np.uint32)
     return (uint64s(seed_words([*_words(sweep_seed), index], count, 2))[0] >> np.uint64(1)).tolist()
+
+
+class PointSeeds:
+    """The seeds of a parameter point's `count` members from sweep member `start` (`member_seeds`),
+    made `run` at a time as they are asked for (`spec.Sweep.iter_runs`)."""
+
+    def __init__(self, sweep_seed: int, start: int, count: int, run: int):
+        self.sweep_seed, self.start, self.count, self.size = sweep_seed, start, count, run
+        self.lo, self.made = 0, []  # the seeds of the point's members lo .. lo + len(made) - 1
+
+    def run(self, lo: int, hi: int) -> list[int]:
+        """The seeds of the point's members lo .. hi - 1."""
+        if not (self.lo <= lo and hi <= self.lo + len(self.made)):
+            self.lo = lo
+            self.made = list(member_seeds(self.sweep_seed, self.start + lo,
+                                          min(self.count, max(hi, lo + self.size)) - lo))
+        return self.made[lo - self.lo:hi - self.lo]

@@ -58,7 +58,7 @@ from ..case.identity import seeded_hashes
 from ..engine import RUNNERS
 from ..engines import ENGINES
 from ..errors import ConfigError
-from .seeds import member_seed, member_seeds
+from .seeds import PointSeeds, member_seed
 
 log = logging.getLogger(__name__)
 member_id = case_id  # a member's identity is its case's (one identity for run folders and members)
@@ -165,22 +165,6 @@ class Replicas:
             return replace(self, index=self.index[part], ids=self.ids[part], seeds=self.seeds[part])
         return replace(self, index=[self.index[k] for k in positions], ids=[self.ids[k] for k in positions],
                        seeds=[self.seeds[k] for k in positions])
-
-
-class _Seeds:
-    """The seeds of a point's `count` members from member `start` (`member_seeds`), made RUN at a
-    time as they are asked for."""
-
-    def __init__(self, sweep_seed: int, start: int, count: int):
-        self.sweep_seed, self.start, self.count = sweep_seed, start, count
-        self.lo, self.made = 0, []  # the seeds of members lo .. lo + len(made) - 1 of the point
-
-    def run(self, lo: int, hi: int) -> list[int]:
-        """The seeds of the point's members lo .. hi - 1."""
-        if not (self.lo <= lo and hi <= self.lo + len(self.made)):
-            self.lo = lo
-            self.made = list(member_seeds(self.sweep_seed, self.start + lo, min(self.count, max(hi, lo + RUN)) - lo))
-        return self.made[lo - self.lo:hi - self.lo]
 
 
 def point_key(params: dict) -> str:
@@ -371,7 +355,7 @@ class Sweep:
             seeded = random and "chain.seed" not in self.set and "chain.seed" not in point
             first = None
             key = point_key(point)
-            seeds = _Seeds(self.seed, index, self.replicas) if seeded else None
+            seeds = PointSeeds(self.seed, index, self.replicas, RUN) if seeded else None
             for replica in range(self.replicas):
                 params = dict(point)
                 if self.replicas > 1:
