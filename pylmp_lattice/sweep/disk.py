@@ -32,7 +32,7 @@ RECORD_BYTES = 1500.0
 def member_bytes(sweep: Sweep, slots: int) -> float | None:
     """Mean bytes on disk of a member (see the module); None if no sampled point is a valid case."""
     from ..case import case_from_dict
-    from ..engines.road import KERNELS
+    from ..engines import ENGINES
     from ..formats.layout import DATA, FRONT_BIN, TABLE
     from ..preflight import file_bytes
     from .batch import batchable
@@ -58,7 +58,7 @@ def member_bytes(sweep: Sweep, slots: int) -> float | None:
         if sweep.replicas > 1 and batchable(case):
             own = files[DATA] + files.get(FRONT_BIN, 0.0)
             shared = sum(files.values()) - own
-            if sweep.engine in KERNELS:  # its chains go to the kernel as arrays: no data file, no force table
+            if sweep.engine in ENGINES[1:]:  # the kernel's: chains as arrays, no data file, no force table
                 own, shared = own - files[DATA], shared - files.get(TABLE, 0.0)
             sizes.append(own + shared * min(sweep.replicas, slots) / sweep.replicas + RECORD_BYTES)
         else:
