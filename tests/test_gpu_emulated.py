@@ -381,8 +381,8 @@ def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
     """A Python int or float, a host array, a wrong dtype, a wrong count: each a TypeError, not a crash."""
     sig = kernel_signatures(SOURCE.read_text())
-    assert len(sig["pl_run_short_chains_gpu"]) == 29 + 8 and len(sig["pl_run_chains_gpu"]) == 29 + 16
-    assert sig["pl_run_chains_gpu"][29 + 11] == ("unsigned char", True, False)  # phase
+    assert len(sig["pl_run_short_chains_gpu"]) == 29 + 8 and len(sig["pl_run_chains_gpu"]) == 29 + 17
+    assert sig["pl_run_chains_gpu"][29 + 12] == ("unsigned char", True, False)  # phase
     assert sig["pl_run_chains_gpu"][29 + 2] == ("double", True, True)  # mass
     assert sig["pl_run_chains_gpu"][27:29] == [("double", True, True), ("long long", False, False)]  # drive path
     lib = emulated_build(gpu.compile_options(21, (0, 3.0, True, True)))

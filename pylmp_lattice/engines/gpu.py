@@ -112,7 +112,8 @@ def run_arrays(a: Arrays):
         mark = cp.full(per_atom if a.record else 1, np.nan)
         gate = cp.zeros(per_atom if a.record else 1)
         phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
-        scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom), cp.arange(n, dtype=cp.int32))
+        scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom),
+                   cp.zeros(per_atom if a.friction is not None else 1), cp.arange(n, dtype=cp.int32))
         per_chain = step_scratch(block)
         scratch_runs = cp.zeros(chains * per_chain)
     threads = block_threads(local)
@@ -126,9 +127,9 @@ def run_arrays(a: Arrays):
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
             _kernel("pl_run_short_chains_gpu", options)(grid, (threads,), args)
         else:
-            f, dtfm, weight, index = scratch
+            f, dtfm, weight, dtm, index = scratch
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
-                    index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
+                    dtm[atoms] if a.friction is not None else dtm, index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
                     *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
                     scratch_runs[lo * per_chain:hi * per_chain],
                     work[rows], end_step[rows], status[rows])

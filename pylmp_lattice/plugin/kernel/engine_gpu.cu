@@ -183,7 +183,8 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
 /* Any n: each thread on its chain's rows of global arrays (chain-major); rec (chains x n x NCOL)
    NaN, mark NaN, gate and phase 0 on entry. */
 extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass, double *f,
-                                             double *dtfm, double *weight, const int *index, const double *levels,
+                                             double *dtfm, double *weight, double *dtm, const int *index,
+                                             const double *levels,
                                              double *rec, double *mark, double *gate, unsigned char *phase,
                                              double *scratch, double *work, long long *end_step, int *status)
 {
@@ -199,6 +200,10 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   d.dtfm = dtfm + at;
   d.mass = mass + at;
   d.weight = weight + at;
+  if (PL_FRICTION) {    // the friction kick's dt / m, once (as the host engine's)
+    for (int i = 0; i < n; i++) dtm[at + i] = dt / mass[at + i];
+    d.dtm = dtm + at;
+  }
   d.index = index;
   d.scratch = scratch + static_cast<long long>(c) * step_scratch(block);
   d.alive[0] = true;
