@@ -363,14 +363,15 @@ def _sweep(args) -> int:
             from .preflight import check_writable
             from .sweep import load_sweep, run_sweep
             from .sweep.cluster import sweep_workers
-            from .sweep.execute import check_folder
+            from .sweep.execute import ReplicaDrawing, check_folder
 
         sweep = load_sweep(args.sweep)
+        drawing = ReplicaDrawing()  # the replica statistics, drawn while the table's files are written
         check_folder(_folder(args.output))  # before the cluster's jobs write into it
         check_writable(args.output, "output")
         with sweep_workers(args.sweep, args.output, args.cluster, args.jobs, args.scheduler, args.workers) as where:
             table = run_sweep(sweep, args.output, retry_failed=args.retry_failed, progress=not args.quiet,
-                              overwrite=args.overwrite, yes=args.yes, engine=args.engine, stats=True, **where)
+                              overwrite=args.overwrite, yes=args.yes, engine=args.engine, stats=drawing, **where)
     except (KeyboardInterrupt, Interrupted) as err:
         where = (f"finished members are kept in {args.output}" if (args.output / "members").is_dir()
                  else "no member had started")
@@ -387,7 +388,7 @@ def _sweep(args) -> int:
     from .sweep import stats  # loads matplotlib: only now
 
     if sweep.replicas > 1:
-        stats.write_replica_stats(args.output, table)
+        stats.write_replica_stats(args.output, table, drawn=drawing.drawn(table))
         figure = " and .png" if (args.output / stats.STATS_PNG).exists() else " (no figure: no measure scatters)"
         print(f"mean and standard error over replicas: {args.output / stats.STATS_CSV}{figure}", file=sys.stderr)
     else:  # those of a sweep with replicas that this one replaced (--overwrite) would describe another table

@@ -16,6 +16,7 @@ from __future__ import annotations
 import io
 import logging
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -322,20 +323,25 @@ def warm_up() -> None:
     FigureCanvasAgg(fig).draw()
 
 
-def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
-                        panels: int = 6) -> pd.DataFrame:
-    """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
-    between replicas, against the first numeric swept field (or the point number), with
-    standard-error bars, one line per combination of the other swept fields that vary (the
-    first 8; one legend under the panels names them); with one parameter point, each one's
-    histogram over the replicas. Returns the statistics."""
+@dataclass(frozen=True)
+class Drawn:
+    """The replica statistics made and drawn, not yet written (`draw_replica_stats`): the
+    statistics `write_replica_stats` returns, replica_stats.csv's text, the low-coverage
+    warnings and replica_stats.png's bytes (None: no measure scatters)."""
+
+    stats: pd.DataFrame
+    csv: str
+    warnings: list[str]
+    png: bytes | None
+
+
+def draw_replica_stats(table: pd.DataFrame, measures: list[str] | None = None, panels: int = 6) -> Drawn:
+    """What `write_replica_stats` writes, made without writing it (no I/O: a sweep's command
+    draws it while the table's files are written, `execute.ReplicaDrawing`)."""
     from matplotlib.figure import Figure
 
-    root = Path(root)
     stats = replica_stats(table, measures)
-    atomic_write(root / STATS_CSV, stats.to_csv(index=False), sync=True)
-    for line in low_coverage_warnings(stats):
-        log.warning("%s", line)
+    csv, warnings = stats.to_csv(index=False), low_coverage_warnings(stats)
     point = list(stats.columns[:list(stats.columns).index("n")])
     numeric = [c for c in point if pd.api.types.is_numeric_dtype(stats[c])]
     x = numeric[0] if numeric else "point"
@@ -343,20 +349,38 @@ def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[st
         stats = stats.assign(point=np.arange(len(stats)))
     scatter = [c[:-4] for c in stats.columns if c.endswith(".sem") and np.nanmax(stats[c].to_numpy(float), initial=0) > 0]
     shown = scatter[:panels]
-    if shown:
-        cols, rows = min(len(shown), 3), -(-len(shown) // 3)
-        fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows))
-        done = table[table["status"] == "done"]
-        axes = [fig.add_axes(_panel(k // cols, k % cols, cols, rows)) for k in range(len(shown))]
-        for ax, measure in zip(axes, shown):
-            if len(stats) == 1:
-                plot_replica_spread(used_values(done, measure), measure, ax=ax, members=len(done))
-            else:
-                plot_replica_stats(stats, x, measure, ax=ax, legend=False)
-        _legend_below(fig, axes, cols, rows)
-        buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", dpi=100)
-        atomic_write(root / STATS_PNG, buffer.getvalue(), sync=True)
+    if not shown:
+        return Drawn(stats, csv, warnings, None)
+    cols, rows = min(len(shown), 3), -(-len(shown) // 3)
+    fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows))
+    done = table[table["status"] == "done"]
+    axes = [fig.add_axes(_panel(k // cols, k % cols, cols, rows)) for k in range(len(shown))]
+    for ax, measure in zip(axes, shown):
+        if len(stats) == 1:
+            plot_replica_spread(used_values(done, measure), measure, ax=ax, members=len(done))
+        else:
+            plot_replica_stats(stats, x, measure, ax=ax, legend=False)
+    _legend_below(fig, axes, cols, rows)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100)
+    return Drawn(stats, csv, warnings, buffer.getvalue())
+
+
+def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
+                        panels: int = 6, drawn: Drawn | None = None) -> pd.DataFrame:
+    """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
+    between replicas, against the first numeric swept field (or the point number), with
+    standard-error bars, one line per combination of the other swept fields that vary (the
+    first 8; one legend under the panels names them); with one parameter point, each one's
+    histogram over the replicas. Returns the statistics. drawn: `draw_replica_stats` of these
+    arguments, if already made."""
+    root = Path(root)
+    drawn = drawn or draw_replica_stats(table, measures, panels)
+    atomic_write(root / STATS_CSV, drawn.csv, sync=True)
+    for line in drawn.warnings:
+        log.warning("%s", line)
+    if drawn.png is not None:
+        atomic_write(root / STATS_PNG, drawn.png, sync=True)
     else:  # an earlier figure would no longer show this table
         (root / STATS_PNG).unlink(missing_ok=True)
-    return stats
+    return drawn.stats
