@@ -25,7 +25,7 @@ from . import measures
 from .case import Case, Chain, thermal_velocities
 from .case.chain import thermal_normals
 from .errors import ConfigError
-from .formats.front_record import read_front_rows
+from .formats.front_record import FrontRows, read_front_rows
 
 
 def linear_constants(case: Case) -> tuple[float, float]:
@@ -149,17 +149,19 @@ def read_front_records(cases, path: str | Path, arrival_method: str = "level") -
 
 
 def read_front_batch(cases, path: str | Path, arrival_method: str = "level",
-                     draws: ChainDraws | None = None) -> FrontRecord:
+                     draws: ChainDraws | None = None, rows: FrontRows | None = None) -> FrontRecord:
     """`read_front_records` as one FrontRecord of R chains: its front a `measures.Front` of R
     chains (`stack_fronts`), max_speed (R, N); each chain's levels from its noise velocity
-    (`chain_noises`); draws: the cases' `chain_draws`, if drawn.
+    (`chain_noises`); draws: the cases' `chain_draws`, if drawn; rows: the record in `path` as
+    its engine holds it in memory (`formats.front_record.front_rows`, its columns this call's
+    own), which is then not read back.
 
     One pass for the batch: the drive's measures once, against each distinct noise velocity
     (the drive is the same, its levels are not), and each chain's rows as a row of (R, N) arrays."""
     if arrival_method not in ("level", "velocity_peak"):
         raise ValueError(f"arrival_method: got {arrival_method!r}; the record has 'level' and 'velocity_peak'")
     case = cases[0]
-    record = read_front_rows(path, len(cases), case.chain.particles)
+    record = rows if rows is not None else read_front_rows(path, len(cases), case.chain.particles)
     rows, end = record.columns, record.end_time
     draws = draws or chain_draws(cases)
     noise = chain_noises(cases, draws)

@@ -164,3 +164,26 @@ def test_the_gpu_engine_gives_the_host_engine_s_results(tmp_path, members):
              "measured-drive": lambda: thermal(impactor=DRIVES["measured"], friction=FRICTION)}[members]()
     method = "velocity_peak" if members == "measured-drive" else "level"
     assert_same(kernel(cases, tmp_path / "gpu", method, "gpu"), kernel(cases, tmp_path / "cpu", method))
+
+
+def test_the_record_the_engine_holds_is_the_one_it_wrote(tmp_path):
+    """`KernelEngine.record` (the sweep measures it, not reading front.bin back) is bit for bit
+    what front.bin reads back as, and read_front_batch of it measures the same Front."""
+    from pylmp_lattice.formats.front_record import read_front_rows
+
+    cases = thermal(friction=FRICTION)
+    engine = KernelEngine("cpu", cases)
+    execute_batch(cases, tmp_path, engine)
+    held, read = engine.record, read_front_rows(tmp_path / FRONT_BIN, MEMBERS, 21)
+    assert held.end_time == read.end_time and list(held.columns) == [name for name, _ in FRONT_FIELDS]
+    for name, column in read.columns.items():
+        assert held.columns[name].shape == (MEMBERS, 21)
+        assert held.columns[name].tobytes() == column.tobytes(), name
+    assert np.isfinite(read.columns["arrival"][:, 1:]).any()  # fronts: the comparison is not of NaN alone
+    got = read_front_batch(cases, tmp_path / "absent", "level", rows=engine.record)  # (the path is not read)
+    want = read_front_batch(cases, tmp_path / FRONT_BIN, "level")
+    assert got.front.arrival.tobytes() == want.front.arrival.tobytes()
+    assert got.front.propagation_velocity.tobytes() == want.front.propagation_velocity.tobytes()
+    for f in dataclasses.fields(FirstPeaks):
+        assert getattr(got.front.peaks, f.name).tobytes() == getattr(want.front.peaks, f.name).tobytes()
+    assert got.max_speed.tobytes() == want.max_speed.tobytes() and got.end_time == want.end_time

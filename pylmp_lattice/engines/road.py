@@ -26,6 +26,7 @@ from ..errors import ContactError, RunError
 from ..formats import layout
 from ..formats.bindump import write_frame
 from ..formats.files import atomic_write
+from ..formats.front_record import FrontRows, front_rows
 from ..units import from_engine
 from . import ENGINES
 from .arrays import prepare
@@ -43,11 +44,13 @@ class KernelEngine:
     chains from `draws`, their `case_measures.chain_draws`, if drawn), which
     `run_folder.execute_batch` writes into a folder; Unsupported if it cannot run them. After a
     run, `final` holds the chains' last x (mm) and v (m/s), (R, N) each, as LAMMPS's atoms hold
-    them at the end of its batch."""
+    them at the end of its batch, and `record` the front record it wrote to front.bin, as
+    `formats.front_record.read_front_rows` reads it back (None without one)."""
 
     nprocs = 1
     reads_chain_files = False  # the chains come as arrays: the folder gets no data or levels file
     final: tuple[np.ndarray, np.ndarray] | None = None
+    record: FrontRows | None = None
 
     def __init__(self, kind: str, cases: list[Case], threads: int | None = None, draws=None):
         if kind not in KERNELS:
@@ -80,6 +83,7 @@ class KernelEngine:
         if front is not None:
             ids = np.arange(1, a.chains * a.n + 1, dtype=float)[:, None]
             write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, np.hstack([ids, front]))
+            self.record = front_rows(front, end * a.dt, a.chains, a.n)  # (the measures need not read it back)
         if a.friction is not None:
             atomic_write(path / layout.CHAIN_WORK, "%.17g\n" * len(work) % tuple(work.tolist()))
         stopped, names = np.flatnonzero(status), kernel_layout().status

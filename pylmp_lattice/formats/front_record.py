@@ -39,7 +39,16 @@ def read_front_rows(path: str | Path, chains: int, particles: int) -> FrontRows:
         raise DumpFormatError(f"{path}: holds {dump.atoms} magnets; expected {chains * particles}")
     frame = dump.read()
     # the last frame's columns `layout.FRONT_FIELDS` (engine units) of every atom in chain order
-    data, end_time = frame.data[-1, :, 1:], frame.time[-1]
+    return front_rows(frame.data[-1, :, 1:], frame.time[-1], chains, particles)
+
+
+def front_rows(data: np.ndarray, end_time: float, chains: int, particles: int) -> FrontRows:
+    """The record of a frame's rows `data` (atoms in chain order, the columns `layout.FRONT_FIELDS`,
+    engine units, no id) written at `end_time` (s): what `read_front_rows` reads back of the frame
+    a kernel engine writes from these arrays, bit for bit. Its columns are new arrays."""
+    if data.shape != (chains * particles, len(FRONT_FIELDS)):
+        raise DumpFormatError(f"a front record of {data.shape[0]} magnets and {data.shape[1]} columns; expected "
+                              f"{chains * particles} and {len(FRONT_FIELDS)}")
     columns = {name: from_engine(data[:, k], quantity).reshape(chains, particles)
                for k, (name, quantity) in enumerate(FRONT_FIELDS)}
     return FrontRows(columns, float(from_engine(end_time, "time")))

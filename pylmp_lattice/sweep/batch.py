@@ -227,7 +227,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
             LEVELS_PER_CHAIN = False
         return _alone(root, group, runner)
     try:
-        summaries = _summaries(cases, batch, draws, [m.point for m, _ in group])
+        summaries = _summaries(cases, batch, draws, [m.point for m, _ in group],
+                               None if isinstance(engine, str) else engine.record)
     except Interrupted as err:  # a stop while its measures were read: as one during the run
         return _batch_stopped(group, batch, started, err)
     except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
@@ -281,16 +282,17 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     return out
 
 
-def _summaries(cases: list[Case], batch: Path, draws, points: list[str]) -> list[dict]:
+def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=None) -> list[dict]:
     """Each chain's summary from the batch's front record, as its run alone would write it
-    (draws: the members' `case_measures.chain_draws`; points: their `Member.point`)."""
+    (draws: the members' `case_measures.chain_draws`; points: their `Member.point`; rows: the
+    record as a kernel engine holds it, `engines.road.KernelEngine.record`, not read back)."""
     from .. import measures
     from ..case_measures import read_front_batch
     from ..formats import layout
     from ..summary import summaries
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
-    record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws)
+    record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws, rows)
     out = summaries(cases, record.front, record.max_speed, draws, points)
     if cases[0].friction is not None:
         import numpy as np
