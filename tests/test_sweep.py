@@ -1302,6 +1302,32 @@ def test_a_batch_s_members_json_is_strict_and_reads_back_each_member_s_summary(t
     assert back["b"]["summary"]["a"] is None and back["a"]["summary"]["c"] == {"mean": 2.0, "flag": True}
 
 
+def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_the_csv_s(tmp_path):
+    """members.json, its columns of finite floats written from their texts (`store._json`), is
+    byte for byte json.dumps of the record and the strict columns; the CSV cells made of those
+    texts (`table._float_cells`) are those made of the numbers (`table._array_texts`)."""
+    from pylmp_lattice.sweep.store import BATCH_FILE, write_batch
+    from pylmp_lattice.sweep.table import _array_texts, _float_cells
+
+    rng = np.random.default_rng(4)
+    values = [*rng.normal(size=40).tolist(), 1e-300, 1.0000000000000002, -0.0, 1e22, 123456.78901234567, 5.0]
+    summaries = [{"v": v, "w": {"mean": 2.0 * v, "n": k, "ok": k % 2 == 0}, "x": float("nan") if k == 3 else v,
+                  "t": "é\"q" if k else "a,b", "l": [k, k + 1]} for k, v in enumerate(values)]
+    record = {"status": "done", "engine": "cpu", "provenance": {"host": "ü", "cores": 2}, "wall_time_s": 0.25}
+    texts: dict = {}
+    columns = write_batch(tmp_path, record, [{"id": f"m{k}", "index": k, "params": {"p": k / 3}, "chain": k,
+                                              "case": {"chain": {"seed": k}}, "summary": s}
+                                             for k, s in enumerate(summaries)], texts)
+    want = json.dumps({**record, "columns": columns}, allow_nan=False, separators=(",", ":")) + "\n"
+    assert (tmp_path / BATCH_FILE).read_text() == want
+    summary = columns["cols"]["summary"]["cols"]
+    assert {id(summary["v"]["rows"]), id(summary["w"]["cols"]["mean"]["rows"])} <= set(texts)
+    assert id(summary["x"]["rows"]) not in texts  # a NaN: null in the JSON, its own texts
+    for column in (summary["v"]["rows"], summary["w"]["cols"]["mean"]["rows"], columns["cols"]["params"]["cols"]["p"]["rows"]):
+        assert _float_cells(column, texts) == _array_texts(np.array(column))
+    assert any(len(t) > 16 for t in texts[id(summary["v"]["rows"])][0])  # a long repr: made short for the CSV
+
+
 def _typed(value):
     """A value with the type of each number, flag and text beside it (1 == 1.0 == True in Python)."""
     if isinstance(value, dict):

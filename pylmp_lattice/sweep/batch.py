@@ -246,13 +246,14 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         summary.update(outcome)
     members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data, "summary": summary}
                for r, ((m, _), summary) in enumerate(zip(group, summaries))]
-    written = write_batch(batch, record, members)  # last: the members are done
+    texts: dict = {}  # the texts of its columns of floats, for members.json and the CSV's cells alike
+    written = write_batch(batch, record, members, texts)  # last: the members are done
     alone = listing(root / MEMBERS)
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
         if m.id in alone:
             remove_tree(member_folder(root, m.id))
     return batch_rows([m.index for m, _ in group], [m.id for m, _ in group], [m.params for m, _ in group],
-                      record["batch"], record, written["cols"]["summary"])
+                      record["batch"], record, written["cols"]["summary"], texts)
 
 
 def _note(kind: str, why: str, noted: set = set()) -> None:  # noqa: B006 - the reasons noted in this process

@@ -175,18 +175,41 @@ def listing(folder: Path) -> set[str]:
         return set()
 
 
-def write_batch(folder: Path, record: dict, members: list[dict]) -> dict:
+def write_batch(folder: Path, record: dict, members: list[dict], texts: dict | None = None) -> dict:
     """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
     summary} each) as columns (`columns`), written last and atomically. Returns those columns
-    as written (strict: what `read_batch` reads back), for the table's rows (`table.batch_rows`)."""
+    as written (strict: what `read_batch` reads back), for the table's rows (`table.batch_rows`);
+    `texts` gets the texts of each column of finite floats (`_strict`), by id of its list."""
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
-    data = {**record, "columns": _strict(columns(members))}
-    text = (json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n").encode()
-    write_columns(Path(folder), record, data["columns"], text)  # read back on resume, where it fits
+    texts = {} if texts is None else texts
+    table = _strict(columns(members), texts)
+    text = (_json(record, table, texts) + "\n").encode()
+    write_columns(Path(folder), record, table, text)  # read back on resume, where it fits
     atomic_write(Path(folder) / BATCH_FILE, text, sync=False)
-    return data["columns"]
+    return table
+
+
+_SEPARATORS = (",", ":")
+
+
+def _json(record: dict, table: dict, texts: dict) -> str:
+    """`json.dumps({**record, "columns": table}, allow_nan=False, separators=_SEPARATORS)`, the
+    columns of finite floats from their texts (`_strict`): a batch's summaries are some 60
+    floats a member, whose texts the table's CSV cells are made of too (`table.batch_rows`)."""
+
+    def dumps(value) -> str:
+        return json.dumps(value, allow_nan=False, separators=_SEPARATORS)
+
+    def encoded(column: dict) -> str:
+        if "cols" in column:
+            return '{"cols":{' + ",".join(f"{dumps(k)}:{encoded(c)}" for k, c in column["cols"].items()) + "}}"
+        made = texts.get(id(column["rows"]))
+        return '{"rows":[' + made[1] + "]}" if made is not None else '{"rows":' + dumps(column["rows"]) + "}"
+
+    return "{" + ",".join([*(f"{dumps(k)}:{dumps(v)}" for k, v in record.items() if k != "columns"),
+                           '"columns":' + encoded(table)]) + "}"
 
 
 def columns(rows: list):
@@ -208,18 +231,24 @@ def _repeated(value, n: int) -> dict:
     return {"rows": [value] * n}
 
 
-def _strict(table: dict) -> dict:
+def _strict(table: dict, texts: dict) -> dict:
     """`columns`' table with its values strict JSON (`serialize.jsonable`): a column of plain
     numbers, strings and None in one pass (non-finite floats become None), any other value by
-    value: a batch's summaries are some 60 values a member."""
+    value: a batch's summaries are some 60 values a member. A column of finite floats is kept
+    as it is, and `texts` gets its values' texts (repr, as JSON writes them), and those joined
+    by commas, by id of its list."""
     from ..serialize import jsonable
 
     if "cols" in table:
-        return {"cols": {key: _strict(column) for key, column in table["cols"].items()}}
+        return {"cols": {key: _strict(column, texts) for key, column in table["cols"].items()}}
     values = table["rows"]
     kinds = set(map(type, values))
-    if kinds == {float} and all(map(math.isfinite, values)):  # most columns: finite numbers, kept as they are
-        return {"rows": values}
+    if kinds == {float}:  # most columns: finite numbers, kept as they are
+        made = list(map(repr, values))
+        joined = ",".join(made)
+        if "n" not in joined:  # finite: "inf" and "nan" are the only float texts with an n
+            texts[id(values)] = made, joined
+            return {"rows": values}
     if kinds <= _PLAIN:
         return {"rows": [None if type(v) is float and not math.isfinite(v) else v for v in values]}
     if kinds == {list} and {type(x) for v in values for x in v} <= _EXACT:  # lists of gap or magnet numbers

@@ -97,10 +97,11 @@ class Rows:
 
 
 def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str, record: dict,
-               summaries: dict) -> list[Rows]:
+               summaries: dict, texts: dict | None = None) -> list[Rows]:
     """The rows of a batch's members, done, from their summaries as columns (`store.columns`,
     made strict): `member_row` of each, made a column at a time, as one Rows. A batch whose
-    rows differ in their keys (summaries of other shapes) gets one Rows per member."""
+    rows differ in their keys (summaries of other shapes) gets one Rows per member. texts: the
+    texts of columns of finite floats (`store.write_batch`'s), which their CSV cells are made of."""
     import numpy as np
 
     from .store import columns, rows
@@ -113,21 +114,41 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
         cols |= {"status": [record["status"]] * n, "error": [record.get("error")] * n, "folder": [folder] * n,
                  "wall_time_s": _packed([record.get("wall_time_s")] * n)}
         cols |= {k: _packed(v) for k, v in measures.items()}
+        made = {k: _float_cells(v, texts) for k, v in measures.items()}
         return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols,
-                     row_text(list(cols.values())))]
+                     row_text(list(cols.values()), list(map(made.get, cols))))]
     return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
 
 
-def row_text(columns: list) -> str | None:
+def row_text(columns: list, made: list | None = None) -> str | None:
     """The rows as results.csv writes them (`csv_text`), a line each, joined by newlines: made
     by the worker (the texts of 10^5 members' floats were most of the table's time), used by
     the coordinator where the table's columns are these, of the same kinds (`_text_fits`).
     None unless every column is a numpy array, or holds text and None only (`_texted`), and no
-    cell holds a line end (the lines are split again where a row is set twice)."""
+    cell holds a line end (the lines are split again where a row is set twice). made: a
+    column's cells where already made (`_float_cells`), else None."""
     if not columns or not all(map(_texted, columns)):
         return None
-    cells = [_array_texts(c) if _kind(c) else _list_texts(c, lines=False) for c in columns]
+    cells = [m if m is not None else _array_texts(c) if _kind(c) else _list_texts(c, lines=False)
+             for c, m in zip(columns, made or [None] * len(columns))]
     return None if None in cells else "\n".join(map(",".join, zip(*cells)))
+
+
+def _float_cells(values: list, texts: dict | None) -> list[str] | None:
+    """The CSV cells (`_array_texts`) of a list of finite floats whose texts (repr) are in `texts`
+    by its id (`store.write_batch`), made of them; None if they are not there."""
+    made = texts.get(id(values)) if texts else None
+    if made is None:
+        return None
+    import numpy as np
+
+    cells = made[0]
+    long = np.flatnonzero(np.fromiter(map(len, cells), dtype=np.int64, count=len(cells)) > 16).tolist()
+    if long:
+        cells = cells.copy()
+        for i in long:
+            cells[i] = short_float(values[i])
+    return cells
 
 
 def _list_texts(values: list, lines: bool = True) -> list[str] | None:
