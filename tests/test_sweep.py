@@ -1305,9 +1305,12 @@ def test_a_batch_s_members_json_is_strict_and_reads_back_each_member_s_summary(t
 def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_the_csv_s(tmp_path):
     """members.json, its columns of finite floats written from their texts (`store._json`), is
     byte for byte json.dumps of the record and the strict columns; the CSV cells made of those
-    texts (`table._float_cells`) are those made of the numbers (`table._array_texts`)."""
+    texts (`table._float_cells`) are those made of the numbers (`table._array_texts`), and
+    members.arrow and the table's arrays made of the floats' arrays (`store.Floats`) are those
+    made of the values."""
+    from pylmp_lattice.sweep.columns_file import COLUMNS_FILE, write_columns
     from pylmp_lattice.sweep.store import BATCH_FILE, write_batch
-    from pylmp_lattice.sweep.table import _array_texts, _float_cells
+    from pylmp_lattice.sweep.table import _array_texts, _float_cells, _packed
 
     rng = np.random.default_rng(4)
     values = [*rng.normal(size=40).tolist(), 1e-300, 1.0000000000000002, -0.0, 1e22, 123456.78901234567, 5.0]
@@ -1325,7 +1328,14 @@ def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_
     assert id(summary["x"]["rows"]) not in texts  # a NaN: null in the JSON, its own texts
     for column in (summary["v"]["rows"], summary["w"]["cols"]["mean"]["rows"], columns["cols"]["params"]["cols"]["p"]["rows"]):
         assert _float_cells(column, texts) == _array_texts(np.array(column))
-    assert any(len(t) > 16 for t in texts[id(summary["v"]["rows"])][0])  # a long repr: made short for the CSV
+    assert any(len(t) > 16 for t in texts[id(summary["v"]["rows"])].cells)  # a long repr: made short for the CSV
+    # members.arrow of the floats' arrays made once is the file made of the values
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    write_columns(plain, record, columns, (tmp_path / BATCH_FILE).read_bytes())
+    assert (plain / COLUMNS_FILE).read_bytes() == (tmp_path / COLUMNS_FILE).read_bytes()
+    column = summary["w"]["cols"]["mean"]["rows"]
+    assert _packed(column, texts) is texts[id(column)].array and np.array_equal(_packed(column), _packed(column, texts))
 
 
 def _typed(value):

@@ -27,13 +27,14 @@ DIGEST, RECORD = b"members.json sha256", b"record"
 LEFT_OUT = "case"  # the column of members.json this file leaves out
 
 
-def write_columns(folder: Path, record: dict, table: dict, text: bytes) -> None:
+def write_columns(folder: Path, record: dict, table: dict, text: bytes, floats: dict | None = None) -> None:
     """members.arrow for a batch whose members.json is `text`, holding `record` and the columns
-    `table` (strict, `store.columns`): written where every leaf is exact in Arrow."""
+    `table` (strict, `store.columns`): written where every leaf is exact in Arrow. floats: its
+    columns of finite floats (`store.Floats`) by id of their lists."""
     if "cols" not in table:
         return
     leaves: dict = {}
-    if not _leaves({k: v for k, v in table["cols"].items() if k != LEFT_OUT}, [], leaves):
+    if not _leaves({k: v for k, v in table["cols"].items() if k != LEFT_OUT}, [], leaves, floats or {}):
         return
     import pyarrow as pa
 
@@ -45,14 +46,21 @@ def write_columns(folder: Path, record: dict, table: dict, text: bytes) -> None:
     atomic_write(folder / COLUMNS_FILE, sink.getvalue().to_pybytes(), sync=False)
 
 
-def _leaves(cols: dict, path: list, out: dict) -> bool:
+def _leaves(cols: dict, path: list, out: dict, floats: dict) -> bool:
     """Each leaf column of `cols` as an Arrow array into `out` by its path (JSON); False if one
-    is not exact in Arrow."""
+    is not exact in Arrow. floats: as `write_columns`'s."""
+    import pyarrow as pa
+
     for key, column in cols.items():
         where = [*path, key]
         if "cols" in column:
-            if not _leaves(column["cols"], where, out):
+            if not _leaves(column["cols"], where, out, floats):
                 return False
+            continue
+        known = floats.get(id(column["rows"]))
+        if known is not None:  # `_array` of floats without a null, from the array made once
+            out[json.dumps(where)] = pa.Array.from_buffers(pa.float64(), len(known.values),
+                                                           [None, pa.py_buffer(known.array)], 0)
             continue
         array = _exact(column["rows"])
         if array is None:

@@ -29,8 +29,9 @@ import os
 import platform
 import socket
 import subprocess
+from dataclasses import dataclass
 from datetime import datetime, timezone
-from functools import cache
+from functools import cache, cached_property
 from itertools import repeat
 from operator import is_, itemgetter
 from pathlib import Path
@@ -180,18 +181,35 @@ def write_batch(folder: Path, record: dict, members: list[dict], texts: dict | N
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
     summary} each) as columns (`columns`), written last and atomically. Returns those columns
     as written (strict: what `read_batch` reads back), for the table's rows (`table.batch_rows`);
-    `texts` gets the texts of each column of finite floats (`_strict`), by id of its list."""
+    `texts` gets each column of finite floats as `Floats`, by id of its list."""
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
     texts = {} if texts is None else texts
     table = _strict(columns(members), texts)
     text = (_json(record, table, texts) + "\n").encode()
-    write_columns(Path(folder), record, table, text)  # read back on resume, where it fits
+    write_columns(Path(folder), record, table, text, texts)  # read back on resume, where it fits
     atomic_write(Path(folder) / BATCH_FILE, text, sync=False)
     return table
 
 
 _SEPARATORS = (",", ":")
+
+
+@dataclass
+class Floats:
+    """A column of finite floats of a batch (a list: a summary's measure, a swept value), as
+    `write_batch` found it, for what it writes and the table's rows (`table.batch_rows`) make
+    of it alike: its values' texts (repr, as JSON writes them), those joined by commas, and
+    `array`, the values as float64 (members.arrow's column, the table's). Each made once: some
+    60 columns of up to 32768 members a task."""
+
+    values: list
+    cells: list[str]
+    joined: str
+
+    @cached_property
+    def array(self) -> np.ndarray:
+        return np.array(self.values, dtype=np.float64)
 
 
 def _json(record: dict, table: dict, texts: dict) -> str:
@@ -206,7 +224,7 @@ def _json(record: dict, table: dict, texts: dict) -> str:
         if "cols" in column:
             return '{"cols":{' + ",".join(f"{dumps(k)}:{encoded(c)}" for k, c in column["cols"].items()) + "}}"
         made = texts.get(id(column["rows"]))
-        return '{"rows":[' + made[1] + "]}" if made is not None else '{"rows":' + dumps(column["rows"]) + "}"
+        return '{"rows":[' + made.joined + "]}" if made is not None else '{"rows":' + dumps(column["rows"]) + "}"
 
     return "{" + ",".join([*(f"{dumps(k)}:{dumps(v)}" for k, v in record.items() if k != "columns"),
                            '"columns":' + encoded(table)]) + "}"
@@ -235,8 +253,7 @@ def _strict(table: dict, texts: dict) -> dict:
     """`columns`' table with its values strict JSON (`serialize.jsonable`): a column of plain
     numbers, strings and None in one pass (non-finite floats become None), any other value by
     value: a batch's summaries are some 60 values a member. A column of finite floats is kept
-    as it is, and `texts` gets its values' texts (repr, as JSON writes them), and those joined
-    by commas, by id of its list."""
+    as it is, and `texts` gets it as `Floats` by id of its list."""
     from ..serialize import jsonable
 
     if "cols" in table:
@@ -247,7 +264,7 @@ def _strict(table: dict, texts: dict) -> dict:
         made = list(map(repr, values))
         joined = ",".join(made)
         if "n" not in joined:  # finite: "inf" and "nan" are the only float texts with an n
-            texts[id(values)] = made, joined
+            texts[id(values)] = Floats(values, made, joined)
             return {"rows": values}
     if kinds <= _PLAIN:
         return {"rows": [None if type(v) is float and not math.isfinite(v) else v for v in values]}

@@ -101,19 +101,20 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
     """The rows of a batch's members, done, from their summaries as columns (`store.columns`,
     made strict): `member_row` of each, made a column at a time, as one Rows. A batch whose
     rows differ in their keys (summaries of other shapes) gets one Rows per member. texts: the
-    texts of columns of finite floats (`store.write_batch`'s), which their CSV cells are made of."""
+    columns of finite floats (`store.Floats`, `store.write_batch`'s), which their cells are made of."""
     import numpy as np
 
     from .store import columns, rows
 
     flat = columns([flat_params(p) for p in params])
     measures: dict = {}
-    if "cols" in flat and "cols" in summaries and _scalar_columns(summaries["cols"], "", measures, NOT_MEASURES):
+    texts = texts or {}
+    if "cols" in flat and "cols" in summaries and _scalar_columns(summaries["cols"], "", measures, NOT_MEASURES, texts):
         n = len(ids)
         cols = {"id": ids} | {k: _packed(c["rows"]) for k, c in flat["cols"].items()}
         cols |= {"status": [record["status"]] * n, "error": [record.get("error")] * n, "folder": [folder] * n,
                  "wall_time_s": _packed([record.get("wall_time_s")] * n)}
-        cols |= {k: _packed(v) for k, v in measures.items()}
+        cols |= {k: _packed(v, texts) for k, v in measures.items()}
         made = {k: _float_cells(v, texts) for k, v in measures.items()}
         return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols,
                      row_text(list(cols.values()), list(map(made.get, cols))))]
@@ -136,13 +137,13 @@ def row_text(columns: list, made: list | None = None) -> str | None:
 
 def _float_cells(values: list, texts: dict | None) -> list[str] | None:
     """The CSV cells (`_array_texts`) of a list of finite floats whose texts (repr) are in `texts`
-    by its id (`store.write_batch`), made of them; None if they are not there."""
+    by its id (`store.Floats`), made of them; None if they are not there."""
     made = texts.get(id(values)) if texts else None
     if made is None:
         return None
     import numpy as np
 
-    cells = made[0]
+    cells = made.cells
     long = np.flatnonzero(np.fromiter(map(len, cells), dtype=np.int64, count=len(cells)) > 16).tolist()
     if long:
         cells = cells.copy()
@@ -172,16 +173,20 @@ def _kind(column) -> str | None:
     return getattr(getattr(column, "dtype", None), "kind", None)
 
 
-def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = ()) -> bool:
+def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = (), floats: dict | None = None) -> bool:
     """`_scalars` of every row at once, on columns (`store.columns`): a column of numbers, flags
     and None is a column of the table, a column of other values (text, lists) is not; False
-    where a column mixes them, or holds tables that differ in their keys (rows then differ)."""
+    where a column mixes them, or holds tables that differ in their keys (rows then differ).
+    floats: columns known to be of floats (`store.Floats`) by id of their lists."""
     for key, column in cols.items():
         if key in skip:
             continue
         if "cols" in column:
-            if not _scalar_columns(column["cols"], f"{prefix}{key}.", out):
+            if not _scalar_columns(column["cols"], f"{prefix}{key}.", out, floats=floats):
                 return False
+            continue
+        if floats and id(column["rows"]) in floats:
+            out[prefix + key] = column["rows"]
             continue
         kinds = set(map(type, column["rows"]))
         scalar = {k for k in kinds if k is type(None) or issubclass(k, (bool, int, float))}
@@ -192,11 +197,15 @@ def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = ()) -> boo
     return True
 
 
-def _packed(values: list):
+def _packed(values: list, floats: dict | None = None):
     """A column's values as a numpy array where that is what the table makes of them (all floats,
-    or floats and None; all ints; all flags): small to send, and a column at once later."""
+    or floats and None; all ints; all flags): small to send, and a column at once later. floats:
+    columns of floats (`store.Floats`, their arrays made once) by id of their lists."""
     import numpy as np
 
+    known = floats.get(id(values)) if floats else None
+    if known is not None:
+        return known.array
     kinds = set(map(type, values))
     try:
         if kinds == {float} or kinds == {float, type(None)}:
