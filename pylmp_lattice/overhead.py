@@ -105,9 +105,9 @@ g = 9.81
 # front record included; like the overheads, multiplied by the contention of the command asking.
 SECONDS_PER_STEP = 1.3e-6
 SECONDS_PER_ATOM_STEP = 4.7e-9
-# The GPU engine's kernel with friction and the front record: 1.03e10 atom-steps/s on an H200
-# (docs/performance.md, "10^6 x 21"), one device for all the workers.
-GPU_SECONDS_PER_ATOM_STEP = 1 / 1.03e10
+# The GPU engine's kernel with friction and the front record: 4.67e10 atom-steps/s on an H200
+# (docs/performance.md, 10^6 members, 2026-11-27 17:13 UTC), one device for all the workers.
+GPU_SECONDS_PER_ATOM_STEP = 1 / 4.67e10
 # A batched member beyond its atom-steps: its share of the worker's Python (0.23 ms,
 # docs/performance.md "Worker Python per batched member").
 BATCHED_SECONDS = 2.3e-4

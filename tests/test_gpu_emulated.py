@@ -307,7 +307,8 @@ def test_the_emulated_gpu_engine_gives_the_host_engine_s_results(tmp_path, monke
     assert threads * row * 8 <= gpu.SHARED_LIMIT and (threads == first or 2 * threads * row * 8 > gpu.SHARED_LIMIT), \
         (threads, row)
     # the marks, x, v, f in the row where 32 threads fit, else the marks alone
-    assert gpu.shared_arrays(local) == (4 if 0 < local <= 47 else 1 if local else 0) and row % 2 == 1
+    fits = 32 * ((gpu.SHARED_ARRAYS * local) | 1) * 8 <= gpu.SHARED_LIMIT
+    assert gpu.shared_arrays(local) == (gpu.SHARED_ARRAYS if fits else 1) * bool(local) and row % 2 == 1
     assert emulated_gpu.modules == [gpu.compile_options(local, gpu.batch_case(a), one_mass=gpu.one_mass(a))]
     # a module with one of each mass term for chains of one mass; n of them with mass disorder
     assert ("-DPL_ONE_MASS=1" in emulated_gpu.modules[0]) == (bool(local) and scenario != "disorder")

@@ -188,7 +188,7 @@ def test_a_gpu_sweep_estimate_measures_nothing_and_puts_the_kernel_on_the_one_de
     """engine "gpu": no LAMMPS command is timed (the GPU machine's image has no LAMMPS: the
     failed measurement, not cached, cost every sweep 1-3 s; the defaults stand in), the workers
     share the tasks' member_s and the members' Python, and the kernel's atom-steps (1e4 x 21 x
-    4800 = 1.008e9, at 1.03e10 a second on an H200) are the device's, not divided by the
+    4800 = 1.008e9, at 4.67e10 a second on an H200) are the device's, not divided by the
     workers: the LAMMPS model said 46 s for 10^6 members on 16 workers that took 26 s."""
     import dataclasses
 
@@ -199,7 +199,7 @@ def test_a_gpu_sweep_estimate_measures_nothing_and_puts_the_kernel_on_the_one_de
     sweep = Sweep(base=ROOT / "inputs" / "paper_experiment.toml", set={"chain.thermal_velocity": 0.02},
                   replicas=10_000, keep="measures", engine="gpu")
     costs = Overheads()
-    kernel = 10_000 * 21 * 4800 / 1.03e10
+    kernel = 10_000 * 21 * 4800 / 4.67e10
     seconds = costs.replica_s + (costs.member_s + 10_000 * 2.3e-4) / 16 + kernel
     assert _estimate(sweep, 10_000, 16, stats=True) == (f"about {seconds:.2g} s on 16 workers (batched, the replica "
                                                         "statistics and figure included), if all are like the first")

@@ -36,22 +36,26 @@ KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
 THREADS = 128
 # The short chains' kernel keeps a row per thread in static shared memory, at most 48 KB a block:
 # the first SHARED_ARRAYS of the chain's marks, x, v and f (n doubles each; the rest in registers),
-# where a block of 32 threads fits (`shared_arrays`; else the marks alone)
+# 4 where a block of 32 threads fits (`shared_arrays`), else the marks alone. The marks alone, with
+# the due rows listed, ran fastest on an H200 (bench_gpu.py --variants 100000, 2026-11-27 17:10 UTC:
+# 4.62e10 atom-steps/s against 3.53e10 with all four; 10^6 members alternating, 17:12 UTC: 1.89 and
+# 1.91 s against 2.27 and 1.98 s), although ptxas spills some of x, v, f there to local memory
 SHARED_LIMIT = 48 * 1024
-SHARED_ARRAYS = 4
-# ... in blocks of 32 threads then: an SM's shared memory fills in finer steps (10 blocks of 21.8 kB
-# for 21 magnets, not 4 of 43.5 kB: 1.28x the kernel's speed, bench_gpu.py --variants, H200)
+SHARED_ARRAYS = 1
+# ... in blocks of SHARED_THREADS threads where more than the marks are in the row (bench_gpu.py
+# --variants: 32 or 64 threads, no clear winner in two runs, 16:11 and 17:10 UTC)
 SHARED_THREADS = 32
 # The front record's due rows, sampled each right after its atom's kick (False) or listed and
-# sampled together after the step (True; chain.h's Sampling)
-SAMPLE_LISTED = False
+# sampled together after the step (True; chain.h's Sampling): 1.07x (marks alone in shared memory)
+# and 1.18x (all four) per-atom sampling's speed (--variants, 17:10 UTC)
+SAMPLE_LISTED = True
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
 LOCAL_MAX = 64
-# ... in runs of free atoms of at most SHORT_BLOCK: the fewest ptxas spills for the paper's 21 magnets
-# with friction and the record (benchmarks/gpu_resources.py --blocks); the bits do not depend on it
+# ... in runs of free atoms of at most SHORT_BLOCK: the paper's 21 magnets in one run of 19, every
+# loop unrolled (runs of 10: 0.78x, --variants 16:11 UTC); the bits do not depend on it
 SHORT_BLOCK = 32
-# Atom-steps per launch: about 1 s at the 1.03e10 atom-steps/s an H200 ran (docs/performance.md), so a
-# signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
+# Atom-steps per launch: about 0.2 s at the 4.2e10-5.3e10 atom-steps/s an H200 ran (docs/performance.md),
+# so a signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
 # fast per atom-step as 10^6 in two, so smaller launches cost no speed there
 CHUNK_ATOM_STEPS = 1e10
 
