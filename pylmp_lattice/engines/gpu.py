@@ -5,12 +5,13 @@ The same batch as `engines.cpu` (`arrays.prepare`), the splines fitted on the ho
 engine's library (`library`: the plugin's fits, fit.h), the same results (`cpu.run_arrays`'s).
 CuPy is an optional dependency: without it, or without a device, `available` says why.
 
-Chains of up to 64 magnets (the ensembles') run in a module compiled for their length: its
-loops unroll, so that the chain's x, v, f live in registers where they fit, the rest in each
-thread's local memory, which CUDA interleaves by thread (coalesced); only the record's 7 output
-columns per magnet go back to global memory. Longer chains run on chain-major rows of global
-arrays. benchmarks/gpu_resources.py prints each module's registers and local memory (NVRTC, no
-device needed).
+Chains of up to 64 magnets (the ensembles') run in a module compiled for their length (and for
+one mass, where the batch has one): its loops unroll, so that the chain's x, v, f live in
+registers where they fit, its marks in a row of shared memory, the rest in each thread's local
+memory, which CUDA interleaves by thread (coalesced); only the record's 7 output columns per
+magnet go back to global memory. Longer chains run on chain-major rows of global arrays.
+benchmarks/gpu_resources.py prints each module's registers, local and shared memory (NVRTC, no
+device needed); bench_gpu.py --variants times the choices below on a device.
 
 Run on an NVIDIA H200 on 2026-11-27 (benchmarks/gpu_check.sh; numbers in docs/performance.md).
 NVRTC compiles it with `compile_options` (tests/test_gpu_build.py, on any machine with the

@@ -5,12 +5,15 @@
    Short chains (n = PL_LOCAL_N, up to 64, the ensembles' case): pl_run_short_chains_gpu is
    compiled for the batch's n and runs of at most PL_BLOCK free atoms (FixedRuns, step.h), so
    the loops over the atoms unroll; where the loop over the runs does too (one run: PL_BLOCK =
-   n - 2), a chain's arrays (x, v, f, masses, marks, gates, scratch) are indexed by constants and
-   ptxas keeps them in registers as far as they fit; the rest, and the front record's rows
-   (touched only for the few atoms between their start and both peaks), in per-thread local
-   memory. At ece083f (arrays of 32 or 64, loops over a run-time n) all of it was local memory:
-   12.6 kB a thread for 21 magnets with friction and record, 638 MB for the threads an H100/H200
-   holds at once, 13x its L2 (benchmarks/gpu_resources.py prints both).
+   n - 2), a chain's arrays (x, v, f, masses, scratch) are indexed by constants and ptxas keeps
+   them in registers as far as they fit (one of each mass term for a batch of one mass,
+   PL_ONE_MASS); the marks (and, with PL_SHARED_ARRAYS > 1, x, v, f) in the thread's row of
+   shared memory; the start gates as bits (chain.h's BitGates); the rest, and the front record's
+   rows (touched only for the few atoms between their start and both peaks, which PL_SAMPLE_LISTED
+   lists during the step and samples after it), in per-thread local memory. At ece083f (arrays
+   of 32 or 64, loops over a run-time n) all of it was local memory: 12.6 kB a thread for 21
+   magnets with friction and record, 638 MB for the threads an H100/H200 holds at once, 13x its
+   L2 (benchmarks/gpu_resources.py prints both; bench_gpu.py --variants times the choices).
    CUDA interleaves local memory by thread (word k of the 32 threads of a warp is one 128-byte
    line), so when the warp's threads step their chains in lockstep every access is coalesced;
    only the inputs (x, v, masses, levels) are read from global memory once, and only the
@@ -20,9 +23,10 @@
    own rows: not coalesced; a block per chain would be the next step).
 
    A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
-   the short chains' kernel for chains that long (PL_BLOCK its runs), 0 the global rows' kernel; PL_LAW_KIND
-   (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the one case of
-   chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
+   the short chains' kernel for chains that long (PL_BLOCK its runs, PL_THREADS its block's
+   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLE_LISTED as above), 0 the global rows'
+   kernel; PL_LAW_KIND (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the
+   one case of chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
    NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
 
 #include "chain.h"
