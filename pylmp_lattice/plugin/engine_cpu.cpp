@@ -81,12 +81,9 @@ template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &s
     for (int i = 0; i < n; i++) L::set(mass[i], l, B.mass[at + i]);
     if (S.record) d.levels[l] = levels_row(B.levels + 5 * static_cast<size_t>(c));
   }
-  chain_masses(mass, n, S.dt, S.fr.g, dtfm, weight);
-  if (S.friction) {    // the friction kick's dt / m, once (ChainDataT::dtm)
-    R *dtm = reinterpret_cast<R *>(st.array(8));
-    for (int i = 0; i < n; i++) dtm[i] = S.dt / mass[i];
-    d.dtm = dtm;
-  }
+  R *dtm = S.friction ? reinterpret_cast<R *>(st.array(8)) : nullptr;    // the friction kick's dt / m
+  chain_masses(mass, n, S.dt, S.fr.g, dtfm, weight, dtm);
+  d.dtm = dtm;
   d.x = x, d.v = v, d.f = reinterpret_cast<R *>(st.array(2));
   d.dtfm = dtfm, d.mass = mass, d.weight = weight, d.index = st.index.data();
   d.scratch = reinterpret_cast<R *>(st.array(LaneStore::ARRAYS));

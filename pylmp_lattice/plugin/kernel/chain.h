@@ -57,14 +57,17 @@ PL_HD inline ChainSetup chain_setup(int n, long long steps, double dt, int block
 }
 
 /* a chain's per-atom mass terms, as fix lattice/chain's: dt/2 in force-to-velocity units
-   (ftm2v = 1 in units si) over m, and m g */
-template <class R> PL_HD inline void chain_masses(const R *mass, int n, double dt, double g, R *dtfm, R *weight)
+   (ftm2v = 1 in units si) over m, and m g; with dtm (friction), the friction kick's dt / m once
+   (ChainDataT::dtm), not a division per atom and step */
+template <class R>
+PL_HD inline void chain_masses(const R *mass, int n, double dt, double g, R *dtfm, R *weight, R *dtm = nullptr)
 {
   const double dtf = 0.5 * dt * 1.0;
   PL_UNROLL
   for (int i = 0; i < n; i++) {
     dtfm[i] = dtf / mass[i];
     weight[i] = mass[i] * g;
+    if (dtm) dtm[i] = dt / mass[i];
   }
 }
 

@@ -161,9 +161,7 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
   for (int i = 0; i < M; i++) ml[i] = mass[at + (PL_ONE_MASS ? 0 : i)];
   if (PL_RECORD)
     for (int k = 0; k < N * front::NCOL; k++) rec[k] = quiet_nan();
-  chain_masses(ml, M, dt, g, dtfm, weight);
-  PL_UNROLL
-  for (int i = 0; i < M; i++) dtm[i] = dt / ml[i];    // the friction kick's dt / m, once (as the host engine's)
+  chain_masses(ml, M, dt, g, dtfm, weight, PL_FRICTION ? dtm : nullptr);
   ChainData d{};
   d.x = xl, d.v = vl, d.f = fl, d.dtfm = dtfm, d.mass = ml, d.weight = weight, d.index = slots.slot;
   if (PL_FRICTION) d.dtm = dtm;
@@ -196,7 +194,7 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   if (c >= chains) return;
   const ChainSetup S = make_setup(PL_SETUP_ARGS);
   const long long at = static_cast<long long>(c) * n;
-  chain_masses(mass + at, n, dt, g, dtfm + at, weight + at);
+  chain_masses(mass + at, n, dt, g, dtfm + at, weight + at, PL_FRICTION ? dtm + at : nullptr);
   ChainData d{};
   d.x = x + at;
   d.v = v + at;
@@ -204,10 +202,7 @@ extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double 
   d.dtfm = dtfm + at;
   d.mass = mass + at;
   d.weight = weight + at;
-  if (PL_FRICTION) {    // the friction kick's dt / m, once (as the host engine's)
-    for (int i = 0; i < n; i++) dtm[at + i] = dt / mass[at + i];
-    d.dtm = dtm + at;
-  }
+  if (PL_FRICTION) d.dtm = dtm + at;
   d.index = index;
   d.scratch = scratch + static_cast<long long>(c) * step_scratch(block);
   d.alive[0] = true;
