@@ -135,7 +135,7 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
     valid = [(m, c) for m, c in zip(todo, cases) if c is not None]
     for group in _batches(valid):
         started = now()  # before the look at STOP: a member never starts after a stop signal
-        if signals.STOP.is_set():
+        if signals.stop_asked():
             break
         if len(group) > 1:
             done = _run_batch(root, group, task.runner, started, task.engine, task.threads)
@@ -277,7 +277,7 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     out = {}
     for m, case in group:
         started = now()
-        if signals.STOP.is_set():
+        if signals.stop_asked():
             break
         out[m.id] = run_member(root, m, case, runner, started)
     return out

@@ -226,6 +226,7 @@ def _pool_worker_init(alive, stop) -> None:
         os._exit(128 + signum)  # between tasks: nothing in hand
 
     signals.EXIT_AFTER_STOP = GRACE
+    signals.STOP_PIPE = stop
     for s in STOP_SIGNALS:
         signal.signal(s, on_signal)
     _send_whole()

@@ -12,8 +12,11 @@ import os
 import signal
 import threading
 
-# Set by a stop signal (see pool._pool_worker_init); read before each start.
+# Set by a stop signal (see pool._pool_worker_init); read before each start (`stop_asked`).
 STOP = threading.Event()
+# A pool worker's end of the coordinator's stop pipe (pool._pool_worker_init): readable once the
+# coordinator closed it to stop the workers.
+STOP_PIPE = None
 # In a local pool worker: seconds after a stop before the process exits (its pool may be gone).
 EXIT_AFTER_STOP: float | None = None
 # Whether this process is inside run_task (a pool worker's signal handler stops it there).
@@ -46,6 +49,19 @@ class _StopSignals:
     def __exit__(self, *exc):
         for s, handler in self.previous.items():
             signal.signal(s, handler)
+
+
+def stop_asked() -> bool:
+    """A stop signal came, or the coordinator closed the stop pipe: the thread that watches the
+    pipe may not have run yet (a worker forked as Ctrl-C came missed the signal itself, and under
+    load started a member after it: tests/test_sweep_faults.py), so the pipe is looked at too."""
+    if STOP.is_set():
+        return True
+    pipe = STOP_PIPE
+    try:
+        return pipe is not None and pipe.poll()
+    except (OSError, EOFError):  # this end closed: the worker is going away
+        return True
 
 
 def stopping(signum: int) -> None:
