@@ -31,9 +31,9 @@ from bench_sweep import ROOT, write_sweep
 KEEP = """import pickle, sys
 from pylmp_lattice.sweep import table
 write = table.write_table
-def kept(root, parts):
+def kept(root, parts, beside=None):
     pickle.dump(parts, open(sys.argv[3], "wb"))
-    return write(root, parts)
+    return write(root, parts, beside)
 table.write_table = kept
 from pylmp_lattice.sweep import load_sweep, run_sweep
 run_sweep(load_sweep(sys.argv[1]), sys.argv[2], workers=2, engine="cpu", progress=False)
