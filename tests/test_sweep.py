@@ -789,6 +789,38 @@ def test_a_point_s_replicas_come_in_runs_with_the_same_members_and_tasks(tmp_pat
     assert list(enumerated()[1:]) == chunked
 
 
+def test_replicas_identities_are_made_where_they_are_asked_for_and_are_their_cases(tmp_path, monkeypatch):
+    """A new sweep's coordinator makes no replica's identity (a worker does, for the members it
+    runs): the tasks it sends hold none, and the identities made from them are each member's
+    `case_id` (its case built whole, an independent hash). Two points of the same case (a swept
+    value repeated) whose replicas draw the same seeds are the same members: counted once."""
+    import pickle
+
+    from pylmp_lattice.case import case_id
+    from pylmp_lattice.sweep import execute, seeds
+    from pylmp_lattice.sweep.pool import Pool
+    from pylmp_lattice.sweep.spec import Replicas
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=6) + '[grid]\n"impactor.velocity" = [1.0, 1.5]\n'))
+    coordinator = execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
+                                       sweep.count())
+    tasks = list(coordinator._tasks())
+    parts = [p for t in tasks for p in t.members if isinstance(p, Replicas)]
+    assert len(parts) == 2 and not any("ids" in p.__dict__ for p in parts)
+    sent = [pickle.loads(pickle.dumps(p)) for p in parts]
+    assert [len(p.ids) for p in sent] == [5, 5]
+    for part in sent:
+        for member in part:
+            member.build_from(part.first.case, member.params["chain.seed"])
+            assert member.id == case_id(member.case), member.index
+    assert len({m.id for p in sent for m in p} | {m.id for t in tasks for m in t.each()}) == 12
+
+    twice = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4) + '[grid]\n"impactor.velocity" = [1.0, 1.0]\n'))
+    monkeypatch.setattr(seeds, "member_seeds", lambda seed, start, count: [start % 4 + k + 1 for k in range(count)])
+    members = twice.members()
+    assert [m.index for m in members] == [0, 1, 2, 3] and len({m.id for m in members}) == 4
+
+
 def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_path, monkeypatch):
     from pylmp_lattice.sweep import blocks, execute
     from pylmp_lattice.sweep.pool import Pool

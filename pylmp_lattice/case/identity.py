@@ -28,19 +28,38 @@ def normalised_hash(data: dict) -> str:
 
 def seeded_hashes(data: dict):
     """`normalised_hash` of `data` (normalised, with a "chain" section) with chain.seed set to a
-    given `int`, as a function of the seed: the text is made once, and each seed's hash goes on
-    from the hash of the text before the seed (a sweep's replicas differ only in their seed)."""
+    given `int`, as a function of the seed: a `SeededHashes` (picklable: a worker makes the
+    identities of the replicas it runs, not the coordinator), or where the seed's place in the
+    text cannot be found, a function that makes each seed's text whole."""
     mark = "\x00seed\x00"  # a text no case holds (should one, each seed's text is made whole)
     head, found, tail = _text(data | {"chain": data["chain"] | {"seed": mark}}).partition(json.dumps(mark))
     if not found or json.dumps(mark) in tail:
         return lambda seed: normalised_hash(data | {"chain": data["chain"] | {"seed": seed}})
-    start = hashlib.sha256(head.encode())
+    return SeededHashes(head, tail)
 
-    def seeded(seed: int) -> str:
-        h = start.copy()
-        h.update(f"{seed}{tail}".encode())
+
+class SeededHashes:
+    """The identities of one resolved case with chain.seed set to each seed: its text is `head`,
+    the seed, `tail`; each seed's hash goes on from the hash of `head` (made once per process).
+    Two seeds have one identity only if they are equal: `key` and the seed say whether two
+    members are the same case, without a hash."""
+
+    def __init__(self, head: str, tail: str):
+        self.key = (head, tail)
+        self._start = None
+
+    def __call__(self, seed: int) -> str:
+        if self._start is None:
+            self._start = hashlib.sha256(self.key[0].encode())
+        h = self._start.copy()
+        h.update(f"{seed}{self.key[1]}".encode())
         return h.hexdigest()[:16]
-    return seeded
+
+    def __getstate__(self):
+        return self.key
+
+    def __setstate__(self, key):
+        self.key, self._start = key, None
 
 
 def _text(data: dict) -> str:

@@ -243,7 +243,7 @@ class _Coordinator:
         get their rows (`_finished`)."""
         if not isinstance(run, Replicas):
             return [m for m in run if not self._finished(m)]
-        if self.disk.none_of(run.ids):  # (a new sweep's: no look at each member)
+        if not self.disk.at_most() or self.disk.none_of(run.ids):  # (a new sweep's: no look at each member, nor its id)
             return run
         found = list(map(self.disk.batched, run.ids))
         self._kept(run, [k for k, f in enumerate(found) if f is not None], found)  # done in a batch: they stand

@@ -54,7 +54,7 @@ from typing import Any
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
 from ..case.chain import check_seed
-from ..case.identity import seeded_hashes
+from ..case.identity import SeededHashes, seeded_hashes
 from ..engine import RUNNERS
 from ..engines import ENGINES
 from ..errors import ConfigError
@@ -131,21 +131,38 @@ class Member:
 
 @dataclass(frozen=True)
 class Replicas:
-    """Seeded replicas of one parameter point, as columns: their numbers, identities and seeds
-    (a sweep of 10^6 replicas makes no object per member until a worker runs them). `first`:
-    the point's first member, its case built; the others' data is its data with their seed.
-    point: the swept values; start: the point's first number, params' "replica" counting from
-    it (None: params hold no "replica"). Iterating gives the Members, in order; `take` some."""
+    """Seeded replicas of one parameter point, as columns: their numbers and seeds (a sweep of
+    10^6 replicas makes no object per member until a worker runs them). `first`: the point's
+    first member, its case built; the others' data is its data with their seed. point: the
+    swept values; start: the point's first number, params' "replica" counting from it (None:
+    params hold no "replica"); identity: a seed's member identity (`case.identity.seeded_hashes`),
+    made where `ids` is first asked for (a worker, for the members it runs: 1-2 us each, most
+    of the coordinator's time per member at 10^6); made: the ids, where they were made already.
+    Iterating gives the Members, in order; `take` some."""
 
     first: Member
     point: dict
     start: int | None
     index: list
-    ids: list
     seeds: list
+    identity: Any
+    made: list | None = None
 
     def __len__(self) -> int:
-        return len(self.ids)
+        return len(self.seeds)
+
+    @cached_property
+    def ids(self) -> list[str]:
+        """The members' identities."""
+        return self.made if self.made is not None else list(map(self.identity, self.seeds))
+
+    def __getstate__(self):  # the ids only where they were made (a worker makes them again)
+        made = self.__dict__.get("ids", self.made)
+        return {k: v for k, v in self.__dict__.items() if k != "ids"} | {
+            "made": made if made is not None and not isinstance(self.identity, SeededHashes) else None}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
     def __iter__(self) -> Iterator[Member]:
         first = self.first
@@ -160,11 +177,13 @@ class Replicas:
 
     def take(self, positions) -> Replicas:
         """These members at `positions` (in order; a range: a slice of the columns)."""
+        made = self.__dict__.get("ids", self.made)
         if isinstance(positions, range) and positions.step == 1:
             part = slice(positions.start, positions.stop)
-            return replace(self, index=self.index[part], ids=self.ids[part], seeds=self.seeds[part])
-        return replace(self, index=[self.index[k] for k in positions], ids=[self.ids[k] for k in positions],
-                       seeds=[self.seeds[k] for k in positions])
+            return replace(self, index=self.index[part], seeds=self.seeds[part],
+                           made=None if made is None else made[part])
+        return replace(self, index=[self.index[k] for k in positions], seeds=[self.seeds[k] for k in positions],
+                       made=None if made is None else [made[k] for k in positions])
 
 
 def point_key(params: dict) -> str:
@@ -346,7 +365,10 @@ class Sweep:
         axes = [[{k: v} for v in values] for k, values in self.grid.items()]
         if self.zip:
             axes.append([dict(zip(self.zip, row)) for row in zip(*self.zip.values())])
-        seen, same = set(), []
+        # Members seen: their ids; a point's seeded replicas also by their seeds, in `cases` by
+        # their case's text without the seed (`SeededHashes.key`): two are the same case only if
+        # both are equal, so no replica's id is made here
+        seen, cases, same = set(), {}, []
         index = 0
         for combo in itertools.product(*axes):
             point = {k: v for part in combo for k, v in part.items()}
@@ -367,32 +389,40 @@ class Sweep:
                 if seeded:
                     data.setdefault("chain", {})["seed"] = params["chain.seed"]
                 member = first = self._member(index + replica, copy.deepcopy(data), params, key)
-                if member.id in seen:
+                identity = space = None
+                if seeded and member.case is not None:
+                    # (its sections are shared with the first's: a case dict is read, never changed)
+                    identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
+                    if isinstance(identity, SeededHashes):
+                        space = cases.setdefault(identity.key, set())
+                if member.id in seen or (space is not None and params["chain.seed"] in space):
                     same.append(member.index)
                 else:
                     seen.add(member.id)
+                    if space is not None:
+                        space.add(params["chain.seed"])
                     yield (member,)
             else:
                 index += self.replicas
                 continue
-            # (its sections are shared with the first's: a case dict is read, never changed)
-            identity = seeded_hashes(normalised({k: v for k, v in first.data.items() if k != "name"}))
             start = index if self.replicas > 1 else None
             for lo in range(replica, self.replicas, RUN):  # the rest in runs of RUN
                 hi = min(self.replicas, lo + RUN)
                 part = seeds.run(lo, hi)
-                ids = list(map(identity, part))
-                fresh = set(ids)
-                if len(fresh) == len(ids) and seen.isdisjoint(fresh):  # all new (as good as always): as a whole
-                    seen |= fresh
-                    yield Replicas(first, point, start, list(range(index + lo, index + hi)), ids, part)
+                marks = part if space is not None else list(map(identity, part))  # (else: ids, made here)
+                taken = seen if space is None else space
+                fresh = set(marks)
+                if len(fresh) == len(marks) and taken.isdisjoint(fresh):  # all new (as good as always): as a whole
+                    taken |= fresh
+                    yield Replicas(first, point, start, list(range(index + lo, index + hi)), part,
+                                   *((identity, None) if space is not None else (None, marks)))
                     continue
-                kept = [k for k, i in enumerate(ids, lo) if not (i in seen or seen.add(i))]
-                if len(kept) < len(ids):
+                kept = [k for k, i in enumerate(marks, lo) if not (i in taken or taken.add(i))]
+                if len(kept) < len(marks):
                     same += [index + k for k in sorted(set(range(lo, hi)) - set(kept))]
                 if kept:
-                    yield Replicas(first, point, start, [index + k for k in kept], [ids[k - lo] for k in kept],
-                                   [part[k - lo] for k in kept])
+                    yield Replicas(first, point, start, [index + k for k in kept], [part[k - lo] for k in kept],
+                                   *((identity, None) if space is not None else (None, [marks[k - lo] for k in kept])))
             index += self.replicas
         if same and not self.__dict__.get("_said_same"):  # one line for all (study thermal printed 14), once
             self.__dict__["_said_same"] = True  # per sweep (a study enumerates its sweep, then runs it: it printed 2)
