@@ -50,6 +50,7 @@ import contextlib
 import dataclasses
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -207,8 +208,10 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
     print()
     # (no workers' CPU: the pool's workers are the fork server's children, which RUSAGE_CHILDREN
     # does not see; the column said the LAMMPS probe's CPU before the sweep stopped running it)
-    print("| members | `pylmp-lattice sweep --engine gpu`, command to exit (s) | per member (ms) | coordinator CPU (s) |")
-    print("|---|---|---|---|")
+    # (first task, last members, table: the sweep's own timeline line, seconds since the command started)
+    print("| members | `pylmp-lattice sweep --engine gpu`, command to exit (s) | per member (ms) | coordinator CPU (s) "
+          "| first task sent (s) | last members done (s) | table written (s) |")
+    print("|---|---|---|---|---|---|---|")
     for count in sweeps:
         folder = tmp / f"sweep-{count}"
         folder.mkdir()
@@ -221,7 +224,7 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
         except subprocess.TimeoutExpired as err:
             if log:
                 (log / f"sweep-{count}.log").write_text(str(err.stdout or "") + str(err.stderr or ""))
-            print(f"| {count} | over {SWEEP_LIMIT} s: stopped | - | - |", flush=True)
+            print(f"| {count} | over {SWEEP_LIMIT} s: stopped | - | - | - | - | - |", flush=True)
             continue
         wall = time.perf_counter() - start
         if log:
@@ -229,9 +232,12 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
         said = [line for line in done.stderr.splitlines() if line.startswith("coordinator-cpu")]
         coordinator = float(said[-1].split()[1]) if said else float("nan")
         if done.returncode != 0:
-            print(f"| {count} | failed ({done.returncode}): {done.stderr.strip().splitlines()[-3:]} | - | - |")
+            print(f"| {count} | failed ({done.returncode}): {done.stderr.strip().splitlines()[-3:]} | - | - | - | - | - |")
             continue
-        print(f"| {count} | {wall:.2f} | {1e3 * wall / count:.4f} | {coordinator:.2f} |", flush=True)
+        times = re.search(r"first task sent at (\S+) s, the last members done at (\S+) s, the table written at (\S+) s",
+                          done.stderr)
+        print(f"| {count} | {wall:.2f} | {1e3 * wall / count:.4f} | {coordinator:.2f} | "
+              f"{' | '.join(times.groups()) if times else '- | - | -'} |", flush=True)
 
 
 @contextlib.contextmanager

@@ -143,7 +143,7 @@ def contention() -> float:
     cores: it lags a load that changes (1 without a load average)."""
     try:
         ran, waited = _schedstat("self")
-        if ran >= 0.05 and _age() < YOUNG_S:
+        if ran >= 0.05 and process_age() < YOUNG_S:
             return max(1.0, (ran + waited) / ran)
     except (OSError, ValueError, IndexError):
         pass
@@ -160,7 +160,7 @@ def _schedstat(pid: str) -> tuple[float, float]:
     return int(ran) / 1e9, int(waited) / 1e9
 
 
-def _age() -> float:
+def process_age() -> float:
     """Seconds since this process started (Linux)."""
     ticks = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
     return float(Path("/proc/uptime").read_text().split()[0]) - ticks / os.sysconf("SC_CLK_TCK")

@@ -112,7 +112,7 @@ def test_contention_is_the_commands_own_wait_for_a_core(monkeypatch):
     start-up that tells the present: the 1-minute load / cores; never below 1."""
     record = {"ran": 0.4, "waited": 0.6, "age": 1.0}
     monkeypatch.setattr(overhead, "_schedstat", lambda pid: (record["ran"], record["waited"]))
-    monkeypatch.setattr(overhead, "_age", lambda: record["age"])
+    monkeypatch.setattr(overhead, "process_age", lambda: record["age"])
     monkeypatch.setattr(overhead.os, "getloadavg", lambda: (7.0, 0.0, 0.0))
     monkeypatch.setattr(overhead.os, "cpu_count", lambda: 2)
     assert contention() == pytest.approx(2.5, rel=1e-12)

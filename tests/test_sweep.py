@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -404,6 +405,11 @@ def test_a_resumed_sweep_says_how_many_members_it_kept(tmp_path, caplog):
     caplog.set_level("INFO", logger="pylmp_lattice")
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
     assert "before this run" not in caplog.text
+    # where the time went, since the command (here: pytest) started, in order
+    said = re.search(r"out: (\S+) s since the command started: the first task sent at (\S+) s, the last members done "
+                     r"at (\S+) s, the table written at (\S+) s", caplog.text)
+    total, sent, done, written = map(float, said.groups())
+    assert 0 < sent <= done <= written == total
     caplog.clear()
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
     assert ("out: 2 of 2 members had an outcome before this run (0 done, 2 failed): kept, not run again "

@@ -131,6 +131,7 @@ class _Coordinator:
     def run(self):
         tasks = self._tasks()
         running: dict[Future, Task] = {}
+        sent = done_at = None  # when the first task went out, and the last members came back (monotonic s)
         try:
             ready: list[Task] = []  # the next tasks, enumerated while the workers run
             while True:
@@ -138,6 +139,7 @@ class _Coordinator:
                 while not stopping and len(running) < self.pool.slots and (ready or self._more(tasks, ready)):
                     task = ready.pop(0)
                     running[self.pool.submit(task)] = task
+                    sent = sent or time.monotonic()
                     self.bar.show(len(running))
                 if not running:
                     break
@@ -150,6 +152,7 @@ class _Coordinator:
                 done, _ = wait(running, timeout=0 if busy else 0.2, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(running.pop(future), future)
+                    done_at = time.monotonic()
                 if (self.stop.signals or self.lost or self.full) and running:
                     self._wind_down(running)
                 self._write_table(flush=True)
@@ -166,6 +169,8 @@ class _Coordinator:
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = int((table["status"] == DONE).sum())
+        if sent is not None and done_at is not None:
+            _timeline(self.root.name, sent, done_at)
         if self.preload is not None:  # ended (after a stop: at its next step), so that the caller's figure does not
             # draw beside it, nor does the command exit while it runs an extension's code (an abort at exit)
             self.preload.join()
@@ -335,6 +340,21 @@ class _Coordinator:
             folder = None  # not started, or its batch stopped before it wrote anything
         self.table.set(m.index, member_row(m.id, m.params, folder, record, summary))
         self.bar.advance(record["status"])
+
+
+def _timeline(name: str, sent: float, done_at: float) -> None:
+    """Say where the sweep's time went (info): since the command started (Linux; elsewhere since
+    the first task went out), when the first task went out, the last members came back and the
+    table (and the replica figure drawn beside it) was written."""
+    from ..overhead import process_age
+
+    now = time.monotonic()
+    try:
+        start, since = now - process_age(), "the command started"
+    except (OSError, ValueError, IndexError):
+        start, since = sent, "the first task went out"
+    log.info("%s: %.2f s since %s: the first task sent at %.2f s, the last members done at %.2f s, the table written "
+             "at %.2f s", name, now - start, since, sent - start, done_at - start, now - start)
 
 
 def _settle(root: Path, m: Member) -> None:
