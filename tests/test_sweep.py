@@ -169,7 +169,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     workers' texts do not fit then: the coordinator makes those rows' own)."""
     from pylmp_lattice.serialize import short_float
     from pylmp_lattice.sweep.store import columns
-    from pylmp_lattice.sweep.table import Rows, _text_fits, batch_rows, csv_text, frame, member_row
+    from pylmp_lattice.sweep.table import Rows, _lines, _text_fits, batch_rows, csv_text, frame, member_row
 
     rng = np.random.default_rng(3)
     record = {"status": "done", "error": None, "wall_time_s": 0.0123}
@@ -196,6 +196,9 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     pd.testing.assert_frame_equal(df, expected)
     assert list(map(_text_fits(df), parts[:2])) == [not mixed] * 2  # the workers' texts are used where they fit
     assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
+    lines = _lines(parts)  # the CSV written from the workers' lines alone, before the table is made
+    assert (lines is None) == mixed
+    assert mixed or "".join(lines) == expected.to_csv(index=False, float_format=short_float)
 
 
 def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
@@ -203,7 +206,7 @@ def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
     again later (its lines are split, the later ones kept), a cell quoted: what pandas writes."""
     from pylmp_lattice.serialize import short_float
     from pylmp_lattice.sweep.store import columns
-    from pylmp_lattice.sweep.table import _tiled, _placed, batch_rows, csv_text, frame
+    from pylmp_lattice.sweep.table import _lines, _placed, _tiled, batch_rows, csv_text, frame
 
     rng = np.random.default_rng(5)
     record = {"status": "done", "error": None, "wall_time_s": 0.5}
@@ -225,6 +228,9 @@ def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
         assert (_tiled(_placed(parts[:k])[1]) is None) == (k == 4)
         pd.testing.assert_frame_equal(df, expected)
         assert csv_text(df, parts[:k]) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
+        lines = _lines(parts[:k])  # alone only where no row is set again
+        assert (lines is None) == (k == 4)
+        assert k == 4 or "".join(lines) == expected.to_csv(index=False, float_format=short_float)
 
 
 def test_a_running_sweep_s_table_is_not_rewritten_when_its_end_is_nearer_or_its_rows_have_not_doubled(tmp_path):
