@@ -109,8 +109,15 @@ SECONDS_PER_ATOM_STEP = 4.7e-9
 # (docs/performance.md, 10^6 members, 2026-11-27 17:13 UTC), one device for all the workers.
 GPU_SECONDS_PER_ATOM_STEP = 1 / 4.67e10
 # A batched member beyond its atom-steps: its share of the worker's Python (0.23 ms,
-# docs/performance.md "Worker Python per batched member").
+# docs/performance.md "Worker Python per batched member"); with a kernel engine ("cpu", "gpu":
+# no LAMMPS instance, no deck) 0.064 ms (`bench_batch_python.py --engine cpu --members 5000
+# --clock cpu`, 2026-11-27 18:17 UTC, this VM).
 BATCHED_SECONDS = 2.3e-4
+KERNEL_BATCHED_SECONDS = 6.4e-5
+# ... and the coordinator's, one member after another whatever the workers: its task, its row
+# received, its share of the table (about 3.3 us while the members run and 1.5 at the end,
+# 10^6 members of the GPU road, bench_gpu_road.py's stand-in, py-spy, 2026-11-27 18:30 UTC).
+COORDINATOR_SECONDS = 5e-6
 _REPLICA_CHAIN = (21, 4800)  # its magnets and steps (60 ms / 0.0125 ms), for the engine's share
 _REPLICA_SWEEP = 'base = "replica.toml"\nreplicas = 2\nkeep = "measures"\n[grid]\n"impactor.velocity" = [2.0, 2.5]\n'
 
@@ -233,12 +240,17 @@ def engine_seconds(magnets: int, steps: int, nprocs: int = 1) -> float:
     return steps * (SECONDS_PER_STEP + SECONDS_PER_ATOM_STEP * magnets / ranks)
 
 
-def batched_seconds(tasks: int, members: int, magnets: int, steps: int, member_s: float) -> float:
-    """The work of `members` batched members in `tasks` tasks (one point's replicas each) of a
-    chain of `magnets` over `steps` steps (s, on a machine to itself): each task member_s and the
-    instance's cost per step, each member its atom-steps and BATCHED_SECONDS."""
-    return tasks * (member_s + SECONDS_PER_STEP * steps) + members * (SECONDS_PER_ATOM_STEP * magnets * steps
-                                                                       + BATCHED_SECONDS)
+def batched_seconds(tasks: int, members: int, magnets: int, steps: int, member_s: float,
+                    engine: str = "lammps") -> float:
+    """The workers' work for `members` batched members in `tasks` tasks (one point's replicas
+    each) of a chain of `magnets` over `steps` steps (s, on a machine to itself): each task
+    member_s and (engine "lammps") its instance's cost per step, each member its atom-steps
+    (not engine "gpu"'s: the device's, `gpu_seconds`) and its worker Python."""
+    if engine == "lammps":
+        return tasks * (member_s + SECONDS_PER_STEP * steps) + members * (SECONDS_PER_ATOM_STEP * magnets * steps
+                                                                           + BATCHED_SECONDS)
+    atom_steps = 0 if engine == "gpu" else SECONDS_PER_ATOM_STEP * magnets * steps
+    return tasks * member_s + members * (atom_steps + KERNEL_BATCHED_SECONDS)
 
 
 def gpu_seconds(atom_steps: float) -> float:
