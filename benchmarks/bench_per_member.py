@@ -38,9 +38,9 @@ ROOT = Path(__file__).resolve().parent.parent
 COUNTED = ("import atexit, sys\n"
            "from pylmp_lattice.sweep import table\n"
            "writes, write = [], table.Table.write\n"
-           "def counted(self):\n"
+           "def counted(self, *args):\n"
            "    writes.append(1)\n"
-           "    return write(self)\n"
+           "    return write(self, *args)\n"
            "table.Table.write = counted\n"
            "atexit.register(lambda: print(f'table-writes {len(writes)}', file=sys.stderr))\n") + COORDINATOR_CPU
 
