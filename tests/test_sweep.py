@@ -827,6 +827,18 @@ def test_replicas_identities_are_made_where_they_are_asked_for_and_are_their_cas
             assert member.id == case_id(member.case), member.index
     assert len({m.id for p in sent for m in p} | {m.id for t in tasks for m in t.each()}) == 12
 
+    # where the seed's place in the case text is not found (a plain function of the seed), the
+    # coordinator makes the ids itself and sends them: the same members and tasks
+    from pylmp_lattice.sweep import spec
+
+    made = spec.seeded_hashes
+    monkeypatch.setattr(spec, "seeded_hashes", lambda data: (lambda seed, hashes=made(data): hashes(seed)))
+    tasks = list(execute._Coordinator(sweep, tmp_path, Pool(None, 2), execute._StopSignals(), False, False,
+                                      sweep.count())._tasks())
+    parts = [pickle.loads(pickle.dumps(p)) for t in tasks for p in t.members if isinstance(p, Replicas)]
+    assert [p.identity for p in parts] == [None, None] and [p.ids for p in parts] == [p.ids for p in sent]
+    monkeypatch.setattr(spec, "seeded_hashes", made)
+
     twice = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4) + '[grid]\n"impactor.velocity" = [1.0, 1.0]\n'))
     monkeypatch.setattr(seeds, "member_seeds", lambda seed, start, count: [start % 4 + k + 1 for k in range(count)])
     members = twice.members()

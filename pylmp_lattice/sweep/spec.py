@@ -45,7 +45,7 @@ import copy
 import itertools
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -145,7 +145,7 @@ class Replicas:
     start: int | None
     index: list
     seeds: list
-    identity: Any
+    identity: Callable[[int], str] | None  # None: the ids are `made`
     made: list | None = None
 
     def __len__(self) -> int:
@@ -156,10 +156,9 @@ class Replicas:
         """The members' identities."""
         return self.made if self.made is not None else list(map(self.identity, self.seeds))
 
-    def __getstate__(self):  # the ids only where they were made (a worker makes them again)
-        made = self.__dict__.get("ids", self.made)
-        return {k: v for k, v in self.__dict__.items() if k != "ids"} | {
-            "made": made if made is not None and not isinstance(self.identity, SeededHashes) else None}
+    def __getstate__(self):  # sent without the ids a SeededHashes makes: the worker makes them again
+        state = {k: v for k, v in self.__dict__.items() if k != "ids"}
+        return state if self.identity is None else state | {"made": None}
 
     def __setstate__(self, state):
         self.__dict__.update(state)
