@@ -201,6 +201,34 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     assert mixed or "".join(lines) == expected.to_csv(index=False, float_format=short_float)
 
 
+def test_rows_go_through_a_pickle_whole_and_a_column_of_one_value_once():
+    """A batch's rows (`table.Rows`) sent through a pickle, as a worker sends them: every column
+    the same values of the same types (numpy arrays the same bytes: -0.0, NaN and the dtype kept),
+    and a column of one value repeated costs that value once, not 8 bytes a member."""
+    import pickle
+
+    from pylmp_lattice.sweep.table import Rows
+
+    n = 5000
+    columns = {"id": [f"m{i}" for i in range(n)], "status": ["done"] * n, "wall_time_s": np.full(n, 0.5),
+               "v": np.arange(n) * 0.1, "z": np.full(n, -0.0), "gone": np.full(n, np.nan), "k": np.full(n, 7),
+               "ok": np.ones(n, dtype=bool), "one": np.full(n, 2.5)}
+    columns["one"][-1] = np.nextafter(2.5, 3.0)  # differs in its last bit only: not one value
+    rows = Rows(np.arange(n), (), tuple(columns)[2:], columns, "text")
+    sent = pickle.dumps(rows)
+    back = pickle.loads(sent)
+    assert back.text == "text" and back.index.tolist() == list(range(n)) and list(back.columns) == list(columns)
+    for key, column in columns.items():
+        got = back.columns[key]
+        if isinstance(column, list):
+            assert got == column, key
+        else:
+            assert got.dtype == column.dtype and got.tobytes() == column.tobytes() and got.flags.writeable, key
+    # the ids (about 10 bytes each), the index and the two columns of distinct values: 34 bytes a
+    # row; each of the repeated columns would add 8 more (1 the flags), 67 in all
+    assert len(sent) < 40 * n
+
+
 def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
     """`csv_text` of batches' rows that came out of order, one whose rows another batch set
     again later (its lines are split, the later ones kept), a cell quoted: what pandas writes."""
