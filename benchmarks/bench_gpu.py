@@ -31,7 +31,7 @@ front record, the friction, both; then also the sine drive's path, a constant dr
 the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
 mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
 members with the engine's choices changed one at a time: the due rows of the front record
-listed and sampled after the step, not each after its atom's kick (gpu.SAMPLE_LISTED); blocks of
+listed and sampled after the step, or marked in a bit mask, or each after its atom's kick (gpu.SAMPLING); blocks of
 64 threads; fewer of the marks, x, v, f in shared memory (gpu.SHARED_ARRAYS); caps on the registers;
 a module for per-atom masses; and, with --reference-kernel DIR, the kernel in DIR (another
 revision's plugin/kernel folder, its local arrays 32 or 64 long as ece083f's engine rounded n,
@@ -270,14 +270,16 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     cap = lambda registers: capped(gpu.compile_options, registers)  # noqa: E731
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
-            "the due rows listed, sampled after the step": ({}, {"SAMPLE_LISTED": True}),
+            "the due rows sampled each after its atom's kick": ({}, {"SAMPLING": "per_atom"}),
+            "the due rows marked in a bit mask, sampled after the step": ({}, {"SAMPLING": "masked"}),
             "blocks of 64 threads": ({}, {"SHARED_THREADS": 64}),
             "marks, x, v in shared memory, at most 160 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(160)}),
             "marks, x, v in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(128)}),
             "marks, x in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 2, "compile_options": cap(128)}),
             "at most 128 registers": ({}, {"compile_options": cap(128)}),
             "marks alone in shared memory (x, v, f in registers)": ({}, {"SHARED_ARRAYS": 1}),
-            "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLE_LISTED": True}),
+            "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "listed"}),
+            "marks alone, masked": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "masked"}),
             "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)
@@ -287,7 +289,7 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {gpu_name()}; {count} thermal replicas of the 21-magnet "
           f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it); unless said "
           f"runs of {gpu.short_block(a.n)} atoms ({one}), {gpu.shared_arrays(a.n)} of the marks, x, v, f in "
-          f"shared memory, blocks of {gpu.block_threads(a.n)} threads, rows listed ({gpu.SAMPLE_LISTED}), one mass")
+          f"shared memory, blocks of {gpu.block_threads(a.n)} threads, rows sampled {gpu.SAMPLING}, one mass")
     print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
     print("|---|---|---|---|---|")
     first = None

@@ -75,15 +75,15 @@ def test_the_paper_s_chains_hold_a_fraction_of_the_local_memory_they_held(monkey
     rows = n * layout().ncol * 8
     assert local_size(n) == n and local_size(64) == 64 and local_size(65) == 0
     neither, both = (0, 3.0, False, False), (0, 3.0, True, True)
-    for case, shared, listed, bound, spill in ((neither, gpu.SHARED_ARRAYS, gpu.SAMPLE_LISTED, 1500, 0),
-                                               (both, gpu.SHARED_ARRAYS, gpu.SAMPLE_LISTED, rows + 2560 + 1000, 2048),
-                                               (both, 4, False, rows + 500, 64)):
+    for case, shared, sampling, bound, spill in ((neither, gpu.SHARED_ARRAYS, gpu.SAMPLING, 1500, 0),
+                                                 (both, gpu.SHARED_ARRAYS, gpu.SAMPLING, rows + 2560 + 1000, 2048),
+                                                 (both, 4, "per_atom", rows + 500, 64)):
         monkeypatch.setattr(gpu, "SHARED_ARRAYS", shared)
-        monkeypatch.setattr(gpu, "SAMPLE_LISTED", listed)
+        monkeypatch.setattr(gpu, "SAMPLING", sampling)
         got = nvrtc.compile_kernel(KERNEL / "engine_gpu.cu", (*compile_options(n, case, one_mass=True), "-arch=sm_90",
                                                                    "-Xptxas=-v"))
         assert got.rc == 0, got.log
         m = re.search(r"Function properties for pl_run_short_chains_gpu\n[^\n]*?(\d+) bytes stack frame, (\d+) bytes "
                       r"spill stores, (\d+) bytes spill loads", got.log)
         stack, stores, loads = map(int, m.groups())
-        assert stack < min(bound, 12592) and stores <= spill and loads <= spill, (case, shared, listed, got.log)
+        assert stack < min(bound, 12592) and stores <= spill and loads <= spill, (case, shared, sampling, got.log)

@@ -359,23 +359,24 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
         gpu.run_arrays(a)
 
 
-@pytest.mark.parametrize("block,shared,listed", [(1, 4, False), (4, 1, True), (19, 4, True), (19, 3, False),
-                                                 (19, 2, True)])
-def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, listed):
+@pytest.mark.parametrize("block,shared,sampling", [(1, 4, "per_atom"), (4, 1, "listed"), (19, 4, "listed"),
+                                                   (19, 3, "per_atom"), (19, 2, "listed"), (19, 1, "masked"),
+                                                   (4, 4, "masked")])
+def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, sampling):
     """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
     compile-time constant, chosen by the registers it leaves, benchmarks/gpu_resources.py): one
     atom, a few runs, or one run of all 19; x, v, f in shared memory or registers (the first
-    `shared` of marks, x, v, f in shared memory); the record's
-    rows sampled per atom or listed after the step: bit for bit the host engine's (runs of its
-    BLOCK, sampled per run)."""
+    `shared` of marks, x, v, f in shared memory); the record's rows sampled per atom, or listed
+    or marked in a bit mask and sampled after the step: bit for bit the host engine's (runs of
+    its BLOCK, sampled per run)."""
     monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
     monkeypatch.setattr(gpu, "SHARED_ARRAYS", shared)
-    monkeypatch.setattr(gpu, "SAMPLE_LISTED", listed)
+    monkeypatch.setattr(gpu, "SAMPLING", sampling)
     cases = members(friction=FRICTION)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
     a = prepare(cases, "gpu")
     assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
-    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLE_LISTED={int(listed)}"} <= set(
+    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLING={gpu.SAMPLINGS[sampling]}"} <= set(
         emulated_gpu.modules[0])
 
 

@@ -46,10 +46,13 @@ SHARED_ARRAYS = 1
 # ... in blocks of SHARED_THREADS threads where more than the marks are in the row (bench_gpu.py
 # --variants: 32 or 64 threads, no clear winner in two runs, 16:11 and 17:10 UTC)
 SHARED_THREADS = 32
-# The front record's due rows, sampled each right after its atom's kick (False) or listed and
-# sampled together after the step (True; chain.h's Sampling): 1.07x (marks alone in shared memory)
-# and 1.18x (all four) per-atom sampling's speed (--variants, 17:10 UTC)
-SAMPLE_LISTED = True
+# The front record's due rows (chain.h's Sampling): "per_atom", each sampled right after its
+# atom's kick; "listed", listed and sampled together after the step: 1.07x (marks alone in shared
+# memory) and 1.18x (all four) per_atom's speed (--variants, 17:10 UTC); "masked", marked in a bit
+# mask and sampled after the step from where their v and f are, no list in local memory (ptxas:
+# a smaller stack and fewer spills, benchmarks/gpu_resources.py; not yet timed on a device)
+SAMPLING = "listed"
+SAMPLINGS = {"per_atom": 0, "listed": 1, "masked": 2}  # engine_gpu.cu's PL_SAMPLING
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
 LOCAL_MAX = 64
 # ... in runs of free atoms of at most SHORT_BLOCK: the paper's 21 magnets in one run of 19, every
@@ -197,7 +200,7 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local)}",
-            f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLE_LISTED={int(SAMPLE_LISTED)}", "-fmad=false",
+            f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLING={SAMPLINGS[SAMPLING]}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 

@@ -110,8 +110,13 @@ namespace detail {
    run compared at once); per_atom, each atom's right after its kick; listed, the step's due rows
    listed and sampled together after the step, in one loop that a warp's threads (other chains,
    each with its own atoms due) run side by side, where per_atom runs one atom's sampling after
-   another for the few threads due at each (bench_gpu.py --variants times both). */
-enum class Sampling { per_run, per_atom, listed };
+   another for the few threads due at each (bench_gpu.py --variants times both); masked, the
+   step's due atoms marked in a bit mask and sampled after the step in a loop over the atoms
+   unrolled, each atom's v and f read where they are (a GPU thread's registers), not copied into
+   a list (64 x 40 bytes of local memory): a waiting atom's velocity before the step, which its
+   start's crossing needs, goes into its row's V_PREV when it is marked (sample_row reads it
+   there), which its sampling then overwrites as it would. */
+enum class Sampling { per_run, per_atom, listed, masked };
 
 /* A chain's start gates (ChainFront): atom i's is its chain's start level while it waits, -infinity
    while active, NaN when finished. ArrayGates: an array of R (the host engine: per lane). */
@@ -193,6 +198,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
   };
   Due *due_now;                   // listed: room for n (an array apart, so that the hook's own
   int due_count = 0;              // state, its gates, stays in registers)
+  unsigned long long due_mask = 0;    // masked: the atoms due (BitGates' most atoms: 64)
 
   /* lane l's row of atom i, with its v, f and m at this sample and v_prev at the last one */
   PL_HD PL_HOST_COLD void row(int l, int i, double vi, double fi, double m, double v_prev)    // host: a call keeps the lanes' code small
@@ -213,13 +219,18 @@ template <class R, class Runs, class Gates> struct ChainFront {
     if (!L::any(m)) return;
     if constexpr (SAMPLING == Sampling::listed) {
       if (c->alive[0]) due_now[due_count++] = Due{i, v[i], f[i], mass[slot[i]], v_prev};
+    } else if constexpr (SAMPLING == Sampling::masked) {
+      static_assert(W == 1, "masked sampling: one chain (a GPU thread)");
+      if (!c->alive[0]) return;
+      due_mask |= 1ull << i;
+      if (gate[i] != -infinity()) c->rec[(long long) i * front::NCOL + front::V_PREV] = v_prev;    // it starts now
     } else {
       for (int l = 0; l < W; l++)
         if (L::on(m, l) && c->alive[l])
           row(l, i, L::get(v[i], l), L::get(f[i], l), L::get(mass[slot[i]], l), L::get(v_prev, l));
     }
   }
-  /* listed: the rows listed since the last flush */
+  /* listed, masked: the rows due since the last flush */
   PL_HD void flush()
   {
     if constexpr (SAMPLING == Sampling::listed) {
@@ -228,6 +239,13 @@ template <class R, class Runs, class Gates> struct ChainFront {
         row(0, d.i, d.v, d.f, d.m, d.v_prev);
       }
       due_count = 0;
+    } else if constexpr (SAMPLING == Sampling::masked) {
+      if (!due_mask) return;
+      PL_UNROLL
+      for (int i = 0; i < Runs::n; i++)
+        if (due_mask >> i & 1)
+          row(0, i, v[i], f[i], mass[slot[i]], c->rec[(long long) i * front::NCOL + front::V_PREV]);
+      due_mask = 0;
     }
   }
   /* PER_ATOM: atom i just kicked, its velocity before the step v_before */

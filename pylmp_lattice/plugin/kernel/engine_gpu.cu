@@ -9,8 +9,9 @@
    them in registers as far as they fit (one of each mass term for a batch of one mass,
    PL_ONE_MASS); the marks (and, with PL_SHARED_ARRAYS > 1, x, v, f) in the thread's row of
    shared memory; the start gates as bits (chain.h's BitGates); the rest, and the front record's
-   rows (touched only for the few atoms between their start and both peaks, which PL_SAMPLE_LISTED
-   lists during the step and samples after it), in per-thread local memory. At ece083f (arrays
+   rows (touched only for the few atoms between their start and both peaks, which PL_SAMPLING 1
+   lists during the step and samples after it, 2 marks in a bit mask, 0 samples at each atom's
+   kick: chain.h's Sampling), in per-thread local memory. At ece083f (arrays
    of 32 or 64, loops over a run-time n) all of it was local memory: 12.6 kB a thread for 21
    magnets with friction and record, 638 MB for the threads an H100/H200 holds at once, 13x its
    L2 (benchmarks/gpu_resources.py prints both; bench_gpu.py --variants times the choices).
@@ -24,7 +25,7 @@
 
    A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
    the short chains' kernel for chains that long (PL_BLOCK its runs, PL_THREADS its block's
-   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLE_LISTED as above), 0 the global rows'
+   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLING as above), 0 the global rows'
    kernel; PL_LAW_KIND (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the
    one case of chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
    NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
@@ -33,8 +34,8 @@
 
 #if !defined(PL_LOCAL_N) || !defined(PL_BLOCK) || !defined(PL_LAW_KIND) || !defined(PL_LAW_Q) || !defined(PL_FRICTION) \
     || !defined(PL_RECORD) || !defined(PL_ONE_MASS) || !defined(PL_THREADS) || !defined(PL_SHARED_ARRAYS) \
-    || !defined(PL_SAMPLE_LISTED)
-#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_ARRAYS, -DPL_SAMPLE_LISTED"
+    || !defined(PL_SAMPLING)
+#error "engine_gpu.cu is compiled for one batch: -DPL_LOCAL_N, -DPL_BLOCK, -DPL_LAW_KIND, -DPL_LAW_Q, -DPL_FRICTION, -DPL_RECORD, -DPL_ONE_MASS, -DPL_THREADS, -DPL_SHARED_ARRAYS, -DPL_SAMPLING"
 #endif
 
 using namespace pl_kernel;
@@ -170,7 +171,10 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
     d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
     d.rec = rec, d.mark = mark, d.phase = phase;    // the start gates as bits (chain.h's BitGates)
   }
-  run_compiled<FixedRuns<N, PL_BLOCK>, PL_SAMPLE_LISTED ? detail::Sampling::listed : detail::Sampling::per_atom>(S, d);
+  constexpr detail::Sampling SAMPLING = PL_SAMPLING == 2   ? detail::Sampling::masked
+                                       : PL_SAMPLING == 1 ? detail::Sampling::listed
+                                                          : detail::Sampling::per_atom;
+  run_compiled<FixedRuns<N, PL_BLOCK>, SAMPLING>(S, d);
   PL_UNROLL
   for (int i = 0; i < N; i++) x[at + i] = xl[i], v[at + i] = vl[i];
   if (PL_RECORD)
