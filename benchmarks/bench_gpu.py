@@ -280,6 +280,7 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             "marks alone in shared memory (x, v, f in registers)": ({}, {"SHARED_ARRAYS": 1}),
             "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "listed"}),
             "marks alone, masked": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "masked"}),
+            "marks and x in shared memory, masked": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked"}),
             "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)

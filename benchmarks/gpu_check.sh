@@ -39,14 +39,17 @@ reference=()
 [ -f wheels/kernel-ece083f/engine_gpu.cu ] && reference=(--reference-kernel wheels/kernel-ece083f)
 timeout 150 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 100000 "${reference[@]}"
 stage "variants exit $?"
-# The front record's two ways of sampling after the step (gpu.SAMPLING), alternating at 10^6
-# members on the warm device: "listed" (the default, timed fastest on 2026-11-27) and "masked"
-# (ptxas: stack 9280 -> 6256 B, spills 1442/964 -> 300/304 B; not yet timed)
-stage "the samplings alternating: bench_gpu.py --sizes 1000000 with gpu.SAMPLING listed, masked, listed, masked"
-for sampling in listed masked listed masked; do
-  timeout 60 "$py" -c "import runpy, sys; from pylmp_lattice.engines import gpu; gpu.SAMPLING = '$sampling'
+# The front record's due rows sampled after the step (gpu.SAMPLING) and what sits in shared memory
+# (gpu.SHARED_ARRAYS), alternating at 10^6 members on the warm device: "listed" with the marks
+# alone (the default, timed fastest on 2026-11-27), "masked" with the marks alone (ptxas: stack
+# 9280 -> 6256 B, spills 1442/964 -> 300/304 B) and with marks and x (nothing spilled); the last
+# two not yet timed
+stage "samplings alternating: bench_gpu.py --sizes 1000000 with gpu.SAMPLING:gpu.SHARED_ARRAYS"
+for config in listed:1 masked:1 masked:2 listed:1 masked:1 masked:2; do
+  timeout 60 "$py" -c "import runpy, sys; from pylmp_lattice.engines import gpu
+gpu.SAMPLING, gpu.SHARED_ARRAYS = '${config%%:*}', ${config##*:}
 sys.argv = ['bench_gpu.py', '--sizes', '1000000', '--long', '0', '--sweep', '', '--loop-limit', '0']
-runpy.run_path('benchmarks/bench_gpu.py', run_name='__main__')" 2>&1 | grep -E "^\| 1000000" | sed "s/^/$sampling: /"
+runpy.run_path('benchmarks/bench_gpu.py', run_name='__main__')" 2>&1 | grep -E "^\| 1000000" | sed "s/^/$config: /"
 done
 stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \

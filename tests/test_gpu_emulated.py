@@ -360,7 +360,7 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
 
 
 @pytest.mark.parametrize("block,shared,sampling", [(1, 4, "per_atom"), (4, 1, "listed"), (19, 4, "listed"),
-                                                   (19, 3, "per_atom"), (19, 2, "listed"), (19, 1, "masked"),
+                                                   (19, 3, "per_atom"), (19, 2, "listed"), (19, 1, "masked"), (19, 2, "masked"),
                                                    (4, 4, "masked")])
 def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, sampling):
     """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
