@@ -227,6 +227,10 @@ def test_rows_go_through_a_pickle_whole_and_a_column_of_one_value_once():
     # the ids (about 10 bytes each), the index and the two columns of distinct values: 34 bytes a
     # row; each of the repeated columns would add 8 more (1 the flags), 67 in all
     assert len(sent) < 40 * n
+    # a strided column, and objects: sent as they are
+    odd = {"every": np.full(2 * n, 3.0)[::2], "objects": np.array(["a"] * n, dtype=object)}
+    back = pickle.loads(pickle.dumps(Rows(np.arange(n), (), ("every", "objects"), odd)))
+    assert back.columns["every"].tolist() == [3.0] * n and back.columns["objects"].tolist() == ["a"] * n
 
 
 def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():

@@ -115,7 +115,7 @@ class _Same:
 
     @classmethod
     def of(cls, column) -> _Same | None:
-        if _kind(column) is None or len(column) < 2:
+        if _kind(column) not in tuple("fiub") or len(column) < 2 or not column.flags.c_contiguous:
             return None
         cells = column.view("u1").reshape(len(column), -1)
         return cls(column[:1].copy(), len(column)) if (cells == cells[0]).all() else None
