@@ -436,18 +436,27 @@ def test_invalid_members_are_recorded_failed_and_retried_only_when_asked(tmp_pat
 
 
 
-def test_a_resumed_sweep_says_how_many_members_it_kept(tmp_path, caplog):
+def test_a_resumed_sweep_says_how_many_members_it_kept(tmp_path, caplog, monkeypatch):
     """Members whose outcome is on disk are kept, and the run says how many (no engine needed:
-    the members fail on their parameters)."""
+    the members fail on their parameters). Each run says where its time went: since the command
+    started in a process of a few seconds, since the sweep started in an older one."""
+    from pylmp_lattice import overhead
+
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0, -2.0]\n')
     caplog.set_level("INFO", logger="pylmp_lattice")
+    monkeypatch.setattr(overhead, "process_age", lambda: 5.0)  # a command of 5 s as the sweep starts
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
     assert "before this run" not in caplog.text
-    # where the time went, since the command (here: pytest) started, in order
     said = re.search(r"out: (\S+) s since the command started: the first task sent at (\S+) s, the last members done "
                      r"at (\S+) s, the table written at (\S+) s", caplog.text)
     total, sent, done, written = map(float, said.groups())
-    assert 0 < sent <= done <= written == total
+    assert 5.0 < sent <= done <= written == total
+    caplog.clear()
+    monkeypatch.setattr(overhead, "process_age", lambda: 3600.0)  # a notebook's hour-old process
+    run_sweep(load_sweep(path), tmp_path / "again", workers=1, progress=False)
+    total, sent = map(float, re.search(r"again: (\S+) s since the sweep started: the first task sent at (\S+) s",
+                                       caplog.text).groups())
+    assert 0 < sent <= total < 60
     caplog.clear()
     run_sweep(load_sweep(path), tmp_path / "out", workers=1, progress=False)
     assert ("out: 2 of 2 members had an outcome before this run (0 done, 2 failed): kept, not run again "

@@ -132,6 +132,7 @@ class _Coordinator:
         tasks = self._tasks()
         running: dict[Future, Task] = {}
         sent = done_at = None  # when the first task went out, and the last members came back (monotonic s)
+        origin = _origin()
         try:
             ready: list[Task] = []  # the next tasks, enumerated while the workers run
             while True:
@@ -170,7 +171,7 @@ class _Coordinator:
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = int((table["status"] == DONE).sum())
         if sent is not None and done_at is not None:
-            _timeline(self.root.name, sent, done_at)
+            _timeline(self.root.name, origin, sent, done_at)
         if self.preload is not None:  # ended (after a stop: at its next step), so that the caller's figure does not
             # draw beside it, nor does the command exit while it runs an extension's code (an abort at exit)
             self.preload.join()
@@ -342,17 +343,26 @@ class _Coordinator:
         self.bar.advance(record["status"])
 
 
-def _timeline(name: str, sent: float, done_at: float) -> None:
-    """Say where the sweep's time went (info): since the command started (Linux; elsewhere since
-    the first task went out), when the first task went out, the last members came back and the
-    table (and the replica figure drawn beside it) was written."""
-    from ..overhead import process_age
+def _origin() -> tuple[float, str]:
+    """Where a sweep's timeline starts (monotonic s) and what it is: the command's start where the
+    process is one (younger than YOUNG_S as the sweep starts, Linux), else now (a notebook's or
+    script's process may be hours old)."""
+    from ..overhead import YOUNG_S, process_age
 
     now = time.monotonic()
     try:
-        start, since = now - process_age(), "the command started"
+        age = process_age()
     except (OSError, ValueError, IndexError):
-        start, since = sent, "the first task went out"
+        age = YOUNG_S
+    return (now - age, "the command started") if age < YOUNG_S else (now, "the sweep started")
+
+
+def _timeline(name: str, origin: tuple[float, str], sent: float, done_at: float) -> None:
+    """Say where the sweep's time went (info): since `origin` (`_origin`), when the first task went
+    out, the last members came back and the table (and the replica figure drawn beside it) was
+    written."""
+    start, since = origin
+    now = time.monotonic()
     log.info("%s: %.2f s since %s: the first task sent at %.2f s, the last members done at %.2f s, the table written "
              "at %.2f s", name, now - start, since, sent - start, done_at - start, now - start)
 
