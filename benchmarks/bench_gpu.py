@@ -232,7 +232,8 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
         said = [line for line in done.stderr.splitlines() if line.startswith("coordinator-cpu")]
         coordinator = float(said[-1].split()[1]) if said else float("nan")
         if done.returncode != 0:
-            print(f"| {count} | failed ({done.returncode}): {done.stderr.strip().splitlines()[-3:]} | - | - | - | - | - |")
+            print(f"| {count} | failed ({done.returncode}): {done.stderr.strip().splitlines()[-3:]} "
+                  "| - | - | - | - | - |")
             continue
         times = re.search(r"first task sent at (\S+) s, the last members done at (\S+) s, the table written at (\S+) s",
                           done.stderr)
@@ -271,7 +272,6 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
             "the due rows sampled each after its atom's kick": ({}, {"SAMPLING": "per_atom"}),
-            "the due rows marked in a bit mask, sampled after the step": ({}, {"SAMPLING": "masked"}),
             "blocks of 64 threads": ({}, {"SHARED_THREADS": 64}),
             "marks, x, v in shared memory, at most 160 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(160)}),
             "marks, x, v in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(128)}),
