@@ -1435,6 +1435,52 @@ def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_
     assert _packed(column, texts) is texts[id(column)].array and np.array_equal(_packed(column), _packed(column, texts))
 
 
+def test_a_batch_s_columns_of_one_shared_value_are_written_as_those_of_equal_values(tmp_path):
+    """Members that share a case's values (one object in every row: `store.columns`' `same`)
+    get the members.json, members.arrow and table cells (`table.batch_rows`) that the same
+    values in objects of their own get, byte for byte, and those made value by value: json.dumps
+    of the columns, members.arrow made without knowing them shared (`columns_file._array`): each
+    kind of value, a non-finite float (null), a list of gap numbers, an int beyond Arrow's
+    int64 (no members.arrow)."""
+    from pylmp_lattice.sweep.columns_file import COLUMNS_FILE, write_columns
+    from pylmp_lattice.sweep.store import BATCH_FILE, write_batch
+    from pylmp_lattice.sweep.table import batch_rows
+
+    def copied(value):  # an equal value, no object shared (floats and texts made again)
+        if isinstance(value, dict):
+            return {k: copied(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [copied(v) for v in value]
+        return float(repr(value)) if type(value) is float else "".join(list(value)) if type(value) is str else value
+
+    shared = {"mass": 1.084, "r0": -0.0, "v": 2.81e-05, "big": 1e22, "law": "power", "ok": True, "n": 21,
+              "none": None, "gaps": [2, 12], "empty": [], "nan": float("nan"), "inf": float("inf"),
+              "section": {"q": 3.0, "name": "a,b"}}
+    record = {"status": "done", "engine": "cpu"}
+    for big in (False, True):
+        case = shared | ({"seed": 2**70} if big else {})
+        written = {}
+        for name, cases in (("shared", [case] * 5), ("copied", [copied(case) for _ in range(5)])):
+            folder = tmp_path / f"{name}{big}"
+            folder.mkdir()
+            texts: dict = {}
+            columns = write_batch(folder, record, [{"id": f"m{k}", "index": k, "params": {"p": k}, "chain": k, "case": c,
+                                                    "summary": {"x": k / 3, "c": c}} for k, c in enumerate(cases)], texts)
+            [rows] = batch_rows(list(range(5)), [f"m{k}" for k in range(5)], [{"p": k} for k in range(5)], "batches/m0",
+                                record, columns["cols"]["summary"], texts)
+            arrow = folder / COLUMNS_FILE
+            written[name] = ((folder / BATCH_FILE).read_bytes(), arrow.read_bytes() if arrow.exists() else None, rows.text)
+            text = json.dumps({**record, "columns": columns}, allow_nan=False, separators=(",", ":")) + "\n"
+            assert written[name][0] == text.encode()
+            plain = folder / "plain"
+            plain.mkdir()
+            write_columns(plain, record, columns, written[name][0])  # value by value
+            assert written[name][1] == ((plain / COLUMNS_FILE).read_bytes() if not big else None)
+        assert written["shared"] == written["copied"]
+        assert (written["shared"][1] is None) == big  # 2**70: not exact in Arrow, members.json alone
+        assert b'"nan":{"rows":[null,null,null,null,null]}' in written["shared"][0]
+
+
 def _typed(value):
     """A value with the type of each number, flag and text beside it (1 == 1.0 == True in Python)."""
     if isinstance(value, dict):

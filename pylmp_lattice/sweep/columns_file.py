@@ -27,14 +27,16 @@ DIGEST, RECORD = b"members.json sha256", b"record"
 LEFT_OUT = "case"  # the column of members.json this file leaves out
 
 
-def write_columns(folder: Path, record: dict, table: dict, text: bytes, floats: dict | None = None) -> None:
+def write_columns(folder: Path, record: dict, table: dict, text: bytes, floats: dict | None = None,
+                  same: dict | None = None) -> None:
     """members.arrow for a batch whose members.json is `text`, holding `record` and the columns
     `table` (strict, `store.columns`): written where every leaf is exact in Arrow. floats: its
-    columns of finite floats (`store.Floats`) by id of their lists."""
+    columns of finite floats (`store.Floats`) by id of their lists; same: its columns of one
+    value n times (`store.columns`), likewise."""
     if "cols" not in table:
         return
     leaves: dict = {}
-    if not _leaves({k: v for k, v in table["cols"].items() if k != LEFT_OUT}, [], leaves, floats or {}):
+    if not _leaves({k: v for k, v in table["cols"].items() if k != LEFT_OUT}, [], leaves, floats or {}, same or {}):
         return
     import pyarrow as pa
 
@@ -46,15 +48,15 @@ def write_columns(folder: Path, record: dict, table: dict, text: bytes, floats: 
     atomic_write(folder / COLUMNS_FILE, sink.getvalue().to_pybytes(), sync=False)
 
 
-def _leaves(cols: dict, path: list, out: dict, floats: dict) -> bool:
+def _leaves(cols: dict, path: list, out: dict, floats: dict, same: dict) -> bool:
     """Each leaf column of `cols` as an Arrow array into `out` by its path (JSON); False if one
-    is not exact in Arrow. floats: as `write_columns`'s."""
+    is not exact in Arrow. floats, same: as `write_columns`'s."""
     import pyarrow as pa
 
     for key, column in cols.items():
         where = [*path, key]
         if "cols" in column:
-            if not _leaves(column["cols"], where, out, floats):
+            if not _leaves(column["cols"], where, out, floats, same):
                 return False
             continue
         known = floats.get(id(column["rows"]))
@@ -62,30 +64,32 @@ def _leaves(cols: dict, path: list, out: dict, floats: dict) -> bool:
             out[json.dumps(where)] = pa.Array.from_buffers(pa.float64(), len(known.values),
                                                            [None, pa.py_buffer(known.array)], 0)
             continue
-        array = _exact(column["rows"])
+        array = _exact(column["rows"], id(column["rows"]) in same)
         if array is None:
             return False
         out[json.dumps(where)] = array
     return True
 
 
-def _exact(values: list):
+def _exact(values: list, same: bool = False):
     """The values as an Arrow array that gives them back as they are (`to_pylist`), or None.
     Made from its buffers, as `pa.array(values, type)` (then `dictionary_encode` for text) makes
     it, buffer for buffer: `pa.array` imports pandas (pyarrow's check for pandas arrays), 0.3 s
-    of each sweep worker's first task."""
+    of each sweep worker's first task. same: the values are one value n times (its kind and
+    its array's buffers are made from it, not by a look at each)."""
     import pyarrow as pa
 
-    kinds = set(map(type, values)) - {type(None)}
+    kinds = ({type(values[0])} if same and values else set(map(type, values))) - {type(None)}
     if not kinds:
         return pa.nulls(len(values))
     kind = {frozenset({float}): float, frozenset({int}): int, frozenset({bool}): bool, frozenset({str}): str}.get(frozenset(kinds))
-    if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in values if v))) <= {int}:
+    if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in (values[:1] if same else values)
+                                                                              if v))) <= {int}:
         kind = list
     if kind is None:
         return None
     try:
-        return _array(values, kind)
+        return _repeated(values, kind) if same else _array(values, kind)
     except (OverflowError, UnicodeError):  # an int beyond int64, text that is not UTF-8 (a lone surrogate)
         return None
 
@@ -121,6 +125,30 @@ def _array(values: list, kind: type):
     offsets = _offsets(np.fromiter(map(len, data), np.int64, len(data)))
     dictionary = pa.Array.from_buffers(pa.string(), len(data), [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(data))], 0)
     return pa.DictionaryArray.from_arrays(pa.Array.from_buffers(pa.int32(), n, [bitmap, pa.py_buffer(indices)], nulls),
+                                          dictionary)
+
+
+def _repeated(values: list, kind: type):
+    """`_array` of one value n times (not None), its buffers made from that value."""
+    import numpy as np
+    import pyarrow as pa
+
+    n, value = len(values), values[0]
+    if kind is float or kind is int:
+        data = np.full(n, value, np.float64 if kind is float else np.int64)
+        return pa.Array.from_buffers(pa.float64() if kind is float else pa.int64(), n, [None, pa.py_buffer(data)], 0)
+    if kind is bool:
+        data = np.packbits(np.full(n, value, bool), bitorder="little")
+        return pa.Array.from_buffers(pa.bool_(), n, [None, pa.py_buffer(data)], 0)
+    if kind is list:
+        items = np.tile(np.array(value, np.int64), n)
+        child = pa.Array.from_buffers(pa.int64(), len(items), [None, pa.py_buffer(items)], 0)
+        offsets = _offsets(np.full(n, len(value), np.int64))
+        return pa.Array.from_buffers(pa.list_(pa.int64()), n, [None, pa.py_buffer(offsets)], 0, children=[child])
+    data = value.encode()
+    dictionary = pa.Array.from_buffers(pa.string(), 1, [None, pa.py_buffer(np.array([0, len(data)], np.int32)),
+                                                         pa.py_buffer(data)], 0)
+    return pa.DictionaryArray.from_arrays(pa.Array.from_buffers(pa.int32(), n, [None, pa.py_buffer(np.zeros(n, np.int32))], 0),
                                           dictionary)
 
 

@@ -185,9 +185,10 @@ def write_batch(folder: Path, record: dict, members: list[dict], texts: dict | N
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
     texts = {} if texts is None else texts
-    table = _strict(columns(members), texts)
-    text = (_json(record, table, texts) + "\n").encode()
-    write_columns(Path(folder), record, table, text, texts)  # read back on resume, where it fits
+    same: dict = {}  # the columns of one value repeated (a point's shared case values), by id of their lists
+    table = _strict(columns(members, same), texts, same)
+    text = (_json(record, table, texts, same) + "\n").encode()
+    write_columns(Path(folder), record, table, text, texts, same)  # read back on resume, where it fits
     atomic_write(Path(folder) / BATCH_FILE, text, sync=False)
     return table
 
@@ -211,11 +212,21 @@ class Floats:
     def array(self) -> np.ndarray:
         return np.array(self.values, dtype=np.float64)
 
+    @classmethod
+    def repeated(cls, values: list) -> Floats:
+        """The `Floats` of a list of one finite float n times, made from that value once."""
+        text, n = repr(values[0]), len(values)
+        made = cls(values, [text] * n, ",".join(repeat(text, n)))
+        made.__dict__["array"] = np.full(n, values[0], dtype=np.float64)  # (the cached property's value)
+        return made
 
-def _json(record: dict, table: dict, texts: dict) -> str:
+
+def _json(record: dict, table: dict, texts: dict, same: dict | None = None) -> str:
     """`json.dumps({**record, "columns": table}, allow_nan=False, separators=_SEPARATORS)`, the
     columns of finite floats from their texts (`_strict`): a batch's summaries are some 60
-    floats a member, whose texts the table's CSV cells are made of too (`table.batch_rows`)."""
+    floats a member, whose texts the table's CSV cells are made of too (`table.batch_rows`);
+    a column of one value (`same`, by id of its list: `columns`) from that value's text."""
+    same = same or {}
 
     def dumps(value) -> str:
         return json.dumps(value, allow_nan=False, separators=_SEPARATORS)
@@ -223,49 +234,73 @@ def _json(record: dict, table: dict, texts: dict) -> str:
     def encoded(column: dict) -> str:
         if "cols" in column:
             return '{"cols":{' + ",".join(f"{dumps(k)}:{encoded(c)}" for k, c in column["cols"].items()) + "}}"
-        made = texts.get(id(column["rows"]))
-        return '{"rows":[' + made.joined + "]}" if made is not None else '{"rows":' + dumps(column["rows"]) + "}"
+        values = column["rows"]
+        made = texts.get(id(values))
+        if made is not None:
+            return '{"rows":[' + made.joined + "]}"
+        if id(values) in same:
+            return '{"rows":[' + ",".join(repeat(dumps(values[0]), len(values))) + "]}"
+        return '{"rows":' + dumps(values) + "}"
 
     return "{" + ",".join([*(f"{dumps(k)}:{dumps(v)}" for k, v in record.items() if k != "columns"),
                            '"columns":' + encoded(table)]) + "}"
 
 
-def columns(rows: list):
+def columns(rows: list, same: dict | None = None):
     """Rows as columns, for a batch of up to 10^6 members: dicts with the same keys become
-    {"cols": {key: columns(their values)}} (each key once), anything else {"rows": rows}."""
+    {"cols": {key: columns(their values)}} (each key once), anything else {"rows": rows}.
+    same: gets each column that is one value n times (the same object), by id of its list."""
     first = rows[0] if rows else None
     if rows and all(map(is_, rows, repeat(first))):  # one value n times (replicas' cases share most of theirs)
-        return _repeated(first, len(rows))
-    if type(first) is dict and first and set(map(type, rows)) == {dict} and all(map(first.keys().__eq__,
-                                                                                      map(dict.keys, rows))):
-        return {"cols": {key: columns(list(map(itemgetter(key), rows))) for key in first}}  # (map: at C speed)
+        return _repeated(first, len(rows), same)
+    if type(first) is dict and first and set(map(type, rows)) == {dict} and len(set(map(len, rows))) == 1:
+        try:  # as many keys each, and each has the first's: the same keys (map: at C speed)
+            values = {key: list(map(itemgetter(key), rows)) for key in first}
+        except KeyError:
+            return {"rows": rows}
+        return {"cols": {key: columns(column, same) for key, column in values.items()}}
     return {"rows": rows}
 
 
-def _repeated(value, n: int) -> dict:
+def _repeated(value, n: int, same: dict | None = None) -> dict:
     """`columns` of `n` times one value, without looking at each."""
     if type(value) is dict and value:
-        return {"cols": {key: _repeated(v, n) for key, v in value.items()}}
-    return {"rows": [value] * n}
+        return {"cols": {key: _repeated(v, n, same) for key, v in value.items()}}
+    rows = [value] * n
+    if same is not None:
+        same[id(rows)] = value
+    return {"rows": rows}
 
 
-def _strict(table: dict, texts: dict) -> dict:
+def _strict(table: dict, texts: dict, same: dict | None = None) -> dict:
     """`columns`' table with its values strict JSON (`serialize.jsonable`): a column of plain
     numbers, strings and None in one pass (non-finite floats become None), any other value by
     value: a batch's summaries are some 60 values a member. A column of finite floats is kept
-    as it is, and `texts` gets it as `Floats` by id of its list."""
+    as it is, and `texts` gets it as `Floats` by id of its list; a column of one value (`same`,
+    by id of its list: `columns`) is looked at once, not per member (a case's 30 values)."""
     from ..serialize import jsonable
 
+    same = {} if same is None else same
     if "cols" in table:
-        return {"cols": {key: _strict(column, texts) for key, column in table["cols"].items()}}
+        return {"cols": {key: _strict(column, texts, same) for key, column in table["cols"].items()}}
     values = table["rows"]
-    kinds = set(map(type, values))
+    if id(values) in same:
+        kinds = {type(values[0])}
+        if kinds == {float} and math.isfinite(values[0]):
+            texts[id(values)] = Floats.repeated(values)
+            return {"rows": values}
+        if kinds <= _EXACT or kinds == {list} and set(map(type, values[0])) <= _EXACT:
+            return {"rows": values}
+    else:
+        kinds = set(map(type, values))
     if kinds == {float}:  # most columns: finite numbers, kept as they are
         made = list(map(repr, values))
         joined = ",".join(made)
         if "n" not in joined:  # finite: "inf" and "nan" are the only float texts with an n
             texts[id(values)] = Floats(values, made, joined)
             return {"rows": values}
+    if kinds <= _EXACT:  # strict as they are (no float)
+        return {"rows": values}
     if kinds <= _PLAIN:
         return {"rows": [None if type(v) is float and not math.isfinite(v) else v for v in values]}
     if kinds == {list} and {type(x) for v in values for x in v} <= _EXACT:  # lists of gap or magnet numbers
