@@ -10,8 +10,8 @@ that does it (wall time, perf_counter; see --clock):
     engine     runner.run_deck: LAMMPS (its own Loop time from log.lammps beside it); with
                --engine cpu, engines.cpu.run_arrays: the chain kernel on --threads cores
     record     case_measures.read_front_batch: the front record and the drive's measures
-    summaries  summary.summaries: every member's summary
-    store      store.write_batch: members.json
+    summaries  summary.summary_columns (summary.summaries before): every member's summary
+    store      store.write_table (store.write_batch before): members.json and members.arrow
     other      the task's wall time minus all of the above (folders, files, bookkeeping)
 
 Python = task - engine. --clock cpu times with this process's CPU time (all its threads:
@@ -46,7 +46,8 @@ CASE = ROOT / "inputs" / "paper_experiment.toml"
 # (label, module, attribute): the functions timed, where the task looks them up
 STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"), ("engine", runner, "run_deck"),
           ("record", case_measures, "read_front_batch"), ("summaries", summary, "summaries"),
-          ("store", batch, "write_batch")]
+          ("summaries", summary, "summary_columns"), ("store", batch, "write_batch"), ("store", batch, "write_table")]
+# (a stage's function by its name on older trees: summaries and write_batch; a tree has one or the other)
 
 
 def task(folder: Path, members: int, thermal: float, friction: bool, engine: str = "lammps",
@@ -71,7 +72,7 @@ def timed_run(t: batch.Task) -> dict[str, float]:
     """Run the task with its stages timed; seconds per stage, the task's and the engine's Loop."""
     engine = ("engine", cpu, "run_arrays") if t.engine == "cpu" else ("engine", runner, "run_deck")
     stages = [(label, module, name) for label, module, name in STAGES[:2] + [engine] + STAGES[3:]
-              if hasattr(module, name)]  # (an older tree)
+              if hasattr(module, name) and not (name == "summaries" and hasattr(module, "summary_columns"))]  # (an older tree)
     spent = {label: 0.0 for label, *_ in stages}
     originals = [(module, name, getattr(module, name)) for _, module, name in stages]
 
@@ -128,7 +129,7 @@ def main() -> None:
           f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s, engine {args.engine}, "
           f"fastest of {args.repeat}")
     n = args.members
-    labels = [label for label, *_ in STAGES if label != "engine"]
+    labels = list(dict.fromkeys(label for label, *_ in STAGES if label != "engine"))
     print(f"{'variant':<13}" + "".join(f"{label:>10}" for label in labels)
           + f"{'other':>9}{'Python':>9}  {'engine s':>9}{'(Loop)':>8}{'task s':>8}")
     print(f"{'':<13}" + "".join(f"{'ms/member':>10}" for _ in labels) + f"{'':>9}{'ms/memb':>9}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+from itertools import islice, repeat
 from operator import itemgetter
 
 import numpy as np
@@ -18,6 +19,7 @@ import numpy as np
 from . import measures
 from .case import Case
 from .case_measures import ChainDraws, chain_draws, linear_constants_at
+from .columnar import columns, repeated, rows
 from .measures.front import LINEAR_LAG
 from .numbering import number
 
@@ -37,7 +39,7 @@ def summary_of(case: Case, front: measures.Front | None, max_speed: np.ndarray |
     max_speed: each magnet's largest |v| in the run, m/s, to check that a long lattice's far
     end stayed at rest."""
     if front is None:  # no drive, no shock (e.g. the friction calibration rig)
-        return _linear_part([case], chain_draws([case]))[0]
+        return {key: column[0] for key, column in _linear_part([case], chain_draws([case])).items()}
     return summaries([case], measures.stack_fronts([front]), None if max_speed is None else np.asarray(max_speed)[None])[0]
 
 
@@ -49,6 +51,13 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     points: a key per case, equal for cases that differ at most in chain.seed (a sweep's
     `Member.point`): what depends on a case but not on its draws (the fit windows) is worked
     out once per key (default: per case); V0 and f0 once per mean gap and mass."""
+    return rows(summary_columns(cases, front, max_speed, draws, points))
+
+
+def summary_columns(cases, front: measures.Front, max_speed: np.ndarray | None = None,
+                    draws: ChainDraws | None = None, points: list | None = None, same: dict | None = None) -> dict:
+    """`summaries` as columns (`columnar.columns` of them), made a key at a time: no dict per
+    member (a batch's members.json and table take them so). same: as `columnar.columns`'."""
     draws = draws or chain_draws(cases)
     points = _points(range(len(cases)) if points is None else points)
     vi = cases[0].impactor.peak_velocity()
@@ -56,30 +65,46 @@ def summaries(cases, front: measures.Front, max_speed: np.ndarray | None = None,
     speeds = measures.trailing_plateaus(vp)
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = measures.particles_reached(front.arrival).tolist()
-    maxima = _maxima(vp)
     positions = draws.positions
-    fits = _front_speeds(cases, points, front.arrival, positions)
-    labs = _lab_speeds(cases, points, front.arrival, positions)
-    out = _linear_part(cases, draws, points)
-    resolutions = _resolutions(front.resolutions())
-    resolved = [res["resolved"] for res in resolutions]
-    plateaus, peak_plateaus = _plateaus(speeds, resolved), _plateaus(first_peaks, resolved)
+    resolutions, resolved = _resolutions(front.resolutions())
     over_vi = _rounds(first_peaks.mean / vi, 4)
-    columns = (reached, plateaus, fits, maxima, peak_plateaus, over_vi, _flags(front.all_flags()), resolutions)
-    for row, values, lab in zip(out, zip(*columns), labs):  # (the keys in `_FRONT_KEYS`' order)
-        row.update(zip(_FRONT_KEYS, values))
-        if lab is not None:
-            row["front_speed_lab_m_per_s"] = lab
-    for rows in points:  # (a point's cases share their far end)
-        case = cases[rows[0]]
+    cols = {key: columns(column, same) for key, column in _linear_part(cases, draws, points).items()}
+    cols |= dict(zip(_FRONT_KEYS, (columns(reached, same), _plateaus(speeds, resolved, same),
+                                   _front_speeds(cases, points, front.arrival, positions, same), _maxima(vp, same),
+                                   _plateaus(first_peaks, resolved, same), columns(over_vi, same),
+                                   _flags(front.all_flags(), same), resolutions)))
+    n = len(cases)
+    labs, lab = _lab_speeds(cases, points, front.arrival, positions, same)
+    quiet = _far_end_quiet(cases, points, front, max_speed, vi)
+    if labs == n:
+        cols["front_speed_lab_m_per_s"] = lab
+    if len(quiet) == n:
+        cols["far_end_quiet"] = columns([quiet[r] for r in range(n)], same)
+    if labs in (0, n) and len(quiet) in (0, n):
+        return {"cols": cols}
+    out = rows({"cols": cols})  # summaries of unequal keys (points with and without L, or a long far end)
+    for row, value in zip(out, rows(lab)) if 0 < labs < n else ():
+        if value is not None:
+            row["front_speed_lab_m_per_s"] = value
+    for r, value in quiet.items() if 0 < len(quiet) < n else ():
+        out[r]["far_end_quiet"] = value
+    return columns(out, same)
+
+
+def _far_end_quiet(cases, points: list[list[int]], front: measures.Front, max_speed, vi: float) -> dict[int, bool]:
+    """`far_end_quiet` of each case of a long lattice (with max_speed), by row: whether its last
+    free magnet stayed below the noise level (a warning where it did not)."""
+    out = {}
+    for rows_ in points:  # (a point's cases share their far end)
+        case = cases[rows_[0]]
         if case.chain.far_end != "long" or max_speed is None:
             continue
         last_free = min(case.held()) - 1  # 0-based
         noises = np.broadcast_to(front.noise, len(cases))
-        for r in rows:
+        for r in rows_:
             last = float(max_speed[r, last_free])
-            out[r]["far_end_quiet"] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, float(noises[r])))
-            if not out[r]["far_end_quiet"]:
+            out[r] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, float(noises[r])))
+            if not out[r]:
                 log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
                             number(last_free), last)
     return out
@@ -117,22 +142,35 @@ def _points(keys) -> list[list[int]]:
     return list(groups.values())
 
 
-def _front_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray) -> list[dict | None]:
-    """`front_speed_m_per_s` of each case: V_P from the slope of the arrival times against the
-    initial positions (R, N) over `front_window` (no plateau criterion, so defined for every chain
-    whose front crossed the window; value null where it did not), with its standard error and window."""
+def _front_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray,
+                  same: dict | None = None) -> dict:
+    """`front_speed_m_per_s` of each case, as columns: V_P from the slope of the arrival times
+    against the initial positions (R, N) over `front_window` (no plateau criterion, so defined for
+    every chain whose front crossed the window; value null where it did not), with its standard
+    error and window; null for a case without a window."""
     arrival = np.atleast_2d(arrival)
-    out: list[dict | None] = [None] * len(cases)
     by_window: dict[tuple[int, int], list[int]] = {}
-    for rows in points:
-        window = front_window(cases[rows[0]])
+    for rows_ in points:
+        window = front_window(cases[rows_[0]])
         if window is not None:
-            by_window.setdefault(window, []).extend(rows)
-    for (first, last), rows in by_window.items():
-        speed, stderr = measures.fit_front_speeds(arrival[rows], positions[rows], first, last + 1)
-        for r, v, e in zip(rows, _fitted(speed.tolist()), _fitted(stderr.tolist())):
+            by_window.setdefault(window, []).extend(rows_)
+    fits = {}
+    for (first, last), rows_ in by_window.items():
+        speed, stderr = measures.fit_front_speeds(arrival[rows_], positions[rows_], first, last + 1)
+        fits[first, last] = rows_, _fitted(speed.tolist()), _fitted(stderr.tolist())
+    if len(fits) == 1 and len(next(iter(fits.values()))[0]) == len(cases):  # one window for all (a sweep's task)
+        [((first, last), (rows_, speeds, errors))] = fits.items()
+        order = np.argsort(rows_, kind="stable").tolist() if rows_ != sorted(rows_) else None
+        if order is not None:
+            speeds, errors = [speeds[k] for k in order], [errors[k] for k in order]
+        n = len(cases)
+        return {"cols": {"value": columns(speeds, same), "stderr": columns(errors, same),
+                         "first_gap": repeated(first, n, same), "last_gap": repeated(last, n, same)}}
+    out: list[dict | None] = [None] * len(cases)
+    for (first, last), (rows_, speeds, errors) in fits.items():
+        for r, v, e in zip(rows_, speeds, errors):
             out[r] = {"value": v, "stderr": e, "first_gap": first, "last_gap": last}
-    return out
+    return columns(out, same)
 
 
 def lab_window(case: Case) -> tuple[int, int] | None:
@@ -144,120 +182,149 @@ def lab_window(case: Case) -> tuple[int, int] | None:
     return (2, last) if last >= 4 else None
 
 
-def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray) -> list[dict | None]:
+def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: np.ndarray,
+                same: dict | None = None) -> tuple[int, dict]:
     """`front_speed_lab_m_per_s` of each case that gives chain.magnet_length L: the front speed
     over magnet centres, as an x-t image of the magnets shows it (pitch r0 + L, where the model's
     r0 is the gap between faces), fitted over `lab_window`, with the gap-frame speed over the
     same magnets beside it (value null where the front did not cross the window); None without L.
-    positions (R, N): the initial positions, x_1 = 0, the gaps between faces."""
+    positions (R, N): the initial positions, x_1 = 0, the gaps between faces. Returns how many
+    cases have one, and the column of all (`columnar.columns`)."""
     arrival = np.atleast_2d(arrival)
-    out: list[dict | None] = [None] * len(cases)
-    for rows in points:
-        case = cases[rows[0]]
+    parts = []
+    for rows_ in points:
+        case = cases[rows_[0]]
         length, window = case.chain.magnet_length, lab_window(case)
         if length is None or window is None:
             continue
         first, last = window
-        x = positions[rows]
+        x = positions[rows_]
         centres = x + length * np.arange(x.shape[1])
         # the centres' fits and the gaps' in one call (each row is fitted alone)
-        speed, error = measures.fit_front_speeds(np.concatenate([arrival[rows]] * 2), np.concatenate([centres, x]),
+        speed, error = measures.fit_front_speeds(np.concatenate([arrival[rows_]] * 2), np.concatenate([centres, x]),
                                                  first, last)
-        k = len(rows)
+        k = len(rows_)
         pitch = np.mean(np.diff(centres, axis=1), axis=1)
-        for r, lab, gap, e, p in zip(rows, _fitted(speed[:k].tolist()), _fitted(speed[k:].tolist()),
-                                     _fitted(error[:k].tolist()), _rounds(pitch.tolist(), 6)):
-            out[r] = {"value": lab, "stderr": e, "gap_frame_m_per_s": gap, "magnets": [first, last], "pitch_mm": p}
-    return out
+        parts.append((rows_, [first, last], (_fitted(speed[:k].tolist()), _fitted(error[:k].tolist()),
+                                             _fitted(speed[k:].tolist()), _rounds(pitch.tolist(), 6))))
+    n = len(cases)
+    if len(parts) == 1 and parts[0][0] == list(range(n)):  # one point, all of the cases (a sweep's task)
+        [(_, magnets, (lab, e, gap, p))] = parts
+        return n, {"cols": {"value": columns(lab, same), "stderr": columns(e, same), "gap_frame_m_per_s": columns(gap, same),
+                            "magnets": repeated(magnets, n, same), "pitch_mm": columns(p, same)}}
+    out: list[dict | None] = [None] * n
+    for rows_, magnets, values in parts:
+        for r, lab, e, gap, p in zip(rows_, *values):
+            out[r] = {"value": lab, "stderr": e, "gap_frame_m_per_s": gap, "magnets": list(magnets), "pitch_mm": p}
+    return sum(len(part[0]) for part in parts), columns(out, same)
 
 
-def _linear_part(cases, draws: ChainDraws, points: list[list[int]] | None = None) -> list[dict]:
-    """The part of each summary without a front: the case, N, V_I and the linear V0 and f0
-    (computed once for chains of equal mean gap and mass); points: the rows grouped by
-    `_points` (cases that differ at most in chain.seed share all but V0 and f0's means)."""
-    out: list = [None] * len(cases)
+def _linear_part(cases, draws: ChainDraws, points: list[list[int]] | None = None) -> dict[str, list]:
+    """The part of each summary without a front, as columns (key: a value per case): the case,
+    N, V_I and the linear V0 and f0 (computed once for chains of equal mean gap and mass);
+    points: the rows grouped by `_points` (cases that differ at most in chain.seed share all
+    but V0 and f0's means)."""
+    n = len(cases)
+    out: dict[str, list] = {key: [None] * n for key in _LINEAR_KEYS}
     r0s, masses = np.mean(draws.gaps, axis=1).tolist(), np.mean(draws.masses, axis=1).tolist()
-    for rows in points or _points(range(len(cases))):
-        case = cases[rows[0]]
-        done: dict[tuple, tuple[float, float]] = {}
-        part = {"case": case.name, "particles": case.chain.particles,
-                "impactor_peak_velocity_m_per_s": case.impactor.peak_velocity()}
-        for r in rows:
-            key = (r0s[r], masses[r])
-            if key not in done:
-                v0, f0 = linear_constants_at(case.force, *key)
-                done[key] = _round(v0, 6), _round(f0, 4)
-            v0, f0 = done[key]
-            out[r] = part | {"linear_wave_speed_V0_m_per_s": v0, "linear_frequency_f0_Hz": f0}
+    for rows_ in points or _points(range(n)):
+        case = cases[rows_[0]]
+        keys = list(zip(map(r0s.__getitem__, rows_), map(masses.__getitem__, rows_)))
+        done = {key: linear_constants_at(case.force, *key) for key in dict.fromkeys(keys)}
+        done = {key: (_round(v0, 6), _round(f0, 4)) for key, (v0, f0) in done.items()}
+        constants = list(map(done.__getitem__, keys))
+        parts = (repeat(case.name), repeat(case.chain.particles), repeat(case.impactor.peak_velocity()),
+                 map(itemgetter(0), constants), map(itemgetter(1), constants))
+        whole = rows_ == list(range(n))  # one point (a sweep's task): whole columns
+        for key, values in zip(_LINEAR_KEYS, parts):
+            if whole:
+                out[key] = list(islice(values, n))
+            else:
+                for r, value in zip(rows_, values):
+                    out[key][r] = value
     return out
 
 
-def _maxima(vp: np.ndarray) -> list[dict | None]:
+_LINEAR_KEYS = ("case", "particles", "impactor_peak_velocity_m_per_s", "linear_wave_speed_V0_m_per_s",
+                "linear_frequency_f0_Hz")
+
+
+def _maxima(vp: np.ndarray, same: dict | None = None) -> dict:
     """Largest V_P of each chain, vp (R, N-1), and the gap where it occurs (gap n between magnets
-    n and n+1); None for a chain without any."""
+    n and n+1); None for a chain without any. As columns (`columnar.columns`)."""
     found = np.isfinite(vp).any(axis=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: no maximum (None)
         top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(found[:, None], vp, 0.0), axis=1).tolist()
-    return [{"value": v, "gap": number(i)} if ok else None for v, i, ok in zip(_rounds(top, 5), where, found.tolist())]
+    if found.all():
+        return {"cols": {"value": columns(_rounds(top, 5), same), "gap": columns(list(map(number, where)), same)}}
+    return columns([{"value": v, "gap": number(i)} if ok else None for v, i, ok in zip(_rounds(top, 5), where, found.tolist())],
+                   same)
 
 
-def _flags(flags: list[dict]) -> list[dict]:
+def _flags(flags: list[dict], same: dict | None = None) -> dict:
     """The flagged gaps of each chain (`Front.all_flags`: out of order, below the slowest linear
-    speed), as counts and gap numbers."""
-    return [{"out_of_order": len(f["out_of_order_gaps"]), "below_linear_speed": len(f["below_linear_speed_gaps"]),
-             **rounded} for f, rounded in zip(flags, _floats_rounded(flags, 6))]
+    speed), as counts and gap numbers; as columns (`columnar.columns`)."""
+    rounded = _floats_rounded(flags, 6, same)
+    counts = {"out_of_order": columns([len(f["out_of_order_gaps"]) for f in flags], same),
+              "below_linear_speed": columns([len(f["below_linear_speed_gaps"]) for f in flags], same)}
+    return {"cols": counts | rounded["cols"]} if "cols" in rounded else columns(
+        [{"out_of_order": len(f["out_of_order_gaps"]), "below_linear_speed": len(f["below_linear_speed_gaps"]), **r}
+         for f, r in zip(flags, rounded["rows"])], same)
 
 
-def _resolutions(resolutions: list[dict]) -> list[dict]:
+def _resolutions(resolutions: list[dict], same: dict | None = None) -> tuple[dict, list[bool]]:
     """`Front.resolutions`, rounded, each with its `source`: "engine record" (the engine's
     arrivals of every step, sample_interval_ms 0) or "frames" (read from frames
-    sample_interval_ms apart), and a warning when the frames are too coarse for the gaps."""
+    sample_interval_ms apart), and a warning when the frames are too coarse for the gaps. As
+    columns (`columnar.columns`), and whether each chain's arrivals are resolved."""
     for res in resolutions:
         if not res["resolved"]:
             log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
                         "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
                         "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
                         res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
-    return [rounded | {"source": "engine record" if res["sample_interval_ms"] == 0 else "frames"}
-            for res, rounded in zip(resolutions, _floats_rounded(resolutions, 6))]
+    sources = [("engine record" if res["sample_interval_ms"] == 0 else "frames") for res in resolutions]
+    rounded = _floats_rounded(resolutions, 6, same)
+    resolved = [res["resolved"] for res in resolutions]
+    if "cols" in rounded:
+        return {"cols": rounded["cols"] | {"source": columns(sources, same)}}, resolved
+    return columns([r | {"source": source} for r, source in zip(rounded["rows"], sources)], same), resolved
 
 
-def _floats_rounded(rows: list[dict], decimals: int) -> list[dict]:
-    """Each dict with its floats `_round`ed (its other values as they are), a key's values at a
-    time where every dict has the same keys (`_rounds`)."""
-    keys = tuple(rows[0]) if rows else ()
-    if rows and not all(map(rows[0].keys().__eq__, map(dict.keys, rows))):  # (at C speed)
-        return [{k: _round(v, decimals) if isinstance(v, float) else v for k, v in row.items()} for row in rows]
-    columns = []
+def _floats_rounded(rows_: list[dict], decimals: int, same: dict | None = None) -> dict:
+    """The dicts with their floats `_round`ed (their other values as they are), as columns
+    (`columnar.columns`), a key's values at a time where every dict has the same keys
+    (`_rounds`); else {"rows": the dicts rounded}."""
+    keys = tuple(rows_[0]) if rows_ else ()
+    if not rows_ or not all(map(rows_[0].keys().__eq__, map(dict.keys, rows_))):  # (at C speed)
+        return {"rows": [{k: _round(v, decimals) if isinstance(v, float) else v for k, v in row.items()} for row in rows_]}
+    out = {}
     for key in keys:
-        values = list(map(itemgetter(key), rows))
+        values = list(map(itemgetter(key), rows_))
         floats = [issubclass(kind, float) for kind in set(map(type, values))]
-        columns.append(_rounds(values, decimals) if all(floats) else values if not any(floats)
-                       else [_round(v, decimals) if isinstance(v, float) else v for v in values])
-    return [dict(zip(keys, values)) for values in zip(*columns)]
+        out[key] = columns(_rounds(values, decimals) if all(floats) else values if not any(floats)
+                           else [_round(v, decimals) if isinstance(v, float) else v for v in values], same)
+    return {"cols": out}
 
 
-def _plateaus(plateaus: measures.Plateaus, resolved: list[bool]) -> list[dict]:
+def _plateaus(plateaus: measures.Plateaus, resolved: list[bool], same: dict | None = None) -> dict:
     """Each plateau as JSON (its chain's arrival times `resolved` or not), its window as
     first_gap, last_gap (or first_magnet, last_magnet). trend: "steady" when converged (drift
     within 1 %, or 3 standard errors, and a scatter within 20 % of the mean), else "decaying"
     (e.g. V_P with friction) or "growing": a drifting mean is not a plateau; "unresolved" (never
     converged) when the arrival times come from frames too coarse for the gaps (`resolved`
     False; see `front_resolution`). Null, like the numbers, when the series has too few values.
-    The numbers are rounded, and convergence judged, a column at a time."""
-    numbers = zip(*(_rounds(getattr(plateaus, f), 5) for f in ("mean", "std", "drift", "drift_stderr")))
+    As columns (`columnar.columns`), the numbers rounded and convergence judged a column at a time."""
+    numbers = [_rounds(getattr(plateaus, f), 5) for f in ("mean", "std", "drift", "drift_stderr")]
     defined = np.isfinite(plateaus.mean)
     converged = (defined & np.asarray(resolved, dtype=bool) & plateaus.converged()).tolist()
-    first, last = f"first_{plateaus.over}", f"last_{plateaus.over}"
-    out = []
-    for ok, known, steady, decaying, (mean, std, drift, stderr), a, b in zip(
-            resolved, defined.tolist(), converged, (plateaus.drift < 0).tolist(), numbers, plateaus.first, plateaus.last):
-        trend = (None if not known else "unresolved" if not ok else "steady" if steady
-                 else "decaying" if decaying else "growing")
-        out.append({"mean": mean, "std": std, "relative_drift": drift, "relative_drift_stderr": stderr,
-                    "converged": steady, "trend": trend, first: a, last: b})
-    return out
+    trends = [None if not known else "unresolved" if not ok else "steady" if steady else "decaying" if decaying else "growing"
+              for ok, known, steady, decaying in zip(resolved, defined.tolist(), converged, (plateaus.drift < 0).tolist())]
+    keys = ("mean", "std", "relative_drift", "relative_drift_stderr", "converged", "trend", f"first_{plateaus.over}",
+            f"last_{plateaus.over}")
+    return {"cols": {key: columns(list(values), same)
+                     for key, values in zip(keys, (*numbers, converged, trends, plateaus.first, plateaus.last))}}
 
 
 def _fitted(xs: list[float]) -> list[float | None]:

@@ -23,6 +23,7 @@ from pylmp_lattice.run_folder import execute, run_case
 from pylmp_lattice.run_folder.folder import RunFolder
 from pylmp_lattice.studies.long_lattice import analyse
 from pylmp_lattice.studies.output import write_study
+from pylmp_lattice.columnar import rows
 from pylmp_lattice.summary import _maxima
 
 from conftest import make_case
@@ -45,7 +46,7 @@ def test_a_late_magnet_is_named_by_its_gaps_as_the_paper_counts():
     arrival[7] += 0.5  # magnet 8
     vp = measures.propagation_velocity(arrival, R0)
     assert_allclose(vp[entries(7, 8)], [R0 / 1.5, R0 / 0.5])
-    assert _maxima(vp[None])[0]["gap"] == 8
+    assert rows(_maxima(vp[None]))[0]["gap"] == 8
     front = measures.Front(arrival, vp, peaks=None, slowest_linear_speed=10.0)  # flags V_P < 9 m/s: 8 m/s
     assert front.flags()["below_linear_speed_gaps"] == [7]
     # the plateau of the last quarter of the 29 gaps: gaps 22 to 29, all at r0 / 1 ms

@@ -11,6 +11,7 @@ import pytest
 from pylmp_lattice import measures
 from pylmp_lattice.run_folder import RunFolder, run_case
 from pylmp_lattice.serialize import dumps
+from pylmp_lattice.columnar import rows
 from pylmp_lattice.summary import _plateaus, _round, _rounds, summary_of
 
 from conftest import make_case
@@ -40,7 +41,7 @@ def test_plateau_says_whether_it_converged_and_which_way_it_drifts():
     steady = measures.trailing_plateau(3.9 + 1e-4 * np.sin(gaps))
     decaying = measures.trailing_plateau(3.9 - 0.004 * gaps)  # loses 0.2 of 3.9 m/s over the last 50
     growing = measures.trailing_plateau(3.0 + 0.004 * gaps)
-    s, d, g = _plateaus(measures.Plateaus.of([steady, decaying, growing]), [True] * 3)
+    s, d, g = rows(_plateaus(measures.Plateaus.of([steady, decaying, growing]), [True] * 3))
     assert (s["converged"], s["trend"]) == (True, "steady") and (s["first_gap"], s["last_gap"]) == (151, 200)
     assert (d["converged"], d["trend"]) == (False, "decaying") and d["relative_drift"] < -0.01
     assert (g["converged"], g["trend"]) == (False, "growing")
@@ -51,7 +52,7 @@ def test_small_numbers_keep_three_significant_figures_and_others_their_decimals(
     (5 decimals); it stays 1.09e-6 (3 significant figures), while a V_P of 3.9012345 m/s keeps
     its 5 decimals (3.90123) as before."""
     p = measures.Plateau(3.9012345, 4.2345e-6, 2.01e-4, 1, 50, drift_stderr=1.0912e-6)
-    d = _plateaus(measures.Plateaus.of([p]), [True])[0]
+    d = rows(_plateaus(measures.Plateaus.of([p]), [True]))[0]
     assert d["relative_drift_stderr"] == pytest.approx(1.09e-6, rel=1e-12)
     assert d["std"] == pytest.approx(4.23e-6, rel=1e-12)
     assert d["relative_drift"] == pytest.approx(2.01e-4, rel=1e-12) and d["mean"] == 3.90123
@@ -214,3 +215,55 @@ def test_a_short_chain_s_lab_window_holds_three_magnets_or_is_left_out(particles
     assert (lab and lab["magnets"]) == window
     if window:
         assert lab["value"] == pytest.approx(18.35 / (12 / 4.18), abs=1e-5)  # 5 decimals
+
+
+def test_a_batch_s_summary_columns_are_its_summaries_as_columns_and_each_the_case_s_alone():
+    """summary_columns, made a key at a time (no dict per member), is `columnar.columns` of the
+    batch's summaries, and each summary is the case's alone: for a batch of one point (a
+    sweep's task: columns all through) and one of points with and without magnet_length, a
+    chain whose front never left the impactor (no V_P: null maximum and fit) and a long far
+    end beside fixed ones (keys some summaries lack: a list of summaries)."""
+    from pylmp_lattice.columnar import columns
+    from pylmp_lattice.summary import summaries, summary_columns
+
+    def front_of(arrival):
+        peaks = measures.first_peaks(np.array([0.0, 1.0]), np.zeros((2, 21)), np.zeros((2, 21)), 2.0)
+        return measures.Front(arrival, measures.propagation_velocity(arrival, 12.0), peaks, "level", 0.0, 1.6, 0.0)
+
+    rng = np.random.default_rng(3)
+    steady = [np.concatenate([[0.0], np.cumsum(12.0 / (4.18 + 0.05 * rng.standard_normal(20)))]) for _ in range(4)]
+    for a in steady:
+        a[20] = np.nan  # the fixed magnet 21 never moves
+    stuck = np.full(21, np.nan)
+    stuck[0] = 0.0
+    lab, plain = make_case(particles=21, chain={"magnet_length": 6.35}), make_case(particles=21)
+    long = make_case(particles=21, chain={"far_end": "long"})
+    max_speed = np.zeros((4, 21))
+    for cases, points, arrivals in (([lab] * 4, ["a"] * 4, steady),
+                                    ([lab, plain, lab, long], ["a", "b", "a", "c"], [steady[0], steady[1], stuck, steady[3]])):
+        fronts = [front_of(a) for a in arrivals]
+        front = measures.stack_fronts(fronts)
+        table = summary_columns(cases, front, max_speed, points=points)
+        out = summaries(cases, front, max_speed, points=points)
+        assert json.dumps(table) == json.dumps(columns(out))  # (json: NaN as text, keys in order)
+        assert ("cols" in table) == (len(set(points)) == 1)
+        for case, one, speed, summary in zip(cases, fronts, max_speed, out):
+            assert json.dumps(summary) == json.dumps(summaries([case], measures.stack_fronts([one]), speed[None])[0])
+    # the keys in summary.json's order (members.json's columns follow them)
+    assert list(out[0]) == ["case", "particles", "impactor_peak_velocity_m_per_s", "linear_wave_speed_V0_m_per_s",
+                            "linear_frequency_f0_Hz", "particles_reached_by_front", "shock_velocity_plateau_m_per_s",
+                            "front_speed_m_per_s", "shock_velocity_max_m_per_s", "first_peak_velocity_plateau_m_per_s",
+                            "first_peak_velocity_over_V_I", "front_flags", "front_resolution", "front_speed_lab_m_per_s"]
+    assert list(out[0]["shock_velocity_plateau_m_per_s"]) == ["mean", "std", "relative_drift", "relative_drift_stderr",
+                                                              "converged", "trend", "first_gap", "last_gap"]
+    assert list(out[0]["first_peak_velocity_plateau_m_per_s"])[-2:] == ["first_magnet", "last_magnet"]
+    assert list(out[0]["front_speed_m_per_s"]) == ["value", "stderr", "first_gap", "last_gap"]
+    assert list(out[0]["shock_velocity_max_m_per_s"]) == ["value", "gap"]
+    assert list(out[0]["front_flags"]) == ["out_of_order", "below_linear_speed", "out_of_order_gaps", "below_linear_speed_gaps",
+                                           "slowest_linear_speed_m_per_s", "noise_velocity_m_per_s"]
+    assert list(out[0]["front_resolution"]) == ["sample_interval_ms", "gap_crossing_time_ms", "frames_per_gap",
+                                                "max_sample_interval_ms", "resolved", "source"]
+    assert list(out[0]["front_speed_lab_m_per_s"]) == ["value", "stderr", "gap_frame_m_per_s", "magnets", "pitch_mm"]
+    assert out[2]["shock_velocity_max_m_per_s"] is None and out[0]["shock_velocity_max_m_per_s"]["gap"] >= 2
+    assert "front_speed_lab_m_per_s" in out[0] and "front_speed_lab_m_per_s" not in out[1]
+    assert out[3]["far_end_quiet"] is True and "far_end_quiet" not in out[0]

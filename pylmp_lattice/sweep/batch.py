@@ -9,7 +9,7 @@ in DIR/batches/<id of the first>/, a run folder written and run by `run_folder.e
 chains bit for bit, and the fix's front record is per atom, so chain r's rows are member r's
 record (with friction, the fix also reports each chain's friction work). The batch's
 members.json then records every member's outcome with the summary a run alone would write
-(`store.write_batch`: no file per member).
+(`store.write_table`: no file per member).
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
 own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
 
@@ -35,13 +35,14 @@ from itertools import repeat
 from pathlib import Path
 
 from ..case import Case
+from ..columnar import columns, repeated
 from ..errors import Interrupted, LatticeError
 from ..formats.files import DiskFull, remove_tree
 from . import signals
 from .member import _cpu_time, _fresh, _invalid, _record, one_line, run_member, unstarted
 from .spec import Member, Replicas, member_cases
 from .store import (BATCHES, DONE, INTERRUPTED, MEMBERS, Outcomes, listing, member_folder, now, provenance, task_lock,
-                    write_batch)
+                    write_table)
 from .table import Rows, batch_rows
 
 log = logging.getLogger(__name__)
@@ -226,9 +227,10 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
         if (batch / layout.FRONT_LEVELS).is_file() and "lattice/front" in str(err):
             LEVELS_PER_CHAIN = False
         return _alone(root, group, runner)
+    same: dict = {}  # the columns of one value n times (`columnar.columns`)
     try:
         summaries = _summaries(cases, batch, draws, [m.point for m, _ in group],
-                               None if isinstance(engine, str) else engine.record)
+                               None if isinstance(engine, str) else engine.record, same)
     except Interrupted as err:  # a stop while its measures were read: as one during the run
         return _batch_stopped(group, batch, started, err)
     except Exception as err:  # noqa: BLE001 - a record that cannot be read (or a bug in reading it): each
@@ -242,12 +244,19 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
               "cpu_time_s": round(cpu, 4)}
     where = {"folder": str(batch), "log": str(batch / layout.LOG)}
     outcome = {"status": DONE, "files": where, "wall_time_s": round(wall, 4)}
-    for summary in summaries:  # (each summary is this batch's own: extended in place)
-        summary.update(outcome)
-    members = [{"id": m.id, "index": m.index, "params": m.params, "chain": r, "case": m.data, "summary": summary}
-               for r, ((m, _), summary) in enumerate(zip(group, summaries))]
+    n = len(group)
+    if "cols" in summaries:
+        summaries["cols"] |= {key: repeated(value, n, same) for key, value in outcome.items()}
+    else:  # summaries of unequal keys: each this batch's own, extended in place
+        for summary in summaries["rows"]:
+            summary.update(outcome)
+    # the members' {id, index, params, chain, case, summary} as `columns` of them, a key at a time
+    members = [m for m, _ in group]
+    table = {"cols": {"id": columns([m.id for m in members], same), "index": columns([m.index for m in members], same),
+                      "params": columns([m.params for m in members], same), "chain": columns(list(range(n)), same),
+                      "case": columns([m.data for m in members], same), "summary": summaries}}
     texts: dict = {}  # the texts of its columns of floats, for members.json and the CSV's cells alike
-    written = write_batch(batch, record, members, texts)  # last: the members are done
+    written = write_table(batch, record, table, texts, same)  # last: the members are done
     alone = listing(root / MEMBERS)
     for m, _ in group:  # an earlier outcome of a member alone (failed, interrupted) is out of date
         if m.id in alone:
@@ -283,18 +292,19 @@ def _alone(root: Path, group: list[tuple[Member, Case]], runner: str) -> dict[st
     return out
 
 
-def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=None) -> list[dict]:
-    """Each chain's summary from the batch's front record, as its run alone would write it
-    (draws: the members' `case_measures.chain_draws`; points: their `Member.point`; rows: the
-    record as a kernel engine holds it, `engines.road.KernelEngine.record`, not read back)."""
+def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=None, same: dict | None = None) -> dict:
+    """Each chain's summary from the batch's front record, as its run alone would write it, as
+    columns (`summary.summary_columns`; same: as `columnar.columns`') (draws: the members'
+    `case_measures.chain_draws`; points: their `Member.point`; rows: the record as a kernel
+    engine holds it, `engines.road.KernelEngine.record`, not read back)."""
     from .. import measures
     from ..case_measures import read_front_batch
     from ..formats import layout
-    from ..summary import summaries
+    from ..summary import summary_columns
 
     method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
     record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws, rows)
-    out = summaries(cases, record.front, record.max_speed, draws, points)
+    out = summary_columns(cases, record.front, record.max_speed, draws, points, same)
     if cases[0].friction is not None:
         import numpy as np
 
@@ -303,9 +313,13 @@ def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=No
 
         # as a run alone reads it from its log: the thermo column's 8 significant digits
         works = (batch / layout.CHAIN_WORK).read_text().split()
-        if len(works) != len(out):
-            raise ValueError(f"{layout.CHAIN_WORK}: {len(works)} chains' work for {len(out)} chains")
+        if len(works) != len(cases):
+            raise ValueError(f"{layout.CHAIN_WORK}: {len(works)} chains' work for {len(cases)} chains")
         logged = (" ".join(["%.8g"] * len(works)) % tuple(map(float, works))).split()
-        for summary, work in zip(out, rounds(from_engine(np.array(list(map(float, logged))), "energy"), 6)):
-            summary["friction_dissipated_energy_mJ"] = work
+        work = rounds(from_engine(np.array(list(map(float, logged))), "energy"), 6)
+        if "cols" in out:
+            out["cols"]["friction_dissipated_energy_mJ"] = columns(work, same)
+        else:
+            for summary, value in zip(out["rows"], work):
+                summary["friction_dissipated_energy_mJ"] = value
     return out

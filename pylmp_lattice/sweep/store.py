@@ -33,11 +33,11 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import cache, cached_property
 from itertools import repeat
-from operator import is_, itemgetter
 from pathlib import Path
 
 import numpy as np
 
+from ..columnar import columns, rows  # noqa: F401 - rows: the table's (`table.batch_rows`)
 from ..file_lock import Held, exclusive
 from ..formats.files import atomic_write
 from ..formats.layout import BATCHES, MEMBERS, SWEEP_FILE
@@ -179,14 +179,22 @@ def listing(folder: Path) -> set[str]:
 def write_batch(folder: Path, record: dict, members: list[dict], texts: dict | None = None) -> dict:
     """The outcome of members done in one batch: DIR/batches/<name>/members.json, `record` (what
     they share: status, times, provenance) and `members` ({id, index, params, chain, case,
-    summary} each) as columns (`columns`), written last and atomically. Returns those columns
-    as written (strict: what `read_batch` reads back), for the table's rows (`table.batch_rows`);
-    `texts` gets each column of finite floats as `Floats`, by id of its list."""
+    summary} each) as columns (`columns`), written last and atomically (`write_table`)."""
+    same: dict = {}
+    return write_table(folder, record, columns(members, same), texts, same)
+
+
+def write_table(folder: Path, record: dict, table: dict, texts: dict | None = None, same: dict | None = None) -> dict:
+    """`write_batch` of the members' columns (`columns` of their rows, or made a key at a time:
+    `sweep.batch`). Returns those columns as written (strict: what `read_batch` reads back), for
+    the table's rows (`table.batch_rows`); `texts` gets each column of finite floats as `Floats`,
+    by id of its list. same: the columns of one value n times (`columns`), by id of their lists:
+    each looked at once (a point's shared case values)."""
     # strict JSON (no NaN); only summaries hold numpy values or NaN (ids, parameters and cases
     # are TOML values, finite by validation)
     texts = {} if texts is None else texts
-    same: dict = {}  # the columns of one value repeated (a point's shared case values), by id of their lists
-    table = _strict(columns(members, same), texts, same)
+    same = {} if same is None else same
+    table = _strict(table, texts, same)
     text = (_json(record, table, texts, same) + "\n").encode()
     write_columns(Path(folder), record, table, text, texts, same)  # read back on resume, where it fits
     atomic_write(Path(folder) / BATCH_FILE, text, sync=False)
@@ -246,32 +254,6 @@ def _json(record: dict, table: dict, texts: dict, same: dict | None = None) -> s
                            '"columns":' + encoded(table)]) + "}"
 
 
-def columns(rows: list, same: dict | None = None):
-    """Rows as columns, for a batch of up to 10^6 members: dicts with the same keys become
-    {"cols": {key: columns(their values)}} (each key once), anything else {"rows": rows}.
-    same: gets each column that is one value n times (the same object), by id of its list."""
-    first = rows[0] if rows else None
-    if rows and all(map(is_, rows, repeat(first))):  # one value n times (replicas' cases share most of theirs)
-        return _repeated(first, len(rows), same)
-    if type(first) is dict and first and set(map(type, rows)) == {dict} and len(set(map(len, rows))) == 1:
-        try:  # as many keys each, and each has the first's: the same keys (map: at C speed)
-            values = {key: list(map(itemgetter(key), rows)) for key in first}
-        except KeyError:
-            return {"rows": rows}
-        return {"cols": {key: columns(column, same) for key, column in values.items()}}
-    return {"rows": rows}
-
-
-def _repeated(value, n: int, same: dict | None = None) -> dict:
-    """`columns` of `n` times one value, without looking at each."""
-    if type(value) is dict and value:
-        return {"cols": {key: _repeated(v, n, same) for key, v in value.items()}}
-    rows = [value] * n
-    if same is not None:
-        same[id(rows)] = value
-    return {"rows": rows}
-
-
 def _strict(table: dict, texts: dict, same: dict | None = None) -> dict:
     """`columns`' table with its values strict JSON (`serialize.jsonable`): a column of plain
     numbers, strings and None in one pass (non-finite floats become None), any other value by
@@ -310,14 +292,6 @@ def _strict(table: dict, texts: dict, same: dict | None = None) -> dict:
 
 _PLAIN = {float, int, bool, str, type(None)}
 _EXACT = _PLAIN - {float}  # strict JSON as they are
-
-
-def rows(table: dict) -> list:
-    """`columns` undone."""
-    if "rows" in table:
-        return table["rows"]
-    cols = {key: rows(column) for key, column in table["cols"].items()}
-    return [dict(zip(cols, values)) for values in zip(*cols.values(), strict=True)]
 
 
 def read_batch(path: Path) -> dict[str, dict]:
