@@ -67,9 +67,9 @@ def replica_batch(cases: Sequence[Case]) -> Case:
     first_range = replica_range(first)
     tabulated = first_range is not None  # of every replica: their laws are first's (checked below)
     outside = _OUTSIDE_CHAIN(first)
+    if not uses_chain_engine(first):  # (of the run and second neighbours: each replica's, once equal outside [chain])
+        raise ConfigError("run.engine", "replica 0: batched replicas need the chain engine (and no second neighbours)")
     for r, case in enumerate(cases):
-        if not uses_chain_engine(case):
-            raise ConfigError("run.engine", f"replica {r}: batched replicas need the chain engine (and no second neighbours)")
         if _OUTSIDE_CHAIN(case) != outside:  # (a tuple's == tries `is` first: a sweep's replicas share these objects)
             raise ConfigError("replicas", f"replica {r} differs from replica 0 outside [chain]")
         if case.chain.particles != first.chain.particles or (tabulated and case.table_range() != first_range):

@@ -185,11 +185,16 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
 
     groups: dict[tuple, list] = {}
     able: dict[str, bool] = {}  # `batchable` of each parameter point (it does not look at the seed)
+    keys: dict[str, tuple] = {}  # the key of each point whose law is exact (`replica_range` None: no look at the seed)
     for i, (m, case) in enumerate(valid):
         if m.point not in able:
             able[m.point] = batchable(case)
-        shared = None if LEVELS_PER_CHAIN else deck_text(case)
-        key = (case.chain.particles, replica_range(case), shared) if able[m.point] else ("alone", i)
+            if able[m.point] and LEVELS_PER_CHAIN and replica_range(case) is None:
+                keys[m.point] = (case.chain.particles, None, None)
+        key = keys.get(m.point)
+        if key is None:
+            shared = None if LEVELS_PER_CHAIN else deck_text(case)
+            key = (case.chain.particles, replica_range(case), shared) if able[m.point] else ("alone", i)
         groups.setdefault(key, []).append((m, case))
     return list(groups.values())
 
