@@ -1435,6 +1435,20 @@ def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_
     assert _packed(column, texts) is texts[id(column)].array and np.array_equal(_packed(column), _packed(column, texts))
 
 
+def test_a_column_s_float_texts_made_once_per_value_are_each_value_s_repr():
+    """store._float_texts (a text per distinct value where a column repeats its values) gives
+    repr of each value: -0.0 beside 0.0 (equal values, other texts), NaN, subnormals, 17 digits."""
+    from pylmp_lattice.sweep.store import _float_texts
+
+    rng = np.random.default_rng(5)
+    few = [1.5, 2.25, 1e-05, 1e22, 5e-324, 0.1 + 0.2, float("nan"), 123456.78901234567]
+    for values in ([few[k] for k in rng.integers(0, len(few), 3000)],  # few values: a text per value
+                   [(-0.0, 0.0, 1.5)[k] for k in rng.integers(0, 3, 3000)],  # both zeros: repr of each
+                   rng.normal(size=3000).tolist(),  # all distinct
+                   [*rng.normal(size=1000).tolist(), *[2.5] * 5000]):  # judged from the first 1000
+        assert _float_texts(values) == list(map(repr, values))
+
+
 def test_a_batch_s_columns_of_one_shared_value_are_written_as_those_of_equal_values(tmp_path):
     """Members that share a case's values (one object in every row: `store.columns`' `same`)
     get the members.json, members.arrow and table cells (`table.batch_rows`) that the same

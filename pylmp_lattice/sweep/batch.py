@@ -123,12 +123,13 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
     rows: list[Rows] = []  # of the batches done
     # a task run again (e.g. by Dask after its worker died) keeps what is done: its batches are
     # named by their first member
-    done = Outcomes(root, batches=[m.id for m in members])
-    for m in members:
+    ids = [m.id for m in members]
+    done = Outcomes(root, batches=ids)
+    for m in members if not done.none_of(ids) else ():  # (a first run: no look at each)
         found = done.get(m.id)
         if found is not None and found["record"]["status"] == DONE:
             results[m.id] = {"id": m.id} | found
-    todo = [m for m in members if m.id not in results]
+    todo = [m for m in members if m.id not in results] if results else list(members)
     cases = _cases(task, todo)
     for m, case in zip(todo, cases):
         if case is None:  # invalid parameters (a replica's own draw): failed without running
