@@ -12,7 +12,7 @@ import logging
 import math
 import warnings
 from itertools import islice, repeat
-from operator import itemgetter
+from operator import is_, itemgetter
 
 import numpy as np
 
@@ -66,13 +66,13 @@ def summary_columns(cases, front: measures.Front, max_speed: np.ndarray | None =
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = measures.particles_reached(front.arrival).tolist()
     positions = draws.positions
-    resolutions, resolved = _resolutions(front.resolutions())
+    resolutions, resolved = _resolutions(front.resolution_columns())
     over_vi = _rounds(first_peaks.mean / vi, 4)
     cols = {key: columns(column, same) for key, column in _linear_part(cases, draws, points).items()}
     cols |= dict(zip(_FRONT_KEYS, (columns(reached, same), _plateaus(speeds, resolved, same),
                                    _front_speeds(cases, points, front.arrival, positions, same), _maxima(vp, same),
                                    _plateaus(first_peaks, resolved, same), columns(over_vi, same),
-                                   _flags(front.all_flags(), same), resolutions)))
+                                   _flags(front.flag_columns(), same), resolutions)))
     n = len(cases)
     labs, lab = _lab_speeds(cases, points, front.arrival, positions, same)
     quiet = _far_end_quiet(cases, points, front, max_speed, vi)
@@ -262,50 +262,44 @@ def _maxima(vp: np.ndarray, same: dict | None = None) -> dict:
                    same)
 
 
-def _flags(flags: list[dict], same: dict | None = None) -> dict:
-    """The flagged gaps of each chain (`Front.all_flags`: out of order, below the slowest linear
-    speed), as counts and gap numbers; as columns (`columnar.columns`)."""
-    rounded = _floats_rounded(flags, 6, same)
-    counts = {"out_of_order": columns([len(f["out_of_order_gaps"]) for f in flags], same),
-              "below_linear_speed": columns([len(f["below_linear_speed_gaps"]) for f in flags], same)}
-    return {"cols": counts | rounded["cols"]} if "cols" in rounded else columns(
-        [{"out_of_order": len(f["out_of_order_gaps"]), "below_linear_speed": len(f["below_linear_speed_gaps"]), **r}
-         for f, r in zip(flags, rounded["rows"])], same)
+def _flags(flags: dict[str, list], same: dict | None = None) -> dict:
+    """The flagged gaps of each chain (`Front.flag_columns`: out of order, below the slowest
+    linear speed), as counts and gap numbers; as columns (`columnar.columns`)."""
+    counts = {"out_of_order": columns(list(map(len, flags["out_of_order_gaps"])), same),
+              "below_linear_speed": columns(list(map(len, flags["below_linear_speed_gaps"])), same)}
+    return {"cols": counts | _floats_rounded(flags, 6, same)}
 
 
-def _resolutions(resolutions: list[dict], same: dict | None = None) -> tuple[dict, list[bool]]:
-    """`Front.resolutions`, rounded, each with its `source`: "engine record" (the engine's
-    arrivals of every step, sample_interval_ms 0) or "frames" (read from frames
+def _resolutions(resolutions: dict[str, list], same: dict | None = None) -> tuple[dict, list[bool]]:
+    """`Front.resolution_columns`, rounded, with each chain's `source`: "engine record" (the
+    engine's arrivals of every step, sample_interval_ms 0) or "frames" (read from frames
     sample_interval_ms apart), and a warning when the frames are too coarse for the gaps. As
     columns (`columnar.columns`), and whether each chain's arrivals are resolved."""
-    for res in resolutions:
-        if not res["resolved"]:
-            log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
-                        "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
-                        "or output.front = true (the engine's record of every step)", res["sample_interval_ms"],
-                        res["frames_per_gap"], res["gap_crossing_time_ms"], res["max_sample_interval_ms"])
-    sources = [("engine record" if res["sample_interval_ms"] == 0 else "frames") for res in resolutions]
-    rounded = _floats_rounded(resolutions, 6, same)
-    resolved = [res["resolved"] for res in resolutions]
-    if "cols" in rounded:
-        return {"cols": rounded["cols"] | {"source": columns(sources, same)}}, resolved
-    return columns([r | {"source": source} for r, source in zip(rounded["rows"], sources)], same), resolved
+    resolved = resolutions["resolved"]
+    for r in [r for r, ok in enumerate(resolved) if not ok] if not all(resolved) else ():
+        log.warning("arrival times from frames every %.3g ms, %.2g per gap crossing (%.3g ms): V_P and the first "
+                    "peaks are not resolved and not reported as converged; set run.output_interval <= %.3g ms "
+                    "or output.front = true (the engine's record of every step)",
+                    *(resolutions[key][r] for key in ("sample_interval_ms", "frames_per_gap", "gap_crossing_time_ms",
+                                                      "max_sample_interval_ms")))
+    sources = ["engine record" if interval == 0 else "frames" for interval in resolutions["sample_interval_ms"]]
+    return {"cols": _floats_rounded(resolutions, 6, same) | {"source": columns(sources, same)}}, resolved
 
 
-def _floats_rounded(rows_: list[dict], decimals: int, same: dict | None = None) -> dict:
-    """The dicts with their floats `_round`ed (their other values as they are), as columns
-    (`columnar.columns`), a key's values at a time where every dict has the same keys
-    (`_rounds`); else {"rows": the dicts rounded}."""
-    keys = tuple(rows_[0]) if rows_ else ()
-    if not rows_ or not all(map(rows_[0].keys().__eq__, map(dict.keys, rows_))):  # (at C speed)
-        return {"rows": [{k: _round(v, decimals) if isinstance(v, float) else v for k, v in row.items()} for row in rows_]}
+def _floats_rounded(cols: dict[str, list], decimals: int, same: dict | None = None) -> dict:
+    """Columns (a list per key) with their floats `_round`ed, their other values as they are, a
+    column at a time (`_rounds`; a column of one value n times rounded once), each as
+    `columnar.columns`."""
     out = {}
-    for key in keys:
-        values = list(map(itemgetter(key), rows_))
+    for key, values in cols.items():
+        first = values[0] if values else None
+        if values and all(map(is_, values, repeat(first))):
+            out[key] = repeated(_round(first, decimals) if isinstance(first, float) else first, len(values), same)
+            continue
         floats = [issubclass(kind, float) for kind in set(map(type, values))]
         out[key] = columns(_rounds(values, decimals) if all(floats) else values if not any(floats)
                            else [_round(v, decimals) if isinstance(v, float) else v for v in values], same)
-    return {"cols": out}
+    return out
 
 
 def _plateaus(plateaus: measures.Plateaus, resolved: list[bool], same: dict | None = None) -> dict:

@@ -105,6 +105,10 @@ class Front:
 
     def resolutions(self) -> list[dict]:
         """`resolution` of each chain (one for a single front)."""
+        return _rows(self.resolution_columns())
+
+    def resolution_columns(self) -> dict[str, list]:
+        """`resolutions` as columns: each key's values, one a chain."""
         arrival = np.atleast_2d(self.arrival)
         reached = np.isfinite(arrival)
         reached[:, 0] &= ~np.atleast_2d(self.drive_gap)[:, 0]  # the drive's arrival is no front's: from magnet 2
@@ -113,13 +117,15 @@ class Front:
         with np.errstate(invalid="ignore", divide="ignore"):
             crossing = np.where((reached.sum(axis=1) > 1) & (last > first),
                                 (arrival[rows, last] - arrival[rows, first]) / (last - first), NAN)
-        out = []
-        for c in crossing.tolist():
-            frames = c / self.sample_interval if self.sample_interval > 0 else None
-            out.append({"sample_interval_ms": self.sample_interval, "gap_crossing_time_ms": c, "frames_per_gap": frames,
-                        "max_sample_interval_ms": c / MIN_FRAMES_PER_GAP,
-                        "resolved": frames is None or bool(frames >= MIN_FRAMES_PER_GAP)})
-        return out
+        n = len(crossing)
+        if self.sample_interval > 0:
+            frames = crossing / self.sample_interval
+            per_gap, resolved = frames.tolist(), (frames >= MIN_FRAMES_PER_GAP).tolist()
+        else:  # the engine's record of every step
+            per_gap, resolved = [None] * n, [True] * n
+        return {"sample_interval_ms": [self.sample_interval] * n, "gap_crossing_time_ms": crossing.tolist(),
+                "frames_per_gap": per_gap, "max_sample_interval_ms": (crossing / MIN_FRAMES_PER_GAP).tolist(),
+                "resolved": resolved}
 
     def flags(self) -> dict:
         """The flagged gaps (1-based, gap n between magnets n and n+1) and what they were set against."""
@@ -127,10 +133,14 @@ class Front:
 
     def all_flags(self) -> list[dict]:
         """`flags` of each chain (one for a single front)."""
+        return _rows(self.flag_columns())
+
+    def flag_columns(self) -> dict[str, list]:
+        """`all_flags` as columns: each key's values, one a chain."""
         late, slow = np.atleast_2d(self.out_of_order), np.atleast_2d(self.below_linear_speed)
         slowest, noise = (np.broadcast_to(x, len(late)).tolist() for x in (self.slowest_linear_speed, self.noise))
-        return [{"out_of_order_gaps": a, "below_linear_speed_gaps": b, "slowest_linear_speed_m_per_s": c,
-                 "noise_velocity_m_per_s": d} for a, b, c, d in zip(_gap_numbers(late), _gap_numbers(slow), slowest, noise)]
+        return {"out_of_order_gaps": _gap_numbers(late), "below_linear_speed_gaps": _gap_numbers(slow),
+                "slowest_linear_speed_m_per_s": slowest, "noise_velocity_m_per_s": noise}
 
     def row(self, r: int) -> Front:
         """Chain r's front, of the fronts of R chains."""
@@ -143,7 +153,15 @@ class Front:
 def _gap_numbers(flagged: np.ndarray) -> list[list[int]]:
     """The flagged gaps (1-based) of each row of `flagged` (R, N-1); rows without any, most of a
     batch's, take no search."""
-    return [(np.flatnonzero(row) + 1).tolist() if any_ else [] for row, any_ in zip(flagged, flagged.any(axis=1).tolist())]
+    out: list[list[int]] = [[] for _ in range(len(flagged))]
+    for r in np.flatnonzero(flagged.any(axis=1)).tolist():
+        out[r] = (np.flatnonzero(flagged[r]) + 1).tolist()
+    return out
+
+
+def _rows(columns: dict[str, list]) -> list[dict]:
+    """Columns (a list per key) as a dict per row."""
+    return [dict(zip(columns, values)) for values in zip(*columns.values())]
 
 
 def stack_fronts(fronts) -> Front:
