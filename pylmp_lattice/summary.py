@@ -324,7 +324,11 @@ def _plateaus(plateaus: measures.Plateaus, resolved: list[bool], same: dict | No
 def _fitted(xs: list[float]) -> list[float | None]:
     """Fitted front speeds or their errors, m/s, to 5 decimals; None (JSON null, as summary.json
     reads back) where the front did not cross the window."""
-    return [v if math.isfinite(x) else None for x, v in zip(xs, _rounds(xs, 5))]
+    out = _rounds(xs, 5)
+    missing = ~np.isfinite(np.asarray(xs, dtype=float))
+    for k in np.flatnonzero(missing).tolist() if missing.any() else ():
+        out[k] = None
+    return out
 
 
 def _rounds(xs: list[float], decimals: int) -> list[float]:
