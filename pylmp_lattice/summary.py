@@ -66,7 +66,7 @@ def summary_columns(cases, front: measures.Front, max_speed: np.ndarray | None =
     first_peaks = measures.trailing_plateaus(front.peaks.driven_peak_velocity, over="magnet")
     reached = measures.particles_reached(front.arrival).tolist()
     positions = draws.positions
-    resolutions, resolved = _resolutions(front.resolution_columns())
+    resolutions, resolved = _resolutions(front.resolution_columns(), same)
     over_vi = _rounds(first_peaks.mean / vi, 4)
     cols = {key: columns(column, same) for key, column in _linear_part(cases, draws, points).items()}
     cols |= dict(zip(_FRONT_KEYS, (columns(reached, same), _plateaus(speeds, resolved, same),
