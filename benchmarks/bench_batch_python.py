@@ -72,7 +72,8 @@ def timed_run(t: batch.Task) -> dict[str, float]:
     """Run the task with its stages timed; seconds per stage, the task's and the engine's Loop."""
     engine = ("engine", cpu, "run_arrays") if t.engine == "cpu" else ("engine", runner, "run_deck")
     stages = [(label, module, name) for label, module, name in STAGES[:2] + [engine] + STAGES[3:]
-              if hasattr(module, name) and not (name == "summaries" and hasattr(module, "summary_columns"))]  # (an older tree)
+              if hasattr(module, name)  # (an older tree)
+              and not (name == "summaries" and hasattr(module, "summary_columns"))]
     spent = {label: 0.0 for label, *_ in stages}
     originals = [(module, name, getattr(module, name)) for _, module, name in stages]
 

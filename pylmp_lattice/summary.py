@@ -210,8 +210,9 @@ def _lab_speeds(cases, points: list[list[int]], arrival: np.ndarray, positions: 
     n = len(cases)
     if len(parts) == 1 and parts[0][0] == list(range(n)):  # one point, all of the cases (a sweep's task)
         [(_, magnets, (lab, e, gap, p))] = parts
-        return n, {"cols": {"value": columns(lab, same), "stderr": columns(e, same), "gap_frame_m_per_s": columns(gap, same),
-                            "magnets": repeated(magnets, n, same), "pitch_mm": columns(p, same)}}
+        return n, {"cols": {"value": columns(lab, same), "stderr": columns(e, same),
+                            "gap_frame_m_per_s": columns(gap, same), "magnets": repeated(magnets, n, same),
+                            "pitch_mm": columns(p, same)}}
     out: list[dict | None] = [None] * n
     for rows_, magnets, values in parts:
         for r, lab, e, gap, p in zip(rows_, *values):
@@ -258,8 +259,8 @@ def _maxima(vp: np.ndarray, same: dict | None = None) -> dict:
         top, where = np.nanmax(vp, axis=1).tolist(), np.nanargmax(np.where(found[:, None], vp, 0.0), axis=1).tolist()
     if found.all():
         return {"cols": {"value": columns(_rounds(top, 5), same), "gap": columns(list(map(number, where)), same)}}
-    return columns([{"value": v, "gap": number(i)} if ok else None for v, i, ok in zip(_rounds(top, 5), where, found.tolist())],
-                   same)
+    return columns([{"value": v, "gap": number(i)} if ok else None
+                    for v, i, ok in zip(_rounds(top, 5), where, found.tolist())], same)
 
 
 def _flags(flags: dict[str, list], same: dict | None = None) -> dict:
@@ -313,8 +314,9 @@ def _plateaus(plateaus: measures.Plateaus, resolved: list[bool], same: dict | No
     numbers = [_rounds(getattr(plateaus, f), 5) for f in ("mean", "std", "drift", "drift_stderr")]
     defined = np.isfinite(plateaus.mean)
     converged = (defined & np.asarray(resolved, dtype=bool) & plateaus.converged()).tolist()
-    trends = [None if not known else "unresolved" if not ok else "steady" if steady else "decaying" if decaying else "growing"
-              for ok, known, steady, decaying in zip(resolved, defined.tolist(), converged, (plateaus.drift < 0).tolist())]
+    falling = (plateaus.drift < 0).tolist()
+    trends = [None if not known else "unresolved" if not ok else "steady" if steady else "decaying" if down else "growing"
+              for ok, known, steady, down in zip(resolved, defined.tolist(), converged, falling)]
     keys = ("mean", "std", "relative_drift", "relative_drift_stderr", "converged", "trend", f"first_{plateaus.over}",
             f"last_{plateaus.over}")
     return {"cols": {key: columns(list(values), same)

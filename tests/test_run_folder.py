@@ -119,8 +119,8 @@ def _import_graph() -> dict[str, set[str]]:
 # dumps, H5MD and its PSF topology, the front record, run.json and the lock). They call only
 # each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
-HELPERS = {"case", "lazy", "forcelaw", "impactor", "exact", "units", "errors", "serialize", "columnar", "trajectory", "ranks",
-           "numbering", "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
+HELPERS = {"case", "lazy", "forcelaw", "impactor", "exact", "units", "errors", "serialize", "columnar", "trajectory",
+           "ranks", "numbering", "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
            "formats", "run_folder", "run_folder.marker", "run_folder.cases",
            "file_lock", "preflight.estimate", "overhead"}
 

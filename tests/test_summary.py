@@ -239,8 +239,9 @@ def test_a_batch_s_summary_columns_are_its_summaries_as_columns_and_each_the_cas
     lab, plain = make_case(particles=21, chain={"magnet_length": 6.35}), make_case(particles=21)
     long = make_case(particles=21, chain={"far_end": "long"})
     max_speed = np.zeros((4, 21))
+    mixed = [steady[0], steady[1], stuck, steady[3]]
     for cases, points, arrivals in (([lab] * 4, ["a"] * 4, steady),
-                                    ([lab, plain, lab, long], ["a", "b", "a", "c"], [steady[0], steady[1], stuck, steady[3]])):
+                                    ([lab, plain, lab, long], ["a", "b", "a", "c"], mixed)):
         fronts = [front_of(a) for a in arrivals]
         front = measures.stack_fronts(fronts)
         table = summary_columns(cases, front, max_speed, points=points)
@@ -259,8 +260,9 @@ def test_a_batch_s_summary_columns_are_its_summaries_as_columns_and_each_the_cas
     assert list(out[0]["first_peak_velocity_plateau_m_per_s"])[-2:] == ["first_magnet", "last_magnet"]
     assert list(out[0]["front_speed_m_per_s"]) == ["value", "stderr", "first_gap", "last_gap"]
     assert list(out[0]["shock_velocity_max_m_per_s"]) == ["value", "gap"]
-    assert list(out[0]["front_flags"]) == ["out_of_order", "below_linear_speed", "out_of_order_gaps", "below_linear_speed_gaps",
-                                           "slowest_linear_speed_m_per_s", "noise_velocity_m_per_s"]
+    assert list(out[0]["front_flags"]) == ["out_of_order", "below_linear_speed", "out_of_order_gaps",
+                                           "below_linear_speed_gaps", "slowest_linear_speed_m_per_s",
+                                           "noise_velocity_m_per_s"]
     assert list(out[0]["front_resolution"]) == ["sample_interval_ms", "gap_crossing_time_ms", "frames_per_gap",
                                                 "max_sample_interval_ms", "resolved", "source"]
     assert list(out[0]["front_speed_lab_m_per_s"]) == ["value", "stderr", "gap_frame_m_per_s", "magnets", "pitch_mm"]

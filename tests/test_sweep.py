@@ -1483,7 +1483,8 @@ def test_a_batch_s_columns_of_one_shared_value_are_written_as_those_of_equal_val
             [rows] = batch_rows(list(range(5)), [f"m{k}" for k in range(5)], [{"p": k} for k in range(5)], "batches/m0",
                                 record, columns["cols"]["summary"], texts)
             arrow = folder / COLUMNS_FILE
-            written[name] = ((folder / BATCH_FILE).read_bytes(), arrow.read_bytes() if arrow.exists() else None, rows.text)
+            written[name] = ((folder / BATCH_FILE).read_bytes(), arrow.read_bytes() if arrow.exists() else None,
+                             rows.text)
             text = json.dumps({**record, "columns": columns}, allow_nan=False, separators=(",", ":")) + "\n"
             assert written[name][0] == text.encode()
             plain = folder / "plain"

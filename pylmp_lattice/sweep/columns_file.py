@@ -83,8 +83,8 @@ def _exact(values: list, same: bool = False):
     if not kinds:
         return pa.nulls(len(values))
     kind = {frozenset({float}): float, frozenset({int}): int, frozenset({bool}): bool, frozenset({str}): str}.get(frozenset(kinds))
-    if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in (values[:1] if same else values)
-                                                                              if v))) <= {int}:
+    looked = values[:1] if same else values
+    if kind is None and kinds == {list} and set(map(type, chain.from_iterable(v for v in looked if v))) <= {int}:
         kind = list
     if kind is None:
         return None
@@ -148,8 +148,8 @@ def _repeated(values: list, kind: type):
     data = value.encode()
     dictionary = pa.Array.from_buffers(pa.string(), 1, [None, pa.py_buffer(np.array([0, len(data)], np.int32)),
                                                          pa.py_buffer(data)], 0)
-    return pa.DictionaryArray.from_arrays(pa.Array.from_buffers(pa.int32(), n, [None, pa.py_buffer(np.zeros(n, np.int32))], 0),
-                                          dictionary)
+    indices = pa.Array.from_buffers(pa.int32(), n, [None, pa.py_buffer(np.zeros(n, np.int32))], 0)
+    return pa.DictionaryArray.from_arrays(indices, dictionary)
 
 
 def _offsets(lengths):
