@@ -233,6 +233,24 @@ def test_rows_go_through_a_pickle_whole_and_a_column_of_one_value_once():
     assert back.columns["every"].tolist() == [3.0] * n and back.columns["objects"].tolist() == ["a"] * n
 
 
+def test_the_swept_values_columns_are_their_flat_params_made_a_column_at_a_time():
+    """`table._flat_columns` of the params' columns is `columns` of each member's `flat_params`
+    (a section's fields as dotted keys, in order), or None where a cell is a list or an empty
+    section (flat_params' JSON text, a key that vanishes) and the members' own dicts decide."""
+    from pylmp_lattice.columnar import columns
+    from pylmp_lattice.sweep.table import _flat_columns, flat_params
+
+    seed = 10**18
+    scalar = [{"impactor.velocity": 1.5, "replica": k, "chain.seed": seed + k} for k in range(4)]
+    section = [{"force": {"law": "power", "q": 3.0 + k}, "replica": k} for k in range(3)]
+    nested = [{"a": {"b": {"c": k, "d": None}}, "e": "x,y"} for k in range(3)]
+    for params in (scalar, section, nested, [scalar[0]] * 3):
+        assert _flat_columns(columns(params)) == columns([flat_params(p) for p in params])
+    assert list(_flat_columns(columns(section))["cols"]) == ["force.law", "force.q", "replica"]
+    for params in ([{"x": [1, 2]}, {"x": [3]}], [{"s": {}}, {"s": {}}], [{"s": {"a": 1}}, {"s": 2}]):
+        assert _flat_columns(columns(params)) is None
+
+
 def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
     """`csv_text` of batches' rows that came out of order, one whose rows another batch set
     again later (its lines are split, the later ones kept), a cell quoted: what pandas writes."""

@@ -15,7 +15,7 @@ import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from itertools import chain
+from itertools import chain, repeat
 from pathlib import Path
 from typing import Any
 
@@ -136,7 +136,7 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
 
     from .store import columns, rows
 
-    flat = columns([flat_params(p) for p in params])
+    flat = _flat_columns(columns(params)) or columns([flat_params(p) for p in params])
     measures: dict = {}
     texts = texts or {}
     if "cols" in flat and "cols" in summaries and _scalar_columns(summaries["cols"], "", measures, NOT_MEASURES, texts):
@@ -151,6 +151,27 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
     return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
 
 
+def _flat_columns(table: dict) -> dict | None:
+    """`columns` of the rows' `flat_params`, made of `columns` of the rows (no dict per member)
+    where no cell is a section or a list (a section's table is its fields' columns, as
+    flat_params names them); None otherwise."""
+    if "cols" not in table:
+        return None
+    out: dict = {}
+
+    def walk(cols: dict, prefix: str) -> bool:
+        for key, column in cols.items():
+            if "cols" in column:
+                if not walk(column["cols"], f"{prefix}{key}."):
+                    return False
+            elif any(isinstance(v, (dict, list)) for v in column["rows"]):
+                return False
+            else:
+                out[prefix + key] = {"rows": column["rows"]}
+        return True
+    return {"cols": out} if walk(table["cols"], "") else None
+
+
 def row_text(columns: list, made: list | None = None) -> str | None:
     """The rows as results.csv writes them (`csv_text`), a line each, joined by newlines: made
     by the worker (the texts of 10^5 members' floats were most of the table's time), used by
@@ -160,9 +181,28 @@ def row_text(columns: list, made: list | None = None) -> str | None:
     column's cells where already made (`_float_cells`), else None."""
     if not columns or not all(map(_texted, columns)):
         return None
-    cells = [m if m is not None else _array_texts(c) if _kind(c) else _list_texts(c, lines=False)
-             for c, m in zip(columns, made or [None] * len(columns))]
-    return None if None in cells else "\n".join(map(",".join, zip(*cells)))
+    n = len(columns[0])
+    parts: list = []  # each column's cells, or the one text of a run of columns of one value each
+    for column, cells in zip(columns, made or [None] * len(columns)):
+        if cells is None and n > 1 and _one_value(column):  # its cell made once (a batch's status, wall time, ...)
+            cells = _array_texts(column[:1]) if _kind(column) else _list_texts(column[:1], lines=False)
+            if cells is None:
+                return None
+            parts.append(f"{parts.pop()},{cells[0]}" if parts and type(parts[-1]) is str else cells[0])
+            continue
+        if cells is None:
+            cells = _array_texts(column) if _kind(column) else _list_texts(column, lines=False)
+        if cells is None:
+            return None
+        parts.append(cells)
+    return "\n".join(map(",".join, zip(*(repeat(p, n) if type(p) is str else p for p in parts))))
+
+
+def _one_value(column) -> bool:
+    """Whether every cell of a column is its first (numbers: by value, so not NaN; text: equal)."""
+    if _kind(column):
+        return bool((column == column[0]).all())
+    return column.count(column[0]) == len(column)
 
 
 def _float_cells(values: list, texts: dict | None) -> list[str] | None:
