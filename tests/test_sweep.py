@@ -168,7 +168,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     some rows lack, one that is a whole number in one batch and a float in the other (the
     workers' texts do not fit then: the coordinator makes those rows' own)."""
     from pylmp_lattice.serialize import short_float
-    from pylmp_lattice.sweep.store import columns
+    from pylmp_lattice.columnar import columns
     from pylmp_lattice.sweep.table import Rows, _lines, _text_fits, batch_rows, csv_text, frame, member_row
 
     rng = np.random.default_rng(3)
@@ -255,7 +255,7 @@ def test_the_workers_lines_make_the_csv_in_any_order_and_with_rows_set_again():
     """`csv_text` of batches' rows that came out of order, one whose rows another batch set
     again later (its lines are split, the later ones kept), a cell quoted: what pandas writes."""
     from pylmp_lattice.serialize import short_float
-    from pylmp_lattice.sweep.store import columns
+    from pylmp_lattice.columnar import columns
     from pylmp_lattice.sweep.table import _lines, _placed, _tiled, batch_rows, csv_text, frame
 
     rng = np.random.default_rng(5)
@@ -1468,7 +1468,7 @@ def test_a_column_s_float_texts_made_once_per_value_are_each_value_s_repr():
 
 
 def test_a_batch_s_columns_of_one_shared_value_are_written_as_those_of_equal_values(tmp_path):
-    """Members that share a case's values (one object in every row: `store.columns`' `same`)
+    """Members that share a case's values (one object in every row: `columnar.columns`' `same`)
     get the members.json, members.arrow and table cells (`table.batch_rows`) that the same
     values in objects of their own get, byte for byte, and those made value by value: json.dumps
     of the columns, members.arrow made without knowing them shared (`columns_file._array`): each

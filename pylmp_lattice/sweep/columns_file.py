@@ -5,7 +5,7 @@ file's columns a small part of that; members.json stays the record, read where t
 not fit.
 
 The file holds members.json's record (as JSON, in the schema's metadata) and its columns
-(`store.columns`) but the cases' (not read back), one Arrow column a leaf, named by its path of
+(`columnar.columns`) but the cases' (not read back), one Arrow column a leaf, named by its path of
 keys as JSON. It is written before members.json, which names the batch done, and counts only
 where it names the SHA-256 of the members.json beside it. It is written only where every leaf
 is exact in Arrow: numbers of one kind, flags, text, lists of integers, each with nulls (else
@@ -30,9 +30,9 @@ LEFT_OUT = "case"  # the column of members.json this file leaves out
 def write_columns(folder: Path, record: dict, table: dict, text: bytes, floats: dict | None = None,
                   same: dict | None = None) -> None:
     """members.arrow for a batch whose members.json is `text`, holding `record` and the columns
-    `table` (strict, `store.columns`): written where every leaf is exact in Arrow. floats: its
+    `table` (strict, `columnar.columns`): written where every leaf is exact in Arrow. floats: its
     columns of finite floats (`store.Floats`) by id of their lists; same: its columns of one
-    value n times (`store.columns`), likewise."""
+    value n times (`columnar.columns`), likewise."""
     if "cols" not in table:
         return
     leaves: dict = {}
@@ -178,7 +178,7 @@ def _values(array) -> list:
 
 
 def read_columns(folder: Path, text: bytes) -> tuple[dict, dict] | None:
-    """The record and the columns (`store.columns`, the cases' left out) of the batch whose
+    """The record and the columns (`columnar.columns`, the cases' left out) of the batch whose
     members.json is `text`, from its members.arrow; None if that is missing, unreadable, or
     not that members.json's."""
     from ..serialize import loads_object

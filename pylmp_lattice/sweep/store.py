@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..columnar import columns, rows  # noqa: F401 - rows: the table's (`table.batch_rows`)
+from ..columnar import columns
 from ..file_lock import Held, exclusive
 from ..formats.files import atomic_write
 from ..formats.layout import BATCHES, MEMBERS, SWEEP_FILE

@@ -128,13 +128,13 @@ class _Same:
 
 def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str, record: dict,
                summaries: dict, texts: dict | None = None) -> list[Rows]:
-    """The rows of a batch's members, done, from their summaries as columns (`store.columns`,
+    """The rows of a batch's members, done, from their summaries as columns (`columnar.columns`,
     made strict): `member_row` of each, made a column at a time, as one Rows. A batch whose
     rows differ in their keys (summaries of other shapes) gets one Rows per member. texts: the
     columns of finite floats (`store.Floats`, `store.write_batch`'s), which their cells are made of."""
     import numpy as np
 
-    from .store import columns, rows
+    from ..columnar import columns, rows
 
     flat = _flat_columns(columns(params)) or columns([flat_params(p) for p in params])
     measures: dict = {}
@@ -244,7 +244,7 @@ def _kind(column) -> str | None:
 
 
 def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = (), floats: dict | None = None) -> bool:
-    """`_scalars` of every row at once, on columns (`store.columns`): a column of numbers, flags
+    """`_scalars` of every row at once, on columns (`columnar.columns`): a column of numbers, flags
     and None is a column of the table, a column of other values (text, lists) is not; False
     where a column mixes them, or holds tables that differ in their keys (rows then differ).
     floats: columns known to be of floats (`store.Floats`) by id of their lists."""
