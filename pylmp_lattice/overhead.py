@@ -110,10 +110,10 @@ SECONDS_PER_ATOM_STEP = 4.7e-9
 GPU_SECONDS_PER_ATOM_STEP = 1 / 4.67e10
 # A batched member beyond its atom-steps: its share of the worker's Python (0.23 ms,
 # docs/performance.md "Worker Python per batched member"); with a kernel engine ("cpu", "gpu":
-# no LAMMPS instance, no deck) 0.064 ms (`bench_batch_python.py --engine cpu --members 5000
-# --clock cpu`, 2026-11-27 18:17 UTC, this VM).
+# no LAMMPS instance, no deck) 0.044 ms (`bench_batch_python.py --engine cpu --members 20000
+# --clock cpu`, 2026-11-27 19:10 UTC, this VM; 0.064-0.071 before this evening's changes).
 BATCHED_SECONDS = 2.3e-4
-KERNEL_BATCHED_SECONDS = 6.4e-5
+KERNEL_BATCHED_SECONDS = 4.4e-5
 # ... and the coordinator's, one member after another whatever the workers: its task, its row
 # received, its share of the table (about 3.3 us while the members run and 1.5 at the end,
 # 10^6 members of the GPU road, bench_gpu_road.py's stand-in, py-spy, 2026-11-27 18:30 UTC).

@@ -187,7 +187,7 @@ def test_a_sweep_estimate_adds_the_replica_statistics_where_the_cli_draws_them(c
 def test_a_gpu_sweep_estimate_measures_nothing_and_puts_the_kernel_on_the_one_device(cache, monkeypatch):
     """engine "gpu": no LAMMPS command is timed (the GPU machine's image has no LAMMPS: the
     failed measurement, not cached, cost every sweep 1-3 s; the defaults stand in), the workers
-    share the tasks' member_s and the members' Python (a kernel engine's: 0.064 ms, not the LAMMPS
+    share the tasks' member_s and the members' Python (a kernel engine's: 0.044 ms, not the LAMMPS
     road's 0.23), the coordinator's 5 us a member are one after another, and the kernel's
     atom-steps (1e4 x 21 x 4800 = 1.008e9, at 4.67e10 a second on an H200) are the device's, not
     divided by the workers: the LAMMPS model said 46 s for 10^6 members on 16 workers that took
@@ -202,16 +202,16 @@ def test_a_gpu_sweep_estimate_measures_nothing_and_puts_the_kernel_on_the_one_de
                   replicas=10_000, keep="measures", engine="gpu")
     costs = Overheads()
     kernel = 10_000 * 21 * 4800 / 4.67e10
-    seconds = costs.replica_s + (costs.member_s + 10_000 * 6.4e-5) / 16 + 10_000 * 5e-6 + kernel
+    seconds = costs.replica_s + (costs.member_s + 10_000 * 4.4e-5) / 16 + 10_000 * 5e-6 + kernel
     assert _estimate(sweep, 10_000, 16, stats=True) == (f"about {seconds:.2g} s on 16 workers (batched, the replica "
                                                         "statistics and figure included), if all are like the first")
     write_cache(CACHED)  # measured before (a lammps sweep's): used as they are
-    seconds = CACHED["sweep_s"] + (CACHED["member_s"] + 10_000 * 6.4e-5) / 16 + 10_000 * 5e-6 + kernel
+    seconds = CACHED["sweep_s"] + (CACHED["member_s"] + 10_000 * 4.4e-5) / 16 + 10_000 * 5e-6 + kernel
     assert _estimate(sweep, 10_000, 16) == f"about {seconds:.2g} s on 16 workers (batched), if all are like the first"
     lammps = CACHED["sweep_s"] + (CACHED["member_s"] + 1.3e-6 * 4800 + 10_000 * (4.7e-9 * 21 * 4800 + 2.3e-4)) / 16
     assert _estimate(dataclasses.replace(sweep, engine="lammps"), 10_000, 16) == (  # its atom-steps in the workers
         f"about {lammps + 10_000 * 5e-6:.2g} s on 16 workers (batched), if all are like the first")
-    cpu = CACHED["sweep_s"] + (CACHED["member_s"] + 10_000 * (4.7e-9 * 21 * 4800 + 6.4e-5)) / 16 + 10_000 * 5e-6
+    cpu = CACHED["sweep_s"] + (CACHED["member_s"] + 10_000 * (4.7e-9 * 21 * 4800 + 4.4e-5)) / 16 + 10_000 * 5e-6
     assert _estimate(dataclasses.replace(sweep, engine="cpu"), 10_000, 16) == (  # no instance's steps
         f"about {cpu:.2g} s on 16 workers (batched), if all are like the first")
 
