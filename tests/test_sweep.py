@@ -233,6 +233,17 @@ def test_rows_go_through_a_pickle_whole_and_a_column_of_one_value_once():
     assert back.columns["every"].tolist() == [3.0] * n and back.columns["objects"].tolist() == ["a"] * n
 
 
+def test_a_column_of_one_value_is_one_value_to_the_bit():
+    """`row_text` makes the cell of a column of one value once: -0.0 beside 0.0, or two NaNs of
+    other bits, are not one value to it (each cell its own text); a column of NaN is empty cells."""
+    from pylmp_lattice.sweep.table import row_text
+
+    other_nan = np.frombuffer(np.uint64(0x7FF8000000000001).tobytes(), dtype=np.float64)[0]
+    columns = [["a", "b", "c"], np.array([0.0, -0.0, 0.0]), np.full(3, np.nan), np.array([np.nan, other_nan, 1.0]),
+               np.array([2.5, 2.5, 2.5]), ["x", "x", "x"], [None, None, None]]
+    assert row_text(columns) == "a,0.0,,,2.5,x,\nb,-0.0,,,2.5,x,\nc,0.0,,1.0,2.5,x,"
+
+
 def test_the_swept_values_columns_are_their_flat_params_made_a_column_at_a_time():
     """`table._flat_columns` of the params' columns is `columns` of each member's `flat_params`
     (a section's fields as dotted keys, in order), or None where a cell is a list or an empty

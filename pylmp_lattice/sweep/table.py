@@ -115,10 +115,9 @@ class _Same:
 
     @classmethod
     def of(cls, column) -> _Same | None:
-        if _kind(column) not in tuple("fiub") or len(column) < 2 or not column.flags.c_contiguous:
+        if _kind(column) not in tuple("fiub") or len(column) < 2 or not _one_value(column):
             return None
-        cells = column.view("u1").reshape(len(column), -1)
-        return cls(column[:1].copy(), len(column)) if (cells == cells[0]).all() else None
+        return cls(column[:1].copy(), len(column))
 
     def array(self):
         import numpy as np
@@ -199,10 +198,14 @@ def row_text(columns: list, made: list | None = None) -> str | None:
 
 
 def _one_value(column) -> bool:
-    """Whether every cell of a column is its first (numbers: by value, so not NaN; text: equal)."""
-    if _kind(column):
-        return bool((column == column[0]).all())
-    return column.count(column[0]) == len(column)
+    """Whether every cell of a column is its first: a numpy array's the same bytes (so -0.0 is not
+    0.0, and one NaN is itself; False where it is not contiguous), text and None equal."""
+    if not _kind(column):
+        return column.count(column[0]) == len(column)
+    if not column.flags.c_contiguous or column.dtype.kind not in "fiub":
+        return False
+    cells = column.view("u1").reshape(len(column), -1)
+    return bool((cells == cells[0]).all())
 
 
 def _float_cells(values: list, texts: dict | None) -> list[str] | None:
@@ -432,8 +435,9 @@ def _lines(parts: list[Rows]) -> list[str] | None:
     """results.csv as the header and the parts' lines (`Rows.text`), each part's ending in a
     line end, where they make it alone, as `csv_text` would: every part has its text, the same
     columns in the order `frame` puts them (id, params, FIXED[1:], measures) and of the same
-    kinds (so the table's columns are these), and its rows are the table's next ones
-    (`_tiled`). None otherwise (the CSV is made of the table)."""
+    kinds (so the table's columns are these), and its rows are the table's next ones (each
+    part's members in order, after the previous part's last). None otherwise (the CSV is made
+    of the table)."""
     parts = [p for p in parts if len(p)]
     if not parts or any(p.text is None for p in parts):
         return None
