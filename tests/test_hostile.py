@@ -371,8 +371,10 @@ def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(t
         return create(path, part)
 
     monkeypatch.setattr(files, "_create", full)
+    caplog.set_level("INFO", logger="pylmp_lattice")
     with pytest.raises(files.DiskFull) as caught:
         run_in_threads(sweep_file, out)
+    assert "the first task sent" not in caplog.text  # no timeline of a sweep that stopped
     message = str(caught.value)
     assert f"no space left on the device for {members[2]}/" in message
     assert "stopped with 2 of 4 members done" in message and "run the same command to resume" in message

@@ -15,9 +15,10 @@ def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> st
     worker Python (`overhead.batched_seconds`: a kernel engine's has no instance, and less
     Python), and the coordinator's share (COORDINATOR_SECONDS, one member after another), one
     run alone its engine and output; all times the contention now. With engine "gpu" a batched
-    member's atom-steps run on the one device, not in the workers (`overhead.gpu_seconds`). The overheads are measured (LAMMPS commands in child
-    processes) only for engine "lammps": a kernel engine's sweep runs none, and a machine without
-    LAMMPS (a GPU machine's image) failed the measurement, uncached, on every sweep (1-3 s).
+    member's atom-steps run on the one device, not in the workers (`overhead.gpu_seconds`). The
+    overheads are measured (LAMMPS commands in child processes) only for engine "lammps": a
+    kernel engine's sweep runs none, and a machine without LAMMPS (a GPU machine's image) failed
+    the measurement, uncached, on every sweep (1-3 s).
     """
     from ..overhead import COORDINATOR_SECONDS, batched_seconds, contention, engine_seconds, gpu_seconds, overheads
     from ..preflight.estimate import SECONDS_PER_ATOM_FRAME, _duration, atom_frames

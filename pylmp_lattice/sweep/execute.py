@@ -170,7 +170,7 @@ class _Coordinator:
                          "again%s", self.root.name, self.kept, self.total, self.kept - failed, failed,
                          " (--retry-failed runs the failed ones)" if failed else "")
         done = int((table["status"] == DONE).sum())
-        if sent is not None and done_at is not None:
+        if sent is not None and done_at is not None and not self._stopping():
             _timeline(self.root.name, origin, sent, done_at)
         if self.preload is not None:  # ended (after a stop: at its next step), so that the caller's figure does not
             # draw beside it, nor does the command exit while it runs an extension's code (an abort at exit)
