@@ -115,7 +115,7 @@ class _Same:
 
     @classmethod
     def of(cls, column) -> _Same | None:
-        if _kind(column) not in tuple("fiub") or len(column) < 2 or not _one_value(column):
+        if not _kind(column) or len(column) < 2 or not _one_value(column):  # (numbers and flags: `_one_value`)
             return None
         return cls(column[:1].copy(), len(column))
 
