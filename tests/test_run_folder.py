@@ -586,19 +586,27 @@ def test_a_run_in_a_thread_leaves_the_process_as_it_found_it(tmp_path, monkeypat
 @lammps
 @pytest.mark.slow
 def test_lmp_ranks_die_with_a_killed_parent(tmp_path):
-    """`--runner lmp --np 2`: SIGKILL the parent; mpiexec and its ranks stop within 5 s."""
+    """`--runner lmp --np 2`: SIGKILL the parent; mpiexec and its ranks stop within 5 s.
+
+    A long run (about 2 min of engine time) that writes little: at 1 frame/ms it would need
+    8.2 GB, which a CI disk shared with the rest of the suite did not always have (the run was
+    refused before it started, and the test saw no children)."""
     folder = tmp_path / "run"
     proc = subprocess.Popen(CLI + ["run", str(INPUTS / "paper_long_lattice.toml"), "-o", str(folder),
-                                   "--set", "run.duration=20000", "--runner", "lmp", "--np", "2", "--yes"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                   "--set", "run.duration=20000", "--set", "run.output_interval=1000",
+                                   "--runner", "lmp", "--np", "2", "--yes"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while not (folder / layout.LOG).exists() and time.monotonic() < deadline:
+    while not (folder / layout.LOG).exists() and time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.05)
     time.sleep(1.0)
     children = _descendants(proc.pid)
+    if proc.poll() is not None:
+        pytest.fail(f"the run ended (exit {proc.returncode}) before it could be killed: {proc.stderr.read()}")
     assert any("mpiexec" in c or "lmp" in c for c in children.values()), children
     proc.kill()
     proc.wait()
+    proc.stderr.close()
     deadline = time.monotonic() + 5
     while time.monotonic() < deadline and any(_alive(p) for p in children):
         time.sleep(0.1)
