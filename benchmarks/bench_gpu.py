@@ -12,7 +12,7 @@ the same case with 1000 magnets.
      friction work, each entry within 1e-12 relative (the same kernel, the same operations, no
      FMA contraction on either side; on an H200 on 2026-11-27 entries still differed by up to
      2.6e-11, so this row said NO), end steps and statuses equal; for 21 magnets (local-memory
-     kernel, 32), 50 (local, 64) and 100 (global rows).
+     kernel, 32), 50 (local, 64) and 100 (a block per chain).
   2. GPU against LAMMPS: 8 members as one batch folder each way (`run_folder.execute_batch`,
      the engine object `engines.road.KernelEngine`): front.bin rows and chain_work.txt within
      1e-12 relative. LAMMPS runs now if its module imports; else its folder's numbers come from

@@ -30,17 +30,17 @@ CASES = [  # (law kind, q, friction, record): engines.gpu.batch_case's, each law
     (1, 0.0, True, True), (2, 0.0, False, True)]
 
 
-@pytest.mark.parametrize(("case", "local"), [*((case, local) for case in CASES for local in (21, 0)), (CASES[0], 64)])
-def test_nvrtc_compiles_the_kernel_for_each_case_of_a_batch(local, case):
-    """One entry point (the short chains' kernel for chains of `local` magnets, or the global
-    rows' with local 0) and one copy of the run per module: under 2 s of NVRTC each (64 magnets,
-    unrolled: 4-8 s, so one case only). With every case in one module (44 copies of
+@pytest.mark.parametrize(("case", "n"), [*((case, n) for case in CASES for n in (21, 1000)), (CASES[0], 64)])
+def test_nvrtc_compiles_the_kernel_for_each_case_of_a_batch(n, case):
+    """One entry point (the short chains' kernel for chains of n magnets, or over 64 the long
+    chains', a block per chain) and one copy of the run per module: under 2 s of NVRTC each (64
+    magnets, unrolled: 4-8 s, so one case only). With every case in one module (44 copies of
     the run, twice), NVRTC took 25-45 s to PTX here and 3 minutes to sm_90 code on the GPU
     machine, which stalled its first check."""
-    rc, log, ptx = compile_ptx((*compile_options(local, case), ARCH))
+    rc, log, ptx = compile_ptx((*compile_options(n, case), ARCH))
     assert rc == 0, log
     entries = [line.split()[-1] for line in ptx.decode().splitlines() if ".entry" in line]
-    assert entries == ["pl_run_short_chains_gpu(" if local else "pl_run_chains_gpu("], entries
+    assert entries == ["pl_run_short_chains_gpu(" if local_size(n) else "pl_run_long_chains_gpu("], entries
     assert len(ptx) < 1_500_000, len(ptx)  # one copy of the run: 90-570 kB (unrolled for 64 magnets; all 44: 4.5 MB)
 
 

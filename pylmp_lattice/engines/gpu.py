@@ -1,5 +1,6 @@
 """The GPU engine: the chain kernel (pylmp_lattice/plugin/kernel, the physics of fix lattice/chain)
-compiled at run time by NVRTC through CuPy, one thread per chain (kernel/engine_gpu.cu).
+compiled at run time by NVRTC through CuPy, one thread per chain, or a block per long chain
+(kernel/engine_gpu.cu).
 
 The same batch as `engines.cpu` (`arrays.prepare`), the splines fitted on the host by the host
 engine's library (`library`: the plugin's fits, fit.h), the same results (`cpu.run_arrays`'s).
@@ -9,7 +10,8 @@ Chains of up to 64 magnets (the ensembles') run in a module compiled for their l
 one mass, where the batch has one): its loops unroll, so that the chain's x, v, f live in
 registers where they fit, its marks in a row of shared memory, the rest in each thread's local
 memory, which CUDA interleaves by thread (coalesced); only the record's 7 output columns per
-magnet go back to global memory. Longer chains run on chain-major rows of global arrays.
+magnet go back to global memory. Longer chains run a block per chain, each thread a segment of
+the chain in its local memory, its neighbours' edge atoms as ghosts (as the fix's MPI slabs).
 benchmarks/gpu_resources.py prints each module's registers, local and shared memory (NVRTC, no
 device needed); bench_gpu.py --variants times the choices below on a device.
 
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .arrays import DRIVES, LAWS, Arrays
-from .library import layout, library, ptr, step_scratch
+from .library import layout, library, ptr
 
 __all__ = ["available", "run_arrays"]
 KERNEL = Path(__file__).resolve().parent.parent / "plugin" / "kernel"
@@ -58,6 +60,12 @@ LOCAL_MAX = 64
 # ... in runs of free atoms of at most SHORT_BLOCK: the paper's 21 magnets in one run of 19, every
 # loop unrolled (runs of 10: 0.78x, --variants 16:11 UTC); the bits do not depend on it
 SHORT_BLOCK = 32
+# Chains over LOCAL_MAX run a block per chain (engine_gpu.cu's pl_run_long_chains_gpu), each of its
+# threads on a segment of LONG_SEGMENT free atoms or fewer, more where LONG_THREADS would not cover
+# the chain (its shared memory is compiled for that many); not yet timed on a device (the one
+# thread a chain it replaced ran 10^3 chains of 1000 magnets at 0.2x the C loop on 16 cores)
+LONG_SEGMENT = 8
+LONG_THREADS = 256
 # Atom-steps per launch: about 0.2 s at the 4.2e10-5.3e10 atom-steps/s an H200 ran (docs/performance.md),
 # so a signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
 # fast per atom-step as 10^6 in two, so smaller launches cost no speed there
@@ -111,37 +119,30 @@ def run_arrays(a: Arrays):
              np.float64(p), np.float64(g), np.float64(a.range[0]), np.float64(a.range[1]), np.int32(a.record),
              d(path if len(path) else empty), np.int64(len(path) // 2))
     local = local_size(n)
-    options = compile_options(local, batch_case(a), one_mass=one_mass(a))
+    options = compile_options(n, batch_case(a), one_mass=one_mass(a))
     if local:
         front = cp.empty(chains * n * NOUT if a.record else 1)
+        threads = block_threads(local)
     else:  # each chain's rows of global arrays: its whole record (NCOL columns), the output copied out
-        per_atom = chains * n
-        rec = cp.full(per_atom * NCOL if a.record else 1, np.nan)
-        mark = cp.full(per_atom if a.record else 1, np.nan)
-        gate = cp.zeros(per_atom if a.record else 1)
-        phase = cp.zeros(per_atom if a.record else 1, cp.uint8)
-        scratch = (cp.zeros(per_atom), cp.zeros(per_atom), cp.zeros(per_atom),
-                   cp.zeros(per_atom if a.friction is not None else 1), cp.arange(n, dtype=cp.int32))
-        per_chain = step_scratch(block)
-        scratch_runs = cp.zeros(chains * per_chain)
-    threads = block_threads(local)
-    chunk = max(threads, int(CHUNK_ATOM_STEPS // max(1, n * a.steps)) // threads * threads)
-    for lo in range(0, chains, chunk):  # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
+        rec = cp.full(chains * n * NCOL if a.record else 1, np.nan)
+        phase = cp.zeros(chains * n if a.record else 1, cp.uint8)  # front.h's WAITING
+        index = cp.arange(n, dtype=cp.int32)
+        threads = long_threads(n)
+    # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
+    per_launch = int(CHUNK_ATOM_STEPS // max(1, n * a.steps))
+    chunk = max(threads, per_launch // threads * threads) if local else max(1, per_launch)
+    for lo in range(0, chains, chunk):
         hi = min(chains, lo + chunk)
-        rows, atoms = slice(lo, hi), slice(lo * n, hi * n)
-        grid = (-(-(hi - lo) // threads),)
+        rows = slice(lo, hi)
         if local:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_short_chains_gpu", options)(grid, (threads,), args)
+            _kernel("pl_run_short_chains_gpu", options)((-(-(hi - lo) // threads),), (threads,), args)
         else:
-            f, dtfm, weight, dtm, index = scratch
-            args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], f[atoms], dtfm[atoms], weight[atoms],
-                    dtm[atoms] if a.friction is not None else dtm, index, levels[rows], rec[lo * n * NCOL:hi * n * NCOL] if a.record else rec,
-                    *((mark[atoms], gate[atoms], phase[atoms]) if a.record else (mark, gate, phase)),
-                    scratch_runs[lo * per_chain:hi * per_chain],
+            args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], index, levels[rows],
+                    *((rec[lo * n * NCOL:hi * n * NCOL], phase[lo * n:hi * n]) if a.record else (rec, phase)),
                     work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_chains_gpu", options)(grid, (threads,), args)
+            _kernel("pl_run_long_chains_gpu", options)((hi - lo,), (threads,), args)
         cp.cuda.Stream.null.synchronize()
     if int(end_step.min()) < 0:  # a module built for another law, friction or record (run_compiled)
         raise RuntimeError(f"the GPU kernel compiled with {options} did not run this batch's chains")
@@ -178,11 +179,11 @@ def one_mass(a: Arrays) -> bool:
     return bool(a.mass.size) and bool(np.all(a.mass == a.mass.flat[0]))
 
 
-def compile_options(local: int, case: tuple[int, float, bool, bool], block: int | None = None,
+def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | None = None,
                     one_mass: bool = False) -> tuple[str, ...]:
-    """NVRTC's options for engine_gpu.cu: the short chains' kernel for chains of `local` magnets
-    in runs of at most `block` (default `short_block(local)`), or with local 0 the global rows'
-    kernel; only the batch's `case` (`batch_case`) of the law, friction and record (one copy of
+    """NVRTC's options for engine_gpu.cu for chains of n magnets: up to LOCAL_MAX the short
+    chains' kernel for that length in runs of at most `block` (default `short_block`), longer the
+    long chains' kernel in segments of at most `block` (default `long_segment(n)`); only the batch's `case` (`batch_case`) of the law, friction and record (one copy of
     the run, not 44: seconds to compile, not minutes); with `one_mass`, for a batch whose magnets
     all have one mass (`one_mass`: the mass terms in registers, 1 of each, not n).
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
@@ -196,10 +197,13 @@ def compile_options(local: int, case: tuple[int, float, bool, bool], block: int 
     the headers it includes, so their digest goes in the options (an edited header, a new version
     of the package, compiles anew instead of loading the old kernel)."""
     law, q, friction, record = case
-    block = short_block(local) if block is None else block
+    local = local_size(n)
+    if block is None:
+        block = short_block(local) if local else long_segment(n)
     return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
-            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}", f"-DPL_THREADS={block_threads(local)}",
+            f"-DPL_ONE_MASS={int(bool(local) and one_mass)}",
+            f"-DPL_THREADS={block_threads(local) if local else LONG_THREADS}",
             f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLING={SAMPLINGS[SAMPLING]}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
@@ -213,6 +217,17 @@ def _sources_digest(folder: Path) -> str:
     return h.hexdigest()[:16]
 
 
+def long_segment(n: int) -> int:
+    """The long chains' largest segment of free atoms a thread (PL_BLOCK): LONG_SEGMENT, more where
+    LONG_THREADS threads of LONG_SEGMENT would not cover the n - 2 free atoms."""
+    return max(LONG_SEGMENT, -(-(n - 2) // LONG_THREADS))
+
+
+def long_threads(n: int) -> int:
+    """The long chains' threads a chain (its block): as many as segments of `long_segment(n)`."""
+    return -(-(n - 2) // long_segment(n))
+
+
 def shared_row(local: int) -> int:
     """The doubles of a thread's row of shared memory in the short chains' kernel (engine_gpu.cu:
     odd, so that a half-warp's threads hit distinct banks): n for each of its `shared_arrays`."""
@@ -221,31 +236,30 @@ def shared_row(local: int) -> int:
 
 def shared_arrays(local: int) -> int:
     """How many of the short chains' marks, x, v, f (in that order) sit in shared memory:
-    SHARED_ARRAYS where a block of 32 threads fits, else 1 (the marks); 0 for the global rows' kernel."""
+    SHARED_ARRAYS where a block of 32 threads fits, else 1 (the marks); 0 for the long chains' kernel."""
     if not local:
         return 0
     return SHARED_ARRAYS if 32 * ((SHARED_ARRAYS * local) | 1) * 8 <= SHARED_LIMIT else 1
 
 
 def block_threads(local: int) -> int:
-    """Threads per block: SHARED_THREADS with more than the marks in shared memory, else THREADS,
-    halved until the short chains' rows of shared memory (`shared_row`) fit in SHARED_LIMIT."""
+    """The short chains' threads per block: SHARED_THREADS with more than the marks in shared
+    memory, else THREADS, halved until their rows of shared memory (`shared_row`) fit in SHARED_LIMIT."""
     threads = SHARED_THREADS if shared_arrays(local) > 1 else THREADS
-    while local and threads > 32 and threads * shared_row(local) * 8 > SHARED_LIMIT:
+    while threads > 32 and threads * shared_row(local) * 8 > SHARED_LIMIT:
         threads //= 2
     return threads
 
 
 def local_size(n: int) -> int:
     """PL_LOCAL_N for chains of n magnets: n itself (a module per length, compiled in about a
-    second and cached by CuPy), 0 for the global rows' kernel."""
+    second and cached by CuPy), 0 for the long chains' kernel."""
     return n if 3 <= n <= LOCAL_MAX else 0
 
 
 def short_block(local: int) -> int:
-    """PL_BLOCK, the short chains' largest run of free atoms (0 for the global rows' kernel, which
-    takes the batch's block as an argument)."""
-    return min(SHORT_BLOCK, local - 2) if local else 0
+    """PL_BLOCK, the short chains' largest run of free atoms."""
+    return min(SHORT_BLOCK, local - 2)
 
 
 _MODULES: dict = {}

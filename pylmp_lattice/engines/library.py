@@ -47,12 +47,6 @@ def layout() -> Layout:
     return _LOADED[0][1]
 
 
-def step_scratch(block: int) -> int:
-    """The doubles of the kernel's step scratch per chain for runs of at most `block` atoms
-    (kernel/step.h step_scratch)."""
-    return int(library().pl_engine_scratch(block))
-
-
 def ptr(a: np.ndarray):
     """A float64 C-contiguous array as the library's double *."""
     assert a.dtype == np.float64 and a.flags.c_contiguous
@@ -78,8 +72,6 @@ def _load() -> tuple[ctypes.CDLL, Layout]:
     lib.pl_fit_measured.restype = None
     lib.pl_drive_path.argtypes = [i, d, d, d, ll, p]
     lib.pl_drive_path.restype = i
-    lib.pl_engine_scratch.argtypes = [i]
-    lib.pl_engine_scratch.restype = i
     lib.pl_engine_status.argtypes = [i]
     lib.pl_engine_status.restype = ctypes.c_char_p
     status = []

@@ -158,8 +158,6 @@ int pl_engine_abi() { return 4; }
 int pl_engine_block() { return BLOCK; }
 int pl_engine_nout() { return front::NOUT; }
 int pl_engine_ncol() { return front::NCOL; }
-/* the doubles of step scratch a chain needs for runs of at most `block` atoms (the GPU engine's) */
-int pl_engine_scratch(int block) { return step_scratch(block); }
 const char *pl_engine_status(int status)
 {
   switch (status) {

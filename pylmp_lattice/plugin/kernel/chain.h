@@ -270,11 +270,29 @@ template <class R> PL_HD inline R smallest_gap(const R *x, int n)
   return g;
 }
 
+/* Who runs a chain: Solo, one thread (or one set of lanes) the whole chain, its atoms 0 .. n - 1
+   (the fix for a chain it owns alone, the host engine, the GPU's short chains). The GPU's long
+   chains run one block per chain (engine_gpu.cu's BlockTeam): each thread its own segment, a
+   chain of its own whose end atoms are the real ends, or ghosts, its neighbours' edge atoms,
+   placed at each step where their drift moved them (as fix lattice/chain's slab edges); the
+   decisions to end are the whole block's. */
+struct Solo {
+  PL_HD bool owns_first() const { return true; }     // atom 0 (the impactor) is this thread's
+  PL_HD bool owns_last() const { return true; }      // and atom n - 1 (the far end)
+  /* the lanes where any thread of the team has `m` (a thread alone: its own) */
+  template <class M> PL_HD M either(M m) const { return m; }
+  /* this step's ghosts into x (their positions after the drift), from the neighbours' publish */
+  template <class R> PL_HD void ghosts(R *, int, long long) const {}
+  /* this thread's edge atoms' positions after the drift of step `next`, for its neighbours */
+  template <class R> PL_HD void publish(const R *, const R *, const R *, const MassesT<R> &, double, int,
+                                        long long) const {}
+};
+
 /* lane l's chain ends with `status` after c.end_step: its outcome, its record's largest |v|, and
    with lanes its x, v kept in x_end, v_end (the lane runs on, unread) */
-template <bool FRONT, class R>
+template <bool FRONT, class R, class Team>
 PL_HD inline void end_lane(const ChainSetup &S, ChainDataT<R> &c, const R &work_done, long long step, int l,
-                           int status)
+                           int status, const Team &team)
 {
   using L = Lanes<R>;
   const int n = S.n;
@@ -287,38 +305,42 @@ PL_HD inline void end_lane(const ChainSetup &S, ChainDataT<R> &c, const R &work_
     for (int i = 0; i < n; i++) c.x_end[l * n + i] = L::get(c.x[i], l), c.v_end[l * n + i] = L::get(c.v[i], l);
   if (FRONT)
     PL_UNROLL
-    for (int i = 0; i < n; i++) c.rec[((long long) l * n + i) * front::NCOL + front::V_ABS_MAX] = L::get(c.mark[i], l);
+    for (int i = team.owns_first() ? 0 : 1; i < (team.owns_last() ? n : n - 1); i++)
+      c.rec[((long long) l * n + i) * front::NCOL + front::V_ABS_MAX] = L::get(c.mark[i], l);
 }
 
 /* the running lanes whose gaps went bad end (a contact or out of range); true if none runs on */
-template <bool FRONT, class R>
+template <bool FRONT, class R, class Team>
 PL_HD inline bool end_bad(const ChainSetup &S, ChainDataT<R> &c, const GapsT<R> &gaps, const R &work_done,
-                          long long step)
+                          long long step, const Team &team)
 {
-  const MaskOf<R> bad = gaps.bad(S.range_lo, S.range_hi);
+  const MaskOf<R> bad = team.either(gaps.bad(S.range_lo, S.range_hi));
   bool running = false;
   if (Lanes<R>::any(bad)) {
-    const MaskOf<R> contact = smallest_gap(c.x, S.n) <= 0.0;
+    const MaskOf<R> contact = team.either(smallest_gap(c.x, S.n) <= 0.0);
     for (int l = 0; l < Lanes<R>::W; l++)
       if (c.alive[l] && Lanes<R>::on(bad, l))
-        end_lane<FRONT>(S, c, work_done, step, l, Lanes<R>::on(contact, l) ? CONTACT : OUT_OF_RANGE);
+        end_lane<FRONT>(S, c, work_done, step, l, Lanes<R>::on(contact, l) ? CONTACT : OUT_OF_RANGE, team);
   }
   for (int l = 0; l < Lanes<R>::W; l++) running = running || c.alive[l];
   return !running;
 }
 
 /* every running lane ends with `status` */
-template <bool FRONT, class R>
-PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_done, long long step, int status)
+template <bool FRONT, class R, class Team>
+PL_HD inline void end_all(const ChainSetup &S, ChainDataT<R> &c, const R &work_done, long long step, int status,
+                          const Team &team)
 {
   for (int l = 0; l < Lanes<R>::W; l++)
-    if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status);
+    if (c.alive[l]) end_lane<FRONT>(S, c, work_done, step, l, status, team);
 }
 
 /* SAMPLING: how the front record's rows are sampled (per_atom and listed: one chain, W = 1, its
-   start gates as bits; per_run: in c.gate) */
-template <bool FRICTION, bool FRONT, class Runs = ChainRuns, Sampling SAMPLING = Sampling::per_run, class LawT, class R>
-PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
+   start gates as bits; per_run: in c.gate); team: who runs the chain (Solo: this thread alone;
+   else c is this thread's segment, S.n its atoms with the ghosts) */
+template <bool FRICTION, bool FRONT, class Runs = ChainRuns, Sampling SAMPLING = Sampling::per_run, class LawT, class R,
+          class Team = Solo>
+PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c, const Team team = Team())
 {
   using L = Lanes<R>;
   // the runs of free atoms 1 .. n - 2, each at most S.block long (FixedRuns: n and they are constants)
@@ -356,23 +378,26 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
   typename Hook::Due due_now[SAMPLING == Sampling::listed ? 64 : 1];    // BitGates' most atoms
   Hook hook{n, runs, v, f, c.mass, c.index, GatesFor<SAMPLING, R>::of(c), &c, front::Sample{0.0, 0.0, true}, {},
             due_now};
+  const int own_first = team.owns_first() ? 0 : 1, own_last = team.owns_last() ? n - 1 : n - 2;
   if (FRONT) {
     PL_UNROLL
-    for (int i = 0; i < n; i++) {
+    for (int i = own_first; i <= own_last; i++) {
       c.mark[i] = front::mark_max(c.mark[i], v[i]);
       for (int l = 0; l < L::W; l++) hook.gate.wait(i, l, c.levels[l].start);
       hook.rows(i, L::splat(quiet_nan()));
     }
     hook.flush();
   }
-  if (end_bad<FRONT>(S, c, gaps, work_done, 0)) return;
+  team.publish(x, v, f, ms, S.dt, n, 1);
+  if (end_bad<FRONT>(S, c, gaps, work_done, 0, team)) return;
   const FrontPass<Hook, R, decltype(hook.gate.view())> pass{c.mark, hook.gate.view(), &hook};
   for (long long step = 1; step <= S.steps; step++) {
     const R v_impactor = v[0];
     // the impactor on the drive's path (the fix's initial_integrate)
-    if (!S.drive.at_step(step, S.dt, u, ud)) return end_all<FRONT>(S, c, work_done, step - 1, DRIVE_ENDED);
+    if (!S.drive.at_step(step, S.dt, u, ud)) return end_all<FRONT>(S, c, work_done, step - 1, DRIVE_ENDED, team);
     x[0] = x0 + u;
     v[0] = L::splat(ud);
+    team.ghosts(x, n, step);
     hook.sample = front::Sample{0.0 + static_cast<double>(step) * S.dt, hook.sample.t, false};
     GapsT<R> g;
     step_runs<FRICTION, FRONT>(law, runs, nruns, x, v, f, ms, S.fr, S.dt, &work, c.scratch, S.block, pass, g);
@@ -380,15 +405,20 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c)
     f[0] = -law(x[1] - x[0]);
     f[n - 1] = L::splat(0.0);
     if (FRONT) {
-      c.mark[0] = front::mark_max(c.mark[0], v[0]);
-      hook.rows(0, v_impactor);
-      c.mark[n - 1] = front::mark_max(c.mark[n - 1], v[n - 1]);
-      hook.rows(n - 1, v[n - 1]);
+      if (team.owns_first()) {
+        c.mark[0] = front::mark_max(c.mark[0], v[0]);
+        hook.rows(0, v_impactor);
+      }
+      if (team.owns_last()) {
+        c.mark[n - 1] = front::mark_max(c.mark[n - 1], v[n - 1]);
+        hook.rows(n - 1, v[n - 1]);
+      }
       hook.flush();
     }
-    if (end_bad<FRONT>(S, c, g, work_done, step)) return;
+    team.publish(x, v, f, ms, S.dt, n, step + 1);
+    if (end_bad<FRONT>(S, c, g, work_done, step, team)) return;
   }
-  end_all<FRONT>(S, c, work_done, S.steps, FINISHED);
+  end_all<FRONT>(S, c, work_done, S.steps, FINISHED, team);
 }
 }    // namespace detail
 

@@ -1,5 +1,5 @@
-/* The GPU engine's kernels: one thread per chain, each running the chain kernel's run_chain
-   (chain.h). Compiled at run time by NVRTC through CuPy (pylmp_lattice/engines/gpu.py, with -I
+/* The GPU engine's kernels: one thread per short chain, one block per long one, each running
+   the chain kernel's run_chain (chain.h). Compiled at run time by NVRTC through CuPy (pylmp_lattice/engines/gpu.py, with -I
    this folder and the batch's -D options, below). Part of pylmp_lattice, GPL-2.0.
 
    Short chains (n = PL_LOCAL_N, up to 64, the ensembles' case): pl_run_short_chains_gpu is
@@ -20,13 +20,16 @@
    only the inputs (x, v, masses, levels) are read from global memory once, and only the
    record's NOUT output columns (not its NCOL columns of running state) and the final x, v are
    written back: the per-chain record leaves the chip compact, 7 doubles per magnet.
-   Long chains: pl_run_chains_gpu runs on chain-major slices of global arrays (each thread its
-   own rows: not coalesced; a block per chain would be the next step).
+   Long chains (over 64 magnets): pl_run_long_chains_gpu, a block per chain, each thread on a
+   segment of PL_BLOCK free atoms or fewer, as a slab of fix lattice/chain on an MPI rank (below).
+   Its one thread a chain on chain-major rows of global arrays that it replaced ran 10^3 chains
+   of 1000 magnets on an H200 at 0.2x the C loop on 16 cores (1000 threads, a thirtieth of the
+   device, none coalesced); the block per chain has not been timed on a device yet.
 
    A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
    the short chains' kernel for chains that long (PL_BLOCK its runs, PL_THREADS its block's
-   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLING as above), 0 the global rows'
-   kernel; PL_LAW_KIND (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the
+   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLING as above), 0 the long chains'
+   kernel (PL_BLOCK its segments, PL_THREADS the most threads a block); PL_LAW_KIND (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the
    one case of chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
    NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
 
@@ -78,13 +81,14 @@ template <> struct Compiled<laws::Table> {
 
 /* chain.h's run_chain for the compiled case alone; a chain of another case is not run and keeps
    end step -1, which the host refuses (a module built for another batch never passes unseen) */
-template <class Runs, detail::Sampling SAMPLING> __device__ void run_compiled(const ChainSetup &S, ChainData &d)
+template <class Runs, detail::Sampling SAMPLING, class Team = detail::Solo>
+__device__ void run_compiled(const ChainSetup &S, ChainData &d, const Team team = Team())
 {
   d.end_step[0] = -1;
   dispatch_chain(S, [&](auto law, auto friction, auto record) {
     if constexpr (Compiled<decltype(law)>::value && decltype(friction)::value == (PL_FRICTION != 0) &&
                   decltype(record)::value == (PL_RECORD != 0))
-      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs, SAMPLING>(law, S, d);
+      detail::run_chain<decltype(friction)::value, decltype(record)::value, Runs, SAMPLING>(law, S, d, team);
   });
 }
 }    // namespace
@@ -186,40 +190,82 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
 }
 
 #else
-/* Any n: each thread on its chain's rows of global arrays (chain-major); rec (chains x n x NCOL)
-   NaN, mark NaN, gate and phase 0 on entry. */
-extern "C" __global__ void pl_run_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass, double *f,
-                                             double *dtfm, double *weight, double *dtm, const int *index,
-                                             const double *levels,
-                                             double *rec, double *mark, double *gate, unsigned char *phase,
-                                             double *scratch, double *work, long long *end_step, int *status)
-{
-  const int c = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c >= chains) return;
-  const ChainSetup S = make_setup(PL_SETUP_ARGS);
-  const long long at = static_cast<long long>(c) * n;
-  chain_masses(mass + at, n, dt, g, dtfm + at, weight + at, PL_FRICTION ? dtm + at : nullptr);
-  ChainData d{};
-  d.x = x + at;
-  d.v = v + at;
-  d.f = f + at;
-  d.dtfm = dtfm + at;
-  d.mass = mass + at;
-  d.weight = weight + at;
-  if (PL_FRICTION) d.dtm = dtm + at;
-  d.index = index;
-  d.scratch = scratch + static_cast<long long>(c) * step_scratch(block);
-  d.alive[0] = true;
-  if (S.record) {
-    d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
-    d.rec = rec + at * front::NCOL;
-    d.mark = mark + at;
-    d.gate = gate + at;
-    d.phase = phase + at;
+/* The long chains' team (chain.h's detail::Solo): PL_THREADS threads a chain, thread t its segment of at
+   most PL_BLOCK free atoms, a chain of its own whose end atoms are the chain's ends or ghosts.
+   After each step a thread publishes where the next step's drift moves its edge atoms (the
+   arithmetic of step.h's drift, as fix lattice/chain's send_edges), in the half of `edges` for
+   that step's parity, and reads its ghosts from it before the step: the barrier between is the
+   end test's __syncthreads_or, one a step (two halves: a thread writes the next step's half while
+   its neighbours may still read this one's). */
+struct BlockTeam {
+  int t, threads;
+  double *edges;    // shared: [parity][thread][left, right edge atom]
+  PL_HD bool owns_first() const { return t == 0; }
+  PL_HD bool owns_last() const { return t == threads - 1; }
+  template <class M> __device__ M either(M m) const { return __syncthreads_or(m); }
+  __device__ void ghosts(double *x, int n, long long step) const
+  {
+    const double *e = edges + 2 * threads * (step & 1);
+    if (!owns_first()) x[0] = e[2 * (t - 1) + 1];
+    if (!owns_last()) x[n - 1] = e[2 * (t + 1)];
   }
-  run_compiled<ChainRuns, detail::Sampling::per_run>(S, d);
-  work[c] = d.work[0];
-  end_step[c] = d.end_step[0];
-  status[c] = d.status[0];
+  __device__ void publish(const double *x, const double *v, const double *f, const Masses &ms, double dt, int n,
+                          long long next) const
+  {
+    double *e = edges + 2 * (threads * (next & 1) + t);
+    e[0] = x[1] + dt * (v[1] + ms.dtfm[ms.slot[1]] * f[1]);
+    e[1] = x[n - 2] + dt * (v[n - 2] + ms.dtfm[ms.slot[n - 2]] * f[n - 2]);
+  }
+};
+
+/* One block per chain (blockIdx.x), PL_THREADS threads (a longer block is refused: end step -1),
+   thread t on free atoms lo .. hi - 1 (segments of PL_BLOCK or fewer; engines/gpu.py sizes both
+   for n): its segment's x, v, f, mass terms, marks and start gates in its local memory (CUDA
+   interleaves it by thread: coalesced), its record rows and phases in the chain's rows of rec
+   (chains x n x NCOL, NaN on entry) and phase (WAITING on entry); index: 0, 1, ..., n - 1. The
+   friction work is each thread's, added in thread order (not the host's atom order: its last
+   bits may differ). */
+extern "C" __global__ void pl_run_long_chains_gpu(PL_SETUP_PARAMS, double *x, double *v, const double *mass,
+                                                  const int *index, const double *levels, double *rec,
+                                                  unsigned char *phase, double *work, long long *end_step,
+                                                  int *status)
+{
+  constexpr int SEG = PL_BLOCK, M = PL_BLOCK + 2;    // a segment's free atoms, its atoms with the ghosts
+  __shared__ double edges[2 * 2 * PL_THREADS], works[PL_THREADS];
+  const int c = blockIdx.x, t = threadIdx.x, threads = blockDim.x;
+  if (c >= chains) return;
+  const int lo = 1 + static_cast<int>(static_cast<long long>(t) * (n - 2) / threads),
+            hi = 1 + static_cast<int>(static_cast<long long>(t + 1) * (n - 2) / threads);
+  if (threads > PL_THREADS || threads > n - 2 || (n - 2 + threads - 1) / threads > SEG) {    // never: refused
+    if (t == 0) end_step[c] = -1;
+    return;
+  }
+  ChainSetup S = make_setup(PL_SETUP_ARGS);
+  const int m = hi - lo + 2;    // atoms lo - 1 .. hi, the ends ghosts but in the first and last thread
+  S.n = m, S.block = SEG;
+  const long long at = static_cast<long long>(c) * n + lo - 1;
+  double xs[M], vs[M], fs[M], dtfm[M], weight[M], dtm[M], mark[M], gate[M], scratch[step_scratch(SEG)];
+  for (int i = 0; i < m; i++) xs[i] = x[at + i], vs[i] = v[at + i], fs[i] = 0.0, mark[i] = quiet_nan(), gate[i] = 0.0;
+  chain_masses(mass + at, m, dt, g, dtfm, weight, PL_FRICTION ? dtm : nullptr);
+  ChainData d{};
+  d.x = xs, d.v = vs, d.f = fs, d.dtfm = dtfm, d.mass = mass + at, d.weight = weight, d.index = index;
+  if (PL_FRICTION) d.dtm = dtm;
+  d.scratch = scratch, d.alive[0] = true;
+  if (PL_RECORD) {
+    d.levels[0] = levels_row(levels + 5 * static_cast<long long>(c));
+    d.rec = rec + at * front::NCOL, d.mark = mark, d.gate = gate, d.phase = phase + at;
+  }
+  const BlockTeam team{t, threads, edges};
+  run_compiled<ChainRuns, detail::Sampling::per_run>(S, d, team);
+  for (int i = team.owns_first() ? 0 : 1; i < (team.owns_last() ? m : m - 1); i++) x[at + i] = xs[i], v[at + i] = vs[i];
+  works[t] = d.work[0];
+  __syncthreads();
+  if (t == 0) {
+    double sum = 0.0;
+    for (int k = 0; k < threads; k++) sum += works[k];
+    work[c] = sum;
+    end_step[c] = d.end_step[0];
+    status[c] = d.status[0];
+  }
 }
 #endif
