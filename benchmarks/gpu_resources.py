@@ -13,12 +13,15 @@ loops inside it: with none inside, each LDL/STL runs at most once a step.
 
 Cases: the paper's experiment (power law q = 3, friction, front record) for chains of one mass (the
 thermal ensembles) and of per-atom masses (disorder), and the same law without friction or record;
-chains of --particles magnets. --reference REV adds the same rows for the
-kernel of a git revision (its folder plugin/kernel at REV, its local arrays 32 or 64 long, as
-ece083f rounded n), compiled with this tree's options: the old and the new kernel side by side.
+chains of --particles magnets (over 64: the long chains' kernel, a block per chain, its blocks of
+gpu.long_threads threads, its record rows in global memory). --reference REV adds the same rows
+for the short chains' kernel of a git revision (its folder plugin/kernel at REV, its local arrays
+32 or 64 long, as ece083f rounded n), compiled with this tree's options: the old and the new
+kernel side by side.
 
     python benchmarks/gpu_resources.py [--particles 21,40,64] [--reference ece083f]
     python benchmarks/gpu_resources.py --particles 21 --blocks 4,8,10,19   # the short chains' block
+    python benchmarks/gpu_resources.py --particles 100,1000,10000          # the long chains' kernel
 
 Exit 2 with one line where NVRTC is not installed (nvdisasm is optional: '-' without it).
 """
@@ -68,7 +71,7 @@ class Resources:
         per_warp = math.ceil(self.registers * 32 / 256) * 256
         warps = REGISTERS_PER_SM // per_warp
         by_shared = SHARED_PER_SM // (self.shared + SHARED_RESERVED) if self.shared else BLOCKS_PER_SM
-        blocks = min(warps // (threads // 32), BLOCKS_PER_SM, THREADS_PER_SM // threads, by_shared)
+        blocks = min(warps // math.ceil(threads / 32), BLOCKS_PER_SM, THREADS_PER_SM // threads, by_shared)
         return blocks * threads
 
 
@@ -170,8 +173,10 @@ def row(label: str, n: int, local: int, block: int | str, record: bool, r: Resou
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--particles", default="21", help="chain lengths, comma separated (3-64: the short chains' kernel)")
-    p.add_argument("--blocks", default="", help="PL_BLOCK values to try (default: the engine's, gpu.short_block)")
+    p.add_argument("--particles", default="21", help="chain lengths, comma separated (3-64: the short chains' kernel; "
+                                                     "longer: the long chains')")
+    p.add_argument("--blocks", default="", help="PL_BLOCK values to try (default: the engine's, gpu.short_block "
+                                                "or gpu.long_segment)")
     p.add_argument("--nvdisasm", help="nvdisasm's path (else PATH, then the nvidia-cuda-nvdisasm wheel)")
     p.add_argument("--reference", help="a git revision whose kernel gets the same rows (e.g. ece083f)")
     args = p.parse_args()
@@ -185,11 +190,9 @@ def main() -> None:
         print(f"gpu_resources: --particles and --blocks take integers, not {args.particles!r}, {args.blocks!r}",
               file=sys.stderr)
         raise SystemExit(2) from None
-    if not sizes or any(not 3 <= n <= gpu.LOCAL_MAX for n in sizes) or any(b < 1 for b in blocks):
-        print(f"gpu_resources: --particles in 3-{gpu.LOCAL_MAX} (the short chains' kernel), --blocks >= 1",
-              file=sys.stderr)
+    if not sizes or any(n < 3 for n in sizes) or any(b < 1 for b in blocks):
+        print("gpu_resources: --particles >= 3, --blocks >= 1", file=sys.stderr)
         raise SystemExit(2)
-    entry = "pl_run_short_chains_gpu"
     nvdisasm = find_nvdisasm(args.nvdisasm)
     if args.nvdisasm and not Path(args.nvdisasm).is_file():
         print(f"gpu_resources: --nvdisasm {args.nvdisasm} is not a file", file=sys.stderr)
@@ -210,15 +213,16 @@ def main() -> None:
         for name, (case, one_mass) in CASES.items():
             for n in sizes:
                 local = gpu.local_size(n)
-                if ref is not None:
+                entry = "pl_run_short_chains_gpu" if local else "pl_run_long_chains_gpu"
+                if ref is not None and local:
                     old_local = 32 if n <= 32 else 64
                     options = with_kernel(gpu.compile_options(local, case, one_mass=one_mass), ref, old_local)
                     print(row(f"{args.reference}, {name}", n, old_local, "at run time", case[3],
                               measure(ref, options, entry, nvdisasm), gpu.THREADS), flush=True)
-                for block in blocks or [gpu.short_block(local)]:
-                    r = measure(gpu.KERNEL, gpu.compile_options(local, case, block, one_mass), entry, nvdisasm)
-                    print(row(f"this tree, {name}", n, local, block, case[3], r, gpu.block_threads(local)),
-                          flush=True)
+                for block in blocks or [gpu.short_block(local) if local else gpu.long_segment(n)]:
+                    r = measure(gpu.KERNEL, gpu.compile_options(n, case, block, one_mass), entry, nvdisasm)
+                    threads = gpu.block_threads(local) if local else gpu.long_threads(n)
+                    print(row(f"this tree, {name}", n, local, block, case[3], r, threads), flush=True)
     print("threads/SM: by registers and shared memory (blocks of gpu.block_threads); their stack: resident threads x stack frame, the local memory "
           f"they hold at once, against the {L2_MB} MB of L2 (H100: 50 MB, H200: 60 MB); their rest: the same without "
           "the record's rows; at 2048 threads/SM: the stack if registers did not limit the threads resident; the "
