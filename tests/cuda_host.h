@@ -5,6 +5,7 @@
    barriers (pl_emu_begin_block sets their count). A __shared__ array is one static array: the
    block's, as on a device, since blocks run one at a time. Passed with -include. */
 #include <pthread.h>
+#include <time.h>
 
 #define __global__
 #define __shared__ static
@@ -27,20 +28,44 @@ extern "C" void pl_emu_set_thread(unsigned int block, unsigned int threads, unsi
   threadIdx = {thread, 0, 0};
 }
 
-static pthread_barrier_t pl_emu_barrier;
-static int pl_emu_or[3];
+/* A block's barrier: a generation count under a mutex. A thread that waits over 10 s (a block
+   whose threads do not all reach the barrier, which hangs a device) breaks it for good: every
+   wait then returns at once, and pl_emu_broken tells the launch, which fails the test. */
+static pthread_mutex_t pl_emu_mutex = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t pl_emu_cond = PTHREAD_COND_INITIALIZER;
+static unsigned int pl_emu_threads = 1, pl_emu_waiting = 0;
+static unsigned long pl_emu_generation = 0;
+static int pl_emu_or[3], pl_emu_broken_flag = 0;
 
 /* a block of `threads` host threads is about to run (each calls pl_emu_set_thread, then the kernel) */
 extern "C" void pl_emu_begin_block(unsigned int threads)
 {
-  static bool made = false;
-  if (made) pthread_barrier_destroy(&pl_emu_barrier);
-  pthread_barrier_init(&pl_emu_barrier, nullptr, threads);
-  made = true;
+  pl_emu_threads = threads, pl_emu_waiting = 0;
   pl_emu_or[0] = pl_emu_or[1] = pl_emu_or[2] = 0;
 }
 
-static void __syncthreads() { pthread_barrier_wait(&pl_emu_barrier); }
+/* 1 if a barrier broke since the library was loaded */
+extern "C" int pl_emu_broken() { return pl_emu_broken_flag; }
+
+static void __syncthreads()
+{
+  pthread_mutex_lock(&pl_emu_mutex);
+  const unsigned long generation = pl_emu_generation;
+  if (++pl_emu_waiting == pl_emu_threads) {
+    pl_emu_waiting = 0, pl_emu_generation++;
+    pthread_cond_broadcast(&pl_emu_cond);
+  } else {
+    timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    until.tv_sec += 10;
+    while (generation == pl_emu_generation && !pl_emu_broken_flag)
+      if (pthread_cond_timedwait(&pl_emu_cond, &pl_emu_mutex, &until) != 0) {
+        pl_emu_broken_flag = 1;
+        pthread_cond_broadcast(&pl_emu_cond);
+      }
+  }
+  pthread_mutex_unlock(&pl_emu_mutex);
+}
 
 /* each call's OR in its own of three slots, cleared two calls later (after a barrier all have passed) */
 static int __syncthreads_or(int p)

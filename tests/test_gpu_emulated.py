@@ -88,6 +88,7 @@ class Kernel:
         self.set_thread.argtypes = [ctypes.c_uint] * 3
         self.begin_block = lib.pl_emu_begin_block
         self.begin_block.argtypes = [ctypes.c_uint]
+        self.broken = lib.pl_emu_broken
 
     def marshal(self, args) -> list:
         """The arguments as CuPy passes them (NumPy scalars by their type, arrays as their data
@@ -139,6 +140,7 @@ class Kernel:
             for t in threads:
                 t.join()
         assert not errors, errors
+        assert not self.broken(), f"{self.name}: a barrier that not every thread of its block reached (a device hangs)"
         for k, (a, (_, pointer, const)) in enumerate(zip(args, self.signature)):
             if pointer:
                 g, data = guarded[id(a)], a.view(np.uint8).reshape(-1)
@@ -424,6 +426,29 @@ def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu
     assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
     assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLING={gpu.SAMPLINGS[sampling]}"} <= set(
         emulated_gpu.modules[0])
+
+
+@pytest.mark.parametrize("segment,threads", [(1, 256), (3, 256), (8, 4)])
+def test_the_long_chains_segments_change_no_bit_of_x_v_and_the_record(tmp_path, monkeypatch, emulated_gpu, segment,
+                                                                       threads):
+    """A block per chain of 70 magnets in segments of 1 free atom (68 threads: each thread's two
+    ghosts the neighbours of one atom), of 3 (23 threads, the last segments shorter), and at most
+    4 threads a block (segments of 17, more than LONG_SEGMENT), with friction and a thermal
+    velocity of 3 m/s, which brings magnets 4 and 5, 47 and 48, 62 and 63 into contact (one in
+    each chain, at steps 148, 115 and 110, found by whichever thread holds the pair): x, v, the
+    record, end steps and statuses bit for bit the host's, the work within 1e-14; every thread of
+    a chain ends at its contact's step."""
+    monkeypatch.setattr(gpu, "LONG_SEGMENT", segment)
+    monkeypatch.setattr(gpu, "LONG_THREADS", threads)
+    cases = members(count=3, particles=70, friction=FRICTION, duration=10.0, velocity=0.5,
+                    chain={"thermal_velocity": 3.0})
+    got = run_both(cases, tmp_path, monkeypatch)
+    assert assert_same_outputs(got) or same_but_work(got)
+    want = {1: 68, 3: 23, 8: 4}[segment]
+    assert emulated_gpu.launches == [("pl_run_long_chains_gpu", 3, want)] and gpu.long_threads(70) == want
+    x, end_step, status = got["gpu"]["out"][0], *got["gpu"]["out"][4:]
+    assert list(end_step) == [148, 115, 110] and status.all()
+    assert list(np.argmin(np.diff(x, axis=1), axis=1)) == [4, 47, 62]
 
 
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):
