@@ -30,7 +30,10 @@ extern "C" void pl_emu_set_thread(unsigned int block, unsigned int threads, unsi
 
 /* A block's barrier: a generation count under a mutex. A thread that waits over 10 s (a block
    whose threads do not all reach the barrier, which hangs a device) breaks it for good: every
-   wait then returns at once, and pl_emu_broken tells the launch, which fails the test. */
+   wait then returns at once, and pl_emu_broken tells the launch, which fails the test. After
+   it, the odd threads wait 20 us: the even ones run ahead into the next step, so that a read
+   of shared memory a neighbour may overwrite before the next barrier (one half of `edges` for
+   both steps) reads the new value, not by the chance of the host's scheduling. */
 static pthread_mutex_t pl_emu_mutex = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t pl_emu_cond = PTHREAD_COND_INITIALIZER;
 static unsigned int pl_emu_threads = 1, pl_emu_waiting = 0;
@@ -44,8 +47,13 @@ extern "C" void pl_emu_begin_block(unsigned int threads)
   pl_emu_or[0] = pl_emu_or[1] = pl_emu_or[2] = 0;
 }
 
-/* 1 if a barrier broke since the library was loaded */
-extern "C" int pl_emu_broken() { return pl_emu_broken_flag; }
+/* 1 if a barrier broke since the last call (which mends it) */
+extern "C" int pl_emu_broken()
+{
+  const int broken = pl_emu_broken_flag;
+  pl_emu_broken_flag = 0;
+  return broken;
+}
 
 static void __syncthreads()
 {
@@ -65,6 +73,10 @@ static void __syncthreads()
       }
   }
   pthread_mutex_unlock(&pl_emu_mutex);
+  if (threadIdx.x % 2) {
+    const timespec late{0, 20000};
+    nanosleep(&late, nullptr);
+  }
 }
 
 /* each call's OR in its own of three slots, cleared two calls later (after a barrier all have passed) */

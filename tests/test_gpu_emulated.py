@@ -28,7 +28,7 @@ import pytest
 from pylmp_lattice.case import Case
 from pylmp_lattice.engines import cpu, gpu
 from pylmp_lattice.engines.arrays import prepare
-from pylmp_lattice.engines.library import library, ptr
+from pylmp_lattice.engines.library import Unsupported, layout, library, ptr
 from pylmp_lattice.engines.road import KernelEngine
 from pylmp_lattice.errors import ContactError
 from pylmp_lattice.formats.layout import CHAIN_WORK, FRONT_BIN
@@ -389,10 +389,12 @@ def test_batches_in_several_launches(tmp_path, monkeypatch, emulated_gpu, partic
         assert [launch[1:] for launch in emulated_gpu.launches] == [(16, 13), (16, 13), (8, 13)]
 
 
-def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path, monkeypatch, emulated_gpu):
+@pytest.mark.parametrize("particles", [21, 70])
+def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path, monkeypatch, emulated_gpu, particles):
     """A module holds one case of the law, friction and record (engine_gpu.cu's run_compiled):
-    given a batch of another case, its chains are not run, and the engine says so."""
-    a = prepare(members(count=3, friction=FRICTION), "gpu")
+    given a batch of another case, its chains are not run (a thread a chain, or a block), and
+    the engine says so."""
+    a = prepare(members(count=3, particles=particles, friction=FRICTION), "gpu")
     batch_case = gpu.batch_case
     assert gpu.batch_case(a) == (0, 3.0, True, True)
     for other in ((0, 2.0, True, True), (0, 3.5, True, True), (1, 0.0, True, True), (0, 3.0, False, True),
@@ -401,6 +403,8 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
         with pytest.raises(RuntimeError, match="did not run this batch's chains"):
             gpu.run_arrays(a)
     monkeypatch.setattr(gpu, "batch_case", batch_case)
+    if particles != 21:
+        return
     # a module for chains of 22 magnets
     monkeypatch.setattr(gpu, "compile_options", lambda n, *args, **kw: COMPILE_OPTIONS(n + 1, *args, **kw))
     with pytest.raises(RuntimeError, match="did not run this batch's chains"):
@@ -433,7 +437,8 @@ def test_the_long_chains_segments_change_no_bit_of_x_v_and_the_record(tmp_path, 
                                                                        threads):
     """A block per chain of 70 magnets in segments of 1 free atom (68 threads: each thread's two
     ghosts the neighbours of one atom), of 3 (23 threads, the last segments shorter), and at most
-    4 threads a block (segments of 17, more than LONG_SEGMENT), with friction and a thermal
+    4 threads a block (segments of up to 24: LONG_SEGMENT's multiple that 4 threads need; 3
+    threads of 22 and 23), with friction and a thermal
     velocity of 3 m/s, which brings magnets 4 and 5, 47 and 48, 62 and 63 into contact (one in
     each chain, at steps 148, 115 and 110, found by whichever thread holds the pair): x, v, the
     record, end steps and statuses bit for bit the host's, the work within 1e-14; every thread of
@@ -444,11 +449,44 @@ def test_the_long_chains_segments_change_no_bit_of_x_v_and_the_record(tmp_path, 
                     chain={"thermal_velocity": 3.0})
     got = run_both(cases, tmp_path, monkeypatch)
     assert assert_same_outputs(got) or same_but_work(got)
-    want = {1: 68, 3: 23, 8: 4}[segment]
+    want = {1: 68, 3: 23, 8: 3}[segment]
     assert emulated_gpu.launches == [("pl_run_long_chains_gpu", 3, want)] and gpu.long_threads(70) == want
     x, end_step, status = got["gpu"]["out"][0], *got["gpu"]["out"][4:]
     assert list(end_step) == [148, 115, 110] and status.all()
     assert list(np.argmin(np.diff(x, axis=1), axis=1)) == [4, 47, 62]
+
+
+def test_a_long_chain_whose_drive_ends_ends_in_every_thread_at_the_host_s_step(emulated_gpu):
+    """The measured drive stops where its data end (8 ms, impactor.after = "stop"): a batch run
+    50 steps past it (the road refuses such a case; the kernel's end without a barrier) ends
+    with status drive ended at step 800 in the block per chain as in the host build, x, v, the
+    record bit for bit, the work within 1e-14."""
+    import dataclasses
+
+    cases = members(count=2, particles=70, duration=8.0, impactor=dict(DRIVES["measured"], after="stop"),
+                    friction=FRICTION)
+    a = prepare(cases, "gpu")
+    a = dataclasses.replace(a, steps=a.steps + 50)
+    host, dev = cpu.run_arrays(a, 1), gpu.run_arrays(a)
+    assert emulated_gpu.launches[-1][0] == "pl_run_long_chains_gpu"
+    assert list(host[4]) == [800, 800] and [layout().status[k] for k in host[5]] == ["drive_ended"] * 2
+    for k in (0, 1, 4, 5):
+        assert np.array_equal(dev[k], host[k]), k
+    assert np.array_equal(dev[2], host[2], equal_nan=True)
+    np.testing.assert_allclose(dev[3], host[3], rtol=1e-14, atol=0)
+
+
+def test_chains_too_long_for_a_block_are_refused_with_a_reason(emulated_gpu, monkeypatch):
+    """Over 2 + LONG_THREADS x LONG_SEGMENT_MAX magnets (65538) a thread's segment would not fit
+    its local memory: the engine refuses the batch (the sweep runs it on LAMMPS, with a note)."""
+    assert gpu.too_long(65538) is None and "chains of 65539 magnets" in gpu.too_long(65539)
+    assert gpu.long_segment(65538) == gpu.LONG_SEGMENT_MAX and gpu.long_threads(65538) == gpu.LONG_THREADS
+    assert gpu.long_segment(2051) == 16  # a multiple of LONG_SEGMENT: 2051 to 4098 magnets share a module
+    monkeypatch.setattr(gpu, "LONG_SEGMENT_MAX", 4)
+    monkeypatch.setattr(gpu, "LONG_THREADS", 16)
+    with pytest.raises(Unsupported, match="chains of 70 magnets: the GPU engine runs at most 66 "):
+        KernelEngine("gpu", members(count=2, particles=70))
+    assert KernelEngine("gpu", members(count=2, particles=66)).arrays.n == 66
 
 
 def test_the_emulator_refuses_what_cupy_would_pass_otherwise(emulated_build):

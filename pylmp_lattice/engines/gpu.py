@@ -66,6 +66,10 @@ SHORT_BLOCK = 32
 # thread a chain it replaced ran 10^3 chains of 1000 magnets at 0.2x the C loop on 16 cores)
 LONG_SEGMENT = 8
 LONG_THREADS = 256
+# ... in segments of at most LONG_SEGMENT_MAX: a thread keeps about 88 bytes an atom of its segment
+# in local memory (ptxas: 34.6 kB at 10^5 magnets, 688 kB, over CUDA's 512 kB, at 2 x 10^6), which
+# the driver reserves for every thread the device can hold; longer chains are refused (`too_long`)
+LONG_SEGMENT_MAX = 256
 # Atom-steps per launch: about 0.2 s at the 4.2e10-5.3e10 atom-steps/s an H200 ran (docs/performance.md),
 # so a signal's handler waits at most that long; 10^5 chains of 21 magnets in one launch (1e10) ran as
 # fast per atom-step as 10^6 in two, so smaller launches cost no speed there
@@ -219,8 +223,19 @@ def _sources_digest(folder: Path) -> str:
 
 def long_segment(n: int) -> int:
     """The long chains' largest segment of free atoms a thread (PL_BLOCK): LONG_SEGMENT, more where
-    LONG_THREADS threads of LONG_SEGMENT would not cover the n - 2 free atoms."""
-    return max(LONG_SEGMENT, -(-(n - 2) // LONG_THREADS))
+    LONG_THREADS threads of LONG_SEGMENT would not cover the n - 2 free atoms, in multiples of
+    LONG_SEGMENT (so that lengths share a module: the bits do not depend on it)."""
+    need = -(-(n - 2) // LONG_THREADS)
+    return max(LONG_SEGMENT, -(-need // LONG_SEGMENT) * LONG_SEGMENT)
+
+
+def too_long(n: int) -> str | None:
+    """Why chains of n magnets are too long for the GPU engine (one line), else None."""
+    most = 2 + LONG_THREADS * LONG_SEGMENT_MAX
+    if n <= most:
+        return None
+    return (f"chains of {n} magnets: the GPU engine runs at most {most} (a block of {LONG_THREADS} threads a chain, "
+            f"each on at most {LONG_SEGMENT_MAX} magnets in its local memory); --engine cpu runs any length")
 
 
 def long_threads(n: int) -> int:

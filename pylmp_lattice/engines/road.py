@@ -64,6 +64,12 @@ class KernelEngine:
         library()  # the host build (both engines use it): one not built or of another ABI is refused here, noted once
         self.kind, self.threads = kind, threads
         self.arrays = prepare(list(cases), kind, draws)
+        if kind == "gpu":
+            from .gpu import too_long
+
+            why = too_long(self.arrays.n)
+            if why:
+                raise Unsupported(why)
 
     def check(self, path: Path) -> None:
         """Any folder: the engine reads nothing from it."""
