@@ -306,10 +306,11 @@ def frame(parts: list[Rows]):
     params = dict.fromkeys(key for _, k in ranked for key in parts[k].params)
     measures = dict.fromkeys(key for _, k in ranked for key in parts[k].measures)
     where, tiled = _concatenated(targets), _tiled(targets)
-    df = pd.DataFrame({key: _texts_typed(_column(key, n, parts, targets, where, tiled))  # (new arrays: not copied)
-                       for key in ["id", *params, *FIXED[1:], *measures]}, copy=False)
-    for col in df.columns:  # parquet needs one type per column
-        if df[col].dtype == object and _mixed(df[col]):
+    cells = {key: _texts_typed(_column(key, n, parts, targets, where, tiled))
+             for key in ["id", *params, *FIXED[1:], *measures]}
+    df = pd.DataFrame(cells, copy=False)  # (new arrays: not copied)
+    for col in df.columns:  # parquet needs one type per column (of pandas' typing of a list: `_joined`'s None are one)
+        if df[col].dtype == object and isinstance(cells[col], list) and _mixed(df[col]):
             df[col] = df[col].map(lambda v: None if v is None else str(v))
     return df
 
@@ -318,16 +319,45 @@ def _texts_typed(values):
     """A column of text only (ids, statuses, folders) as the array pandas would make of it, made
     by Arrow where pandas keeps text in Arrow (pandas 3's "str"): 2-3 times faster than pandas
     typing the list (0.37 -> 0.13 s for the 3 such columns of 10^6 members). Else `values`."""
-    if not isinstance(values, list) or not values or set(map(type, values)) != {str}:
+    dtype = _arrow_text(values) if isinstance(values, list) else None
+    if dtype is None:
         return values
     import pandas as pd
-
-    dtype = pd.Series(["text"]).dtype
-    if getattr(dtype, "storage", None) != "pyarrow":
-        return values
     import pyarrow as pa
 
     return pd.array(pa.array(values, pa.large_string()), dtype=dtype)
+
+
+def _joined(lists: list[list]):
+    """Lists of cells one after the other, as `_texts_typed` makes of them; a list of one text or
+    None repeated (a batch's status, error and folder) made a column without a step per cell in
+    Python where every cell is text (that text taken again by Arrow) or None (an object array,
+    which pandas types as the list, faster). Else the list of their cells (for `_texts_typed`)."""
+    import numpy as np
+
+    ones = [(c[0] is None or type(c[0]) is str) and c[0] == c[-1] and c.count(c[0]) == len(c)
+            for c in lists]  # (the ends first: a batch's ids differ there)
+    cells = list(chain.from_iterable(c[:1] if one else c for one, c in zip(ones, lists))) if any(ones) else []
+    if cells and cells.count(None) == len(cells):
+        return np.full(sum(map(len, lists)), None, dtype=object)
+    dtype = _arrow_text(cells)
+    if dtype is None:
+        return list(chain.from_iterable(lists))
+    import pandas as pd
+    import pyarrow as pa
+
+    times = list(chain.from_iterable([len(c)] if one else repeat(1, len(c)) for one, c in zip(ones, lists)))
+    return pd.array(pa.array(cells, pa.large_string()).take(np.repeat(np.arange(len(cells)), times)), dtype=dtype)
+
+
+def _arrow_text(values: list):
+    """pandas' text dtype where `values` are text only and pandas keeps text in Arrow, else None."""
+    if not values or set(map(type, values)) != {str}:
+        return None
+    import pandas as pd
+
+    dtype = pd.Series(["text"]).dtype
+    return dtype if getattr(dtype, "storage", None) == "pyarrow" else None
 
 
 def _mixed(column) -> bool:
@@ -368,7 +398,8 @@ def _placed(parts: list[Rows]) -> tuple[int, list]:
 
 def _column(key: str, n: int, parts: list[Rows], targets: list, where, tiled: list[int] | None):
     """One column of `frame`: a numpy array where every row has it as numbers of one kind, else
-    a list of its cells (NaN where a row lacks it), which pandas types as it types rows. `where`:
+    a list of its cells (NaN where a row lacks it), which pandas types as it types rows, or what
+    `_joined` makes of the parts' lists where they are its rows one after the other. `where`:
     the targets of all parts, concatenated; `tiled`: `_tiled` of the targets."""
     import numpy as np
 
@@ -378,7 +409,7 @@ def _column(key: str, n: int, parts: list[Rows], targets: list, where, tiled: li
         if all(isinstance(c, np.ndarray) for c in values) and len({c.dtype for c in values}) == 1:
             return np.concatenate(values)
         if all(isinstance(c, list) for c in values):
-            return list(chain.from_iterable(values))
+            return _joined(values)
     values = [parts[k].columns[key] for k in held]
     t = where if len(held) == len(parts) else _concatenated([targets[k] for k in held])
     kept = t >= 0
