@@ -86,9 +86,10 @@ class Rows:
         return len(self.index)
 
     def __getstate__(self):
-        """Sent (pickled) with each numpy column of one value repeated as that value once (`_Same`):
+        """Sent (pickled) with each column of one value repeated as that value once (`_Same`):
         a batch's wall time, its magnets, most of its counts and flags, 138 of the 673 bytes a
-        member of the 21-magnet experiment took through the coordinator's one pipe."""
+        member of the 21-magnet experiment took through the coordinator's one pipe; its status,
+        error and folder (a list each: 2 bytes a member each, and a step each to unpickle)."""
         return self.__dict__ | {"columns": {k: _Same.of(c) or c for k, c in self.columns.items()}}
 
     def __setstate__(self, state):
@@ -108,21 +109,24 @@ class Rows:
 
 @dataclass
 class _Same:
-    """A numpy column of `n` copies of `first` (an array of one), the same bytes."""
+    """A column of `n` copies of `first`'s one cell: a numpy array of one (the same bytes), or a
+    list of one text or None (a batch's status, error and folder), each cell of its type."""
 
     first: Any
     n: int
 
     @classmethod
     def of(cls, column) -> _Same | None:
-        if not _kind(column) or len(column) < 2 or not _one_value(column):  # (numbers and flags: `_one_value`)
+        if len(column) < 2 or not _one_value(column):  # (numbers and flags to the bit, text and None equal)
             return None
-        return cls(column[:1].copy(), len(column))
+        if _kind(column) or set(map(type, column)) in ({str}, {type(None)}):  # (no cell of another type equal)
+            return cls(column[:1].copy(), len(column))
+        return None
 
     def array(self):
         import numpy as np
 
-        return np.repeat(self.first, self.n)
+        return self.first * self.n if isinstance(self.first, list) else np.repeat(self.first, self.n)
 
 
 def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str, record: dict,
