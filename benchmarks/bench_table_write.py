@@ -5,7 +5,8 @@ in the same run.
 
 The rows are real: a sweep of --sample thermal replicas of the 21-magnet experiment with friction
 (bench_sweep.py's, --engine cpu) runs once, its table's parts (`table.Rows`, as the workers sent
-them) are kept, and repeated with the members' numbers shifted to make --members rows. Each tree
+them) are kept (their fields: lists and arrays, which each tree makes its Rows of, whatever
+its pickling), and repeated with the members' numbers shifted to make --members rows. Each tree
 writes the same parts in a fresh Python (alternating, --repeat times); the files must be the same
 bytes.
 
@@ -32,7 +33,7 @@ KEEP = """import pickle, sys
 from pylmp_lattice.sweep import table
 write = table.write_table
 def kept(root, parts, beside=None):
-    pickle.dump(parts, open(sys.argv[3], "wb"))
+    pickle.dump([vars(p) for p in parts], open(sys.argv[3], "wb"))  # (fields: each tree makes its Rows)
     return write(root, parts, beside)
 table.write_table = kept
 from pylmp_lattice.sweep import load_sweep, run_sweep
@@ -44,7 +45,7 @@ WRITE = """import dataclasses, hashlib, pickle, sys, time
 from pathlib import Path
 import pandas, pyarrow.parquet  # noqa: F401 (imported before: the coordinator has them by then)
 from pylmp_lattice.sweep import table
-parts = pickle.load(open(sys.argv[1], "rb"))
+parts = [table.Rows(**fields) for fields in pickle.load(open(sys.argv[1], "rb"))]
 n0, want = sum(map(len, parts)), int(sys.argv[2])
 parts = [dataclasses.replace(p, index=p.index + k * n0) for k in range(-(-want // n0)) for p in parts]
 out = Path(sys.argv[3])
