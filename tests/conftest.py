@@ -139,3 +139,18 @@ def held_elsewhere(path):
     finally:
         holder.stdin.close()
         holder.wait(10)
+
+
+def frame_of_dicts(rows: dict):
+    """The sweep's table as pandas makes it of rows as dicts (by member index): keys in the order
+    the rows first name them, swept fields before status, measures after wall_time_s."""
+    import pandas as pd
+
+    from pylmp_lattice.sweep.table import FIXED
+
+    params, measures = {}, {}
+    for row in (rows[i] for i in sorted(rows)):
+        keys = list(row)
+        params |= dict.fromkeys(keys[1:keys.index("status")])
+        measures |= dict.fromkeys(keys[keys.index("wall_time_s") + 1:])
+    return pd.DataFrame([rows[i] for i in sorted(rows)], columns=["id", *params, *FIXED[1:], *measures])

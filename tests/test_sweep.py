@@ -24,6 +24,8 @@ from pylmp_lattice.sweep import (Sweep, load_results, load_sweep, member_seed, p
                                  write_replica_stats)
 from pylmp_lattice.sweep.store import STATUS, Outcomes
 
+from conftest import frame_of_dicts
+
 BASE = """\
 name = "small"
 [chain]
@@ -147,19 +149,6 @@ def test_csv_floats_are_short_floats_made_by_column():
     assert csv_text(df) == df.to_csv(index=False, float_format=short_float)
 
 
-def _frame_of_dicts(rows: dict) -> pd.DataFrame:
-    """The table as pandas makes it of rows as dicts (by member index): keys in the order the
-    rows first name them, swept fields before status, measures after wall_time_s."""
-    from pylmp_lattice.sweep.table import FIXED
-
-    params, measures = {}, {}
-    for row in (rows[i] for i in sorted(rows)):
-        keys = list(row)
-        params |= dict.fromkeys(keys[1:keys.index("status")])
-        measures |= dict.fromkeys(keys[keys.index("wall_time_s") + 1:])
-    return pd.DataFrame([rows[i] for i in sorted(rows)], columns=["id", *params, *FIXED[1:], *measures])
-
-
 @pytest.mark.parametrize("mixed", [False, True])
 def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     """`table.frame` of batches' rows as columns (`batch_rows`) and members' own rows is what
@@ -191,7 +180,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
         for i in (3, 1):
             rows[i] = member_row(f"m{i}", {"replica": i, "chain.seed": 10**18 + i}, None, failed, None)
             parts.append(Rows.one(i, rows[i]))
-    expected = _frame_of_dicts(rows)
+    expected = frame_of_dicts(rows)
     df = frame(parts)
     pd.testing.assert_frame_equal(df, expected)
     assert list(map(_text_fits(df), parts[:2])) == [not mixed] * 2  # the workers' texts are used where they fit

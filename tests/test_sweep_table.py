@@ -12,7 +12,9 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.columnar import columns
-from pylmp_lattice.sweep.table import FIXED, Rows, _joined, _texts_typed, batch_rows, frame, member_row
+from pylmp_lattice.sweep.table import Rows, _joined, _texts_typed, batch_rows, frame, member_row
+
+from conftest import frame_of_dicts
 
 DONE = {"status": "done", "error": None, "wall_time_s": 0.25}
 FAILED = {"status": "failed", "error": 'bad "q", here', "wall_time_s": 0.0}
@@ -20,17 +22,6 @@ FAILED = {"status": "failed", "error": 'bad "q", here', "wall_time_s": 0.0}
 
 class Text(str):
     """Text of its own type, equal to the same str."""
-
-
-def _as_dicts(rows: dict) -> pd.DataFrame:
-    """What pandas makes of the rows as dicts (by member index; a key's column where a row first
-    names it, swept fields before status, measures after wall_time_s)."""
-    params, measures = {}, {}
-    for row in (rows[i] for i in sorted(rows)):
-        keys = list(row)
-        params |= dict.fromkeys(keys[1:keys.index("status")])
-        measures |= dict.fromkeys(keys[keys.index("wall_time_s") + 1:])
-    return pd.DataFrame([rows[i] for i in sorted(rows)], columns=["id", *params, *FIXED[1:], *measures])
 
 
 def _summary(i: int, batch: int) -> dict:
@@ -72,7 +63,7 @@ def test_the_table_of_batches_with_one_status_error_and_folder_each_is_that_of_i
     if pickled:  # as the workers send them: a column of one value once
         parts = [pickle.loads(pickle.dumps(p)) for p in parts]
     df = frame(parts)
-    expected = _as_dicts(rows)
+    expected = frame_of_dicts(rows)
     pd.testing.assert_frame_equal(df, expected)
     assert list(df.dtypes) == list(expected.dtypes)
     assert df["status"].dtype == df["folder"].dtype == df["id"].dtype == pd.Series(["text"]).dtype
