@@ -158,7 +158,8 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     workers' texts do not fit then: the coordinator makes those rows' own)."""
     from pylmp_lattice.serialize import short_float
     from pylmp_lattice.columnar import columns
-    from pylmp_lattice.sweep.table import Rows, _lines, _text_fits, batch_rows, csv_text, frame, member_row
+    from pylmp_lattice.sweep.csv_cells import text_fits
+    from pylmp_lattice.sweep.table import Rows, _lines, batch_rows, csv_text, frame, member_row
 
     rng = np.random.default_rng(3)
     record = {"status": "done", "error": None, "wall_time_s": 0.0123}
@@ -183,7 +184,7 @@ def test_the_table_of_rows_as_columns_is_the_table_of_rows_as_dicts(mixed):
     expected = frame_of_dicts(rows)
     df = frame(parts)
     pd.testing.assert_frame_equal(df, expected)
-    assert list(map(_text_fits(df), parts[:2])) == [not mixed] * 2  # the workers' texts are used where they fit
+    assert list(map(text_fits(df), parts[:2])) == [not mixed] * 2  # the workers' texts are used where they fit
     assert csv_text(df, parts) == csv_text(df) == expected.to_csv(index=False, float_format=short_float)
     lines = _lines(parts)  # the CSV written from the workers' lines alone, before the table is made
     assert (lines is None) == mixed
@@ -225,7 +226,7 @@ def test_rows_go_through_a_pickle_whole_and_a_column_of_one_value_once():
 def test_a_column_of_one_value_is_one_value_to_the_bit():
     """`row_text` makes the cell of a column of one value once: -0.0 beside 0.0, or two NaNs of
     other bits, are not one value to it (each cell its own text); a column of NaN is empty cells."""
-    from pylmp_lattice.sweep.table import row_text
+    from pylmp_lattice.sweep.csv_cells import row_text
 
     other_nan = np.frombuffer(np.uint64(0x7FF8000000000001).tobytes(), dtype=np.float64)[0]
     columns = [["a", "b", "c"], np.array([0.0, -0.0, 0.0]), np.full(3, np.nan), np.array([np.nan, other_nan, 1.0]),
@@ -1420,12 +1421,13 @@ def test_a_batch_s_members_json_is_strict_and_reads_back_each_member_s_summary(t
 def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_the_csv_s(tmp_path):
     """members.json, its columns of finite floats written from their texts (`store._json`), is
     byte for byte json.dumps of the record and the strict columns; the CSV cells made of those
-    texts (`table._float_cells`) are those made of the numbers (`table._array_texts`), and
+    texts (`csv_cells.float_cells`) are those made of the numbers (`csv_cells.array_texts`), and
     members.arrow and the table's arrays made of the floats' arrays (`store.Floats`) are those
     made of the values."""
     from pylmp_lattice.sweep.columns_file import COLUMNS_FILE, write_columns
     from pylmp_lattice.sweep.store import BATCH_FILE, write_batch
-    from pylmp_lattice.sweep.table import _array_texts, _float_cells, _packed
+    from pylmp_lattice.sweep.csv_cells import array_texts, float_cells
+    from pylmp_lattice.sweep.table import _packed
 
     rng = np.random.default_rng(4)
     values = [*rng.normal(size=40).tolist(), 1e-300, 1.0000000000000002, -0.0, 1e22, 123456.78901234567, 5.0]
@@ -1442,7 +1444,7 @@ def test_a_batch_s_members_json_is_json_dumps_of_its_columns_and_its_floats_are_
     assert {id(summary["v"]["rows"]), id(summary["w"]["cols"]["mean"]["rows"])} <= set(texts)
     assert id(summary["x"]["rows"]) not in texts  # a NaN: null in the JSON, its own texts
     for column in (summary["v"]["rows"], summary["w"]["cols"]["mean"]["rows"], columns["cols"]["params"]["cols"]["p"]["rows"]):
-        assert _float_cells(column, texts) == _array_texts(np.array(column))
+        assert float_cells(column, texts) == array_texts(np.array(column))
     assert any(len(t) > 16 for t in texts[id(summary["v"]["rows"])].cells)  # a long repr: made short for the CSV
     # members.arrow of the floats' arrays made once is the file made of the values
     plain = tmp_path / "plain"

@@ -19,7 +19,7 @@ from itertools import chain, repeat
 from pathlib import Path
 from typing import Any
 
-from ..serialize import short_float
+from .csv_cells import float_cells, kind, one_value, quoted, row_text, row_texts, text_fits
 from .store import atomic_write
 
 CSV = "results.csv"
@@ -59,8 +59,8 @@ def _scalars(table: dict, prefix: str, out: dict, skip: tuple = ()) -> None:
     for key, value in table.items():
         if key in skip:
             continue
-        kind = type(value)
-        if kind is float or kind is int or kind is bool or value is None:
+        t = type(value)
+        if t is float or t is int or t is bool or value is None:
             out[prefix + key] = value
         elif isinstance(value, dict):
             _scalars(value, f"{prefix}{key}.", out)
@@ -117,9 +117,9 @@ class _Same:
 
     @classmethod
     def of(cls, column) -> _Same | None:
-        if len(column) < 2 or not _one_value(column):  # (numbers and flags to the bit, text and None equal)
+        if len(column) < 2 or not one_value(column):  # (numbers and flags to the bit, text and None equal)
             return None
-        if _kind(column) or set(map(type, column)) in ({str}, {type(None)}):  # (no cell of another type equal)
+        if kind(column) or set(map(type, column)) in ({str}, {type(None)}):  # (no cell of another type equal)
             return cls(column[:1].copy(), len(column))
         return None
 
@@ -148,7 +148,7 @@ def batch_rows(index: list[int], ids: list[str], params: list[dict], folder: str
         cols |= {"status": [record["status"]] * n, "error": [record.get("error")] * n, "folder": [folder] * n,
                  "wall_time_s": _packed([record.get("wall_time_s")] * n)}
         cols |= {k: _packed(v, texts) for k, v in measures.items()}
-        made = {k: _float_cells(v, texts) for k, v in measures.items()}
+        made = {k: float_cells(v, texts) for k, v in measures.items()}
         return [Rows(np.asarray(index, dtype=np.int64), tuple(flat["cols"]), tuple(measures), cols,
                      row_text(list(cols.values()), list(map(made.get, cols))))]
     return [Rows.one(i, member_row(m, p, folder, record, s)) for i, m, p, s in zip(index, ids, params, rows(summaries))]
@@ -173,81 +173,6 @@ def _flat_columns(table: dict) -> dict | None:
                 out[prefix + key] = {"rows": column["rows"]}
         return True
     return {"cols": out} if walk(table["cols"], "") else None
-
-
-def row_text(columns: list, made: list | None = None) -> str | None:
-    """The rows as results.csv writes them (`csv_text`), a line each, joined by newlines: made
-    by the worker (the texts of 10^5 members' floats were most of the table's time), used by
-    the coordinator where the table's columns are these, of the same kinds (`_text_fits`).
-    None unless every column is a numpy array, or holds text and None only (`_texted`), and no
-    cell holds a line end (the lines are split again where a row is set twice). made: a
-    column's cells where already made (`_float_cells`), else None."""
-    if not columns or not all(map(_texted, columns)):
-        return None
-    n = len(columns[0])
-    parts: list = []  # each column's cells, or the one text of a run of columns of one value each
-    for column, cells in zip(columns, made or [None] * len(columns)):
-        if cells is None and n > 1 and _one_value(column):  # its cell made once (a batch's status, wall time, ...)
-            cells = _array_texts(column[:1]) if _kind(column) else _list_texts(column[:1], lines=False)
-            if cells is None:
-                return None
-            parts.append(f"{parts.pop()},{cells[0]}" if parts and type(parts[-1]) is str else cells[0])
-            continue
-        if cells is None:
-            cells = _array_texts(column) if _kind(column) else _list_texts(column, lines=False)
-        if cells is None:
-            return None
-        parts.append(cells)
-    return "\n".join(map(",".join, zip(*(repeat(p, n) if type(p) is str else p for p in parts))))
-
-
-def _one_value(column) -> bool:
-    """Whether every cell of a column is its first: a numpy array's the same bytes (so -0.0 is not
-    0.0, and one NaN is itself; False where it is not contiguous), text and None equal."""
-    if not _kind(column):
-        return column.count(column[0]) == len(column)
-    if not column.flags.c_contiguous or column.dtype.kind not in "fiub":
-        return False
-    cells = column.view("u1").reshape(len(column), -1)
-    return bool((cells == cells[0]).all())
-
-
-def _float_cells(values: list, texts: dict | None) -> list[str] | None:
-    """The CSV cells (`_array_texts`) of a list of finite floats whose texts (repr) are in `texts`
-    by its id (`store.Floats`), made of them; None if they are not there."""
-    made = texts.get(id(values)) if texts else None
-    if made is None:
-        return None
-    import numpy as np
-
-    cells = made.cells
-    long = np.flatnonzero(np.fromiter(map(len, cells), dtype=np.int64, count=len(cells)) > 16).tolist()
-    if long:
-        cells = cells.copy()
-        for i in long:
-            cells[i] = short_float(values[i])
-    return cells
-
-
-def _list_texts(values: list, lines: bool = True) -> list[str] | None:
-    """Text and None as CSV cells (None empty, a cell with a comma, quote or line end quoted);
-    None if a cell holds a line end and not `lines`."""
-    texts = ["" if v is None else v for v in values]
-    every = "".join(texts)  # most columns (ids, folders) need no quotes: one look for the whole column
-    if not lines and ("\n" in every or "\r" in every):
-        return None
-    return list(map(_quoted, texts)) if any(c in every for c in ',"\n\r') else texts
-
-
-def _texted(column) -> bool:
-    """Whether `row_text` can write the column: a numpy array, or text and None only (the
-    table's column is text then, or empty cells where all are None)."""
-    return _kind(column) is not None or set(map(type, column)) <= {str, type(None)}
-
-
-def _kind(column) -> str | None:
-    """A numpy array's kind ("f", "i", "b"); None for a list."""
-    return getattr(getattr(column, "dtype", None), "kind", None)
 
 
 def _scalar_columns(cols: dict, prefix: str, out: dict, skip: tuple = (), floats: dict | None = None) -> bool:
@@ -483,9 +408,9 @@ def _lines(parts: list[Rows]) -> list[str] | None:
     if any(tuple(p.columns) != names for p in parts[1:]):
         return None
     for key in names:  # one kind a column; or floats, and None alone (a float column, its cells empty)
-        kinds = {_kind(p.columns[key]) for p in parts}
+        kinds = {kind(p.columns[key]) for p in parts}
         if len(kinds) > 1 and not (kinds == {"f", None} and all(
-                _kind(c) or c.count(None) == len(c) for c in (p.columns[key] for p in parts))):
+                kind(c) or c.count(None) == len(c) for c in (p.columns[key] for p in parts))):
             return None
     import numpy as np
 
@@ -496,7 +421,7 @@ def _lines(parts: list[Rows]) -> list[str] | None:
         if index[0] <= last or (len(index) > 1 and not (np.diff(index) > 0).all()):
             return None
         last = index[-1]
-    return [",".join(map(_quoted, names)) + "\n", *chain.from_iterable((parts[k].text, "\n") for k in order)]
+    return [",".join(map(quoted, names)) + "\n", *chain.from_iterable((parts[k].text, "\n") for k in order)]
 
 
 def csv_text(df, parts: list[Rows] | None = None) -> str:
@@ -507,14 +432,14 @@ def csv_text(df, parts: list[Rows] | None = None) -> str:
     text is already its 15-digit form; pandas called `short_float` for every cell and its csv
     writer for every row, most of the coordinator's time with 10^5 members). With the `parts`
     the table is `frame` of: their rows as the workers wrote them (`Rows.text`) where they fit
-    (`_text_fits`), the others' rows made here."""
+    (`text_fits`), the others' rows made here."""
     import numpy as np
 
-    header = ",".join(map(_quoted, map(str, df.columns)))
+    header = ",".join(map(quoted, map(str, df.columns)))
     parts = [p for p in parts or () if len(p)]
-    fits = list(map(_text_fits(df), parts))
+    fits = list(map(text_fits(df), parts))
     if not any(fits):
-        return "\n".join([header, *_row_texts(df)]) + "\n"
+        return "\n".join([header, *row_texts(df)]) + "\n"
     _, targets = _placed(parts)
     tiled = _tiled(targets) if all(fits) else None
     if tiled is not None:  # each part's lines as they came, one after the other
@@ -528,66 +453,8 @@ def csv_text(df, parts: list[Rows] | None = None) -> str:
             made[t[kept]] = True
     rest = np.flatnonzero(~made)
     if len(rest):
-        lines[rest] = _row_texts(df.iloc[rest])
+        lines[rest] = row_texts(df.iloc[rest])
     return "\n".join([header, *lines.tolist()]) + "\n"
-
-
-def _row_texts(df) -> list[str]:
-    """The table's rows as CSV lines (`csv_text`), made a column at a time."""
-    return list(map(",".join, zip(*(_texts(df.iloc[:, i]) for i in range(df.shape[1])))))
-
-
-def _text_fits(df):
-    """Whether a part's `text` is its rows as `csv_text` writes them in this table: its
-    columns are the table's, in order, each a numpy array of the table column's kind, or text
-    (the table's column then holds text: it is of kind "O") or nothing but None (empty cells).
-    (A function of the part: the table's columns and kinds are read once, not for each of a
-    LAMMPS sweep's thousands of parts, 0.19 ms each at 47 columns.)"""
-    names, kinds = tuple(df.columns), [dtype.kind for dtype in df.dtypes]
-    unique = len(set(names)) == len(names)
-
-    def fits(part: Rows) -> bool:
-        if part.text is None or not unique or tuple(part.columns) != names:
-            return False
-        for values, want in zip(part.columns.values(), kinds):
-            kind = _kind(values)
-            if not (kind == want or kind is None and (want == "O" or values.count(None) == len(values))):
-                return False
-        return True
-    return fits
-
-
-def _texts(column) -> list[str]:
-    """A column's cells as `to_csv` writes them (floats as `csv_text` says)."""
-    values = column.to_numpy()
-    if values.dtype.kind in "fiub":
-        return _array_texts(values)
-    missing = column.isna().to_numpy().tolist()
-    texts = ["" if gone else str(v) for v, gone in zip(values.tolist(), missing)]
-    every = "".join(texts)  # most columns (ids, folders) need no quotes: one look for the whole column
-    return list(map(_quoted, texts)) if any(c in every for c in ',"\n\r') else texts
-
-
-def _array_texts(values) -> list[str]:
-    """A numpy array of numbers or flags as CSV cells (floats as `csv_text` says)."""
-    import numpy as np
-
-    if values.dtype.kind != "f":
-        return list(map(str, values.tolist()))
-    floats = values.tolist()
-    texts = list(map(repr, floats))  # at C speed; then the few missing or long ones
-    for i in np.flatnonzero(np.isnan(values)).tolist():
-        texts[i] = ""
-    for i in np.flatnonzero(np.fromiter(map(len, texts), dtype=np.int64, count=len(texts)) > 16).tolist():
-        texts[i] = short_float(floats[i])
-    return texts
-
-
-def _quoted(text: str) -> str:
-    """A cell as the csv module's QUOTE_MINIMAL writes it."""
-    if "," in text or '"' in text or "\n" in text or "\r" in text:
-        return '"' + text.replace('"', '""') + '"'
-    return text
 
 
 class Table:
