@@ -44,7 +44,9 @@
 using namespace pl_kernel;
 
 namespace {
-/* The batch's setup: chain.h's chain_setup, from the host's fits. */
+/* The batch's setup: chain.h's chain_setup, from the host's fits. Each kernel sets S.block, the
+   length of its runs, itself; `block` stays a parameter so that an older revision's kernel
+   (bench_gpu.py --reference-kernel, ece083f's, which read it) takes the same arguments. */
 __device__ ChainSetup make_setup(int n, long long steps, double dt, int block, int law_kind, const double *law_values,
                                  int table_n, double table_x0, double table_dx, const double *table_yd2,
                                  int drive_profile, double V, double T, int measured_n, const double *measured_t,
