@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import LatticeError, RunError
 
-ABI = 4
+ABI = 5
 
 
 class Unsupported(LatticeError):

@@ -150,7 +150,7 @@ void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
 extern "C" {
 
 /* The version of this ABI: engines/library.py refuses a library of another. */
-int pl_engine_abi() { return 4; }
+int pl_engine_abi() { return 5; }
 
 /* The engines' layout, read by engines/library.py so that Python never restates it: the block,
    a front record row's output columns (front::NOUT, those of fix lattice/front) and all of its
