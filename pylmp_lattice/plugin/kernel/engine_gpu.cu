@@ -192,8 +192,9 @@ extern "C" __global__ void pl_run_short_chains_gpu(PL_SETUP_PARAMS, double *x, d
 }
 
 #else
-/* The long chains' team (chain.h's detail::Solo): PL_THREADS threads a chain, thread t its segment of at
-   most PL_BLOCK free atoms, a chain of its own whose end atoms are the chain's ends or ghosts.
+/* The long chains' team (run_chain's Team, as chain.h's detail::Solo is one thread's): PL_THREADS
+   threads a chain, thread t its segment of at most PL_BLOCK free atoms, a chain of its own whose
+   end atoms are the chain's ends or ghosts.
    After each step a thread publishes where the next step's drift moves its edge atoms (the
    arithmetic of step.h's drift, as fix lattice/chain's send_edges), in the half of `edges` for
    that step's parity, and reads its ghosts from it before the step: the barrier between is the
