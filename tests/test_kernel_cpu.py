@@ -152,6 +152,40 @@ def test_the_library_s_layout_is_the_record_s():
     assert lay.status == ("done", "contact", "out_of_range", "drive_ended")
 
 
+def test_each_thread_s_share_of_a_call_fills_its_lanes(monkeypatch):
+    """The chains of a call (`cpu.run_arrays`) are CHUNK_ATOM_STEPS a thread rounded up to the
+    lanes a thread runs side by side: 20 chains of 1000 magnets, 3 a thread by CHUNK_ATOM_STEPS,
+    on 2 threads in calls of 8, 8 and 4 (3 rounded up to 4 lanes, or 2 of 2), not of 6: fewer
+    chains than lanes cost as much (the other lanes run copies), and a call whose lane batches
+    were one per thread ran on one thread (the library's OpenMP loop took 2 at a grab: 64 chains
+    of 1000 magnets took 0.87 s on 2 threads as on 1; now 0.43 s, cpu.run_arrays timed by hand,
+    2026-11-27 22:08 UTC). The results are those of one call of all 20."""
+    from pylmp_lattice.engines import cpu
+    from pylmp_lattice.engines.arrays import prepare
+
+    a = prepare([make_case(particles=1000, duration=4.0, output={"format": "none"},
+                           chain={"thermal_velocity": 0.02, "seed": s}) for s in range(20)], "cpu")
+    monkeypatch.setattr(cpu, "CHUNK_ATOM_STEPS", 3 * a.n * a.steps)
+    lib, sizes = cpu.library(), []
+
+    class Counted:
+        def __getattr__(self, name):
+            return getattr(lib, name)
+
+        def pl_run_chains(self, count, *args):
+            sizes.append(count)
+            return lib.pl_run_chains(count, *args)
+
+    monkeypatch.setattr(cpu, "library", Counted)
+    got = cpu.run_arrays(a, 2)
+    assert layout().lanes in (2, 4) and sizes == [8, 8, 4]
+    monkeypatch.setattr(cpu, "CHUNK_ATOM_STEPS", 1e12)
+    whole = cpu.run_arrays(a, 2)
+    assert sizes[3:] == [20]
+    for mine, one in zip(got, whole):
+        assert np.array_equal(mine, one, equal_nan=True)
+
+
 @pytest.mark.gpu
 @pytest.mark.parametrize("members", ["power-friction", "table-law", "measured-drive"])
 def test_the_gpu_engine_gives_the_host_engine_s_results(tmp_path, members):

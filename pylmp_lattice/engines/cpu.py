@@ -32,7 +32,7 @@ def run_arrays(a: Arrays, threads: int | None = None):
     columns; None without a record), work, end_step, status (codes of `layout().status`), in
     engine units. The chains run in chunks of about CHUNK_ATOM_STEPS per thread: Python's signal handlers run between two (a call into C defers
     them), so Ctrl-C (KeyboardInterrupt, a sweep worker's Interrupted) stops it within one."""
-    lib, nout = library(), layout().nout
+    lib, lay = library(), layout()
     threads = int(threads or os.cpu_count() or 1)
     x, v = a.x.copy(), a.v.copy()
     empty = np.zeros(1)
@@ -40,11 +40,13 @@ def run_arrays(a: Arrays, threads: int | None = None):
                              if a.table else (empty, empty, empty, 0.0, 0.0))
     t_s, y_s = (np.ascontiguousarray(s, float) for s in a.samples) if a.samples else (empty, empty)
     mu, p, g = a.friction or (0.0, 0.0, 0.0)
-    front = np.full((a.chains * a.n, nout), np.nan) if a.record else np.zeros((1, nout))
+    front = np.full((a.chains * a.n, lay.nout), np.nan) if a.record else np.zeros((1, lay.nout))
     work = np.zeros(a.chains)
     end_step = np.zeros(a.chains, np.int64)
     status = np.zeros(a.chains, np.int32)
-    chunk = max(threads, threads * int(CHUNK_ATOM_STEPS // max(1, a.n * a.steps)))
+    # each thread's share a multiple of its lanes: fewer chains cost as much (its other lanes run copies)
+    per_thread = max(1, int(CHUNK_ATOM_STEPS // max(1, a.n * a.steps)))
+    chunk = threads * -(-per_thread // lay.lanes) * lay.lanes
     for lo in range(0, a.chains, chunk):
         hi = min(a.chains, lo + chunk)
         atoms = slice(lo * a.n, hi * a.n)

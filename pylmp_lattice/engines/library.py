@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import LatticeError, RunError
 
-ABI = 5
+ABI = 6
 
 
 class Unsupported(LatticeError):
@@ -23,12 +23,14 @@ class Unsupported(LatticeError):
 class Layout:
     """block: the largest run of free atoms stepped as one block; nout, ncol: a front record
     row's output columns (fix lattice/front's) and all its columns; status: each chain status's
-    name, by its code (kernel/chain.h ChainStatus)."""
+    name, by its code (kernel/chain.h ChainStatus); lanes: the chains a thread of the host
+    engine runs side by side (a vector's lanes)."""
 
     block: int
     nout: int
     ncol: int
     status: tuple[str, ...]
+    lanes: int
 
 
 _LOADED: list = []
@@ -77,4 +79,5 @@ def _load() -> tuple[ctypes.CDLL, Layout]:
     status = []
     while (name := lib.pl_engine_status(len(status))) is not None:
         status.append(name.decode())
-    return lib, Layout(lib.pl_engine_block(), lib.pl_engine_nout(), lib.pl_engine_ncol(), tuple(status))
+    return lib, Layout(lib.pl_engine_block(), lib.pl_engine_nout(), lib.pl_engine_ncol(), tuple(status),
+                       lib.pl_engine_lanes())

@@ -145,17 +145,34 @@ void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
     });
   });
 }
+/* the chains a thread runs side by side on this machine, and its run of them: 4 in an AVX2 vector,
+   else 2 (SSE2, or the machine's own vectors elsewhere) */
+int lanes(void (**run)(const Batch &, LaneStore &, int) = nullptr)
+{
+#if defined(__x86_64__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) {
+    if (run) *run = run_lanes_avx2;
+    return 4;
+  }
+#endif
+  if (run) *run = run_lanes_sse2;
+  return 2;
+}
 }    // namespace
 
 extern "C" {
 
 /* The version of this ABI: engines/library.py refuses a library of another. */
-int pl_engine_abi() { return 5; }
+int pl_engine_abi() { return 6; }
 
 /* The engines' layout, read by engines/library.py so that Python never restates it: the block,
    a front record row's output columns (front::NOUT, those of fix lattice/front) and all of its
    columns (front::NCOL), and each ChainStatus's name (NULL past the last). */
 int pl_engine_block() { return BLOCK; }
+/* the chains a thread runs side by side (a call gives each thread a multiple of them, or its
+   other lanes run copies) */
+int pl_engine_lanes() { return lanes(); }
 int pl_engine_nout() { return front::NOUT; }
 int pl_engine_ncol() { return front::NCOL; }
 const char *pl_engine_status(int status)
@@ -198,12 +215,8 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
                                    drive_profile, V, T, measured, friction != 0, mu, p, g, range_lo, range_hi,
                                    record != 0);
   const Batch B{S, chains, n, x, v, mass, levels, front_out, work, end_step, status};
-  void (*run)(const Batch &, LaneStore &, int) = run_lanes_sse2;
-  int W = 2;
-#if defined(__x86_64__)    // elsewhere the 2-lane build, in the machine's own vectors
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) run = run_lanes_avx2, W = 4;
-#endif
+  void (*run)(const Batch &, LaneStore &, int);
+  const int W = lanes(&run);
 #ifdef _OPENMP
   if (threads > 0) omp_set_num_threads(threads);
 #else
@@ -212,7 +225,7 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
 #pragma omp parallel
   {
     LaneStore st(S, W);
-#pragma omp for schedule(dynamic, 2)
+#pragma omp for schedule(dynamic, 1)    // a lane batch at a time: a call of 2 per thread ran on one (2 at a grab)
     for (int c0 = 0; c0 < chains; c0 += W) run(B, st, c0);
   }
   return 0;
