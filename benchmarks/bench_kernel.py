@@ -1,7 +1,7 @@
 """The host engine (engines.cpu: the chain kernel, OpenMP over chains) against the plain C loop
 (benchmarks/ensemble_loop.c) on the same chains and the same number of cores, in one run.
 
-Members: --members thermal replicas of inputs/paper_experiment.toml (21 magnets, 4800 steps), with
+Members: --members thermal replicas of inputs/paper_experiment.toml (21 magnets, or --particles, 4800 steps), with
 and without friction, as bench_sweep.py builds them. Engine: the sweep's batch road
 (`run_folder.execute_batch` with `engines.road.KernelEngine("cpu")` on --workers threads), timed
 from the engine's arrays to the measures read from its front record, with the record (as a
@@ -12,7 +12,7 @@ OpenMP's threads spinning at each call's end). Loop: ensemble_loop.c on
 --workers processes (bench_sweep.run_loop). Check: every chain's final velocities, engine against
 loop, within 1e-9 m/s (the same equations and operations).
 
-    python benchmarks/bench_kernel.py [--members 1000,10000] [--workers 2] [--thermal 0.02]
+    python benchmarks/bench_kernel.py [--members 1000,10000] [--workers 2] [--thermal 0.02] [--particles 21]
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ def main() -> None:
     p.add_argument("--members", default="1000,10000")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--thermal", type=float, default=0.02, help="m/s RMS")
+    p.add_argument("--particles", type=int, default=21, help="magnets a chain (the experiment's 21)")
     args = p.parse_args()
     from pylmp_lattice.case_measures import read_front_batch
     from pylmp_lattice.engines.cpu import run_arrays
@@ -54,7 +55,7 @@ def main() -> None:
             for members in (int(n) for n in args.members.split(",")):
                 folder = tmp / f"{friction}-{members}"
                 folder.mkdir()
-                cases, x, v, m = loop_states(write_sweep(folder, members, args.thermal, friction))
+                cases, x, v, m = loop_states(write_sweep(folder, members, args.thermal, friction, args.particles))
                 load = os.getloadavg()[0]
                 engine = {}
                 for record in (True, False):
@@ -77,7 +78,7 @@ def main() -> None:
                 assert error < 1e-9, f"engine and loop differ by {error} m/s"
                 rows.append((friction, members, engine, loop_wall, error, load))
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "
-          f"processes; 21 magnets, 4800 steps, thermal {args.thermal} m/s")
+          f"processes; {args.particles} magnets, 4800 steps, thermal {args.thermal} m/s")
     print("| friction | members | engine (s) | per member (ms) | C loop (s) | engine / loop | atom-steps/s | "
           "engine without the record (s) | its / loop | kernel alone (s) | its / loop | its CPU / loop's | "
           "max |v engine - v loop| (m/s) | load before |")
@@ -85,7 +86,7 @@ def main() -> None:
     for friction, members, engine, loop_wall, error, load in rows:
         e = engine[True]
         print(f"| {'yes' if friction else 'no'} | {members} | {e:.3f} | {1e3 * e / members:.4f} | "
-              f"{loop_wall:.3f} | {e / loop_wall:.2f}x | {members * 21 * 4800 / e:.3g} | {engine[False]:.3f} | "
+              f"{loop_wall:.3f} | {e / loop_wall:.2f}x | {members * args.particles * 4800 / e:.3g} | {engine[False]:.3f} | "
               f"{engine[False] / loop_wall:.2f}x | {engine['kernel']:.3f} | {engine['kernel'] / loop_wall:.2f}x | "
               f"{engine['kernel_cpu']:.2f}x | {error:.1e} | {load:.1f} |")
     if len(rows) == 4:

@@ -54,10 +54,14 @@ CASE = ROOT / "inputs" / "paper_experiment.toml"
 LOOP = Path(__file__).resolve().parent / "ensemble_loop.c"
 
 
-def write_sweep(folder: Path, members: int, thermal: float, friction: bool) -> Path:
+def write_sweep(folder: Path, members: int, thermal: float, friction: bool, particles: int | None = None) -> Path:
+    """The thermal ensemble's sweep file (and its base case) in `folder`; `particles`: magnets
+    other than the experiment's 21."""
     base = tomllib.loads(CASE.read_text())
     if not friction:
         del base["friction"]
+    if particles is not None:
+        base["chain"]["particles"] = particles
     (folder / "base.toml").write_text(tomli_w.dumps(base))
     path = folder / "sweep.toml"
     path.write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
