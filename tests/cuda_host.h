@@ -1,8 +1,7 @@
 /* CUDA's kernel qualifiers, thread indices and barriers on the host, so that g++ compiles
-   engine_gpu.cu into a library whose kernels tests/test_gpu_emulated.py runs: the short chains'
-   (one thread per chain, no barrier) thread after thread, the long chains' (a block per chain)
-   with a host thread for each of a block's threads, one block after another, which meet at the
-   barriers (pl_emu_begin_block sets their count). A __shared__ array is one static array: the
+   engine_gpu.cu into a library whose kernels tests/test_gpu_emulated.py runs one block after
+   another, a host thread for each of a block's threads, which meet at the barriers (the long
+   chains' kernel, a block per chain; pl_emu_begin_block sets their count). A __shared__ array is one static array: the
    block's, as on a device, since blocks run one at a time. Passed with -include. */
 #include <pthread.h>
 #include <time.h>

@@ -127,7 +127,7 @@ def run_arrays(a: Arrays):
     if local:
         front = cp.empty(chains * n * NOUT if a.record else 1)
         threads = block_threads(local)
-    else:  # each chain's rows of global arrays: its whole record (NCOL columns), the output copied out
+    else:  # the record's rows in global memory (NCOL columns each), their output columns copied out
         rec = cp.full(chains * n * NCOL if a.record else 1, np.nan)
         phase = cp.zeros(chains * n if a.record else 1, cp.uint8)  # front.h's WAITING
         index = cp.arange(n, dtype=cp.int32)
@@ -187,8 +187,9 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
                     one_mass: bool = False) -> tuple[str, ...]:
     """NVRTC's options for engine_gpu.cu for chains of n magnets: up to LOCAL_MAX the short
     chains' kernel for that length in runs of at most `block` (default `short_block`), longer the
-    long chains' kernel in segments of at most `block` (default `long_segment(n)`); only the batch's `case` (`batch_case`) of the law, friction and record (one copy of
-    the run, not 44: seconds to compile, not minutes); with `one_mass`, for a batch whose magnets
+    long chains' kernel in segments of at most `block` (default `long_segment(n)`); only the
+    batch's `case` (`batch_case`) of the law, friction and record (one copy of the run, not 44:
+    seconds to compile, not minutes); with `one_mass`, for a batch whose magnets
     all have one mass (`one_mass`: the mass terms in registers, 1 of each, not n).
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
     are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's

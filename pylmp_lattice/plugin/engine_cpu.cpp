@@ -167,11 +167,11 @@ extern "C" {
 int pl_engine_abi() { return 6; }
 
 /* The engines' layout, read by engines/library.py so that Python never restates it: the block,
-   a front record row's output columns (front::NOUT, those of fix lattice/front) and all of its
-   columns (front::NCOL), and each ChainStatus's name (NULL past the last). */
+   the chains a thread runs side by side (a call gives each thread a multiple of them, or its
+   other lanes run copies), a front record row's output columns (front::NOUT, those of fix
+   lattice/front) and all of its columns (front::NCOL), and each ChainStatus's name (NULL past
+   the last). */
 int pl_engine_block() { return BLOCK; }
-/* the chains a thread runs side by side (a call gives each thread a multiple of them, or its
-   other lanes run copies) */
 int pl_engine_lanes() { return lanes(); }
 int pl_engine_nout() { return front::NOUT; }
 int pl_engine_ncol() { return front::NCOL; }
@@ -225,7 +225,7 @@ int pl_run_chains(int chains, int n, long long steps, double dt, int law_kind, c
 #pragma omp parallel
   {
     LaneStore st(S, W);
-#pragma omp for schedule(dynamic, 1)    // a lane batch at a time: a call of 2 per thread ran on one (2 at a grab)
+#pragma omp for schedule(dynamic, 1)    // one lane batch a grab: with 2, a call of one batch a thread ran on one
     for (int c0 = 0; c0 < chains; c0 += W) run(B, st, c0);
   }
   return 0;
