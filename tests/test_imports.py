@@ -114,3 +114,34 @@ def test_the_fork_server_loads_the_command_line_each_worker_runs_again(monkeypat
     monkeypatch.setattr("pylmp_lattice.sweep.pool.start_forkserver", lambda *a, **kw: started.append(kw["also"]))
     assert cli.main(["sweep", "no-such-file.toml", "-o", str(tmp_path / "out")]) == 2
     assert started == [("pylmp_lattice.cli",)]
+
+
+WORKERS_SEE_CUPY = """import os, sys
+from concurrent.futures import ProcessPoolExecutor
+from pylmp_lattice.sweep.pool import start_forkserver
+
+def member():
+    return "cupy" in sys.modules, os.getpid()
+
+if __name__ == "__main__":
+    with ProcessPoolExecutor(2, mp_context=start_forkserver(sys.argv[1])) as pool:
+        print(sorted({pool.submit(member).result() for _ in range(4)}))
+"""
+
+
+@pytest.mark.parametrize("engine", ["gpu", "cpu"])
+def test_the_gpu_engine_s_workers_have_cupy_imported_once_by_their_fork_server(tmp_path, engine):
+    """CuPy's import (`pool.GPU_PRELOAD`), stood in for by a module that records each process that
+    imports it: with engine "gpu" the fork server imports it once and its workers have it without
+    importing it again; with "cpu" no process imports it."""
+    (tmp_path / "cupy.py").write_text("import os\nopen(os.environ['IMPORTED_BY'], 'a').write(f'{os.getpid()}\\n')\n")
+    (tmp_path / "script.py").write_text(WORKERS_SEE_CUPY)
+    imported = tmp_path / "imported"
+    env = os.environ | {"PYTHONPATH": os.pathsep.join([str(ROOT), str(tmp_path)]), "IMPORTED_BY": str(imported)}
+    done = subprocess.run([sys.executable, str(tmp_path / "script.py"), engine], capture_output=True, text=True,
+                          env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    workers = eval(done.stdout.splitlines()[-1])  # noqa: S307 - our script's list of (has cupy, pid)
+    importers = imported.read_text().split() if imported.exists() else []
+    assert {has for has, _ in workers} == {engine == "gpu"}
+    assert len(importers) == (engine == "gpu") and not {int(p) for p in importers} & {pid for _, pid in workers}

@@ -26,6 +26,11 @@ GRACE = 1.0
 # back to LAMMPS.
 LIBRARIES = "pylmp_lattice.sweep.forkserver"
 PRELOAD = ["pylmp_lattice.sweep.preload", LIBRARIES]
+# CuPy, which each worker of engine "gpu" imports at its first task (on the way to the command's
+# first members), imported once by the fork server instead: its import loads its libraries and
+# starts no CUDA context (CuPy keeps it so for programs that fork; a context would not survive
+# a fork), so each worker still starts its own. Where CuPy is missing the server goes on without it.
+GPU_PRELOAD = "cupy"
 # numpy's OpenBLAS starts a thread per core as it loads, which spins while a core is free: import
 # numpy took 0.128 s of CPU, 0.083 s with one thread (fresh Pythons, 2-core VM), and the sweep
 # command and the fork server each paid it on the cores they share on the way to the first member.
@@ -157,7 +162,7 @@ def _end_workers(pool) -> None:
 
 def start_forkserver(engine: str | None = None, also: tuple[str, ...] = ()):
     """The forkserver context, its server started (at once: it loads PRELOAD, without LAMMPS's
-    libraries for engine "cpu" or "gpu", then the modules `also`, while the caller goes on),
+    libraries for engine "cpu" or "gpu", CuPy for "gpu", then the modules `also`, while the caller goes on),
     with the stop signals ignored in it (inherited): it and its workers are left to the
     coordinator, an early Ctrl-C does not interrupt its imports with a traceback, and a SIGTERM
     to the process group (a batch system's) does not kill it, which would break the pool and
@@ -166,7 +171,8 @@ def start_forkserver(engine: str | None = None, also: tuple[str, ...] = ()):
 
     context = multiprocessing.get_context("forkserver")
     lammps = engine in (None, "lammps")
-    context.set_forkserver_preload([*(m for m in PRELOAD if lammps or m != LIBRARIES), *also])
+    gpu = [GPU_PRELOAD] if engine == "gpu" else []
+    context.set_forkserver_preload([*(m for m in PRELOAD if lammps or m != LIBRARIES), *gpu, *also])
     if threading.current_thread() is not threading.main_thread():
         forkserver.ensure_running()
         return context
