@@ -145,7 +145,7 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
     with tempfile.TemporaryFile("w+") as out:
         # Its own process group: a terminal's Ctrl-C reaches only us, and we stop the whole group once.
         proc = subprocess.Popen(cmd, cwd=folder, stdout=sys.stderr if echo else out, stderr=subprocess.STDOUT,
-                                text=True, start_new_session=True, preexec_fn=die_with_parent)
+                                text=True, start_new_session=True, preexec_fn=_engine_child)
         with _stop_signals(lambda signum: _signal_group(proc, signum)) as stopped:
             while proc.poll() is None:
                 time.sleep(POLL)
@@ -186,6 +186,16 @@ def die_with_parent() -> None:
     and lmp stops even if the parent is killed outright (Linux's PR_SET_PDEATHSIG)."""
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1 = PR_SET_PDEATHSIG
+
+
+def _engine_child() -> None:
+    """In lmp's child before exec: die with the parent, and take SIGINT and SIGTERM by default.
+    A signal ignored here would stay ignored after exec, and the parent, which stops on both
+    even when its caller ignored them (`cmd &` in a script), forwards them to the child."""
+    die_with_parent()
+    libc = ctypes.CDLL(None, use_errno=True)
+    for signum in STOP_SIGNALS:
+        libc.signal(int(signum), ctypes.c_void_p(0))  # SIG_DFL
 
 
 def _signal_group(proc: subprocess.Popen, signum: int) -> None:

@@ -104,6 +104,29 @@ def test_killed_lmp_is_reported_as_killed(tmp_path, monkeypatch):
     assert info.value.exit_code == -signal.SIGKILL
 
 
+def test_sigint_stops_lmp_also_when_the_caller_ignored_it(tmp_path):
+    """A command started with SIGINT ignored (`cmd &` in a shell script without job control)
+    still stops on SIGINT, as the embedded runner does: lmp must not inherit the ignored
+    disposition, else the forwarded signal is lost and the run goes on to its end."""
+    case = load_case(INPUTS / "paper_long_lattice.toml", ["run.duration=3000", "output.format=none"])
+    folder = RunFolder.create(case, tmp_path).path
+
+    def interrupt():
+        while not (tmp_path / "log.lammps").exists() or "Step" not in (tmp_path / "log.lammps").read_text():
+            time.sleep(0.05)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        threading.Thread(target=interrupt, daemon=True).start()
+        with pytest.raises(runner.Interrupted) as info:
+            run_executable(folder)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    # 3000 ms take about 2 s here; stopped at the signal, it ends in the first few hundred ms
+    assert info.value.time_ms is not None and info.value.time_ms < 1500.0
+
+
 @pytest.mark.slow  # MPI bit identity: several lmp runs under mpiexec
 def test_two_mpi_ranks_give_the_same_trajectory_with_friction(tmp_path):
     """The package's deck (friction on) on 1 and 2 ranks: identical dumps and front records
