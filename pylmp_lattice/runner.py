@@ -264,10 +264,20 @@ def _error_line(text: str) -> str | None:
         if "ERROR" in line:
             # LAMMPS's "(src/...)" and a plugin's "(/path/to/fix.cpp:123)"
             line = re.sub(r"\s*\((?:src/[^)]*|[^()]*\.(?:cpp|h):\d+)\)", "", line.strip())
-            # engine lengths (m) -> mm, e.g. "Bond length > table outer cutoff: type 1 length 0.0130"
-            return re.sub(r"\blength (-?[\d.]+(?:[eE][-+]?\d+)?)",
-                          lambda m: f"length {from_engine(float(m.group(1)), 'length'):.6g} mm", line)
+            # engine lengths (m) and times (s) -> mm and ms, e.g. "Bond length > table outer cutoff:
+            # type 1 length 0.0130", the chain's "outside the table range [0, 0.036] m at t = 0.0027 s"
+            line = re.sub(rf"\blength ({_NUMBER})", lambda m: f"length {_user(m[1], 'length')} mm", line)
+            line = re.sub(rf"\[({_NUMBER}), ({_NUMBER})\] m\b",
+                          lambda m: f"[{_user(m[1], 'length')}, {_user(m[2], 'length')}] mm", line)
+            return re.sub(rf"\bt = ({_NUMBER}) s\b", lambda m: f"t = {_user(m[1], 'time')} ms", line)
     return None
+
+
+_NUMBER = r"-?[\d.]+(?:[eE][-+]?\d+)?"
+
+
+def _user(text: str, quantity: str) -> str:
+    return f"{from_engine(float(text), quantity):.6g}"
 
 
 def _tool(name: str) -> str:

@@ -78,6 +78,8 @@ def test_lammps_error_is_reported_with_its_error_line(tmp_path):
     assert info.value.folder == folder.resolve()
     # the length LAMMPS names (m) is reported in mm, without LAMMPS's source location
     assert re.search(r"type 1 length 13\.\d+ mm \(files kept in ", str(info.value))
+    # so are the table range and the time, in the case's mm and ms (not m and s beside mm)
+    assert re.search(r"outside the table range \[0, 13\] mm at t = [\d.]+ ms ", str(info.value))
     assert "src/" not in str(info.value)
 
 
