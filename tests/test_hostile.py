@@ -350,6 +350,27 @@ def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, m
     assert len(run_in_threads(sweep_file, tmp_path / "sw")) == 4
 
 
+def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_need(tmp_path, monkeypatch, capsys):
+    """The members to run are the sweep's count less the outcomes on disk, an upper bound that
+    counts another sweep's members too (`--overwrite` keeps them): "about -121 MB on disk"."""
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import disk
+
+    out = tmp_path / "sw"
+    for name in ("a", "b", "c"):  # three folders of another sweep's members
+        (out / store.MEMBERS / name).mkdir(parents=True)
+    checked, real = [], disk.check
+
+    def check(sweep, root, todo, slots):
+        checked.append((todo, real(sweep, root, todo, slots)))
+        raise UsageError("-o", "stopped after the disk check")
+
+    monkeypatch.setattr(disk, "check", check)
+    rc, err = cli(capsys, "sweep", write_sweep(tmp_path, velocities=[1.0]), "-o", out, "--quiet")
+    assert rc == 2 and "stopped after the disk check" in err
+    assert checked == [(0, "about 0 B on disk")]
+
+
 def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,
                                                                              caplog, no_forkserver):
     """The disk fills for the third member's files (ENOSPC from the write primitive): the sweep
