@@ -32,7 +32,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from .formats.dump import find_contact
+from .formats.dump import error_line, find_contact
 from .engine import ONE_INSTANCE, new_lammps
 from .errors import ContactError, DumpFormatError, Interrupted, RunError
 from .formats.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
@@ -78,7 +78,7 @@ def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int]
             worker.join()
     if engine.failure:
         text = str(engine.failure)
-        raise RunError(_error_line(text) or text.strip() or "LAMMPS failed", folder) from engine.failure
+        raise RunError(error_line(text) or text.strip() or "LAMMPS failed", folder) from engine.failure
     if stopped:
         raise Interrupted(stopped[0], from_engine(engine.time, "time"), folder)
     _check_contact(folder)
@@ -160,7 +160,7 @@ def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,
         raise Interrupted(stopped[0], from_engine(max(written), "time") if written else None, folder)
     if proc.returncode != 0:
         log = folder / LOG
-        message = _error_line((log.read_text() if log.exists() else "") + output)
+        message = error_line((log.read_text() if log.exists() else "") + output)
         if message is None:
             killer = _killed_by(proc.returncode)
             message = (f"lmp was killed by signal {signal.Signals(killer).name}" if killer
@@ -256,28 +256,6 @@ def _check_contact(folder: Path) -> None:
     contact = find_contact((folder / LOG).read_text(errors="replace"))
     if contact:
         raise ContactError(contact.magnets, contact.time_ms, contact.gap_mm, folder)
-
-
-def _error_line(text: str) -> str | None:
-    """LAMMPS's first ERROR line in `text` in user units, without its source location; None if none."""
-    for line in text.splitlines():
-        if "ERROR" in line:
-            # LAMMPS's "(src/...)" and a plugin's "(/path/to/fix.cpp:123)"
-            line = re.sub(r"\s*\((?:src/[^)]*|[^()]*\.(?:cpp|h):\d+)\)", "", line.strip())
-            # engine lengths (m) and times (s) -> mm and ms, e.g. "Bond length > table outer cutoff:
-            # type 1 length 0.0130", the chain's "outside the table range [0, 0.036] m at t = 0.0027 s"
-            line = re.sub(rf"\blength ({_NUMBER})", lambda m: f"length {_user(m[1], 'length')} mm", line)
-            line = re.sub(rf"\[({_NUMBER}), ({_NUMBER})\] m\b",
-                          lambda m: f"[{_user(m[1], 'length')}, {_user(m[2], 'length')}] mm", line)
-            return re.sub(rf"\bt = ({_NUMBER}) s\b", lambda m: f"t = {_user(m[1], 'time')} ms", line)
-    return None
-
-
-_NUMBER = r"-?[\d.]+(?:[eE][-+]?\d+)?"
-
-
-def _user(text: str, quantity: str) -> str:
-    return f"{from_engine(float(text), quantity):.6g}"
 
 
 def _tool(name: str) -> str:

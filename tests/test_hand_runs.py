@@ -69,6 +69,7 @@ def test_a_lammps_error_is_failed_summarized_and_may_be_overwritten(tmp_path, ca
     assert summary["status"] == "failed" and summary["deck_edited"] is True
     assert summary["stopped"]["reason"] == "failed"
     assert summary["stopped"]["error"].startswith("ERROR: Unrecognized fix style 'nosuchfix'")
+    assert "src/" not in summary["stopped"]["error"]  # the line as the runners report it (`dump.error_line`)
     assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 0
     assert "nosuchfix" not in (folder / layout.DECK).read_text() and RunFolder(folder).status == "written"
     assert not (folder / layout.SUMMARY).exists() and not (folder / layout.LOG).exists()

@@ -264,6 +264,30 @@ def find_contact(log_text: str) -> Contact | None:
     return Contact((int(i), int(j)), float(from_engine(float(gap), "length")), float(from_engine(float(t), "time")))
 
 
+_ERROR = re.compile(r"^ERROR.*$", re.MULTILINE)
+_NUMBER = r"-?[\d.]+(?:[eE][-+]?\d+)?"
+
+
+def error_line(text: str) -> str | None:
+    """LAMMPS's first ERROR line in a log or its output (the line it starts; "ERROR on proc N"
+    too), in user units and without its source location; None if there is none."""
+    m = _ERROR.search(text)
+    if m is None:
+        return None
+    # LAMMPS's "(src/...)" and a plugin's "(/path/to/fix.cpp:123)"
+    line = re.sub(r"\s*\((?:src/[^)]*|[^()]*\.(?:cpp|h):\d+)\)", "", m.group().strip())
+    # engine lengths (m) and times (s) -> mm and ms, e.g. "Bond length > table outer cutoff:
+    # type 1 length 0.0130", the chain's "outside the table range [0, 0.036] m at t = 0.0027 s"
+    line = re.sub(rf"\blength ({_NUMBER})", lambda m: f"length {_user(m[1], 'length')} mm", line)
+    line = re.sub(rf"\[({_NUMBER}), ({_NUMBER})\] m\b",
+                  lambda m: f"[{_user(m[1], 'length')}, {_user(m[2], 'length')}] mm", line)
+    return re.sub(rf"\bt = ({_NUMBER}) s\b", lambda m: f"t = {_user(m[1], 'time')} ms", line)
+
+
+def _user(text: str, quantity: str) -> str:
+    return f"{from_engine(float(text), quantity):.6g}"
+
+
 def log_ended(log_text: str) -> bool:
     """Whether LAMMPS finished the log (its last line of a run that ended, also after a soft stop)."""
     return END_OF_RUN in log_text

@@ -27,7 +27,7 @@ import numpy as np
 from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
-from ..formats.dump import Contact, find_contact, read_dump, read_log, trajectory_from_dump
+from ..formats.dump import Contact, error_line, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import LatticeError, UsageError
 from ..case_measures import case_front, read_front_record, set_impactor_acceleration
 from ..numbering import number
@@ -335,7 +335,7 @@ class RunFolder:
             return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
         if status in (INTERRUPTED, FAILED):
             record = marker.read(self.path) or {}
-            error = record.get("error") or (marker.lammps_error(marker.log_text(self.path) or "")
+            error = record.get("error") or (error_line(marker.log_text(self.path) or "")
                                             if status == FAILED else None)
             return {"reason": "interrupted" if status != FAILED else "failed",
                     "time_ms": record.get("time_ms", self._last_time()),

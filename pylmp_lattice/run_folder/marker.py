@@ -12,7 +12,6 @@ import contextlib
 import hashlib
 import json
 import os
-import re
 import socket
 import time
 from contextlib import contextmanager, suppress
@@ -142,12 +141,6 @@ def log_text(folder: Path) -> str | None:
         return None
 
 
-def lammps_error(text: str) -> str | None:
-    """The first ERROR line LAMMPS wrote into a log, if any."""
-    m = re.search(r"^ERROR.*$", text, re.MULTILINE)
-    return m.group().strip() if m else None
-
-
 def status(folder: Path) -> str:
     """"running" while a runner of this package holds the folder's lock or a process writes its
     log (`being_written`); else how the run ended: "done", "contact", "failed" (the log has
@@ -173,9 +166,9 @@ def status(folder: Path) -> str:
 def log_state(text: str) -> str | None:
     """How a log says its run ended: "contact", "failed" (an ERROR line) or "done"; None
     while it has not ended."""
-    from ..formats.dump import find_contact, log_ended  # (not needed before a sweep's first task)
+    from ..formats.dump import error_line, find_contact, log_ended  # (not needed before a sweep's first task)
 
-    error = lammps_error(text)
+    error = error_line(text)
     if not log_ended(text) and error is None:
         return None
     return CONTACT if find_contact(text) else FAILED if error else DONE
