@@ -20,6 +20,9 @@ class Law(Protocol):
     law: str  # its name in a case's [force] section
     # its parameters that must be finite and > 0, name -> unit, checked when it is made
     positive: ClassVar[dict[str, str]] = {}
+    # whether its stiffness never grows with r on its domain (every parameter allowed): the
+    # stiffest separation of a range is then its start (the stability limit's k_max)
+    softens: ClassVar[bool] = False
 
     def __post_init__(self):
         for name, unit in self.positive.items():
@@ -48,6 +51,7 @@ class PowerLaw(Law):
 
     law = "power"
     positive = {"K": "N mm^q", "b": "mm"}
+    softens = True  # q K / (r + b)^(q + 1), K > 0, q > 1
 
     def __post_init__(self):
         super().__post_init__()
@@ -81,6 +85,7 @@ class LinearSpring(Law):
 
     law = "linear"
     positive = {"k": "N/mm", "r_free": "mm"}
+    softens = True  # k everywhere
 
     def force(self, r):
         return self.k * (self.r_free - np.asarray(r, float))
@@ -154,6 +159,7 @@ class Toda(Law):
 
     law = "toda"
     positive = {"A": "N", "B": "1/mm", "a": "mm"}
+    softens = True  # A B exp(-B (r - a)), A, B > 0
 
     def force(self, r):
         return self.A * np.expm1(-self.B * (np.asarray(r, float) - self.a))

@@ -146,3 +146,20 @@ def test_friction_reads_the_table_for_the_other_laws():
         text = deck_text(make_law_case(law, friction={"mu": 0.1, "p": 0.0}, run={"engine": "stock"}))
         assert "lattice/friction 0.1 0.0 9.81 law bond 1" in text
         assert "law table ${dir}/force.table FORCE_LAW" in deck_text(make_law_case(law))
+
+
+@pytest.mark.parametrize("law", LAWS + [PowerLaw(K=1e-3, b=0.1, q=1.5), PowerLaw(K=5e4, b=10.0, q=12.0),
+                                        Toda(A=3.0, B=40.0, a=12.0)], ids=lambda law: law.law)
+def test_a_law_that_softens_is_stiffest_where_a_range_starts(law):
+    """`Law.softens` (the stability limit then reads k_max at the table's start instead of 20001
+    samples a range, and under gap disorder each replica has a range of its own): its stiffness
+    never grows with r, and the largest of the samples of any range is its first, to the bit."""
+    from pylmp_lattice.case.case import _max_stiffness, _sampled_max_stiffness
+
+    rng = np.random.default_rng(7)
+    lo0 = law.domain()[0] + 0.5
+    if law.softens:
+        assert np.all(np.diff(law.stiffness(np.linspace(lo0, lo0 + 60.0, 100001))) <= 0)
+    for lo, width in zip(rng.uniform(lo0, lo0 + 40.0, 50), rng.uniform(1e-6, 40.0, 50)):
+        assert _max_stiffness(law, lo, lo + width) == _sampled_max_stiffness(law, lo, lo + width)
+    assert [type(law).__name__ for law in LAWS if law.softens] == ["PowerLaw", "PowerLaw", "LinearSpring", "Toda", "Toda"]
