@@ -210,20 +210,22 @@ class Chain:
     def mass_range(self) -> tuple[float, float]:
         """Smallest and largest mass, g, in bounded memory at any N (see _range); ConfigError
         naming chain.mass_disorder if a draw gave a mass <= 0."""
-        return self._range("mass_disorder", self.mass, self.defect_mass, self._masses)
+        return self._range("mass_disorder", self.mass, self.defect_mass, self._masses, self.masses)
 
     @cached_property
     def gap_range(self) -> tuple[float, float]:
         """Smallest and largest initial separation, mm, in bounded memory at any N; ConfigError
         naming chain.r0_disorder if a draw gave a gap <= 0."""
-        return self._range("r0_disorder", self.r0, self.defect_r0, self._gaps)
+        return self._range("r0_disorder", self.r0, self.defect_r0, self._gaps, self.gaps)
 
-    def _range(self, name: str, nominal, defect, chunks) -> tuple[float, float]:
+    def _range(self, name: str, nominal, defect, chunks, kept) -> tuple[float, float]:
         width = getattr(self, name)
         if not width and np.isscalar(nominal):  # no draws: the value and the defect (N >= 3 keeps one of each)
             values = [float(nominal)] + ([float(defect)] if defect is not None else [])  # an int may pass 2^53
             return min(values), max(values)
-        low, high = _extremes(chunks(CHUNK))  # drawn in chunks, the numbers of masses() and gaps()
+        # drawn in chunks, the numbers of masses() and gaps(); a chain that keeps its draws draws
+        # them once, here, for the deck and the measures too (a replica under disorder drew them twice)
+        low, high = _extremes(iter([kept()]) if self.particles <= KEPT_DRAWS else chunks(CHUNK))
         # nominal and defect are > 0: only a draw can be <= 0 (never a uniform one, whose width is < 1/sqrt(3))
         if not low > 0:
             raise ConfigError(f"chain.{name}", f"got {width}; a draw gave a value <= 0, "
