@@ -4,8 +4,10 @@ own numbers bit for bit, so that a batch's chains draw what each chain alone dra
 import dataclasses
 
 import numpy as np
+import pytest
 
-from pylmp_lattice.case.chain import GAP_STREAM, MASS_STREAM, VELOCITY_STREAM, thermal_normals
+from pylmp_lattice.case.chain import GAP_STREAM, MASS_STREAM, VELOCITY_STREAM, Chain, replica_draws, thermal_normals
+from pylmp_lattice.case_measures import chain_draws
 from pylmp_lattice.case.seeding import _words, pcg64_states, seed_words, stream_normals
 from conftest import make_case
 
@@ -56,3 +58,28 @@ def test_a_batch_s_thermal_normals_are_each_chain_s():
     got = thermal_normals(chains)
     want = np.stack([c.thermal_normals() for c in chains])
     assert got.shape == (500, 19) and got.view(np.uint64).tolist() == want.view(np.uint64).tolist()
+
+
+@pytest.mark.parametrize("chain", [
+    {"mass_disorder": 0.01, "r0_disorder": 0.005, "disorder": "uniform"},  # the shipped thermal example's
+    {"mass_disorder": 0.1, "thermal_velocity": 0.02},  # normal, masses alone
+    {"r0_disorder": 0.2, "disorder": "uniform", "defect_index": 7, "defect_r0": 30.0},
+    {"mass_disorder": 0.05, "r0_disorder": 0.05, "defect_index": 21, "defect_mass": 3.0, "thermal_velocity": 0.5},
+])
+def test_a_point_s_replicas_under_disorder_draw_together_what_each_draws_alone(chain):
+    """`chain.replica_draws` (a sweep worker's draws for a point's replicas) and `chain_draws`
+    (their velocities together, each chain its own masses): each replica's masses, gaps and
+    velocities bit for bit as its chain alone draws them (`Chain.masses`, `gaps`, `velocities`)."""
+    case = make_case(particles=21, chain={"seed": 1} | chain)
+    seeds = SEEDS[:300]
+    masses, gaps = replica_draws(case.chain, seeds)
+    alone = [dataclasses.replace(case, chain=dataclasses.replace(case.chain, seed=s)) for s in seeds]
+    for got, draw in ((masses, Chain.masses), (gaps, Chain.gaps)):
+        want = np.stack([draw(c.chain) for c in alone])
+        assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist()
+    assert len({row[1] for row in masses.tolist()}) == (len(seeds) if "mass_disorder" in chain else 1)
+    together = chain_draws(alone)
+    for got, draw in ((together.masses, Chain.masses), (together.gaps, Chain.gaps),
+                      (together.velocities, Chain.velocities)):
+        want = np.stack([draw(c.chain) for c in alone])
+        assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist()

@@ -168,14 +168,22 @@ class Chain:
         for start in range(0, count, chunk):
             part = base[start:start + chunk].copy()
             if width:
-                if self.disorder == "uniform":
-                    noise = rng.uniform(-math.sqrt(3), math.sqrt(3), len(part))
-                else:
-                    noise = rng.standard_normal(len(part))
-                part *= 1 + width * noise
-            if defect is not None and 0 <= self.defect_index - 1 - start < len(part):
-                part[self.defect_index - 1 - start] = defect
-            yield part
+                part *= 1 + width * self._noise(rng, np.empty(len(part)))
+            yield self._with_defect(part, defect, start)
+
+    def _noise(self, rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
+        """The disorder's relative noise (unit variance) drawn into `out`: uniform or normal."""
+        if self.disorder == "uniform":
+            out[:] = rng.uniform(-math.sqrt(3), math.sqrt(3), len(out))
+        else:
+            rng.standard_normal(out=out)
+        return out
+
+    def _with_defect(self, part: np.ndarray, defect: float | None, start: int = 0) -> np.ndarray:
+        """`part` (values start, start + 1, ... of a series) with the defect's value in its place."""
+        if defect is not None and 0 <= self.defect_index - 1 - start < part.shape[-1]:
+            part[..., self.defect_index - 1 - start] = defect
+        return part
 
     def _masses(self, chunk: int) -> Iterator[np.ndarray]:
         return self._series(self.mass, self.particles, self.mass_disorder, MASS_STREAM, self.defect_mass, chunk)
@@ -263,6 +271,24 @@ class Chain:
         return np.concatenate([[0.0], np.cumsum(self.gaps())])
 
 
+def replica_draws(chain: Chain, seeds) -> tuple[np.ndarray, np.ndarray]:
+    """The masses (R, N) and gaps (R, N - 1) of `chain` with each of R seeds (a sweep's replicas
+    of a point under disorder), drawn together, each row the bits of `replace(chain, seed=seed)`'s
+    own masses() and gaps(): one generator re-seeded per seed (`seeding.stream_draws`) instead of
+    a SeedSequence and a generator per replica and stream."""
+    from .seeding import stream_draws
+
+    def series(nominal, count, width, stream, defect):
+        base = np.broadcast_to(np.asarray(nominal, float), (len(seeds), count)).copy()
+        if width:
+            base *= 1 + width * stream_draws(seeds, stream, count, chain._noise)
+        return chain._with_defect(base, defect)
+
+    n = chain.particles
+    return (series(chain.mass, n, chain.mass_disorder, MASS_STREAM, chain.defect_mass),
+            series(chain.r0, n - 1, chain.r0_disorder, GAP_STREAM, chain.defect_r0))
+
+
 def thermal_normals(chains) -> np.ndarray:
     """`Chain.thermal_normals` of chains of equal N, shape (R, N-2), bit for bit, drawn together
     from one generator re-seeded per chain (`seeding.stream_normals`)."""
@@ -272,13 +298,15 @@ def thermal_normals(chains) -> np.ndarray:
 
 
 def thermal_velocities(m: np.ndarray, thermal, z: np.ndarray) -> np.ndarray:
-    """The free magnets' thermal velocities (`Chain.velocities`) of R chains with the same free
-    masses m (n,), g: RMS `thermal` (R,) m/s, from standard normal draws z (R, n); (R, n).
-    Each row has the bits of its chain alone (the sums run along a row)."""
-    n, total = len(m), float(np.sum(m))
-    c = math.sqrt(n / (n - 2 + n * float(np.sum(m**2)) / total**2))
+    """The free magnets' thermal velocities (`Chain.velocities`) of R chains with free masses m,
+    g, the same (n,) or each chain's (R, n): RMS `thermal` (R,) m/s, from standard normal draws
+    z (R, n); (R, n). Each row has the bits of its chain alone (the sums run along a row, the
+    same operations in the same order)."""
+    m = np.asarray(m, float)
+    n, total = m.shape[-1], np.sum(m, axis=-1)
+    c = np.sqrt(n / (n - 2 + n * np.sum(m**2, axis=-1) / total**2))
     free = (c * np.asarray(thermal, float))[:, None] * z
-    return free - (np.sum(m * free, axis=1) / total)[:, None]
+    return free - (np.sum(m * free, axis=1) / total)[..., None]
 
 
 def _extremes(chunks: Iterator[np.ndarray]) -> tuple[float, float]:

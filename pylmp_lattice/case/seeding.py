@@ -87,12 +87,19 @@ def pcg64_states(seeds, stream: int) -> list[tuple[int, int]]:
 def stream_normals(seeds, stream: int, count: int) -> np.ndarray:
     """`np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream,))).standard_normal(count)`
     of each seed, shape (len(seeds), count), bit for bit: one generator, its state set per seed."""
+    return stream_draws(seeds, stream, count, lambda rng, out: rng.standard_normal(out=out))
+
+
+def stream_draws(seeds, stream: int, count: int, draw) -> np.ndarray:
+    """`draw(rng, out)` into each seed's row of a (len(seeds), count) array, `rng` the generator
+    `np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream,)))` would be, bit for
+    bit: one generator, its state set per seed."""
     bits = np.random.PCG64(0)
     rng = np.random.Generator(bits)
     out = np.empty((len(seeds), count))
     for r, (state, inc) in enumerate(pcg64_states(seeds, stream)):
         bits.state = {"bit_generator": "PCG64", "state": {"state": state, "inc": inc}, "has_uint32": 0, "uinteger": 0}
-        rng.standard_normal(out=out[r])
+        draw(rng, out[r])
     return out
 
 

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 from itertools import repeat
 from pathlib import Path
 
-from ..case import Case
+from ..case import KEPT_DRAWS, Case
+from ..case.chain import replica_draws
 from ..columnar import columns, repeated
 from ..errors import Interrupted, LatticeError
 from ..formats.files import DiskFull, remove_tree
@@ -160,12 +161,21 @@ def _cases(task: Task, members: list[Member]) -> list[Case | None]:
     seeded = {}
     for part in task.members:
         if isinstance(part, Replicas) and part.first.case is not None:
-            seeded.update(zip(part.ids, zip(repeat(part.first.case), part.seeds)))
+            seeded.update(zip(part.ids, zip(repeat(part.first.case), part.seeds, _draws(part.first.case.chain, part.seeds))))
     for m in members:
         if m.id in seeded:
             m.build_from(*seeded[m.id])
     others = iter(member_cases([m for m in members if m.id not in seeded]))
     return [m.case if m.id in seeded else next(others) for m in members]
+
+
+def _draws(chain, seeds) -> list[dict | None]:
+    """Under disorder, the masses and gaps each seed draws (`chain.replica_draws`), drawn together
+    for a chain that keeps its draws (`Chain._kept`); else None for each."""
+    if not chain.draws() or chain.particles > KEPT_DRAWS:
+        return [None] * len(seeds)
+    masses, gaps = replica_draws(chain, seeds)
+    return [{"masses": m, "gaps": g} for m, g in zip(masses, gaps)]
 
 
 def batchable(case: Case) -> bool:

@@ -116,14 +116,15 @@ class Member:
         """Why the member's case is invalid, one line; None for a valid case."""
         return self._case[1]
 
-    def build_from(self, template: Case, seed) -> None:
+    def build_from(self, template: Case, seed, draws: dict | None = None) -> None:
         """Build this member's case as `template` (a case of its parameter point) with chain.seed
         `seed`, unless it is built already (`_reseeded`: what the seed draws is checked again;
-        the rest was checked when the template was built)."""
+        the rest was checked when the template was built). draws: the masses and gaps the seed
+        draws under disorder, drawn with the point's other replicas (`chain.replica_draws`)."""
         if "_case" in self.__dict__ or self.built is not None:
             return
         try:
-            case = _reseeded(template, seed), None
+            case = _reseeded(template, seed, draws), None
         except ConfigError as err:
             case = None, str(err)
         self.__dict__["_case"] = case  # where the cached property `_case` keeps its value
@@ -190,16 +191,20 @@ def point_key(params: dict) -> str:
     return identity_hash({k: v for k, v in params.items() if k not in ("replica", "chain.seed")})
 
 
-def _reseeded(template: Case, seed) -> Case:
+def _reseeded(template: Case, seed, draws: dict | None = None) -> Case:
     """`template` with chain.seed `seed`. Without mass or gap disorder the seed draws only the
     thermal velocities, and no check of the chain or the case reads those: the case is the
     template's with the seed checked and the velocities it drew dropped (the masses, gaps and
     the checks of their extremes are the template's, the same for every seed), at ~5 us
     instead of `dataclasses.replace`'s ~70 us (which checks everything again, as it must where
-    the disorder draws masses and gaps from the seed)."""
+    the disorder draws masses and gaps from the seed; `draws`, those masses and gaps if drawn
+    already, are kept by the chain before the checks read them)."""
     chain = template.chain
     if chain.mass_disorder or chain.r0_disorder or chain.seed is None:
-        return replace(template, chain=replace(chain, seed=seed))
+        chain = replace(chain, seed=seed)
+        if draws is not None:
+            chain.__dict__["_draws"] = dict(draws)  # (`Chain._kept`'s: not a field)
+        return replace(template, chain=chain)
     check_seed(seed)
     new = _copy(chain)  # its __dict__: the fields and what it keeps (draws, ranges)
     new.__dict__["seed"] = seed
