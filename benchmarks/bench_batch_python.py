@@ -1,8 +1,9 @@
 """The worker's Python per batched member: one task of a thermal ensemble, in this process.
 
 A task of --members replicas of inputs/paper_experiment.toml (21 magnets, 60 ms, 4800 steps,
-chain.thermal_velocity = --thermal m/s, keep = "measures") runs as one batch through
-`sweep.batch.run_task`, as a pool worker runs it. Each stage is timed by wrapping the function
+chain.thermal_velocity = --thermal m/s, keep = "measures"; --disorder: with the shipped thermal
+example's mass and gap disorder) runs as one batch through `sweep.batch.run_task`, as a pool
+worker runs it (its replicas as the coordinator sends them: `Sweep.iter_runs`). Each stage is timed by wrapping the function
 that does it (wall time, perf_counter; see --clock):
 
     cases      spec.member_cases: the members' cases (a point's replicas share its first)
@@ -20,7 +21,7 @@ has them after its first task). Both variants: the case as shipped (friction) an
 On an older tree (e.g. the reference commit, run with its own environment) the stages it lacks
 show "-" and count in "other".
 
-    python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3] [--engine lammps|cpu] [--threads 1] [--clock wall|cpu]
+    python benchmarks/bench_batch_python.py [--members 500] [--thermal 0.02] [--repeat 3] [--engine lammps|cpu] [--threads 1] [--clock wall|cpu] [--disorder]
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ import tomli_w
 from pylmp_lattice import case_measures, deck, runner, summary
 from pylmp_lattice.engines import cpu
 from pylmp_lattice.sweep import batch, load_sweep, store
+from pylmp_lattice.sweep.spec import Replicas
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = ROOT / "inputs" / "paper_experiment.toml"
@@ -50,19 +52,25 @@ STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"),
 # (a stage's function by its name on older trees: summaries and write_batch; a tree has one or the other)
 
 
+# --disorder: the shipped thermal example's manufacturing scatter (inputs/sweep_thermal_experiment.toml)
+DISORDER = '"chain.mass_disorder" = 0.01\n"chain.r0_disorder" = 0.005\n"chain.disorder" = "uniform"\n'
+
+
 def task(folder: Path, members: int, thermal: float, friction: bool, engine: str = "lammps",
-         threads: int | None = None) -> batch.Task:
+         threads: int | None = None, disorder: bool = False) -> batch.Task:
     base = tomllib.loads(CASE.read_text())
     if not friction:
         del base["friction"]
     folder.mkdir(parents=True)
     (folder / "base.toml").write_text(tomli_w.dumps(base))
     (folder / "sweep.toml").write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
-                                       f'[set]\n"chain.thermal_velocity" = {thermal}\n')
+                                       f'[set]\n"chain.thermal_velocity" = {thermal}\n' + (DISORDER if disorder else ""))
     sweep = load_sweep(folder / "sweep.toml")
     root = folder / "out"
     (root / store.MEMBERS).mkdir(parents=True)
-    return batch.Task(str(root), tuple(sweep.iter_members()), sweep.runner, engine, threads)
+    return batch.Task(str(root), tuple(part for run in sweep.iter_runs() for part in  # as the coordinator sends them:
+                                       ([run] if isinstance(run, Replicas) else run)),  # a point's replicas as columns
+                      sweep.runner, engine, threads)
 
 
 CLOCK = time.perf_counter
@@ -113,21 +121,24 @@ def main() -> None:
     parser.add_argument("--engine", choices=("lammps", "cpu"), default="lammps", help="the batches' engine")
     parser.add_argument("--threads", type=int, default=1, help="the cpu engine's cores (a sweep's worker: cores / workers)")
     parser.add_argument("--clock", choices=("wall", "cpu"), default="wall", help="wall time, or this process's CPU time")
+    parser.add_argument("--disorder", action="store_true", help="with the shipped thermal example's mass and gap disorder")
     args = parser.parse_args()
     global CLOCK
     CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
     work = Path(tempfile.mkdtemp(prefix="bench_batch_python_"))
     try:
-        timed_run(task(work / "warm", 5, args.thermal, True, args.engine, args.threads))
+        timed_run(task(work / "warm", 5, args.thermal, True, args.engine, args.threads, args.disorder))
         rows = {}
         for friction in (True, False):
-            runs = [timed_run(task(work / f"{friction}{k}", args.members, args.thermal, friction, args.engine, args.threads))
+            runs = [timed_run(task(work / f"{friction}{k}", args.members, args.thermal, friction, args.engine, args.threads,
+                                   args.disorder))
                     for k in range(args.repeat)]
             rows["friction" if friction else "frictionless"] = min(runs, key=lambda r: r["task"] - r["engine"])
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print(f"# {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, load average {os.getloadavg()[0]:.2f}; "
-          f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s, engine {args.engine}, "
+          f"{args.members} members of {CASE.name}, thermal {args.thermal} m/s"
+          f"{', mass and gap disorder' if args.disorder else ''}, engine {args.engine}, "
           f"fastest of {args.repeat}")
     n = args.members
     labels = list(dict.fromkeys(label for label, *_ in STAGES if label != "engine"))
