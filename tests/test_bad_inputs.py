@@ -355,6 +355,12 @@ def test_broken_sweep_file(workdir, capsys):
     refused(["sweep", "folder", "-o", "runs/sweep"], capsys, "sweep")
 
 
+def test_a_case_file_given_for_a_sweep_is_named_so(workdir, capsys):
+    _write_case(CASE)
+    line = refused(["sweep", "case.toml", "-o", "runs/sweep"], capsys, "sweep")
+    assert "case.toml is a case file" in line and 'base = "case.toml"' in line and not (workdir / "runs" / "sweep").exists()
+
+
 POOL = [math.nan, math.inf, -math.inf, -1, 0, 0.0, 1, 2.5, 1e308, -1e308, 2**63 - 1, -(2**63), True, False, "",
         "x" * 300, "long", "a\nb", "../x", [], [math.nan], [1, 2, 3], [[1]], ["a"], {}, {"a": 1},
         datetime.date(2024, 1, 1), datetime.datetime(2024, 1, 1, 12, 0)]

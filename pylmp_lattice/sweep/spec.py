@@ -518,6 +518,9 @@ def load_sweep(path: str | Path) -> Sweep:
     """Read a sweep file (TOML); every error names the field (ConfigError)."""
     path = Path(path)
     data = read_toml(path, "sweep")
+    if "base" not in data and {"chain", "force"} <= set(data):  # a case file given for the sweep
+        raise ConfigError("sweep", f"{path} is a case file (it has [chain] and [force]); expected a sweep file, whose "
+                                   f"base = \"{path.name}\" names it (or run it: pylmp-lattice run {path})")
     for key in data:
         if key not in KEYS:
             raise ConfigError(key, f"unknown key; expected one of {', '.join(KEYS)}")
