@@ -158,7 +158,9 @@ class Measured(Profile):
         if t.ndim != 1 or t.shape != y.shape or len(t) < 4 or not np.all(np.isfinite(t) & np.isfinite(y)):
             raise ConfigError("impactor.t", f"got {t.shape} times and {y.shape} values; expected two equal lists of >= 4 numbers")
         if np.any(np.diff(t) <= 0):
-            raise ConfigError("impactor.t", "times must increase strictly")
+            k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 2  # the first sample not after the one before, from 1
+            raise ConfigError("impactor.t", f"times must increase strictly; sample {k} (t = {t[k - 1]:g} ms) is not "
+                                            f"after sample {k - 1} (t = {t[k - 2]:g} ms)")
         if self.column not in ("u", "v"):
             raise ConfigError("impactor.column", f"got {self.column!r}; choose one of u, v")
         if self.after not in ("hold", "stop"):

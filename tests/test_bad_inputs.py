@@ -177,7 +177,7 @@ def _snapshot(root):
     return sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.name not in INPUT_FILES)
 
 
-INPUT_FILES = {"case.toml", "sweep.toml", "broken.toml"}
+INPUT_FILES = {"case.toml", "sweep.toml", "broken.toml", "samples.csv"}
 
 
 def refused(argv, capsys, field: str) -> str:
@@ -208,6 +208,20 @@ def test_bad_field_in_a_case_file(workdir, capsys, mutate, field):
     mutate(data)
     err = refused(["deck", _write_case(data)], capsys, field)
     assert SECRET not in err and "root:" not in err
+
+
+@pytest.mark.parametrize("text, field, message", [
+    ("0,0\n1,0.5\n2,nan\n3,1\n4,1\n", "impactor.file", "samples.csv: not a finite number in data row 3"),
+    ("# t, u\n0,0\n1,inf\n2,1\n3,1\n", "impactor.file", "samples.csv: not a finite number in data row 2"),
+    ("0,0\n2,0.5\n1,1\n3,1\n4,1\n", "impactor.t", "sample 3 (t = 1 ms) is not after sample 2 (t = 2 ms)"),
+])
+def test_a_measured_drive_s_bad_sample_is_named_by_its_row(workdir, capsys, text, field, message):
+    """A measured impactor file with a nan, an inf or a time out of order: the row named, in
+    plain numbers (was numpy's reprs of the values, or no row)."""
+    (workdir / "samples.csv").write_text(text)
+    data = copy.deepcopy(CASE) | {"impactor": {"profile": "measured", "file": "samples.csv"}}
+    err = refused(["deck", _write_case(data)], capsys, field)
+    assert message in err and "np." not in err
 
 
 @pytest.mark.parametrize("setting, message", [

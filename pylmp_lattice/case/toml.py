@@ -326,4 +326,8 @@ def _read_columns(path: Path, field: str, columns: str):
     if table.shape[1] != 2 or len(table) == 0:
         columns_got = table.shape[1] if len(table) else 0
         raise ConfigError(field, f"{path.name}: got {columns_got} columns; expected 2 ({columns})")
-    return tuple(table[:, 0]), tuple(table[:, 1])
+    bad = np.flatnonzero(~np.isfinite(table).all(axis=1))
+    if bad.size:  # nan, inf: numbers to numpy, never a sample
+        raise ConfigError(field, f"{path.name}: not a finite number in data row {bad[0] + 1} ('#' comment lines "
+                                 f"not counted); expected two finite columns {columns}")
+    return tuple(table[:, 0].tolist()), tuple(table[:, 1].tolist())
