@@ -241,6 +241,19 @@ def test_empty_output_is_refused(tmp_path, monkeypatch, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml"]
 
 
+def test_a_study_is_refused_a_run_s_folder(tmp_path, monkeypatch, capsys):
+    """`study -o DIR` where DIR holds a run: refused before anything is written (the trial wrote
+    fig2/ and its tables among the run's files), as `sweep` refuses it."""
+    monkeypatch.chdir(tmp_path)
+    case = str(write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0)))
+    assert main(["deck", case, "-o", "deck"]) == 0
+    before = sorted(p.name for p in (tmp_path / "deck").iterdir())
+    capsys.readouterr()
+    assert main(["study", "fig2", "--quick", "-o", "deck"]) == 2
+    assert "error: output: deck holds a run of this package; choose a new folder for the study" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "deck").iterdir()) == before
+
+
 def test_deck_hint_is_one_line_to_paste(tmp_path, monkeypatch, capsys):
     """The hint runs as printed in a shell, with a folder whose name has a space and a quote:
     `pylmp-lattice lmp` in the folder, then summarize from where it was typed (trial 2, item 12)."""
