@@ -982,14 +982,17 @@ def test_a_grid_over_1e5_members_needs_yes_and_is_counted_before_enumeration(tmp
     assert len(built) <= 1  # the estimate looks at the first member only
 
 
-def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, capsys):
+def test_a_folder_holding_another_sweep_is_refused_unless_overwrite(tmp_path, capsys, caplog):
     path = write_sweep(tmp_path, 'base = "base.toml"\n[grid]\n"impactor.velocity" = [-1.0]\n')
     out = tmp_path / "out"
     assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 1  # one invalid member: failed
     other = tmp_path / "other.toml"
     other.write_text('base = "base.toml"\n[grid]\n"impactor.velocity" = [-3.0]\n')
     capsys.readouterr()
-    assert main(["sweep", str(other), "-o", str(out), "--quiet"]) == 2
+    caplog.clear()
+    with caplog.at_level("INFO", logger="pylmp_lattice"):
+        assert main(["sweep", str(other), "-o", str(out)]) == 2
+    assert " members (" not in caplog.text  # no estimate said before the refusal
     err = capsys.readouterr().err
     assert err.startswith(f"pylmp-lattice: error: -o: {out} holds a different sweep (sweep.json)") and err.count("\n") == 1
     assert list(load_results(out)["impactor.velocity"]) == [-1.0]  # untouched

@@ -37,7 +37,7 @@ from . import disk
 from .batch import Task
 from .blocks import GPU_MAX_ATOMS, _Blocks  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
 from .estimate import _estimate
-from .folder import check_folder, claim, lock
+from .folder import check_folder, claim, lock, refuse_other
 from .member import one_line, unstarted
 from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
@@ -89,6 +89,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     if workers is not None and executor is None and workers > cores:
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
+    refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
     # --yes or not; at_most() counts another sweep's members kept in DIR too, so it may exceed total
     disk_need = disk.check(sweep, root, max(0, total - Outcomes(root).at_most()), slots_now)
     log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now, bool(stats)), disk_need)

@@ -46,6 +46,16 @@ def check_folder(root: str | Path) -> None:
                           "folder (-o)")
 
 
+def refuse_other(root: Path, sweep: Sweep, overwrite: bool) -> dict | None:
+    """UsageError if DIR holds a different sweep (DIR/sweep.json) and not `overwrite`; else what
+    DIR/sweep.json holds (None: nothing)."""
+    held = read_json(root / SWEEP_FILE)
+    if held is not None and held.get("identity") != sweep.identity() and not overwrite:
+        raise UsageError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
+                          "or pass --overwrite (overwrite=True) to replace it")
+    return held
+
+
 def claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
     """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`, which
     makes DIR this sweep's (its table is replaced; member folders are named by their case, so
@@ -53,9 +63,6 @@ def claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
     import json
 
     identity = sweep.identity()
-    held = read_json(root / SWEEP_FILE)
-    if held is not None and held.get("identity") != identity and not overwrite:
-        raise UsageError("-o", f"{root} holds a different sweep ({SWEEP_FILE}); choose another folder, "
-                          "or pass --overwrite (overwrite=True) to replace it")
+    held = refuse_other(root, sweep, overwrite)
     if held is None or held.get("identity") != identity:
         atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n", sync=True)
