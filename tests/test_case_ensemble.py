@@ -156,3 +156,40 @@ def test_thermal_chain_in_the_engine_shares_its_energy_equally(tmp_path):
     np.testing.assert_allclose(traj.v[0], case.chain.velocities(), rtol=1e-9, atol=1e-15)
     assert np.mean(ke) / ke[0] == pytest.approx(0.5, abs=0.01)
     assert np.min(ke) < 0.3 * ke[0]  # energy really moves into the springs and back (measured 0.15)
+
+
+@pytest.mark.parametrize("draws", [False, True])
+def test_a_replica_reseeded_by_a_worker_is_checked_as_its_case_built_afresh(draws):
+    """`spec._reseeded` (a sweep worker's replica of a point: the template's case with another
+    seed; `draws`: its masses and gaps drawn with the point's other replicas) against
+    `dataclasses.replace` (every check again): the same masses, gaps, velocities and extremes,
+    and the same refusal where the seed's draw makes the case invalid: a mass <= 0 (wide normal
+    disorder) or a magnet so light that run.dt passes its stability limit."""
+    import dataclasses
+
+    from pylmp_lattice.case.chain import replica_draws
+    from pylmp_lattice.sweep.spec import _reseeded
+
+    template = make_case(particles=21, chain={"mass_disorder": 0.4, "r0_disorder": 0.1, "thermal_velocity": 0.02,
+                                              "seed": 3}, run={"dt": 0.1})
+    seeds = list(range(100, 400))
+    masses, gaps = replica_draws(template.chain, seeds)
+    outcomes = set()
+    for k, seed in enumerate(seeds):
+        try:
+            want = dataclasses.replace(template, chain=dataclasses.replace(template.chain, seed=seed))
+        except ConfigError as err:
+            want = err
+        try:
+            got = _reseeded(template, seed, {"masses": masses[k], "gaps": gaps[k]} if draws else None)
+        except ConfigError as err:
+            got = err
+        if isinstance(want, ConfigError):
+            assert isinstance(got, ConfigError) and (got.field, str(got)) == (want.field, str(want)), seed
+            outcomes.add(want.field)
+            continue
+        assert got == want and got._extremes == want._extremes
+        for draw in (Chain.masses, Chain.gaps, Chain.velocities):
+            assert draw(got.chain).tobytes() == draw(want.chain).tobytes()
+        outcomes.add("valid")
+    assert outcomes == {"valid", "chain.mass_disorder", "run.dt"}  # every branch met

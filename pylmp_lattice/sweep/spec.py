@@ -53,7 +53,7 @@ from typing import Any
 
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
-from ..case.chain import check_seed
+from ..case.chain import CHUNK, check_seed
 from ..case.identity import SeededHashes, seeded_hashes
 from ..engine import RUNNERS
 from ..engines import ENGINES
@@ -192,27 +192,32 @@ def point_key(params: dict) -> str:
 
 
 def _reseeded(template: Case, seed, draws: dict | None = None) -> Case:
-    """`template` with chain.seed `seed`. Without mass or gap disorder the seed draws only the
-    thermal velocities, and no check of the chain or the case reads those: the case is the
-    template's with the seed checked and the velocities it drew dropped (the masses, gaps and
-    the checks of their extremes are the template's, the same for every seed), at ~5 us
-    instead of `dataclasses.replace`'s ~70 us (which checks everything again, as it must where
-    the disorder draws masses and gaps from the seed; `draws`, those masses and gaps if drawn
-    already, are kept by the chain before the checks read them)."""
+    """`template` with chain.seed `seed`, at ~5 us instead of `dataclasses.replace`'s ~70 us,
+    which checks every field again. Only what the seed draws differs from the template, whose
+    other checks passed: the seed is checked, and what it drew before is dropped. Without mass
+    or gap disorder it draws only the thermal velocities, which no check reads. With disorder
+    it also draws the masses and gaps: their extremes and the checks that read them run again
+    (`Case.check_draws`; `draws`, those masses and gaps if drawn already, kept by the chain
+    before the checks read them)."""
     chain = template.chain
-    if chain.mass_disorder or chain.r0_disorder or chain.seed is None:
-        chain = replace(chain, seed=seed)
-        if draws is not None:
-            chain.__dict__["_draws"] = dict(draws)  # (`Chain._kept`'s: not a field)
-        return replace(template, chain=chain)
+    if chain.seed is None:
+        return replace(template, chain=replace(chain, seed=seed))
     check_seed(seed)
     new = _copy(chain)  # its __dict__: the fields and what it keeps (draws, ranges)
     new.__dict__["seed"] = seed
     kept = new.__dict__.get("_draws")
-    if kept is not None:
-        new.__dict__["_draws"] = {k: v for k, v in kept.items() if k != "velocities"}
     case = _copy(template)
     case.__dict__["chain"] = new
+    if not (chain.mass_disorder or chain.r0_disorder):
+        if kept is not None:
+            new.__dict__["_draws"] = {k: v for k, v in kept.items() if k != "velocities"}
+        return case
+    for name in ("mass_range", "gap_range"):  # (`Chain`'s and `Case`'s cached properties of the draws)
+        new.__dict__.pop(name, None)
+    case.__dict__.pop("_extremes", None)
+    new.__dict__["_draws"] = dict(draws or {})  # (`Chain._kept`'s: not a field)
+    if new.draws() <= CHUNK:  # as `Case.__post_init__` checks them: at once, or at first use
+        case.check_draws()
     return case
 
 
