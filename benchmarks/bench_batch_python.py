@@ -30,18 +30,20 @@ import argparse
 import os
 import re
 import shutil
+import sys
 import tempfile
 import time
-import tomllib
 from datetime import datetime, timezone
 from pathlib import Path
 
-import tomli_w
 
 from pylmp_lattice import case_measures, deck, runner, summary
 from pylmp_lattice.engines import cpu
 from pylmp_lattice.sweep import batch, load_sweep, store
 from pylmp_lattice.sweep.spec import Replicas
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_sweep import write_sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = ROOT / "inputs" / "paper_experiment.toml"
@@ -52,19 +54,10 @@ STAGES = [("cases", batch, "member_cases"), ("render", deck, "render_replicas"),
 # (a stage's function by its name on older trees: summaries and write_batch; a tree has one or the other)
 
 
-# --disorder: the shipped thermal example's manufacturing scatter (inputs/sweep_thermal_experiment.toml)
-DISORDER = '"chain.mass_disorder" = 0.01\n"chain.r0_disorder" = 0.005\n"chain.disorder" = "uniform"\n'
-
-
 def task(folder: Path, members: int, thermal: float, friction: bool, engine: str = "lammps",
          threads: int | None = None, disorder: bool = False) -> batch.Task:
-    base = tomllib.loads(CASE.read_text())
-    if not friction:
-        del base["friction"]
     folder.mkdir(parents=True)
-    (folder / "base.toml").write_text(tomli_w.dumps(base))
-    (folder / "sweep.toml").write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
-                                       f'[set]\n"chain.thermal_velocity" = {thermal}\n' + (DISORDER if disorder else ""))
+    write_sweep(folder, members, thermal, friction, disorder=disorder)
     sweep = load_sweep(folder / "sweep.toml")
     root = folder / "out"
     (root / store.MEMBERS).mkdir(parents=True)

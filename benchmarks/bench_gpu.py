@@ -38,7 +38,7 @@ revision's plugin/kernel folder, its local arrays 32 or 64 long as ece083f's eng
 blocks of 128): the old and the new kernel in one run, on the same device.
 benchmarks/gpu_resources.py prints what each keeps per thread.
 
-    python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000]
+    python benchmarks/bench_gpu.py [--sizes 10000,100000,1000000] [--long 10000] [--sweep 10000] [--disorder]
     python benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 1000000 [--reference-kernel DIR]
     mkdir -p DIR && git archive ece083f pylmp_lattice/plugin/kernel | tar -x -C DIR --strip-components=3
 """
@@ -167,7 +167,7 @@ def write_reference(tmp: Path) -> None:
 
 
 def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path | None = None,
-          loop_limit: float = LOOP_LIMIT) -> None:
+          loop_limit: float = LOOP_LIMIT, disorder: bool = False) -> None:
     from pylmp_lattice.engines import cpu, gpu
 
     cores = os.cpu_count() or 1
@@ -209,13 +209,16 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
     # (no workers' CPU: the pool's workers are the fork server's children, which RUSAGE_CHILDREN
     # does not see; the column said the LAMMPS probe's CPU before the sweep stopped running it)
     # (first task, last members, table: the sweep's own timeline line, seconds since the command started)
+    if disorder:
+        print("the sweeps' members with the thermal example's mass and gap disorder (--disorder)")
     print("| members | `pylmp-lattice sweep --engine gpu`, command to exit (s) | per member (ms) | coordinator CPU (s) "
           "| first task sent (s) | last members done (s) | table written (s) |")
     print("|---|---|---|---|---|---|---|")
     for count in sweeps:
         folder = tmp / f"sweep-{count}"
         folder.mkdir()
-        path = write_sweep(folder, count, THERMAL, friction=True)
+        name = f"sweep-{count}{'-disorder' if disorder else ''}.log"  # the output's, in --log
+        path = write_sweep(folder, count, THERMAL, friction=True, disorder=disorder)
         cmd = [sys.executable, "-c", COORDINATOR_CPU, "sweep", str(path), "-o", str(folder / "out"), "--engine", "gpu",
                "--yes"]
         start = time.perf_counter()
@@ -223,12 +226,12 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
             done = subprocess.run(cmd, capture_output=True, text=True, timeout=SWEEP_LIMIT)
         except subprocess.TimeoutExpired as err:
             if log:
-                (log / f"sweep-{count}.log").write_text(str(err.stdout or "") + str(err.stderr or ""))
+                (log / name).write_text(str(err.stdout or "") + str(err.stderr or ""))
             print(f"| {count} | over {SWEEP_LIMIT} s: stopped | - | - | - | - | - |", flush=True)
             continue
         wall = time.perf_counter() - start
         if log:
-            (log / f"sweep-{count}.log").write_text(done.stdout + done.stderr)
+            (log / name).write_text(done.stdout + done.stderr)
         said = [line for line in done.stderr.splitlines() if line.startswith("coordinator-cpu")]
         coordinator = float(said[-1].split()[1]) if said else float("nan")
         if done.returncode != 0:
@@ -324,6 +327,8 @@ def main() -> None:
     p.add_argument("--sweep", default="10000", help="members for the command to exit ('' for none)")
     p.add_argument("--loop-limit", type=float, default=LOOP_LIMIT, help="atom-steps over which the CPU rows are skipped")
     p.add_argument("--log", type=Path, help="a folder for each sweep's output (sweep-N.log)")
+    p.add_argument("--disorder", action="store_true", help="the sweeps' members with the thermal example's mass and "
+                   "gap disorder")
     p.add_argument("--variants", type=int, default=0, help="members for the kernel with parts left out (0: none)")
     p.add_argument("--reference-kernel", type=Path, help="--variants also on the kernel folder DIR (another revision's)")
     args = p.parse_args()
@@ -341,7 +346,7 @@ def main() -> None:
         if args.check:
             raise SystemExit(0 if check(Path(tmp)) else 1)
         bench(Path(tmp), [int(n) for n in args.sizes.split(",") if n], args.long,
-              [int(n) for n in args.sweep.split(",") if n], args.log, args.loop_limit)
+              [int(n) for n in args.sweep.split(",") if n], args.log, args.loop_limit, args.disorder)
         if args.variants:
             variants(Path(tmp), args.variants, args.reference_kernel)
 

@@ -54,9 +54,15 @@ CASE = ROOT / "inputs" / "paper_experiment.toml"
 LOOP = Path(__file__).resolve().parent / "ensemble_loop.c"
 
 
-def write_sweep(folder: Path, members: int, thermal: float, friction: bool, particles: int | None = None) -> Path:
+# The shipped thermal example's manufacturing scatter (inputs/sweep_thermal_experiment.toml), for
+# the benchmarks' ensembles under disorder
+DISORDER = '"chain.mass_disorder" = 0.01\n"chain.r0_disorder" = 0.005\n"chain.disorder" = "uniform"\n'
+
+
+def write_sweep(folder: Path, members: int, thermal: float, friction: bool, particles: int | None = None,
+                disorder: bool = False) -> Path:
     """The thermal ensemble's sweep file (and its base case) in `folder`; `particles`: magnets
-    other than the experiment's 21."""
+    other than the experiment's 21; `disorder`: with the thermal example's mass and gap disorder."""
     base = tomllib.loads(CASE.read_text())
     if not friction:
         del base["friction"]
@@ -65,7 +71,7 @@ def write_sweep(folder: Path, members: int, thermal: float, friction: bool, part
     (folder / "base.toml").write_text(tomli_w.dumps(base))
     path = folder / "sweep.toml"
     path.write_text(f'base = "base.toml"\nreplicas = {members}\nseed = 2026\nkeep = "measures"\n'
-                    f'[set]\n"chain.thermal_velocity" = {thermal}\n')
+                    f'[set]\n"chain.thermal_velocity" = {thermal}\n' + (DISORDER if disorder else ""))
     return path
 
 

@@ -55,6 +55,12 @@ stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
   --loop-limit 2e10
 stage "benchmark exit $?"
+# ensembles under disorder (the thermal example's 1 % mass and 0.5 % gap scatter): a worker's
+# Python per replica went from 0.38 to 0.10 ms on the dev VM on 2026-11-27 (not yet timed here)
+stage "bench_gpu.py: 10^5 and 10^6 members under disorder, command to exit"
+timeout 90 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep 100000,1000000 --disorder --log "$out" \
+  --loop-limit 0
+stage "disorder sweeps exit $?"
 # What bounds the kernel now (memory, FP64, the stalls of its warps)? Nsight Compute's sections
 # for one launch of 20000 chains (the warm-up's skipped); the whole report in $OUT/ncu.txt
 stage "ncu: one launch of 20000 chains"
