@@ -11,7 +11,7 @@ and the user cache is a fresh folder, as on a fresh GPU machine. The members are
 thermal replicas of the 21-magnet experiment with friction, 4800 steps. What the device adds
 (CuPy's import, a CUDA context per worker, the launches one after another) is not here.
 
-    python benchmarks/bench_gpu_road.py [--members 10000,100000] [--workers N] [--repeat 3] [--reference main]
+    python benchmarks/bench_gpu_road.py [--members 10000,100000] [--workers N] [--repeat 3] [--reference main] [--disorder]
 
 The reference tree is `git archive` of the commit's package with this tree's compiled libraries
 (pylmp_lattice/plugin/*.so), so both must share the kernel's ABI. Each row: median wall time of
@@ -115,6 +115,7 @@ def main() -> None:
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--reference", default="main", help="commit of the reference tree")
     p.add_argument("--tile", type=int, default=64, help="chains the host build runs; their results repeated (0: all)")
+    p.add_argument("--disorder", action="store_true", help="members with the thermal example's mass and gap disorder")
     args = p.parse_args()
     with tempfile.TemporaryDirectory(prefix=".bench_gpu_road.") as tmp:
         tmp = Path(tmp)
@@ -131,7 +132,7 @@ def main() -> None:
         for n in map(int, args.members.split(",")):
             folder = tmp / f"sweep-{n}"
             folder.mkdir()
-            sweep = write_sweep(folder, n, THERMAL, friction=True)
+            sweep = write_sweep(folder, n, THERMAL, friction=True, disorder=args.disorder)
             for k in range(-1, args.repeat):  # -1: a warm-up of each tree, not counted (matplotlib's font cache)
                 for name, tree in trees.items():
                     out = folder / f"out-{k}-{name.replace(' ', '_')}"
@@ -142,7 +143,8 @@ def main() -> None:
                         digests.setdefault(n, set()).add(digest(out))
                     shutil.rmtree(out)
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; load {os.getloadavg()[0]:.1f}; "
-          f"--workers {args.workers or os.cpu_count()}; the GPU kernel stood in for (see the module); wall seconds, "
+          f"--workers {args.workers or os.cpu_count()}; {'under disorder; ' if args.disorder else ''}"
+          f"the GPU kernel stood in for (see the module); wall seconds, "
           f"median of {args.repeat} (least), coordinator CPU median")
     print(f"| members | {args.reference} | this tree | {args.reference} / this tree | coordinator CPU | same outputs |")
     print("|---|---|---|---|---|---|")
