@@ -221,16 +221,18 @@ def _case_args(p):
 
 
 def _load(args):
-    """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden."""
-    from .case import case_id, load_case
+    """The case and its run folder: -o, else runs/NAME, with a hash of the case if overridden or
+    unnamed (cases without a name are all "case": each its own folder, not one for all)."""
+    import dataclasses
+
+    from .case import Case, case_id, load_case
 
     case = load_case(args.case, args.set)
     if args.name is not None:  # validated by the Case, as a name from the file is
-        import dataclasses
-
         case = dataclasses.replace(case, name=args.name)
-    overridden = args.set and args.name is None
-    return case, _run_folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if overridden else "")))
+    unnamed = case.name == next(f.default for f in dataclasses.fields(Case) if f.name == "name")
+    hashed = (args.set or unnamed) and args.name is None
+    return case, _run_folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if hashed else "")))
 
 
 def _folder(path: Path) -> Path:

@@ -173,6 +173,19 @@ def test_info_and_an_lmp_run_leave_no_log_in_the_working_directory(tmp_path, mon
     assert "Total wall time:" in (tmp_path / "r" / "log.lammps").read_text()
 
 
+def test_unnamed_cases_each_get_a_folder_of_their_own(tmp_path, monkeypatch):
+    """Case files without a name (all named "case") run into runs/case-<hash>: two different ones
+    keep both runs (the trial's second was refused runs/case, the first's)."""
+    monkeypatch.chdir(tmp_path)
+    for k, velocity in enumerate((1.0, 1.5)):
+        case = case_to_dict(make_case(particles=12, duration=10.0, velocity=velocity))
+        del case["name"]
+        (tmp_path / f"c{k}.toml").write_text(tomli_w.dumps(case))
+        assert main(["run", str(tmp_path / f"c{k}.toml"), "--quiet"]) == 0
+    folders = sorted((tmp_path / "runs").iterdir())
+    assert len(folders) == 2 and all(re.fullmatch(r"case-[0-9a-f]{8}", f.name) for f in folders)
+
+
 def test_export_of_a_folder_without_a_trajectory_is_one_line_and_exit_2(tmp_path, capsys):
     """A deck never run has no trajectory: export says so in one line naming the folder, exit 2."""
     case = write_case(tmp_path / "case.toml", make_case(particles=12, duration=5.0))
