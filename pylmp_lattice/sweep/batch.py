@@ -161,7 +161,8 @@ def _cases(task: Task, members: list[Member]) -> list[Case | None]:
     seeded = {}
     for part in task.members:
         if isinstance(part, Replicas) and part.first.case is not None:
-            seeded.update(zip(part.ids, zip(repeat(part.first.case), part.seeds, _draws(part.first.case.chain, part.seeds))))
+            draws = _replicas_draws(part.first.case.chain, part.seeds)
+            seeded.update(zip(part.ids, zip(repeat(part.first.case), part.seeds, draws)))
     for m in members:
         if m.id in seeded:
             m.build_from(*seeded[m.id])
@@ -169,7 +170,7 @@ def _cases(task: Task, members: list[Member]) -> list[Case | None]:
     return [m.case if m.id in seeded else next(others) for m in members]
 
 
-def _draws(chain, seeds) -> list[dict | None]:
+def _replicas_draws(chain, seeds) -> list[dict | None]:
     """Under disorder, the masses and gaps each seed draws (`chain.replica_draws`), drawn together
     for a chain that keeps its draws (`Chain._kept`); else None for each."""
     if not chain.draws() or chain.particles > KEPT_DRAWS:
