@@ -17,6 +17,45 @@ os.environ["PYLMP_LATTICE_NO_MEASURE"] = "1"
 
 PAPER_FORCE = {"law": "power", "K": 413.8, "b": 3.917, "q": 3.0}
 
+SHM = "/dev/shm"
+
+
+@pytest.fixture(autouse=True)
+def _no_mpich_segment_of_a_killed_process(_mpich_segments_before):
+    """A process that MPICH started and that was killed (the tests that kill runs, ranks and
+    workers) leaves its 1 MB segment in /dev/shm, in memory until reboot (a full CI run left
+    25-30): after each test, those that appeared since the session began and whose process is
+    gone are removed (a process that dies after its test ends, at the next test's end).
+    Processes that exit finalize MPI and leave none (`engine._finalize_mpi_at_exit`,
+    tests/test_mpi_exit.py)."""
+    yield
+    for name in set(_mpich_segments()) - _mpich_segments_before:
+        with contextlib.suppress(ValueError, IndexError):
+            pid = int(name.split("_")[2], 16)  # mpich_shm_<pid in hex>_<n>
+            if not _alive(pid):
+                with contextlib.suppress(OSError):
+                    os.unlink(os.path.join(SHM, name))
+
+
+@pytest.fixture(scope="session")
+def _mpich_segments_before() -> set[str]:
+    return set(_mpich_segments())
+
+
+def _mpich_segments() -> list[str]:
+    with contextlib.suppress(OSError):
+        return [n for n in os.listdir(SHM) if n.startswith("mpich_shm_")]
+    return []
+
+
+def _alive(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie, killed and not yet waited for, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # the state after "(comm)"
+    except OSError:
+        return False
+
 # One chain per further law (m = 1 g; spacing r0 at the force's zero, except FPUT), with the
 # table range each needs; every one takes the default dt = 0.01 ms (limits 0.08-0.09 ms).
 OTHER_LAWS = {
