@@ -78,22 +78,20 @@ class ChainDraws:
 def chain_draws(cases) -> ChainDraws:
     """The chains of R cases (equal N) as arrays, each drawn once. Thermal chains that differ
     only in their seed (a sweep's replicas without disorder) share their masses and gaps, drawn
-    once; thermal chains get their velocities together (`thermal_velocities`), each row its
-    chain's bits."""
+    once; thermal chains get their velocities together (`thermal_velocities`, each chain with its
+    own masses), each row its chain's bits."""
     chains = [case.chain for case in cases]
-    first = chains[0]
-    if len(chains) > 1 and all(map(_thermal_only, chains)) and all(map(_NOMINAL(first).__eq__, map(_NOMINAL, chains))):
-        masses, gaps, r = first.masses(), first.gaps(), len(chains)
-        v = np.zeros((r, first.particles))
-        v[:, 1:-1] = thermal_velocities(masses[1:-1], [c.thermal_velocity for c in chains],
-                                        thermal_normals(chains))
-        return ChainDraws(np.repeat(masses[None], r, axis=0), np.repeat(gaps[None], r, axis=0), v, cases[0])
-    masses, gaps = (np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps))
-    if len(chains) > 1 and all(c.thermal_velocity and c.velocity is None for c in chains):  # under disorder:
-        v = np.zeros_like(masses)  # the velocities together, each chain's masses its own
+    first, r = chains[0], len(chains)
+    if r > 1 and all(map(_thermal_only, chains)) and all(map(_NOMINAL(first).__eq__, map(_NOMINAL, chains))):
+        masses, gaps = (np.repeat(draw(first)[None], r, axis=0) for draw in (Chain.masses, Chain.gaps))
+    else:
+        masses, gaps = (np.stack([draw(chain) for chain in chains]) for draw in (Chain.masses, Chain.gaps))
+    if r > 1 and all(c.thermal_velocity and c.velocity is None for c in chains):
+        v = np.zeros_like(masses)
         v[:, 1:-1] = thermal_velocities(masses[:, 1:-1], [c.thermal_velocity for c in chains], thermal_normals(chains))
-        return ChainDraws(masses, gaps, v, cases[0])
-    return ChainDraws(masses, gaps, np.stack([chain.velocities() for chain in chains]), cases[0])
+    else:
+        v = np.stack([chain.velocities() for chain in chains])
+    return ChainDraws(masses, gaps, v, cases[0])
 
 
 def _thermal_only(chain: Chain) -> bool:

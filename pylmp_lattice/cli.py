@@ -230,7 +230,7 @@ def _load(args):
     case = load_case(args.case, args.set)
     if args.name is not None:  # validated by the Case, as a name from the file is
         case = dataclasses.replace(case, name=args.name)
-    unnamed = case.name == next(f.default for f in dataclasses.fields(Case) if f.name == "name")
+    unnamed = case.name == Case.name  # the dataclass's default
     hashed = (args.set or unnamed) and args.name is None
     return case, _run_folder(args.output or Path("runs") / (case.name + (f"-{case_id(case)[:8]}" if hashed else "")))
 
