@@ -158,8 +158,17 @@ class FakeCupy(types.ModuleType):
     def __init__(self, build):
         super().__init__("cupy")
         self.build, self.launches, self.modules = build, [], []
-        self.cuda = types.SimpleNamespace(Stream=types.SimpleNamespace(null=types.SimpleNamespace(synchronize=lambda: None)),
-                                          runtime=types.SimpleNamespace(getDeviceCount=lambda: 1))
+        class Event:  # CuPy's signature; the emulated launches have finished when they return
+            def __init__(self, block=False, disable_timing=False, interprocess=False):
+                pass
+
+            def record(self, stream=None):
+                pass
+
+            def synchronize(self):
+                pass
+
+        self.cuda = types.SimpleNamespace(Event=Event, runtime=types.SimpleNamespace(getDeviceCount=lambda: 1))
         fake = self
 
         class RawModule:

@@ -89,6 +89,18 @@ def available() -> str | None:
     return None if count else "CuPy finds no CUDA device"
 
 
+def warm_up() -> None:
+    """This process's CUDA context made now (a sweep's worker, beside its first task's Python):
+    on an H200 a worker's first launch waited 0.8-2.4 s for it, the 16 workers' contexts made one
+    after another (benchmarks/trace_sweep.py, docs/performance.md). Errors are left to the launch."""
+    try:
+        import cupy
+
+        cupy.zeros(1)
+    except Exception:  # noqa: BLE001 - only a head start: run_arrays says what is wrong
+        pass
+
+
 def run_arrays(a: Arrays):
     """`engines.cpu.run_arrays` on the GPU (in launches of CHUNK_ATOM_STEPS: Ctrl-C waits for one)."""
     import cupy as cp
@@ -147,7 +159,11 @@ def run_arrays(a: Arrays):
                     *((rec[lo * n * NCOL:hi * n * NCOL], phase[lo * n:hi * n]) if a.record else (rec, phase)),
                     work[rows], end_step[rows], status[rows])
             _kernel("pl_run_long_chains_gpu", options)((hi - lo,), (threads,), args)
-        cp.cuda.Stream.null.synchronize()
+        # waited for asleep (cudaEventBlockingSync), not spinning: a stream's synchronize spins a core
+        # while the other workers' launches run before this one, and the workers share the cores
+        done = cp.cuda.Event(block=True, disable_timing=True)
+        done.record()
+        done.synchronize()
     if int(end_step.min()) < 0:  # a module built for another law, friction or record (run_compiled)
         raise RuntimeError(f"the GPU kernel compiled with {options} did not run this batch's chains")
     if not a.record:

@@ -101,7 +101,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
         try:
-            with executor_pool(workers, scheduler, sweep.runner, executor, slots) as pool:
+            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine) as pool:
                 stop.on_signal = pool.on_signal
                 return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
                                     figure=bool(stats) and sweep.replicas > 1,
@@ -163,6 +163,8 @@ class _Coordinator:
                 self.pool.kill(wait=True)
                 for task in self.broken:
                     self._from_disk(task)
+            elif not self._stopping():
+                self.pool.release()  # the workers exit while the table is written
         finally:
             self.bar.close()
             table = self._write_table(beside=self._draw if self.drawing and not self._stopping() else None)

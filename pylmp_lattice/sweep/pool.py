@@ -43,8 +43,19 @@ class Pool:
     """An executor, its number of worker slots, and how to stop its workers (local pools only:
     `stop` tells every worker, also one the pool starts later, to stop)."""
 
-    def __init__(self, executor: Executor | None, slots: int, stop=None):
-        self.executor, self.slots, self._stop = executor, slots, stop
+    def __init__(self, executor: Executor | None, slots: int, stop=None, local: bool = False):
+        self.executor, self.slots, self._stop, self._local = executor, slots, stop, local
+        self.released: threading.Thread | None = None
+
+    def release(self) -> None:
+        """No task follows: a local pool's workers exit now, in the background, while the caller
+        writes its table (the pool's end waits for them; an executor the caller gave is left as it
+        is). 16 GPU workers took 1.0 s to exit, one after another, each freeing its CUDA context
+        (benchmarks/trace_sweep.py on an H200)."""
+        if self._local and self.released is None:
+            self.released = threading.Thread(target=self.executor.shutdown, name="pylmp-lattice-pool-release",
+                                             daemon=True)
+            self.released.start()
 
     def submit(self, task) -> Future:
         """Start a task (`batch.run_task`) on a worker; its future."""
@@ -86,8 +97,9 @@ def _process_pool(executor) -> bool:
 
 @contextlib.contextmanager
 def executor_pool(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None,
-                  slots: int | None):
-    """A `Pool`: the given executor, a local process pool, or a Dask cluster's executor.
+                  slots: int | None, engine: str | None = None):
+    """A `Pool`: the given executor, a local process pool, or a Dask cluster's executor (a local
+    pool's workers for `engine` "gpu" make their CUDA context as they start: `engines.gpu.warm_up`).
 
     A process holds one LAMMPS (and MPI) instance at a time, so the embedded runner needs one
     task at a time per process: pool processes are, Dask workers must be (one thread each)."""
@@ -97,7 +109,7 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
         yield Pool(executor, slots or 1)
         return
     if scheduler is None:
-        yield from _local_pool(workers or os.cpu_count() or 1)
+        yield from _local_pool(workers or os.cpu_count() or 1, engine)
         return
     if workers is not None:
         raise UsageError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
@@ -126,7 +138,7 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
         client.close()
 
 
-def _local_pool(workers: int):
+def _local_pool(workers: int, engine: str | None = None):
     """Worker processes forked from a clean fork server (never from a coordinator that may hold
     threads or an initialised MPI), which imports the package once and stays up for later
     sweeps of the same Python session. Each worker holds the read ends of two pipes whose write
@@ -139,13 +151,17 @@ def _local_pool(workers: int):
     alive_r, alive_w = context.Pipe(duplex=False)
     stop_r, stop_w = context.Pipe(duplex=False)
     pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
-                               initargs=(alive_r, stop_r))
+                               initargs=(alive_r, stop_r, engine == "gpu"))
+    handle = Pool(pool, workers, stop=stop_w.close, local=True)
     try:
-        yield Pool(pool, workers, stop=stop_w.close)
+        yield handle
     finally:
         if stop_w.closed:  # stopped: the workers exit within GRACE; one that does so while it holds the task
             _end_workers(pool)  # queue's lock would leave another waiting on it, and the shutdown with it, forever
-        pool.shutdown(wait=True, cancel_futures=True)
+        if handle.released is not None:
+            handle.released.join()
+        else:
+            pool.shutdown(wait=True, cancel_futures=True)
         for end in (alive_w, alive_r, stop_w, stop_r):
             end.close()
 
@@ -215,10 +231,11 @@ def _send_whole() -> None:
     SimpleQueue.put = whole
 
 
-def _pool_worker_init(alive, stop) -> None:
+def _pool_worker_init(alive, stop, gpu: bool = False) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
     any later start, and the worker exits GRACE seconds later, once a result it is sending is
-    sent (`_send_whole`); it exits at once when the coordinator is gone."""
+    sent (`_send_whole`); it exits at once when the coordinator is gone. `gpu`: its CUDA context
+    is made beside its first task (`engines.gpu.warm_up`)."""
     from . import signals
 
     def on_signal(signum, frame):
@@ -255,5 +272,9 @@ def _pool_worker_init(alive, stop) -> None:
         main = threading.main_thread().ident
         threading.Thread(target=watch, args=(stop, lambda: signal.pthread_kill(main, signal.SIGINT)),
                          daemon=True).start()
+        if gpu:
+            from ..engines.gpu import warm_up
+
+            threading.Thread(target=warm_up, name="pylmp-lattice-cuda-context", daemon=True).start()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, unblocked)

@@ -1,0 +1,59 @@
+"""A sweep's pool at its end: a local pool's workers are told to exit before the table is written
+(they exit while it is written: 16 GPU workers took 1.0 s to, one after another), an executor the
+caller gave is left as it was, and a GPU sweep's workers make their CUDA context as they start."""
+
+from __future__ import annotations
+
+import sys
+import threading
+import types
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+
+from pylmp_lattice.engines import gpu
+from pylmp_lattice.sweep import load_sweep, pool, run_sweep, table
+
+from test_sweep import SIX, write_sweep
+
+
+@pytest.mark.lammps
+def test_a_local_pool_is_released_before_the_last_table_write(tmp_path, monkeypatch):
+    said = []
+    release, write = pool.Pool.release, table.Table.write
+    monkeypatch.setattr(pool.Pool, "release", lambda self: (said.append("release"), release(self))[1])
+    monkeypatch.setattr(table.Table, "write", lambda self, *a, **k: (said.append("write"), write(self, *a, **k))[1])
+    result = run_sweep(load_sweep(write_sweep(tmp_path, SIX)), tmp_path / "out", workers=2, progress=False)
+    assert set(result["status"]) == {"done"} and len(result) == 6
+    assert said == ["release", "write"]
+
+
+@pytest.mark.lammps
+def test_an_executor_the_caller_gave_is_left_running(tmp_path):
+    with ThreadPoolExecutor(1) as given:
+        result = run_sweep(load_sweep(write_sweep(tmp_path, SIX)), tmp_path / "out", executor=given, slots=1,
+                           progress=False)
+        assert set(result["status"]) == {"done"}
+        assert given.submit(pow, 2, 10).result(timeout=10) == 1024  # not shut down
+
+
+def test_a_gpu_pool_s_workers_make_their_cuda_context_as_they_start():
+    with pool.executor_pool(1, None, "embedded", None, None, "gpu") as p:
+        assert p.executor._initargs[-1] is True  # noqa: SLF001 - what each worker's initializer gets
+    with pool.executor_pool(1, None, "embedded", None, None, "cpu") as p:
+        assert p.executor._initargs[-1] is False  # noqa: SLF001
+
+
+def test_the_warm_up_makes_the_context_and_leaves_errors_to_the_launch(monkeypatch):
+    made = []
+    fake = types.ModuleType("cupy")
+    fake.zeros = lambda n: made.append((n, threading.current_thread().name))
+    monkeypatch.setitem(sys.modules, "cupy", fake)
+    gpu.warm_up()
+    assert made == [(1, threading.current_thread().name)]
+
+    def no_device(n):
+        raise RuntimeError("cudaErrorNoDevice")
+
+    fake.zeros = no_device
+    assert gpu.warm_up() is None  # no exception: the task's launch reports it
