@@ -264,6 +264,12 @@ def capped(compile_options, registers: int):
     return lambda *args, **kw: (*compile_options(*args, **kw), f"-maxrregcount={registers}")
 
 
+def contracted(compile_options):
+    """`compile_options` with NVRTC's -fmad=true: multiply-adds contracted into FMAs, as CUDA does by
+    default (not the host build's bits: its -ffp-contract=off), to see what the bits cost."""
+    return lambda *args, **kw: tuple("-fmad=true" if o == "-fmad=false" else o for o in compile_options(*args, **kw))
+
+
 def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     """The kernel alone on `count` members, as benchmarked and with parts of its work left out;
     in one run of n - 2 atoms; with the kernel in `reference` (ece083f's local arrays)."""
@@ -280,6 +286,8 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             "marks, x, v in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(128)}),
             "marks, x in shared memory, at most 128 registers": ({}, {"SHARED_ARRAYS": 2, "compile_options": cap(128)}),
             "at most 128 registers": ({}, {"compile_options": cap(128)}),
+            "at most 168 registers (3 blocks an SM)": ({}, {"compile_options": cap(168)}),
+            "FMAs contracted (-fmad=true: not the host's bits)": ({}, {"compile_options": contracted(gpu.compile_options)}),
             "marks alone in shared memory (x, v, f in registers)": ({}, {"SHARED_ARRAYS": 1}),
             "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "listed"}),
             "marks alone, masked": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "masked"}),
@@ -294,9 +302,9 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
           f"experiment, {a.steps} steps; the sine drive's peak {a.V:g} m/s (constant: half of it); unless said "
           f"runs of {gpu.short_block(a.n)} atoms ({one}), {gpu.shared_arrays(a.n)} of the marks, x, v, f in "
           f"shared memory, blocks of {gpu.block_threads(a.n)} threads, rows sampled {gpu.SAMPLING}, one mass")
-    print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked |")
-    print("|---|---|---|---|---|")
-    first = None
+    print("| kernel | time (s) | atom-steps/s | mean steps run | vs as benchmarked | final x, v vs as benchmarked (relative) |")
+    print("|---|---|---|---|---|---|")
+    first = base = None
     for name, (changes, module) in rows.items():
         b = dataclasses.replace(a, **changes)
         with patched(gpu, **module):
@@ -304,11 +312,12 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             gpu.run_arrays(dataclasses.replace(b, chains=k, x=b.x[:k], v=b.v[:k], mass=b.mass[:k],
                                                levels=b.levels[:k]))  # compiles its module
             start = time.perf_counter()
-            end_step = gpu.run_arrays(b)[4]
+            out = gpu.run_arrays(b)
             took = time.perf_counter() - start
-        first = first or took
+        first, base = first or took, base or out
+        end_step = out[4]
         print(f"| {name} | {took:.3f} | {np.sum(end_step) * a.n / took:.3g} | {np.mean(end_step):.0f} | "
-              f"{first / took:.2f}x |", flush=True)
+              f"{first / took:.2f}x | {max(relative(out[0], base[0]), relative(out[1], base[1])):.1e} |", flush=True)
 
 
 def gpu_name() -> str:

@@ -26,6 +26,8 @@ site=/tmp/pylmp-gpu-site
 "$py" -m pip install -q --no-index --no-deps --target "$site" wheels/tomli_w-*.whl \
   || echo "gpu_check: could not install tomli-w from wheels/"
 export PYTHONPATH="$site:$PWD"
+# byte-compiled as pip installs it: a tree without .pyc files compiles each module in every process
+"$py" -m compileall -q pylmp_lattice benchmarks >/dev/null || echo "gpu_check: could not byte-compile the package"
 "$py" -c "import numpy, cupy, pandas, pyarrow, matplotlib, sys; print('python', sys.version.split()[0], 'numpy', \
 numpy.__version__, 'cupy', cupy.__version__, 'cuda runtime', cupy.cuda.runtime.runtimeGetVersion())"
 stage "gpu-marked tests: the GPU engine against the host build"
@@ -39,24 +41,16 @@ reference=()
 [ -f wheels/kernel-ece083f/engine_gpu.cu ] && reference=(--reference-kernel wheels/kernel-ece083f)
 timeout 150 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep "" --variants 100000 "${reference[@]}"
 stage "variants exit $?"
-# The front record's due rows sampled after the step (gpu.SAMPLING) and what sits in shared memory
-# (gpu.SHARED_ARRAYS), alternating at 10^6 members on the warm device: "listed" with the marks
-# alone (the default, timed fastest on 2026-11-27), "masked" with the marks alone (ptxas: stack
-# 9280 -> 6256 B, spills 1442/964 -> 300/304 B) and with marks and x (nothing spilled); the last
-# two not yet timed
-stage "samplings alternating: bench_gpu.py --sizes 1000000 with gpu.SAMPLING:gpu.SHARED_ARRAYS"
-for config in listed:1 masked:1 masked:2 listed:1 masked:1 masked:2; do
-  timeout 60 "$py" -c "import runpy, sys; from pylmp_lattice.engines import gpu
-gpu.SAMPLING, gpu.SHARED_ARRAYS = '${config%%:*}', ${config##*:}
-sys.argv = ['bench_gpu.py', '--sizes', '1000000', '--long', '0', '--sweep', '', '--loop-limit', '0']
-runpy.run_path('benchmarks/bench_gpu.py', run_name='__main__')" 2>&1 | grep -E "^\| 1000000" | sed "s/^/$config: /"
-done
 stage "bench_gpu.py: 21 magnets, kernel and command to exit"
 timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 --sweep 10000,1000000 --log "$out" \
   --loop-limit 2e10
 stage "benchmark exit $?"
 # ensembles under disorder (the thermal example's 1 % mass and 0.5 % gap scatter): a worker's
 # Python per replica went from 0.38 to 0.10 ms on the dev VM on 2026-11-27 (not yet timed here)
+# where the 10^6-member sweep's time goes: each worker's tasks and kernel calls, the coordinator's profile
+stage "trace_sweep.py: 10^6 members, 16 workers"
+timeout 60 "$py" benchmarks/trace_sweep.py --members 1000000 --top 30
+stage "trace exit $?"
 stage "bench_gpu.py: 10^5 and 10^6 members under disorder, command to exit"
 timeout 90 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep 100000,1000000 --disorder --log "$out" \
   --loop-limit 0
