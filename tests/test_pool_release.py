@@ -4,6 +4,7 @@ caller gave is left as it was, and a GPU sweep's workers make their CUDA context
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import threading
 import types
@@ -38,19 +39,39 @@ def test_an_executor_the_caller_gave_is_left_running(tmp_path):
 
 
 def test_a_gpu_pool_s_workers_make_their_cuda_context_as_they_start():
-    with pool.executor_pool(1, None, "embedded", None, None, "gpu") as p:
-        assert p.executor._initargs[-1] is True  # noqa: SLF001 - what each worker's initializer gets
-    with pool.executor_pool(1, None, "embedded", None, None, "cpu") as p:
-        assert p.executor._initargs[-1] is False  # noqa: SLF001
+    module = ("-DPL_LOCAL_N=21", "-DPL_FRICTION=1")
+    with pool.executor_pool(1, None, "embedded", None, None, "gpu", module) as p:
+        assert p.executor._initargs[-1] == module  # noqa: SLF001 - what each worker's initializer gets
+    with pool.executor_pool(1, None, "embedded", None, None, "cpu", module) as p:
+        assert p.executor._initargs[-1] is None  # noqa: SLF001
 
 
-def test_the_warm_up_makes_the_context_and_leaves_errors_to_the_launch(monkeypatch):
-    made = []
+def test_a_gpu_sweep_s_workers_load_its_first_batch_s_module(tmp_path):
+    from pylmp_lattice.engines.arrays import prepare
+    from pylmp_lattice.sweep.execute import _gpu_module
+
+    from test_sweep import THERMAL
+
+    for text in (THERMAL.format(replicas=5), THERMAL.format(replicas=5) + '"chain.mass_disorder" = 0.01\n'):
+        sweep = dataclasses.replace(load_sweep(write_sweep(tmp_path, text)), engine="gpu")
+        cases = [m.case for m in sweep.members()]
+        a = prepare(cases, "gpu")  # the batch of all of them: the module its members run
+        assert _gpu_module(sweep) == gpu.compile_options(a.n, gpu.batch_case(a), one_mass=gpu.one_mass(a))
+        assert ("-DPL_ONE_MASS=1" in _gpu_module(sweep)) == ("mass_disorder" not in text)
+
+
+def test_the_warm_up_makes_the_context_loads_the_module_and_leaves_errors_to_the_launch(monkeypatch):
+    made, loaded = [], []
     fake = types.ModuleType("cupy")
     fake.zeros = lambda n: made.append((n, threading.current_thread().name))
     monkeypatch.setitem(sys.modules, "cupy", fake)
+    monkeypatch.setattr(gpu, "_kernel", lambda name, options: loaded.append((name, options)))
     gpu.warm_up()
-    assert made == [(1, threading.current_thread().name)]
+    assert made == [(1, threading.current_thread().name)] and loaded == []
+    short, long = ("-std=c++17", "-DPL_LOCAL_N=21"), ("-std=c++17", "-DPL_LOCAL_N=0")
+    gpu.warm_up(short)
+    gpu.warm_up(long)
+    assert loaded == [("pl_run_short_chains_gpu", short), ("pl_run_long_chains_gpu", long)]
 
     def no_device(n):
         raise RuntimeError("cudaErrorNoDevice")

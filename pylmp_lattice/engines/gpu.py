@@ -26,6 +26,7 @@ built by g++ and run thread after thread behind a stand-in for CuPy): bit for bi
 from __future__ import annotations
 
 import hashlib
+import threading
 from functools import lru_cache
 from pathlib import Path
 
@@ -89,20 +90,67 @@ def available() -> str | None:
     return None if count else "CuPy finds no CUDA device"
 
 
-def warm_up() -> None:
-    """This process's CUDA context made now (a sweep's worker, beside its first task's Python):
-    on an H200 a worker's first launch waited 0.8-2.4 s for it, the 16 workers' contexts made one
-    after another (benchmarks/trace_sweep.py, docs/performance.md). Errors are left to the launch."""
+def warm_up(options: tuple[str, ...] = ()) -> None:
+    """This process's CUDA context made now, and the module compiled with `options` loaded
+    (`batch_options`; a sweep's worker, beside its first task's Python): on an H200 a worker's
+    first launch waited 0.8-2.4 s for both, the 16 workers' one after another
+    (benchmarks/trace_sweep.py, docs/performance.md). Errors are left to the launch."""
     try:
         import cupy
 
         cupy.zeros(1)
+        if options:
+            _kernel(KERNELS[LOCAL_OPTION + "0" in options], options)
     except Exception:  # noqa: BLE001 - only a head start: run_arrays says what is wrong
         pass
 
 
+def batch_options(case) -> tuple[str, ...]:
+    """The module a batch of members like `case` runs (`compile_options`), () if none."""
+    from .arrays import prepare
+
+    try:
+        a = prepare([case], "gpu")
+        return compile_options(a.n, batch_case(a), one_mass=one_mass(a)) if not too_long(a.n) else ()
+    except Exception:  # noqa: BLE001 - a case the engine cannot run: the batch says why, later
+        return ()
+
+
+class Launched:
+    """A batch whose first launch is on the device (`launch`)."""
+
+    def __init__(self, a: Arrays):
+        self._steps, self._done = _run(a), None
+        try:
+            next(self._steps)
+        except StopIteration as done:  # no launch (no chain)
+            self._done = done.value
+
+    def result(self):
+        """`run_arrays`'s results, once the rest of the launches have run."""
+        if self._done is None:
+            try:
+                next(self._steps)
+            except StopIteration as done:
+                self._done = done.value
+            else:
+                raise AssertionError("run_arrays's steps go on after their last launch")
+        return self._done
+
+
+def launch(a: Arrays) -> Launched:
+    """`run_arrays` with its first launch started now: the device runs it (or queues it behind
+    the other workers' launches) while the caller goes on, e.g. writes the batch's folder."""
+    return Launched(a)
+
+
 def run_arrays(a: Arrays):
     """`engines.cpu.run_arrays` on the GPU (in launches of CHUNK_ATOM_STEPS: Ctrl-C waits for one)."""
+    return launch(a).result()
+
+
+def _run(a: Arrays):
+    """run_arrays's work, a generator that pauses once, after its first launch (`launch`)."""
     import cupy as cp
 
     lib, lay = library(), layout()
@@ -147,18 +195,20 @@ def run_arrays(a: Arrays):
     # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
     per_launch = int(CHUNK_ATOM_STEPS // max(1, n * a.steps))
     chunk = max(threads, per_launch // threads * threads) if local else max(1, per_launch)
-    for lo in range(0, chains, chunk):
+    for first, lo in enumerate(range(0, chains, chunk)):
         hi = min(chains, lo + chunk)
         rows = slice(lo, hi)
         if local:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_short_chains_gpu", options)((-(-(hi - lo) // threads),), (threads,), args)
+            _kernel(KERNELS[False], options)((-(-(hi - lo) // threads),), (threads,), args)
         else:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], index, levels[rows],
                     *((rec[lo * n * NCOL:hi * n * NCOL], phase[lo * n:hi * n]) if a.record else (rec, phase)),
                     work[rows], end_step[rows], status[rows])
-            _kernel("pl_run_long_chains_gpu", options)((hi - lo,), (threads,), args)
+            _kernel(KERNELS[True], options)((hi - lo,), (threads,), args)
+        if first == 0:
+            yield
         # waited for asleep (cudaEventBlockingSync), not spinning: a stream's synchronize spins a core
         # while the other workers' launches run before this one, and the workers share the cores
         done = cp.cuda.Event(block=True, disable_timing=True)
@@ -221,7 +271,7 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
     local = local_size(n)
     if block is None:
         block = short_block(local) if local else long_segment(n)
-    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
+    return ("-std=c++17", f"-I{KERNEL}", f"{LOCAL_OPTION}{local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}",
             f"-DPL_THREADS={block_threads(local) if local else LONG_THREADS}",
@@ -294,14 +344,19 @@ def short_block(local: int) -> int:
     return min(SHORT_BLOCK, local - 2)
 
 
+# engine_gpu.cu's kernels: the short chains' (False) and the long chains' (True, PL_LOCAL_N=0)
+KERNELS = {False: "pl_run_short_chains_gpu", True: "pl_run_long_chains_gpu"}
+LOCAL_OPTION = "-DPL_LOCAL_N="
 _MODULES: dict = {}
+_MODULES_LOCK = threading.Lock()  # a worker's warm-up thread may be loading the module its task needs
 
 
 def _kernel(name: str, options: tuple[str, ...]):
     """A kernel of engine_gpu.cu compiled with `options` (CuPy caches the compilation on disk)."""
-    if options not in _MODULES:
-        import cupy as cp
+    with _MODULES_LOCK:
+        if options not in _MODULES:
+            import cupy as cp
 
-        source = (KERNEL / "engine_gpu.cu").read_text()
-        _MODULES[options] = cp.RawModule(code=source, options=options)
-    return _MODULES[options].get_function(name)
+            source = (KERNEL / "engine_gpu.cu").read_text()
+            _MODULES[options] = cp.RawModule(code=source, options=options)
+        return _MODULES[options].get_function(name)

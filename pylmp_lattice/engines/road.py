@@ -51,6 +51,7 @@ class KernelEngine:
     reads_chain_files = False  # the chains come as arrays: the folder gets no data or levels file
     final: tuple[np.ndarray, np.ndarray] | None = None
     record: FrontRows | None = None
+    _launched = None  # the GPU's batch, launched (`start`)
 
     def __init__(self, kind: str, cases: list[Case], threads: int | None = None, draws=None):
         if kind not in KERNELS:
@@ -74,12 +75,24 @@ class KernelEngine:
     def check(self, path: Path) -> None:
         """Any folder: the engine reads nothing from it."""
 
+    def start(self) -> None:
+        """The GPU's first launch begun (`gpu.launch`), before the road writes the folder: the
+        device runs it, or queues it behind the other workers' launches, meanwhile."""
+        if self.kind == "gpu" and self._launched is None:
+            from .gpu import launch
+
+            self._launched = launch(self.arrays)
+
     def __call__(self, path: Path, on_step: Callable[[int], None] | None = None) -> None:
-        from . import cpu, gpu
+        from . import cpu
 
         a = self.arrays
-        x, v, front, work, end_step, status = (cpu.run_arrays(a, self.threads) if self.kind == "cpu"
-                                               else gpu.run_arrays(a))
+        if self.kind == "cpu":
+            x, v, front, work, end_step, status = cpu.run_arrays(a, self.threads)
+        else:
+            self.start()
+            x, v, front, work, end_step, status = self._launched.result()
+            self._launched = None
         self.final = from_engine(x, "length"), from_engine(v, "velocity")
         path = Path(path)
         end = int(end_step.max())

@@ -50,7 +50,8 @@ class Engine(Protocol):
     it cannot run, before anything is written) and `engine(path, on_step)`, which raises
     ContactError, RunError or Interrupted as `runner.run_deck` does. An engine with
     `reads_chain_files` False (one that takes a batch's chains as arrays) gets no data file and
-    no levels file in a batch's folder (`deck.render_folder`)."""
+    no levels file in a batch's folder (`deck.render_folder`); one with a `start()` is started
+    before the folder is written (the GPU engine: its first launch runs meanwhile)."""
 
     nprocs: int
 
@@ -146,6 +147,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     engine.check(Path(folder))
     if len(cases) == 1:
         preflight.check(cases[0], folder, engine.nprocs, yes=yes)
+    getattr(engine, "start", lambda: None)()
     files = deck.render_folder(cases, draws, chain_files=getattr(engine, "reads_chain_files", True))
     with ExitStack() as held:
         claimed = claim(folder, overwrite, held)
