@@ -214,10 +214,11 @@ def bench(tmp: Path, sizes: list[int], long: int, sweeps: list[int], log: Path |
     print("| members | `pylmp-lattice sweep --engine gpu`, command to exit (s) | per member (ms) | coordinator CPU (s) "
           "| first task sent (s) | last members done (s) | table written (s) |")
     print("|---|---|---|---|---|---|---|")
-    for count in sweeps:
-        folder = tmp / f"sweep-{count}"
+    for k, count in enumerate(sweeps):  # (a size given twice: run twice)
+        again = f"-{sweeps[:k].count(count) + 1}" if count in sweeps[:k] else ""
+        folder = tmp / f"sweep-{count}{again}"
         folder.mkdir()
-        name = f"sweep-{count}{'-disorder' if disorder else ''}.log"  # the output's, in --log
+        name = f"sweep-{count}{'-disorder' if disorder else ''}{again}.log"  # the output's, in --log
         path = write_sweep(folder, count, THERMAL, friction=True, disorder=disorder)
         cmd = [sys.executable, "-c", COORDINATOR_CPU, "sweep", str(path), "-o", str(folder / "out"), "--engine", "gpu",
                "--yes"]
