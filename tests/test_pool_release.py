@@ -40,9 +40,9 @@ def test_an_executor_the_caller_gave_is_left_running(tmp_path):
 
 def test_a_gpu_pool_s_workers_make_their_cuda_context_as_they_start():
     module = ("-DPL_LOCAL_N=21", "-DPL_FRICTION=1")
-    with pool.executor_pool(1, None, "embedded", None, None, "gpu", module, "DIR/batches") as p:
-        assert p.executor._initargs[-1] == (module, "DIR/batches")  # noqa: SLF001 - each worker's initializer's
-    with pool.executor_pool(1, None, "embedded", None, None, "cpu", module, "DIR/batches") as p:
+    with pool.executor_pool(1, None, "embedded", None, None, "gpu", module) as p:
+        assert p.executor._initargs[-1] == module  # noqa: SLF001 - what each worker's initializer gets
+    with pool.executor_pool(1, None, "embedded", None, None, "cpu", module) as p:
         assert p.executor._initargs[-1] is None  # noqa: SLF001
 
 
@@ -78,36 +78,3 @@ def test_the_warm_up_makes_the_context_loads_the_module_and_leaves_errors_to_the
 
     fake.zeros = no_device
     assert gpu.warm_up() is None  # no exception: the task's launch reports it
-
-
-def test_launches_that_take_turns_run_one_at_a_time_and_give_run_arrays_s_results(tmp_path, monkeypatch):
-    """Two batches launched at once in turns on one folder: the second starts when the first is
-    back; each gets its own results; an error comes back from result()."""
-    import time
-
-    spans = []
-
-    def run(a):
-        start = time.monotonic()
-        time.sleep(0.2)
-        spans.append((start, time.monotonic()))
-        if a == "bad":
-            raise RuntimeError("cudaErrorLaunchFailure")
-        return a
-
-    monkeypatch.setattr(gpu, "run_arrays", run)
-    monkeypatch.setattr(gpu, "_TURNS", None)
-    gpu.take_turns(tmp_path)
-    first, second = gpu.launch("one"), gpu.launch("two")
-    assert (first.result(), second.result()) == ("one", "two")
-    (a0, a1), (b0, b1) = sorted(spans)
-    assert b0 >= a1  # one at a time
-    bad = gpu.launch("bad")
-    with pytest.raises(RuntimeError, match="cudaErrorLaunchFailure"):
-        bad.result()
-    monkeypatch.setattr(gpu, "_TURNS", None)
-    spans.clear()
-    first, second = gpu.launch("one"), gpu.launch("two")
-    assert (first.result(), second.result()) == ("one", "two")
-    (a0, a1), (b0, b1) = sorted(spans)
-    assert b0 < a1  # without turns: side by side

@@ -25,10 +25,7 @@ built by g++ and run thread after thread behind a stand-in for CuPy): bit for bi
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
-import os
 import threading
 from functools import lru_cache
 from pathlib import Path
@@ -119,65 +116,41 @@ def batch_options(case) -> tuple[str, ...]:
         return ()
 
 
-# A sweep's workers take turns on the device (`take_turns`). With several processes' kernels queued
-# the GPU time-slices between their contexts, so each waited for all of them: on an H200 the 16
-# workers' first launches waited 1.2-1.8 s each for kernels of 0.07 s (benchmarks/trace_sweep.py).
-# In turns each waits only for those before it. A turn is a flock on a folder of the sweep (the
-# kernel drops it if its holder dies).
-_TURNS: str | None = None
-
-
-def take_turns(folder) -> None:
-    """This process's launches take turns on the device with those of others that take turns on
-    `folder` (a GPU sweep's workers: its batches/ folder)."""
-    global _TURNS
-    _TURNS = str(folder)
-
-
-@contextlib.contextmanager
-def _turn():
-    if _TURNS is None:
-        yield
-        return
-    fd = os.open(_TURNS, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)  # (the flock goes with it)
-
-
 class Launched:
-    """A batch run on the device by a thread of its own (`launch`), in its turn (`take_turns`)."""
+    """A batch whose first launch is on the device (`launch`)."""
 
     def __init__(self, a: Arrays):
-        self._out = self._error = None
-        self._thread = threading.Thread(target=self._run, args=(a,), name="pylmp-lattice-gpu", daemon=True)
-        self._thread.start()
-
-    def _run(self, a: Arrays) -> None:
+        self._steps, self._done = _run(a), None
         try:
-            with _turn():
-                self._out = run_arrays(a)
-        except BaseException as err:  # noqa: BLE001 - raised in the caller's thread, by result()
-            self._error = err
+            next(self._steps)
+        except StopIteration as done:  # no launch (no chain)
+            self._done = done.value
 
     def result(self):
-        """`run_arrays`'s results, once they are back (a stop signal interrupts the wait)."""
-        self._thread.join()
-        if self._error is not None:
-            raise self._error
-        return self._out
+        """`run_arrays`'s results, once the rest of the launches have run."""
+        if self._done is None:
+            try:
+                next(self._steps)
+            except StopIteration as done:
+                self._done = done.value
+            else:
+                raise AssertionError("run_arrays's steps go on after their last launch")
+        return self._done
 
 
 def launch(a: Arrays) -> Launched:
-    """`run_arrays` started now, in a thread: the device runs the batch (or it waits for its turn)
-    while the caller goes on, e.g. writes the batch's folder."""
+    """`run_arrays` with its first launch started now: the device runs it (or queues it behind
+    the other workers' launches) while the caller goes on, e.g. writes the batch's folder."""
     return Launched(a)
 
 
 def run_arrays(a: Arrays):
     """`engines.cpu.run_arrays` on the GPU (in launches of CHUNK_ATOM_STEPS: Ctrl-C waits for one)."""
+    return launch(a).result()
+
+
+def _run(a: Arrays):
+    """run_arrays's work, a generator that pauses once, after its first launch (`launch`)."""
     import cupy as cp
 
     lib, lay = library(), layout()
@@ -222,7 +195,7 @@ def run_arrays(a: Arrays):
     # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
     per_launch = int(CHUNK_ATOM_STEPS // max(1, n * a.steps))
     chunk = max(threads, per_launch // threads * threads) if local else max(1, per_launch)
-    for lo in range(0, chains, chunk):
+    for first, lo in enumerate(range(0, chains, chunk)):
         hi = min(chains, lo + chunk)
         rows = slice(lo, hi)
         if local:
@@ -234,6 +207,8 @@ def run_arrays(a: Arrays):
                     *((rec[lo * n * NCOL:hi * n * NCOL], phase[lo * n:hi * n]) if a.record else (rec, phase)),
                     work[rows], end_step[rows], status[rows])
             _kernel(KERNELS[True], options)((hi - lo,), (threads,), args)
+        if first == 0:
+            yield
         # waited for asleep (cudaEventBlockingSync), not spinning: a stream's synchronize spins a core
         # while the other workers' launches run before this one, and the workers share the cores
         done = cp.cuda.Event(block=True, disable_timing=True)

@@ -43,7 +43,7 @@ from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
 from .signals import _StopSignals
 from .spec import Member, Replicas, Sweep
-from .store import (BATCHES, DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
+from .store import (DONE, FAILED, INTERRUPTED, MEMBERS, RUNNING, Outcomes, member_folder, now, read_status, remove_stale_locks,
                     write_status)
 from .table import CSV, Rows, Table, batch_rows, member_row
 
@@ -101,11 +101,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
         try:
-            turns = None
-            if sweep.engine == "gpu":  # the workers take turns on the device on DIR/batches
-                (turns := root / BATCHES).mkdir(exist_ok=True)
-            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, _gpu_module(sweep),
-                               None if turns is None else str(turns)) as pool:
+            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, _gpu_module(sweep)) as pool:
                 stop.on_signal = pool.on_signal
                 return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
                                     figure=bool(stats) and sweep.replicas > 1,
