@@ -11,7 +11,7 @@
 # and run it with the device tool: command "bash benchmarks/gpu_check.sh", carry ["wheels",
 # "pylmp_lattice/plugin/latticeengine.so"], timeout_s 500: correctness first, then the kernel's
 # variants, the benchmark with the sweeps, Nsight Compute, the long chains last (each stage with
-# its own timeout; the run of 2026-11-27 15:50 UTC took 231 s). Output also in $OUT/gpu_check.txt.
+# its own timeout; the run of 2026-11-28 01:17 UTC took 147 s). Output also in $OUT/gpu_check.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out="${OUT:-/tmp}"
@@ -46,7 +46,9 @@ timeout 220 "$py" benchmarks/bench_gpu.py --sizes 10000,100000,1000000 --long 0 
   --loop-limit 2e10
 stage "benchmark exit $?"
 # ensembles under disorder (the thermal example's 1 % mass and 0.5 % gap scatter): a worker's
-# Python per replica went from 0.38 to 0.10 ms on the dev VM on 2026-11-27 (not yet timed here)
+# Python per replica went from 0.38 to 0.10 ms on the dev VM on 2026-11-27 (10^6 of them: 19.7 s on
+# 2026-11-28 00:59 UTC, 13.6 s at 01:18 with the later changes; a fresh machine's first compiles
+# the per-atom-mass module in every worker, about 6 s more)
 # where the 10^6-member sweep's time goes: each worker's tasks and kernel calls, the coordinator's profile
 stage "trace_sweep.py: 10^6 members, 16 workers"
 timeout 60 "$py" benchmarks/trace_sweep.py --members 1000000 --top 30

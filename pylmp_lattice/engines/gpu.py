@@ -15,7 +15,8 @@ the chain in its local memory, its neighbours' edge atoms as ghosts (as the fix'
 benchmarks/gpu_resources.py prints each module's registers, local and shared memory (NVRTC, no
 device needed); bench_gpu.py --variants times the choices below on a device.
 
-Run on an NVIDIA H200 on 2026-11-27 (benchmarks/gpu_check.sh; numbers in docs/performance.md).
+Run on an NVIDIA H200 on 2026-11-27 and 2026-11-28 (benchmarks/gpu_check.sh; numbers in
+docs/performance.md).
 NVRTC compiles it with `compile_options` (tests/test_gpu_build.py, on any machine with the
 nvidia-cuda-nvrtc wheel); its tests (tests/test_kernel_cpu.py, tests/test_sweep_engines.py,
 marked gpu) and benchmarks/bench_gpu.py --check compare it with the host engine where CuPy finds a
@@ -53,7 +54,8 @@ SHARED_THREADS = 32
 # atom's kick; "listed", listed and sampled together after the step: 1.07x (marks alone in shared
 # memory) and 1.18x (all four) per_atom's speed (--variants, 17:10 UTC); "masked", marked in a bit
 # mask and sampled after the step from where their v and f are, no list in local memory (ptxas:
-# a smaller stack and fewer spills, benchmarks/gpu_resources.py; not yet timed on a device)
+# a smaller stack and fewer spills, benchmarks/gpu_resources.py; on an H200, 2026-11-28, within the
+# 10 % spread of "listed" in six alternating runs at 10^6 members: docs/performance.md)
 SAMPLING = "listed"
 SAMPLINGS = {"per_atom": 0, "listed": 1, "masked": 2}  # engine_gpu.cu's PL_SAMPLING
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
@@ -63,8 +65,8 @@ LOCAL_MAX = 64
 SHORT_BLOCK = 32
 # Chains over LOCAL_MAX run a block per chain (engine_gpu.cu's pl_run_long_chains_gpu), each of its
 # threads on a segment of LONG_SEGMENT free atoms or fewer, more where LONG_THREADS would not cover
-# the chain (its shared memory is compiled for that many); not yet timed on a device (the one
-# thread a chain it replaced ran 10^3 chains of 1000 magnets at 0.2x the C loop on 16 cores)
+# the chain (its shared memory is compiled for that many): 10^3 chains of 1000 magnets ran at 7.6-7.8x
+# the C loop on 16 cores on an H200 (2026-11-28; the one thread a chain it replaced: 0.2x)
 LONG_SEGMENT = 8
 LONG_THREADS = 256
 # ... in segments of at most LONG_SEGMENT_MAX: a thread keeps about 88 bytes an atom of its segment
