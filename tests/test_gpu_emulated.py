@@ -556,3 +556,13 @@ def test_the_sine_drive_runs_on_the_host_s_path(tmp_path, monkeypatch, emulated_
     monkeypatch.setattr(gpu, "drive_path", lambda _a: off)
     got = run_both(cases, tmp_path / "off", monkeypatch)
     assert (got["gpu"]["out"][0][:, 1:3] != got["cpu"]["out"][0][:, 1:3]).all()  # magnets 1 and 2 (the rest stuck)
+
+
+def test_a_sweep_worker_s_warm_up_runs_one_chain_for_one_step_in_the_batch_s_module(emulated_gpu):
+    """gpu.warm_up(gpu.warm_batch(case)), as a GPU sweep's worker runs it as it starts: one launch of
+    the short chains' kernel, one chain, in the module that the batch of such members then uses."""
+    cases = members(friction=FRICTION)
+    gpu.warm_up(gpu.warm_batch(cases[0]))
+    assert [(name, grid) for name, grid, _ in emulated_gpu.launches] == [("pl_run_short_chains_gpu", 1)]
+    gpu.run_arrays(prepare(cases, "gpu"))
+    assert len(emulated_gpu.modules) == 1  # the batch found its module loaded

@@ -39,42 +39,42 @@ def test_an_executor_the_caller_gave_is_left_running(tmp_path):
 
 
 def test_a_gpu_pool_s_workers_make_their_cuda_context_as_they_start():
-    module = ("-DPL_LOCAL_N=21", "-DPL_FRICTION=1")
-    with pool.executor_pool(1, None, "embedded", None, None, "gpu", module) as p:
-        assert p.executor._initargs[-1] == module  # noqa: SLF001 - what each worker's initializer gets
-    with pool.executor_pool(1, None, "embedded", None, None, "cpu", module) as p:
-        assert p.executor._initargs[-1] is None  # noqa: SLF001
+    with pool.executor_pool(1, None, "embedded", None, None, "gpu", "WARM") as p:
+        assert p.executor._initargs[-2:] == (True, "WARM")  # noqa: SLF001 - what each worker's initializer gets
+    with pool.executor_pool(1, None, "embedded", None, None, "cpu", "WARM") as p:
+        assert p.executor._initargs[-2:] == (False, None)  # noqa: SLF001
 
 
-def test_a_gpu_sweep_s_workers_load_its_first_batch_s_module(tmp_path):
+def test_a_gpu_sweep_s_workers_run_its_first_member_for_one_step_in_its_batches_module(tmp_path):
     from pylmp_lattice.engines.arrays import prepare
-    from pylmp_lattice.sweep.execute import _gpu_module
+    from pylmp_lattice.sweep.execute import _gpu_warm
 
     from test_sweep import THERMAL
 
     for text in (THERMAL.format(replicas=5), THERMAL.format(replicas=5) + '"chain.mass_disorder" = 0.01\n'):
         sweep = dataclasses.replace(load_sweep(write_sweep(tmp_path, text)), engine="gpu")
-        cases = [m.case for m in sweep.members()]
-        a = prepare(cases, "gpu")  # the batch of all of them: the module its members run
-        assert _gpu_module(sweep) == gpu.compile_options(a.n, gpu.batch_case(a), one_mass=gpu.one_mass(a))
-        assert ("-DPL_ONE_MASS=1" in _gpu_module(sweep)) == ("mass_disorder" not in text)
+        a = prepare([m.case for m in sweep.members()], "gpu")  # the batch of all of them
+        warm = _gpu_warm(sweep)
+        assert (warm.chains, warm.steps, a.steps) == (1, 1, 1000)
+        module = gpu.compile_options(warm.n, gpu.batch_case(warm), one_mass=gpu.one_mass(warm))
+        assert module == gpu.compile_options(a.n, gpu.batch_case(a), one_mass=gpu.one_mass(a))
+        assert ("-DPL_ONE_MASS=1" in module) == ("mass_disorder" not in text)
+        assert _gpu_warm(dataclasses.replace(sweep, engine="cpu")) is None
 
 
-def test_the_warm_up_makes_the_context_loads_the_module_and_leaves_errors_to_the_launch(monkeypatch):
-    made, loaded = [], []
+def test_the_warm_up_makes_the_context_runs_the_batch_and_leaves_errors_to_the_launch(monkeypatch):
+    made, ran = [], []
     fake = types.ModuleType("cupy")
     fake.zeros = lambda n: made.append((n, threading.current_thread().name))
     monkeypatch.setitem(sys.modules, "cupy", fake)
-    monkeypatch.setattr(gpu, "_kernel", lambda name, options: loaded.append((name, options)))
+    monkeypatch.setattr(gpu, "run_arrays", ran.append)
     gpu.warm_up()
-    assert made == [(1, threading.current_thread().name)] and loaded == []
-    short, long = ("-std=c++17", "-DPL_LOCAL_N=21"), ("-std=c++17", "-DPL_LOCAL_N=0")
-    gpu.warm_up(short)
-    gpu.warm_up(long)
-    assert loaded == [("pl_run_short_chains_gpu", short), ("pl_run_long_chains_gpu", long)]
+    assert made == [(1, threading.current_thread().name)] and ran == []
+    gpu.warm_up("BATCH")
+    assert ran == ["BATCH"]
 
     def no_device(n):
         raise RuntimeError("cudaErrorNoDevice")
 
     fake.zeros = no_device
-    assert gpu.warm_up() is None  # no exception: the task's launch reports it
+    assert gpu.warm_up("BATCH") is None and ran == ["BATCH"]  # no exception: the task's launch reports it

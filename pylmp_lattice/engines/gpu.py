@@ -26,6 +26,7 @@ built by g++ and run thread after thread behind a stand-in for CuPy): bit for bi
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import threading
 from functools import lru_cache
@@ -92,30 +93,35 @@ def available() -> str | None:
     return None if count else "CuPy finds no CUDA device"
 
 
-def warm_up(options: tuple[str, ...] = ()) -> None:
-    """This process's CUDA context made now, and the module compiled with `options` loaded
-    (`batch_options`; a sweep's worker, beside its first task's Python): on an H200 a worker's
-    first launch waited 0.8-2.4 s for both, the 16 workers' one after another
-    (benchmarks/trace_sweep.py, docs/performance.md). Errors are left to the launch."""
+def warm_up(batch: Arrays | None = None) -> None:
+    """This process's CUDA context made now, and with a `batch` (`warm_batch`: one chain, one
+    step) its module loaded and launched once; a sweep's worker, beside its first task's Python.
+    On an H200 most workers' first launches waited 0.8-2.4 s, the later ones 0.03 s
+    (benchmarks/trace_sweep.py, docs/performance.md); with the context made and the module loaded
+    ahead, still 1.2-2.3 s. A launch also sizes the context's local memory for the kernel (its
+    stack for every thread the device can hold: 2.5 GB for the paper's chain with the record,
+    benchmarks/gpu_resources.py), which the launch here does ahead too (not yet timed on a
+    device). Errors are left to the batch's own launch."""
     try:
         import cupy
 
         cupy.zeros(1)
-        if options:
-            _kernel(KERNELS[LOCAL_OPTION + "0" in options], options)
+        if batch is not None:
+            run_arrays(batch)
     except Exception:  # noqa: BLE001 - only a head start: run_arrays says what is wrong
         pass
 
 
-def batch_options(case) -> tuple[str, ...]:
-    """The module a batch of members like `case` runs (`compile_options`), () if none."""
+def warm_batch(case) -> Arrays | None:
+    """One chain of `case` for one step, in the module a batch of members like it runs (`warm_up`);
+    None if the engine cannot run it."""
     from .arrays import prepare
 
     try:
         a = prepare([case], "gpu")
-        return compile_options(a.n, batch_case(a), one_mass=one_mass(a)) if not too_long(a.n) else ()
+        return None if too_long(a.n) else dataclasses.replace(a, steps=1)
     except Exception:  # noqa: BLE001 - a case the engine cannot run: the batch says why, later
-        return ()
+        return None
 
 
 class Launched:
@@ -273,7 +279,7 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
     local = local_size(n)
     if block is None:
         block = short_block(local) if local else long_segment(n)
-    return ("-std=c++17", f"-I{KERNEL}", f"{LOCAL_OPTION}{local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
+    return ("-std=c++17", f"-I{KERNEL}", f"-DPL_LOCAL_N={local}", f"-DPL_BLOCK={block}", f"-DPL_LAW_KIND={law}",
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}",
             f"-DPL_THREADS={block_threads(local) if local else LONG_THREADS}",
@@ -348,7 +354,6 @@ def short_block(local: int) -> int:
 
 # engine_gpu.cu's kernels: the short chains' (False) and the long chains' (True, PL_LOCAL_N=0)
 KERNELS = {False: "pl_run_short_chains_gpu", True: "pl_run_long_chains_gpu"}
-LOCAL_OPTION = "-DPL_LOCAL_N="
 _MODULES: dict = {}
 _MODULES_LOCK = threading.Lock()  # a worker's warm-up thread may be loading the module its task needs
 

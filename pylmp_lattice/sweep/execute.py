@@ -101,7 +101,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
         try:
-            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, _gpu_module(sweep)) as pool:
+            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, _gpu_warm(sweep)) as pool:
                 stop.on_signal = pool.on_signal
                 return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
                                     figure=bool(stats) and sweep.replicas > 1,
@@ -110,16 +110,16 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
             remove_stale_locks(root)  # those of tasks whose worker was killed
 
 
-def _gpu_module(sweep: Sweep) -> tuple[str, ...]:
-    """For engine "gpu": the kernel module its first member's batch runs (`engines.gpu.batch_options`),
-    which each worker loads as it starts; () otherwise."""
+def _gpu_warm(sweep: Sweep):
+    """For engine "gpu": one chain of its first member for one step (`engines.gpu.warm_batch`), which
+    each worker runs as it starts; None otherwise."""
     if sweep.engine != "gpu":
-        return ()
-    from ..engines.gpu import batch_options
+        return None
+    from ..engines.gpu import warm_batch
 
     run = next(iter(sweep.iter_runs()), None)
     first = None if run is None else run.first if isinstance(run, Replicas) else run[0]
-    return batch_options(first.case) if first is not None else ()
+    return warm_batch(first.case) if first is not None else None
 
 
 # ----------------------------------------------------------------------------- the coordinator

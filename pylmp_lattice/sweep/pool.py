@@ -97,10 +97,10 @@ def _process_pool(executor) -> bool:
 
 @contextlib.contextmanager
 def executor_pool(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None,
-                  slots: int | None, engine: str | None = None, module: tuple[str, ...] = ()):
+                  slots: int | None, engine: str | None = None, warm=None):
     """A `Pool`: the given executor, a local process pool, or a Dask cluster's executor (a local
-    pool's workers for `engine` "gpu" make their CUDA context and load the kernel's `module`, its
-    compile options, as they start: `engines.gpu.warm_up`).
+    pool's workers for `engine` "gpu" make their CUDA context, and run the one-step batch `warm`,
+    as they start: `engines.gpu.warm_up`).
 
     A process holds one LAMMPS (and MPI) instance at a time, so the embedded runner needs one
     task at a time per process: pool processes are, Dask workers must be (one thread each)."""
@@ -110,7 +110,7 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
         yield Pool(executor, slots or 1)
         return
     if scheduler is None:
-        yield from _local_pool(workers or os.cpu_count() or 1, engine, module)
+        yield from _local_pool(workers or os.cpu_count() or 1, engine, warm)
         return
     if workers is not None:
         raise UsageError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
@@ -139,7 +139,7 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
         client.close()
 
 
-def _local_pool(workers: int, engine: str | None = None, module: tuple[str, ...] = ()):
+def _local_pool(workers: int, engine: str | None = None, warm=None):
     """Worker processes forked from a clean fork server (never from a coordinator that may hold
     threads or an initialised MPI), which imports the package once and stays up for later
     sweeps of the same Python session. Each worker holds the read ends of two pipes whose write
@@ -152,7 +152,7 @@ def _local_pool(workers: int, engine: str | None = None, module: tuple[str, ...]
     alive_r, alive_w = context.Pipe(duplex=False)
     stop_r, stop_w = context.Pipe(duplex=False)
     pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_pool_worker_init,
-                               initargs=(alive_r, stop_r, module if engine == "gpu" else None))
+                               initargs=(alive_r, stop_r, engine == "gpu", warm if engine == "gpu" else None))
     handle = Pool(pool, workers, stop=stop_w.close, local=True)
     try:
         yield handle
@@ -232,12 +232,12 @@ def _send_whole() -> None:
     SimpleQueue.put = whole
 
 
-def _pool_worker_init(alive, stop, gpu: tuple[str, ...] | None = None) -> None:
+def _pool_worker_init(alive, stop, gpu: bool = False, warm=None) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
     any later start, and the worker exits GRACE seconds later, once a result it is sending is
     sent (`_send_whole`); it exits at once when the coordinator is gone. `gpu` (a GPU sweep's
-    worker): its CUDA context is made, and the kernel compiled with these options loaded, beside
-    its first task (`engines.gpu.warm_up`)."""
+    worker): its CUDA context is made, and the one-step batch `warm` run, beside its first task
+    (`engines.gpu.warm_up`)."""
     from . import signals
 
     def on_signal(signum, frame):
@@ -274,9 +274,9 @@ def _pool_worker_init(alive, stop, gpu: tuple[str, ...] | None = None) -> None:
         main = threading.main_thread().ident
         threading.Thread(target=watch, args=(stop, lambda: signal.pthread_kill(main, signal.SIGINT)),
                          daemon=True).start()
-        if gpu is not None:
+        if gpu:
             from ..engines.gpu import warm_up
 
-            threading.Thread(target=warm_up, args=(gpu,), name="pylmp-lattice-cuda-context", daemon=True).start()
+            threading.Thread(target=warm_up, args=(warm,), name="pylmp-lattice-cuda-context", daemon=True).start()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, unblocked)
