@@ -162,11 +162,12 @@ def legend_above_data(ax, ncol: int, row: float = 0.075):
 
 
 def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front, v0: float | None = None,
-                 title: str | None = None, saturation: float | None = None):
+                 title: str | None = None, saturation: float | None = None,
+                 missing: str = "no trajectory written\n(output.format = 'none')"):
     """The four panels of Fig. 3(a-d), lettered, under `title`; returns the Figure.
 
     profiles: a Trajectory of the chosen magnets (their numbers, 1 .. N, in `magnets`) for
-    panels (a) and (d), or None for a run without a trajectory (those panels then say so);
+    panels (a) and (d), or None for a run without one (those panels then say `missing`);
     front: the run's front measures for panels (b) and (c), flagged gaps and the drive's gap
     left out (`Front.accepted_velocity`); saturation: the first peaks' limit (2 V_I for a
     constant drive without friction; None: no such line, e.g. for a pulse)."""
@@ -178,7 +179,7 @@ def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front
                                            "wspace": 0.4, "hspace": 0.3})
     if profiles is None:
         for ax in (axes[0, 0], axes[1, 1]):
-            ax.text(0.5, 0.5, "no trajectory written\n(output.format = 'none')", ha="center", va="center",
+            ax.text(0.5, 0.5, missing, ha="center", va="center",
                     transform=ax.transAxes)
     else:
         velocity_profiles(profiles.t, profiles.v, magnets, axes[0, 0])

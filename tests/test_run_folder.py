@@ -490,6 +490,22 @@ def test_a_failed_figure_keeps_the_summary(tmp_path, monkeypatch, caplog):
 
 
 @lammps
+def test_a_run_shorter_than_its_output_interval_draws_its_figure_without_profiles(tmp_path, caplog, monkeypatch):
+    """One frame of trajectory (run.duration 0.05 ms < output_interval 0.1 ms): the figure is drawn
+    with the front record's panels and says why the profiles are missing (it failed with
+    "ValueError: t: got shape (1,)" before)."""
+    from pylmp_lattice import plots
+
+    said = []
+    draw = plots.shock_figure
+    monkeypatch.setattr(plots, "shock_figure", lambda *a, **k: (said.append(k.get("missing")), draw(*a, **k))[1])
+    summary = run_case(make_case(particles=10, duration=0.05, interval=0.1), tmp_path / "r")
+    assert summary["files"]["figure"] == layout.FIGURE and (tmp_path / "r" / layout.FIGURE).stat().st_size > 10_000
+    assert said == ["one frame written\n(run.duration 0.05 ms < run.output_interval 0.1 ms)"]
+    assert "no figure" not in caplog.text
+
+
+@lammps
 def test_a_run_stopped_by_contact_is_summarized_and_says_so(tmp_path, capsys):
     """Driven into its held end, a short chain touches: the run still writes summary.json (up to
     the contact, saying where) and its figure, exit 1 with one line that names `summarize`;
