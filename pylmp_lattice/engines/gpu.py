@@ -203,19 +203,19 @@ def _run(a: Arrays):
     # launches of about CHUNK_ATOM_STEPS: a signal's handler runs between two
     per_launch = int(CHUNK_ATOM_STEPS // max(1, n * a.steps))
     chunk = max(threads, per_launch // threads * threads) if local else max(1, per_launch)
-    for first, lo in enumerate(range(0, chains, chunk)):
+    for k, lo in enumerate(range(0, chains, chunk)):
         hi = min(chains, lo + chunk)
         rows = slice(lo, hi)
         if local:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], levels[rows],
                     front[lo * n * NOUT:hi * n * NOUT] if a.record else front, work[rows], end_step[rows], status[rows])
-            _kernel(KERNELS[False], options)((-(-(hi - lo) // threads),), (threads,), args)
+            _kernel("pl_run_short_chains_gpu", options)((-(-(hi - lo) // threads),), (threads,), args)
         else:
             args = (np.int32(hi - lo), *setup, x[rows], v[rows], mass[rows], index, levels[rows],
                     *((rec[lo * n * NCOL:hi * n * NCOL], phase[lo * n:hi * n]) if a.record else (rec, phase)),
                     work[rows], end_step[rows], status[rows])
-            _kernel(KERNELS[True], options)((hi - lo,), (threads,), args)
-        if first == 0:
+            _kernel("pl_run_long_chains_gpu", options)((hi - lo,), (threads,), args)
+        if k == 0:
             yield
         # waited for asleep (cudaEventBlockingSync), not spinning: a stream's synchronize spins a core
         # while the other workers' launches run before this one, and the workers share the cores
@@ -352,8 +352,6 @@ def short_block(local: int) -> int:
     return min(SHORT_BLOCK, local - 2)
 
 
-# engine_gpu.cu's kernels: the short chains' (False) and the long chains' (True, PL_LOCAL_N=0)
-KERNELS = {False: "pl_run_short_chains_gpu", True: "pl_run_long_chains_gpu"}
 _MODULES: dict = {}
 _MODULES_LOCK = threading.Lock()  # a worker's warm-up thread may be loading the module its task needs
 
