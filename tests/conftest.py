@@ -32,10 +32,10 @@ def _no_mpich_segment_of_a_killed_process(_mpich_segments_before):
     for name in set(_mpich_segments()) - _mpich_segments_before:
         with contextlib.suppress(ValueError, IndexError):
             pid = int(name.split("_")[2], 16)  # mpich_shm_<pid in hex>_<n>
-            # (an mpiexec job's segment is named by a hash, no pid, and is its ranks' until they
-            # have all mapped it: one removed then, by another test session on the machine, hung
-            # a CI run's 2-rank job)
-            if pid <= _PID_MAX and not _alive(pid):
+            # an mpiexec job's segment is named by a hash, not a pid: its ranks' until they have
+            # all mapped it (one removed then, by another test session on the machine, hung a
+            # CI run's 2-rank job), left by a job whose ranks were killed first
+            if not _alive(pid) if pid <= _PID_MAX else not _mapped(name):
                 with contextlib.suppress(OSError):
                     os.unlink(os.path.join(SHM, name))
 
@@ -58,6 +58,20 @@ def _mpich_segments() -> list[str]:
     with contextlib.suppress(OSError):
         return [n for n in os.listdir(SHM) if n.startswith("mpich_shm_")]
     return []
+
+
+def _mapped(name: str) -> bool:
+    """Whether a process holds /dev/shm/`name` open or mapped (/proc: the processes this user may read)."""
+    for proc in os.listdir("/proc"):
+        if not proc.isdigit():
+            continue
+        with contextlib.suppress(OSError):
+            with open(f"/proc/{proc}/maps") as f:
+                if name in f.read():
+                    return True
+            if any(name in os.readlink(f"/proc/{proc}/fd/{fd}") for fd in os.listdir(f"/proc/{proc}/fd")):
+                return True
+    return False
 
 
 def _alive(pid: int) -> bool:

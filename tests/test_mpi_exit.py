@@ -75,3 +75,23 @@ def test_the_bare_module_leaves_mpich_s_segment(tmp_path):
 @pytest.mark.parametrize("code", [PACKAGE, WORKER], ids=["process", "pool-worker"])
 def test_a_process_that_ran_lammps_leaves_no_segment(tmp_path, code):
     assert not _segment_left(code, tmp_path)
+
+
+def test_the_tests_clean_up_leaves_a_mapped_segment_and_removes_one_no_process_holds(tmp_path):
+    """conftest's clean-up of segments left by killed processes: an mpiexec job's segment (named by
+    a hash, not a pid) counts as left only when no process holds it (one removed while its ranks
+    were still mapping it hung a 2-rank job)."""
+    import mmap
+
+    from conftest import _mapped
+
+    path = SHM / f"mpich_shm_{os.getpid():x}test{os.urandom(2).hex()}_0"
+    path.write_bytes(b"\0" * 4096)
+    try:
+        with open(path, "r+b") as f:
+            view = mmap.mmap(f.fileno(), 4096)
+        assert _mapped(path.name)  # mapped (its file closed), as a rank holds it
+        view.close()
+        assert not _mapped(path.name)
+    finally:
+        path.unlink()
