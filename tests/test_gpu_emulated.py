@@ -566,3 +566,32 @@ def test_a_sweep_worker_s_warm_up_runs_one_chain_for_one_step_in_the_batch_s_mod
     assert [(name, grid) for name, grid, _ in emulated_gpu.launches] == [("pl_run_short_chains_gpu", 1)]
     gpu.run_arrays(prepare(cases, "gpu"))
     assert len(emulated_gpu.modules) == 1  # the batch found its module loaded
+
+
+def test_a_gpu_engine_called_again_after_a_failed_run_runs_its_batch_anew(tmp_path, monkeypatch, emulated_gpu):
+    """The road's engine launches in start() and collects in its call: after a run that raised, the
+    next call launches again (it got no results before), and a failed batch's results are refused."""
+    cases = members(count=2)
+    real, calls = gpu._run, []
+
+    def fails_once(a):
+        calls.append(a)
+        if len(calls) == 1:
+            yield
+            raise RuntimeError("cudaErrorLaunchFailure")
+        return (yield from real(a))
+
+    monkeypatch.setattr(gpu, "_run", fails_once)
+    engine = KernelEngine("gpu", cases)
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+    with pytest.raises(RuntimeError, match="cudaErrorLaunchFailure"):
+        engine(tmp_path / "a")
+    engine(tmp_path / "b")
+    assert len(calls) == 2 and engine.final[0].shape == (2, 21) and np.isfinite(engine.final[0]).all()
+    calls.clear()
+    broken = gpu.launch(engine.arrays)  # a batch whose run raises: its results are refused after
+    with pytest.raises(RuntimeError, match="cudaErrorLaunchFailure"):
+        broken.result()
+    with pytest.raises(RuntimeError, match="collected, or its run failed"):
+        broken.result()

@@ -5,6 +5,7 @@ caller gave is left as it was, and a GPU sweep's workers make their CUDA context
 from __future__ import annotations
 
 import dataclasses
+import os
 import sys
 import threading
 import types
@@ -45,6 +46,34 @@ def test_a_gpu_pool_s_workers_make_their_cuda_context_as_they_start():
         assert p.executor._initargs[-2:] == (False, None)  # noqa: SLF001
 
 
+WORKER_INIT = """import multiprocessing, sys, threading
+from pylmp_lattice.engines import gpu
+from pylmp_lattice.sweep import pool
+got = []
+gpu.warm_up = lambda warm: got.append((warm, threading.current_thread().name))
+alive, stop = multiprocessing.Pipe(duplex=False), multiprocessing.Pipe(duplex=False)
+pool._pool_worker_init(alive[0], stop[0], sys.argv[1] == "gpu", "WARM")
+for t in threading.enumerate():
+    if t.name == "pylmp-lattice-cuda-context":
+        t.join(10)
+print(got)
+"""
+
+
+@pytest.mark.parametrize("engine", ["gpu", "cpu"])
+def test_a_gpu_pool_worker_warms_up_in_a_thread_of_its_own_as_it_starts(engine):
+    """The pool worker's initializer (in a process of its own: it sets signal handlers) starts
+    `engines.gpu.warm_up(warm)` in a thread for a GPU sweep, and nothing otherwise."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run([sys.executable, "-c", WORKER_INIT, engine], capture_output=True, text=True, timeout=60,
+                          env={**os.environ, "PYTHONPATH": str(root)})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == ("[('WARM', 'pylmp-lattice-cuda-context')]" if engine == "gpu" else "[]")
+
+
 def test_a_gpu_sweep_s_workers_run_its_first_member_for_one_step_in_its_batches_module(tmp_path):
     from pylmp_lattice.engines.arrays import prepare
     from pylmp_lattice.sweep.execute import _gpu_warm
@@ -67,7 +96,7 @@ def test_the_warm_up_makes_the_context_runs_the_batch_and_leaves_errors_to_the_l
     fake = types.ModuleType("cupy")
     fake.zeros = lambda n: made.append((n, threading.current_thread().name))
     monkeypatch.setitem(sys.modules, "cupy", fake)
-    monkeypatch.setattr(gpu, "run_arrays", ran.append)
+    monkeypatch.setattr(gpu, "Launched", lambda batch: types.SimpleNamespace(result=lambda: ran.append(batch)))
     gpu.warm_up()
     assert made == [(1, threading.current_thread().name)] and ran == []
     gpu.warm_up("BATCH")

@@ -20,7 +20,7 @@ import tomli_w
 
 from pylmp_lattice.case import case_id, case_to_dict
 from pylmp_lattice.cli import main
-from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.errors import ConfigError, ContactError
 from pylmp_lattice.run_folder import RunFolder, execute, execute_batch, run_case, write_folder
 from pylmp_lattice.run_folder.cases import read_cases, replicas_text
 from pylmp_lattice.formats import layout
@@ -501,8 +501,12 @@ def test_a_run_shorter_than_its_output_interval_draws_its_figure_without_profile
     monkeypatch.setattr(plots, "shock_figure", lambda *a, **k: (said.append(k.get("missing")), draw(*a, **k))[1])
     summary = run_case(make_case(particles=10, duration=0.05, interval=0.1), tmp_path / "r")
     assert summary["files"]["figure"] == layout.FIGURE and (tmp_path / "r" / layout.FIGURE).stat().st_size > 10_000
-    assert said == ["one frame written\n(run.duration 0.05 ms < run.output_interval 0.1 ms)"]
+    assert said == ["one frame written: no profile to draw\n(run.duration 0.05 ms < run.output_interval 0.1 ms)"]
     assert "no figure" not in caplog.text
+    said.clear()  # a run that stops (a contact at 68.56 ms) before its second frame at 80 ms: so it says
+    with pytest.raises(ContactError):
+        run_case(make_case(particles=21, velocity=2.0, duration=100.0, interval=80.0), tmp_path / "c")
+    assert said == ["one frame written: no profile to draw\n(the run stopped before 80 ms)"]
 
 
 @lammps

@@ -107,7 +107,7 @@ def warm_up(batch: Arrays | None = None) -> None:
 
         cupy.zeros(1)
         if batch is not None:
-            run_arrays(batch)
+            Launched(batch).result()  # (not through `launch`: no batch of a task's)
     except Exception:  # noqa: BLE001 - only a head start: run_arrays says what is wrong
         pass
 
@@ -135,10 +135,14 @@ class Launched:
             self._done = done.value
 
     def result(self):
-        """`run_arrays`'s results, once the rest of the launches have run."""
+        """`run_arrays`'s results, once the rest of the launches have run (a call after one that
+        raised is refused: the batch did not run)."""
         if self._done is None:
+            steps, self._steps = self._steps, None
+            if steps is None:
+                raise RuntimeError("this batch's results were collected, or its run failed, already")
             try:
-                next(self._steps)
+                next(steps)
             except StopIteration as done:
                 self._done = done.value
             else:

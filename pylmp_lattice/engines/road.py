@@ -91,8 +91,8 @@ class KernelEngine:
             x, v, front, work, end_step, status = cpu.run_arrays(a, self.threads)
         else:
             self.start()
-            x, v, front, work, end_step, status = self._launched.result()
-            self._launched = None
+            launched, self._launched = self._launched, None  # (a call after a failed one launches anew)
+            x, v, front, work, end_step, status = launched.result()
         self.final = from_engine(x, "length"), from_engine(v, "velocity")
         path = Path(path)
         end = int(end_step.max())

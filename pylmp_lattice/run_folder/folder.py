@@ -374,10 +374,13 @@ class RunFolder:
             last = number(reached[-1]) if reached.size else 1
             chosen = sorted({2, max(2, (last - 1) // 4 + 1), max(2, (last - 1) // 2 + 1), max(2, last - 1)})
             profiles = self.trajectory("chain", magnets=chosen)
-        if len(profiles.t) < 2:  # a run shorter than its output interval: one frame, no profile to draw
+        if len(profiles.t) < 2:  # one frame (a run shorter than its interval, or one that stopped first)
+            interval, field = ((case.fine_interval(), "output.fine_interval") if case.output.fine
+                               else (case.run.output_interval, "run.output_interval"))
+            why = (f"\n(run.duration {case.run.duration:g} ms < {field} {interval:g} ms)"
+                   if case.run.duration < interval else f"\n(the run stopped before {interval:g} ms)")
             return shock_figure(None, [], vi, front, v0, title=title, saturation=saturation,
-                                missing=f"one frame written\n(run.duration {case.run.duration:g} ms < "
-                                        f"run.output_interval {case.run.output_interval:g} ms)")
+                                missing="one frame written: no profile to draw" + why)
         return shock_figure(profiles, chosen, vi, front, v0, title=title, saturation=saturation)
 
 
