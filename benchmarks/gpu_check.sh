@@ -58,15 +58,18 @@ timeout 90 "$py" benchmarks/bench_gpu.py --sizes "" --long 0 --sweep 100000,1000
   --loop-limit 0
 stage "disorder sweeps exit $?"
 # What bounds the kernel now (memory, FP64, the stalls of its warps)? Nsight Compute's sections
-# for one launch of 20000 chains (the warm-up's skipped); the whole report in $OUT/ncu.txt
+# for one launch of 20000 chains (the warm-up's skipped); the whole report in $OUT/ncu.txt. Its
+# SourceCounters (not yet run): are the front record's rows, which each chain reads at its own
+# atoms, local-memory accesses that a warp's threads do not share (uncoalesced, excessive sectors)?
 stage "ncu: one launch of 20000 chains"
 command -v ncu >/dev/null && timeout 90 ncu --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
   --section WarpStateStats --section ComputeWorkloadAnalysis --section LaunchStats --section InstructionStats \
+  --section SourceCounters \
   -k pl_run_short_chains_gpu --launch-skip 1 --launch-count 1 "$py" benchmarks/bench_gpu.py --sizes 20000 --long 0 \
   --sweep "" --loop-limit 0 >"$out/ncu.txt" 2>&1
 stage "ncu exit $?"
-grep -E "Duration|Throughput|Registers Per|Occupancy|Stall|Issue Slots|Executed Ipc|Pipe|Shared Memory|Local" "$out/ncu.txt" \
-  | head -40
+grep -E "Duration|Throughput|Registers Per|Occupancy|Stall|Issue Slots|Executed Ipc|Pipe|Shared Memory|Local|Uncoalesced|Excessive|Branch|Divergen" \
+  "$out/ncu.txt" | head -50
 # members of 1000 magnets, a block a chain (0: these stages left out): 1000 (the one thread a chain
 # it replaced took 11.6 s on an H200), then 10^4 (issue 28's row) while time is left
 for long in ${GPU_CHECK_LONG:-1000 10000}; do
