@@ -101,7 +101,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         claim(root, sweep, overwrite)
         (root / MEMBERS).mkdir(exist_ok=True)
         try:
-            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, _gpu_warm(sweep)) as pool:
+            warm = _gpu_warm(sweep) if executor is None and scheduler is None else None  # (a local pool's alone)
+            with executor_pool(workers, scheduler, sweep.runner, executor, slots, sweep.engine, warm) as pool:
                 stop.on_signal = pool.on_signal
                 return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
                                     figure=bool(stats) and sweep.replicas > 1,
@@ -118,8 +119,12 @@ def _gpu_warm(sweep: Sweep):
     from ..engines.gpu import warm_batch
 
     run = next(iter(sweep.iter_runs()), None)
-    first = None if run is None else run.first if isinstance(run, Replicas) else run[0]
-    return warm_batch(first.case) if first is not None else None
+    return warm_batch(_first(run).case) if run is not None else None
+
+
+def _first(run: Replicas | list[Member]) -> Member:
+    """The first member of a run of `Sweep.iter_runs`."""
+    return run.first if isinstance(run, Replicas) else run[0]
 
 
 # ----------------------------------------------------------------------------- the coordinator
@@ -245,7 +250,7 @@ class _Coordinator:
         count = 0  # members in the group
         for run in self.sweep.iter_runs():
             todo = self._todo(run)
-            first = run.first if isinstance(run, Replicas) else run[0]
+            first = _first(run)
             start = 0
             while start < len(todo):
                 if group and (first.point != key or count >= size):
