@@ -240,6 +240,24 @@ def test_export_and_study_outputs_refuse_a_link(tmp_path, outside, finished, cap
     assert snapshot(outside) == before
 
 
+@pytest.mark.parametrize("dangling", [False, True], ids=["to a folder", "dangling"])
+def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, dangling):
+    """-o naming a link: its writes would land wherever it points, so each command refuses it."""
+    target = outside / ("new" if dangling else "runs")
+    if not dangling:
+        target.mkdir()
+    link = tmp_path / "out"
+    link.symlink_to(target)
+    sweep_file = write_sweep(tmp_path)
+    before = snapshot(outside)
+    for args in (("run", EXPERIMENT, *SHORT), ("deck", EXPERIMENT), ("sweep", sweep_file, "--quiet"),
+                 ("study", "fig1", "--quick")):
+        rc, err = cli(capsys, *args, "-o", link)
+        assert rc == 2 and "a symbolic link" in err and "output" in err, (args, err)
+        assert len(err.strip().splitlines()) == 1, err
+    assert snapshot(outside) == before and link.is_symlink()
+
+
 # ----------------------------------------------------------------------------- sweeps
 
 def write_sweep(folder: Path, velocities=(1.0, 2.0), base: str | None = None) -> Path:

@@ -103,8 +103,12 @@ def deck_dir(folder: Path) -> str:
 
 def check_place(path: Path, what: str) -> None:
     """UsageError unless `path` may be the output folder of a `what` ("run", "sweep"): never the
-    working directory, a parent of it or runs/ itself (they hold the user's files), nor a file."""
+    working directory, a parent of it or runs/ itself (they hold the user's files), nor a file,
+    nor a symbolic link (its writes would land in the folder it names, wherever that is)."""
     path = Path(path)
+    if path.is_symlink():
+        raise UsageError("output", f"got {str(path)!r}: a symbolic link (to {os.readlink(path)!r}); give the folder "
+                                    f"itself for the {what} (-o)")
     resolved, here = path.resolve(), Path.cwd().resolve()
     if resolved == here or resolved in here.parents or resolved == here / "runs":
         raise UsageError("output", f"got {str(path)!r}: the working directory, a parent of it or runs/; "
