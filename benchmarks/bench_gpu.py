@@ -31,7 +31,8 @@ front record, the friction, both; then also the sine drive's path, a constant dr
 the issue's raw kernel ran at 2.2e11 atom-steps/s): which part holds the kernel back, with the
 mean steps its chains ran (a chain that ends early, by a contact, costs less); and the same
 members with the engine's choices changed one at a time: the due rows of the front record
-listed and sampled after the step, or marked in a bit mask, or each after its atom's kick (gpu.SAMPLING); blocks of
+listed and sampled after the step, or marked in a bit mask, or each after its atom's kick (gpu.SAMPLING); each
+due row copied whole into registers for its sampling (gpu.ROW_COPY); blocks of
 64 threads; fewer of the marks, x, v, f in shared memory (gpu.SHARED_ARRAYS); caps on the registers;
 a module for per-atom masses; and, with --reference-kernel DIR, the kernel in DIR (another
 revision's plugin/kernel folder, its local arrays 32 or 64 long as ece083f's engine rounded n,
@@ -293,6 +294,9 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "listed"}),
             "marks alone, masked": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "masked"}),
             "marks and x in shared memory, masked": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked"}),
+            "each due row copied whole into registers (ROW_COPY)": ({}, {"ROW_COPY": True}),
+            "marks and x in shared memory, masked, rows copied": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked",
+                                                                       "ROW_COPY": True}),
             "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)

@@ -421,25 +421,27 @@ def test_a_module_built_for_another_batch_runs_no_chain_and_is_refused(tmp_path,
         gpu.run_arrays(a)
 
 
-@pytest.mark.parametrize("block,shared,sampling", [(1, 4, "per_atom"), (4, 1, "listed"), (19, 4, "listed"),
-                                                   (19, 3, "per_atom"), (19, 2, "listed"), (19, 1, "masked"), (19, 2, "masked"),
-                                                   (4, 4, "masked")])
-def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, sampling):
+@pytest.mark.parametrize("block,shared,sampling,row_copy", [
+    (1, 4, "per_atom", False), (4, 1, "listed", False), (19, 4, "listed", False), (19, 3, "per_atom", False),
+    (19, 2, "listed", False), (19, 1, "masked", False), (19, 2, "masked", False), (4, 4, "masked", False),
+    (19, 1, "listed", True), (4, 2, "masked", True), (19, 4, "per_atom", True)])
+def test_the_short_chains_runs_change_no_bit(tmp_path, monkeypatch, emulated_gpu, block, shared, sampling, row_copy):
     """The short chains' kernel steps the free atoms in runs of at most gpu.SHORT_BLOCK (a
     compile-time constant, chosen by the registers it leaves, benchmarks/gpu_resources.py): one
     atom, a few runs, or one run of all 19; x, v, f in shared memory or registers (the first
     `shared` of marks, x, v, f in shared memory); the record's rows sampled per atom, or listed
-    or marked in a bit mask and sampled after the step: bit for bit the host engine's (runs of
-    its BLOCK, sampled per run)."""
+    or marked in a bit mask and sampled after the step, each row sampled in place or copied
+    whole (gpu.ROW_COPY): bit for bit the host engine's (runs of its BLOCK, sampled per run)."""
     monkeypatch.setattr(gpu, "SHORT_BLOCK", block)
     monkeypatch.setattr(gpu, "SHARED_ARRAYS", shared)
     monkeypatch.setattr(gpu, "SAMPLING", sampling)
+    monkeypatch.setattr(gpu, "ROW_COPY", row_copy)
     cases = members(friction=FRICTION)
     assert assert_same_outputs(run_both(cases, tmp_path, monkeypatch))
     a = prepare(cases, "gpu")
     assert emulated_gpu.modules[0] == gpu.compile_options(21, gpu.batch_case(a), one_mass=True)
-    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLING={gpu.SAMPLINGS[sampling]}"} <= set(
-        emulated_gpu.modules[0])
+    assert {f"-DPL_BLOCK={block}", f"-DPL_SHARED_ARRAYS={shared}", f"-DPL_SAMPLING={gpu.SAMPLINGS[sampling]}",
+            f"-DPL_ROW_COPY={int(row_copy)}"} <= set(emulated_gpu.modules[0])
 
 
 @pytest.mark.parametrize("segment,threads", [(1, 256), (3, 256), (8, 4)])

@@ -59,6 +59,12 @@ SHARED_THREADS = 32
 # 10 % spread of "listed" in six alternating runs at 10^6 members: docs/performance.md)
 SAMPLING = "listed"
 SAMPLINGS = {"per_atom": 0, "listed": 1, "masked": 2}  # engine_gpu.cu's PL_SAMPLING
+# ... each due row read whole into registers before its sampling and written back after (chain.h's
+# PL_ROW_COPY): one wait on local memory for its loads, where front::advance waits on one load
+# after another behind its branches (static SASS of the paper's module, 2026-11-28: its 36 loads in
+# one wave, against about eight; more register moves). Off until timed on a device (bench_gpu.py
+# --variants); the bits are the same either way (tests/test_gpu_emulated.py)
+ROW_COPY = False
 # Chains of up to 64 magnets run in a module compiled for their length n (engine_gpu.cu: PL_LOCAL_N)
 LOCAL_MAX = 64
 # ... in runs of free atoms of at most SHORT_BLOCK: the paper's 21 magnets in one run of 19, every
@@ -287,7 +293,8 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
             f"-DPL_LAW_Q={q!r}", f"-DPL_FRICTION={int(friction)}", f"-DPL_RECORD={int(record)}",
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}",
             f"-DPL_THREADS={block_threads(local) if local else LONG_THREADS}",
-            f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLING={SAMPLINGS[SAMPLING]}", "-fmad=false",
+            f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLING={SAMPLINGS[SAMPLING]}",
+            f"-DPL_ROW_COPY={int(ROW_COPY)}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 

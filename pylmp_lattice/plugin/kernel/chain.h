@@ -166,12 +166,31 @@ template <class R> struct GatesFor<Sampling::per_run, R> {
   PL_HD static type of(ChainDataT<R> &c) { return type{c.gate}; }
 };
 
+/* With PL_ROW_COPY (the GPU's short chains, engines/gpu.py's ROW_COPY), sample_cold reads the
+   row whole into an array indexed by constants (registers) before it samples, and writes it back
+   whole after: front::advance's loads, each behind a branch on the one before, then wait on one
+   another (local memory, often beyond L1) where the copy issues all of them at once. The same
+   arithmetic on the same values: the same bits. */
+#ifndef PL_ROW_COPY
+#define PL_ROW_COPY 0
+#endif
+
 /* front::sample_row, cold: a call keeps the lanes' code small; it takes values, so that the
    caller's arrays of x, v, f (the GPU's, in registers) are not handed to a call */
 PL_HD PL_COLD inline void sample_cold(double *r, unsigned char &phase, double v, double f, double m, double v_prev,
                                       const front::Levels L, const front::Sample s)
 {
-  front::sample_row(r, phase, v, f, m, v_prev, L, s);
+  if constexpr (PL_ROW_COPY != 0) {
+    double row[front::NCOL];
+    PL_UNROLL
+    for (int k = 0; k < front::NCOL; k++) row[k] = r[k];
+    front::sample_row(row, phase, v, f, m, v_prev, L, s);
+    PL_UNROLL
+    for (int k = 0; k < front::NCOL; k++)
+      if (k != front::V_ABS_MAX) r[k] = row[k];    // (advance never writes it: the mark's copy, end_lane's)
+  } else {
+    front::sample_row(r, phase, v, f, m, v_prev, L, s);
+  }
 }
 
 /* the front record's sampling of a run's rows (FrontPass's hook), per running lane: the active
