@@ -282,6 +282,10 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     cap = lambda registers: capped(gpu.compile_options, registers)  # noqa: E731
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
+            # (untimed yet: early, in case the stage runs out of time)
+            "each due row copied whole into registers (ROW_COPY)": ({}, {"ROW_COPY": True}),
+            "marks and x in shared memory, masked, rows copied": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked",
+                                                                       "ROW_COPY": True}),
             "the due rows sampled each after its atom's kick": ({}, {"SAMPLING": "per_atom"}),
             "blocks of 64 threads": ({}, {"SHARED_THREADS": 64}),
             "marks, x, v in shared memory, at most 160 registers": ({}, {"SHARED_ARRAYS": 3, "compile_options": cap(160)}),
@@ -294,9 +298,6 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
             "marks alone, listed": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "listed"}),
             "marks alone, masked": ({}, {"SHARED_ARRAYS": 1, "SAMPLING": "masked"}),
             "marks and x in shared memory, masked": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked"}),
-            "each due row copied whole into registers (ROW_COPY)": ({}, {"ROW_COPY": True}),
-            "marks and x in shared memory, masked, rows copied": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked",
-                                                                       "ROW_COPY": True}),
             "per-atom masses (a module for mass disorder)": ({}, {"one_mass": lambda _a: False})}
     if reference:
         # its arrays of 32 or 64 and blocks of 128 (the -D options it does not know are unused)
