@@ -375,8 +375,9 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
     from pylmp_lattice.sweep import disk
 
     out = tmp_path / "sw"
-    for name in ("a", "b", "c"):  # three folders of another sweep's members
+    for name in ("a", "b", "c"):  # three folders of another sweep's members, done
         (out / store.MEMBERS / name).mkdir(parents=True)
+        store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
     checked, real = [], disk.check
 
     def check(sweep, root, todo, slots):
@@ -387,6 +388,39 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
     rc, err = cli(capsys, "sweep", write_sweep(tmp_path, velocities=[1.0]), "-o", out, "--quiet")
     assert rc == 2 and "stopped after the disk check" in err
     assert checked == [(0, "about 0 B on disk")]
+
+
+@pytest.mark.parametrize("retry", [False, True], ids=["failed kept", "--retry-failed"])
+def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeypatch, capsys, retry):
+    """The disk estimate of a resumed sweep: members whose folder holds an interrupted or
+    unrecorded run (or is a link) run again and need their disk, as do failed ones with
+    --retry-failed; done ones (and failed ones kept) do not. It used to count every folder as
+    done: "about 0 B on disk" for a sweep whose members were all interrupted."""
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import disk, load_sweep
+
+    sweep_file = write_sweep(tmp_path, velocities=[1.0, 1.5, 2.0, 2.5, 3.0, 3.5])
+    out = tmp_path / "sw"
+    members = out / store.MEMBERS
+    states = {"done": "done", "failed": "failed", "interrupted": "interrupted", "running": "running", "none": None}
+    for name, status in states.items():
+        (members / name).mkdir(parents=True)
+        if status:
+            store.write_status(members / name, {"id": name, "status": status})
+    (members / "link").symlink_to(members / "done", target_is_directory=True)
+    checked, real = [], disk.check
+
+    def check(sweep, root, todo, slots):
+        checked.append((todo, real(sweep, root, todo, slots)))
+        raise UsageError("-o", "stopped after the disk check")
+
+    monkeypatch.setattr(disk, "check", check)
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet", *(["--retry-failed"] if retry else []))
+    assert rc == 2 and "stopped after the disk check" in err
+    todo = 6 - 1 - (0 if retry else 1)  # of the six members, the done one (and the failed one) stand
+    each = disk.member_bytes(load_sweep(sweep_file), 1)
+    assert checked == [(todo, real(load_sweep(sweep_file), out, todo, 1))] and each > 0.5e6
+    assert store.Outcomes(out).to_keep(retry) == 6 - todo
 
 
 def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,

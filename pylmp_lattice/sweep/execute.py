@@ -90,8 +90,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
     refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
-    # --yes or not; at_most() counts another sweep's members kept in DIR too, so it may exceed total
-    disk_need = disk.check(sweep, root, max(0, total - Outcomes(root).at_most()), slots_now)
+    # --yes or not; to_keep() counts another sweep's members kept in DIR too, so it may exceed total
+    disk_need = disk.check(sweep, root, max(0, total - Outcomes(root).to_keep(retry_failed)), slots_now)
     log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now, bool(stats)), disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "

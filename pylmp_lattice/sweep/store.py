@@ -97,6 +97,21 @@ class Outcomes:
         self._read()
         return len(self._batched) + len(self._folders - self._batched.keys())
 
+    def to_keep(self, retry_failed: bool = False) -> int:
+        """How many members may keep their outcome on disk (not run again): done in a batch, or a
+        folder of their own whose status says done (or failed, unless `retry_failed`). An upper
+        bound for the disk estimate: it reads each member folder's status.json, not its summary or
+        case (`outcome` does); a folder that is a link, or whose run was interrupted or never
+        recorded, is run again."""
+        self._read()
+        keep = (DONE,) if retry_failed else (DONE, FAILED)
+        own = 0
+        for member_id in self._folders - self._batched.keys():
+            folder = member_folder(self.root, member_id)
+            record = None if folder.is_symlink() else read_status(folder)
+            own += isinstance(record, dict) and record.get("status") in keep
+        return len(self._batched) + own
+
     def none_of(self, member_ids: list[str]) -> bool:
         """Whether none of these members has an outcome on disk, or a folder of its own."""
         self._read()
