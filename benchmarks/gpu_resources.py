@@ -22,6 +22,7 @@ kernel side by side.
     python benchmarks/gpu_resources.py [--particles 21,40,64] [--reference ece083f]
     python benchmarks/gpu_resources.py --particles 21 --blocks 4,8,10,19   # the short chains' block
     python benchmarks/gpu_resources.py --particles 100,1000,10000          # the long chains' kernel
+    python benchmarks/gpu_resources.py --particles 21 --row-copy           # gpu.ROW_COPY's variant
 
 Exit 2 with one line where NVRTC is not installed (nvdisasm is optional: '-' without it).
 """
@@ -179,7 +180,10 @@ def main() -> None:
                                                 "or gpu.long_segment)")
     p.add_argument("--nvdisasm", help="nvdisasm's path (else PATH, then the nvidia-cuda-nvdisasm wheel)")
     p.add_argument("--reference", help="a git revision whose kernel gets the same rows (e.g. ece083f)")
+    p.add_argument("--row-copy", action="store_true", help="with gpu.ROW_COPY: each due row of the record copied "
+                                                           "whole into registers for its sampling")
     args = p.parse_args()
+    gpu.ROW_COPY = args.row_copy or gpu.ROW_COPY
     if nvrtc.load() is None:
         print("gpu_resources: NVIDIA's NVRTC is not installed (pip install nvidia-cuda-nvrtc)", file=sys.stderr)
         raise SystemExit(2)
@@ -205,7 +209,8 @@ def main() -> None:
             print(f"gpu_resources: --reference {args.reference}: git archive failed: {why[-1] if why else err}",
                   file=sys.stderr)
             raise SystemExit(2) from None
-        print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads")
+        print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads"
+              f"{'; due rows copied whole (ROW_COPY)' if gpu.ROW_COPY else ''}")
         print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
               "the rest | spill stores / loads (B) | the step's LDL/STL (static) | shared memory per block | threads/SM | "
               "resident threads | their stack | their rest | stack at 2048 threads/SM |")
