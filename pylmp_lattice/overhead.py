@@ -35,9 +35,11 @@ slows it unannounced.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -269,11 +271,25 @@ def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:
                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
             wall, contended = _timed(child, start)
-            least = min(least, wall / contended)
-        finally:
-            if child.wait():
-                raise subprocess.CalledProcessError(child.returncode, child.args)
+        except BaseException:  # Ctrl-C (or SIGTERM) for the command: the measuring stops too, the signal goes on
+            _stop(child)
+            raise
+        if child.wait():
+            raise subprocess.CalledProcessError(child.returncode, child.args)
+        least = min(least, wall / contended)
     return least
+
+
+def _stop(child: subprocess.Popen, grace: float = 5.0) -> None:
+    """The measuring command stopped as Ctrl-C stops it (its sweep's workers too), killed if it
+    has not exited after `grace` s."""
+    with contextlib.suppress(OSError):
+        child.send_signal(signal.SIGINT)
+    try:
+        child.wait(grace)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.wait()
 
 
 def _timed(child: subprocess.Popen, start: float, every: float = 0.1) -> tuple[float, float]:

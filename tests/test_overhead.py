@@ -164,6 +164,31 @@ def test_a_measured_wall_time_counts_over_its_commands_contention(monkeypatch, t
     assert seen == [["run", "tiny.toml", "-o", "r0"], ["run", "tiny.toml", "-o", "r1"]]
 
 
+def test_ctrl_c_while_measuring_stops_the_measuring_command_and_goes_on(monkeypatch, tmp_path, cache, caplog):
+    """Ctrl-C during a machine's first estimate: the command being measured gets the SIGINT too
+    and the KeyboardInterrupt goes on to the caller (exit 130), where it used to be taken for a
+    failed measurement (the child's exit -2), so that the sweep ran on to its end and exited 0;
+    nothing is cached."""
+    children = []
+    real = subprocess.Popen
+
+    def popen(args, **kwargs):  # a command that would run for a minute
+        children.append(real([sys.executable, "-c", "import time; time.sleep(60)"]))
+        return children[-1]
+
+    def interrupted(child, start):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(overhead.subprocess, "Popen", popen)
+    monkeypatch.setattr(overhead, "_timed", interrupted)
+    start = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        overhead.overheads(measure=True)
+    assert time.perf_counter() - start < 5 and len(children) == 1
+    assert children[0].returncode == -2  # stopped as Ctrl-C stops it
+    assert not overhead.cache_file().exists() and "could not measure" not in caplog.text
+
+
 def test_a_sweep_estimate_adds_the_replica_statistics_where_the_cli_draws_them(cache):
     """The 12-member example (3 points x 4 batched replicas of the 21-magnet experiment, 4800
     steps) on 2 workers: the sweep's own start-up and end, 3 tasks at member_s and their steps,
