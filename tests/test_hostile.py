@@ -258,6 +258,15 @@ def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, d
     assert snapshot(outside) == before and link.is_symlink()
 
 
+def test_a_sweep_folder_lammps_cannot_name_is_refused_before_any_member(tmp_path, capsys):
+    """A sweep folder with a space (or another character LAMMPS splits or reads) under the embedded
+    runner: refused up front, exit 2, nothing written, where every member used to fail on it."""
+    folder = tmp_path / "s w"
+    rc, err = cli(capsys, "sweep", write_sweep(tmp_path), "-o", folder, "--quiet")
+    assert rc == 2 and "embedded runner needs a path" in err and 'runner = "lmp"' in err
+    assert len(err.strip().splitlines()) == 1 and not folder.exists()
+
+
 # ----------------------------------------------------------------------------- sweeps
 
 def write_sweep(folder: Path, velocities=(1.0, 2.0), base: str | None = None) -> Path:

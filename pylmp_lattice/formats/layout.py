@@ -98,7 +98,7 @@ def deck_dir(folder: Path) -> str:
             return path
     raise UsageError("output", f"got folder {str(folder)!r}; the embedded runner needs a path of letters, digits "
                                 "and ._-+,:@%=~/ only (LAMMPS splits commands at spaces); choose another -o "
-                                "or use --runner lmp")
+                                "or use the lmp runner (--runner lmp; runner = \"lmp\" in a sweep file)")
 
 
 def check_place(path: Path, what: str) -> None:

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from ..errors import ConfigError, Interrupted, UsageError
 from ..formats.files import DiskFull, remove_tree
+from ..formats.layout import deck_dir
 from ..run_folder import marker
 from . import disk
 from .batch import Task
@@ -80,6 +81,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
     check_folder(root)
     sweep = _with_engine(sweep, engine)
+    if sweep.runner == "embedded" and sweep.engine == "lammps":  # every member's folder is in it: refused now, not each
+        deck_dir(Path(root))  # member as it runs (the kernel engines' batches need no deck path; their others do)
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
