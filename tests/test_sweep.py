@@ -377,6 +377,11 @@ def test_sweep_from_python_accepts_a_case(case_factory):
         ('base = "missing.toml"\n', "base: file not found"),
         ('[grid]\n"impactor.velocity" = [1.0]\n', "base: missing"),
         ('base = "base.toml"\nreplicas = 3\n', "replicas: got 3; no member has a random chain"),
+        # a misspelt field is named before replicas are found to need a random chain, and a key
+        # inside a swept section by its own name
+        ('base = "base.toml"\nreplicas = 2\n[grid]\n"chain.partcles" = [21]\n', "grid.chain.partcles: unknown key"),
+        ('base = "base.toml"\n[grid]\nforce = [{law = "power", K = 413.8, b = 3.917, q = 3.0, bogus = 1}]\n',
+         "grid.force.bogus: unknown key; expected one of K, b, q"),
         ('base = "base.toml"\nkeep = "nothing"\n', "keep: got 'nothing'; choose one of all, measures"),
         # a bad [set] value would fail every member: refused before any starts
         ('base = "base.toml"\nreplicas = 2\n[set]\n"chain.thermal_velocity" = "0.02 m/s"\n',

@@ -325,11 +325,11 @@ class Sweep:
         if self.replicas > 1 and seeded:
             raise ConfigError(seeded[0], f"with replicas = {self.replicas}, every replica would have this seed (one "
                               "chain, run once); leave chain.seed out: each replica gets its own from the sweep's seed")
-        if self.replicas > 1 and not self._may_be_random():
-            raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
-                              f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
         self._check_fixed()
         self._check_kinds()
+        if self.replicas > 1 and not self._may_be_random():  # (after the fields: a misspelt one is named first)
+            raise ConfigError("replicas", f"got {self.replicas}; no member has a random chain "
+                              f"({', '.join('chain.' + f for f in RANDOM_FIELDS)}), so replicas would be identical")
 
     def _may_be_random(self) -> bool:
         """Whether some member's chain is random: the base with [set], or a swept chain value."""
@@ -510,7 +510,9 @@ class Sweep:
         section = err.field.split(".")[0]
         tables = [(table, key) for table in ("set", "grid", "zip") for key in getattr(self, table)]
         for table, key in tables:
-            if err.field == key or section == key or key.split(".")[0] == err.field:
+            if err.field == key or err.field.startswith(f"{key}."):  # (a key inside a swept section: named)
+                raise ConfigError(f"{table}.{err.field}", message) from err
+            if key.split(".")[0] == err.field:
                 raise ConfigError(f"{table}.{key}", message) from err
         for table, key in tables:  # e.g. force.law swept alone: the base's other force fields do not fit
             if key.split(".")[0] == section:
