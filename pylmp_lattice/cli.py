@@ -353,6 +353,9 @@ def _export(args) -> int:
     return 0
 
 
+FAILURES_SHOWN = 3  # a sweep's distinct reasons for failed members, said at its end
+
+
 def _sweep(args) -> int:
     try:
         from .sweep.pool import one_blas_thread, start_forkserver
@@ -387,6 +390,13 @@ def _sweep(args) -> int:
           f"{failed} failed" + (f", {interrupted} interrupted{unstarted} (a worker was lost; run the same command to "
                                  "finish)" if interrupted else "")
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)
+    if failed:  # why, without opening the table (a swept value out of range fails its members)
+        errors = list(dict.fromkeys(table.loc[table["status"] == "failed", "error"].dropna().astype(str)))
+        for error in errors[:FAILURES_SHOWN]:
+            print(f"pylmp-lattice: failed: {error}", file=sys.stderr)
+        if len(errors) > FAILURES_SHOWN:
+            print(f"pylmp-lattice: failed: and {len(errors) - FAILURES_SHOWN} other reasons (the table's error column)",
+                  file=sys.stderr)
     from .sweep import stats  # loads matplotlib: only now
 
     if sweep.replicas > 1:

@@ -68,7 +68,9 @@ def threads_after(code: str, env: dict[str, str] | None = None) -> tuple[int, st
     """This process's threads after a fresh Python ran `code` (numpy's OpenBLAS starts its own as it
     loads), and OPENBLAS_NUM_THREADS in its environment then."""
     script = (f"import os\n{code}\nprint(len(os.listdir('/proc/self/task')), os.environ.get('OPENBLAS_NUM_THREADS'))")
-    base = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    # (Dask's distributed, once imported by an earlier test, sets OMP_, MKL_ and OPENBLAS_NUM_THREADS
+    # to 1 in this process: OpenBLAS reads OMP_NUM_THREADS too)
+    base = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "GOTO_NUM_THREADS")}
     env = base | (env or {}) | {"PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=ROOT)
     threads, value = done.stdout.split()

@@ -1574,3 +1574,21 @@ def test_sweep_files_are_readable_as_the_umask_says(tmp_path):
 
     atomic_write(tmp_path / "results.csv", "id\n")
     assert (tmp_path / "results.csv").stat().st_mode & 0o777 == 0o666 & ~UMASK
+
+
+@pytest.mark.parametrize("module", ["pylmp_lattice.cli", "pylmp_lattice"])
+def test_a_sweep_run_as_a_module_says_why_members_failed_without_warnings(tmp_path, module):
+    """`python -m pylmp_lattice[.cli] sweep`, local workers: a swept value out of range fails its
+    member (checked per member: a field's range may depend on the others), and the command's last
+    lines say why, from the table's error column; no worker warns that multiprocessing ran the
+    command's module again (runpy's RuntimeWarning, once per worker, with -m pylmp_lattice.cli)."""
+    base = Path(__file__).resolve().parents[1] / "inputs" / "paper_experiment.toml"
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(f'base = "{base}"\nkeep = "measures"\n[set]\n"run.duration" = 2.0\n'
+                     '[grid]\n"impactor.velocity" = [1.0, -2.0]\n')
+    done = subprocess.run([sys.executable, "-m", module, "sweep", str(sweep), "-o", str(tmp_path / "out"), "--quiet",
+                           "--workers", "1"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1, done.stderr
+    assert "2 members: 1 done, 1 failed" in done.stderr
+    assert "pylmp-lattice: failed: impactor.velocity: got -2.0 m/s; expected > 0" in done.stderr
+    assert "Warning" not in done.stderr, done.stderr

@@ -5,8 +5,14 @@ them again (nor writes to their pages, which the workers share with the server);
 one OpenBLAS thread (`pool.one_blas_thread`)."""
 
 import gc
+import warnings
 
 from .pool import one_blas_thread
+
+# `python -m pylmp_lattice.cli sweep ...`: multiprocessing runs the command's module again in each
+# worker as its __mp_main__ (runpy), which warns that the server preloaded it already (harmless:
+# the module defines, its main() is guarded). The filter is the server's, so its workers' too.
+warnings.filterwarnings("ignore", message=r"'pylmp_lattice\.cli' found in sys\.modules", category=RuntimeWarning)
 
 with one_blas_thread():
     gc.disable()

@@ -1,0 +1,8 @@
+"""`python -m pylmp_lattice ...`: the pylmp-lattice command."""
+
+import sys
+
+from .cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())
