@@ -218,6 +218,39 @@ print(json.dumps({"main": masks.pop(str(os.getpid())), "others": list(masks.valu
     assert len(masks["others"]) == 2 and all(mask & stops == stops for mask in masks["others"]), masks
 
 
+def test_a_stop_that_lands_in_a_finalizer_prints_no_traceback():
+    """A worker's stop signal raises Interrupted in whatever Python code runs: inside a finalizer
+    (an h5py object's __dealloc__, a weak reference's callback) Python drops it and printed
+    "Exception ignored in ..." with a traceback (2 of 15 Ctrl-C of a keep = "all" sweep). Now
+    dropped quietly; the stop itself stands, and another exception in a finalizer is still shown."""
+    code = """
+import multiprocessing, os, signal, time
+from pylmp_lattice.sweep import pool, signals
+alive, stop = multiprocessing.Pipe(duplex=False), multiprocessing.Pipe(duplex=False)
+pool._pool_worker_init(alive[0], stop[0])
+signals.IN_TASK.set()  # in a task: a stop raises Interrupted where the main thread is
+
+class Finalized:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.2)  # the handler runs here, inside the finalizer
+
+class Broken:
+    def __del__(self):
+        raise ValueError("a finalizer's own error")
+
+del_me = Finalized()
+del del_me
+print("stop stands:", signals.STOP.is_set(), flush=True)
+other = Broken()
+del other
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert "stop stands: True" in done.stdout, (done.stdout, done.stderr)
+    assert "Interrupted" not in done.stderr and done.stderr.count("Exception ignored") == 1, done.stderr
+    assert "a finalizer's own error" in done.stderr
+
+
 STOPPED_WHILE_SENDING = """import os, sys, time
 from pathlib import Path
 from pylmp_lattice.errors import Interrupted

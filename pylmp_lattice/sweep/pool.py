@@ -232,6 +232,20 @@ def _send_whole() -> None:
     SimpleQueue.put = whole
 
 
+def _quiet_stops_in_finalizers() -> None:
+    """A stop signal's Interrupted raised while a finalizer ran (an h5py object's __dealloc__, a
+    weak reference's callback) is dropped by Python with a traceback on stderr (2 of 15 Ctrl-C of
+    a keep = "all" sweep): dropped quietly. The stop stands (`signals.STOP`): no member starts
+    after it, and the worker exits GRACE s later (`signals.stopping`)."""
+    default = sys.unraisablehook
+
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, Interrupted):
+            default(unraisable)
+
+    sys.unraisablehook = hook
+
+
 def _pool_worker_init(alive, stop, gpu: bool = False, warm=None) -> None:
     """A pool worker: a stop signal, or the coordinator's stop pipe closing, stops its member and
     any later start, and the worker exits GRACE seconds later, once a result it is sending is
@@ -255,6 +269,7 @@ def _pool_worker_init(alive, stop, gpu: bool = False, warm=None) -> None:
     for s in STOP_SIGNALS:
         signal.signal(s, on_signal)
     _send_whole()
+    _quiet_stops_in_finalizers()
 
     def watch(end, then):
         with contextlib.suppress(EOFError, OSError):
