@@ -114,6 +114,20 @@ def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_pat
     assert len([n for n in notes if "runs alone" in n]) == 1, notes
 
 
+def test_the_fallback_note_is_said_once_by_the_command_however_many_workers(tmp_path):
+    """Members that run alone under engine cpu (trajectories kept), on 2 local workers: the
+    command says so once, with its prefix, where each worker used to print it itself, bare."""
+    sweep = tmp_path / "all.toml"
+    sweep.write_text(f'base = "{EXPERIMENT}"\nkeep = "all"\n[set]\n"run.duration" = 2.0\n'
+                     '[grid]\n"impactor.velocity" = [1.0, 2.0, 3.0, 4.0]\n')
+    done = subprocess.run([sys.executable, "-m", "pylmp_lattice", "sweep", str(sweep), "-o", str(tmp_path / "out"),
+                           "--engine", "cpu", "--workers", "2", "--quiet"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    notes = [line for line in done.stderr.splitlines() if "cannot run some members" in line]
+    assert notes == ["pylmp-lattice: warning: engine cpu cannot run some members (a member that runs alone "
+                     "(trajectories kept, or not batched with others)): they run with LAMMPS"], done.stderr
+
+
 def test_a_host_build_of_another_abi_is_noted_once_and_the_members_run_with_lammps(tmp_path, caplog, monkeypatch):
     """A latticeengine.so left from an older install (another ABI): every batch runs with LAMMPS,
     and the log says why once, not a refusal hidden in each batch's run.json."""

@@ -15,7 +15,7 @@ own outcome. Anything else (trajectories kept, one member) runs alone with `run_
 
 The engine of a batch is LAMMPS, or with engine = "cpu" or "gpu" the chain kernel
 (`engines.road.KernelEngine`) on the same road into the same folder; members it cannot run
-(and those that run alone) run with LAMMPS, and the log says so once per reason and process.
+(and those that run alone) run with LAMMPS, and the sweep's log says so once per reason (`Note`).
 
 Stopping: with this process's stop flag set (`signals.STOP`) no further member starts: the task
 returns its unstarted and stopped members as "interrupted".
@@ -75,11 +75,11 @@ class Task:
         return tuple(m for part in self.members for m in (part if isinstance(part, Replicas) else (part,)))
 
 
-def run_task(task: Task) -> list[dict | Rows]:
+def run_task(task: Task) -> list[dict | Rows | Note]:
     """Run the task's members: the table's rows of the members done in a batch (`table.Rows`,
     one per batch: no dict per member), then one result per other member, in order: {"id",
-    "record", "summary"}. Every member's outcome is on disk (its status written last) before
-    it is returned."""
+    "record", "summary"}, then the `Note`s for the sweep's log. Every member's outcome is on
+    disk (its status written last) before it is returned."""
     signals.IN_TASK.set()
     try:
         with _collector_paused():
@@ -113,15 +113,16 @@ def _collector_paused():
                 gc.enable()
 
 
-def _run_task(task: Task) -> list[dict | Rows]:
+def _run_task(task: Task) -> list[dict | Rows | Note]:
     members = task.each()
     with task_lock(task.root, [m.id for m in members]):  # copies of a task (Dask) take turns
         return _run_members(Path(task.root), task, members)
 
 
-def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[dict | Rows]:
+def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[dict | Rows | Note]:
     results: dict[str, dict] = {}
     rows: list[Rows] = []  # of the batches done
+    notes: dict[str, None] = {}  # why some ran with LAMMPS (`Note`s, in order, each once)
     # a task run again (e.g. by Dask after its worker died) keeps what is done: its batches are
     # named by their first member
     ids = [m.id for m in members]
@@ -141,17 +142,17 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
         if signals.stop_asked():
             break
         if len(group) > 1:
-            done = _run_batch(root, group, task.runner, started, task.engine, task.threads)
+            done = _run_batch(root, group, task.runner, started, task.engine, task.threads, notes)
             if isinstance(done, list):
                 rows += done
             else:
                 results |= done
         else:
             if task.engine != "lammps":
-                _note(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")
+                notes[_fallback(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")] = None
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     batched = {i for r in rows for i in r.columns["id"]}
-    return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched)]
+    return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched), *map(Note, notes)]
 
 
 def _cases(task: Task, members: list[Member]) -> list[Case | None]:
@@ -212,11 +213,11 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
 
 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str, kind: str = "lammps",
-               threads: int | None = None) -> list[Rows] | dict[str, dict]:
+               threads: int | None = None, notes: dict | None = None) -> list[Rows] | dict[str, dict]:
     """Run the group as one batch, a run folder on the road of every run (`execute_batch`), by
-    the `kind` engine (LAMMPS if the kernel cannot run it): its members' rows of the table
-    (`table.batch_rows`). A failed batch runs each member alone, a stopped one leaves them
-    interrupted: their results by id."""
+    the `kind` engine (LAMMPS if the kernel cannot run it, which `notes` gets: `_fallback`): its
+    members' rows of the table (`table.batch_rows`). A failed batch runs each member alone, a
+    stopped one leaves them interrupted: their results by id."""
     from ..case_measures import chain_draws
     from ..engines.road import kernel_engine
     from ..formats import layout
@@ -227,7 +228,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     draws = chain_draws(cases)  # the members' chains, drawn once for the engine and the measures
     engine = kernel_engine(kind, cases, threads, draws) if kind != "lammps" else runner
     if isinstance(engine, str) and kind != "lammps":
-        _note(kind, engine)
+        if notes is not None:
+            notes[_fallback(kind, engine)] = None
         engine, kind = runner, "lammps"
     batch = _fresh(root / BATCHES / group[0][0].id)
     try:
@@ -282,11 +284,17 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
                       record["batch"], record, written["cols"]["summary"], texts)
 
 
-def _note(kind: str, why: str, noted: set = set()) -> None:  # noqa: B006 - the reasons noted in this process
-    """The one line that says members run with LAMMPS, not the `kind` engine (once per reason)."""
-    if why not in noted:
-        noted.add(why)
-        log.warning("engine %s cannot run some members (%s): they run with LAMMPS", kind, why)
+@dataclass(frozen=True)
+class Note:
+    """A line for the sweep's log among a task's results: the coordinator says each once a sweep
+    (a worker's own log would say it once per worker, without the command's prefix)."""
+
+    text: str
+
+
+def _fallback(kind: str, why: str) -> str:
+    """The line that says members run with LAMMPS, not the `kind` engine, and why."""
+    return f"engine {kind} cannot run some members ({why}): they run with LAMMPS"
 
 
 def _batch_stopped(group: list[tuple[Member, Case]], batch: Path, started: str, err: Interrupted) -> dict[str, dict]:

@@ -35,7 +35,7 @@ from ..formats.files import DiskFull, remove_tree
 from ..formats.layout import deck_dir
 from ..run_folder import marker
 from . import disk
-from .batch import Task
+from .batch import Note, Task
 from .blocks import GPU_MAX_ATOMS, _Blocks  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
 from .estimate import _estimate
 from .folder import check_folder, claim, lock, refuse_other
@@ -149,6 +149,7 @@ class _Coordinator:
         self.preload = None
         self.broken: list[Task] = []  # tasks whose worker did not report: read from disk once the workers are gone
         self.kept = self.kept_failed = 0  # members whose outcome on disk stood (a resumed sweep's), failed ones
+        self.noted: set[str] = set()  # the workers' notes said (`batch.Note`)
 
     def run(self):
         tasks = self._tasks()
@@ -331,6 +332,11 @@ class _Coordinator:
             return
         members = None
         for result in results:
+            if isinstance(result, Note):  # a line for the log, once a sweep
+                if result.text not in self.noted:
+                    self.noted.add(result.text)
+                    log.warning("%s", result.text)
+                continue
             if isinstance(result, Rows):  # a batch's members, done
                 self.table.add(result)
                 self.bar.advance(DONE, len(result))
