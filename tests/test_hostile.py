@@ -432,6 +432,20 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
     assert store.Outcomes(out).to_keep(retry) == 6 - todo
 
 
+def test_a_resumed_sweep_estimates_only_the_members_left(tmp_path, swept, caplog):
+    """A finished sweep run again says how many of its members are left to run, and its time
+    estimate is theirs (none here: the start-up alone), not the whole sweep's again."""
+    import logging
+
+    out = tmp_path / "sw"
+    shutil.copytree(swept, out)
+    with caplog.at_level(logging.INFO, logger="pylmp_lattice"):
+        table = run_in_threads(write_sweep(tmp_path), out)
+    assert list(table["status"]) == ["done", "done"]
+    said = next(r.getMessage() for r in caplog.records if " members, " in r.getMessage())
+    assert said.startswith("sw: 2 members, 0 to run (about ") and "about 0 B on disk" in said, said
+
+
 def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,
                                                                              caplog, no_forkserver):
     """The disk fills for the third member's files (ENOSPC from the write primitive): the sweep

@@ -94,8 +94,10 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                     "and each worker holds its own engine in memory)", workers, cores)
     refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
     # --yes or not; to_keep() counts another sweep's members kept in DIR too, so it may exceed total
-    disk_need = disk.check(sweep, root, max(0, total - Outcomes(root).to_keep(retry_failed)), slots_now)
-    log.info("%s: %d members (%s; %s)", root.name, total, _estimate(sweep, total, slots_now, bool(stats)), disk_need)
+    todo = max(0, total - Outcomes(root).to_keep(retry_failed))
+    disk_need = disk.check(sweep, root, todo, slots_now)
+    log.info("%s: %d members%s (%s; %s)", root.name, total, f", {todo} to run" if todo < total else "",
+             _estimate(sweep, todo, slots_now, bool(stats)), disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")
