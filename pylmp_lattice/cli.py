@@ -392,7 +392,8 @@ def _sweep(args) -> int:
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)
     if failed:  # why, without opening the table (a swept value out of range fails its members)
         errors = list(dict.fromkeys(table.loc[table["status"] == "failed", "error"].dropna().astype(str)))
-        for error in errors[:FAILURES_SHOWN]:
+        for error in errors[:FAILURES_SHOWN]:  # (the table's paths are the sweep folder's: here, from where it ran)
+            error = re.sub(r"(?<![\w/.])(members|batches)/", lambda m: f"{args.output / m[1]}/", error)
             print(f"pylmp-lattice: failed: {error}", file=sys.stderr)
         if len(errors) > FAILURES_SHOWN:
             print(f"pylmp-lattice: failed: and {len(errors) - FAILURES_SHOWN} other reasons (the table's error column)",

@@ -1584,11 +1584,15 @@ def test_a_sweep_run_as_a_module_says_why_members_failed_without_warnings(tmp_pa
     command's module again (runpy's RuntimeWarning, once per worker, with -m pylmp_lattice.cli)."""
     base = Path(__file__).resolve().parents[1] / "inputs" / "paper_experiment.toml"
     sweep = tmp_path / "s.toml"
-    sweep.write_text(f'base = "{base}"\nkeep = "measures"\n[set]\n"run.duration" = 2.0\n'
-                     '[grid]\n"impactor.velocity" = [1.0, -2.0]\n')
-    done = subprocess.run([sys.executable, "-m", module, "sweep", str(sweep), "-o", str(tmp_path / "out"), "--quiet",
+    sweep.write_text(f'base = "{base}"\nkeep = "measures"\n[set]\n"run.duration" = 3.0\n'
+                     '[grid]\n"impactor.velocity" = [1.0, -2.0, 60.0]\n')
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", module, "sweep", str(sweep), "-o", str(out), "--quiet",
                            "--workers", "1"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 1, done.stderr
-    assert "2 members: 1 done, 1 failed" in done.stderr
+    assert "3 members: 1 done, 2 failed" in done.stderr
     assert "pylmp-lattice: failed: impactor.velocity: got -2.0 m/s; expected > 0" in done.stderr
+    # 60 m/s: magnets 1 and 2 touch at 2.5 ms; the line's paths work from where the command ran
+    contact = next(line for line in done.stderr.splitlines() if "touched" in line)
+    assert f"files kept in {out}/members/" in contact and f"`pylmp-lattice summarize {out}/members/" in contact
     assert "Warning" not in done.stderr, done.stderr
