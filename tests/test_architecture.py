@@ -38,7 +38,7 @@ LAYERS = [
     ("run folder", ["run_folder"]),
     ("sweeps", ["sweep"]),
     ("studies", ["studies"]),
-    ("interface", ["cli", ""]),  # "": the package's own __init__, the `pl` API
+    ("interface", ["cli", "__main__", ""]),  # "": the package's own __init__, the `pl` API; __main__: python -m
 ]
 
 
