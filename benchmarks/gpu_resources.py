@@ -210,7 +210,7 @@ def main() -> None:
                   file=sys.stderr)
             raise SystemExit(2) from None
         print(f"NVRTC {ARCH}, ptxas -v; {SMS} SMs x {REGISTERS_PER_SM} registers, blocks of {gpu.THREADS} threads"
-              f"{'; due rows copied whole (ROW_COPY)' if gpu.ROW_COPY else ''}")
+              f"{'; the short-chain kernel with its due rows copied whole (ROW_COPY; not --reference)' if gpu.ROW_COPY else ''}")
         print("| kernel, case | magnets | PL_LOCAL_N | block | registers | stack frame (B/thread) | of it record rows | "
               "the rest | spill stores / loads (B) | the step's LDL/STL (static) | shared memory per block | threads/SM | "
               "resident threads | their stack | their rest | stack at 2048 threads/SM |")

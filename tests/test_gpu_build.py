@@ -87,3 +87,21 @@ def test_the_paper_s_chains_hold_a_fraction_of_the_local_memory_they_held(monkey
                       r"spill stores, (\d+) bytes spill loads", got.log)
         stack, stores, loads = map(int, m.groups())
         assert stack < min(bound, 12592) and stores <= spill and loads <= spill, (case, shared, sampling, got.log)
+
+
+def test_row_copy_changes_the_short_chains_code_only(monkeypatch):
+    """gpu.ROW_COPY compiles chain.h's sample_cold with each due row copied into registers (the
+    emulated tests show its bits are the host's): the short chains' PTX differs from the default's,
+    while the long chains' kernel is compiled as without it (the copy's registers would cost it a
+    third of its resident threads)."""
+    from pylmp_lattice.engines import gpu
+
+    def ptx(n, row_copy):
+        monkeypatch.setattr(gpu, "ROW_COPY", row_copy)
+        options = compile_options(n, CASES[0])
+        rc, log, code = compile_ptx((*options, ARCH))
+        assert rc == 0, log
+        return options, code
+
+    assert ptx(21, False)[1] != ptx(21, True)[1]
+    assert ptx(1000, False)[0] == ptx(1000, True)[0]

@@ -282,6 +282,9 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
     not yet run on a device: docs/performance.md).
     -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
     NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function.
+    -DPL_ROW_COPY: ROW_COPY, for the short chains' kernel alone (with it the long chains' kernel
+    for 100 magnets took 250 registers, not 164, and held 104 threads an SM, not 156: ptxas
+    through NVRTC, 2026-11-28).
     -DPL_KERNEL_SOURCES: CuPy's disk cache keys a compiled module by its source and options, not
     the headers it includes, so their digest goes in the options (an edited header, a new version
     of the package, compiles anew instead of loading the old kernel)."""
@@ -294,7 +297,7 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
             f"-DPL_ONE_MASS={int(bool(local) and one_mass)}",
             f"-DPL_THREADS={block_threads(local) if local else LONG_THREADS}",
             f"-DPL_SHARED_ARRAYS={shared_arrays(local)}", f"-DPL_SAMPLING={SAMPLINGS[SAMPLING]}",
-            f"-DPL_ROW_COPY={int(ROW_COPY)}", "-fmad=false",
+            f"-DPL_ROW_COPY={int(ROW_COPY and bool(local))}", "-fmad=false",
             "-default-device", f"-DPL_KERNEL_SOURCES={_sources_digest(KERNEL)}")
 
 

@@ -166,7 +166,7 @@ template <class R> struct GatesFor<Sampling::per_run, R> {
   PL_HD static type of(ChainDataT<R> &c) { return type{c.gate}; }
 };
 
-/* With PL_ROW_COPY (the GPU's short chains, engines/gpu.py's ROW_COPY), sample_cold reads the
+/* With PL_ROW_COPY (the GPU's short chains alone, engines/gpu.py's ROW_COPY), sample_cold reads the
    row whole into an array indexed by constants (registers) before it samples, and writes it back
    whole after: front::advance's loads, each behind a branch on the one before, then wait on one
    another (local memory, often beyond L1) where the copy issues all of them at once. The same

@@ -28,7 +28,8 @@
 
    A module is compiled for one batch (engines/gpu.py's compile_options): PL_LOCAL_N > 0 builds
    the short chains' kernel for chains that long (PL_BLOCK its runs, PL_THREADS its block's
-   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLING as above), 0 the long chains'
+   threads, PL_ONE_MASS, PL_SHARED_ARRAYS and PL_SAMPLING as above, PL_ROW_COPY chain.h's
+   sample_cold copying each due row whole), 0 the long chains'
    kernel (PL_BLOCK its segments, PL_THREADS the most threads a block); PL_LAW_KIND (Law::Kind), PL_LAW_Q (a power law's q), PL_FRICTION and PL_RECORD pick the
    one case of chain.h's dispatch the batch runs. With every case in it (11 laws x friction x record, twice)
    NVRTC took 3 minutes to machine code for sm_90 per module; with one, seconds. */
