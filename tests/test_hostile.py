@@ -9,6 +9,7 @@ experiment cut to 2 ms (a second each).
 from __future__ import annotations
 
 import errno
+import json
 import os
 import pickle
 import shutil
@@ -381,12 +382,14 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
     """The members to run are the sweep's count less the outcomes on disk, an upper bound that
     counts another sweep's members too (`--overwrite` keeps them): "about -121 MB on disk"."""
     from pylmp_lattice.errors import UsageError
-    from pylmp_lattice.sweep import disk
+    from pylmp_lattice.sweep import disk, load_sweep
 
     out = tmp_path / "sw"
-    for name in ("a", "b", "c"):  # three folders of another sweep's members, done
+    sweep_file = write_sweep(tmp_path, velocities=[1.0])
+    for name in ("a", "b", "c"):  # three folders of another sweep's members, done (left by an --overwrite)
         (out / store.MEMBERS / name).mkdir(parents=True)
         store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
+    (out / store.SWEEP_FILE).write_text(json.dumps({"identity": load_sweep(sweep_file).identity()}))  # this sweep's
     checked, real = [], disk.check
 
     def check(sweep, root, todo, slots):
@@ -394,7 +397,7 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
         raise UsageError("-o", "stopped after the disk check")
 
     monkeypatch.setattr(disk, "check", check)
-    rc, err = cli(capsys, "sweep", write_sweep(tmp_path, velocities=[1.0]), "-o", out, "--quiet")
+    rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet")
     assert rc == 2 and "stopped after the disk check" in err
     assert checked == [(0, "about 0 B on disk")]
 
@@ -417,6 +420,7 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
         if status:
             store.write_status(members / name, {"id": name, "status": status})
     (members / "link").symlink_to(members / "done", target_is_directory=True)
+    (out / store.SWEEP_FILE).write_text(json.dumps({"identity": load_sweep(sweep_file).identity()}))  # this sweep's
     checked, real = [], disk.check
 
     def check(sweep, root, todo, slots):
@@ -432,6 +436,28 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
     assert store.Outcomes(out).to_keep(retry) == 6 - todo
 
 
+def test_another_sweep_s_members_count_as_none_of_this_one_s(tmp_path, monkeypatch, capsys):
+    """--overwrite of a folder that holds another sweep: its done members' folders stay on disk,
+    but none is this sweep's, so every member of this one is to run (and to fit on the disk)."""
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import disk
+
+    out = tmp_path / "sw"
+    for name in ("a", "b"):
+        (out / store.MEMBERS / name).mkdir(parents=True)
+        store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
+    (out / store.SWEEP_FILE).write_text(json.dumps({"identity": "another sweep"}))
+    checked = []
+
+    def check(sweep, root, todo, slots):
+        checked.append(todo)
+        raise UsageError("-o", "stopped after the disk check")
+
+    monkeypatch.setattr(disk, "check", check)
+    rc, err = cli(capsys, "sweep", write_sweep(tmp_path), "-o", out, "--overwrite", "--quiet")
+    assert rc == 2 and "stopped after the disk check" in err and checked == [2]
+
+
 def test_a_resumed_sweep_estimates_only_the_members_left(tmp_path, swept, caplog):
     """A finished sweep run again says how many of its members are left to run, and its time
     estimate is theirs (none here: the start-up alone), not the whole sweep's again."""
@@ -442,8 +468,8 @@ def test_a_resumed_sweep_estimates_only_the_members_left(tmp_path, swept, caplog
     with caplog.at_level(logging.INFO, logger="pylmp_lattice"):
         table = run_in_threads(write_sweep(tmp_path), out)
     assert list(table["status"]) == ["done", "done"]
-    said = next(r.getMessage() for r in caplog.records if " members, " in r.getMessage())
-    assert said.startswith("sw: 2 members, 0 to run (about ") and "about 0 B on disk" in said, said
+    said = next(r.getMessage() for r in caplog.records if " kept from before " in r.getMessage())
+    assert said.startswith("sw: 2 members, 2 kept from before (about ") and "about 0 B on disk" in said, said
 
 
 def test_a_full_disk_mid_sweep_stops_it_keeping_finished_members_and_the_table(tmp_path, monkeypatch, capsys,

@@ -92,11 +92,14 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     if workers is not None and executor is None and workers > cores:
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
-    refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
-    # --yes or not; to_keep() counts another sweep's members kept in DIR too, so it may exceed total
-    todo = max(0, total - Outcomes(root).to_keep(retry_failed))
+    held = refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
+    # the members left to run (--yes or not): all where DIR holds no sweep, or another one (--overwrite keeps its
+    # members' folders, which are not this sweep's); else those not kept (`to_keep`, which may count such folders
+    # left from an earlier --overwrite too, so that it may exceed total)
+    ours = held is not None and held.get("identity") == sweep.identity()
+    todo = max(0, total - Outcomes(root).to_keep(retry_failed)) if ours else total
     disk_need = disk.check(sweep, root, todo, slots_now)
-    log.info("%s: %d members%s (%s; %s)", root.name, total, f", {todo} to run" if todo < total else "",
+    log.info("%s: %d members%s (%s; %s)", root.name, total, f", {total - todo} kept from before" if todo < total else "",
              _estimate(sweep, todo, slots_now, bool(stats)), disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "

@@ -99,10 +99,10 @@ class Outcomes:
 
     def to_keep(self, retry_failed: bool = False) -> int:
         """How many members may keep their outcome on disk (not run again): done in a batch, or a
-        folder of their own whose status says done (or failed, unless `retry_failed`). An upper
-        bound for the disk estimate: it reads each member folder's status.json, not its summary or
-        case (`outcome` does); a folder that is a link, or whose run was interrupted or never
-        recorded, is run again."""
+        folder of their own whose status says done (or failed, unless `retry_failed`); a folder that
+        is a link, or whose run was interrupted or never recorded, is run again. An upper bound (the
+        estimate's members to run, a lower one): it reads each member folder's status.json, not its
+        summary or case (`outcome` does), and counts any member's (another sweep's too)."""
         self._read()
         keep = (DONE,) if retry_failed else (DONE, FAILED)
         own = 0
