@@ -242,7 +242,7 @@ def test_export_and_study_outputs_refuse_a_link(tmp_path, outside, finished, cap
 
 
 @pytest.mark.parametrize("dangling", [False, True], ids=["to a folder", "dangling"])
-def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, dangling):
+def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, dangling, no_forkserver):
     """-o naming a link: its writes would land wherever it points, so each command refuses it."""
     target = outside / ("new" if dangling else "runs")
     if not dangling:
@@ -259,13 +259,14 @@ def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, d
     assert snapshot(outside) == before and link.is_symlink()
 
 
-def test_a_sweep_folder_lammps_cannot_name_is_refused_before_any_member(tmp_path, capsys):
+def test_a_sweep_folder_lammps_cannot_name_is_refused_before_any_member(tmp_path, capsys, no_forkserver):
     """A sweep folder with a space (or another character LAMMPS splits or reads) under the embedded
     runner: refused up front, exit 2, nothing written, where every member used to fail on it."""
     folder = tmp_path / "s w"
-    rc, err = cli(capsys, "sweep", write_sweep(tmp_path), "-o", folder, "--quiet")
-    assert rc == 2 and "embedded runner needs a path" in err and 'runner = "lmp"' in err
-    assert len(err.strip().splitlines()) == 1 and not folder.exists()
+    for engine in ("lammps", "cpu"):  # (engine cpu: each member alone, a point each, runs with LAMMPS)
+        rc, err = cli(capsys, "sweep", write_sweep(tmp_path), "-o", folder, "--quiet", "--engine", engine)
+        assert rc == 2 and "embedded runner needs a path" in err and 'runner = "lmp"' in err
+        assert len(err.strip().splitlines()) == 1 and not folder.exists()
 
 
 # ----------------------------------------------------------------------------- sweeps
@@ -378,7 +379,8 @@ def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, m
     assert len(run_in_threads(sweep_file, tmp_path / "sw")) == 4
 
 
-def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_need(tmp_path, monkeypatch, capsys):
+def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_need(tmp_path, monkeypatch, capsys,
+                                                                                  no_forkserver):
     """The members to run are the sweep's count less the outcomes on disk, an upper bound that
     counts another sweep's members too (`--overwrite` keeps them): "about -121 MB on disk"."""
     from pylmp_lattice.errors import UsageError
@@ -403,7 +405,7 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
 
 
 @pytest.mark.parametrize("retry", [False, True], ids=["failed kept", "--retry-failed"])
-def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeypatch, capsys, retry):
+def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeypatch, capsys, retry, no_forkserver):
     """The disk estimate of a resumed sweep: members whose folder holds an interrupted or
     unrecorded run (or is a link) run again and need their disk, as do failed ones with
     --retry-failed; done ones (and failed ones kept) do not. It used to count every folder as
@@ -436,7 +438,7 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
     assert store.Outcomes(out).to_keep(retry) == 6 - todo
 
 
-def test_another_sweep_s_members_count_as_none_of_this_one_s(tmp_path, monkeypatch, capsys):
+def test_another_sweep_s_members_count_as_none_of_this_one_s(tmp_path, monkeypatch, capsys, no_forkserver):
     """--overwrite of a folder that holds another sweep: its done members' folders stay on disk,
     but none is this sweep's, so every member of this one is to run (and to fit on the disk)."""
     from pylmp_lattice.errors import UsageError

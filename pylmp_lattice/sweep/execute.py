@@ -81,8 +81,10 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
     check_folder(root)
     sweep = _with_engine(sweep, engine)
-    if sweep.runner == "embedded" and sweep.engine == "lammps":  # every member's folder is in it: refused now, not each
-        deck_dir(Path(root))  # member as it runs (the kernel engines' batches need no deck path; their others do)
+    # every member's folder is in it: refused now, not each member as it runs (a kernel engine's batches need no deck
+    # path, but its members that run alone, one a point or keeping trajectories, run with LAMMPS)
+    if sweep.runner == "embedded" and (sweep.engine == "lammps" or sweep.replicas == 1 or sweep.keep == "all"):
+        deck_dir(Path(root))
     root = Path(root).resolve()
     total = sweep.count()
     if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
