@@ -354,6 +354,24 @@ def _export(args) -> int:
 
 
 FAILURES_SHOWN = 3  # a sweep's distinct reasons for failed members, said at its end
+# a member's or batch's folder in the table's errors (their id: 16 hex digits), relative to the sweep folder
+MEMBER_PATH = re.compile(r"(?<![\w/.])(members|batches)/([0-9a-f]{16})\b")
+
+
+def _say_failures(errors, root: Path) -> None:
+    """The distinct reasons among failed members' `errors` (the same but for the member's own
+    folder: one reason), the first FAILURES_SHOWN with their count and one member's error as an
+    example, its folder given from here (the table's are relative to the sweep folder `root`)."""
+    reasons: dict[str, list] = {}
+    for error in errors:
+        reasons.setdefault(MEMBER_PATH.sub(r"\1/ID", error), [error, 0])[1] += 1
+    for example, count in list(reasons.values())[:FAILURES_SHOWN]:
+        example = MEMBER_PATH.sub(lambda m: f"{root / m[1] / m[2]}", example)
+        print(f"pylmp-lattice: failed{f' ({count} members, e.g.)' if count > 1 else ''}: {example}", file=sys.stderr)
+    if len(reasons) > FAILURES_SHOWN:
+        more = len(reasons) - FAILURES_SHOWN
+        print(f"pylmp-lattice: failed: and {more} other reason{'s' if more > 1 else ''} (the table's error column)",
+              file=sys.stderr)
 
 
 def _sweep(args) -> int:
@@ -391,13 +409,7 @@ def _sweep(args) -> int:
                                  "finish)" if interrupted else "")
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)
     if failed:  # why, without opening the table (a swept value out of range fails its members)
-        errors = list(dict.fromkeys(table.loc[table["status"] == "failed", "error"].dropna().astype(str)))
-        for error in errors[:FAILURES_SHOWN]:  # (the table's paths are the sweep folder's: here, from where it ran)
-            error = re.sub(r"(?<![\w/.])(members|batches)/", lambda m: f"{args.output / m[1]}/", error)
-            print(f"pylmp-lattice: failed: {error}", file=sys.stderr)
-        if len(errors) > FAILURES_SHOWN:
-            print(f"pylmp-lattice: failed: and {len(errors) - FAILURES_SHOWN} other reasons (the table's error column)",
-                  file=sys.stderr)
+        _say_failures(table.loc[table["status"] == "failed", "error"].dropna().astype(str), args.output)
     from .sweep import stats  # loads matplotlib: only now
 
     if sweep.replicas > 1:

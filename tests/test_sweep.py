@@ -1576,6 +1576,7 @@ def test_sweep_files_are_readable_as_the_umask_says(tmp_path):
     assert (tmp_path / "results.csv").stat().st_mode & 0o777 == 0o666 & ~UMASK
 
 
+@pytest.mark.lammps
 @pytest.mark.parametrize("module", ["pylmp_lattice.cli", "pylmp_lattice"])
 def test_a_sweep_run_as_a_module_says_why_members_failed_without_warnings(tmp_path, module):
     """`python -m pylmp_lattice[.cli] sweep`, local workers: a swept value out of range fails its
@@ -1596,3 +1597,20 @@ def test_a_sweep_run_as_a_module_says_why_members_failed_without_warnings(tmp_pa
     contact = next(line for line in done.stderr.splitlines() if "touched" in line)
     assert f"files kept in {out}/members/" in contact and f"`pylmp-lattice summarize {out}/members/" in contact
     assert "Warning" not in done.stderr, done.stderr
+
+
+def test_the_failure_lines_group_members_failed_alike(tmp_path, capsys):
+    """Errors the same but for the member's own folder are one reason, said once with its count and
+    an example whose folder is given from here; a user's own path named "members/..." is kept."""
+    from pylmp_lattice.cli import _say_failures
+
+    same = "output: got folder 'members/{}'; the embedded runner needs a path"
+    errors = [same.format("0123456789abcdef"), same.format("fedcba9876543210"), "force.file: members/drive.csv: not found",
+              "a", "b"]
+    _say_failures(errors, tmp_path / "sw")
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"pylmp-lattice: failed (2 members, e.g.): {same.format('0123456789abcdef')}".replace(
+                         "'members/", f"'{tmp_path / 'sw'}/members/"),
+                     "pylmp-lattice: failed: force.file: members/drive.csv: not found",
+                     "pylmp-lattice: failed: a",
+                     "pylmp-lattice: failed: and 1 other reason (the table's error column)"]

@@ -114,6 +114,7 @@ def test_members_the_kernel_cannot_run_fall_back_to_lammps_with_one_note(tmp_pat
     assert len([n for n in notes if "runs alone" in n]) == 1, notes
 
 
+@pytest.mark.lammps
 def test_the_fallback_note_is_said_once_by_the_command_however_many_workers(tmp_path):
     """Members that run alone under engine cpu (trajectories kept), on 2 local workers: the
     command says so once, with its prefix, where each worker used to print it itself, bare."""
