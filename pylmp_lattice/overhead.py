@@ -280,16 +280,19 @@ def _wall(args: list[str], cwd: Path, tries: int = 2) -> float:
     return least
 
 
-def _stop(child: subprocess.Popen, grace: float = 5.0) -> None:
-    """The measuring command stopped as Ctrl-C stops it (its sweep's workers too), killed if it
-    has not exited after `grace` s."""
-    with contextlib.suppress(OSError):
-        child.send_signal(signal.SIGINT)
-    try:
-        child.wait(grace)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.wait()
+def _stop(child: subprocess.Popen, grace: float = 5.0, own: float = 0.5) -> None:
+    """The measuring command stopped: a Ctrl-C at a terminal reached it too (its process group),
+    and it stops by itself within `own` s; else (a signal for this process alone) it gets a SIGINT,
+    which stops a sweep's workers too, and is killed if it has not exited after `grace` s."""
+    for signum, wait in ((None, own), (signal.SIGINT, grace), (signal.SIGKILL, None)):
+        if signum is not None:
+            with contextlib.suppress(OSError):
+                child.send_signal(signum)
+        try:
+            child.wait(wait)
+            return
+        except subprocess.TimeoutExpired:
+            continue
 
 
 def _timed(child: subprocess.Popen, start: float, every: float = 0.1) -> tuple[float, float]:

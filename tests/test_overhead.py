@@ -172,8 +172,10 @@ def test_ctrl_c_while_measuring_stops_the_measuring_command_and_goes_on(monkeypa
     children = []
     real = subprocess.Popen
 
-    def popen(args, **kwargs):  # a command that would run for a minute
-        children.append(real([sys.executable, "-c", "import time; time.sleep(60)"]))
+    def popen(args, **kwargs):  # a command that would run for a minute (Ctrl-C stops it, also where this
+        # process was started with SIGINT ignored, which a child inherits)
+        children.append(real([sys.executable, "-c", "import signal, time; signal.signal(signal.SIGINT, "
+                              "signal.SIG_DFL); time.sleep(60)"]))
         return children[-1]
 
     def interrupted(child, start):
