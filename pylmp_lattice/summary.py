@@ -4,7 +4,8 @@ Magnets and gaps are numbered as the paper counts (`numbering`): magnet 1 is the
 n lies between magnets n and n+1, and ranges are inclusive (first_gap 145, last_gap 193: gaps
 145 through 193). particles_reached_by_front is the number of the farthest magnet with an
 arrival: the front reached magnets 1 through it (`measures.particles_reached`; the driven
-magnet 1 counts from the start, also before a pulse's peak marks its arrival)."""
+magnet 1 is among them also before a pulse's peak marks its own arrival; 0 while no magnet
+has an arrival)."""
 
 from __future__ import annotations
 

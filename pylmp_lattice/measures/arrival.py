@@ -78,7 +78,7 @@ def arrival_times(
 def particles_reached(arrival) -> np.ndarray | int:
     """The number of the farthest magnet with an arrival (1-based; 0 if none), along the last
     axis of arrival (ms, NaN where none): the front reached magnets 1 .. it. Magnet 1, the
-    driven one, counts from the start: a pulse's peak arrival (T_s/2) lets it be NaN before."""
+    driven one, is among them also while its own arrival, a pulse's peak (T_s/2), is still NaN."""
     finite = np.isfinite(np.asarray(arrival, dtype=float))
     last = finite.shape[-1] - np.argmax(finite[..., ::-1], axis=-1)
     out = np.where(finite.any(axis=-1), last, 0)
