@@ -98,8 +98,9 @@ def timed_run(t: batch.Task) -> dict[str, float]:
             setattr(module, name, fn)
     if isinstance(results[0], dict):  # a tree before table.Rows: a result per member
         assert {r["record"]["status"] for r in results} == {"done"} and "batch" in results[0]["record"], "not batched"
-    else:  # the batch's rows (`table.Rows`), and no member alone
-        assert len(results) == 1 and set(results[0].columns["status"]) == {"done"}, "not batched"
+    else:  # the batch's rows (`table.Rows`), and no member alone (a `batch.Note` says why not)
+        notes = [r.text for r in results if hasattr(r, "text")]
+        assert len(results) == 1 and set(results[0].columns["status"]) == {"done"}, f"not batched {notes}"
     [log] = Path(t.root).glob(f"{store.BATCHES}/*/log.lammps")
     loop = re.search(r"Loop time of (\S+)", log.read_text())  # (LAMMPS's; none for the kernel)
     spent["loop"] = float(loop[1]) if loop else float("nan")

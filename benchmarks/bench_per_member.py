@@ -72,7 +72,7 @@ start = time.process_time()
 results = run_task(pickle.loads(blob))
 pickle.dumps(results)  # as the pool sends them back
 total = time.process_time() - start
-members = sum(len(r) if hasattr(r, "index") else 1 for r in results)
+members = sum(len(r) if hasattr(r, "index") else 0 if hasattr(r, "text") else 1 for r in results)  # (a Note: none)
 print(f"worker {members} {total:.4f} {engine[0]:.4f}")
 """
 
