@@ -287,7 +287,8 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
 @dataclass(frozen=True)
 class Note:
     """A line for the sweep's log among a task's results: the coordinator says each once a sweep
-    (a worker's own log would say it once per worker, without the command's prefix)."""
+    (a worker's own log would say it once per worker, without the command's prefix). A task
+    lost or stopped before it returns says none (its members are read back from disk)."""
 
     text: str
 
