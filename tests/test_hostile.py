@@ -379,19 +379,12 @@ def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, m
     assert len(run_in_threads(sweep_file, tmp_path / "sw")) == 4
 
 
-def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_need(tmp_path, monkeypatch, capsys,
-                                                                                  no_forkserver):
-    """The members to run are the sweep's count less the outcomes on disk, an upper bound that
-    counts another sweep's members too (`--overwrite` keeps them): "about -121 MB on disk"."""
+def stopped_at_the_disk_check(monkeypatch) -> list:
+    """The sweep's disk check made to record (members to run, what it says) and stop the command
+    there (exit 2): the list it records into."""
     from pylmp_lattice.errors import UsageError
-    from pylmp_lattice.sweep import disk, load_sweep
+    from pylmp_lattice.sweep import disk
 
-    out = tmp_path / "sw"
-    sweep_file = write_sweep(tmp_path, velocities=[1.0])
-    for name in ("a", "b", "c"):  # three folders of another sweep's members, done (left by an --overwrite)
-        (out / store.MEMBERS / name).mkdir(parents=True)
-        store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
-    (out / store.SWEEP_FILE).write_text(json.dumps({"identity": load_sweep(sweep_file).identity()}))  # this sweep's
     checked, real = [], disk.check
 
     def check(sweep, root, todo, slots):
@@ -399,6 +392,22 @@ def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_nee
         raise UsageError("-o", "stopped after the disk check")
 
     monkeypatch.setattr(disk, "check", check)
+    return checked
+
+
+def test_a_folder_holding_more_members_than_the_sweep_gives_no_negative_disk_need(tmp_path, monkeypatch, capsys,
+                                                                                  no_forkserver):
+    """The members to run are the sweep's count less the outcomes on disk, an upper bound that
+    counts another sweep's members too (`--overwrite` keeps them): "about -121 MB on disk"."""
+    from pylmp_lattice.sweep import load_sweep
+
+    out = tmp_path / "sw"
+    sweep_file = write_sweep(tmp_path, velocities=[1.0])
+    for name in ("a", "b", "c"):  # three folders of another sweep's members, done (left by an --overwrite)
+        (out / store.MEMBERS / name).mkdir(parents=True)
+        store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
+    (out / store.SWEEP_FILE).write_text(json.dumps({"identity": load_sweep(sweep_file).identity()}))  # this sweep's
+    checked = stopped_at_the_disk_check(monkeypatch)
     rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet")
     assert rc == 2 and "stopped after the disk check" in err
     assert checked == [(0, "about 0 B on disk")]
@@ -410,7 +419,7 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
     unrecorded run (or is a link) run again and need their disk, as do failed ones with
     --retry-failed; done ones (and failed ones kept) do not. It used to count every folder as
     done: "about 0 B on disk" for a sweep whose members were all interrupted."""
-    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.preflight import _size
     from pylmp_lattice.sweep import disk, load_sweep
 
     sweep_file = write_sweep(tmp_path, velocities=[1.0, 1.5, 2.0, 2.5, 3.0, 3.5])
@@ -423,41 +432,26 @@ def test_a_resumed_sweep_counts_its_unfinished_members_on_disk(tmp_path, monkeyp
             store.write_status(members / name, {"id": name, "status": status})
     (members / "link").symlink_to(members / "done", target_is_directory=True)
     (out / store.SWEEP_FILE).write_text(json.dumps({"identity": load_sweep(sweep_file).identity()}))  # this sweep's
-    checked, real = [], disk.check
-
-    def check(sweep, root, todo, slots):
-        checked.append((todo, real(sweep, root, todo, slots)))
-        raise UsageError("-o", "stopped after the disk check")
-
-    monkeypatch.setattr(disk, "check", check)
+    checked = stopped_at_the_disk_check(monkeypatch)
     rc, err = cli(capsys, "sweep", sweep_file, "-o", out, "--quiet", *(["--retry-failed"] if retry else []))
     assert rc == 2 and "stopped after the disk check" in err
     todo = 6 - 1 - (0 if retry else 1)  # of the six members, the done one (and the failed one) stand
-    each = disk.member_bytes(load_sweep(sweep_file), 1)
-    assert checked == [(todo, real(load_sweep(sweep_file), out, todo, 1))] and each > 0.5e6
+    each = disk.member_bytes(load_sweep(sweep_file), 1)  # (a member alone: its run folder, most of a MB)
+    assert checked == [(todo, f"about {_size(todo * each)} on disk")] and each > 0.5e6
     assert store.Outcomes(out).to_keep(retry) == 6 - todo
 
 
 def test_another_sweep_s_members_count_as_none_of_this_one_s(tmp_path, monkeypatch, capsys, no_forkserver):
     """--overwrite of a folder that holds another sweep: its done members' folders stay on disk,
     but none is this sweep's, so every member of this one is to run (and to fit on the disk)."""
-    from pylmp_lattice.errors import UsageError
-    from pylmp_lattice.sweep import disk
-
     out = tmp_path / "sw"
     for name in ("a", "b"):
         (out / store.MEMBERS / name).mkdir(parents=True)
         store.write_status(out / store.MEMBERS / name, {"id": name, "status": "done"})
     (out / store.SWEEP_FILE).write_text(json.dumps({"identity": "another sweep"}))
-    checked = []
-
-    def check(sweep, root, todo, slots):
-        checked.append(todo)
-        raise UsageError("-o", "stopped after the disk check")
-
-    monkeypatch.setattr(disk, "check", check)
+    checked = stopped_at_the_disk_check(monkeypatch)
     rc, err = cli(capsys, "sweep", write_sweep(tmp_path), "-o", out, "--overwrite", "--quiet")
-    assert rc == 2 and "stopped after the disk check" in err and checked == [2]
+    assert rc == 2 and "stopped after the disk check" in err and [todo for todo, _ in checked] == [2]
 
 
 def test_a_resumed_sweep_estimates_only_the_members_left(tmp_path, swept, caplog):

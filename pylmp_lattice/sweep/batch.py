@@ -142,14 +142,15 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
         if signals.stop_asked():
             break
         if len(group) > 1:
-            done = _run_batch(root, group, task.runner, started, task.engine, task.threads, notes)
+            done = _run_batch(root, group, task.runner, started, task.engine, task.threads, notes=notes)
             if isinstance(done, list):
                 rows += done
             else:
                 results |= done
         else:
             if task.engine != "lammps":
-                notes[_fallback(task.engine, "a member that runs alone (trajectories kept, or not batched with others)")] = None
+                notes[_fallback(task.engine, "a member that runs alone (trajectories kept, or not batched with "
+                                             "others)")] = None
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     batched = {i for r in rows for i in r.columns["id"]}
     return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched), *map(Note, notes)]
@@ -213,7 +214,7 @@ def _batches(valid: list[tuple[Member, Case]]) -> list[list[tuple[Member, Case]]
 
 
 def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, started: str, kind: str = "lammps",
-               threads: int | None = None, notes: dict | None = None) -> list[Rows] | dict[str, dict]:
+               threads: int | None = None, *, notes: dict) -> list[Rows] | dict[str, dict]:
     """Run the group as one batch, a run folder on the road of every run (`execute_batch`), by
     the `kind` engine (LAMMPS if the kernel cannot run it, which `notes` gets: `_fallback`): its
     members' rows of the table (`table.batch_rows`). A failed batch runs each member alone, a
@@ -228,8 +229,7 @@ def _run_batch(root: Path, group: list[tuple[Member, Case]], runner: str, starte
     draws = chain_draws(cases)  # the members' chains, drawn once for the engine and the measures
     engine = kernel_engine(kind, cases, threads, draws) if kind != "lammps" else runner
     if isinstance(engine, str) and kind != "lammps":
-        if notes is not None:
-            notes[_fallback(kind, engine)] = None
+        notes[_fallback(kind, engine)] = None
         engine, kind = runner, "lammps"
     batch = _fresh(root / BATCHES / group[0][0].id)
     try:

@@ -101,8 +101,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     ours = held is not None and held.get("identity") == sweep.identity()
     todo = max(0, total - Outcomes(root).to_keep(retry_failed)) if ours else total
     disk_need = disk.check(sweep, root, todo, slots_now)
-    log.info("%s: %d members%s (%s; %s)", root.name, total, f", {total - todo} kept from before" if todo < total else "",
-             _estimate(sweep, todo, slots_now, bool(stats)), disk_need)
+    kept = f", {total - todo} kept from before" if todo < total else ""
+    log.info("%s: %d members%s (%s; %s)", root.name, total, kept, _estimate(sweep, todo, slots_now, bool(stats)),
+             disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
                           "to run them, or sweep fewer values")

@@ -109,7 +109,7 @@ class Outcomes:
         for member_id in self._folders - self._batched.keys():
             folder = member_folder(self.root, member_id)
             record = None if folder.is_symlink() else read_status(folder)
-            own += isinstance(record, dict) and record.get("status") in keep
+            own += isinstance(record, dict) and record.get("id") == member_id and record.get("status") in keep
         return len(self._batched) + own
 
     def none_of(self, member_ids: list[str]) -> bool:
