@@ -105,11 +105,7 @@ class Outcomes:
         summary or case (`outcome` does), and counts any member's (another sweep's too)."""
         self._read()
         keep = (DONE,) if retry_failed else (DONE, FAILED)
-        own = 0
-        for member_id in self._folders - self._batched.keys():
-            folder = member_folder(self.root, member_id)
-            record = None if folder.is_symlink() else read_status(folder)
-            own += isinstance(record, dict) and record.get("id") == member_id and record.get("status") in keep
+        own = sum((_finished(self.root, m) or {}).get("status") in keep for m in self._folders - self._batched.keys())
         return len(self._batched) + own
 
     def none_of(self, member_ids: list[str]) -> bool:
@@ -360,16 +356,26 @@ def outcome(root: str | Path, member_id: str) -> dict | None:
     summary that parses, or "failed"; else None (never run, unfinished, or done without a summary)."""
     from ..run_folder import RunFolder
 
+    record = _finished(root, member_id)
+    if record is None:
+        return None
     folder = member_folder(root, member_id)
-    if folder.is_symlink():  # not the sweep's own folder: run again (which removes the link)
-        return None
-    record = read_status(folder)
-    if record is None or record.get("id") != member_id or record.get("status") not in (DONE, FAILED):
-        return None
     if record["status"] == DONE and _case_identity(folder) != member_id:  # another case was run there
         return None
     summary = RunFolder(folder).summary if record["status"] == DONE else None
     return None if record["status"] == DONE and summary is None else {"record": record, "summary": summary}
+
+
+def _finished(root: str | Path, member_id: str) -> dict | None:
+    """The status record in the member's own folder if it says the member finished ("done" or
+    "failed") and is its own; else None (a link, never run, unfinished, or another member's)."""
+    folder = member_folder(root, member_id)
+    if folder.is_symlink():  # not the sweep's own folder: run again (which removes the link)
+        return None
+    record = read_status(folder)
+    if not isinstance(record, dict) or record.get("id") != member_id or record.get("status") not in (DONE, FAILED):
+        return None
+    return record
 
 
 def _case_identity(folder: Path) -> str | None:
