@@ -103,6 +103,7 @@ def main() -> None:
     p.add_argument("--reference", metavar="COMMIT", help="also run this commit's package, interleaved with this tree's")
     args = p.parse_args()
     engines = args.engines.split(",")
+    args.dir.mkdir(parents=True, exist_ok=True)  # (a folder named for this run: made, not a traceback)
     load = [os.getloadavg()[0]]
     floor = {"Python": import_cpu(["sys"], args.repeat), "numpy": import_cpu(["numpy"], args.repeat)}
     with tempfile.TemporaryDirectory(dir=args.dir, prefix=".bench_startup.") as tmp:

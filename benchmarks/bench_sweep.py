@@ -211,6 +211,7 @@ def main() -> None:
     p.add_argument("--dir", type=Path, default=ROOT, help="where the sweeps write (a temporary folder inside it)")
     args = p.parse_args()
     sizes = [int(n) for n in args.members.split(",")]
+    args.dir.mkdir(parents=True, exist_ok=True)  # (a folder named for this run: made, not a traceback)
     if len(sizes) > 2 or sizes != sorted(set(sizes)) or sizes[0] < 1:
         p.error(f"--members: got {args.members}; expected N or N1,N2 with 1 <= N1 < N2")
 
