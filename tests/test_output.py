@@ -155,3 +155,19 @@ def test_run_without_trajectory_still_has_its_front_measures(tmp_path):
     assert "trajectory" not in bare["files"] and (tmp_path / "none" / "shock.png").exists()
     for key in ("shock_velocity_plateau_m_per_s", "first_peak_velocity_plateau_m_per_s"):
         assert bare[key] == with_h5[key]
+
+
+@pytest.mark.parametrize("atoms", [1, 5, 6, 7, 20])
+def test_a_frame_written_with_its_ids_beside_the_data_equals_the_whole_frame(tmp_path, monkeypatch, atoms):
+    """write_frame(ids=True), as the kernel engines write front.bin: the same bytes as the frame
+    made whole (ids column first), across its blocks of rows (3 here), and read back."""
+    from pylmp_lattice.formats import bindump, layout
+
+    monkeypatch.setattr(bindump, "_ROWS", 3)
+    data = np.random.default_rng(atoms).normal(size=(atoms, len(layout.FRONT_COLUMNS.split()) - 1))
+    whole = np.hstack([np.arange(1, atoms + 1, dtype=float)[:, None], data])
+    bindump.write_frame(tmp_path / "whole.bin", 7, 0.25, layout.FRONT_COLUMNS, whole)
+    bindump.write_frame(tmp_path / "ids.bin", 7, 0.25, layout.FRONT_COLUMNS, data, ids=True)
+    assert (tmp_path / "ids.bin").read_bytes() == (tmp_path / "whole.bin").read_bytes()
+    frame = open_dump(tmp_path / "ids.bin").read()
+    np.testing.assert_array_equal(frame.data[0], whole)

@@ -100,8 +100,7 @@ class KernelEngine:
                                         f"chains of {a.n} magnets, {a.steps} steps of {a.dt:.17g} s; last step {end}\n"
                                         f"{NO_DATA}\n")
         if front is not None:
-            ids = np.arange(1, a.chains * a.n + 1, dtype=float)[:, None]
-            write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, np.hstack([ids, front]))
+            write_frame(path / layout.FRONT_BIN, end, end * a.dt, layout.FRONT_COLUMNS, front, ids=True)
             self.record = front_rows(front, end * a.dt, a.chains, a.n)  # (the measures need not read it back)
         if a.friction is not None:
             atomic_write(path / layout.CHAIN_WORK, "%.17g\n" * len(work) % tuple(work.tolist()))
