@@ -241,6 +241,25 @@ def test_export_and_study_outputs_refuse_a_link(tmp_path, outside, finished, cap
     assert snapshot(outside) == before
 
 
+@pytest.mark.parametrize("where", ["fig2", "fig2/paper_experiment", "fig2/paper_experiment/log.lammps", "fig2.json",
+                                   "fig2_forces.csv"])
+def test_a_study_refuses_a_link_where_it_writes_before_it_runs(tmp_path, outside, capsys, monkeypatch, where):
+    """A link planted in the study's folder at its runs' folder (DIR/NAME), inside it, or at one of
+    its files: refused before the study runs anything (`studies.refuse_planted_links`), exit 2."""
+    from pylmp_lattice import studies
+
+    out = tmp_path / "out"
+    (out / where).parent.mkdir(parents=True, exist_ok=True)
+    (out / where).symlink_to(outside)
+    ran = []
+    monkeypatch.setattr(studies, "study_module", lambda name: ran.append(name))  # (a run would import it)
+    before = snapshot(outside)
+    for name in ("fig2", "all"):
+        rc, err = cli(capsys, "study", name, "-o", out, "--quick")
+        assert rc == 2 and f"{out / where}: is a symbolic link" in err and len(err.strip().splitlines()) == 1, err
+    assert not ran and snapshot(outside) == before
+
+
 @pytest.mark.parametrize("dangling", [False, True], ids=["to a folder", "dangling"])
 def test_an_output_folder_that_is_a_link_is_refused(tmp_path, outside, capsys, dangling, no_forkserver):
     """-o naming a link: its writes would land wherever it points, so each command refuses it."""

@@ -19,8 +19,10 @@ StudyResult` and add its name, origin and one-line title to STUDIES.
 
 from __future__ import annotations
 
+import glob
 import importlib
 import logging
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -69,12 +71,29 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
     if name not in STUDIES:
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
     out = Path(out)
+    for each in STUDIES if name == "all" else (name,):  # before any run: none of its writes may follow a link
+        refuse_planted_links(out, each)
     log.info("study %s: %s -> %s", name, STUDIES[name], out)
     from .output import write_study
 
     result = importlib.import_module(study_module(name)).run(out, quick)
     write_study(result, out)
     return result
+
+
+def refuse_planted_links(out: Path, name: str) -> None:
+    """LinkError for a symbolic link where study `name` writes in `out`: its files (NAME.json,
+    .png, .pdf, NAME_*.csv), its runs' folder NAME/ or anything in it (the runs are redone
+    there; a link inside would take their writes elsewhere)."""
+    from ..formats.files import refuse_link, refuse_links
+
+    refuse_links(out, [f"{name}.{ext}" for ext in ("json", "png", "pdf")])
+    for table in out.glob(f"{glob.escape(name)}_*.csv"):
+        refuse_link(table)
+    runs = out / name
+    refuse_link(runs)
+    for folder, dirs, files in os.walk(runs):  # (never follows a link: each is refused as found)
+        refuse_links(folder, dirs + files)
 
 
 def __getattr__(name):
