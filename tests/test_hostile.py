@@ -398,6 +398,36 @@ def test_the_sweep_disk_check_refuses_with_the_numbers_also_with_yes(tmp_path, m
     assert len(run_in_threads(sweep_file, tmp_path / "sw")) == 4
 
 
+def test_the_sweep_disk_estimate_samples_the_grid_s_last_point_too(tmp_path):
+    """Fewer points than the samples: each one counts (two points used to give the first alone,
+    so a huge last member passed the check and each worker then stopped the sweep on it)."""
+    from pylmp_lattice.sweep import disk, load_sweep
+
+    shutil.copy(EXPERIMENT, tmp_path / "base.toml")
+    each = {}
+    for order in ([21, 100_000_000], [100_000_000, 21], [21, 22, 100_000_000]):
+        path = tmp_path / "sweep.toml"
+        path.write_text(f'base = "base.toml"\n[grid]\n"chain.particles" = {order}\n')
+        each[len(order), order[0]] = disk.member_bytes(load_sweep(path), 1)
+    assert each[2, 21] == pytest.approx(each[2, 100_000_000], rel=1e-12) and each[2, 21] > 4e11  # bytes: half the huge one
+    assert each[3, 21] == pytest.approx(each[2, 21] * 2 / 3, rel=0.01)  # the huge member is one of three
+
+
+def test_a_member_larger_than_the_whole_disk_fails_and_does_not_stop_the_sweep(tmp_path, monkeypatch):
+    """`member._no_room`: a member whose run does not fit the free space stops the sweep as a full
+    disk (freeing space and resuming runs it), unless it is larger than the whole file system:
+    then it fails alone, with preflight's refusal as its error."""
+    from pylmp_lattice import preflight
+    from pylmp_lattice.case import load_case
+    from pylmp_lattice.sweep import member
+
+    case, total = load_case(EXPERIMENT), shutil.disk_usage(tmp_path).total
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 1e6)
+    for need, stops in ((2e6, True), (total + 1.0, False), (5e5, False)):
+        monkeypatch.setattr(preflight, "output_bytes", lambda case, need=need: need)
+        assert member._no_room(case, tmp_path) is stops, need
+
+
 def stopped_at_the_disk_check(monkeypatch) -> list:
     """The sweep's disk check made to record (members to run, what it says) and stop the command
     there (exit 2): the list it records into."""

@@ -42,7 +42,8 @@ def member_bytes(sweep: Sweep, slots: int) -> float | None:
         axes.append([dict(zip(sweep.zip, row)) for row in zip(*sweep.zip.values())])
     points = math.prod(len(a) for a in axes)
     sizes = []
-    for k in sorted({round(i * (points - 1) / max(1, SAMPLES - 1)) for i in range(min(points, SAMPLES))}):
+    samples = min(points, SAMPLES)  # the first and last point among them
+    for k in sorted({round(i * (points - 1) / max(1, samples - 1)) for i in range(samples)}):
         point = {}
         for axis in reversed(axes):  # itertools.product's order: the last axis varies fastest
             k, j = divmod(k, len(axis))

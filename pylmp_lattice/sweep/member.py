@@ -89,11 +89,16 @@ def _fresh(folder: Path) -> Path:
 
 def _no_room(case: Case, folder: Path) -> bool:
     """Whether a failed member's disk is too full for its run (its writes, LAMMPS's included,
-    may have failed on it in other ways: a refusal by preflight, a truncated record)."""
+    may have failed on it in other ways: a refusal by preflight, a truncated record), where
+    room can be made: a run larger than the whole disk fails as a member (preflight's refusal
+    says why), as freeing space and resuming would meet it again."""
+    import shutil
+
     from ..preflight import free_disk, output_bytes
 
     try:
-        return free_disk(folder) < output_bytes(case)
+        need = output_bytes(case)
+        return free_disk(folder) < need <= shutil.disk_usage(folder).total
     except (OSError, LatticeError):
         return False
 
