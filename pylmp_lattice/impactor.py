@@ -22,6 +22,11 @@ from .errors import ConfigError
 from .units import acceleration
 
 
+# A measured drive whose velocity at its last sample is at most this fraction of its peak has
+# come to rest: a pulse (`Measured.is_pulse`), as the front's pulse levels count a 10 % fall
+REST_FRACTION = 0.1
+
+
 class Profile(Protocol):
     """What every impactor profile gives (user units: t in ms); each profile below is one."""
 
@@ -38,6 +43,11 @@ class Profile(Protocol):
 
     def peak_velocity(self) -> float:
         """Its largest velocity, m/s: V_I, against which the front's levels are set."""
+
+    def is_pulse(self) -> bool:
+        """Whether the drive comes back to rest by itself (a pulse, not a push): its front
+        arrivals are then each magnet's first velocity peak (`measures.default_arrival_method`)."""
+        return False
 
 
 @dataclass(frozen=True)
@@ -134,6 +144,9 @@ class SinePulse(Profile):
     def peak_velocity(self) -> float:
         return self.velocity
 
+    def is_pulse(self) -> bool:
+        return True
+
 
 @dataclass(frozen=True)
 class Measured(Profile):
@@ -193,6 +206,11 @@ class Measured(Profile):
 
     def peak_velocity(self) -> float:
         return float(np.max(self.velocity_at(np.linspace(0.0, self.duration(), 20001))))
+
+    def is_pulse(self) -> bool:
+        """A pulse where its velocity at the last sample is back within REST_FRACTION of its
+        peak (a measured impact, as the stand-in half-sine; still moving there: a push)."""
+        return abs(float(self._u(self.duration(), 1))) <= REST_FRACTION * self.peak_velocity()
 
 
 Impactor = Constant | Rest | Ramp | SinePulse | Measured

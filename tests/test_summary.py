@@ -263,7 +263,7 @@ def test_a_batch_s_summary_columns_are_its_summaries_as_columns_and_each_the_cas
     assert list(out[0]["front_flags"]) == ["out_of_order", "below_linear_speed", "out_of_order_gaps",
                                            "below_linear_speed_gaps", "slowest_linear_speed_m_per_s",
                                            "noise_velocity_m_per_s"]
-    assert list(out[0]["front_resolution"]) == ["sample_interval_ms", "gap_crossing_time_ms", "frames_per_gap",
+    assert list(out[0]["front_resolution"]) == ["arrival_method", "sample_interval_ms", "gap_crossing_time_ms", "frames_per_gap",
                                                 "max_sample_interval_ms", "resolved", "source"]
     assert list(out[0]["front_speed_lab_m_per_s"]) == ["value", "stderr", "gap_frame_m_per_s", "magnets", "pitch_mm"]
     assert out[2]["shock_velocity_max_m_per_s"] is None and out[0]["shock_velocity_max_m_per_s"]["gap"] >= 2

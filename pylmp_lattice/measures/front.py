@@ -100,7 +100,8 @@ class Front:
         over the magnets it reached (ms; from magnet 2 where gap 1 is `drive_gap`: magnet 1's
         arrival is then the drive's), how many frames fall in it, and the longest frame interval
         that resolves it (ms); `resolved` is False below MIN_FRAMES_PER_GAP frames per gap,
-        where V_P per gap and the first peaks are sampling artefacts."""
+        where V_P per gap and the first peaks are sampling artefacts; `arrival_method`, how the
+        arrivals were taken (`arrival`)."""
         return self.resolutions()[0]
 
     def resolutions(self) -> list[dict]:
@@ -123,7 +124,8 @@ class Front:
             per_gap, resolved = frames.tolist(), (frames >= MIN_FRAMES_PER_GAP).tolist()
         else:  # the engine's record of every step
             per_gap, resolved = [None] * n, [True] * n
-        return {"sample_interval_ms": [self.sample_interval] * n, "gap_crossing_time_ms": crossing.tolist(),
+        return {"arrival_method": [self.arrival_method] * n, "sample_interval_ms": [self.sample_interval] * n,
+                "gap_crossing_time_ms": crossing.tolist(),
                 "frames_per_gap": per_gap, "max_sample_interval_ms": (crossing / MIN_FRAMES_PER_GAP).tolist(),
                 "resolved": resolved}
 

@@ -200,7 +200,7 @@ class RunFolder:
     def arrival_method(self) -> str:
         """A pulse's arrival is its first velocity peak (far from the impactor it may never reach
         V_I/2); any other drive's is the crossing of V_I/2."""
-        return measures.default_arrival_method(pulse=self.case.impactor.profile == "sine")
+        return measures.default_arrival_method(pulse=self.case.impactor.is_pulse())
 
     def measures(self) -> tuple[measures.Front | None, np.ndarray | None]:
         """The front measures and each magnet's largest |v| (m/s): from the engine's record when

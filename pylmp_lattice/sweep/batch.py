@@ -328,7 +328,7 @@ def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=No
     from ..formats import layout
     from ..summary import summary_columns
 
-    method = measures.default_arrival_method(pulse=cases[0].impactor.profile == "sine")  # as RunFolder's
+    method = measures.default_arrival_method(pulse=cases[0].impactor.is_pulse())  # as RunFolder's
     record = read_front_batch(cases, batch / layout.FRONT_BIN, method, draws, rows)
     out = summary_columns(cases, record.front, record.max_speed, draws, points, same)
     if cases[0].friction is not None:
