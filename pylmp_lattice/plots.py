@@ -92,7 +92,8 @@ def velocity_profiles(t, v, magnets, ax=None):
 
 
 def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0, drive_gap: bool = False):
-    """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1); NaN
+    """Fig. 3(b): shock propagation velocity V_P over each gap (gap n: magnets n and n+1), in the
+    gap frame (the gap's length r0 over its crossing time, as the paper's model counts it); NaN
     gaps are left out; `flagged`: how many were left out as flagged (`Front.accepted_velocity`:
     crossed out of order, or slower than any linear wave), and `drive_gap`: whether gap 1 was
     left out as the drive's (`Front.drive_gap`), said in the legend."""
@@ -106,7 +107,7 @@ def propagation_velocity(vp, v0=None, ax=None, flagged: int = 0, drive_gap: bool
         ax.plot([], [], " ", label="gap 1: the drive's, not drawn")
     if v0 is not None:
         ax.axhline(v0, color="k", ls=":", lw=1, label=f"$V_0$ = {v0:.3f} m/s")
-    ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="propagation velocity $V_P$ (m/s)")
+    ax.set(xlabel="gap n (between magnets n and n+1)", ylabel="$V_P$, gap frame (m/s)")
     _integer_ticks(ax)
     ax.legend(fontsize="small")
     return ax
