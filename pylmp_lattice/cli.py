@@ -20,7 +20,7 @@ import threading
 from pathlib import Path
 
 from .engine import RUNNERS
-from .errors import ConfigError, DumpFormatError, Interrupted, LatticeError, UsageError
+from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, LatticeError, UsageError
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
@@ -256,13 +256,15 @@ def _run_folder(path: Path) -> Path:
 
 
 def _run(args) -> int:
-    from .run_folder import run_case
+    from .run_folder import RunFolder, run_case
 
     case, folder = _load(args)
     if args.dry_run:
         return _dry_run(case, folder, args)
     if not args.quiet and sys.stderr.isatty():
         print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
+    from .serialize import dumps
+
     try:
         summary = run_case(case, folder, runner=args.runner, nprocs=args.np, echo=args.echo,
                            overwrite=args.overwrite, progress=not args.quiet, yes=args.yes)
@@ -271,8 +273,10 @@ def _run(args) -> int:
             raise
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
         raise Interrupted(signum, folder=folder if folder.exists() else None) from None
-    from .serialize import dumps
-
+    except ContactError as err:  # measured up to the contact: that summary on stdout, as a run's, then exit 1
+        if err.summarized:
+            print(dumps(RunFolder(folder).summary))
+        raise
     print(dumps(summary))
     return 0
 

@@ -51,6 +51,7 @@ class ContactError(RunError):
         self.pair = pair
         self.time_ms = time_ms
         self.gap_mm = gap_mm
+        self.summarized = summarized
         super().__init__(f"magnets {pair[0]} and {pair[1]} touched (gap {gap_mm:.4g} mm) at t = {time_ms:.4f} ms")
         if folder is not None:  # where its files are, and its measures up to the contact
             self.folder = folder

@@ -512,17 +512,19 @@ def test_a_run_shorter_than_its_output_interval_draws_its_figure_without_profile
 @lammps
 def test_a_run_stopped_by_contact_is_summarized_and_says_so(tmp_path, capsys):
     """Driven into its held end, a short chain touches: the run still writes summary.json (up to
-    the contact, saying where) and its figure, exit 1 with one line that names `summarize`;
-    a later `summarize` gives the same numbers (issue 27, item 8)."""
+    the contact, saying where) and its figure, prints that summary on stdout as a run does, and
+    exits 1 with one line that names `summarize`; a later `summarize` gives the same numbers
+    (issue 27, item 8)."""
     case = write_case(tmp_path / "case.toml", make_case(particles=21, velocity=2.0, duration=100.0))
     folder = tmp_path / "c"
     assert main(["run", str(case), "-o", str(folder), "--quiet"]) == 1
     out, err = capsys.readouterr()
     line, = err.splitlines()
-    assert out == "" and line.startswith("pylmp-lattice: error: magnets 19 and 20 touched"), err
+    assert line.startswith("pylmp-lattice: error: magnets 19 and 20 touched"), err
     assert line.endswith(f"measured up to the contact in summary.json; redo it with `pylmp-lattice summarize {folder}`)")
     assert (folder / layout.FIGURE).stat().st_size > 10_000
     written = json.loads((folder / layout.SUMMARY).read_text())
+    assert json.loads(out) == written
     assert written["status"] == "contact" and written["files"]["figure"] == layout.FIGURE
     stop = written["stopped"]
     assert stop["reason"] == "contact" and stop["magnets"] == [19, 20]
