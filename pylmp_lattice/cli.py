@@ -256,7 +256,7 @@ def _run_folder(path: Path) -> Path:
 
 
 def _run(args) -> int:
-    from .run_folder import RunFolder, run_case
+    from .run_folder import RunFolder, marker, run_case
 
     case, folder = _load(args)
     if args.dry_run:
@@ -272,7 +272,11 @@ def _run(args) -> int:
         if isinstance(err, Interrupted) and err.folder is not None:
             raise
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
-        raise Interrupted(signum, folder=folder if folder.exists() else None) from None
+        stop = Interrupted(signum, folder=folder if folder.exists() else None)
+        if folder.exists() and marker.status(folder) == marker.DONE:  # the run had ended: not lost, only unread
+            stop.args = (f"interrupted after the run had ended, while its output was converted, measured or drawn (files "
+                         f"kept in {folder}; `pylmp-lattice summarize {shlex.quote(str(folder))}` finishes it)",)
+        raise stop from None
     except ContactError as err:  # measured up to the contact: that summary on stdout, as a run's, then exit 1
         if err.summarized:
             print(dumps(RunFolder(folder).summary))

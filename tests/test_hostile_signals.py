@@ -81,7 +81,11 @@ def test_sigterm_at_each_stage_of_a_run_exits_143_and_records_what_happened(tmp_
     done = hooked(tmp_path, where, ["run", "base.toml", "-o", "r", "--quiet"])
     assert done.returncode == 143, done.stderr
     assert done.stdout == "" and "Traceback" not in done.stderr
-    assert done.stderr.splitlines()[-1].startswith("pylmp-lattice: interrupted"), done.stderr
+    last = done.stderr.splitlines()[-1]
+    assert last.startswith("pylmp-lattice: interrupted"), done.stderr
+    # once LAMMPS has ended, the line says that nothing of the run is lost and what finishes it
+    assert ("after the run had ended" in last and "`pylmp-lattice summarize r` finishes it" in last) \
+        == (recorded == "done"), last
     folder = tmp_path / "r"
     assert state(folder) == recorded
     assert all((folder / name).is_file() for name in kept), sorted(p.name for p in folder.iterdir())
