@@ -31,7 +31,9 @@ def main(argv: list[str] | None = None) -> int:
     """The `pylmp-lattice` command: run the subcommand in `argv` (default: sys.argv); return the exit
     code (0, 2 for bad input, 130 for Ctrl-C, 1 for a failed run), errors as one line on stderr."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # named by the command's own parser: its --help lists what it takes
+        args.command_parser.error(f"unrecognized arguments: {' '.join(extra)}")
     for level in (logging.INFO, logging.WARNING):
         logging.addLevelName(level, logging.getLevelName(level).lower())
     logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")
@@ -67,6 +69,9 @@ def _outcome(args) -> int:
     except KeyboardInterrupt:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
+    except BrokenPipeError:  # stdout's reader has gone (`| head`): nothing more to say, and no flush at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
@@ -188,6 +193,7 @@ def _parser() -> argparse.ArgumentParser:
     study.add_argument("name", choices=_StudyNames(), metavar="NAME", help="one of: %(choices)s")
     study.add_argument("-o", "--output", type=_path, default=Path("runs/studies"), help="output folder (default: runs/studies)")
     study.add_argument("--quick", action="store_true", help="a small version (fewer, shorter runs)")
+    study.add_argument("--quiet", action="store_true", help="no info lines: warnings and errors only")
     study.set_defaults(func=_study)
 
     info = sub.add_parser("info", help="LAMMPS version, packages, plugin status")
@@ -200,6 +206,8 @@ def _parser() -> argparse.ArgumentParser:
                               prefix_chars="\0", add_help=False)
         tool.add_argument("args", nargs="*")
         tool.set_defaults(func=_program, program=name)
+    for name, command in sub.choices.items():
+        command.set_defaults(command_parser=command)
     return p
 
 
@@ -501,6 +509,11 @@ def _program(args) -> int:
     from .tools import run_program
 
     given = args.args
+    if given in (["--help"], ["-h"]):  # the programs' own help: lmp's is -h, binary2txt has none
+        if args.program == "binary2txt":
+            print("usage: pylmp-lattice binary2txt FILE [FILE ...]: each LAMMPS binary dump FILE as text, in FILE.txt")
+            return 0
+        given = ["-h"]
     at = next((i for i, (a, b) in enumerate(zip(given, given[1:])) if a in ("-in", "-i") and Path(b).name == DECK), None)
     folder = Path(given[at + 1]).parent if at is not None else None
     if not (args.program == "lmp" and folder is not None and marker.is_run(folder)):

@@ -300,3 +300,26 @@ def test_quiet_is_quiet_and_summary_json_has_no_float_noise(tmp_path):
     assert json.loads(done.stdout)["files"]["figure"] == "shock.png"  # drawn, silently
     assert dumps({"t": 5162 * 0.0125, "small": 1e-300 / 3, "x": [0.1 + 0.2]}) == \
         '{\n  "t": 64.525,\n  "small": 3.33333333333333e-301,\n  "x": [\n    0.3\n  ]\n}'
+
+
+def test_a_reader_that_leaves_stdout_ends_the_command_quietly(tmp_path):
+    """`pylmp-lattice ... | head`: stdout closed before the JSON is printed gives the shell's
+    SIGPIPE exit (141) and nothing on stderr, not 'error: [Errno 32] Broken pipe' (trial)."""
+    proc = subprocess.Popen([sys.executable, "-m", "pylmp_lattice", "run", str(INPUTS / "paper_experiment.toml"),
+                             "--dry-run", "-o", str(tmp_path / "r")], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the command has printed anything (it imports first)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 128 + signal.SIGPIPE and err == "", err
+
+
+@pytest.mark.parametrize("command, args", [("run", ["x.toml"]), ("study", ["fig1"]), ("sweep", ["s.toml", "-o", "o"])])
+def test_an_unknown_option_points_to_the_command_s_own_help(capsys, command, args):
+    with pytest.raises(SystemExit) as code:
+        main([command, *args, "--bogus"])
+    err = capsys.readouterr().err
+    assert code.value.code == 2 and err == (f"pylmp-lattice {command}: error: unrecognized arguments: --bogus; "
+                                            f"see pylmp-lattice {command} --help\n"), err
+
+
+def test_the_programs_answer_help(capsys):
+    assert main(["binary2txt", "--help"]) == 0 and "pylmp-lattice binary2txt FILE" in capsys.readouterr().out
