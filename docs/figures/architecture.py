@@ -49,7 +49,7 @@ def draw(path: Path = OUT) -> None:
         ax.text(0.12, y + 0.12, name, fontsize=10, fontweight="bold", va="center")
         shown = ", ".join(m or "pl (the package's __init__)" for m in members)
         ax.text(0.12, y - 0.16, shown, fontsize=7.5, va="center", color="0.2")
-        ax.text(6.1, y + 0.12, f"{modules[i]} module{'s' * (modules[i] != 1)}, {within[i]} imports inside",
+        ax.text(6.1, y + 0.12, f"{modules[i]} module{'s' * (modules[i] != 1)}, {within[i]} import{'s' * (within[i] != 1)} inside",
                 fontsize=7, va="center", ha="right", color="0.35")
     # the imports from each layer (row) to each layer below it (column): a cell each, shaded by
     # the count; the cells above the diagonal (upward imports) stay empty, as the test demands
