@@ -112,7 +112,7 @@ def test_toda_soliton_speed(tmp_path, kappa, dt):
     """An exact soliton entering a Toda chain through particle 0 (a measured
     impactor on the exact solution); the time centroids of exp(-r_n) - 1 at gaps 10-40 (exactly
     kappa (n - n0) / sinh(kappa) for the exact soliton). Speed within 1e-4 of sinh(kappa)/kappa:
-    measured 5.8e-9, 6.9e-7 and 2.6e-5 at dt = 0.01 ms; kappa = 2 gives ~8.5e-5 at 0.01 ms and
+    measured 5.8e-9, 6.9e-7 and 2.6e-5 at dt = 0.01 ms; kappa = 2 gives ~9.0e-5 at 0.01 ms and
     2.2e-5 at 0.005 ms (Verlet, second order), so it runs at the latter."""
     traj = simulate(soliton_case(kappa, dt=dt), tmp_path)
     assert np.max(np.expm1(-(traj.gaps()[-1, 10:41] - 10.0))) < 1e-4 * np.sinh(kappa) ** 2  # the pulse has passed
