@@ -112,8 +112,9 @@ def dsw_chains() -> str:
                      fixed(num(c["V_star_over_V0"]), 3), sig(num(c["largest_decaying_V_I_m_per_s"]), 4),
                      persists + (f" ({'; '.join(notes)})" if notes else "")]
                     + [sig(num(c[f"knee_{m}_m_per_s"]), 4) for m in ("two_line", "kneedle", "tangent", "threshold")])
-    return table(["chain", "V0 (m/s)", "V* theory (m/s)", "V*/V0", "largest V_I that decays", "smallest that persists",
-                  "knee: two-line", "kneedle", "tangent", "eta = 0.1"], rows)
+    return table(["chain", "V0 (m/s)", "V* theory (m/s)", "V*/V0", "largest V_I that decays (m/s)",
+                  "smallest that persists (m/s)", "knee: two-line (m/s)", "kneedle (m/s)", "tangent (m/s)",
+                  "eta = 0.1 (m/s)"], rows)
 
 
 def dsw_lengths() -> str:

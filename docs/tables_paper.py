@@ -112,7 +112,7 @@ def s3() -> str:
 
     def change(key, change_key):
         return (f"{fixed(base[key]['mean'], 3)} -> {fixed(att[key]['mean'], 3)} m/s (attractive, "
-                f"{percent(att[change_key], 1)}); {fixed(rep[key]['mean'], 3)} (repulsive, {percent(rep[change_key], 1)})")
+                f"{percent(att[change_key], 1)}); {fixed(rep[key]['mean'], 3)} m/s (repulsive, {percent(rep[change_key], 1)})")
     return table(COMPARE, [
         ["linear front speed with / without (V_I = 0.01 m/s)", "-", fixed(ratio, 4),
          f"theory sqrt((k1 + 4 k2)/k1) = {fixed(theory, 4)}: {percent(ratio / theory - 1)}",
@@ -157,7 +157,7 @@ def s5() -> str:
     airy = read_json("literature/harmonic.json")["first_peak_far_field_limit_over_u_p"]
     return table(COMPARE, [
         ["V_P -> V0 (Fig. S5(b))", "approaches V0", f"{fixed(p['mean'], 4)} m/s at gaps {p['first_gap']}-{p['last_gap']} "
-         f"against V0 = {fixed(v0, 4)}", percent(p["mean"] / v0 - 1),
+         f"against V0 = {fixed(v0, 4)} m/s", percent(p["mean"] / v0 - 1),
          f"the front's Airy deficit 0.068 n^(-2/3) = {100 * 0.068 * n ** (-2 / 3):.1f} % at n = {n}, vanishing as n "
          "grows (tested against the exact chain in `tests/test_measures.py`)"],
         ["the oscillation decays completely (Fig. S5(d))", "yes",
@@ -208,8 +208,8 @@ def fig4() -> str:
     top_fraction = top / q[touched_q[0][0]][touched_q[0][1]]["V0_m_per_s"] if touched_q else None
     return table(COMPARE, [
         ["V_P against V_I (Fig. 4(a))", "nearly linear, like a Hugoniot",
-         f"{fixed(low['V_P_m_per_s'], 3)} m/s at {low['V_I_m_per_s']:g} (V0 = {fixed(v0, 3)}) to "
-         f"{fixed(high['V_P_m_per_s'], 3)} m/s at {high['V_I_m_per_s']:g}; linear above ~0.5 m/s", "-",
+         f"{fixed(low['V_P_m_per_s'], 3)} m/s at {low['V_I_m_per_s']:g} m/s (V0 = {fixed(v0, 3)} m/s) to "
+         f"{fixed(high['V_P_m_per_s'], 3)} m/s at {high['V_I_m_per_s']:g} m/s; linear above ~0.5 m/s", "-",
          "numbers for the paper's curve are not given"],
         ["f/f0 against V_I (Fig. 4(b))", "grows with V_I",
          f"{fixed(low['f_over_f0'], 3)} at {low['V_I_m_per_s']:g} m/s (-> 1, the band edge, in the linear limit), "
@@ -319,13 +319,13 @@ def s8_limits() -> str:
     return table(COMPARE, [
         ["V_P for T_s << T0", "tends to V0 (no number given)",
          f"{fixed(vp(short), 3)} m/s at T_s = {sig(short['T_s_over_T0'], 1)} T0 = {fixed(vp(short) / v0, 3)} V0, falling "
-         f"towards V0 as T_s shrinks ({fixed(vp(shorter), 3)} at {sig(shorter['T_s_over_T0'], 2)} T0)",
+         f"towards V0 as T_s shrinks ({fixed(vp(shorter), 3)} m/s at {sig(shorter['T_s_over_T0'], 2)} T0)",
          "reproduced as stated", "the paper says only that V_P tends to V0 when T_s << T0 (shorter pulses: below)"],
         ["V_P for T_s >> T0", "-> the constant drive's",
          f"{fixed(vp(longest), 3)} m/s at {sig(longest['T_s_over_T0'], 2)} T0 against {fixed(vc, 3)} m/s for the "
          "constant drive", percent(d["V_P_longest_over_constant_drive"] - 1, 1), ""],
         ["V_P drops sharply below T0 (Fig. S8(b))", "yes",
-         f"{fixed(vp(one), 3)} at T0, {fixed(vp(third), 3)} at {sig(third['T_s_over_T0'], 2)} T0", "-", ""],
+         f"{fixed(vp(one), 3)} m/s at T0, {fixed(vp(third), 3)} m/s at {sig(third['T_s_over_T0'], 2)} T0", "-", ""],
         [f"after the pulse (Fig. S8(c, d), T_s = {d['shown']['T_s_ms']:g} ms)",
          "amplitude and period fall until the oscillation vanishes",
          f"magnet 10's maxima {fixed(maxima[0], 2)} -> {fixed(max(maxima), 2)} m/s, then down to {fixed(maxima[-1], 2)} "
