@@ -299,3 +299,41 @@ def test_extremes_of_masses_and_gaps_are_those_of_the_arrays(chain):
     c = make_case(particles=12, chain=chain).chain
     assert c.mass_range == (c.masses().min(), c.masses().max())
     assert c.gap_range == (c.gaps().min(), c.gaps().max())
+
+
+def test_numpy_numbers_are_taken_as_numbers():
+    """From Python, a numpy integer or float is a number as in TOML (trial: np.int64 particles
+    gave "chain.particles: got np.int64(21); expected a number"); bool stays no number."""
+    import numpy as np
+
+    case = make_case(particles=np.int64(12), velocity=np.float32(2.0), chain={"r0": np.int32(12), "seed": np.uint32(3)},
+                     output={"fine": [np.int64(2), 5]})
+    assert case == make_case(particles=12, chain={"seed": 3}, output={"fine": [2, 5]})
+    assert type(case.chain.particles) is int and type(case.impactor.velocity) is float
+    case_from_dict(case_to_dict(case))  # plain TOML values: written back as they came
+    for value in (True, np.bool_(True)):
+        with pytest.raises(ConfigError, match=r"^chain.particles: got True; expected a number$"):
+            make_case(particles=value)
+    with pytest.raises(ConfigError, match=r"^chain.particles: got 2; expected an integer in \[3, "):
+        make_case(particles=np.int64(2))
+
+
+def test_numpy_arrays_are_taken_as_lists():
+    """A 1-D numpy array is a list of values as in TOML (trial: per-magnet masses as an array gave
+    "expected a number or a list"); its kind, length and range stay checked."""
+    import numpy as np
+
+    masses = [1.0 + 0.1 * k for k in range(12)]
+    case = make_case(particles=12, chain={"mass": np.array(masses), "r0": np.full(11, 12.0)},
+                     output={"fine": np.array([2, 5])})
+    assert case == make_case(particles=12, chain={"mass": masses, "r0": [12.0] * 11}, output={"fine": [2, 5]})
+    assert type(case.chain.mass) is tuple and type(case.chain.mass[0]) is float
+    for chain, head, tail in (({"mass": -np.ones(12)}, "chain.mass: got -1.0..-1.0 (min..max) g", "; expected > 0"),
+                              ({"mass": np.ones(11)}, "chain.mass: got 11 values", "; expected 1 or 12"),
+                              ({"mass": np.array([1.0] * 11 + [np.nan])}, "chain.mass: got [1.0, ",
+                               "; expected a number or a list of finite numbers"),
+                              ({"mass": np.ones((2, 12))}, "chain.mass: got array([[",
+                               "; expected a number or a list of finite numbers")):
+        with pytest.raises(ConfigError) as info:
+            make_case(particles=12, chain=chain)
+        assert str(info.value).startswith(head) and str(info.value).endswith(tail)

@@ -112,7 +112,8 @@ SECTIONS = ("chain", "force", "impactor", "run", "table", "friction", "second_ne
 
 
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
-    """A case from its TOML form; files it names are read from `base_dir` (see `data_file`)."""
+    """A case from its TOML form, a dict {section: {key: value}} (numpy numbers and 1-D arrays
+    taken as numbers and lists); files it names are read from `base_dir` (see `data_file`)."""
     data = dict(data)
     name = check_name(data.pop("name", "case"))
     for key, value in data.items():
@@ -229,7 +230,7 @@ def case_to_dict(case: Case) -> dict:
 
 def _second_neighbour(values: dict) -> SecondNeighbour:
     values = dict(values)
-    law, sign = values.pop("law", "power"), values.pop("sign", -1.0)
+    law, sign = values.pop("law", "power"), _plain(values.pop("sign", -1.0))
     law = _choice("second_neighbour.law", law, [k for k in FORCE_LAWS if k != "sampled"])
     if isinstance(sign, bool) or not isinstance(sign, (int, float)):
         raise ConfigError("second_neighbour.sign", f"got {brief(sign)}; expected -1 (attractive) or 1 (repulsive)")
@@ -256,6 +257,7 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         if key not in known:
             raise ConfigError(f"{section}.{_key(key)}",
                               f"unknown key; expected one of {', '.join([*other_keys, *known])}")
+        value = _plain(value)
         _check_type(f"{section}.{key}", value, known[key].type)
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
@@ -267,6 +269,17 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         if isinstance(err, ConfigError):
             raise
         raise ConfigError(section, f"invalid values ({err})") from err
+
+
+def _plain(value):
+    """A value from Python as TOML would give it: a numpy scalar as the Python number (or text,
+    bool) it holds, a 1-D numpy array as a list, numpy numbers in a list as Python numbers;
+    anything else as it is (then checked by `_check_type`, np.bool_ as a bool)."""
+    if isinstance(value, np.generic) or isinstance(value, np.ndarray) and value.ndim <= 1:
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [v.item() if isinstance(v, np.generic) else v for v in value]
+    return value
 
 
 def _check_type(field: str, value, annotation: str) -> None:
