@@ -12,7 +12,7 @@ import pytest
 import tomli_w
 
 from pylmp_lattice.case import case_from_dict, case_to_dict, load_case
-from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.errors import ConfigError, UsageError
 
 from conftest import OTHER_LAWS, make_case, make_law_case
 
@@ -337,3 +337,10 @@ def test_numpy_arrays_are_taken_as_lists():
         with pytest.raises(ConfigError) as info:
             make_case(particles=12, chain=chain)
         assert str(info.value).startswith(head) and str(info.value).endswith(tail)
+
+
+@pytest.mark.parametrize("data", [[1, 2], "case.toml", None])
+def test_case_from_dict_refuses_what_is_not_a_dict_in_one_line(data):
+    with pytest.raises(UsageError, match=r"^data: got .*; expected a dict of the case's sections, "
+                                         r"\{section: \{key: value\}\} as in its TOML file$"):
+        case_from_dict(data)

@@ -114,6 +114,9 @@ SECTIONS = ("chain", "force", "impactor", "run", "table", "friction", "second_ne
 def case_from_dict(data: dict, base_dir: Path = Path(".")) -> Case:
     """A case from its TOML form, a dict {section: {key: value}} (numpy numbers and 1-D arrays
     taken as numbers and lists); files it names are read from `base_dir` (see `data_file`)."""
+    if not isinstance(data, dict):
+        raise UsageError("data", f"got {brief(data)}; expected a dict of the case's sections, "
+                                 "{section: {key: value}} as in its TOML file")
     data = dict(data)
     name = check_name(data.pop("name", "case"))
     for key, value in data.items():
