@@ -344,3 +344,13 @@ def test_case_from_dict_refuses_what_is_not_a_dict_in_one_line(data):
     with pytest.raises(UsageError, match=r"^data: got .*; expected a dict of the case's sections, "
                                          r"\{section: \{key: value\}\} as in its TOML file$"):
         case_from_dict(data)
+
+
+def test_one_override_may_be_given_alone_and_others_are_refused(tmp_path):
+    """load_case(path, "run.duration=40") reads one override (trial: it read each character, "--set: got 'r'")."""
+    path = tmp_path / "c.toml"
+    path.write_bytes(tomli_w.dumps(case_to_dict(make_case())).encode())
+    assert load_case(path, "run.duration=20") == load_case(path, ["run.duration=20"]) == make_case(duration=20.0)
+    for bad in (20, ["run.duration=20", 3], {"run.duration": 20}):
+        with pytest.raises(UsageError, match=r"^overrides: got .*; expected a list of 'section.key=value' strings"):
+            load_case(path, bad)

@@ -30,10 +30,15 @@ from .settings import OutputSettings, RunSettings, TableSettings
 logger = logging.getLogger(__name__)
 
 
-def load_case(path: str | Path, overrides: list[str] = ()) -> Case:
-    """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values).
+def load_case(path: str | Path, overrides: list[str] | str = ()) -> Case:
+    """Read a case from TOML; `overrides` are 'section.key=value' strings (TOML values), a list
+    of them or one alone.
 
     Files the case names (force.file, impactor.file) are read from the case file's folder."""
+    overrides = [overrides] if isinstance(overrides, str) else overrides
+    if not (isinstance(overrides, (list, tuple)) and all(isinstance(item, str) for item in overrides)):
+        raise UsageError("overrides", f"got {brief(overrides)}; expected a list of 'section.key=value' strings, "
+                                      "e.g. ['run.duration=40']")
     path = Path(path)
     data = read_toml(path, "case")
     switched = _switch_laws(data, overrides)
