@@ -16,7 +16,7 @@ import tomli_w
 
 from pylmp_lattice import deck, preflight
 from pylmp_lattice.case import Chain, case_from_dict, case_to_dict
-from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.errors import ConfigError, UsageError
 from pylmp_lattice.run_folder import RunFolder, execute_batch, simulate
 from pylmp_lattice.formats import layout
 from pylmp_lattice.runner import run_embedded
@@ -58,6 +58,22 @@ def test_every_file_estimate_within_25_percent_of_the_run(tmp_path, label):
     peak = sum(measured[name] for name in checked)
     assert sum(est[name] for name in checked) == pytest.approx(peak, rel=0.25)
     assert preflight.output_bytes(make_case(output={"format": "none"})) < 1e6  # data, table, small files
+
+
+def test_estimate_takes_a_case_file_path_and_refuses_other_arguments_in_one_line(tmp_path):
+    """pl.estimate("case.toml") reads the case as load_case does (trial: "'str' object has no attribute 'chain'")."""
+    import pylmp_lattice as pl
+
+    case = make_case(particles=40, duration=30.0)
+    path = tmp_path / "c.toml"
+    path.write_bytes(tomli_w.dumps(case_to_dict(case)).encode())
+    for given in (path, str(path)):
+        got = pl.estimate(given)
+        assert (got.frames, got.files) == (pl.estimate(case).frames, pl.estimate(case).files)
+    with pytest.raises(UsageError, match=r"^case: got 3; expected a Case or the path of a case file \(TOML\)$"):
+        pl.estimate(3)
+    with pytest.raises(ConfigError, match=r"^case: file not found: .*nope.toml$"):
+        pl.estimate(tmp_path / "nope.toml")
 
 
 def test_binary_dump_size_is_exact_from_its_format():

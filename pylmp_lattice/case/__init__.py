@@ -18,12 +18,12 @@ from .checks import MAX_PARTICLES, MAX_STEPS, NAME, NAME_RULE, brief, check_name
 from .identity import case_id, identity_hash, normalised, normalised_hash
 from .model import FORCE_LAWS, Friction, SecondNeighbour
 from .settings import COMPRESSIONS, ENGINES, OUTPUT_FORMATS, OutputSettings, RunSettings, TableSettings
-from .toml import (SECTIONS, FieldKindError, apply_override, case_from_dict, case_to_dict, data_file, load_case,
-                   read_toml, unit_warnings)
+from .toml import (SECTIONS, FieldKindError, apply_override, as_case, case_from_dict, case_to_dict, data_file,
+                   load_case, read_toml, unit_warnings)
 
 __all__ = ["CHUNK", "COMPRESSIONS", "DISORDER", "ENGINES", "FAR_ENDS", "FORCE_LAWS", "KEPT_DRAWS",
            "LONG_LATTICE_MARGIN", "MAX_PARTICLES", "MAX_STEPS", "NAME", "NAME_RULE", "OUTPUT_FORMATS", "SECTIONS",
            "Case", "Chain", "FieldKindError", "Friction", "OutputSettings", "RunSettings", "SecondNeighbour", "TableSettings",
-           "apply_override", "brief", "case_from_dict", "case_id", "case_to_dict", "check_name", "data_file",
+           "apply_override", "as_case", "brief", "case_from_dict", "case_id", "case_to_dict", "check_name", "data_file",
            "identity_hash", "load_case", "long_lattice_particles", "normalised", "normalised_hash", "read_toml", "thermal_velocities",
            "unit_warnings"]

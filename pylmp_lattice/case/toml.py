@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import re
 import tomllib
 import warnings
@@ -53,6 +54,16 @@ def load_case(path: str | Path, overrides: list[str] | str = ()) -> Case:
             raise
         raise ConfigError(err.field, f"{message} (--set {section}.{switched[section]} "
                                      f"starts [{section}] afresh: give its fields with --set {section}.KEY=VALUE)") from None
+
+
+def as_case(case: Case | str | os.PathLike, argument: str = "case") -> Case:
+    """`case` itself, or the case its TOML file holds (`load_case`) if it is a path; else a
+    UsageError naming `argument`."""
+    if isinstance(case, Case):
+        return case
+    if isinstance(case, (str, os.PathLike)):
+        return load_case(case)
+    raise UsageError(argument, f"got {brief(case)}; expected a Case or the path of a case file (TOML)")
 
 
 # A law's parameters belong to it, a profile's to it: another one named with --set starts its

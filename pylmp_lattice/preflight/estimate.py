@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..case import Case
+from ..case import Case, as_case
 from ..deck import atom_types, per_atom_masses, records_front, uses_chain_engine
 from ..exact import weak_shock
 from .. import overhead
@@ -239,12 +239,13 @@ def _table_bytes(law, lo: float, hi: float, points: int) -> float:
     return header + (len(text) - header) * points / k
 
 
-def estimate(case: Case, nprocs: int = 1, measure: bool = False) -> Estimate:
+def estimate(case: Case | str | os.PathLike, nprocs: int = 1, measure: bool = False) -> Estimate:
     """What running `case` on `nprocs` ranks will take before it runs: frames, the size of every
     output file, memory and wall time, from the case alone (nothing is drawn or written). The
     time is the command's, start to exit, with this machine's start-up (`overhead`: measured
     now, once, if `measure` and not cached). `pl.estimate`; `check` refuses a run that does
-    not fit this machine."""
+    not fit this machine. `case`: a Case or the path of its TOML file (read as `load_case` reads it)."""
+    case = as_case(case)
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)
     types = atom_types(case)
