@@ -9,7 +9,7 @@ import pytest
 
 from pylmp_lattice import measures
 from pylmp_lattice.formats.bindump import open_dump
-from pylmp_lattice.errors import ConfigError, RunError
+from pylmp_lattice.errors import ConfigError, RunError, UsageError
 from pylmp_lattice.case_measures import read_front_record
 from pylmp_lattice.run_folder import RunFolder, execute, run_case, simulate
 
@@ -115,6 +115,24 @@ def test_fine_output_holds_chosen_magnets_every_step(tmp_path):
     common = np.flatnonzero(np.isin(np.round(fine.t, 9), np.round(coarse.t, 9)))
     np.testing.assert_array_equal(fine.v[common], coarse.v[:, [1, 6]])  # columns in magnet order
     np.testing.assert_array_equal(fine.a[common], coarse.a[:, [1, 6]])  # impactor's from its profile
+
+
+def test_fine_group_of_a_run_without_output_fine_is_refused_in_one_line(tmp_path):
+    """trajectory("fine") where output.fine was not set names the group and what the run holds
+    (trial: h5py's KeyError "object 'trajectory_fine' doesn't exist"); so does h5md.read_group."""
+    import h5py
+
+    from pylmp_lattice.formats import h5md
+
+    run = RunFolder.create(make_case(particles=10, duration=2.0), tmp_path / "r")
+    for magnets in (None, [3]):
+        with pytest.raises(UsageError, match=r"^group: got 'fine'; output.fine was not set for the run in .*/r: "
+                                             r"it holds the group chain alone$"):
+            run.trajectory("fine", magnets=magnets)
+    with h5py.File(tmp_path / "traj.h5md", "w") as h5:
+        h5.create_group("particles/trajectory")
+    with pytest.raises(UsageError, match=r"^group: got 'fine'; .*traj.h5md holds chain$"):
+        h5md.read_group(tmp_path / "traj.h5md", "fine")
 
 
 @lammps

@@ -53,7 +53,7 @@ from . import psf
 from .bindump import BinaryDump
 from .dump import read_log
 from .files import atomic_write
-from ..errors import LatticeError
+from ..errors import LatticeError, UsageError
 from .layout import TOPOLOGY
 from ..trajectory import Trajectory
 from ..units import H5MD_UNITS, from_engine, to_engine, to_h5md
@@ -191,6 +191,9 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
     import h5py
 
     with h5py.File(path, "r") as h5:
+        held = [name for name, key in GROUPS.items() if key in h5["particles"]]
+        if group not in held:
+            raise UsageError("group", f"got {group!r}; {path} holds {', '.join(held) or 'no group'}")
         g = h5["particles"][GROUPS[group]]
         cols = slice(None) if particles is None else list(particles)
         x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)

@@ -128,6 +128,9 @@ class RunFolder:
         if group not in layout.BINARY_GROUPS:
             raise UsageError("group", f"got {group!r}; choose one of {', '.join(layout.BINARY_GROUPS)}")
         case = self.case
+        if group == "fine" and not case.output.fine:
+            raise UsageError("group", f"got 'fine'; output.fine was not set for the run in {self.path}: "
+                                      "it holds the group chain alone")
         columns = self._columns(group, magnets)
         key = ("trajectory", group, columns, self._stamp())
         if key in self._cache:
