@@ -21,7 +21,7 @@ import tomli_w
 from pylmp_lattice.case import case_id, case_to_dict
 from pylmp_lattice.cli import main
 from pylmp_lattice.errors import ConfigError, ContactError
-from pylmp_lattice.run_folder import RunFolder, execute, execute_batch, run_case, write_folder
+from pylmp_lattice.run_folder import RunFolder, execute, execute_batch, run_case, simulate, write_folder
 from pylmp_lattice.run_folder.cases import read_cases, replicas_text
 from pylmp_lattice.formats import layout
 from pylmp_lattice.run_folder import marker
@@ -715,3 +715,19 @@ def test_an_engine_s_own_error_is_failed_and_a_signal_interrupted(tmp_path, erro
     record = marker.read(tmp_path / "r")
     assert record["state"] == state
     assert record.get("error") == ("ValueError: a bug in an engine" if state == "failed" else None)
+
+
+@lammps
+def test_run_case_and_simulate_take_a_case_file_s_path(tmp_path):
+    """`pl.run(path, ...)` as `pl.run(load_case(path), ...)` (it gave "'str' object has no
+    attribute 'chain'"); anything else is refused in one line naming `case`."""
+    from pylmp_lattice.case import load_case
+    from pylmp_lattice.errors import UsageError
+
+    path = write_case(tmp_path / "case.toml", make_case(particles=10, duration=5.0))
+    by_path, by_case = run_case(str(path), tmp_path / "a", figure=False), run_case(load_case(path), tmp_path / "b", figure=False)
+    assert {k: v for k, v in by_path.items() if k not in ("files", "wall_time_s")} \
+        == {k: v for k, v in by_case.items() if k not in ("files", "wall_time_s")}
+    assert simulate(path, tmp_path / "c").v.shape == simulate(load_case(path), tmp_path / "d").v.shape
+    with pytest.raises(UsageError, match=r"^case: got 3; expected a Case or the path of a case file \(TOML\)$"):
+        simulate(3, tmp_path / "e")

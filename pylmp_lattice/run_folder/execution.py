@@ -31,7 +31,7 @@ from typing import Protocol
 
 from .. import deck, preflight
 from .. import runner as lammps_runner
-from ..case import Case
+from ..case import Case, as_case
 from ..engine import RUNNERS
 from ..errors import ContactError, Interrupted, RunError, UsageError
 from ..formats import layout
@@ -85,16 +85,17 @@ class Lammps:
         lammps_runner.run_deck(path, self.runner, nprocs=self.nprocs, echo=self.echo, on_step=on_step)
 
 
-def execute(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
+def execute(case: Case | str | Path, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
             overwrite: bool = False, progress: bool = False, yes: bool = False) -> RunFolder:
-    """Write `case` into `folder` and run it there; return the RunFolder.
+    """Write `case` (a Case, or the path of its TOML file) into `folder` and run it there;
+    return the RunFolder.
 
     runner = "embedded" uses the LAMMPS Python module in this process; "lmp" the executable
     (with mpiexec for nprocs > 1); or an `Engine`. `progress` draws a bar on stderr (terminals
     only); `echo` shows LAMMPS's screen output on stderr; `yes` starts a run estimated to take
     over an hour.
     """
-    with _road([case], folder, _engine(runner, nprocs, echo), overwrite, progress, yes) as claimed:
+    with _road([as_case(case)], folder, _engine(runner, nprocs, echo), overwrite, progress, yes) as claimed:
         return RunFolder(claimed.path)
 
 
@@ -113,7 +114,7 @@ def execute_batch(cases: Sequence[Case], folder: str | Path, runner: str | Engin
         return RunFolder(claimed.path)
 
 
-def run_case(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
+def run_case(case: Case | str | Path, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
              figure: bool = True, overwrite: bool = False, progress: bool = False, yes: bool = False) -> dict:
     """Run `case` in `folder` (see `execute`), measure its front, write summary.json (then
     shock.png); return the summary.
@@ -122,11 +123,12 @@ def run_case(case: Case, folder: str | Path, runner: str | Engine = "embedded", 
     stopped by a contact (measured up to the contact, as its "stopped" entry says; the
     ContactError is raised after it is written)."""
     start = time.perf_counter()
-    with _road([case], folder, _engine(runner, nprocs, echo), overwrite, progress, yes, contact_ends=True) as claimed:
+    with _road([as_case(case)], folder, _engine(runner, nprocs, echo), overwrite, progress, yes,
+               contact_ends=True) as claimed:
         return summarize_folder(claimed.path, figure=figure, wall_time=time.perf_counter() - start)
 
 
-def simulate(case: Case, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
+def simulate(case: Case | str | Path, folder: str | Path, runner: str | Engine = "embedded", nprocs: int = 1, echo: bool = False,
              overwrite: bool = False, progress: bool = False, yes: bool = False) -> Trajectory:
     """Run `case` in `folder` (see `execute`) and return its whole trajectory in user units."""
     return execute(case, folder, runner, nprocs, echo, overwrite, progress, yes).trajectory()
