@@ -45,25 +45,29 @@ def test_only_converged_plateaus_of_done_members_count_and_inputs_are_left_out()
 
 
 def test_every_statistic_states_its_coverage_and_marks_it_below_90_percent(tmp_path, caplog):
-    """3 of 4 converged plateaus: coverage 0.75, marked in the table, hollow in the figure, and
-    one warning line; the first peak (4 of 4) is not marked."""
+    """Of the members run (done or failed: 5 at V_I = 1.5, 4 at 2.0), 3 converged plateaus:
+    coverage 0.6 and 0.75, marked in the table, hollow in the figure, and one warning line; the
+    first peak (4 of 5: the failed member has none) is marked at 1.5 only."""
     stats = replica_stats(_table())
-    np.testing.assert_allclose(stats[f"{VP}.mean.coverage"], [0.75, 0.75], rtol=1e-12)
-    np.testing.assert_allclose(stats[f"{PEAK}.mean.coverage"], [1.0, 1.0], rtol=1e-12)
+    assert stats["n"].tolist() == [4, 4] and stats["failed"].tolist() == [1, 0]
+    np.testing.assert_allclose(stats[f"{VP}.mean.coverage"], [0.6, 0.75], rtol=1e-12)
+    np.testing.assert_allclose(stats[f"{PEAK}.mean.coverage"], [0.8, 1.0], rtol=1e-12)
     assert stats[f"{VP}.mean.low_coverage"].tolist() == [True, True]
-    assert stats[f"{PEAK}.mean.low_coverage"].tolist() == [False, False]
+    assert stats[f"{PEAK}.mean.low_coverage"].tolist() == [True, False]
     with caplog.at_level("WARNING"):
         written = write_replica_stats(tmp_path, _table())
     lines = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert lines == [f"{VP}.mean: below 90% coverage at 2 of 2 points (lowest 75% of the members done): "
-                     "a mean over the members that converged only"]
+    assert lines == [f"{name}: below 90% coverage at {k} of 2 points (lowest {low} of the members run, failed ones "
+                     "counted): a mean over the members with a value only (converged, not failed)"
+                     for name, k, low in ((f"{VP}.mean", 2, "60%"), (f"{PEAK}.mean", 1, "80%"),
+                                          ("shock_velocity_max_m_per_s.value", 1, "80%"))]
     assert pd.read_csv(tmp_path / "replica_stats.csv")[f"{VP}.mean.low_coverage"].tolist() == [True, True]
     assert written[f"{VP}.mean.count"].tolist() == [3, 3]
     ax = plot_replica_stats(stats, "impactor.velocity", f"{VP}.mean")
     hollow = [line for line in ax.lines if line.get_markerfacecolor() == "white"]
     assert len(hollow) == 1 and hollow[0].get_xdata().tolist() == [1.5, 2.0]
     assert "hollow: under 90% of members" in ax.get_title()
-    full = plot_replica_stats(stats, "impactor.velocity", f"{PEAK}.mean")
+    full = plot_replica_stats(replica_stats(_table().query("status == 'done'")), "impactor.velocity", f"{PEAK}.mean")
     assert not [line for line in full.lines if line.get_markerfacecolor() == "white"]
     assert "hollow" not in full.get_title()
 
@@ -267,7 +271,8 @@ def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path)
     assert tuple(fig.get_size_inches()) == (2 * PANEL[0], PANEL[1]) and not fig.legends
     ax = fig.axes[0]
     assert isinstance(ax.patches[0], StepPatch) and ax.patches[0].get_data().values.sum() == 3
-    assert ax.get_title() == "3 of 4 replicas (coverage 75%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
+    # (of the 5 run: the failed one counts)
+    assert ax.get_title() == "3 of 5 replicas (coverage 60%, below 90%)\nmean 3.01 ± 0.0058 m/s (± standard error)"
 
 
 def test_a_measure_not_in_the_statistics_is_named_with_the_available_ones():
@@ -305,3 +310,30 @@ def test_a_disordered_ensemble_reports_coverage_and_its_headline_speed_uses_ever
     assert all(stats[f"{m}.count"].iloc[0] < 0.9 * 8 for m in low)
     warned = [r.getMessage().split(":")[0] for r in caplog.records if r.levelno == logging.WARNING]
     assert sorted(warned) == sorted(low)
+
+
+def test_members_that_failed_count_against_the_coverage_and_a_point_without_values_is_said(caplog):
+    """Strong disorder: 11 of 20 replicas of a point touched (failed), the other 9 converged. The
+    mean is over 9 of 20 (coverage 45 %, marked, warned), not '9 of 9' (a trial found the
+    survivors' mean unmarked); a point where no member has a value keeps its place in the
+    figure (a dotted line) and the warning says it has no mean."""
+    rows = []
+    for disorder, failed in ((0.0, 0), (0.3, 11), (0.6, 20)):
+        for r in range(20):
+            rows.append({"id": f"{disorder}-{r}", "chain.mass_disorder": disorder, "replica": r, "chain.seed": r,
+                         "status": "failed" if r < failed else "done", "error": None, "folder": "x",
+                         "wall_time_s": 0.1, f"{VP}.mean": np.nan if r < failed else 4.0 + 0.01 * r,
+                         f"{VP}.converged": r >= failed})
+    stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
+    assert stats["n"].tolist() == [20, 9, 0] and stats["failed"].tolist() == [0, 11, 20]
+    np.testing.assert_allclose(stats[f"{VP}.mean.coverage"], [1.0, 0.45, 0.0], rtol=1e-12)
+    assert stats[f"{VP}.mean.low_coverage"].tolist() == [False, True, True]
+    from pylmp_lattice.sweep.stats import low_coverage_warnings
+
+    line, = low_coverage_warnings(stats)
+    assert "at 2 of 3 points (lowest 0% of the members run" in line and line.endswith("no member has one at 1 point (no mean)")
+    ax = plot_replica_stats(stats, "chain.mass_disorder", f"{VP}.mean")
+    dotted = [line for line in ax.lines if line.get_linestyle() == ":"]
+    assert [line.get_xdata()[0] for line in dotted] == [0.6] and "dotted: no value at 0.6" in ax.get_title()
+    hollow, = [line for line in ax.lines if line.get_markerfacecolor() == "white"]
+    assert hollow.get_color() == ax.containers[0].lines[0].get_color()  # the line's own colour, not the next

@@ -497,7 +497,7 @@ def test_replica_stats_mean_and_standard_error(tmp_path):
     rows.append(rows[0] | {"id": "i", "V": np.inf})  # nor infinite values (counted apart)
     table = pd.DataFrame(rows)
     stats = replica_stats(table, ["V"])
-    assert list(stats["n"]) == [6, 5] and list(stats["V.count"]) == [5, 5]
+    assert list(stats["n"]) == [6, 5] and list(stats["failed"]) == [1, 0] and list(stats["V.count"]) == [5, 5]
     assert np.isfinite(stats["V.mean"]).all()
     values = table[(table["impactor.velocity"] == 2.0) & (table["status"] == "done")]["V"].to_numpy()
     row = stats[stats["impactor.velocity"] == 2.0].iloc[0]

@@ -3,8 +3,10 @@
 Only outcomes are averaged (`MEASURES`: V_P, the first peak, ...), never the inputs a member's
 summary repeats (V_I, V0, f0, N). A plateau counts only from the members where it converged
 (its `.converged` column), so every statistic states its coverage, the values used of the
-members done: a mean over the members that converged is biased whenever convergence depends on
-the draw (under 10 % mass disorder 2 of 8 long-lattice plateaus converged). Below
+members run (done or failed: a member that failed, e.g. a chain whose draw brought two magnets
+into contact, is an outcome of its draw too): a mean over the members that converged, or that
+did not fail, is biased whenever that depends on the draw (under 10 % mass disorder 2 of 8
+long-lattice plateaus converged; under 30 % mass disorder 11 of 20 experiments touched). Below
 COVERAGE_LIMIT the table marks the statistic (`.low_coverage`), the figure draws it hollow and
 a warning names it. The headline speed, `front_speed_m_per_s.value` (`summary.front_window`:
 a fixed window of gaps, no plateau criterion), is defined for every member whose front crossed
@@ -32,7 +34,7 @@ log = logging.getLogger(__name__)
 REPLICA_COLUMNS = ("replica", "chain.seed")
 # The table columns averaged by default: column -> (name, unit).
 MEASURES = {
-    "front_speed_m_per_s.value": ("front speed $V_P$, fixed gap window", "m/s"),
+    "front_speed_m_per_s.value": ("front speed, fixed gap window", "m/s"),
     "shock_velocity_plateau_m_per_s.mean": ("shock velocity plateau $V_P$", "m/s"),
     "first_peak_velocity_plateau_m_per_s.mean": ("first peak velocity, plateau", "m/s"),
     "shock_velocity_max_m_per_s.value": ("largest $V_P$", "m/s"),
@@ -65,12 +67,13 @@ def label(column: str) -> str:
 
 def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.DataFrame:
     """Per parameter point (the swept columns without replica and seed), over its done members:
-    `n` (done members), and for each measure `<measure>.mean`, `<measure>.sem` (standard error of
-    the mean, std with ddof=1 over sqrt(count); NaN for a single value) and `<measure>.count`,
-    the number of values used: finite, and, for a plateau (a measure `X.mean` beside a column
-    `X.converged`), from members where it converged; `<measure>.coverage`, count / n, and
-    `<measure>.low_coverage`, True below COVERAGE_LIMIT (a mean over some members only). A point
-    with no done member has n = 0, counts 0, NaN means and coverage: nothing to average.
+    `n` (done members), `failed` (failed members), and for each measure `<measure>.mean`,
+    `<measure>.sem` (standard error of the mean, std with ddof=1 over sqrt(count); NaN for a
+    single value) and `<measure>.count`, the number of values used: finite, and, for a plateau (a
+    measure `X.mean` beside a column `X.converged`), from members where it converged;
+    `<measure>.coverage`, count / (n + failed), and `<measure>.low_coverage`, True below
+    COVERAGE_LIMIT (a mean over some members only). A point with no member run has n = 0,
+    counts 0, NaN means and coverage: nothing to average.
 
     measures: columns to summarise (default: those of `MEASURES` in the table).
     """
@@ -81,18 +84,20 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
     groups = table.groupby(point, sort=False, dropna=False) if point else [((), table)]
     rows = []
     for key, members in groups:
-        group = members[members["status"] == "done"]
+        status = members["status"].to_numpy()
+        group = members[status == "done"]
         row = dict(zip(point, key if isinstance(key, tuple) else (key,)))
-        row["n"] = len(group)
+        row["n"], row["failed"] = len(group), int((status == "failed").sum())
+        run = row["n"] + row["failed"]
         for name in measures:
             values = used_values(group, name)
             row[f"{name}.mean"] = values.mean() if len(values) else np.nan
             row[f"{name}.sem"] = standard_error(values)
             row[f"{name}.count"] = len(values)
-            row[f"{name}.coverage"] = len(values) / len(group) if len(group) else np.nan
-            row[f"{name}.low_coverage"] = _low_coverage(len(values), len(group))
+            row[f"{name}.coverage"] = len(values) / run if run else np.nan
+            row[f"{name}.low_coverage"] = _low_coverage(len(values), run)
         rows.append(row)
-    columns = point + ["n"] + [f"{name}.{s}" for name in measures for s in STATISTICS]
+    columns = point + ["n", "failed"] + [f"{name}.{s}" for name in measures for s in STATISTICS]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -100,21 +105,24 @@ STATISTICS = ("mean", "sem", "count", "coverage", "low_coverage")  # the columns
 
 
 def _low_coverage(count: int, members: int | None) -> bool:
-    """Whether `count` values of `members` done ones fall below COVERAGE_LIMIT (never with no members)."""
+    """Whether `count` values of `members` run fall below COVERAGE_LIMIT (never with no members)."""
     return bool(members) and count < COVERAGE_LIMIT * members
 
 
 def low_coverage_warnings(stats: pd.DataFrame) -> list[str]:
     """One line per measure whose statistic is marked low_coverage at some point: how many
-    points, and the lowest coverage."""
+    points, the lowest coverage, and at how many points no member has a value (no mean)."""
     lines = []
     for column in [c for c in stats.columns if c.endswith(".low_coverage")]:
         low = stats[column].to_numpy(bool)
         if low.any():
             name = column.removesuffix(".low_coverage")
             worst = stats.loc[low, f"{name}.coverage"].min()
+            none = int((stats.loc[low, f"{name}.count"] == 0).sum())
             lines.append(f"{name}: below {COVERAGE_LIMIT:.0%} coverage at {int(low.sum())} of {len(stats)} points "
-                         f"(lowest {worst:.0%} of the members done): a mean over the members that converged only")
+                         f"(lowest {worst:.0%} of the members run, failed ones counted): a mean over the members "
+                         "with a value only (converged, not failed)"
+                         + (f"; no member has one at {none} point{'s' if none > 1 else ''} (no mean)" if none else ""))
     return lines
 
 
@@ -167,7 +175,7 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
     groups = list(stats.groupby(by, sort=False, dropna=False)) if by else [((), stats)]
     fmt, capsize, name = kwargs.pop("fmt", "o-"), kwargs.pop("capsize", 3), kwargs.pop("label", None)
     names = _legend_names(by)
-    counts, lows = [], 0
+    counts, lows, empty = [], 0, []
     for key, data in groups[:lines]:
         data = data.sort_values(x)
         mean, sem, count = (data[f"{measure}.{s}"].to_numpy(float) for s in ("mean", "sem", "count"))
@@ -177,17 +185,22 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
                            label=names(values) if by else name, **kwargs)
         ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=line[0].get_color(), alpha=0.15, lw=0)
         low = _low(data, measure)
-        if low.any():  # a mean over some members only: hollow
-            ax.plot(data[x].to_numpy()[low], mean[low], "o", mfc="white", mec=line[0].get_color(), zorder=3)
+        color = line[0].get_color()
+        if low.any():  # a mean over some members only: hollow (in the line's colour: the cycle moves on once a line)
+            ax.plot(data[x].to_numpy()[low], mean[low], "o", color=color, mfc="white", mec=color, zorder=3)
             lows += int(low.sum())
+        for at in data[x].to_numpy()[count == 0]:  # no member has a value there: said where the point would be
+            ax.axvline(at, color=color, ls=":", lw=0.8)
+            empty.append(at)
         counts.append(count)
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(measure))
     _no_offset(ax.yaxis)
     shown = f"; first {lines} of {len(groups)} lines" if len(groups) > lines else ""
     hollow = f"; hollow: under {COVERAGE_LIMIT:.0%} of members" if lows else ""
+    none = f"; dotted: no value at {', '.join(f'{v:g}' for v in sorted(set(empty)))}" if empty else ""
     ax.set_title(f"mean ± standard error (bars), ± std of the replicas (band)\n"
-                 f"{_counted(np.concatenate(counts))} per point{shown}{hollow}", fontsize="small")
+                 f"{_counted(np.concatenate(counts))} per point{shown}{hollow}{none}", fontsize="small")
     if legend and len(groups) > 1:
         ax.legend(fontsize="x-small")
     return ax
@@ -225,8 +238,8 @@ def _legend_names(columns: list[str]):
 
 def plot_replica_spread(values: np.ndarray, measure: str, ax=None, members: int | None = None):
     """One parameter point: the histogram of a measure over its replicas (`used_values`, of
-    `members` done ones), the mean and its standard error marked, the axis labelled with name
-    and unit; returns the Axes."""
+    `members` run, done or failed), the mean and its standard error marked, the axis labelled
+    with name and unit; returns the Axes."""
     if ax is None:
         import matplotlib.pyplot as plt
 
@@ -357,7 +370,7 @@ def draw_replica_stats(table: pd.DataFrame, measures: list[str] | None = None, p
     axes = [fig.add_axes(_panel(k // cols, k % cols, cols, rows)) for k in range(len(shown))]
     for ax, measure in zip(axes, shown):
         if len(stats) == 1:
-            plot_replica_spread(used_values(done, measure), measure, ax=ax, members=len(done))
+            plot_replica_spread(used_values(done, measure), measure, ax=ax, members=int(stats["n"][0] + stats["failed"][0]))
         else:
             plot_replica_stats(stats, x, measure, ax=ax, legend=False)
     _legend_below(fig, axes, cols, rows)

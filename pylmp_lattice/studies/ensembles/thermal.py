@@ -7,7 +7,8 @@ Measures: the headline front speed, fitted to the arrival times over a fixed win
 (`summary.front_window`, the same for every member: no plateau criterion, so every member with
 a front counts); V_P and first-peak plateaus from the engine's record (levels set against each
 member's noise velocity, `measures.levels`), each counted only where its plateau converged, so
-each point states its coverage (values used of members done; below 90 % drawn hollow);
+each point states its coverage (values used of members run, failed ones counted; below 90 %
+drawn hollow);
 eta of magnet 10's steady oscillation over the last fifth of the run (at least 3.5 linear
 periods), with the prominence set against the noise as well. A noise-free point (RMS 0, no
 disorder) is one run, shared by both axes, and equals the plain noise-free run (tested).
@@ -80,6 +81,11 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "noise_free": {name: quiet[f"{name}.mean"] for name in NAMES},
         "against_thermal_rms": _points(thermal, THERMAL), "against_mass_disorder": _points(mass, DISORDER),
     }
+    if quick:
+        numbers["quick_cannot_show"] = {
+            "stderr": f"standard errors from {replicas} replicas (the full study: 8)",
+            "plateaus": f"V_P and first-peak plateaus over {duration:g} ms runs, not the full study's 600 ms: shorter "
+                        "windows, and fewer converge (a member's value is empty where its plateau did not)"}
     tables = {"thermal": _table(thermal, THERMAL), "disorder": _table(mass, DISORDER),
               "members": {UNITS.get(c, c): members[c].to_numpy() for c in members.columns}}
     return StudyResult(NAME, numbers, tables=tables, figure=_figure(thermal, mass, quiet, v0, quick), quick=quick)
@@ -116,17 +122,18 @@ def _window(runs) -> list[int] | None:
 
 
 def _points(stats: pd.DataFrame, x: str) -> list[dict]:
-    return [{x: float(row[x]), "members": int(row["n"]),
+    return [{x: float(row[x]), "members": int(row["n"]), "failed": int(row["failed"]),
              **{name: {"mean": row[f"{name}.mean"], "stderr": row[f"{name}.sem"], "count": int(row[f"{name}.count"]),
                        "coverage": row[f"{name}.coverage"], "low_coverage": bool(row[f"{name}.low_coverage"])}
                 for name in NAMES}} for _, row in stats.iterrows()]
 
 
 def _table(stats: pd.DataFrame, x: str) -> dict:
-    out = {UNITS[x]: stats[x].to_numpy(float), "members": stats["n"].to_numpy(int)}
+    out = {UNITS[x]: stats[x].to_numpy(float), "members": stats["n"].to_numpy(int), "failed": stats["failed"].to_numpy(int)}
     for name in NAMES:
         out |= {f"{name}_mean": stats[f"{name}.mean"].to_numpy(float), f"{name}_stderr": stats[f"{name}.sem"].to_numpy(float),
                 f"{name}_count": stats[f"{name}.count"].to_numpy(int),
+                f"{name}_coverage": stats[f"{name}.coverage"].to_numpy(float),
                 f"{name}_low_coverage": stats[f"{name}.low_coverage"].to_numpy(bool)}
     return out
 
@@ -136,8 +143,8 @@ def _figure(thermal, mass, quiet, v0, quick):
     fig, ax = plt.subplots(2, 4, figsize=(17, 7.5), layout="constrained")
     axes = ((thermal, thermal[THERMAL].to_numpy(float) / VI * 100, "thermal RMS velocity (% of $V_I$)"),
             (mass, mass[DISORDER].to_numpy(float) * 100, "mass disorder (relative std, %)"))
-    panels = ((FRONT, "front speed $V_P$, fixed gap window, all members (m/s)"),
-              (VP, "shock velocity plateau $V_P$, converged only (m/s)"), (PEAK, "first peak velocity (m/s)"),
+    panels = ((FRONT, "front speed, fixed gap window (m/s)"),
+              (VP, "$V_P$ plateau, converged only (m/s)"), (PEAK, "first peak velocity (m/s)"),
               (ETA, r"wake oscillation energy ratio $\eta$ (magnet 10)"))
     for i, (stats, x, xlabel) in enumerate(axes):
         for j, (name, ylabel) in enumerate(panels):
@@ -148,8 +155,9 @@ def _figure(thermal, mass, quiet, v0, quick):
             low = stats[f"{name}.low_coverage"].to_numpy(bool)
             if low.any():  # a mean over some members only
                 a.plot(x[low], mean[low], "o", ms=7, mfc="white", mec="C0", zorder=3, label="under 90 % of members")
-            for xi, yi, count, n in zip(x, mean, stats[f"{name}.count"].to_numpy(int), stats["n"].to_numpy(int)):
-                if np.isfinite(yi):  # the coverage of every point: values used / members done
+            run = stats["n"].to_numpy(int) + stats["failed"].to_numpy(int)
+            for xi, yi, count, n in zip(x, mean, stats[f"{name}.count"].to_numpy(int), run):
+                if np.isfinite(yi):  # the coverage of every point: values used / members run
                     a.annotate(f"{count}/{n}", (xi, yi), textcoords="offset points", xytext=(3, 4), fontsize="xx-small")
             a.axhline(float(quiet[f"{name}.mean"]), color="k", ls=":", lw=1, label="noise-free run")
             if name == PEAK:
