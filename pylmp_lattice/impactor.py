@@ -22,9 +22,11 @@ from .errors import ConfigError
 from .units import acceleration
 
 
-# A measured drive whose velocity at its last sample is at most this fraction of its peak has
-# come to rest: a pulse (`Measured.is_pulse`), as the front's pulse levels count a 10 % fall
-REST_FRACTION = 0.1
+# A measured drive has come to rest (a pulse, `Measured.is_pulse`) where its mean velocity over the
+# last REST_TAIL of its record is at most REST_FRACTION of its peak: a mean over a span, not the
+# spline's slope at the last sample, which one noisy sample can swing (the experiment's half-sine
+# as u samples every 0.1 ms with 10 um of noise: the end slope called it a push in half the draws)
+REST_FRACTION, REST_TAIL = 0.1, 0.05
 
 
 class Profile(Protocol):
@@ -208,9 +210,12 @@ class Measured(Profile):
         return float(np.max(self.velocity_at(np.linspace(0.0, self.duration(), 20001))))
 
     def is_pulse(self) -> bool:
-        """A pulse where its velocity at the last sample is back within REST_FRACTION of its
-        peak (a measured impact, as the stand-in half-sine; still moving there: a push)."""
-        return abs(float(self._u(self.duration(), 1))) <= REST_FRACTION * self.peak_velocity()
+        """A pulse where it has come to rest by the end of its record (see REST_FRACTION: a
+        measured impact, as the stand-in half-sine, or one that recoils); still moving forward
+        there: a push."""
+        end, span = self.duration(), REST_TAIL * self.duration()
+        tail = float(self._u(end) - self._u(end - span)) / span  # mm/ms = m/s
+        return bool(tail <= REST_FRACTION * self.peak_velocity())
 
 
 Impactor = Constant | Rest | Ramp | SinePulse | Measured

@@ -61,15 +61,22 @@ def test_measured_impactor_sampled_at_8_khz_matches_the_analytic_run(tmp_path, c
 
 def test_a_measured_motion_back_at_rest_is_a_pulse_and_one_still_moving_a_push():
     """`is_pulse`: a half-sine given as samples is a pulse as the half-sine is (its arrivals are
-    first velocity peaks); samples that end still moving within 10 % of their peak are too,
-    beyond that a push (level arrivals), as are the constant drive and the ramp."""
+    first velocity peaks), also with 10 um of noise on every sample (the end's spline slope
+    alone called half such draws pushes) and when its record ends where the pulse does; one
+    that ends moving at most 10 % of its peak, or recoiling, is too; beyond that a push (level
+    arrivals), as are the constant drive and the ramp."""
     from pylmp_lattice.impactor import Measured
 
     pulse = SinePulse(2.81, 47.8)
     t = np.arange(0.0, 60.0 + 1e-9, 0.1)
     assert pulse.is_pulse() and not Constant(2.0).is_pulse() and not Ramp(2.0, 5.0).is_pulse()
-    assert Measured(tuple(t), tuple(pulse.displacement_at(t))).is_pulse()
-    for end, expected in ((0.09, True), (0.11, False), (1.0, False)):  # v at the last sample, in V_I
+    u = pulse.displacement_at(t)
+    assert Measured(tuple(t), tuple(u)).is_pulse()
+    noise = np.random.default_rng(1).normal(0.0, 0.01, size=(50, len(t)))  # mm
+    assert all(Measured(tuple(t), tuple(u + e)).is_pulse() for e in noise)
+    ends = t <= 47.8 + 1e-9
+    assert Measured(tuple(t[ends]), tuple(u[ends])).is_pulse()
+    for end, expected in ((0.09, True), (-0.2, True), (0.11, False), (1.0, False)):  # v at the end, in V_I
         v = np.interp(t, [0.0, 20.0, 40.0, 60.0], [0.0, 1.0, end, end])  # up to V_I, down to `end`, held
         assert Measured(tuple(t), tuple(2.0 * v), column="v").is_pulse() is expected, end
 

@@ -1,11 +1,11 @@
 """Front arrival: when the front reaches each particle, by one of three definitions.
 
 - "level" (the default for a sustained drive: constant velocity, ramp, a measured motion still
-  moving at its last sample, `Profile.is_pulse`): the
+  moving forward at the end of its record, `Profile.is_pulse`): the
   first time v_n reaches fraction * V_I (V_I/2 by default), linearly interpolated. It is the
   paper's front for a constant drive and is insensitive to how the peak is shaped.
 - "velocity_peak" (the default for a pulse, `default_arrival_method(pulse=True)`: a half-sine,
-  or a measured motion back at rest by its last sample): the time
+  or a measured motion at rest, or recoiling, by the end of its record): the time
   of the first velocity maximum, parabola-refined. A short pulse spreads and weakens as it
   travels, so far particles may never reach V_I/2; their first maximum still marks the pulse.
 - "acceleration_peak": the time of the first acceleration maximum, parabola-refined; the
