@@ -271,8 +271,10 @@ def _run(args) -> int:
         return _dry_run(case, folder, args)
     if not args.quiet and sys.stderr.isatty():
         print(f"case {case.name}: {case.chain.particles} magnets, {case.run.steps()} steps -> {folder}", file=sys.stderr)
+    from .formats.layout import MARKER
     from .serialize import dumps
 
+    before = _stamp(folder / MARKER)  # run.json as this command found it: a run it ends rewrites it
     try:
         summary = run_case(case, folder, runner=args.runner, nprocs=args.np, echo=args.echo,
                            overwrite=args.overwrite, progress=not args.quiet, yes=args.yes)
@@ -281,7 +283,8 @@ def _run(args) -> int:
             raise
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
         stop = Interrupted(signum, folder=folder if folder.exists() else None)
-        if folder.exists() and marker.status(folder) == marker.DONE:  # the run had ended: not lost, only unread
+        if _stamp(folder / MARKER) != before and marker.status(folder) in (marker.DONE, marker.CONTACT):
+            # this command's run had ended: nothing of it is lost, it is only not yet read
             stop.args = (f"interrupted after the run had ended, while its output was converted, measured or drawn (files "
                          f"kept in {folder}; `pylmp-lattice summarize {shlex.quote(str(folder))}` finishes it)",)
         raise stop from None
@@ -291,6 +294,15 @@ def _run(args) -> int:
         raise
     print(dumps(summary))
     return 0
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """A file's inode and modification time (ns), None if there is none: whether it was written since."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns
 
 
 def _dry_run(case, folder: Path, args) -> int:

@@ -98,6 +98,22 @@ def test_sigterm_at_each_stage_of_a_run_exits_143_and_records_what_happened(tmp_
         assert state(folder) == "done"
 
 
+def test_a_stop_before_an_overwriting_run_ends_is_not_said_to_come_after_it(tmp_path):
+    """The folder holds a finished run; `--overwrite` with another case is stopped before its own
+    run ends: the line must not say that the run had ended (the folder's run.json is the old
+    run's, not this command's)."""
+    (tmp_path / "base.toml").write_text(BASE.format(particles=20, duration=5.0, output=1.0))
+    first = subprocess.run([sys.executable, "-m", "pylmp_lattice", "run", "base.toml", "-o", "r", "--quiet"],
+                           capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert first.returncode == 0 and state(tmp_path / "r") == "done", first.stderr
+    for where in ("pylmp_lattice.preflight:check", "pylmp_lattice.runner:new_lammps"):
+        done = hooked(tmp_path, where, ["run", "base.toml", "-o", "r", "--quiet", "--overwrite", "--set",
+                                        "run.duration=6"])
+        last = done.stderr.splitlines()[-1]
+        assert done.returncode == 143 and last.startswith("pylmp-lattice: interrupted"), done.stderr
+        assert "after the run had ended" not in last, last
+
+
 @pytest.mark.slow
 def test_sigterm_to_a_sweeps_process_group_records_its_running_members_interrupted(tmp_path):
     """As a batch system stops a job: every process of the group gets SIGTERM, the fork server
