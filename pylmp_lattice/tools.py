@@ -44,4 +44,5 @@ def run_program(name: str, args: list[str]) -> int:
     from .runner import die_with_parent
 
     # it dies with this process: a hand run's end is this process's (`marker.hand_run`)
-    return subprocess.call([str(program(name)), *args], env=environment(), preexec_fn=die_with_parent)
+    code = subprocess.call([str(program(name)), *args], env=environment(), preexec_fn=die_with_parent)
+    return 128 - code if code < 0 else code  # killed by a signal (-N): the shell's 128 + N

@@ -323,3 +323,23 @@ def test_an_unknown_option_points_to_the_command_s_own_help(capsys, command, arg
 
 def test_the_programs_answer_help(capsys):
     assert main(["binary2txt", "--help"]) == 0 and "pylmp-lattice binary2txt FILE" in capsys.readouterr().out
+
+
+def test_a_closed_pipe_that_is_not_stdout_stays_an_error(monkeypatch, capsys):
+    """Only stdout's reader leaving is the quiet 141 (`cli._out`); another pipe's EPIPE (a runner's,
+    say) is an error, exit 1."""
+    from pylmp_lattice import cli
+
+    def broken(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(cli, "_info", broken)
+    assert main(["info"]) == 1 and "Broken pipe" in capsys.readouterr().err
+
+
+def test_a_program_killed_by_a_signal_exits_as_the_shell_says(monkeypatch):
+    """`pylmp-lattice lmp -h | head -1`: lmp dies of SIGPIPE (subprocess: -13), the command exits 141."""
+    from pylmp_lattice import tools
+
+    monkeypatch.setattr(tools.subprocess, "call", lambda *a, **k: -signal.SIGPIPE)
+    assert tools.run_program("lmp", ["-h"]) == 128 + signal.SIGPIPE
