@@ -537,7 +537,7 @@ def _program(args) -> int:
     run: the deck run by LAMMPS in this process with lmp's other arguments (`marker.hand_run`:
     its end is known at once; Ctrl-C stops it softly, as it stops `run`), from another folder
     with the folder's `-var dir` and `-log` set unless given (LAMMPS logs where it runs)."""
-    from .formats.layout import DECK, DIR_VARIABLE, LOG, deck_dir
+    from .formats.layout import DECK, DIR_VARIABLE, LOG, deck_dir, deck_safe
     from .run_folder import marker
     from .tools import run_program
 
@@ -552,12 +552,19 @@ def _program(args) -> int:
     if not (args.program == "lmp" and folder is not None and marker.is_run(folder)):
         return run_program(args.program, given)
     rest = given[:at] + given[at + 2:]
+    logs = [b for a, b in zip(rest, rest[1:]) if a in ("-log", "-l")]
+    if any(Path(b).resolve() != (folder / LOG).resolve() for b in logs):  # the end is read from the folder's log
+        raise UsageError("-log", f"got {logs[-1]!r}; a hand run of a run folder logs into its {LOG}, which records "
+                                 f"its end and summarize reads: leave -log out")
     if folder.resolve() != Path.cwd().resolve():
         dirs = [c for a, b, c in zip(rest, rest[1:], rest[2:]) if a in ("-var", "-v") and b == DIR_VARIABLE]
         if any(Path(d).resolve() != folder.resolve() for d in dirs):  # its files read from elsewhere: as given
             return run_program(args.program, given)
-        rest += ([] if dirs else ["-var", DIR_VARIABLE, deck_dir(folder)]) \
-            + ([] if {"-log", "-l"} & set(rest) else ["-log", str(folder / LOG)])
+        if not deck_safe(os.path.relpath(folder)) and not deck_safe(str(folder.resolve())):
+            where = shlex.quote(str(folder))
+            raise UsageError("-in", f"got {given[at + 1]!r}: LAMMPS splits its folder's path at spaces (and reads $, "
+                                    f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})")
+        rest += ([] if dirs else ["-var", DIR_VARIABLE, deck_dir(folder)]) + ([] if logs else ["-log", str(folder / LOG)])
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines

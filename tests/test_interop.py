@@ -254,6 +254,25 @@ def test_a_deck_run_by_hand_from_another_folder_keeps_its_log_and_record_in_its_
         assert by_hand[key] == own[key], key
 
 
+@pytest.mark.parametrize("folder, extra, field", [("deck", ["-log", "other.log"], "-log"), ("a b", [], "-in")])
+def test_a_hand_run_that_could_not_record_its_end_is_refused_before_lammps(tmp_path, monkeypatch, capsys, folder,
+                                                                           extra, field):
+    """A log elsewhere (the run's end is read from its folder's log.lammps; a stale one there
+    would pass for it), or a folder LAMMPS cannot name from elsewhere (a space): one line, exit 2,
+    nothing run (the second names the subshell that works)."""
+    from pylmp_lattice.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["deck", str(ROOT / "inputs" / "paper_experiment.toml"), "-o", folder]) == 0
+    capsys.readouterr()
+    assert main(["lmp", "-in", f"{folder}/in.lattice", *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pylmp-lattice: error: {field}: got ") and len(err.splitlines()) == 1, err
+    assert not (tmp_path / folder / "log.lammps").exists() and json.loads((tmp_path / folder / "run.json").read_text())["state"] == "written"
+    if field == "-in":
+        assert err.rstrip().endswith("run it from inside: (cd 'a b' && pylmp-lattice lmp -in in.lattice)")
+
+
 def test_unknown_program_is_refused():
     from pylmp_lattice.tools import run_program
 
