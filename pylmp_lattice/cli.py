@@ -32,8 +32,11 @@ def main(argv: list[str] | None = None) -> int:
     code (0, 2 for bad input, 130 for Ctrl-C, 1 for a failed run), errors as one line on stderr."""
     parser = _parser()
     args, extra = parser.parse_known_args(argv)
-    if extra:  # named by the command's own parser: its --help lists what it takes
-        args.command_parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    if extra:  # named by the parser they were given to: the command's (its --help lists what it takes), or ours
+        given = sys.argv[1:] if argv is None else list(argv)
+        command = args.command_parser.prog.rsplit(" ", 1)[-1]
+        before = given[:given.index(command)] if command in given else given
+        (parser if set(extra) & set(before) else args.command_parser).error(f"unrecognized arguments: {' '.join(extra)}")
     for level in (logging.INFO, logging.WARNING):
         logging.addLevelName(level, logging.getLevelName(level).lower())
     logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")

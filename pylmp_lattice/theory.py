@@ -114,9 +114,10 @@ class Prediction:
     stiffness_ratio: k(r1)/k(r0) = rho^2 (4 at V*); critical_velocity: V*, m/s (Eq. 4);
     wake_persists: V_I > V*; in_domain: V_I <= V*, where the derivation holds. Outside it
     (in_domain False) the numbers are returned for comparison but run ahead of the simulations:
-    on the paper's chain the lead speed exceeds the extrapolated V_P by 0.76, 2.8 and 5.6 % at
-    1.14, 2.27 and 3.4 V*, and the wake frequency the measured one by 2.9, 7.3 and 16 %, against
-    0.02-0.44 % and 0.2 % below V* (issue 26, an independent integrator; study dsw);
+    on the paper's chain the extrapolated V_P falls below the lead speed by 0.72, 0.93, 1.33 and
+    2.27 % at 1.1, 1.25, 1.5 and 2 V* (the wake frequency differs by +0.08, -0.36, -1.62 and
+    -5.13 %), against 0.05-0.54 % for V_P and at most 0.24 % for the frequency below V* (study dsw,
+    docs/literature.md);
     rankine_hugoniot_speed, rankine_hugoniot_gap: the jump from rest to a uniform state moving
     at V_I, m/s and mm (`exact.jump`); weak_shock_speed: c0 + s V_I, m/s (`exact.weak_shock`).
     """

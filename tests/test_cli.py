@@ -321,6 +321,13 @@ def test_an_unknown_option_points_to_the_command_s_own_help(capsys, command, arg
                                             f"see pylmp-lattice {command} --help\n"), err
 
 
+def test_an_unknown_option_before_the_command_is_ours(capsys):
+    with pytest.raises(SystemExit) as code:
+        main(["--bogus", "run", "x.toml"])
+    err = capsys.readouterr().err
+    assert code.value.code == 2 and err == "pylmp-lattice: error: unrecognized arguments: --bogus; see pylmp-lattice --help\n"
+
+
 def test_the_programs_answer_help(capsys):
     assert main(["binary2txt", "--help"]) == 0 and "pylmp-lattice binary2txt FILE" in capsys.readouterr().out
 

@@ -415,17 +415,23 @@ def test_the_sweep_disk_estimate_samples_the_grid_s_last_point_too(tmp_path):
 
 def test_a_member_larger_than_the_whole_disk_fails_and_does_not_stop_the_sweep(tmp_path, monkeypatch):
     """`member._no_room`: a member whose run does not fit the free space stops the sweep as a full
-    disk (freeing space and resuming runs it), unless it is larger than the whole file system:
-    then it fails alone, with preflight's refusal as its error."""
+    disk (freeing space and resuming runs it), unless it is larger than the whole file system or
+    than the memory: then it fails alone, with preflight's refusal as its error."""
+    import dataclasses
+
     from pylmp_lattice import preflight
     from pylmp_lattice.case import load_case
     from pylmp_lattice.sweep import member
 
     case, total = load_case(EXPERIMENT), shutil.disk_usage(tmp_path).total
+    est = preflight.estimate(case)
     monkeypatch.setattr(preflight, "free_disk", lambda folder: 1e6)
-    for need, stops in ((2e6, True), (total + 1.0, False), (5e5, False)):
-        monkeypatch.setattr(preflight, "output_bytes", lambda case, need=need: need)
-        assert member._no_room(case, tmp_path) is stops, need
+    monkeypatch.setattr(preflight, "available_memory", lambda: 1e9)
+    for need, memory, stops in ((2e6, 1e8, True), (total + 1.0, 1e8, False), (5e5, 1e8, False), (2e6, 2e9, False)):
+        sized = dataclasses.replace(est, files={"all": need}, memory_bytes=memory)
+        monkeypatch.setattr(preflight, "estimate", lambda case, sized=sized: sized)
+        for folder in (tmp_path, tmp_path / "members" / "0123456789abcdef"):  # (not made yet: its parent's disk)
+            assert member._no_room(case, folder) is stops, (need, memory, folder)
 
 
 def stopped_at_the_disk_check(monkeypatch) -> list:

@@ -19,7 +19,6 @@ StudyResult` and add its name, origin and one-line title to STUDIES.
 
 from __future__ import annotations
 
-import glob
 import importlib
 import logging
 import os
@@ -82,14 +81,15 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
 
 
 def refuse_planted_links(out: Path, name: str) -> None:
-    """LinkError for a symbolic link where study `name` writes in `out`: its files (NAME.json,
-    .png, .pdf, NAME_*.csv), its runs' folder NAME/ or anything in it (the runs are redone
-    there; a link inside would take their writes elsewhere)."""
+    """LinkError for a symbolic link where study `name` writes in `out`: its files
+    (`output.study_files`), its runs' folder NAME/ or anything in it (the runs are redone
+    there; a link inside would take their writes elsewhere). (The movies are written by a
+    rename, which replaces a link, never follows it.)"""
     from ..formats.files import refuse_link, refuse_links
+    from .output import study_files
 
-    refuse_links(out, [f"{name}.{ext}" for ext in ("json", "png", "pdf")])
-    for table in out.glob(f"{glob.escape(name)}_*.csv"):
-        refuse_link(table)
+    for path in study_files(out, name):
+        refuse_link(path)
     runs = out / name
     refuse_link(runs)
     for folder, dirs, files in os.walk(runs):  # (never follows a link: each is refused as found)

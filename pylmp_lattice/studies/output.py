@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import glob
 import logging
 import math
 import os
@@ -41,6 +42,15 @@ class StudyResult:
         return {"study": self.name, "quick": self.quick, **self.numbers}
 
 
+FIGURES = ("png", "pdf")  # the formats a study's figure is written in
+
+
+def study_files(out: Path, name: str) -> list[Path]:
+    """Where `write_study` writes study `name`'s files in `out`: NAME.json, its figure's and the
+    tables (NAME_<table>.csv) there now."""
+    return [out / f"{name}.{ext}" for ext in ("json", *FIGURES)] + sorted(out.glob(f"{glob.escape(name)}_*.csv"))
+
+
 def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
     """Write a study's files into `out`; returns {kind: path}.
 
@@ -55,7 +65,7 @@ def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
     if result.figure is not None:
         from ..plots import pyplot
 
-        for ext in ("png", "pdf"):
+        for ext in FIGURES:
             save = lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e)  # noqa: E731
             files[ext] = _replace(out / f"{result.name}.{ext}", save, replaced)
         pyplot().close(result.figure)  # saved: pyplot need not keep it (`study all` draws dozens)

@@ -90,15 +90,14 @@ def _fresh(folder: Path) -> Path:
 def _no_room(case: Case, folder: Path) -> bool:
     """Whether a failed member's disk is too full for its run (its writes, LAMMPS's included,
     may have failed on it in other ways: a refusal by preflight, a truncated record), where
-    room can be made: a run larger than the whole disk fails as a member (preflight's refusal
-    says why), as freeing space and resuming would meet it again."""
-    import shutil
-
-    from ..preflight import free_disk, output_bytes
+    room can be made: a run larger than the whole disk, or than the memory, fails as a member
+    (preflight's refusal says why), as freeing space and resuming would meet it again."""
+    from ..preflight import available_memory, disk_size, estimate, free_disk
 
     try:
-        need = output_bytes(case)
-        return free_disk(folder) < need <= shutil.disk_usage(folder).total
+        est, memory = estimate(case), available_memory()
+        fits = est.output_bytes <= disk_size(folder) and (memory is None or est.memory_bytes <= memory)
+        return fits and free_disk(folder) < est.output_bytes
     except (OSError, LatticeError):
         return False
 
