@@ -408,15 +408,18 @@ def _export(args) -> int:
 FAILURES_SHOWN = 3  # a sweep's distinct reasons for failed members, said at its end
 # a member's or batch's folder in the table's errors (their id: 16 hex digits), relative to the sweep folder
 MEMBER_PATH = re.compile(r"(?<![\w/.])(members|batches)/([0-9a-f]{16})\b")
+# a number in an error (a time, a gap, a magnet): one reason whatever its numbers (not inside a name: r0_disorder)
+NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.])")
 
 
 def _say_failures(errors, root: Path) -> None:
     """The distinct reasons among failed members' `errors` (the same but for the member's own
-    folder: one reason), the first FAILURES_SHOWN with their count and one member's error as an
-    example, its folder given from here (the table's are relative to the sweep folder `root`)."""
+    folder and the numbers: one reason, e.g. a contact of any magnets at any time), the first
+    FAILURES_SHOWN with their count and one member's error as an example, its folder given from
+    here (the table's are relative to the sweep folder `root`)."""
     reasons: dict[str, list] = {}
     for error in errors:
-        reasons.setdefault(MEMBER_PATH.sub(r"\1/ID", error), [error, 0])[1] += 1
+        reasons.setdefault(NUMBER.sub("#", MEMBER_PATH.sub(r"\1/ID", error)), [error, 0])[1] += 1
     for example, count in list(reasons.values())[:FAILURES_SHOWN]:
         example = MEMBER_PATH.sub(lambda m: f"{root / m[1] / m[2]}", example)
         print(f"pylmp-lattice: failed{f' ({count} members, e.g.)' if count > 1 else ''}: {example}", file=sys.stderr)

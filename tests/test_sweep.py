@@ -1614,3 +1614,19 @@ def test_the_failure_lines_group_members_failed_alike(tmp_path, capsys):
                      "pylmp-lattice: failed: force.file: members/drive.csv: not found",
                      "pylmp-lattice: failed: a",
                      "pylmp-lattice: failed: and 1 other reason (the table's error column)"]
+
+
+def test_the_failure_lines_group_contacts_whatever_their_numbers(capsys, tmp_path):
+    """Magnets touching at other pairs, gaps and times are one reason (a trial's sweep listed
+    three contacts apart, then 'and 5 other reasons'); a field's name keeps its digits."""
+    from pylmp_lattice.cli import _say_failures
+
+    contact = "magnets {} and {} touched (gap -{} mm) at t = {} ms (files kept in members/{})"
+    errors = [contact.format(1, 2, 0.1036, 2.5125, "0123456789abcdef"), contact.format(19, 20, 0.0375, 68.56, "fedcba9876543210"),
+              contact.format(3, 4, 1e-3, 1.5, "00112233445566ff"), "chain.r0_disorder: got 2 ; expected < 1",
+              "chain.r1_disorder: got 2 ; expected < 1"]
+    _say_failures(errors, tmp_path / "sw")
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("pylmp-lattice: failed (3 members, e.g.): magnets 1 and 2 touched (gap -0.1036 mm)")
+    assert lines[1:] == ["pylmp-lattice: failed: chain.r0_disorder: got 2 ; expected < 1",
+                         "pylmp-lattice: failed: chain.r1_disorder: got 2 ; expected < 1"]
