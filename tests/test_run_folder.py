@@ -731,3 +731,18 @@ def test_run_case_and_simulate_take_a_case_file_s_path(tmp_path):
     assert simulate(path, tmp_path / "c").v.shape == simulate(load_case(path), tmp_path / "d").v.shape
     with pytest.raises(UsageError, match=r"^case: got 3; expected a Case or the path of a case file \(TOML\)$"):
         simulate(3, tmp_path / "e")
+
+
+def test_summarize_refuses_a_deck_that_was_never_run(tmp_path, capsys):
+    """`deck` then `summarize`: one line naming how to run it, exit 2, no summary.json (it wrote a
+    summary of status "written" naming a log that did not exist: trial)."""
+    from pylmp_lattice.cli import main
+
+    folder = tmp_path / "k"
+    assert main(["deck", str(Path(__file__).parent.parent / "inputs" / "paper_experiment.toml"), "-o", str(folder)]) == 0
+    capsys.readouterr()
+    assert main(["summarize", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"pylmp-lattice: error: {folder}: holds a deck that was never run (no log.lammps, no output); run it "
+                   f"first: (cd {folder} && pylmp-lattice lmp -in in.lattice)\n"), err
+    assert not (folder / layout.SUMMARY).exists()

@@ -19,6 +19,7 @@ import json
 import logging
 import math
 import re
+import shlex
 from contextlib import suppress
 from pathlib import Path
 
@@ -39,7 +40,7 @@ from ..formats.files import atomic_write, refuse_link, refuse_links, replacing
 from . import marker
 from .cases import read_cases
 from .convert import convert_dumps
-from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING
+from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING, WRITTEN
 from .write import write_folder
 
 log = logging.getLogger(__name__)
@@ -256,6 +257,15 @@ class RunFolder:
             raise UsageError(str(self.path), "still being written by LAMMPS; " + (
                 f"its {wait[0]} changed {max(0, int(wait[1]))} s ago; if no LAMMPS writes it any more, summarize "
                 f"again in {math.ceil(wait[2])} s" if wait else "summarize it when the run ends"))
+        ran = [name for name in (layout.LOG, layout.FRONT_BIN, layout.H5MD, layout.DUMP, *layout.BINARY_GROUPS.values())
+               if (self.path / name).is_file()]
+        if status == WRITTEN and not ran:  # a deck never run: nothing to measure (it read as a run with no front)
+            raise UsageError(str(self.path), f"holds a deck that was never run (no {layout.LOG}, no output); run it "
+                                              f"first: (cd {shlex.quote(str(self.path))} && pylmp-lattice lmp -in "
+                                              f"{layout.DECK})")
+        if layout.LOG not in ran:
+            log.warning("%s: no %s (a deck run elsewhere logs where it runs: lmp -log PATH/%s): the run's end and its "
+                        "friction work are not known", self.path, layout.LOG, layout.LOG)
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
