@@ -543,7 +543,7 @@ def _program(args) -> int:
     run: the deck run by LAMMPS in this process with lmp's other arguments (`marker.hand_run`:
     its end is known at once; Ctrl-C stops it softly, as it stops `run`), from another folder
     with the folder's `-var dir` and `-log` set unless given (LAMMPS logs where it runs)."""
-    from .formats.layout import DECK, DIR_VARIABLE, LOG, deck_dir, deck_safe
+    from .formats.layout import DECK, DIR_VARIABLE, LOG, deck_dir
     from .run_folder import marker
     from .tools import run_program
 
@@ -566,11 +566,13 @@ def _program(args) -> int:
         dirs = [c for a, b, c in zip(rest, rest[1:], rest[2:]) if a in ("-var", "-v") and b == DIR_VARIABLE]
         if any(Path(d).resolve() != folder.resolve() for d in dirs):  # its files read from elsewhere: as given
             return run_program(args.program, given)
-        if not deck_safe(os.path.relpath(folder)) and not deck_safe(str(folder.resolve())):
+        try:
+            named = deck_dir(folder)  # the folder as LAMMPS can name it
+        except UsageError:
             where = shlex.quote(str(folder))
             raise UsageError("-in", f"got {given[at + 1]!r}: LAMMPS splits its folder's path at spaces (and reads $, "
-                                    f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})")
-        rest += ([] if dirs else ["-var", DIR_VARIABLE, deck_dir(folder)]) + ([] if logs else ["-log", str(folder / LOG)])
+                                    f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})") from None
+        rest += ([] if dirs else ["-var", DIR_VARIABLE, named]) + ([] if logs else ["-log", str(folder / LOG)])
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines
