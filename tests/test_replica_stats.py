@@ -334,6 +334,17 @@ def test_members_that_failed_count_against_the_coverage_and_a_point_without_valu
     assert "at 2 of 3 points (lowest 0% of the members run" in line and line.endswith("no member has one at 1 point (no mean)")
     ax = plot_replica_stats(stats, "chain.mass_disorder", f"{VP}.mean")
     dotted = [line for line in ax.lines if line.get_linestyle() == ":"]
-    assert [line.get_xdata()[0] for line in dotted] == [0.6] and "dotted: no value at 0.6" in ax.get_title()
+    assert [line.get_xdata()[0] for line in dotted] == [0.6] and ax.get_title().endswith("\ndotted: no value at 0.6")
     hollow, = [line for line in ax.lines if line.get_markerfacecolor() == "white"]
     assert hollow.get_color() == ax.containers[0].lines[0].get_color()  # the line's own colour, not the next
+
+
+def test_a_point_without_values_on_an_axis_of_text_is_named_as_text():
+    """x a swept choice (the force law): its dotted point is named by its text (a number format
+    raised ValueError on it)."""
+    rows = [{"id": f"{law}-{r}", "force.law": law, "replica": r, "chain.seed": r, "status": "done", "error": None,
+             "folder": "x", "wall_time_s": 0.1, f"{VP}.mean": 4.0 + 0.01 * r, f"{VP}.converged": law != "toda"}
+            for law in ("power", "toda", "lj") for r in range(3)]
+    stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
+    ax = plot_replica_stats(stats, "force.law", f"{VP}.mean")
+    assert ax.get_title().endswith("\ndotted: no value at toda")

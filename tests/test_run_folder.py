@@ -733,7 +733,7 @@ def test_run_case_and_simulate_take_a_case_file_s_path(tmp_path):
         simulate(3, tmp_path / "e")
 
 
-def test_summarize_refuses_a_deck_that_was_never_run(tmp_path, capsys):
+def test_summarize_refuses_a_deck_that_was_never_run(tmp_path, capsys, caplog):
     """`deck` then `summarize`: one line naming how to run it, exit 2, no summary.json (it wrote a
     summary of status "written" naming a log that did not exist: trial)."""
     from pylmp_lattice.cli import main
@@ -743,6 +743,11 @@ def test_summarize_refuses_a_deck_that_was_never_run(tmp_path, capsys):
     capsys.readouterr()
     assert main(["summarize", str(folder)]) == 2
     err = capsys.readouterr().err
-    assert err == (f"pylmp-lattice: error: {folder}: holds a deck that was never run (no log.lammps, no output); run it "
-                   f"first: (cd {folder} && pylmp-lattice lmp -in in.lattice)\n"), err
+    assert err == (f"pylmp-lattice: error: {folder}: holds no log.lammps and no output: a deck never run, or run with "
+                   f"its log elsewhere or none; run it with: (cd {folder} && pylmp-lattice lmp -in in.lattice)\n"), err
     assert not (folder / layout.SUMMARY).exists()
+    # output but no log (a deck run elsewhere without -log): summarized, with a warning naming what is not known
+    simulate(make_case(particles=10, duration=5.0), tmp_path / "ran")
+    (tmp_path / "ran" / layout.LOG).unlink()
+    assert main(["summarize", str(tmp_path / "ran"), "--no-figure"]) == 0
+    assert "no log.lammps" in caplog.text and "friction work are not known" in caplog.text

@@ -1628,5 +1628,7 @@ def test_the_failure_lines_group_contacts_whatever_their_numbers(capsys, tmp_pat
     _say_failures(errors, tmp_path / "sw")
     lines = capsys.readouterr().err.splitlines()
     assert lines[0].startswith("pylmp-lattice: failed (3 members, e.g.): magnets 1 and 2 touched (gap -0.1036 mm)")
-    assert lines[1:] == ["pylmp-lattice: failed: chain.r0_disorder: got 2 ; expected < 1",
+    assert lines[1:] == ["pylmp-lattice: failed: chain.r0_disorder: got 2 ; expected < 1",  # (r0, r1: names, not numbers)
                          "pylmp-lattice: failed: chain.r1_disorder: got 2 ; expected < 1"]
+    _say_failures(["LAMMPS stopped at step 1234.", "LAMMPS stopped at step 99."], tmp_path / "sw")  # a full stop ends a number
+    assert capsys.readouterr().err == "pylmp-lattice: failed (2 members, e.g.): LAMMPS stopped at step 1234.\n"

@@ -259,10 +259,10 @@ class RunFolder:
                 f"again in {math.ceil(wait[2])} s" if wait else "summarize it when the run ends"))
         ran = [name for name in (layout.LOG, layout.FRONT_BIN, layout.H5MD, layout.DUMP, *layout.BINARY_GROUPS.values())
                if (self.path / name).is_file()]
-        if status == WRITTEN and not ran:  # a deck never run: nothing to measure (it read as a run with no front)
-            raise UsageError(str(self.path), f"holds a deck that was never run (no {layout.LOG}, no output); run it "
-                                              f"first: (cd {shlex.quote(str(self.path))} && pylmp-lattice lmp -in "
-                                              f"{layout.DECK})")
+        if status == WRITTEN and not ran:  # nothing to measure (it read as a run with no front)
+            raise UsageError(str(self.path), f"holds no {layout.LOG} and no output: a deck never run, or run with its "
+                                              f"log elsewhere or none; run it with: (cd {shlex.quote(str(self.path))} "
+                                              f"&& pylmp-lattice lmp -in {layout.DECK})")
         if layout.LOG not in ran:
             log.warning("%s: no %s (a deck run elsewhere logs where it runs: lmp -log PATH/%s): the run's end and its "
                         "friction work are not known", self.path, layout.LOG, layout.LOG)

@@ -45,10 +45,17 @@ class StudyResult:
 FIGURES = ("png", "pdf")  # the formats a study's figure is written in
 
 
+def study_file(out: Path, name: str, kind: str) -> Path:
+    """Where study `name`'s file of `kind` goes in `out`: "json" or a figure's format (NAME.KIND),
+    or "table KEY" (NAME_KEY.csv)."""
+    return out / (f"{name}_{kind[len('table '):]}.csv" if kind.startswith("table ") else f"{name}.{kind}")
+
+
 def study_files(out: Path, name: str) -> list[Path]:
-    """Where `write_study` writes study `name`'s files in `out`: NAME.json, its figure's and the
-    tables (NAME_<table>.csv) there now."""
-    return [out / f"{name}.{ext}" for ext in ("json", *FIGURES)] + sorted(out.glob(f"{glob.escape(name)}_*.csv"))
+    """The files `write_study` writes for study `name` in `out`: NAME.json, its figure's, and
+    the tables (NAME_<table>.csv) there now."""
+    tables = sorted(out.glob(f"{glob.escape(name)}_*.csv"))  # study_file's NAME_KEY.csv, any KEY
+    return [study_file(out, name, kind) for kind in ("json", *FIGURES)] + tables
 
 
 def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
@@ -60,17 +67,17 @@ def write_study(result: StudyResult, out: str | Path) -> dict[str, Path]:
     out.mkdir(parents=True, exist_ok=True)
     files, replaced = {}, []
     for key, columns in result.tables.items():
-        files[f"table {key}"] = _replace(out / f"{result.name}_{key}.csv", lambda p, c=columns: _write_csv(p, c),
-                                         replaced)
+        kind = f"table {key}"
+        files[kind] = _replace(study_file(out, result.name, kind), lambda p, c=columns: _write_csv(p, c), replaced)
     if result.figure is not None:
         from ..plots import pyplot
 
         for ext in FIGURES:
             save = lambda p, e=ext: result.figure.savefig(p, dpi=120, format=e)  # noqa: E731
-            files[ext] = _replace(out / f"{result.name}.{ext}", save, replaced)
+            files[ext] = _replace(study_file(out, result.name, ext), save, replaced)
         pyplot().close(result.figure)  # saved: pyplot need not keep it (`study all` draws dozens)
     data = result.to_dict() | {"files": {k: p.name for k, p in files.items()}}
-    files["json"] = _replace(out / f"{result.name}.json", lambda p: p.write_text(dumps(data) + "\n"), replaced)
+    files["json"] = _replace(study_file(out, result.name, "json"), lambda p: p.write_text(dumps(data) + "\n"), replaced)
     if replaced:
         log.info("study %s: replaced %s in %s", result.name, ", ".join(replaced), out)
     return files

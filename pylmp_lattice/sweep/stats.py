@@ -41,7 +41,7 @@ MEASURES = {
     "particles_reached_by_front": ("magnets reached by the front", None),
     "friction_dissipated_energy_mJ": ("energy taken by friction", "mJ"),
 }
-# A statistic over fewer than this fraction of the done members is marked (table, figure, warning).
+# A statistic over fewer than this fraction of the members run (done or failed) is marked (table, figure, warning).
 COVERAGE_LIMIT = 0.9
 # Names and units of the fields a sweep commonly varies (any other is shown by its key).
 FIELDS = {
@@ -66,7 +66,7 @@ def label(column: str) -> str:
 
 
 def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.DataFrame:
-    """Per parameter point (the swept columns without replica and seed), over its done members:
+    """Per parameter point (the swept columns without replica and seed), over its members run:
     `n` (done members), `failed` (failed members), and for each measure `<measure>.mean`,
     `<measure>.sem` (standard error of the mean, std with ddof=1 over sqrt(count); NaN for a
     single value) and `<measure>.count`, the number of values used: finite, and, for a plateau (a
@@ -183,9 +183,9 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
         values = dict(zip(by, key if isinstance(key, tuple) else (key,)))
         line = ax.errorbar(data[x].to_numpy(), mean, yerr=sem, fmt=fmt, capsize=capsize,
                            label=names(values) if by else name, **kwargs)
-        ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=line[0].get_color(), alpha=0.15, lw=0)
-        low = _low(data, measure)
         color = line[0].get_color()
+        ax.fill_between(data[x].to_numpy(), mean - std, mean + std, color=color, alpha=0.15, lw=0)
+        low = _low(data, measure)
         if low.any():  # a mean over some members only: hollow (in the line's colour: the cycle moves on once a line)
             ax.plot(data[x].to_numpy()[low], mean[low], "o", color=color, mfc="white", mec=color, zorder=3)
             lows += int(low.sum())
@@ -198,12 +198,18 @@ def plot_replica_stats(stats: pd.DataFrame, x: str, measure: str, ax=None, by: l
     _no_offset(ax.yaxis)
     shown = f"; first {lines} of {len(groups)} lines" if len(groups) > lines else ""
     hollow = f"; hollow: under {COVERAGE_LIMIT:.0%} of members" if lows else ""
-    none = f"; dotted: no value at {', '.join(f'{v:g}' for v in sorted(set(empty)))}" if empty else ""
+    # (a line of its own: the panel's title is as wide as the panel)
+    none = f"\ndotted: no value at {', '.join(map(_shown, sorted(set(empty), key=str)))}" if empty else ""
     ax.set_title(f"mean ± standard error (bars), ± std of the replicas (band)\n"
                  f"{_counted(np.concatenate(counts))} per point{shown}{hollow}{none}", fontsize="small")
     if legend and len(groups) > 1:
         ax.legend(fontsize="x-small")
     return ax
+
+
+def _shown(value) -> str:
+    """A swept value as a title gives it: a number shortest (%g), anything else as text."""
+    return f"{value:g}" if isinstance(value, (int, float, np.number)) and not isinstance(value, bool) else str(value)
 
 
 def _low(stats: pd.DataFrame, measure: str) -> np.ndarray:
@@ -225,9 +231,7 @@ def _legend_names(columns: list[str]):
         name, unit = FIELDS.get(column) or (column.split(".", 1)[-1] if section else column, None)
         if section and name.startswith(section + " "):
             name = name[len(section) + 1:]
-        value = values[column]
-        text = f"{value:g}" if isinstance(value, (int, float, np.number)) and not isinstance(value, bool) else str(value)
-        return f"{name} {text}" + (f" {unit}" if unit else "")
+        return f"{name} {_shown(values[column])}" + (f" {unit}" if unit else "")
 
     def names(values: dict) -> str:
         return "; ".join(entry(group[0], values) if len(group) == 1 else

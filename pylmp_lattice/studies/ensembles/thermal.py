@@ -42,6 +42,7 @@ THERMAL, DISORDER = "chain.thermal_velocity", "chain.mass_disorder"
 FRONT, VP, PEAK, ETA = "front_speed_m_per_s", "V_P_m_per_s", "first_peak_m_per_s", "eta"
 NAMES = (FRONT, VP, PEAK, ETA)
 SEED = 2026
+FULL_REPLICAS, FULL_DURATION = 8, 600.0  # the full study's replicas a point and run length (ms)
 log = logging.getLogger(__name__)
 UNITS = {THERMAL: "thermal_rms_m_per_s", DISORDER: "mass_disorder"}  # table columns with units
 
@@ -60,7 +61,7 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         rms, disorder, replicas, duration = [0.0, 0.02, 0.1], [0.05], 2, 150.0
     else:
         rms, disorder = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1], [0.005, 0.01, 0.02, 0.05, 0.1]
-        replicas, duration = 8, 600.0
+        replicas, duration = FULL_REPLICAS, FULL_DURATION
     # one sweep: the thermal axis (no disorder), then the disorder axis (no thermal motion)
     points = [(f * VI, 0.0) for f in rms] + [(0.0, d) for d in disorder]
     base = base_case(duration)
@@ -83,8 +84,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     }
     if quick:
         numbers["quick_cannot_show"] = {
-            "stderr": f"standard errors from {replicas} replicas (the full study: 8)",
-            "plateaus": f"V_P and first-peak plateaus over {duration:g} ms runs, not the full study's 600 ms: shorter "
+            "stderr": f"standard errors from {replicas} replicas (the full study: {FULL_REPLICAS})",
+            "plateaus": f"V_P and first-peak plateaus over {duration:g} ms runs, not the full study's {FULL_DURATION:g} ms: shorter "
                         "windows, and fewer converge (a member's value is empty where its plateau did not)"}
     tables = {"thermal": _table(thermal, THERMAL), "disorder": _table(mass, DISORDER),
               "members": {UNITS.get(c, c): members[c].to_numpy() for c in members.columns}}
