@@ -282,8 +282,9 @@ def long_lattice_particles(chain: Chain, force: ForceLaw, impactor: Impactor, du
     first peak), and the front outruns linear waves by at most that for the magnets (s = 0.75);
     a stiffer law's lead soliton outruns them by about (4/3) s u_p (Toda s = B r0 / 4,
     Lennard-Jones 5.25, Morse 3 alpha r0 / 4). For the paper's case V_bound = 5.6 m/s against
-    the measured 3.92 m/s. Runs check the bound afterwards: the last free particle must have
-    stayed at rest.
+    the measured 3.92 m/s. A heuristic, not a theorem: near a sonic vacuum (FPUT with k = 0.001,
+    beta = 1, V_I = 0.1 m/s) a front ran at 4.3 m/s against a bound of 0.58 (docs/engine.md).
+    Runs check it afterwards: the last free particle must have stayed at rest (`far_end_quiet`).
     """
     if not impactor.peak_velocity() > 0:
         raise ConfigError("chain.far_end", "a long lattice needs a moving impactor; use far_end = 'fixed'")
