@@ -79,3 +79,22 @@ def test_quick_thermal_study_and_its_noise_free_point(tmp_path):
         for name in ("V_P_m_per_s", "first_peak_m_per_s", "eta"):  # coverage: of the members run, failed ones too
             assert p[name]["coverage"] == p[name]["count"] / (p["members"] + p["failed"])
             assert p[name]["low_coverage"] == (p[name]["count"] < 0.9 * (p["members"] + p["failed"]))
+
+
+def test_a_point_where_no_member_has_a_value_keeps_its_place_in_the_figure():
+    """The 10 % disorder point's V_P plateau converged in none of its 8 members: a dotted line and
+    "0/8" where it would be, not a point gone from the panel."""
+    import pandas as pd
+
+    from pylmp_lattice.sweep import replica_stats
+    from pylmp_lattice.studies.ensembles.thermal import DISORDER, NAMES, THERMAL, VP
+
+    rows = [{"id": f"{d}-{r}", THERMAL: 0.0, DISORDER: d, "replica": r, "status": "done",
+             **{name: 3.9 + 0.01 * r for name in NAMES}} | ({VP: np.nan} if d == 0.1 else {})
+            for d in (0.0, 0.05, 0.1) for r in range(8)]
+    stats = replica_stats(pd.DataFrame(rows), list(NAMES))
+    fig = thermal._figure(stats.iloc[:1], stats, stats.iloc[0], 1.6, quick=True)
+    panel = fig.axes[5]  # (f): V_P against mass disorder
+    dotted = [line for line in panel.lines if line.get_linestyle() == ":" and line.get_xdata()[0] == 10.0]
+    assert len(dotted) == 1 and "0/8" in [t.get_text() for t in panel.texts]
+    pyplot().close(fig)

@@ -160,6 +160,9 @@ def _figure(thermal, mass, quiet, v0, quick):
             for xi, yi, count, n in zip(x, mean, stats[f"{name}.count"].to_numpy(int), run):
                 if np.isfinite(yi):  # the coverage of every point: values used / members run
                     a.annotate(f"{count}/{n}", (xi, yi), textcoords="offset points", xytext=(3, 4), fontsize="xx-small")
+                elif n:  # no member has a value there: its place kept, as in the sweeps' figure
+                    a.axvline(xi, color="C0", ls=":", lw=0.8)
+                    a.annotate(f"0/{n}", (xi, 0.02), xycoords=("data", "axes fraction"), fontsize="xx-small")
             a.axhline(float(quiet[f"{name}.mean"]), color="k", ls=":", lw=1, label="noise-free run")
             if name == PEAK:
                 a.axhline(2 * VI, color="C3", ls="--", lw=0.8, label="$2 V_I$")
