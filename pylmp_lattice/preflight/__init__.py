@@ -6,7 +6,7 @@ One concept a module:
   this machine has (`free_disk`, `available_memory`, `check_writable`).
 """
 
-from .checks import available_memory, check, check_writable, coarse_dt_warning, disk_size, free_disk
+from .checks import available_memory, check, check_writable, coarse_dt_warning, disk_size, fits, free_disk
 from .estimate import (H5MD_BYTES, H5MD_OVERHEAD, SAMPLE, SECONDS_PER_ATOM_FRAME,
                        TEXT_MOVING_EXTRA, TEXT_UNEVEN_EXTRA, Estimate, atom_frames, estimate,
                        file_bytes, frames, output_bytes)
@@ -15,5 +15,5 @@ from .estimate import _ChainSample, _duration, _fine_frames, _h5md_group_bytes, 
 
 __all__ = ["H5MD_BYTES", "H5MD_OVERHEAD", "SAMPLE", "SECONDS_PER_ATOM_FRAME",
            "TEXT_MOVING_EXTRA", "TEXT_UNEVEN_EXTRA", "Estimate", "atom_frames", "available_memory", "check",
-           "check_writable", "coarse_dt_warning", "disk_size", "estimate", "file_bytes", "free_disk", "frames",
+           "check_writable", "coarse_dt_warning", "disk_size", "estimate", "file_bytes", "fits", "free_disk", "frames",
            "output_bytes"]

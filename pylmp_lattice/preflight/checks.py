@@ -38,7 +38,7 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
     est = estimate(case, nprocs)
     check_writable(folder, "output")  # else an unwritable place reads as a full disk (0 B free in /proc)
     disk, memory = free_disk(folder), available_memory()
-    if est.output_bytes > disk or (memory is not None and est.memory_bytes > memory):
+    if not fits(est, disk, memory):
         free = f"{_size(disk)} free on disk" + (f", {_size(memory)} memory available" if memory is not None else "")
         raise ConfigError("run", f"too large for this machine: {est}; {free} "
                                  "(fewer particles, a shorter run or a longer run.output_interval)")
@@ -52,6 +52,11 @@ def check(case: Case, folder: str | Path, nprocs: int = 1, yes: bool = False) ->
     case.check_draws()  # after the refusals, which need N alone: N draws for a disordered chain
     coarse_dt_warning(case)  # it builds the chain's arrays
     return est
+
+
+def fits(est: Estimate, disk: float, memory: float | None) -> bool:
+    """Whether a run of estimate `est` fits `disk` bytes and `memory` bytes (None: not known)."""
+    return est.output_bytes <= disk and (memory is None or est.memory_bytes <= memory)
 
 
 def coarse_dt_warning(case: Case) -> str | None:

@@ -267,7 +267,7 @@ class RunFolder:
             log.warning("%s: no %s (a deck run elsewhere logs where it runs: lmp -log PATH/%s): the run's end and its "
                         "friction work are not known", self.path, layout.LOG, layout.LOG)
         earlier = self.summary if self._current(layout.SUMMARY) else None
-        if any((self.path / name).is_file() for name in layout.BINARY_GROUPS.values()):
+        if any(name in ran for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays
         front, max_speed = self.measures()
         summary = summary_of(case, front, max_speed)

@@ -92,12 +92,11 @@ def _no_room(case: Case, folder: Path) -> bool:
     may have failed on it in other ways: a refusal by preflight, a truncated record), where
     room can be made: a run larger than the whole disk, or than the memory, fails as a member
     (preflight's refusal says why), as freeing space and resuming would meet it again."""
-    from ..preflight import available_memory, disk_size, estimate, free_disk
+    from ..preflight import available_memory, disk_size, estimate, fits, free_disk
 
     try:
-        est, memory = estimate(case), available_memory()
-        fits = est.output_bytes <= disk_size(folder) and (memory is None or est.memory_bytes <= memory)
-        return fits and free_disk(folder) < est.output_bytes
+        est = estimate(case)
+        return fits(est, disk_size(folder), available_memory()) and not fits(est, free_disk(folder), None)
     except (OSError, LatticeError):
         return False
 
