@@ -278,8 +278,9 @@ def compile_options(n: int, case: tuple[int, float, bool, bool], block: int | No
     -fmad=false: no multiply-add contracted into one FMA, as the host build and LAMMPS's plugin
     are compiled (-ffp-contract=off). On an H200 (bench_gpu.py --check, 2026-11-27) the GPU's
     entries still differ from the host build's by up to 2.6e-11 relative, with or without it;
-    the sine drive's sin and cos were the likely cause, now taken from the host (`drive_path`;
-    not yet run on a device: docs/performance.md).
+    the sine drive's sin and cos were the cause: taken from the host (`drive_path`), the GPU
+    gives the host build's bits (0.00e+00 on the H200, 2026-11-27 15:50 UTC and after:
+    docs/performance.md).
     -default-device: the kernel's lambdas (the law's dispatch) carry no execution space, which
     NVRTC's JIT mode takes for host code and refuses; nvcc infers it from the enclosing function.
     -DPL_ROW_COPY: ROW_COPY, for the short chains' kernel alone (with it the long chains' kernel
