@@ -577,10 +577,20 @@ def _program(args) -> int:
             raise UsageError("-in", f"got {given[at + 1]!r}: LAMMPS splits its folder's path at spaces (and reads $, "
                                     f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})") from None
         rest += ([] if dirs else ["-var", DIR_VARIABLE, named]) + ([] if logs else ["-log", str(folder / LOG)])
+    from .ranks import launched_rank
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines
-    # after `run` still write the engine's front record (lmp, killed, wrote none)
+    # after `run` still write the engine's front record (lmp, killed, wrote none). Under an MPI
+    # launcher (`mpiexec -n 2 pylmp-lattice lmp -in in.lattice`) each rank is such a process: rank
+    # 0 keeps the folder's record and says how the run ended, the others only run (they would
+    # find the folder claimed).
+    if (launched_rank() or 0) > 0:
+        try:
+            run_embedded(folder, cmdargs=rest)
+        except Interrupted as err:
+            return err.exit_code
+        return 0
     with marker.hand_run(folder):
         run_embedded(folder, cmdargs=rest)
     return 0

@@ -1,4 +1,5 @@
-"""Whether more MPI ranks will make a run faster: the warnings behind `--np`.
+"""MPI ranks: whether more of them will make a run faster (the warnings behind `--np`), and this
+process's rank where an MPI launcher started it (`launched_rank`).
 
 The chain engine (fix lattice/chain) splits one chain into a slab of magnets per rank and, at
 every step, exchanges only the positions across the slab edges and one global flag. A rank's
@@ -50,3 +51,18 @@ def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[s
                         f"{MIN_MAGNETS_PER_RANK} below which the slab-edge exchange costs over a tenth of a "
                         f"step and more ranks gain little; use --np {best}{'' if best == 1 else ' or fewer'}")
     return warnings
+
+
+# What MPI launchers set in each rank's environment: MPICH's hydra and Intel MPI, Open MPI, PMIx,
+# MVAPICH, SLURM's srun (the first found counts).
+RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK", "MV2_COMM_WORLD_RANK", "SLURM_PROCID")
+
+
+def launched_rank() -> int | None:
+    """This process's rank in the MPI job a launcher started it in (`mpiexec`, `srun`), from the
+    variables launchers set, before MPI itself starts; None outside such a job."""
+    for name in RANK_VARIABLES:
+        value = os.environ.get(name, "")
+        if value.isdigit():
+            return int(value)
+    return None

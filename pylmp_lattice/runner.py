@@ -9,7 +9,10 @@ far. The embedded run calls LAMMPS from a worker thread: a C call holds the thre
 runs signal handlers only in the main thread, between bytecodes. The handler asks LAMMPS for a
 "soft stop" (`force_timeout`, checked every step), so the run ends as a normal run does and
 LAMMPS closes its dump and log itself. `lmp` runs in its own process group, to which the
-signal is forwarded once, and dies with its parent (a parent-death signal).
+signal is forwarded once, and dies with its parent (a parent-death signal). An embedded run
+that is one of several MPI ranks (`mpiexec -n 2 pylmp-lattice lmp -in in.lattice`, each rank a
+process like this one) must stop every rank at the same step: fix lattice/chain does so
+(`_Engine.stop`); a deck without it ends by the signal at once, as a killed lmp does.
 
 A run leaves the calling process as it found it: no change of working directory (the deck
 finds its files through the `dir` variable, see `formats.layout`) and no redirection of the
@@ -66,7 +69,7 @@ def run_embedded(folder: str | Path, echo: bool = False, on_step: Callable[[int]
     engine = _Engine(args, str(folder / DECK))
     worker = threading.Thread(target=engine.run, name="lammps", daemon=True)
     try:
-        with _stop_signals(lambda signum: engine.stop()) as stopped:
+        with _stop_signals(engine.stop) as stopped:
             worker.start()
             while worker.is_alive():
                 worker.join(POLL)
@@ -99,7 +102,7 @@ class _Engine:
         self.deck = deck
         self.lock = threading.RLock()  # re-entrant: a signal handler may run while the main thread holds it
         self.lmp = None
-        self.stopped = False
+        self.stopped = 0  # the signal that asked for a stop (SIGTERM for an error in the caller)
         self.failure: Exception | None = None
         self.time = 0.0  # s, simulated time reached
 
@@ -109,7 +112,7 @@ class _Engine:
                 with self.lock:
                     self.lmp = new_lammps(self.args)
                     if self.stopped:  # a signal came before the instance existed
-                        self.lmp.force_timeout()
+                        self._stop_now()
                 self.lmp.file(self.deck)
             except Exception as err:  # the module raises a bare Exception carrying LAMMPS's message
                 self.failure = err
@@ -124,12 +127,40 @@ class _Engine:
         with self.lock:
             return self.lmp.extract_global("ntimestep") if self.lmp is not None else 0
 
-    def stop(self) -> None:
-        """LAMMPS's soft stop: the run ends at its next step as if it had finished."""
+    def stop(self, signum: int = signal.SIGTERM) -> None:
+        """LAMMPS's soft stop: the run ends at its next step as if it had finished. On several MPI
+        ranks, LAMMPS's own (force_timeout) would end each rank at the step its signal reached it,
+        and leave the others waiting for it in an exchange for ever: fix lattice/chain ends them
+        all at one step (`_request_stop`). Without that fix (or before the deck has made it), such
+        a rank ends at once by `signum`, its files as a killed lmp leaves them."""
         with self.lock:
-            self.stopped = True
+            self.stopped = signum
             if self.lmp is not None:
-                self.lmp.force_timeout()
+                self._stop_now()
+
+    def _stop_now(self) -> None:
+        """`stop` of the instance (under the lock)."""
+        if self.lmp.extract_setting("world_size") == 1:
+            self.lmp.force_timeout()
+        elif not _request_stop():  # (before the deck made its fix, too)
+            _die(self.stopped)
+
+
+def _request_stop() -> int:
+    """Ask fix lattice/chain (the plugin's `pylmp_lattice_request_stop`) to stop its runs in this
+    process at their next step, on every MPI rank at once; the number of such fixes here (0: no
+    run will take it; an older plugin without the function counts none)."""
+    try:
+        return ctypes.CDLL(None).pylmp_lattice_request_stop()  # LAMMPS loads its plugins into the global scope
+    except AttributeError:
+        return 0
+
+
+def _die(signum: int) -> None:
+    """End this process by `signum` now, as if it had never been handled (from any thread: the C
+    library's `signal`, as `_engine_child` sets it; Python's only from the main thread)."""
+    ctypes.CDLL(None, use_errno=True).signal(int(signum), ctypes.c_void_p(0))  # SIG_DFL
+    os.kill(os.getpid(), signum)
 
 
 def run_executable(folder: str | Path, nprocs: int = 1, echo: bool = False,

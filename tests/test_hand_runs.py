@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -212,3 +213,76 @@ def test_summarize_again_keeps_the_wall_time_and_the_figure(tmp_path):
     assert main(["summarize", str(folder), "--no-figure"]) == 0
     rerun = json.loads((folder / layout.SUMMARY).read_text())
     assert "wall_time_s" not in rerun and "figure" not in rerun["files"] and (folder / layout.FIGURE).exists()
+
+
+MPIEXEC = Path(sys.executable).parent / "mpiexec"
+
+
+def by_hand_on_ranks(folder: Path, ranks: int) -> subprocess.Popen:
+    """`mpiexec -n RANKS pylmp-lattice lmp -in in.lattice` in the folder, in a session of its own
+    (as a terminal's job: Ctrl-C reaches mpiexec and every rank)."""
+    return subprocess.Popen([str(MPIEXEC), "-n", str(ranks), sys.executable, "-m", "pylmp_lattice", "lmp", "-in",
+                             layout.DECK, "-screen", "none"], cwd=folder, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def ended(job: subprocess.Popen, seconds: float) -> tuple[str, str]:
+    """The job's output once it ended; its ranks killed and the test failed if it had not within
+    `seconds` (a rank waiting for another for ever)."""
+    try:
+        return job.communicate(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        os.killpg(job.pid, signal.SIGKILL)
+        job.communicate()
+        pytest.fail(f"mpiexec had not ended {seconds} s on")
+
+
+@lammps
+def test_a_hand_run_on_two_mpi_ranks_is_the_run_on_one(tmp_path):
+    """`mpiexec -n 2 pylmp-lattice lmp -in in.lattice`: each rank is a hand run of the folder,
+    rank 0 alone keeps its record (the other found the folder claimed, said so and left rank 0
+    waiting for it for ever). The folder ends "done", and its front record is bit for bit that of
+    the same case run on one rank (fix lattice/chain is bit-identical on any number of ranks)."""
+    case = make_case(particles=400, duration=150.0, interval=5.0)
+    folder = deck(tmp_path, case, "two")
+    with by_hand_on_ranks(folder, 2) as job:
+        out, err = ended(job, 120)
+    assert job.returncode == 0, err
+    assert RunFolder(folder).status == "done" and "on 2 procs" in (folder / layout.LOG).read_text()
+    one = deck(tmp_path, case, "one")
+    assert main(["lmp", "-in", str(one / layout.DECK), "-screen", "none"]) == 0
+    assert "on 1 procs" in (one / layout.LOG).read_text()
+    two_front, one_front = RunFolder(folder).front(), RunFolder(one).front()
+    assert np.isfinite(two_front.arrival).sum() >= 10
+    np.testing.assert_array_equal(two_front.arrival, one_front.arrival)
+    np.testing.assert_array_equal(two_front.peaks.peak_velocity, one_front.peaks.peak_velocity)
+
+
+@lammps
+def test_ctrl_c_stops_every_mpi_rank_of_a_hand_run_at_one_step(tmp_path):
+    """Ctrl-C to `mpiexec -n 2 pylmp-lattice lmp -in in.lattice` (SIGINT to the job's process
+    group) while it runs: every rank stops at the same step (fix lattice/chain takes the stop in
+    its gap check's reduction; LAMMPS's force_timeout, which each rank called as its signal came,
+    left the other rank waiting in an exchange for ever). The job ends within seconds with 130,
+    its folder "interrupted" at the step of the log's one stop line, the front record written."""
+    folder = deck(tmp_path, make_case(particles=3000, duration=1e5, interval=10.0))
+    with by_hand_on_ranks(folder, 2) as job:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and job.poll() is None:  # two thermo rows: the loop runs
+            if len(re.findall(r"^\s+\d+\s+[-+.\deE]+\s", (folder / layout.LOG).read_text() if (folder / layout.LOG).exists()
+                              else "", re.MULTILINE)) >= 2:
+                break
+            time.sleep(0.05)
+        assert job.poll() is None, "the run ended too soon for this test"
+        os.killpg(job.pid, signal.SIGINT)
+        out, err = ended(job, 30)
+    assert job.returncode == 128 + signal.SIGINT, err
+    log = (folder / layout.LOG).read_text()
+    stops = re.findall(r"^Fix lattice/chain: stopped on request \(a signal\) after step (\d+)$", log, re.MULTILINE)
+    assert len(stops) == 1 and "on 2 procs" in log
+    run = json.loads((folder / layout.MARKER).read_text())
+    step = int(stops[0])
+    assert run["state"] == "interrupted" and run["time_ms"] == pytest.approx(step * 0.01, rel=1e-12)
+    front = RunFolder(folder).front()
+    assert np.isfinite(front.arrival).sum() >= 2 and np.nanmax(front.arrival) <= run["time_ms"]
+    assert err.count("interrupted at t =") == 1  # rank 0 says it

@@ -35,14 +35,41 @@ void FixLatticeChain::bond_scan(double &pe, double &gap_min, tagint &tag_min, do
   for (const End &e : impactors) bond(e.i, e.other);
 }
 
-/* a bad separation seen on any rank: report a contact and stop, or stop with an error */
+std::atomic<int> FixLatticeChain::stop_asked{0};
+std::atomic<int> FixLatticeChain::live{0};
+
+/* Ask this process's runs of fix lattice/chain to stop softly at their next step, as LAMMPS's
+   force_timeout does, but on every rank at the same step (see stop_asked). Returns the number of
+   such fixes in this process: with none, nothing will take the request. Called from Python
+   (pylmp_lattice.runner) through ctypes, from a signal handler's thread. */
+int FixLatticeChain::request_stop()
+{
+  stop_asked.store(1);
+  return live.load();
+}
+
+extern "C" __attribute__((visibility("default"))) int pylmp_lattice_request_stop()
+{
+  return FixLatticeChain::request_stop();
+}
+
+/* a bad separation seen on any rank: report a contact and stop, or stop with an error; a stop
+   asked on any rank: stop (both flags in one reduction) */
 
 void FixLatticeChain::check_gaps(int bad)
 {
-  int any = bad;
+  enum { BAD_GAP = 1, STOP = 2 };
+  const int mine = (bad ? BAD_GAP : 0) | (stop_asked.load(std::memory_order_relaxed) ? STOP : 0);
+  int any = mine;
   // one rank: no reduction (an MPI_Allreduce at every step, 0.1 us of a 10^4-magnet step's 15)
-  if (comm->nprocs > 1) MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, world);
-  if (!any) return;
+  if (comm->nprocs > 1) MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_BOR, world);
+  if (any & STOP) {
+    stop_asked.store(0);
+    if (comm->me == 0)
+      utils::logmesg(lmp, "Fix lattice/chain: stopped on request (a signal) after step {}\n", update->ntimestep);
+    timer->force_timeout();    // on every rank at this step: the run ends before the next
+  }
+  if (!(any & BAD_GAP)) return;
   double pe;
   struct {
     double value;

@@ -233,10 +233,12 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
   maxexchange = 3;    // xs, vs, fs
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
+  live++;    // last: a constructor that stops with an error is not counted (nor destroyed)
 }
 
 FixLatticeChain::~FixLatticeChain()
 {
+  live--;
   atom->delete_callback(id, Atom::GROW);
   memory->destroy(xs);
   memory->destroy(vs);

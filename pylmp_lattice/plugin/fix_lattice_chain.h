@@ -19,12 +19,14 @@
 #include "kernel/coulomb.h"
 #include "kernel/step.h"
 
+#include <atomic>
 #include <vector>
 
 namespace LAMMPS_NS {
 
 class FixLatticeChain : public Fix {
  public:
+  static int request_stop();    // a soft stop of this process's runs at their next step: see stop_asked
   FixLatticeChain(class LAMMPS *, int, char **);
   ~FixLatticeChain() override;
   int setmask() override;
@@ -131,6 +133,12 @@ class FixLatticeChain : public Fix {
   bigint energy_step;                // step at which pe_cached and gap_cached were computed
   double pe_cached, gap_cached;
   bigint contact_step;               // step of a contact found, or -1
+  // A soft stop asked of this process (pylmp_lattice_request_stop, chain_checks.cpp: a signal to
+  // an MPI hand run) is taken at the next step by every rank at once: it rides on the gap
+  // check's reduction, where LAMMPS's force_timeout, called by each rank as its signal comes,
+  // stops each at its own step and leaves the others waiting in an exchange for ever.
+  static std::atomic<int> stop_asked;     // asked, not yet taken
+  static std::atomic<int> live;           // instances of this fix in this process
 
   // owning the state on several ranks, this run: this rank's CPU time in its passes and wall
   // time in the exchanges (slab edges, contact flag), reported at the end (benchmarks/bench_mpi.py)
