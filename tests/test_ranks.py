@@ -1,4 +1,5 @@
-"""The `--np` warnings: more ranks than cores, and slabs too short to gain from more ranks."""
+"""The `--np` warnings (more ranks than cores, and slabs too short to gain from more ranks), and
+the rank an MPI launcher gave this process."""
 
 from __future__ import annotations
 
@@ -28,3 +29,19 @@ def test_a_chain_too_short_for_its_ranks_is_warned_with_the_ranks_that_help():
 
 def test_usable_cores_counts_this_process_affinity():
     assert 1 <= ranks.usable_cores() <= (os.cpu_count() or 1)
+
+
+def test_launched_rank_reads_the_launchers_variables(monkeypatch):
+    """A rank's number where mpiexec (MPICH's PMI_RANK, Open MPI's OMPI_COMM_WORLD_RANK, ...) or
+    srun (SLURM_PROCID) started the process, the first variable found counting; None outside."""
+    for name in ranks.RANK_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    assert ranks.launched_rank() is None
+    monkeypatch.setenv("SLURM_PROCID", "3")
+    assert ranks.launched_rank() == 3
+    monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
+    assert ranks.launched_rank() == 1
+    monkeypatch.setenv("PMI_RANK", "0")
+    assert ranks.launched_rank() == 0
+    monkeypatch.setenv("PMI_RANK", "")  # set but empty: not a rank
+    assert ranks.launched_rank() == 1
