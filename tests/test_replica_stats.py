@@ -259,6 +259,24 @@ def test_the_legend_fits_in_the_figure_under_the_axes(monkeypatch, tmp_path, pan
     assert all(box.y1 <= ax.get_tightbbox(renderer).y0 for ax in fig.axes)
 
 
+def test_the_sweep_figure_s_axis_is_a_swept_number_that_varies(monkeypatch, tmp_path):
+    """A force section swept whole (force.K, force.b the same in both, force.q not): the figure
+    is drawn against force.q, one line per V_I (it was drawn against force.K, every point at
+    413.8, one line per point)."""
+    rows = [{"id": f"{q}-{vi}-{r}", "force.law": "power", "force.K": 413.8, "force.b": 3.917, "force.q": q,
+             "impactor.velocity": vi, "replica": r, "chain.seed": r, "status": "done", "error": None, "folder": "x",
+             "wall_time_s": 0.1, f"{VP}.mean": q + vi + 0.01 * r, f"{VP}.converged": True}
+            for q in (3.0, 2.5) for vi in (1.5, 2.5) for r in range(3)]
+    fig = _drawn_figure(monkeypatch, tmp_path, pd.DataFrame(rows))
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == label("force.q")
+    drawn = _lines_and_bands(ax)
+    assert len(drawn) == 2
+    for (x, y, _, _), vi in zip(drawn, (1.5, 2.5)):
+        np.testing.assert_array_equal(x, [2.5, 3.0])
+        np.testing.assert_allclose(y, [2.5 + vi + 0.01, 3.0 + vi + 0.01], rtol=1e-12)
+
+
 def test_one_point_s_sweep_figure_is_still_the_histograms(monkeypatch, tmp_path):
     """A pure ensemble: a histogram per panel (as before), no legend, panels of PANEL inches."""
     from matplotlib.patches import StepPatch

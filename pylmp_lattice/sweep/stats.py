@@ -360,7 +360,9 @@ def draw_replica_stats(table: pd.DataFrame, measures: list[str] | None = None, p
     stats = replica_stats(table, measures)
     csv, warnings = stats.to_csv(index=False), low_coverage_warnings(stats)
     point = list(stats.columns[:list(stats.columns).index("n")])
-    numeric = [c for c in point if pd.api.types.is_numeric_dtype(stats[c])]
+    # the first numeric swept column whose values differ between points (a section swept whole
+    # has columns that stay put, e.g. force.K when only force.q changes: no axis)
+    numeric = [c for c in point if pd.api.types.is_numeric_dtype(stats[c]) and stats[c].nunique(dropna=False) > 1]
     x = numeric[0] if numeric else "point"
     if not numeric:
         stats = stats.assign(point=np.arange(len(stats)))
@@ -386,7 +388,7 @@ def draw_replica_stats(table: pd.DataFrame, measures: list[str] | None = None, p
 def write_replica_stats(root: str | Path, table: pd.DataFrame, measures: list[str] | None = None,
                         panels: int = 6, drawn: Drawn | None = None) -> pd.DataFrame:
     """DIR/replica_stats.csv, and DIR/replica_stats.png: the first `panels` measures that scatter
-    between replicas, against the first numeric swept field (or the point number), with
+    between replicas, against the first numeric swept field that varies (or the point number), with
     standard-error bars, one line per combination of the other swept fields that vary (the
     first 8; one legend under the panels names them); with one parameter point, each one's
     histogram over the replicas. Returns the statistics. drawn: `draw_replica_stats` of these
