@@ -117,7 +117,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
                 stop.on_signal = pool.on_signal
                 return _Coordinator(sweep, root, pool, stop, retry_failed, progress, total,
                                     figure=bool(stats) and sweep.replicas > 1,
-                                    drawing=stats if isinstance(stats, ReplicaDrawing) else None).run()
+                                    drawing=stats if isinstance(stats, ReplicaDrawing) else None, todo=todo).run()
         finally:
             remove_stale_locks(root)  # those of tasks whose worker was killed
 
@@ -142,15 +142,20 @@ def _first(run: Replicas | list[Member]) -> Member:
 
 class _Coordinator:
     def __init__(self, sweep: Sweep, root: Path, pool: Pool, stop: _StopSignals, retry_failed: bool,
-                 progress: bool, total: int, figure: bool = False, drawing: ReplicaDrawing | None = None):
+                 progress: bool, total: int, figure: bool = False, drawing: ReplicaDrawing | None = None,
+                 todo: int | None = None):
         self.sweep, self.root, self.pool, self.stop = sweep, root, pool, stop
         self.figure = figure  # the caller draws the replica statistics' figure next
         self.drawing = drawing if figure else None  # ... or has it drawn beside the table's last write
         self.retry_failed, self.total = retry_failed, total
         self.table = Table(root)
         self.disk = Outcomes(root)
-        self.blocks = _Blocks(max(1, total - self.disk.at_most()), pool.slots,  # a resumed sweep: what is left
-                              max(1, total // sweep.replicas), sweep.replicas, engine=sweep.engine)
+        # the members to run, which size the tasks: `run_sweep`'s count, all of them where DIR held
+        # another sweep (its outcomes, which --overwrite leaves on disk, counted as this sweep's
+        # had made every task one member, run alone); without it, what the folder may hold is done
+        todo = total - self.disk.at_most() if todo is None else todo
+        self.blocks = _Blocks(max(1, todo), pool.slots, max(1, total // sweep.replicas), sweep.replicas,
+                              engine=sweep.engine)
         self.bar = _Progress(total, progress)
         self.lost = False
         self.full: DiskFull | None = None  # a full disk: the sweep stops as on a signal
