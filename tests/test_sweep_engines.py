@@ -168,10 +168,11 @@ def test_a_cpu_sweep_resumes_only_what_is_missing(tmp_path):
     assert_same_table(first, again) and assert_same_table(first, third)
 
 
-def test_a_sweep_that_overwrites_another_batches_its_members_as_in_a_new_folder(tmp_path):
+def test_a_sweep_that_overwrites_another_batches_its_members_as_in_a_new_folder(tmp_path, caplog):
     """--overwrite leaves the other sweep's 4 outcomes on disk; they were counted as this sweep's
     done members, so its tasks were of one member each: all 4 ran alone (members/, about 0.7 MB
-    each, 120x the disk estimate at 200 members). Now they run as one batch, as in a new folder."""
+    each, 120x the disk estimate at 200 members), and when resumed the estimate said "4 kept
+    from before" with none kept. Now they run as one batch, as in a new folder, also resumed."""
     out = tmp_path / "out"
     with ThreadPoolExecutor(1) as pool:
         run_sweep(load_sweep(write_sweep(tmp_path, 4, ENSEMBLES["thermal with friction"], duration=5.0)), out,
@@ -179,10 +180,17 @@ def test_a_sweep_that_overwrites_another_batches_its_members_as_in_a_new_folder(
         other = tmp_path / "other.toml"
         other.write_text(write_sweep(tmp_path, 4, ENSEMBLES["thermal with friction"], duration=5.0).read_text()
                          .replace("seed = 11", "seed = 12"))
-        table = run_sweep(load_sweep(other), out, executor=pool, slots=1, progress=False, engine="cpu", overwrite=True)
-    assert list(table["status"]) == [DONE] * 4
-    assert table["folder"].nunique() == 1 and table["folder"][0].startswith("batches/")
-    assert not any((out / "members").iterdir())
+        for resumed in (False, True):
+            if resumed:  # its batch stopped before it was recorded: run again, nothing kept
+                (out / table["folder"][0] / BATCH_FILE).unlink()
+            with caplog.at_level(logging.INFO, logger="pylmp_lattice"):
+                caplog.clear()
+                table = run_sweep(load_sweep(other), out, executor=pool, slots=1, progress=False, engine="cpu",
+                                  overwrite=True)
+            assert list(table["status"]) == [DONE] * 4
+            assert table["folder"].nunique() == 1 and table["folder"][0].startswith("batches/")
+            assert not any((out / "members").iterdir())
+            assert "out: 4 members (" in caplog.text
 
 
 def test_a_kernel_engine_s_disk_estimate_is_within_25_percent_of_what_its_sweep_writes(tmp_path):

@@ -99,7 +99,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     # members' folders, which are not this sweep's); else those not kept (`to_keep`, which may count such folders
     # left from an earlier --overwrite too, so that it may exceed total)
     ours = held is not None and held.get("identity") == sweep.identity()
-    todo = max(0, total - Outcomes(root).to_keep(retry_failed)) if ours else total
+    # (where DIR holds other sweeps' outcomes too, only this sweep's members count: each one's id made)
+    ids = _ids(sweep) if ours and held.get("others") else None
+    todo = max(0, total - Outcomes(root).to_keep(retry_failed, ids)) if ours else total
     disk_need = disk.check(sweep, root, todo, slots_now)
     kept = f", {total - todo} kept from before" if todo < total else ""
     log.info("%s: %d members%s (%s; %s)", root.name, total, kept, _estimate(sweep, todo, slots_now, bool(stats)),
@@ -131,6 +133,11 @@ def _gpu_warm(sweep: Sweep):
 
     run = next(iter(sweep.iter_runs()), None)
     return warm_batch(_first(run).case) if run is not None else None
+
+
+def _ids(sweep: Sweep) -> set[str]:
+    """The identities of the sweep's members."""
+    return {i for run in sweep.iter_runs() for i in (run.ids if isinstance(run, Replicas) else (m.id for m in run))}
 
 
 def _first(run: Replicas | list[Member]) -> Member:

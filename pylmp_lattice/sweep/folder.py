@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from .spec import Sweep
-from .store import BATCHES, MEMBERS, SWEEP_FILE, atomic_write, read_json
+from .store import BATCHES, MEMBERS, SWEEP_FILE, Outcomes, atomic_write, read_json
 
 @contextlib.contextmanager
 def lock(root: Path):
@@ -59,10 +59,14 @@ def refuse_other(root: Path, sweep: Sweep, overwrite: bool) -> dict | None:
 def claim(root: Path, sweep: Sweep, overwrite: bool) -> None:
     """DIR/sweep.json names the sweep in DIR: another sweep is refused unless `overwrite`, which
     makes DIR this sweep's (its table is replaced; member folders are named by their case, so
-    those of identical cases are reused and the others stay on disk, out of the table)."""
+    those of identical cases are reused and the others stay on disk, out of the table: sweep.json
+    then says `"others": true`, and what is kept is counted among this sweep's members only)."""
     import json
 
     identity = sweep.identity()
     held = refuse_other(root, sweep, overwrite)
     if held is None or held.get("identity") != identity:
-        atomic_write(root / SWEEP_FILE, json.dumps({"identity": identity, "sweep": sweep.describe()}, indent=2) + "\n", sync=True)
+        record = {"identity": identity, "sweep": sweep.describe()}
+        if held is not None or Outcomes(root).at_most():
+            record["others"] = True
+        atomic_write(root / SWEEP_FILE, json.dumps(record, indent=2) + "\n", sync=True)

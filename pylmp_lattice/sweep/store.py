@@ -97,16 +97,21 @@ class Outcomes:
         self._read()
         return len(self._batched) + len(self._folders - self._batched.keys())
 
-    def to_keep(self, retry_failed: bool = False) -> int:
+    def to_keep(self, retry_failed: bool = False, ids=None) -> int:
         """How many members may keep their outcome on disk (not run again): done in a batch, or a
         folder of their own whose status says done (or failed, unless `retry_failed`); a folder that
         is a link, or whose run was interrupted or never recorded, is run again. An upper bound (the
         estimate's members to run, a lower one): it reads each member folder's status.json, not its
-        summary or case (`outcome` does), and counts any member's (another sweep's too)."""
+        summary or case (`outcome` does), and counts any member's (another sweep's too), or with
+        `ids` only those members'."""
         self._read()
+        batched, folders = self._batched.keys(), self._folders - self._batched.keys()
+        if ids is not None:
+            ids = set(ids)
+            batched, folders = batched & ids, folders & ids
         keep = (DONE,) if retry_failed else (DONE, FAILED)
-        own = sum((_finished(self.root, m) or {}).get("status") in keep for m in self._folders - self._batched.keys())
-        return len(self._batched) + own
+        own = sum((_finished(self.root, m) or {}).get("status") in keep for m in folders)
+        return len(batched) + own
 
     def none_of(self, member_ids: list[str]) -> bool:
         """Whether none of these members has an outcome on disk, or a folder of its own."""
