@@ -949,6 +949,22 @@ def test_tasks_are_shared_evenly_by_the_workers_within_an_instance_s_limit(tmp_p
 
 # ----------------------------------------------------------------------------- integrity
 
+def test_numpy_values_are_the_python_numbers_they_hold(tmp_path):
+    """A sweep made in Python from numpy values (`list(np.arange(...))`, an array, np.int64 seed
+    and replicas) is the sweep of the same Python numbers: same identity and members, and its
+    description is JSON (np.int64 stopped run_sweep at sweep.json with a TypeError; a numpy
+    seed was refused as "got np.int64(5); expected an integer >= 0")."""
+    write_sweep(tmp_path, "")
+    base = tmp_path / "base.toml"
+    made = Sweep(base=base, set={"chain.thermal_velocity": np.float64(0.01)}, replicas=np.int64(2), seed=np.int64(5),
+                 grid={"chain.particles": list(np.arange(8, 12, 2)), "impactor.velocity": np.array([1.0, 1.5])})
+    plain = Sweep(base=base, set={"chain.thermal_velocity": 0.01}, replicas=2, seed=5,
+                  grid={"chain.particles": [8, 10], "impactor.velocity": [1.0, 1.5]})
+    assert json.loads(json.dumps(made.describe())) == plain.describe()
+    assert made.identity() == plain.identity() and made.count() == 8
+    assert [(m.id, m.params) for m in made.members()] == [(m.id, m.params) for m in plain.members()]
+
+
 def test_one_and_one_point_zero_are_one_member(tmp_path):
     write_sweep(tmp_path, "")
     members = Sweep(base=tmp_path / "base.toml", grid={"impactor.velocity": [1, 1.0, 2]}).members()
