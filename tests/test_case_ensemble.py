@@ -119,7 +119,9 @@ def test_round_trip_through_case_to_dict():
     [
         ({"thermal_velocity": 0.1}, "chain.seed", "required when thermal_velocity"),
         ({"thermal_velocity": -0.1, "seed": 1}, "chain.thermal_velocity", "expected >= 0"),
-        ({"mass_disorder": 0.1, "seed": -1}, "chain.seed", "expected an integer >= 0"),
+        ({"mass_disorder": 0.1, "seed": -1}, "chain.seed", "expected an integer in [0, 2**63 - 1]"),
+        # (it said "expected an integer >= 0" of a seed above the range)
+        ({"mass_disorder": 0.1, "seed": 2**63}, "chain.seed", "got 9223372036854775808; expected an integer in [0, 2**63 - 1]"),
         ({"mass_disorder": 0.7, "disorder": "uniform", "seed": 1}, "chain.mass_disorder", "expected < 0.5774"),
         ({"mass_disorder": 0.1, "disorder": "lognormal", "seed": 1}, "chain.disorder", "choose one of normal, uniform"),
         ({"r0_disorder": 0.6, "seed": 2}, "chain.r0_disorder", "a draw gave a value <= 0"),

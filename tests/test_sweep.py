@@ -977,6 +977,8 @@ def test_one_and_one_point_zero_are_one_member(tmp_path):
     ('[set]\nimpactor = {velocity = 1.0}\n[zip]\n"impactor.velocity" = [1.0]\n', "zip.impactor.velocity: also given in [set]"),
     ('[grid]\n"impactor.velocity" = [1.0, nan]\n', "grid.impactor.velocity: got nan; expected a finite number"),
     ('[set]\n"chain.thermal_velocity" = inf\n', "set.chain.thermal_velocity: got inf; expected a finite number"),
+    # a seed past the range (it said "expected an integer >= 0")
+    ('seed = 9223372036854775808\n', "seed: got 9223372036854775808; expected an integer in [0, 2**63 - 1]"),
 ])
 def test_a_field_set_and_swept_or_a_non_finite_value_is_refused(tmp_path, capsys, text, message):
     path = write_sweep(tmp_path, 'base = "base.toml"\n' + text)

@@ -28,7 +28,7 @@ MASS_STREAM, GAP_STREAM, VELOCITY_STREAM = 0, 1, 2
 def check_seed(seed) -> None:
     """chain.seed's rule, for a chain and for a sweep's reseeded replica: an integer in [0, 2^63)."""
     if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2**63):
-        raise ConfigError("chain.seed", f"got {seed!r}; expected an integer >= 0")
+        raise ConfigError("chain.seed", f"got {seed!r}; expected an integer in [0, 2**63 - 1]")
 
 
 @dataclass(frozen=True)

@@ -318,7 +318,7 @@ class Sweep:
         if not (_is_int(self.replicas) and self.replicas >= 1):
             raise ConfigError("replicas", f"got {self.replicas!r}; expected an integer >= 1")
         if not (_is_int(self.seed) and 0 <= self.seed < 2**63):
-            raise ConfigError("seed", f"got {self.seed!r}; expected an integer >= 0")
+            raise ConfigError("seed", f"got {self.seed!r}; expected an integer in [0, 2**63 - 1]")
         if self.keep not in KEEP:
             raise ConfigError("keep", f"got {self.keep!r}; choose one of {', '.join(KEEP)}")
         if self.runner not in RUNNERS:
