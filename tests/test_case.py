@@ -332,7 +332,7 @@ def test_numpy_arrays_are_taken_as_lists():
                               ({"mass": np.ones(11)}, "chain.mass: got 11 values", "; expected 1 or 12"),
                               ({"mass": np.array([1.0] * 11 + [np.nan])}, "chain.mass: got [1.0, ",
                                "; expected a number or a list of finite numbers"),
-                              ({"mass": np.ones((2, 12))}, "chain.mass: got array([[",
+                              ({"mass": np.ones((2, 12))}, "chain.mass: got [[1.0, 1.0,",
                                "; expected a number or a list of finite numbers")):
         with pytest.raises(ConfigError) as info:
             make_case(particles=12, chain=chain)

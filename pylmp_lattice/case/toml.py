@@ -249,7 +249,7 @@ def case_to_dict(case: Case) -> dict:
 
 def _second_neighbour(values: dict) -> SecondNeighbour:
     values = dict(values)
-    law, sign = values.pop("law", "power"), _plain(values.pop("sign", -1.0))
+    law, sign = values.pop("law", "power"), plain(values.pop("sign", -1.0))
     law = _choice("second_neighbour.law", law, [k for k in FORCE_LAWS if k != "sampled"])
     if isinstance(sign, bool) or not isinstance(sign, (int, float)):
         raise ConfigError("second_neighbour.sign", f"got {brief(sign)}; expected -1 (attractive) or 1 (repulsive)")
@@ -276,7 +276,7 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         if key not in known:
             raise ConfigError(f"{section}.{_key(key)}",
                               f"unknown key; expected one of {', '.join([*other_keys, *known])}")
-        value = _plain(value)
+        value = plain(value)
         _check_type(f"{section}.{key}", value, known[key].type)
         converted[key] = tuple(value) if isinstance(value, list) else value
     missing = [k for k, f in known.items() if k not in values and f.default is MISSING]
@@ -290,14 +290,17 @@ def _build(cls, section: str, values: dict, other_keys: tuple[str, ...] = ()):
         raise ConfigError(section, f"invalid values ({err})") from err
 
 
-def _plain(value):
+def plain(value):
     """A value from Python as TOML would give it: a numpy scalar as the Python number (or text,
-    bool) it holds, a 1-D numpy array as a list, numpy numbers in a list as Python numbers;
-    anything else as it is (then checked by `_check_type`, np.bool_ as a bool)."""
-    if isinstance(value, np.generic) or isinstance(value, np.ndarray) and value.ndim <= 1:
+    bool) it holds, a numpy array as a list, in lists, tuples (as lists) and dicts at any depth
+    (a sweep's grid of `list(np.arange(...))` or of whole sections); anything else as it is (a
+    case's field then checked by `_check_type`, np.bool_ as a bool)."""
+    if isinstance(value, (np.generic, np.ndarray)):
         return value.tolist()
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [v.item() if isinstance(v, np.generic) else v for v in value]
+        return [plain(v) for v in value]
     return value
 
 

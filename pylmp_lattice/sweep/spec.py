@@ -51,11 +51,10 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
 from ..case.chain import CHUNK, check_seed
+from ..case.toml import plain
 from ..case.identity import SeededHashes, seeded_hashes
 from ..engine import RUNNERS
 from ..engines import ENGINES
@@ -276,13 +275,13 @@ class Sweep:
 
     def __post_init__(self):
         base, base_dir = _base_dict(self.base, self.base_dir)
-        object.__setattr__(self, "base", _plain(base))
+        object.__setattr__(self, "base", plain(base))
         object.__setattr__(self, "base_dir", base_dir)
         for name in ("replicas", "seed"):
-            object.__setattr__(self, name, _plain(getattr(self, name)))
-        object.__setattr__(self, "set", _flatten(_plain(self.set), "set"))
+            object.__setattr__(self, name, plain(getattr(self, name)))
+        object.__setattr__(self, "set", _flatten(plain(self.set), "set"))
         for table in ("grid", "zip"):
-            flat = _flatten(_plain(getattr(self, table)), table)
+            flat = _flatten(plain(getattr(self, table)), table)
             for key, values in flat.items():
                 if not isinstance(values, list):
                     raise ConfigError(f"{table}.{key}", f"got {values!r}; expected a list of values")
@@ -587,19 +586,6 @@ def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
         return copy.deepcopy(base), Path(base_dir)
     path = Path(base)
     return read_toml(path, "base"), path.parent
-
-
-def _plain(value):
-    """numpy numbers and arrays (`list(np.arange(10, 40, 10))`, `np.linspace(...)`) as the Python
-    numbers and lists TOML gives, in nested dicts and lists (as `case_from_dict` takes them): a
-    numpy integer failed as no integer (seed, replicas) or stopped the sweep at sweep.json (TypeError)."""
-    if isinstance(value, (np.generic, np.ndarray)):
-        return value.tolist()
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_plain(v) for v in value]
-    return value
 
 
 def _flatten(table: dict, name: str, prefix: str = "") -> dict:
