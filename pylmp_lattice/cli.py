@@ -62,7 +62,12 @@ def main(argv: list[str] | None = None) -> int:
 
 def _outcome(args) -> int:
     """The subcommand's exit code, its errors reported on stderr as one line."""
+    from .ranks import refuse_launched
+
     try:
+        command = args.command_parser.prog.rsplit(" ", 1)[-1]
+        if command not in ("lmp", "binary2txt"):  # (the programs: a hand run's ranks are one run)
+            refuse_launched(f"`pylmp-lattice {command}`")
         return args.func(args)
     except (ConfigError, DumpFormatError) as err:  # bad input: a case, an argument or a file
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)

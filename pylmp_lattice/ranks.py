@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 
+from .errors import UsageError
+
 # Measured on the project's 2-core machine (docs/performance.md, "Chain engine on several MPI
 # ranks", 2026-11-24): the owned one-pass step with the front record, CPU time per magnet and
 # step at 10^4 magnets (benchmarks/bench_engine.py: 0.2636 s for 10^8 magnet-steps), and the
@@ -56,6 +58,28 @@ def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[s
 # What MPI launchers set in each rank's environment: MPICH's hydra and Intel MPI, Open MPI, PMIx,
 # MVAPICH, SLURM's srun (the first found counts).
 RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK", "MV2_COMM_WORLD_RANK", "SLURM_PROCID")
+
+
+# ... and the size of its job: MPICH's hydra and Intel MPI, Open MPI, MVAPICH (not SLURM_NTASKS,
+# which a whole allocation's processes see, outside srun too: a sweep's Dask workers among them).
+SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE")
+
+
+def launched_size() -> int:
+    """The number of ranks of the MPI job a launcher started this process in; 1 outside one."""
+    sizes = [os.environ.get(name, "") for name in SIZE_VARIABLES]
+    return max([int(s) for s in sizes if s.isdigit()] + [1])
+
+
+def refuse_launched(command: str) -> None:
+    """UsageError where this process is one of several ranks an MPI launcher started: `command`
+    runs in one process, and its copies would each run all of it and race for its folder (one
+    refused, the other waiting for it in MPI for ever). Only a hand run (`lmp`) runs on ranks."""
+    n = launched_size()
+    if n > 1:
+        raise UsageError("mpiexec", f"got {n} ranks; {command} runs in one process (its copies would each run "
+                                    f"all of it): to run a case on {n} ranks use `pylmp-lattice run CASE --runner lmp "
+                                    f"--np {n}`, or in a run folder `mpiexec -n {n} pylmp-lattice lmp -in in.lattice`")
 
 
 def launched_rank() -> int | None:

@@ -286,3 +286,37 @@ def test_ctrl_c_stops_every_mpi_rank_of_a_hand_run_at_one_step(tmp_path):
     front = RunFolder(folder).front()
     assert np.isfinite(front.arrival).sum() >= 2 and np.nanmax(front.arrival) <= run["time_ms"]
     assert err.count("interrupted at t =") == 1  # rank 0 says it
+
+
+def test_other_commands_under_an_mpi_launcher_are_refused_before_they_write(tmp_path, monkeypatch, capsys):
+    """`mpiexec -n 2 pylmp-lattice run ...` made two processes each run the whole case and race for
+    its folder: one was refused it, the other waited in MPI_Init for it for ever (SIGTERM could not
+    stop it) and left the folder "running". Each rank of a command other than `lmp` (whose ranks
+    run one hand run, above) now stops at once, exit 2, one line naming the commands that do run
+    on 2 ranks; nothing is written."""
+    case = make_case(particles=5, duration=1.0)
+    deck(tmp_path, case)
+    capsys.readouterr()
+    monkeypatch.setenv("PMI_SIZE", "2")  # what MPICH's mpiexec (Hydra) tells each rank
+    assert main(["run", str(tmp_path / "d.toml"), "-o", str(tmp_path / "r")]) == 2
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(tmp_path / "e")]) == 2
+    assert not (tmp_path / "r").exists() and not (tmp_path / "e").exists()
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and all(line.startswith("pylmp-lattice: error: mpiexec: got 2 ranks;") for line in lines)
+    assert all("--runner lmp --np 2" in line and "mpiexec -n 2 pylmp-lattice lmp -in in.lattice" in line for line in lines)
+
+
+@lammps
+def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path):
+    """`lmp -in D/in.lattice -var dir D` from another folder logs there: summarize warns that D has
+    no log.lammps, and its summary's "files" named one all the same. Now it names the files D
+    holds: the trajectory and figure, no log."""
+    folder = deck(tmp_path, make_case(particles=8, duration=2.0))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    assert subprocess.run([str(LMP), "-in", str(folder / layout.DECK), "-var", "dir", str(folder), "-screen", "none"],
+                          cwd=elsewhere).returncode == 0
+    assert (elsewhere / layout.LOG).is_file() and not (folder / layout.LOG).exists()
+    assert main(["summarize", str(folder)]) == 0
+    files = json.loads((folder / layout.SUMMARY).read_text())["files"]
+    assert files == {"folder": str(folder), "trajectory": layout.H5MD, "figure": layout.FIGURE}

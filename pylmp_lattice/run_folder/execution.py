@@ -34,6 +34,7 @@ from .. import runner as lammps_runner
 from ..case import Case, as_case
 from ..engine import RUNNERS
 from ..errors import ContactError, Interrupted, RunError, UsageError
+from ..ranks import refuse_launched
 from ..formats import layout
 from ..formats.files import DiskFull, disk_full
 from ..progress import progress_bar
@@ -135,6 +136,7 @@ def simulate(case: Case | str | Path, folder: str | Path, runner: str | Engine =
 
 
 def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
+    refuse_launched("a run of pylmp_lattice")  # (a Python script under mpiexec; the command refuses it first)
     return Lammps(runner, nprocs, echo) if isinstance(runner, str) else runner
 
 

@@ -281,7 +281,9 @@ class RunFolder:
         if case.friction is not None and (self.path / layout.LOG).is_file():
             with suppress(KeyError, IndexError, LatticeError):
                 summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6)
-        files = {"folder": str(self.path), "log": layout.LOG}
+        files = {"folder": str(self.path)}
+        if (self.path / layout.LOG).is_file():  # a deck run from elsewhere logs where it ran
+            files["log"] = layout.LOG
         for name in (layout.H5MD, layout.TRAJ_BIN, layout.DUMP):
             if (self.path / name).exists():
                 files["trajectory"] = name
