@@ -73,11 +73,21 @@ def separate(left, right, left_values, right_values, overlap: float = -0.2):
         scale = span / (hi - lo)
         limits = np.array([vmin - lo * scale, vmax + (1 - hi) * scale])
         ax.set_ylim(*(10**limits if log else limits))
-        if not log:  # ticks over its own part only: the experiment's first peak velocity axis read down to -1.8 m/s
+        # ticks over its own part only: the experiment's first peak velocity axis read down to
+        # -1.8 m/s, and Fig. 2(a)'s force axis down to 1e-7 N (its stiffness one up to 1e7 N/mm)
+        inside = slice(vmin - 0.05 * span, vmax + 0.05 * span)
+        if log:
+            from matplotlib.ticker import FixedLocator
+
+            decades = np.arange(np.floor(inside.start), np.ceil(inside.stop) + 1)
+            minor = np.log10(np.outer(10**decades, np.arange(2, 10)).ravel())
+            ax.yaxis.set_major_locator(FixedLocator(10**decades[(decades >= inside.start) & (decades <= inside.stop)]))
+            ax.yaxis.set_minor_locator(FixedLocator(10**minor[(minor >= inside.start) & (minor <= inside.stop)]))
+        else:
             from matplotlib.ticker import MaxNLocator
 
             ticks = MaxNLocator(nbins=5).tick_values(vmin, vmax)
-            ax.set_yticks(ticks[(ticks >= vmin - 0.05 * span) & (ticks <= vmax + 0.05 * span)])
+            ax.set_yticks(ticks[(ticks >= inside.start) & (ticks <= inside.stop)])
 
 
 def velocity_profiles(t, v, magnets, ax=None):

@@ -243,6 +243,27 @@ def test_twin_axes_tick_only_their_own_data():
     assert 0 <= min(right.get_yticks()) and max(right.get_yticks()) <= 4000, right.get_yticks()
 
 
+def test_twin_log_axes_tick_only_their_own_decades():
+    """Fig. 2(a): force 5e-3-8 N on the left, stiffness 3e-4-6 N/mm on the right, each in its
+    part of the panel; the left axis was ticked down to 1e-7 N and the right up to 1e7 N/mm. Each
+    is now ticked (decades, and 2-9 between) over its own values' decades only."""
+    from matplotlib.figure import Figure
+
+    from pylmp_lattice.plots import separate
+
+    ax = Figure().subplots()
+    right = ax.twinx()
+    force, stiffness = np.geomspace(5e-3, 8.0, 40), np.geomspace(3e-4, 6.0, 40)
+    ax.semilogy(force)
+    right.semilogy(stiffness)
+    separate(ax, right, force, stiffness)
+    assert ax.get_ylim()[0] < 1e-4 and right.get_ylim()[1] > 1e3  # room for the other axis's data
+    assert list(ax.yaxis.get_majorticklocs()) == [1e-2, 1e-1, 1.0, 10.0]
+    assert list(right.yaxis.get_majorticklocs()) == [1e-3, 1e-2, 1e-1, 1.0]
+    minor = ax.yaxis.get_minorticklocs()
+    assert minor.min() == pytest.approx(4e-3) and minor.max() == pytest.approx(9.0)
+
+
 @pytest.mark.lammps
 @pytest.mark.slow
 def test_fig1_draws_the_front_speed_line_on_the_trajectories(quick_studies):
