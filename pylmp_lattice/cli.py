@@ -468,7 +468,8 @@ def _sweep(args) -> int:
     # members not in the table were never enumerated: a lost worker stopped the sweep first (up to:
     # the count is before identical cases are merged)
     unstarted = f", up to {sweep.count() - len(table)} not started" if interrupted else ""
-    print(f"{len(table) if not interrupted else sweep.count()} members: {len(table) - failed - interrupted} done, "
+    count = len(table) if not interrupted else sweep.count()
+    print(f"{count} member{'' if count == 1 else 's'}: {len(table) - failed - interrupted} done, "
           f"{failed} failed" + (f", {interrupted} interrupted{unstarted} (a worker was lost; run the same command to "
                                  "finish)" if interrupted else "")
           + f"; table {args.output / 'results.csv'}", file=sys.stderr)

@@ -1650,3 +1650,13 @@ def test_the_failure_lines_group_contacts_whatever_their_numbers(capsys, tmp_pat
                          "pylmp-lattice: failed: chain.r1_disorder: got 2 ; expected < 1"]
     _say_failures(["LAMMPS stopped at step 1234.", "LAMMPS stopped at step 99."], tmp_path / "sw")  # a full stop ends a number
     assert capsys.readouterr().err == "pylmp-lattice: failed (2 members, e.g.): LAMMPS stopped at step 1234.\n"
+
+
+@pytest.mark.parametrize("base", [3, [1], None])
+def test_a_sweep_s_base_of_another_kind_is_refused_in_one_line(base):
+    """Sweep(base=3) in Python ended in "expected str, bytes or os.PathLike object, not int" from
+    pathlib; it is now a ConfigError naming base and what it takes."""
+    with pytest.raises(ConfigError) as info:
+        Sweep(base=base)
+    assert str(info.value) == (f"base: got {base!r}; expected a Case, a dict of case sections or the path of a case "
+                               "file (TOML)")

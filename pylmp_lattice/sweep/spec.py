@@ -45,13 +45,14 @@ import copy
 import itertools
 import logging
 import math
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from ..case import (Case, FieldKindError, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
+from ..case import (Case, FieldKindError, brief, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
 from ..case.chain import CHUNK, check_seed
 from ..case.toml import plain
@@ -549,7 +550,7 @@ def base_file(folder: Path, value) -> Path:
     anywhere: the sweep only reads it, as `pylmp-lattice run CASE` reads a case, and writes in
     its -o folder only; the files the base case names stay inside the base case's folder."""
     if not (isinstance(value, str) and value and value.isprintable()):
-        raise ConfigError("base", f"got a {type(value).__name__}; expected the path of a case file (TOML), relative to "
+        raise ConfigError("base", f"got {brief(value)}; expected the path of a case file (TOML), relative to "
                                   "the sweep file's folder or absolute")
     return (Path(folder) / value).resolve()
 
@@ -584,6 +585,9 @@ def _base_dict(base, base_dir: Path) -> tuple[dict, Path]:
         return data, Path(base_dir)
     if isinstance(base, dict):
         return copy.deepcopy(base), Path(base_dir)
+    if not isinstance(base, (str, os.PathLike)):
+        raise ConfigError("base", f"got {brief(base)}; expected a Case, a dict of case sections or the path of a case "
+                                  "file (TOML)")
     path = Path(base)
     return read_toml(path, "base"), path.parent
 
