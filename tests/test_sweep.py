@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
 import re
 import signal
@@ -616,8 +617,10 @@ def test_example_sweep_file_is_valid():
     assert len({m.case.chain.seed for m in members}) == 12
 
 
-def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
+def test_one_coordinator_per_sweep_folder(tmp_path, capsys, caplog):
     import fcntl
+
+    caplog.set_level(logging.INFO)
 
     path = write_sweep(tmp_path, SIX)
     out = tmp_path / "out"
@@ -625,10 +628,11 @@ def test_one_coordinator_per_sweep_folder(tmp_path, capsys):
     held = os.open(out, os.O_RDONLY)  # the lock is on the folder itself: no lock file left behind
     try:
         fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        assert main(["sweep", str(path), "-o", str(out), "--quiet"]) == 2
+        assert main(["sweep", str(path), "-o", str(out)]) == 2
     finally:
         os.close(held)
     assert "-o: another sweep is running in" in capsys.readouterr().err
+    assert not [r for r in caplog.records if " members (" in r.getMessage()]  # refused before the estimate is said
     assert list(out.iterdir()) == []
 
 

@@ -95,6 +95,9 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
     held = refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
+    if root.is_dir():  # likewise a sweep running there (its lock is taken below)
+        with lock(root):
+            pass
     # the members left to run (--yes or not): all where DIR holds no sweep, or another one (--overwrite keeps its
     # members' folders, which are not this sweep's); else those not kept (`to_keep`, which may count such folders
     # left from an earlier --overwrite too, so that it may exceed total)
