@@ -600,3 +600,25 @@ def test_fronts_of_different_sampling_are_not_stacked():
     assert stack_fronts([one, one]).arrival.shape == (2, 5)
     with pytest.raises(ValueError, match="a stack needs one of each"):
         stack_fronts([one, dataclasses.replace(one, sample_interval=0.2)])
+
+
+# ---------------------------------------------------------------------------------------------
+# Flags against the linear speed, centred V_P over unequal gaps, pulses (mutation tests)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_the_exact_harmonic_front_is_not_flagged_below_the_linear_speed(chain):
+    """The exact harmonic piston's half-level front lags V0 (Airy: 0.903 V0 over gap 1, then
+    0.923, 0.953, ... towards V0), never by more than LINEAR_LAG = 10 %: no gap is flagged
+    below the linear speed (V_P < 0.9 V0). The same arrival times over gaps 0.85 times as long
+    (a front at most 0.85 V0: slower than any linear wave) are flagged at every gap."""
+    v, _ = chain
+    v0 = linear_wave_speed(SPRING, CHAIN_MASS, R0)
+    arrival = arrival_times(T_CHAIN, v, VI)[:139]  # the magnets the front reached
+    assert np.isfinite(arrival).all()
+    vp = propagation_velocity(arrival, R0)
+    assert_allclose(vp[:3] / v0, [0.90291, 0.92321, 0.95264], atol=1e-5)  # measured, Airy lag
+    front = measures.Front(arrival, vp, peaks=None, slowest_linear_speed=v0)
+    assert not front.below_linear_speed.any() and np.array_equal(front.accepted_velocity, vp)
+    slow = measures.Front(arrival, propagation_velocity(arrival, 0.85 * R0), peaks=None, slowest_linear_speed=v0)
+    assert slow.below_linear_speed.all() and np.isnan(slow.accepted_velocity).all()
