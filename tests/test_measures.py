@@ -622,3 +622,18 @@ def test_the_exact_harmonic_front_is_not_flagged_below_the_linear_speed(chain):
     assert not front.below_linear_speed.any() and np.array_equal(front.accepted_velocity, vp)
     slow = measures.Front(arrival, propagation_velocity(arrival, 0.85 * R0), peaks=None, slowest_linear_speed=v0)
     assert slow.below_linear_speed.all() and np.isnan(slow.accepted_velocity).all()
+
+
+def test_slowest_linear_speed_of_a_diatomic_chain_is_below_its_sound_speed():
+    """Masses alternating 1 and 4 g, spring k: the long-wave (acoustic) speed is
+    r0 sqrt(2 k / (m1 + m2)) = r0 sqrt(k / 2.5) (textbook diatomic chain), above which no front is
+    slower; the local bound per gap takes the heavier magnet, r0 sqrt(k / 4) (hand calculation),
+    below the acoustic speed as a lower bound must be. A uniform chain's is V0."""
+    k, n = 0.05, 40
+    masses = np.where(np.arange(n) % 2 == 0, 1.0, 4.0)
+    gaps = np.full(n - 1, R0)
+    slowest = measures.slowest_linear_speed(np.full(n - 1, k), masses, gaps)
+    assert slowest == pytest.approx(R0 * np.sqrt(k / 4.0), rel=1e-12)
+    assert slowest < R0 * np.sqrt(2 * k / (1.0 + 4.0))
+    uniform = measures.slowest_linear_speed(np.full(n - 1, k), np.full(n, 1.084), gaps)
+    assert uniform == pytest.approx(linear_wave_speed(k, 1.084, R0), rel=1e-12)
