@@ -637,3 +637,14 @@ def test_slowest_linear_speed_of_a_diatomic_chain_is_below_its_sound_speed():
     assert slowest < R0 * np.sqrt(2 * k / (1.0 + 4.0))
     uniform = measures.slowest_linear_speed(np.full(n - 1, k), np.full(n, 1.084), gaps)
     assert uniform == pytest.approx(linear_wave_speed(k, 1.084, R0), rel=1e-12)
+
+
+def test_centred_velocity_over_unequal_gaps_is_the_distance_over_the_time():
+    """A front at a constant 3.7 m/s over gaps drawn within +-20 % of r0 (t_n = x_n / c): per gap
+    and centred, V_P is c exactly: the centred value spans both gaps, (r_(n-1) + r_n) / (t_(n+1) - t_(n-1))."""
+    rng = np.random.default_rng(5)
+    gaps = R0 * (1 + 0.2 * rng.uniform(-1.0, 1.0, 39))
+    c = 3.7
+    arrival = np.concatenate(([0.0], np.cumsum(gaps))) / c
+    assert_allclose(propagation_velocity(arrival, gaps), c, rtol=1e-12)
+    assert_allclose(centred_propagation_velocity(arrival, gaps)[1:-1], c, rtol=1e-12)
