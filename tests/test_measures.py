@@ -662,3 +662,16 @@ def test_lead_pulse_of_a_travelling_pulse_sampled_coarsely():
     speed, top = measures.lead_pulse(t, w)
     assert speed == pytest.approx(s, rel=3e-4)
     assert top == pytest.approx(height, rel=1.1e-2) and top <= height
+
+
+def test_staggered_amplitude_is_the_period_two_difference_between_neighbouring_gaps():
+    """r_n = 10 + A(t) (-1)^n cos(w t) + 0.01 n with A = 0.3 exp(-t/50), period 4, sampled every
+    0.25 (the cosine's extremes on frames): over gaps 1-6 and the 10 time units before t_end,
+    |r_(n+1) - r_n| peaks at 2 A |cos| + 0.01 (by hand: at the window's first extreme, t = 92 for
+    t_end = 100); a larger pattern beyond gap 6 is not counted."""
+    t = np.arange(0.0, 200.0 + 1e-9, 0.25)
+    n = np.arange(12)
+    amplitude = 0.3 * np.exp(-t / 50)[:, None] * np.where(n < 6, 1.0, 3.0)[None, :]
+    r = 10 + amplitude * (-1.0) ** n[None, :] * np.cos(2 * np.pi * t / 4)[:, None] + 0.01 * n[None, :]
+    assert measures.staggered_amplitude(t, r, 100.0) == pytest.approx(0.6 * np.exp(-92 / 50) + 0.01, rel=1e-12)
+    assert measures.staggered_amplitude(t, r, 200.0) == pytest.approx(0.6 * np.exp(-192 / 50) + 0.01, rel=1e-12)
