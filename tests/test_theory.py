@@ -98,6 +98,20 @@ def test_rankine_hugoniot_values_are_the_jump_to_a_state_moving_at_V_I():
     assert p.lead_speed > p.rankine_hugoniot_speed  # the lead soliton outruns the jump
 
 
+def test_weak_shock_speed_is_the_weak_shock_line_at_every_V_I():
+    """weak_shock_speed = c0 + s V_I with the power law's closed forms c0 = r0 sqrt(3 K / ((r0 + b)^4 m))
+    and s = (q + 1) r0 / (4 (r0 + b)) (weak_shock's central difference: 1e-9), at V_I away from 1
+    m/s; the Rankine-Hugoniot speed leaves that line by O(V_I^2): (D - c0)/V_I -> s (measured
+    7.8e-5 off at 1e-3 m/s, 7.8e-4 at 1e-2)."""
+    c0 = R0 * np.sqrt(3 * PAPER.K / (R0 + PAPER.b) ** 4 / MASS)
+    s = 4 * R0 / (4 * (R0 + PAPER.b))
+    for v in (1e-3, 1e-2, 0.3, 2.0):
+        p = theory.predict(PAPER, MASS, R0, v)
+        assert_allclose(p.weak_shock_speed, c0 + s * v, rtol=1e-8)
+    for v, tol in ((1e-3, 2e-4), (1e-2, 2e-3)):
+        assert_allclose((theory.predict(PAPER, MASS, R0, v).rankine_hugoniot_speed - c0) / v, s, rtol=tol)
+
+
 def test_sampled_law_goes_through_its_spline():
     r = np.linspace(4.0, 14.0, 400)
     sampled = SampledLaw(tuple(r), tuple(PAPER.force(r)))
