@@ -41,6 +41,23 @@ def test_toda_trailing_edge_stops_at_the_critical_speed():
     assert_allclose(theory.predict(law, 1.0, 10.0, 2.0 - 1e-9).trailing_wavenumber, np.pi, rtol=1e-6)
 
 
+def test_toda_lead_decay_is_the_exact_soliton_s_and_the_trailing_wavenumber_its_group_velocity_s():
+    """lead_decay k~+ is the lead soliton's tail exp(-k~+ n): the exact Toda soliton
+    (exact.toda_soliton, cosh kappa = 1 + u) decays as exp(-2 kappa n) ahead of its centre, measured
+    from its gaps 60 and 61 (1e-12). trailing_wavenumber k- is where the wake's linear waves,
+    omega0 = 2 c(r1) sin(k/2), have group velocity trailing_speed / r0 (El's harmonic edge;
+    trailing_speed is exact, 1 - u/2 sites per unit time, test above): by a central difference (1e-8)."""
+    law = Toda(1.0, 1.0, 10.0)
+    for u in (0.05, 0.5, 1.0, 1.9):
+        p = theory.predict(law, 1.0, 10.0, u)
+        kappa, _ = exact.toda_lead_soliton(u)
+        _, _, r = exact.toda_soliton([60.0, 61.0], 0.0, float(kappa))
+        assert_allclose(p.lead_decay, -np.log(r[0, 1] / r[0, 0]), rtol=1e-12)
+        c1, k, h = np.exp(-(p.wake_gap - 10.0) / 2), p.trailing_wavenumber, 1e-6
+        group = (2 * c1 * np.sin((k + h) / 2) - 2 * c1 * np.sin((k - h) / 2)) / (2 * h)
+        assert_allclose(10.0 * group, p.trailing_speed, rtol=1e-8)
+
+
 # ----------------------------------------------------------------------------- closed forms of the power law
 
 @pytest.mark.parametrize("q", [2.0, 3.0, 5.0])
