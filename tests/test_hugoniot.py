@@ -35,6 +35,20 @@ def test_wake_state_of_a_synthetic_oscillation():
         wake_state(t, v, gaps, law, 3.0, (4, 9), (0.0, 1.0))
 
 
+def test_wake_state_takes_the_magnets_right_of_its_gaps_never_the_impactor():
+    """Magnet j + 1 (column j) at 1 + 0.1 j + 0.2 sin(w t), the impactor (column 0) at 5 m/s: gaps
+    1-3 lie between magnets 1-4 and take magnets 2-4 (columns 1-3), mean velocity 1.2 m/s and
+    kinetic m (0.02 + 0.02/3)/2 (the oscillation's variance 0.02 plus the offsets' 0.1^2 2/3, by hand)."""
+    t = np.linspace(0.0, 100.0, 100000, endpoint=False)
+    w = 2 * np.pi / 10.0
+    v = 1.0 + 0.1 * np.arange(6)[None, :] + 0.2 * np.sin(w * t)[:, None]
+    v[:, 0] = 5.0
+    gaps = np.full((t.size, 5), 10.0)
+    s = wake_state(t, v, gaps, LinearSpring(k=2.0, r_free=20.0), 3.0, (1, 3), (0.0, 100.0))
+    assert s.mean_velocity == pytest.approx(1.2, rel=1e-9)
+    assert s.kinetic == pytest.approx(3.0 * (0.02 + 0.02 / 3) / 2, rel=1e-6)
+
+
 @pytest.mark.lammps
 def test_magnet_chain_weak_shock_limit(tmp_path):
     """The magnet chain pushed at 0.1 and 0.5 m/s for 600 ms (c0 = 1.6029 m/s, s = 0.7539).
