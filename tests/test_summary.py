@@ -269,3 +269,38 @@ def test_a_batch_s_summary_columns_are_its_summaries_as_columns_and_each_the_cas
     assert out[2]["shock_velocity_max_m_per_s"] is None and out[0]["shock_velocity_max_m_per_s"]["gap"] >= 2
     assert "front_speed_lab_m_per_s" in out[0] and "front_speed_lab_m_per_s" not in out[1]
     assert out[3]["far_end_quiet"] is True and "far_end_quiet" not in out[0]
+
+
+@pytest.mark.parametrize("thermal", [0.0, 0.05])
+def test_a_long_lattice_s_far_end_is_quiet_below_the_noise_level(caplog, thermal):
+    """far_end_quiet: the last free magnet's largest |v| at most max(QUIET_FRACTION V_I, 5 sigma),
+    the other levels' rule (`levels`). V_I = 2 m/s: without noise the limit is 2e-3 m/s (1.9e-3
+    quiet; 2.1e-3 not, with a warning naming magnet N-1); with thermal motion (sigma = 0.0464 m/s,
+    `chain_noise`) the limit is 5 sigma, and 4 sigma, which thermal motion alone reaches in a long
+    run (a Gaussian's 1-in-16000 sample), is quiet. Motion of the held last magnet, or of the one
+    before the last free one, does not count."""
+    from pylmp_lattice.case_measures import chain_noise
+    from pylmp_lattice.summary import summaries
+
+    chain = {"particles": None, "far_end": "long"} | ({"thermal_velocity": thermal, "seed": 3} if thermal else {})
+    case = make_case(duration=50.0, chain=chain)
+    sigma, n, last_free = chain_noise(case), case.chain.particles, min(case.held()) - 1
+    assert case.held() == [n - 1] and (sigma == 0.0) == (thermal == 0.0)
+    limit = max(1e-3 * 2.0, 5 * sigma)
+    assert limit == pytest.approx(2e-3 if not thermal else 0.2322, rel=1e-3)
+    t = np.arange(0.0, 50.0, 0.1)
+    v = 1.0 + np.tanh((t[:, None] - 3.0 * np.arange(n)) / 0.25)
+    front = measures.stack_fronts([measures.front(t, v, np.gradient(v, t, axis=0), 2.0, case.chain.gaps(),
+                                                  noise=sigma, slowest_linear_speed=1.6)])
+
+    def quiet(speed_of_last_free, elsewhere=0.0):
+        max_speed = np.zeros((1, n))
+        max_speed[0, [last_free - 1, n - 1]] = elsewhere
+        max_speed[0, last_free] = speed_of_last_free
+        return summaries([case], front, max_speed)[0]["far_end_quiet"]
+
+    below = 0.95 * limit if not thermal else 4 * sigma
+    assert quiet(below, elsewhere=10.0) is True
+    caplog.clear()
+    assert quiet(1.05 * limit) is False
+    assert f"magnet {n - 1} moved" in caplog.text and "long lattice too short" in caplog.text
