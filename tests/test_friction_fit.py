@@ -85,3 +85,24 @@ def test_fit_friction_recovers_mu_and_p_from_noisy_traces(lammps_rig):
     for rest, err, (_, xi) in zip(fit.rest_position, fit.rest_position_error, lammps_rig.values()):
         assert abs(rest - xi[-1]) < 4 * err + 1e-3
     assert fit.reduced_chi2 == pytest.approx(1.0, abs=0.1)
+    assert 1.0 <= fit.correlation_time < 1.15  # white noise: independent residuals
+
+
+def test_errors_of_a_fit_to_correlated_noise_cover_the_truth():
+    """Noise correlated from sample to sample (white noise smoothed by a Gaussian of 20 samples,
+    1 % of the trace's range, as a filtered or smoothed measurement has): the standard errors
+    assumed independent samples and were 8 times too small (the fit 15 of them from the truth).
+    They are now widened by the square root of the residuals' integrated autocorrelation time,
+    for this noise 2 sqrt(pi) 20 = 70.9 samples (measured 66.6): the fit is 1.9 of them from
+    it. The
+    model's own motion is the truth here, so the fit's errors are the noise's alone."""
+    from scipy.ndimage import gaussian_filter1d
+
+    r1 = 249.5
+    t = np.linspace(0.0, 1.05 * rig_motion(np.array([0.0]), r1, MU, P, PowerLaw(), MASS, G).rest_time, 3000)
+    x = rig_motion(t, r1, MU, P, PowerLaw(), MASS, G).x
+    noise = gaussian_filter1d(np.random.default_rng(0).standard_normal(t.size), 20)
+    fit = fit_friction(t, x + 0.01 * np.ptp(x) * noise / noise.std(), r1, PowerLaw(), MASS, G)
+    assert fit.correlation_time == pytest.approx(2 * np.sqrt(np.pi) * 20, rel=0.4)
+    assert abs(fit.mu - MU) < 3 * fit.mu_error and abs(fit.p - P) < 3 * fit.p_error
+    assert abs(fit.mu - MU) > 3 * fit.mu_error / np.sqrt(fit.correlation_time)  # (the errors as they were)

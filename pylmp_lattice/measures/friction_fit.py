@@ -18,8 +18,12 @@ estimated from its second differences (robust: the median absolute deviation). A
 trace with many oscillations from a poor start can lock onto the wrong number of cycles, so
 the fit grows its time window: the first 1/16 of each trace's motion, then 1/8, 1/4, 1/2 and
 all of it, each stage starting from the last. Uncertainties are the standard errors of the
-linearised fit (covariance (J^T J)^-1 times the reduced chi^2); the rest position of each
-trace is that of the fitted model, with its error propagated from the covariance.
+linearised fit (covariance (J^T J)^-1 times the reduced chi^2), times the residuals' integrated
+autocorrelation time (in samples: 1 for independent noise; noise correlated from sample to
+sample, a filtered or smoothed measurement's, counts fewer independent samples, and without
+it the errors came out 8 times too small for noise smoothed over 20 samples: tests/
+test_friction_fit.py); the rest position of each trace is that of the fitted model, with its
+error propagated from the covariance.
 
 Units (user): t in ms, x, start and separation in mm, mass in g, g in m/s^2 (converted to a
 weight in N through `units`), F in N.
@@ -108,7 +112,10 @@ class FrictionFit:
     mu, p and their standard errors; correlation: of the two estimates; rest_position,
     rest_position_error (mm, one per trace): where the fitted model comes to rest;
     rms_residual, noise (mm, per trace): of the fit, and the noise estimated from the trace;
-    reduced_chi2: of the weighted fit (~1 when the model explains the trace to its noise);
+    reduced_chi2: of the weighted fit (~1 when the model explains the trace to its noise; the
+    noise is estimated from second differences, blind to slow noise, which raises it);
+    correlation_time: the residuals' integrated autocorrelation time, samples (~1 for white
+    noise), which widens the errors;
     stages: the time windows fitted in turn (fractions of each trace's motion); nfev: model
     evaluations.
     """
@@ -123,6 +130,7 @@ class FrictionFit:
     rms_residual: tuple[float, ...]
     noise: tuple[float, ...]
     reduced_chi2: float
+    correlation_time: float
     stages: tuple[float, ...]
     nfev: int
 
@@ -161,7 +169,9 @@ def fit_friction(t, x, separation, law, mass: float, g: float = 9.81, start=1.8,
         params, nfev = fit.x, nfev + fit.nfev
     dof = max(fit.fun.size - params.size, 1)
     chi2 = float(np.sum(fit.fun**2) / dof)
-    cov = np.linalg.inv(fit.jac.T @ fit.jac) * chi2
+    sizes = [ti.size for ti, _, _, _ in traces]  # (the last stage fits every sample)
+    tau = float(np.average([_correlation_time(r) for r in np.split(fit.fun, np.cumsum(sizes)[:-1])], weights=sizes))
+    cov = np.linalg.inv(fit.jac.T @ fit.jac) * chi2 * tau
     err = np.sqrt(np.diag(cov))
     rest, rest_err, rms = [], [], []
     for (ti, xi, r1, x0) in traces:
@@ -176,8 +186,21 @@ def fit_friction(t, x, separation, law, mass: float, g: float = 9.81, start=1.8,
     return FrictionFit(
         mu=float(params[0]), mu_error=float(err[0]), p=float(params[1]), p_error=float(err[1]),
         correlation=float(cov[0, 1] / (err[0] * err[1])), rest_position=tuple(rest), rest_position_error=tuple(rest_err),
-        rms_residual=tuple(rms), noise=tuple(noise), reduced_chi2=chi2, stages=_STAGES, nfev=nfev,
+        rms_residual=tuple(rms), noise=tuple(noise), reduced_chi2=chi2, correlation_time=tau, stages=_STAGES, nfev=nfev,
     )
+
+
+def _correlation_time(r: np.ndarray) -> float:
+    """The integrated autocorrelation time of residuals r, in samples: 1 + 2 times the sum of their
+    autocorrelation over the lags before it first falls to 0 or below (1 for independent ones)."""
+    r = r - r.mean()
+    f = np.fft.rfft(r, 2 * r.size)
+    acf = np.fft.irfft(f * np.conj(f))[:r.size]
+    if acf[0] <= 0:
+        return 1.0
+    acf = acf[1:] / acf[0]
+    end = np.flatnonzero(acf <= 0)
+    return float(max(1.0, 1.0 + 2.0 * acf[:end[0] if end.size else acf.size].sum()))
 
 
 def _traces(t, x, separation, start):

@@ -87,7 +87,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         "calibration": {"noise_of_range": NOISE, "noise_seed": NOISE_SEED, "frame_interval_ms": 0.1 * FIT_EVERY,
                         "mu": fit.mu, "mu_error": fit.mu_error, "mu_relative_error": fit.mu / FRICTION["mu"] - 1,
                         "p": fit.p, "p_error": fit.p_error, "p_relative_error": fit.p / FRICTION["p"] - 1,
-                        "correlation": fit.correlation, "reduced_chi2": fit.reduced_chi2, "traces": fit_rows},
+                        "correlation": fit.correlation, "reduced_chi2": fit.reduced_chi2,
+                        "residual_correlation_time_samples": fit.correlation_time, "traces": fit_rows},
     }
     if quick:
         numbers["quick_cannot_show"] = {"final_position_mm": "the rest position: in 600 ms the magnet has not stopped",
