@@ -43,7 +43,7 @@ def harmonic_piston_velocity(n, t, u_p: float, omega: float):
 
 
 def harmonic_overshoot_limit() -> float:
-    """The first peak of v_n / u_p far from the piston in the harmonic chain: 1.2740.
+    """The first peak of v_n / u_p far from the piston in the harmonic chain: 1.27435.
 
     Near the front, with x = 2 w t, J_nu(x) ~ (2/x)^(1/3) Ai((2/x)^(1/3) (nu - x)), so the sum
     of J_2k over k >= n becomes v_n / u_p -> integral_z^inf Ai(s) ds, z = (2/x)^(1/3) (2n - x):
@@ -121,7 +121,9 @@ def toda_piston_wake(u_p):
 def toda_lead_soliton(u_p):
     """The lead soliton of the Toda piston problem (dimensionless): cosh(kappa) = 1 + u_p.
 
-    Returns (kappa, speed in sites per unit time, sinh(kappa)/kappa)."""
+    Returns (kappa, speed): the speed sinh(kappa)/kappa in sites per unit time. Its height is
+    exp(-r) - 1 = sinh^2(kappa) = u_p^2 + 2 u_p and its peak particle velocity
+    2 sinh(kappa) tanh(kappa/2) = 2 (cosh(kappa) - 1) = 2 u_p exactly."""
     kappa = np.arccosh(1.0 + np.asarray(u_p, float))
     return kappa, toda_soliton_speed(kappa)
 
