@@ -17,7 +17,7 @@ def harmonic() -> str:
                      r["last_magnet_with_first_peak"], fixed(g("first_peak_over_u_p_there"), 5),
                      fixed(g("wake_decay_exponent_magnet_6"), 3), fixed(g("wake_decay_exponent_magnet_6_exact"), 3)])
     return table(["u_p (m/s)", "max \\|v - exact\\| / u_p, magnets 2-31", "same, magnets 1-90", "V_P (m/s)",
-                  "first peak / u_p at magnet 31", "exact", "last magnet with a first peak", "first peak / u_p there",
+                  "first peak / u_p at magnet 31", "exact, same frames", "last magnet with a first peak", "first peak / u_p there",
                   "wake decay exponent, magnet 6", "exact"], rows)
 
 
