@@ -1,6 +1,7 @@
 """The harmonic chain driven by a piston, against its exact solution (Schroedinger 1914).
 
-The paper's linear lattice (Fig. S5: k = 3 K / (r0 + b)^4 = 0.01934 N/mm, m = 1.084 g,
+The linear lattice of the paper's Fig. S5 (which gives no k; here the magnets' stiffness at r0,
+k = 3 K / (r0 + b)^4 = 0.01934 N/mm, m = 1.084 g,
 r0 = 12 mm; w = sqrt(k/m) = 0.1336 rad/ms, c0 = r0 w = 1.603 m/s), 120 magnets with a held
 far end, magnet 1 pushed at u_p for 600 ms (the front reaches magnet ~80). Point by point
 against v_n(t) = u_p [J_2n(2 w t) + 2 sum_{k>n} J_2k(2 w t)], n the site index from 0 (magnet

@@ -4,7 +4,8 @@ Chains (studies.scaffold.CHAINS): the magnets (600 ms), the Toda lattice m = A =
 r0 = a = 10 mm (100 ms), Lennard-Jones m = epsilon = sigma = 1 at its minimum r0 = 2^(1/6) mm
 and Morse with alpha r_e = 6 at r_e = r0 (30 ms, dt = 0.002 ms); each a long lattice pushed at
 u_p = V_I. Per run:
-- U_s: the front speed V_P (the u_p/2 crossing, the paper's measure), against u_p with a
+- U_s: the front speed V_P (the u_p/2 crossing, the package's default front; the paper does
+  not state its threshold), against u_p with a
   linear fit; against the weak-shock theory c0 + s u_p, s = r0 F''/(4 |F'|)
   (`exact.weak_shock`), and against c0 + (4/3) s u_p, the leading edge of a weak dispersive
   shock (the KdV limit: the lead soliton is twice the mean jump high, and a KdV soliton's speed
