@@ -116,8 +116,8 @@ class Prediction:
     (in_domain False) the numbers are returned for comparison but run ahead of the simulations:
     on the paper's chain the extrapolated V_P falls below the lead speed by 0.72, 0.93, 1.33 and
     2.27 % at 1.1, 1.25, 1.5 and 2 V* (the wake frequency differs by +0.08, -0.36, -1.62 and
-    -5.13 %), against 0.05-0.54 % for V_P and at most 0.24 % for the frequency below V* (study dsw,
-    docs/literature.md);
+    -5.13 %), against 0.06-0.47 % for V_P and at most 0.21 % for the frequency below V* (study dsw,
+    docs/literature.md; 0.05-0.54 % and 0.24 % over the four magnet laws);
     rankine_hugoniot_speed, rankine_hugoniot_gap: the jump from rest to a uniform state moving
     at V_I, m/s and mm (`exact.jump`); weak_shock_speed: c0 + s V_I, m/s (`exact.weak_shock`).
     """

@@ -94,6 +94,18 @@ def test_power_law_critical_speed_closed_form(q):
     assert_allclose(p.trailing_speed, 0.0, atol=1e-7)
 
 
+def test_lennard_jones_against_an_independent_evaluation():
+    """LJ, m = epsilon = sigma = 1 at r0 = 2^(1/6): V* = 0.8799035 (V*/V0 = 0.10370, section 4 of
+    docs/literature.md) and at V_I = 0.5 r1 = 1.0705252, lead speed 11.572678, R-H speed 10.880067,
+    from the referee's own script (analytic U'' = 4 (156 r^-14 - 42 r^-8), scipy quad/brentq,
+    the El formulas re-derived): the package's spline-free path agrees to 1e-8."""
+    law, r0 = LennardJones(1.0, 1.0), 2 ** (1 / 6)
+    assert_allclose(theory.critical_velocity(law, 1.0, r0), 0.87990348, rtol=1e-8)
+    p = theory.predict(law, 1.0, r0, 0.5)
+    assert_allclose([p.wake_gap, p.lead_speed, p.rankine_hugoniot_speed], [1.07052517, 11.5726776, 10.8800668],
+                    rtol=1e-8)
+
+
 def test_paper_law_wake_closed_form():
     """q = 3: V_I = sqrt(3 K/m) (1/(r1 + b) - 1/(r0 + b)); F(r1) and f = sqrt(k(r1)/m)/pi."""
     a = np.sqrt(3 * PAPER.K / MASS)
