@@ -53,8 +53,8 @@ def test_wake_state_takes_the_magnets_right_of_its_gaps_never_the_impactor():
 def test_magnet_chain_weak_shock_limit(tmp_path):
     """The magnet chain pushed at 0.1 and 0.5 m/s for 600 ms (c0 = 1.6029 m/s, s = 0.7539).
     The mean state behind obeys the jump conditions: its Rankine-Hugoniot particle velocity is
-    u_p (measured 1.6e-4 and 8e-3 off) and its R-H speed lies on the weak-shock line c0 + s u_p
-    (4e-4, 8e-3). The front does not: at 0.1 m/s it is near the line (+0.2 %), at 0.5 m/s 7 %
+    u_p (measured 4.0e-4 and 8.2e-3 off; tolerances 1e-3 and 1e-2) and its R-H speed lies on the
+    weak-shock line c0 + s u_p (3.6e-4, 7.9e-3). The front does not: at 0.1 m/s it is near the line (+0.2 %), at 0.5 m/s 7 %
     above it and within 1 % of c0 + (4/3) s u_p (measured +0.5 %), the speed of the lead
     soliton of a developed dispersive shock (KdV limit), which leaves the mean state behind."""
     ws = weak_shock(PowerLaw(), MAGNET_R0, MAGNET_MASS)
@@ -65,9 +65,9 @@ def test_magnet_chain_weak_shock_limit(tmp_path):
         summary = run_case(case, tmp_path / case.name, figure=False)
         rows[u_p] = measure("magnet", u_p, case, summary, RunFolder(tmp_path / case.name).trajectory())
     for u_p, row in rows.items():
-        line = ws.c0 + ws.s * u_p
-        assert row["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(u_p, rel=1e-2)
-        assert row["rankine_hugoniot_D_m_per_s"] == pytest.approx(line, rel=1e-2)
+        line, tol = ws.c0 + ws.s * u_p, (1e-3 if u_p < 0.2 else 1e-2)
+        assert row["rankine_hugoniot_u_p_m_per_s"] == pytest.approx(u_p, rel=tol)
+        assert row["rankine_hugoniot_D_m_per_s"] == pytest.approx(line, rel=tol)
     assert rows[0.1]["U_s_m_per_s"] == pytest.approx(ws.c0 + ws.s * 0.1, rel=5e-3)
     assert rows[0.5]["U_s_m_per_s"] > 1.05 * (ws.c0 + ws.s * 0.5)
     assert rows[0.5]["U_s_m_per_s"] == pytest.approx(ws.c0 + 4 / 3 * ws.s * 0.5, rel=1e-2)
