@@ -122,14 +122,15 @@ def test_jump_conditions():
 def test_harmonic_chain_matches_the_bessel_solution(tmp_path):
     """The paper's linear lattice (k = F'(r0) of the magnets, m = 1.084 g, omega = 0.1336 rad/ms)
     driven at 0.1 m/s, default dt: max |v - exact| over particles 1-30 for 300 ms (the front
-    passes particle 30 at ~225 ms) is 9.1e-7 u_p; the issue asks for 1e-5."""
+    passes particle 30 at ~225 ms) is 9.1e-7 u_p (Verlet's phase error, deterministic); the issue
+    asks for 1e-5, the test holds it to 2e-6."""
     u_p = 0.1
     case = chain_case("harmonic", "harmonic", {"velocity": u_p}, 300.0, particles=80, output=0.5)
     assert case.run.dt == 0.01
     traj = simulate(case, tmp_path)
     v = harmonic_piston_velocity(np.arange(31), traj.t, u_p, np.sqrt(MAGNET_STIFFNESS / MAGNET_MASS))
     assert np.max(v[:, 30]) > 1.1 * u_p  # the first peak has passed particle 30
-    assert np.max(np.abs(traj.v[:, 1:31] - v[:, 1:])) < 1e-5 * u_p
+    assert np.max(np.abs(traj.v[:, 1:31] - v[:, 1:])) < 2e-6 * u_p
 
 
 @pytest.mark.lammps
