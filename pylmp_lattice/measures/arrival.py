@@ -2,8 +2,10 @@
 
 - "level" (the default for a sustained drive: constant velocity, ramp, a measured motion still
   moving forward at the end of its record, `Profile.is_pulse`): the
-  first time v_n reaches fraction * V_I (V_I/2 by default), linearly interpolated. It is the
-  paper's front for a constant drive and is insensitive to how the peak is shaped.
+  first time v_n reaches fraction * V_I (V_I/2 by default), linearly interpolated. It is this
+  package's front for a constant drive (the paper does not say which point of the rise it
+  times; its V_P of 3.92 m/s is matched to 0.2 %: docs/reproduction.md) and is insensitive to
+  how the peak is shaped.
 - "velocity_peak" (the default for a pulse, `default_arrival_method(pulse=True)`: a half-sine,
   or a measured motion at rest, or recoiling, by the end of its record): the time
   of the first velocity maximum, parabola-refined. A short pulse spreads and weakens as it
