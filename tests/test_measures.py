@@ -62,6 +62,17 @@ def test_linear_constants_reject_non_positive_input():
         linear_wave_speed(0.02, 0, 12.0)
 
 
+def test_a_value_that_is_no_number_is_named_not_a_numpy_comparison_error():
+    t, v = np.linspace(0.0, 1.0, 5), np.zeros((5, 3))
+    with pytest.raises(TypeError, match=r"^drive_velocity: got '2' \(str\); expected a number$"):
+        arrival_times(t, v, "2")
+    with pytest.raises(TypeError, match=r"^mass: got None \(NoneType\); expected a number$"):
+        linear_wave_speed(0.02, None, 12.0)
+    with pytest.raises(TypeError, match=r"^stiffness: got an array of shape \(2,\); expected one number$"):
+        linear_wave_speed(np.array([0.02, 0.03]), 1.084, 12.0)
+    assert linear_wave_speed(np.float64(0.02), np.int64(1), np.array(12.0)) == pytest.approx(12.0 * np.sqrt(0.02))
+
+
 # ---------------------------------------------------------------------------------------------
 # Front arrival and propagation velocity
 # ---------------------------------------------------------------------------------------------

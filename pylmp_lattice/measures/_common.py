@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from ..units import PER_MS_IN_HZ as HZ_PER_INV_MS
@@ -35,7 +37,14 @@ def check_noise(noise, columns: int):
 
 
 def require_positive(**values):
+    """ValueError naming the first value that is not > 0; TypeError for one that is no single
+    real number (a str, None, a bool or an array of several values)."""
     for name, value in values.items():
+        if np.ndim(value) != 0:
+            raise TypeError(f"{name}: got an array of shape {np.shape(value)}; expected one number")
+        if isinstance(value, (bool, np.bool_)) or not (isinstance(value, numbers.Real) or (
+                isinstance(value, np.ndarray) and value.dtype.kind in "iuf")):
+            raise TypeError(f"{name}: got {value!r} ({type(value).__name__}); expected a number")
         if not value > 0:
             raise ValueError(f"{name}: got {value}; expected > 0")
 
