@@ -55,6 +55,7 @@ class PowerLaw(Law):
 
     def __post_init__(self):
         super().__post_init__()
+        _number("force.q", self.q)
         if not self.q > 1:
             raise ConfigError("force.q", f"got {self.q}; expected > 1 (finite potential energy)")
 
@@ -323,5 +324,13 @@ def fit_power_law(r, F, guess: PowerLaw | None = None) -> PowerLawFit:
 
 
 def _positive(name: str, value: float, unit: str):
+    _number(name, value)
     if not (np.isfinite(value) and value > 0):
         raise ConfigError(name, f"got {value} {unit}; expected > 0")
+
+
+def _number(name: str, value) -> None:
+    """ConfigError naming the parameter unless `value` is one real number (not a str, None, a
+    bool or an array of several)."""
+    if np.ndim(value) != 0 or np.asarray(value).dtype.kind not in "iuf":
+        raise ConfigError(name, f"got {value!r} ({type(value).__name__}); expected a number")

@@ -169,7 +169,7 @@ def riemann_drop(law, mass: float, r0: float, r1: float) -> float:
 
 def wake_gap(law, mass: float, r0: float, V_I: float) -> float:
     """r1, mm, solving V_I = int_{r1}^{r0} c dr (Eq. 1)."""
-    _check(mass, r0, V_I=V_I)
+    _check(law, mass, r0, V_I=V_I)
     return _compressed_root(lambda r: riemann_drop(law, mass, r0, r) - V_I, law, r0,
                             f"V_I: got {V_I:g} m/s; the wake would close the gap before contact")
 
@@ -178,7 +178,7 @@ def critical_velocity(law, mass: float, r0: float) -> float:
     """V*, m/s (Eq. 4): the piston speed at which the wake's stiffness is 4 k(r0), so the
     DSW's harmonic edge reaches wavenumber pi at the piston; above it the wake persists.
     inf when the stiffness never reaches 4 k(r0) inside the law's domain (no V* before contact)."""
-    _check(mass, r0)
+    _check(law, mass, r0)
     k0 = float(law.stiffness(r0))
     try:
         r_star = _compressed_root(lambda r: float(law.stiffness(r)) - 4 * k0, law, r0, "no V*")
@@ -277,7 +277,12 @@ def _compressed_root(g, law, r0: float, message: str) -> float:
     raise ValueError(message)
 
 
-def _check(mass: float, r0: float, **speeds):
+def _check(law, mass: float, r0: float, **speeds):
+    if not all(callable(getattr(law, name, None)) for name in ("force", "stiffness", "domain")):
+        raise TypeError(f"law: got {type(law).__name__}; expected a force law (`forcelaw`), e.g. a case's "
+                        "`case.force` or forcelaw.PowerLaw(K=413.8, b=3.917, q=3.0)")
     for name, value in {"mass": mass, "r0": r0, **speeds}.items():
+        if np.ndim(value) != 0 or np.asarray(value).dtype.kind not in "iuf":
+            raise TypeError(f"{name}: got {value!r} ({type(value).__name__}); expected a number")
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value}; expected > 0")

@@ -8,6 +8,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from pylmp_lattice import exact, theory
+from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.forcelaw import FPUT, LennardJones, Morse, PowerLaw, SampledLaw, Toda
 
 PAPER = PowerLaw()  # K = 413.8 N mm^3, b = 3.917 mm, q = 3
@@ -225,3 +226,18 @@ def test_critical_velocity_lies_between_decaying_and_persisting_wakes(paper_runs
     persisting = [vi for vi, m in paper_runs.items() if m["eta_ratio"] > PERSISTS]
     assert decaying and persisting, {vi: m["eta_ratio"] for vi, m in paper_runs.items()}
     assert max(decaying) < theory.critical_velocity(PAPER, MASS, R0) < min(persisting)
+
+
+def test_a_mistyped_argument_is_named_not_a_numpy_error():
+    law = PowerLaw(K=413.8, b=3.917, q=3.0)
+    with pytest.raises(TypeError, match=r"^mass: got '1.084' \(str\); expected a number$"):
+        theory.predict(law, "1.084", 12.0, 2.0)
+    with pytest.raises(TypeError, match=r"^V_I: got None \(NoneType\); expected a number$"):
+        theory.predict(law, 1.084, 12.0, None)
+    with pytest.raises(TypeError, match=r"^law: got dict; expected a force law"):
+        theory.critical_velocity({"law": "power", "K": 413.8}, 1.084, 12.0)
+    with pytest.raises(ConfigError, match=r"^force.K: got '413.8' \(str\); expected a number$"):
+        PowerLaw(K="413.8")
+    with pytest.raises(ConfigError, match=r"^force.q: got None \(NoneType\); expected a number$"):
+        PowerLaw(q=None)
+    assert theory.critical_velocity(law, np.float64(1.084), np.int64(12)) == theory.critical_velocity(law, 1.084, 12.0)
