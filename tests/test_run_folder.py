@@ -751,3 +751,22 @@ def test_summarize_refuses_a_deck_that_was_never_run(tmp_path, capsys, caplog):
     (tmp_path / "ran" / layout.LOG).unlink()
     assert main(["summarize", str(tmp_path / "ran"), "--no-figure"]) == 0
     assert "no log.lammps" in caplog.text and "friction work are not known" in caplog.text
+
+
+def test_a_path_that_is_no_run_folder_is_refused_not_read_as_a_deck_never_run(tmp_path):
+    """A mistyped folder read as status "written" and summary None; a file as a folder failed in
+    pathlib (NotADirectoryError); None as the path in pathlib (TypeError)."""
+    from pylmp_lattice.errors import UsageError
+
+    (tmp_path / "a_file").write_text("x")
+    (tmp_path / "empty").mkdir()
+    for name, why in (("missing", "no such folder"), ("a_file", "it is not a folder"), ("empty", "it has no case.toml")):
+        folder = RunFolder(tmp_path / name)
+        with pytest.raises(UsageError, match=rf"^folder: got '.*{name}'; expected a run folder \({why}\)$"):
+            folder.status
+        with pytest.raises(UsageError, match=r"^folder: got .*; expected a run folder"):
+            folder.front()
+    with pytest.raises(UsageError, match=r"^folder: got None; expected the path of a run folder \(str or Path\)$"):
+        RunFolder(None)
+    written = write_folder(make_case(particles=5, duration=1.0), tmp_path / "deck")
+    assert RunFolder(str(written)).status == "written" and RunFolder(written).summary is None

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import os
 import re
 import shlex
 from contextlib import suppress
@@ -28,6 +29,7 @@ import numpy as np
 from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
+from ..case.checks import brief
 from ..formats.dump import Contact, error_line, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import LatticeError, UsageError
 from ..case_measures import case_front, read_front_record, set_impactor_acceleration
@@ -50,8 +52,18 @@ class RunFolder:
     """A run folder on disk (see `layout` for its files). Open any folder with `RunFolder(path)`."""
 
     def __init__(self, path: str | Path):
+        if not isinstance(path, (str, os.PathLike)):
+            raise UsageError("folder", f"got {brief(path)}; expected the path of a run folder (str or Path)")
         self.path = Path(path)
         self._cache: dict = {}
+
+    def _folder(self) -> Path:
+        """The folder's path; UsageError if nothing is there, or a file (its state, case and files
+        are read from a folder that exists)."""
+        if not self.path.is_dir():
+            why = "it is not a folder" if self.path.exists() else "no such folder"
+            raise UsageError("folder", f"got {str(self.path)!r}; expected a run folder ({why})")
+        return self.path
 
     def __repr__(self) -> str:
         return f"RunFolder({str(self.path)!r})"
@@ -71,7 +83,7 @@ class RunFolder:
     def cases(self) -> tuple[Case, ...]:
         """The folder's cases: its one case, or a batch's chains in order (`cases.read_cases`)."""
         if "cases" not in self._cache:
-            self._cache["cases"] = read_cases(self.path)
+            self._cache["cases"] = read_cases(self._folder())
         return self._cache["cases"]
 
     @property
@@ -87,7 +99,10 @@ class RunFolder:
     def status(self) -> str:
         """How the run stands: "running", "done", "interrupted", "contact", "failed" or
         "written" (see `marker.status`)."""
-        return marker.status(self.path)
+        folder = self._folder()
+        if not any((folder / name).exists() for name in (layout.CASE, layout.REPLICAS, layout.MARKER)):
+            raise UsageError("folder", f"got {str(folder)!r}; expected a run folder (it has no {layout.CASE})")
+        return marker.status(folder)
 
     def contact(self) -> Contact | None:
         """Where two magnets touched, if the run stopped so."""
@@ -103,7 +118,7 @@ class RunFolder:
         """summary.json, or None if the folder has none, or one that is not a strict JSON object
         (as `summarize` writes it: no NaN)."""
         try:
-            return loads_object((self.path / layout.SUMMARY).read_bytes())
+            return loads_object((self._folder() / layout.SUMMARY).read_bytes())
         except OSError:
             return None
 
@@ -192,10 +207,10 @@ class RunFolder:
 
     def _stamp(self) -> tuple:
         """Sizes and times of the files a read depends on: a changed folder is read again."""
-        out = []
+        out, folder = [], self._folder()
         for name in (layout.H5MD, layout.TRAJ_BIN, layout.FINE_BIN, layout.DUMP, layout.FINE_DUMP, layout.FRONT_BIN):
             with suppress(FileNotFoundError):
-                st = (self.path / name).stat()
+                st = (folder / name).stat()
                 out.append((name, st.st_size, st.st_mtime_ns))
         return tuple(out)
 
