@@ -44,3 +44,20 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     # the half-sine drive's front, 12 mm gaps: between V0 = 1.6 m/s and the bound V0 + 2 * 2.81
     vp = summary["shock_velocity_plateau_m_per_s"]["mean"]
     assert 1.6 < vp < 7.2 and front.arrival[1] < front.arrival[5]
+
+
+def test_a_path_that_is_no_path_is_named_not_a_pathlib_error(tmp_path, monkeypatch):
+    """load_case(None) and run(case, None) failed in pathlib: "expected str, bytes or os.PathLike
+    object, not NoneType"."""
+    from pylmp_lattice.errors import UsageError
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(UsageError, match=r"^path: got None; expected the path of a case file \(TOML\), str or Path$"):
+        pl.load_case(None)
+    case = pl.case_from_dict({"chain": {"particles": 5, "mass": 1.0, "r0": 12.0, "far_end": "fixed"},
+                              "force": {"law": "power"}, "impactor": {"profile": "constant", "velocity": 1.0},
+                              "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1}})
+    for folder in (None, 5, case):
+        with pytest.raises(UsageError, match=r"^folder: got .*; expected the path of the run's folder \(str or Path\)$"):
+            pl.run(case, folder)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

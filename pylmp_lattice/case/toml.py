@@ -40,6 +40,8 @@ def load_case(path: str | Path, overrides: list[str] | str = ()) -> Case:
     if not (isinstance(overrides, (list, tuple)) and all(isinstance(item, str) for item in overrides)):
         raise UsageError("overrides", f"got {brief(overrides)}; expected a list of 'section.key=value' strings, "
                                       "e.g. ['run.duration=40']")
+    if not isinstance(path, (str, os.PathLike)):
+        raise UsageError("path", f"got {brief(path)}; expected the path of a case file (TOML), str or Path")
     path = Path(path)
     data = read_toml(path, "case")
     switched = _switch_laws(data, overrides)

@@ -101,6 +101,15 @@ def deck_dir(folder: Path) -> str:
                                 "or use the lmp runner (--runner lmp; runner = \"lmp\" in a sweep file)")
 
 
+def as_folder(path: str | Path) -> Path:
+    """`path` as a Path; UsageError naming the folder if it is no path (None, a number, a case)."""
+    if not isinstance(path, (str, os.PathLike)):
+        text = repr(path)
+        raise UsageError("folder", f"got {text if len(text) <= 40 else text[:37] + '...'}; "
+                                   "expected the path of the run's folder (str or Path)")
+    return Path(path)
+
+
 def check_place(path: Path, what: str) -> None:
     """UsageError unless `path` may be the output folder of a `what` ("run", "sweep"): never the
     working directory, a parent of it or runs/ itself (they hold the user's files), nor a file,
