@@ -12,6 +12,7 @@ velocities are stored as ASE stores them (momenta = m v), and extxyz writes mass
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,9 @@ def to_atoms(traj: Trajectory, masses, every: int = 1) -> list:
     """
     from ase import Atoms
 
-    masses = np.broadcast_to(np.asarray(masses, float), traj.x0.shape)
+    masses = _masses(traj, masses)
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValueError(f"every: got {every!r}; expected an integer >= 1 (keep every k-th frame)")
     frames = []
     for k in range(0, len(traj.t), every):
         pos = np.zeros((len(traj.x0), 3))
@@ -52,6 +55,9 @@ def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1)
     """Write frames for ASE's GUI or OVITO: `.extxyz` (extended XYZ) or `.traj` (ASE trajectory)."""
     from ase.io import write
 
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path: got {type(path).__name__}; expected the file to write (str or Path), "
+                        "as in write_trajectory(path, traj, masses)")
     path = Path(path)
     if path.suffix not in FORMATS:
         raise UsageError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
@@ -69,6 +75,8 @@ def case_from_atoms(atoms, force: dict, impactor: dict, run: dict, friction: dic
     motion is the impactor's drive) and the last atom is held (far_end = "fixed"; its velocity
     must be 0).
     """
+    if not callable(getattr(atoms, "get_positions", None)):
+        raise TypeError(f"atoms: got {type(atoms).__name__}; expected an ase.Atoms (its x positions, in chain order)")
     x = np.asarray(atoms.get_positions(), float)[:, 0]
     gaps = np.diff(x)
     if len(x) < 3 or not np.all(gaps > 0):
@@ -91,6 +99,22 @@ def case_from_atoms(atoms, force: dict, impactor: dict, run: dict, friction: dic
     if table is not None:
         data["table"] = dict(table)
     return case_from_dict(data)
+
+
+def _masses(traj, masses) -> np.ndarray:
+    """The masses (g) of a trajectory's magnets, one per column: one value for all, or (N,) of
+    finite values > 0; else an error naming `traj` or `masses`."""
+    if not isinstance(traj, Trajectory):
+        raise TypeError(f"traj: got {type(traj).__name__}; expected a Trajectory (e.g. RunFolder.trajectory())")
+    try:
+        values = np.asarray(masses, float)
+    except (TypeError, ValueError):
+        values = None
+    if values is None or values.shape not in ((), traj.x0.shape) or not np.all(np.isfinite(values) & (values > 0)):
+        got = f"{type(masses).__name__} of shape {values.shape}" if values is not None and values.ndim else repr(masses)[:40]
+        raise ValueError(f"masses: got {got}; expected finite masses > 0 in g, one "
+                         f"value or one per magnet, shape {traj.x0.shape} (e.g. case.chain.masses())")
+    return np.broadcast_to(values, traj.x0.shape)
 
 
 def _show(values: np.ndarray) -> str:

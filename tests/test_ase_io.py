@@ -75,3 +75,28 @@ def test_to_atoms_keeps_every_kth_frame_with_its_time():
     frames = to_atoms(traj, [1.0, 2.0, 3.0], every=2)
     assert [f.info["time_ms"] for f in frames] == [0.0, 2.0, 4.0]
     np.testing.assert_array_equal(frames[0].get_masses(), [1.0, 2.0, 3.0])
+
+
+def test_mistaken_arguments_are_named_and_none_masses_are_not_nan(tmp_path):
+    """to_atoms(traj, None) gave frames whose masses were all NaN; masses of the wrong length,
+    write_trajectory's arguments in to_atoms's order and atoms=None failed inside numpy,
+    pathlib or as an AttributeError."""
+    from pylmp_lattice.trajectory import Trajectory
+
+    traj = Trajectory(np.array([0.0, 0.1]), np.array([0.0, 12.0, 24.0]), np.zeros((2, 3)), np.zeros((2, 3)),
+                      np.zeros((2, 3)))
+    with pytest.raises(ValueError, match=r"^masses: got None; expected finite masses > 0 in g, one value or one "
+                                         r"per magnet, shape \(3,\)"):
+        to_atoms(traj, None)
+    with pytest.raises(ValueError, match=r"^masses: got ndarray of shape \(2,\); expected"):
+        to_atoms(traj, np.ones(2))
+    with pytest.raises(ValueError, match=r"^every: got 0; expected an integer >= 1"):
+        to_atoms(traj, 1.084, every=0)
+    with pytest.raises(TypeError, match=r"^traj: got NoneType; expected a Trajectory"):
+        to_atoms(None, 1.084)
+    with pytest.raises(TypeError, match=r"^path: got Trajectory; expected the file to write \(str or Path\)"):
+        write_trajectory(traj, 1.084, tmp_path / "x.extxyz")
+    with pytest.raises(TypeError, match=r"^atoms: got NoneType; expected an ase.Atoms"):
+        case_from_atoms(None, force={}, impactor={}, run={})
+    assert list(tmp_path.iterdir()) == []
+    assert to_atoms(traj, 1.084)[1].get_masses().tolist() == [1.084] * 3
