@@ -686,3 +686,18 @@ def test_staggered_amplitude_is_the_period_two_difference_between_neighbouring_g
     r = 10 + amplitude * (-1.0) ** n[None, :] * np.cos(2 * np.pi * t / 4)[:, None] + 0.01 * n[None, :]
     assert measures.staggered_amplitude(t, r, 100.0) == pytest.approx(0.6 * np.exp(-92 / 50) + 0.01, rel=1e-12)
     assert measures.staggered_amplitude(t, r, 200.0) == pytest.approx(0.6 * np.exp(-192 / 50) + 0.01, rel=1e-12)
+
+
+def test_a_magnet_number_or_window_of_the_wrong_kind_is_named():
+    """phase_portrait(..., 2.5) failed as a numpy IndexError, steady_oscillation(window=None) as
+    "'NoneType' object is not iterable", and fit_propagation_velocity took first_magnet = 1.5."""
+    t, v = np.linspace(0.0, 1.0, 5), np.zeros((5, 3))
+    with pytest.raises(TypeError, match=r"^magnet: got 2.5 \(float\); expected an integer$"):
+        measures.phase_portrait(t, v, v, 2.5)
+    with pytest.raises(TypeError, match=r"^window: got None; expected \(start, end\) in ms, two numbers$"):
+        measures.steady_oscillation(t, v[:, 0], 1.0, window=None)
+    with pytest.raises(TypeError, match=r"^window: got \(0.5,\); expected \(start, end\) in ms, two numbers$"):
+        measures.steady_oscillation(t, v[:, 0], 1.0, window=(0.5,))
+    with pytest.raises(TypeError, match=r"^first_magnet: got 1.5 \(float\); expected an integer$"):
+        measures.fit_propagation_velocity(np.arange(5.0), 12.0 * np.arange(5.0), 1.5, 3)
+    assert measures.fit_propagation_velocity(np.arange(5.0), 12.0 * np.arange(5.0), np.int64(1), 3).velocity == pytest.approx(12.0)

@@ -49,6 +49,22 @@ def require_positive(**values):
             raise ValueError(f"{name}: got {value}; expected > 0")
 
 
+def require_integer(**values):
+    """TypeError naming the first value that is no integer (a magnet or gap number: 10, not 10.0)."""
+    for name, value in values.items():
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+            raise TypeError(f"{name}: got {value!r} ({type(value).__name__}); expected an integer")
+
+
+def require_window(window) -> tuple[float, float]:
+    """A time window (start, end) as two floats; TypeError unless it is two numbers."""
+    try:
+        t_a, t_b = (float(x) for x in window)
+    except (TypeError, ValueError):
+        raise TypeError(f"window: got {window!r}; expected (start, end) in ms, two numbers") from None
+    return t_a, t_b
+
+
 def first_crossing(t, v, level):
     """Per column of v (n_frames, N), level scalar or (N,): index of the first sample with
     v >= level (len(t) if none) and the crossing time, linearly interpolated from the previous

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._common import (
-    HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive,
+    HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive, require_window,
 )
 from .levels import FRONT_FRACTION, NOISE_FALL, PROMINENCE, level
 
@@ -138,7 +138,7 @@ def steady_oscillation(
     noise: the chain's noise velocity sigma, m/s, as in `oscillations`.
     """
     t, v = check_history(t, v, single=True)
-    t_a, t_b = (float(x) for x in window)
+    t_a, t_b = require_window(window)
     if not t_a < t_b:
         raise ValueError(f"window: got ({t_a}, {t_b}) ms; expected start < end")
     if t_b <= t[0] or t_a >= t[-1]:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._common import check_history
+from ._common import check_history, require_integer
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,7 @@ def phase_portrait(t, x, v, magnet: int, first_magnet: int = 1) -> PhasePortrait
     x = np.asarray(x, dtype=float)
     if x.shape != v.shape:
         raise ValueError(f"x: got shape {x.shape}; expected {v.shape}, the shape of v")
+    require_integer(magnet=magnet, first_magnet=first_magnet)
     last = first_magnet + v.shape[1] - 1
     if not first_magnet <= magnet < last:
         raise ValueError(f"magnet: got {magnet}; expected {first_magnet} <= magnet < {last} (it needs a next one)")

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numbering import entries, number
-from ._common import NAN
+from ._common import NAN, require_integer
 
 OVER = ("gap", "magnet")  # what a per-entry series is over: entry i is gap i + 1, or magnet i + 1
 # A plateau's values scatter by at most this fraction of their mean: V_P per gap scatters by about
@@ -86,6 +86,7 @@ def fit_propagation_velocity(arrival, positions, first_magnet: int = 1, last_mag
     if positions.shape != arrival.shape:
         raise ValueError(f"positions: got shape {positions.shape}; expected {arrival.shape}")
     last_magnet = arrival.size if last_magnet is None else last_magnet
+    require_integer(first_magnet=first_magnet, last_magnet=last_magnet)
     if not 1 <= first_magnet <= last_magnet <= arrival.size:
         raise ValueError(f"first_magnet, last_magnet: got {first_magnet}, {last_magnet}; "
                          f"expected 1 <= first_magnet <= last_magnet <= {arrival.size}")
@@ -113,6 +114,7 @@ def fit_front_speeds(arrival, positions, first_magnet: int, last_magnet: int) ->
     over it (`fit_propagation_velocity` fits the magnets that have one)."""
     arrival = np.atleast_2d(np.asarray(arrival, dtype=float))
     positions = np.broadcast_to(np.asarray(positions, dtype=float), arrival.shape)
+    require_integer(first_magnet=first_magnet, last_magnet=last_magnet)
     if not 1 <= first_magnet < last_magnet - 1 < arrival.shape[1]:
         raise ValueError(f"first_magnet, last_magnet: got {first_magnet}, {last_magnet}; "
                          f"expected 1 <= first_magnet, first_magnet + 2 <= last_magnet <= {arrival.shape[1]}")
