@@ -98,6 +98,7 @@ import numpy as np
 from .exact import jump, weak_shock
 from .forcelaw import SampledLaw
 from .measures import linear_frequency, linear_wave_speed
+from .serialize import jsonable
 
 _CONVEXITY_SAMPLES = 65  # grid on [r1, r0] where c must grow under compression
 
@@ -146,7 +147,7 @@ class Prediction:
                  "trailing_wavenumber": "rad_per_site", "lead_decay": "per_site",
                  "critical_velocity": "m_per_s", "rankine_hugoniot_speed": "m_per_s",
                  "rankine_hugoniot_gap": "mm", "weak_shock_speed": "m_per_s"}
-        return {f"{k}_{units[k]}" if k in units else k: v for k, v in asdict(self).items()}
+        return jsonable({f"{k}_{units[k]}" if k in units else k: v for k, v in asdict(self).items()})
 
 
 def wave_speed(law, mass: float, r) -> np.ndarray:
@@ -236,7 +237,7 @@ class FirstPeakLimit:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return asdict(self)
+        return jsonable(asdict(self))
 
 
 def first_peak_limit(n, first_peaks) -> FirstPeakLimit:

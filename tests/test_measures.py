@@ -701,3 +701,19 @@ def test_a_magnet_number_or_window_of_the_wrong_kind_is_named():
     with pytest.raises(TypeError, match=r"^first_magnet: got 1.5 \(float\); expected an integer$"):
         measures.fit_propagation_velocity(np.arange(5.0), 12.0 * np.arange(5.0), 1.5, 3)
     assert measures.fit_propagation_velocity(np.arange(5.0), 12.0 * np.arange(5.0), np.int64(1), 3).velocity == pytest.approx(12.0)
+
+
+def test_to_dict_gives_strict_json_plain_values():
+    """FirstPeaks.to_dict() and others held numpy arrays (json.dumps: "Object of type ndarray is
+    not JSON serializable") and NaN (the token NaN, not strict JSON), though each says "plain
+    values (JSON)"."""
+    t = np.linspace(0.0, 10.0, 201)
+    v = np.clip(np.sin(np.pi * t[:, None] / 4 - np.arange(3)), 0.0, None)
+    peaks = measures.first_peaks(t, v, np.gradient(v, t, axis=0), 1.0)
+    plateau = measures.trailing_plateau(np.full(5, np.nan))
+    for result in (peaks, plateau, measures.oscillations(t, v[:, 0], 1.0), measures.phase_portrait(t, v, v, 1),
+                   measures.steady_oscillation(t, v[:, 0], 1.0, window=(0.0, 3.0))):
+        data = result.to_dict()
+        assert json.loads(json.dumps(data, allow_nan=False)) == data
+    assert peaks.to_dict()["peak_velocity_m_per_s"] == [pytest.approx(1.0, abs=1e-3)] * 3
+    assert plateau.to_dict()["mean"] is None and plateau.to_dict()["first_gap"] is None

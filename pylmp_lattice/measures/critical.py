@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ._common import NAN
 
 KNEE_METHODS = ("threshold", "tangent", "two_line", "kneedle")
@@ -33,7 +34,7 @@ class CriticalVelocity:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"V_star_m_per_s": self.value, "method": self.method, "reason": self.reason}
+        return jsonable({"V_star_m_per_s": self.value, "method": self.method, "reason": self.reason})
 
 
 def critical_velocity(vi, eta, method: str = "two_line", level: float = 0.1) -> CriticalVelocity:

@@ -35,6 +35,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ..units import to_engine
 
 _STAGES = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)  # fractions of each trace's motion fitted in turn
@@ -136,7 +137,7 @@ class FrictionFit:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return asdict(self)
+        return jsonable(asdict(self))
 
 
 def fit_friction(t, x, separation, law, mass: float, g: float = 9.81, start=1.8,

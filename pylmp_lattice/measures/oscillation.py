@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ._common import (
     HZ_PER_INV_MS, NAN, check_history, first_crossing, prominent_maxima, refine_maxima, require_positive, require_window,
 )
@@ -38,9 +39,9 @@ class Oscillations:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"max_time_ms": self.max_time, "max_velocity_m_per_s": self.max_velocity,
-                "min_time_ms": self.min_time, "min_velocity_m_per_s": self.min_velocity,
-                "frequency_time_ms": self.frequency_time, "frequency_Hz": self.frequency}
+        return jsonable({"max_time_ms": self.max_time, "max_velocity_m_per_s": self.max_velocity,
+                         "min_time_ms": self.min_time, "min_velocity_m_per_s": self.min_velocity,
+                         "frequency_time_ms": self.frequency_time, "frequency_Hz": self.frequency})
 
 
 def oscillations(
@@ -108,11 +109,11 @@ class SteadyOscillation:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"frequency_Hz": self.frequency, "energy_ratio_eta": self.energy_ratio,
-                "max_velocity_m_per_s": self.max_velocity, "min_velocity_m_per_s": self.min_velocity,
-                "amplitude_m_per_s": self.amplitude, "mean_velocity_m_per_s": self.mean_velocity,
-                "period_spread": self.period_spread, "start_ms": self.start, "end_ms": self.end,
-                "window_ms": list(self.window), "n_periods": self.n_periods, "reason": self.reason}
+        return jsonable({"frequency_Hz": self.frequency, "energy_ratio_eta": self.energy_ratio,
+                         "max_velocity_m_per_s": self.max_velocity, "min_velocity_m_per_s": self.min_velocity,
+                         "amplitude_m_per_s": self.amplitude, "mean_velocity_m_per_s": self.mean_velocity,
+                         "period_spread": self.period_spread, "start_ms": self.start, "end_ms": self.end,
+                         "window_ms": list(self.window), "n_periods": self.n_periods, "reason": self.reason})
 
 
 def steady_oscillation(

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ._common import (check_history, check_noise, first_confirmed_maximum, first_crossing, refine_maxima,
                       require_positive, window_argmax)
 from .levels import FRONT_FRACTION, PROMINENCE, START_FRACTION, front_levels
@@ -43,9 +44,9 @@ class FirstPeaks:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"start_time_ms": self.start_time, "peak_time_ms": self.peak_time,
-                "peak_velocity_m_per_s": self.peak_velocity, "peak_acceleration_m_per_s2": self.peak_acceleration,
-                "rise_time_ms": self.rise_time}
+        return jsonable({"start_time_ms": self.start_time, "peak_time_ms": self.peak_time,
+                         "peak_velocity_m_per_s": self.peak_velocity, "peak_acceleration_m_per_s2": self.peak_acceleration,
+                         "rise_time_ms": self.rise_time})
 
 
 def first_peaks(

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ._common import check_history, require_integer
 
 
@@ -29,7 +30,8 @@ class PhasePortrait:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"magnet": self.magnet, "time_ms": self.time, "gap_mm": self.gap, "velocity_m_per_s": self.velocity}
+        return jsonable({"magnet": self.magnet, "time_ms": self.time, "gap_mm": self.gap,
+                         "velocity_m_per_s": self.velocity})
 
 
 def phase_portrait(t, x, v, magnet: int, first_magnet: int = 1) -> PhasePortrait:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numbering import entries, number
+from ..serialize import jsonable
 from ._common import NAN, require_integer
 
 OVER = ("gap", "magnet")  # what a per-entry series is over: entry i is gap i + 1, or magnet i + 1
@@ -173,9 +174,9 @@ class Plateau:
 
     def to_dict(self, rtol: float = 0.01) -> dict:
         """The plateau as a dict of plain values (JSON), with `converged(rtol)`."""
-        return {"mean": self.mean, "std": self.std, "relative_drift": self.drift,
-                "relative_drift_stderr": self.drift_stderr, f"first_{self.over}": self.first,
-                f"last_{self.over}": self.last, "converged": self.converged(rtol), "converged_rtol": rtol}
+        return jsonable({"mean": self.mean, "std": self.std, "relative_drift": self.drift,
+                         "relative_drift_stderr": self.drift_stderr, f"first_{self.over}": self.first,
+                         f"last_{self.over}": self.last, "converged": self.converged(rtol), "converged_rtol": rtol})
 
 
 def _converged(mean, std, drift, drift_stderr, rtol: float):

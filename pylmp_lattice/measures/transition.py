@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..serialize import jsonable
 from ._common import NAN, check_history, require_positive
 from .levels import PROMINENCE
 from .oscillation import oscillations
@@ -69,8 +70,8 @@ class TransitionZone:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"time_ms": self.time, "front_magnet": self.front_magnet, "settled_magnet": self.settled_magnet,
-                "width_magnets": self.width}
+        return jsonable({"time_ms": self.time, "front_magnet": self.front_magnet, "settled_magnet": self.settled_magnet,
+                         "width_magnets": self.width})
 
 
 def transition_zone(times, arrival, onset) -> TransitionZone:

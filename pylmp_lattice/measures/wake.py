@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..numbering import entries
+from ..serialize import jsonable
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ class WakeState:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return asdict(self) | {"oscillation_energy": self.oscillation_energy}
+        return jsonable(asdict(self) | {"oscillation_energy": self.oscillation_energy})
 
 
 def wake_state(t, v, gaps, law, mass: float, gap_range: tuple[int, int], t_window: tuple[float, float]) -> WakeState:

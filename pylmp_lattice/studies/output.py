@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..formats.files import replacing
-from ..serialize import dumps, short_float
+from ..serialize import dumps, short_float, jsonable
 
 log = logging.getLogger(__name__)
 
@@ -39,7 +39,7 @@ class StudyResult:
 
     def to_dict(self) -> dict:
         """The results as a dict of plain values (JSON), units in the keys."""
-        return {"study": self.name, "quick": self.quick, **self.numbers}
+        return jsonable({"study": self.name, "quick": self.quick, **self.numbers})
 
 
 FIGURES = ("png", "pdf")  # the formats a study's figure is written in
