@@ -770,3 +770,16 @@ def test_a_path_that_is_no_run_folder_is_refused_not_read_as_a_deck_never_run(tm
         RunFolder(None)
     written = write_folder(make_case(particles=5, duration=1.0), tmp_path / "deck")
     assert RunFolder(str(written)).status == "written" and RunFolder(written).summary is None
+
+
+def test_figure_of_a_deck_never_run_and_friction_work_without_friction_say_why(tmp_path):
+    """figure() of a folder with no front failed as "'NoneType' object has no attribute
+    'arrival'", friction_work() of a run without friction as KeyError 'f_friction'."""
+    from pylmp_lattice.errors import UsageError
+
+    folder = RunFolder.create(make_case(particles=5, duration=1.0), tmp_path / "deck")
+    with pytest.raises(UsageError, match=r"deck: has no front to draw \(status written\): no front record and no "
+                                         r"trajectory; run it first$"):
+        folder.figure()
+    with pytest.raises(UsageError, match=r"deck: its case has no \[friction\] section: no friction work to read$"):
+        folder.friction_work()

@@ -111,6 +111,8 @@ class RunFolder:
 
     def friction_work(self) -> float:
         """Energy the friction has dissipated by the end of the run, mJ (the fix's scalar in the log)."""
+        if self.case.friction is None:
+            raise UsageError(str(self.path), "its case has no [friction] section: no friction work to read")
         return float(from_engine(read_log(self.path / layout.LOG).runs[-1]["f_friction"][-1], "energy"))
 
     @property
@@ -386,6 +388,10 @@ class RunFolder:
         from ..case_measures import linear_constants
 
         case, front = self.case, self.front()
+        if front is None:  # (`measures`) no drive to measure a front against, or no record and no trajectory
+            raise UsageError(str(self.path), f"has no front to draw (status {self.status}): " + (
+                f"impactor.profile = {case.impactor.profile!r} drives nothing" if case.impactor.peak_velocity() <= 0
+                else "no front record and no trajectory; run it first"))
         vi, v0 = case.impactor.peak_velocity(), linear_constants(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
         stopped = self._stopped(self.status) or {}
