@@ -61,6 +61,12 @@ def test_unknown_study_is_a_usage_error(capsys):
         run_study("nope")
 
 
+def test_an_output_folder_that_is_no_path_is_named():
+    """run_study("s4", None) failed in pathlib: "expected str, bytes or os.PathLike object"."""
+    with pytest.raises(TypeError, match=r"^out: got NoneType; expected the folder for the study's files \(str or Path\)$"):
+        run_study("s4", None)
+
+
 def test_layout_studies_import_the_scaffold_and_measures_never_each_other():
     """Every study name resolves to a module under studies/paper, studies/literature or studies/ensembles with a
     `run`; no study imports another study (shared pieces live in the scaffold or measures);

@@ -69,6 +69,8 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
     """Run study `name`, write its files into `out`, and return its results."""
     if name not in STUDIES:
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
+    if not isinstance(out, (str, os.PathLike)):
+        raise TypeError(f"out: got {type(out).__name__}; expected the folder for the study's files (str or Path)")
     out = Path(out)
     for each in STUDIES if name == "all" else (name,):  # before any run: none of its writes may follow a link
         refuse_planted_links(out, each)
