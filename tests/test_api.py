@@ -61,3 +61,22 @@ def test_a_path_that_is_no_path_is_named_not_a_pathlib_error(tmp_path, monkeypat
         with pytest.raises(UsageError, match=r"^folder: got .*; expected the path of the run's folder \(str or Path\)$"):
             pl.run(case, folder)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_nprocs_and_runner_of_the_wrong_kind_are_named(tmp_path, monkeypatch):
+    """run(case, folder, nprocs="2") failed as "'>' not supported between instances of 'str' and
+    'int'", runner=None as "'NoneType' object has no attribute 'check'", and numpy's np.int64(1)
+    was refused as no integer."""
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.run_folder.execution import Lammps
+
+    monkeypatch.chdir(tmp_path)
+    case = pl.case_from_dict({"chain": {"particles": 5, "mass": 1.0, "r0": 12.0, "far_end": "fixed"},
+                              "force": {"law": "power"}, "impactor": {"profile": "constant", "velocity": 1.0},
+                              "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1}})
+    with pytest.raises(UsageError, match=r"^--np: got '2'; expected an integer >= 1 \(nprocs, the MPI ranks\)$"):
+        pl.run(case, "x", nprocs="2")
+    with pytest.raises(UsageError, match=r"^runner: got NoneType; choose one of embedded, lmp, or an Engine$"):
+        pl.run(case, "x", runner=None)
+    assert list(tmp_path.iterdir()) == []
+    assert Lammps("lmp", __import__("numpy").int64(2)).nprocs == 2

@@ -21,6 +21,7 @@ the next read to become H5MD, so that Ctrl-C returns at once.
 
 from __future__ import annotations
 
+import numbers
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -74,6 +75,9 @@ class Lammps:
     def __post_init__(self):
         if self.runner not in RUNNERS:
             raise UsageError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
+        if isinstance(self.nprocs, bool) or not isinstance(self.nprocs, numbers.Integral):
+            raise UsageError("--np", f"got {self.nprocs!r}; expected an integer >= 1 (nprocs, the MPI ranks)")
+        object.__setattr__(self, "nprocs", int(self.nprocs))  # numpy's integers too (np.int64(2): 2)
         if self.nprocs > 1 and self.runner != "lmp":
             raise UsageError("--np", f"got {self.nprocs}; several ranks need --runner lmp")
 
@@ -137,7 +141,11 @@ def simulate(case: Case | str | Path, folder: str | Path, runner: str | Engine =
 
 def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
     refuse_launched("a run of pylmp_lattice")  # (a Python script under mpiexec; the command refuses it first)
-    return Lammps(runner, nprocs, echo) if isinstance(runner, str) else runner
+    if isinstance(runner, str):
+        return Lammps(runner, nprocs, echo)
+    if not callable(getattr(runner, "check", None)):
+        raise UsageError("runner", f"got {type(runner).__name__}; choose one of {', '.join(RUNNERS)}, or an Engine")
+    return runner
 
 
 @contextmanager
