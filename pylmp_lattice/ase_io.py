@@ -12,13 +12,13 @@ velocities are stored as ASE stores them (momenta = m v), and extxyz writes mass
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from .case import Case, case_from_dict
 from .errors import ConfigError, UsageError
+from .formats.layout import as_path
 from .trajectory import Trajectory
 
 UNITS = "mm, g, ms (velocity m/s, energy mJ): pylmp_lattice user units, not ASE's"
@@ -55,10 +55,7 @@ def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1)
     """Write frames for ASE's GUI or OVITO: `.extxyz` (extended XYZ) or `.traj` (ASE trajectory)."""
     from ase.io import write
 
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"path: got {type(path).__name__}; expected the file to write (str or Path), "
-                        "as in write_trajectory(path, traj, masses)")
-    path = Path(path)
+    path = as_path(path, "path", "the file to write, as in write_trajectory(path, traj, masses)")
     if path.suffix not in FORMATS:
         raise UsageError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
     write(path, to_atoms(traj, masses, every), format=FORMATS[path.suffix])

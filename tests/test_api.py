@@ -52,13 +52,13 @@ def test_a_path_that_is_no_path_is_named_not_a_pathlib_error(tmp_path, monkeypat
     from pylmp_lattice.errors import UsageError
 
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(UsageError, match=r"^path: got None; expected the path of a case file \(TOML\), str or Path$"):
+    with pytest.raises(UsageError, match=r"^path: got None; expected a str or Path: the path of a case file \(TOML\)$"):
         pl.load_case(None)
     case = pl.case_from_dict({"chain": {"particles": 5, "mass": 1.0, "r0": 12.0, "far_end": "fixed"},
                               "force": {"law": "power"}, "impactor": {"profile": "constant", "velocity": 1.0},
                               "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1}})
     for folder in (None, 5, case):
-        with pytest.raises(UsageError, match=r"^folder: got .*; expected the path of the run's folder \(str or Path\)$"):
+        with pytest.raises(UsageError, match=r"^folder: got .*; expected a str or Path: the path of the run's folder$"):
             pl.run(case, folder)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 

@@ -9,7 +9,7 @@ from ase.io import read
 
 from pylmp_lattice.ase_io import case_from_atoms, to_atoms, write_trajectory
 from pylmp_lattice.case import case_from_dict
-from pylmp_lattice.errors import ConfigError
+from pylmp_lattice.errors import ConfigError, UsageError
 from pylmp_lattice.run_folder import simulate
 
 from conftest import PAPER_FORCE, make_case
@@ -94,7 +94,8 @@ def test_mistaken_arguments_are_named_and_none_masses_are_not_nan(tmp_path):
         to_atoms(traj, 1.084, every=0)
     with pytest.raises(TypeError, match=r"^traj: got NoneType; expected a Trajectory"):
         to_atoms(None, 1.084)
-    with pytest.raises(TypeError, match=r"^path: got Trajectory; expected the file to write \(str or Path\)"):
+    with pytest.raises(UsageError, match=r"^path: got Trajectory\(.*; expected a str or Path: the file to write, as in "
+                       r"write_trajectory\(path, traj, masses\)$"):
         write_trajectory(traj, 1.084, tmp_path / "x.extxyz")
     with pytest.raises(TypeError, match=r"^atoms: got NoneType; expected an ase.Atoms"):
         case_from_atoms(None, force={}, impactor={}, run={})

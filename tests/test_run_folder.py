@@ -766,7 +766,7 @@ def test_a_path_that_is_no_run_folder_is_refused_not_read_as_a_deck_never_run(tm
             folder.status
         with pytest.raises(UsageError, match=r"^folder: got .*; expected a run folder"):
             folder.front()
-    with pytest.raises(UsageError, match=r"^folder: got None; expected the path of a run folder \(str or Path\)$"):
+    with pytest.raises(UsageError, match=r"^folder: got None; expected a str or Path: the path of a run folder$"):
         RunFolder(None)
     written = write_folder(make_case(particles=5, duration=1.0), tmp_path / "deck")
     assert RunFolder(str(written)).status == "written" and RunFolder(written).summary is None

@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from pylmp_lattice.cli import main
+from pylmp_lattice.errors import UsageError
 from pylmp_lattice.run_folder import RunFolder
 from pylmp_lattice.serialize import dumps, jsonable
 from pylmp_lattice.studies import STUDIES, StudyResult, run_study, write_study
@@ -63,7 +64,7 @@ def test_unknown_study_is_a_usage_error(capsys):
 
 def test_an_output_folder_that_is_no_path_is_named():
     """run_study("s4", None) failed in pathlib: "expected str, bytes or os.PathLike object"."""
-    with pytest.raises(TypeError, match=r"^out: got NoneType; expected the folder for the study's files \(str or Path\)$"):
+    with pytest.raises(UsageError, match=r"^out: got None; expected a str or Path: the folder for the study's files$"):
         run_study("s4", None)
 
 

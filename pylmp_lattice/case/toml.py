@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError, UsageError
 from ..exact import weak_shock
+from ..formats.layout import as_path
 from ..impactor import PROFILES
 from .case import Case
 from .chain import Chain
@@ -40,9 +41,7 @@ def load_case(path: str | Path, overrides: list[str] | str = ()) -> Case:
     if not (isinstance(overrides, (list, tuple)) and all(isinstance(item, str) for item in overrides)):
         raise UsageError("overrides", f"got {brief(overrides)}; expected a list of 'section.key=value' strings, "
                                       "e.g. ['run.duration=40']")
-    if not isinstance(path, (str, os.PathLike)):
-        raise UsageError("path", f"got {brief(path)}; expected the path of a case file (TOML), str or Path")
-    path = Path(path)
+    path = as_path(path, "path", "the path of a case file (TOML)")
     data = read_toml(path, "case")
     switched = _switch_laws(data, overrides)
     for item in overrides:

@@ -101,13 +101,13 @@ def deck_dir(folder: Path) -> str:
                                 "or use the lmp runner (--runner lmp; runner = \"lmp\" in a sweep file)")
 
 
-def as_folder(path: str | Path) -> Path:
-    """`path` as a Path; UsageError naming the folder if it is no path (None, a number, a case)."""
-    if not isinstance(path, (str, os.PathLike)):
-        text = repr(path)
-        raise UsageError("folder", f"got {text if len(text) <= 40 else text[:37] + '...'}; "
-                                   "expected the path of the run's folder (str or Path)")
-    return Path(path)
+def as_path(value, name: str = "folder", what: str = "the path of the run's folder") -> Path:
+    """`value` as a Path: UsageError naming `name` and saying `what` it takes where it is no path
+    (None, a number, a case), one rule for every path a function of the package is given."""
+    if not isinstance(value, (str, os.PathLike)):
+        text = repr(value)
+        raise UsageError(name, f"got {text if len(text) <= 40 else text[:37] + '...'}; expected a str or Path: {what}")
+    return Path(value)
 
 
 def check_place(path: Path, what: str) -> None:

@@ -40,7 +40,7 @@ def claim(path: str | Path, overwrite: bool, held: ExitStack) -> Claimed:
     held until `held` closes. UsageError if it may not be written: its place, a folder another
     writer holds or LAMMPS still writes, a run without `overwrite`, files of no run. The
     caller's `preflight.check` found the place writable."""
-    path = layout.as_folder(path)
+    path = layout.as_path(path)
     layout.check_place(path, "run")
     path.mkdir(parents=True, exist_ok=True)
     with ExitStack() as lock:

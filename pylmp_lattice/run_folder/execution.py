@@ -156,7 +156,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     converted; the claimed folder is yielded with its lock still held (no other process
     overwrites or converts it until the caller has read it). With `contact_ends`, a run
     stopped by a contact is yielded too (to be measured), and its ContactError raised after."""
-    folder = layout.as_folder(folder)
+    folder = layout.as_path(folder)
     engine.check(folder)
     if len(cases) == 1:
         preflight.check(cases[0], folder, engine.nprocs, yes=yes)

@@ -18,7 +18,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
 import re
 import shlex
 from contextlib import suppress
@@ -29,7 +28,6 @@ import numpy as np
 from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
-from ..case.checks import brief
 from ..formats.dump import Contact, error_line, find_contact, read_dump, read_log, trajectory_from_dump
 from ..errors import LatticeError, UsageError
 from ..case_measures import case_front, read_front_record, set_impactor_acceleration
@@ -52,9 +50,7 @@ class RunFolder:
     """A run folder on disk (see `layout` for its files). Open any folder with `RunFolder(path)`."""
 
     def __init__(self, path: str | Path):
-        if not isinstance(path, (str, os.PathLike)):
-            raise UsageError("folder", f"got {brief(path)}; expected the path of a run folder (str or Path)")
-        self.path = Path(path)
+        self.path = layout.as_path(path, "folder", "the path of a run folder")
         self._cache: dict = {}
 
     def _folder(self) -> Path:

@@ -25,6 +25,8 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..formats.layout import as_path
+
 if TYPE_CHECKING:
     from .output import StudyResult
 
@@ -69,9 +71,7 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
     """Run study `name`, write its files into `out`, and return its results."""
     if name not in STUDIES:
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
-    if not isinstance(out, (str, os.PathLike)):
-        raise TypeError(f"out: got {type(out).__name__}; expected the folder for the study's files (str or Path)")
-    out = Path(out)
+    out = as_path(out, "out", "the folder for the study's files")
     for each in STUDIES if name == "all" else (name,):  # before any run: none of its writes may follow a link
         refuse_planted_links(out, each)
     log.info("study %s: %s -> %s", name, STUDIES[name], out)
