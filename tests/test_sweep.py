@@ -1664,3 +1664,19 @@ def test_a_sweep_s_base_of_another_kind_is_refused_in_one_line(base):
         Sweep(base=base)
     assert str(info.value) == (f"base: got {base!r}; expected a Case, a dict of case sections or the path of a case "
                                "file (TOML)")
+
+
+def test_the_sweep_api_names_a_mistaken_argument(tmp_path):
+    """run_sweep(sweep, None) failed in pathlib, load_results of a folder without a table in
+    pandas (FileNotFoundError 8 frames deep), replica_stats(None) as an AttributeError (trial3's
+    notes): each is now a UsageError naming the argument."""
+    from pylmp_lattice.errors import UsageError
+
+    path = write_sweep(tmp_path, SIX)
+    with pytest.raises(UsageError, match=r"^root: got None; expected a str or Path: the sweep's folder$"):
+        run_sweep(load_sweep(path), None, progress=False)
+    with pytest.raises(UsageError, match=r"^root: got '.*none'; expected a sweep's folder \(it has no results.csv nor "
+                                         r"results.parquet\)$"):
+        load_results(tmp_path / "none")
+    with pytest.raises(UsageError, match=r"^table: got NoneType; expected a sweep's table"):
+        replica_stats(None)

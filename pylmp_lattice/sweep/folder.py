@@ -36,7 +36,8 @@ def check_folder(root: str | Path) -> None:
     from ..run_folder import marker
     from .table import FILES as TABLE_FILES
 
-    layout.check_place(Path(root), "sweep")
+    root = layout.as_path(root, "root", "the sweep's folder")
+    layout.check_place(root, "sweep")
     refuse_links(root, (SWEEP_FILE, MEMBERS, BATCHES, *TABLE_FILES))  # written in DIR: never through a link
     if marker.is_run(Path(root)):
         raise UsageError("output", f"{root} holds a run of this package; choose a new folder for the sweep (-o)")

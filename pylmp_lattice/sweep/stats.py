@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..errors import UsageError
 from .store import atomic_write
 from .table import STATS_CSV, STATS_PNG
 
@@ -77,6 +78,8 @@ def replica_stats(table: pd.DataFrame, measures: list[str] | None = None) -> pd.
 
     measures: columns to summarise (default: those of `MEASURES` in the table).
     """
+    if not hasattr(table, "columns") or "status" not in table.columns:
+        raise UsageError("table", f"got {type(table).__name__}; expected a sweep's table (`load_results`, `run_sweep`)")
     start = list(table.columns).index("status")
     point = [c for c in table.columns[1:start] if c not in REPLICA_COLUMNS]
     if measures is None:

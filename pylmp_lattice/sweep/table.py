@@ -19,6 +19,8 @@ from itertools import chain, repeat
 from pathlib import Path
 from typing import Any
 
+from ..errors import UsageError
+from ..formats.layout import as_path
 from .csv_cells import float_cells, kind, one_value, quoted, row_text, row_texts, text_fits
 from .store import atomic_write
 
@@ -514,7 +516,9 @@ def load_results(root: str | Path):
     """A sweep's table as a pandas DataFrame (from results.parquet; results.csv if that is missing)."""
     import pandas as pd
 
-    root = Path(root)
+    root = as_path(root, "root", "a sweep's folder")
     if (root / PARQUET).exists():
         return pd.read_parquet(root / PARQUET)
+    if not (root / CSV).is_file():
+        raise UsageError("root", f"got {str(root)!r}; expected a sweep's folder (it has no {CSV} nor {PARQUET})")
     return pd.read_csv(root / CSV)
