@@ -31,6 +31,10 @@ class Trajectory:
             if shape != (n_frames, n):
                 raise ValueError(f"Trajectory.{name}: got shape {shape}; expected {(n_frames, n)}")
 
+    def __repr__(self) -> str:  # the arrays' shapes and times, not their values (a notebook printed them all)
+        span = f", t={self.t[0]:g}..{self.t[-1]:g} ms" if len(self.t) else ""
+        return f"Trajectory(frames={len(self.t)}, magnets={len(self.x0)}{span})"
+
     def gaps(self) -> np.ndarray:
         """Separations of consecutive columns x[:, k+1] - x[:, k], mm, shape (n_frames, columns - 1):
         the gaps r_n = x_{n+1} - x_n of a whole chain or of consecutive magnets; of a selection

@@ -80,3 +80,16 @@ def test_nprocs_and_runner_of_the_wrong_kind_are_named(tmp_path, monkeypatch):
         pl.run(case, "x", runner=None)
     assert list(tmp_path.iterdir()) == []
     assert Lammps("lmp", __import__("numpy").int64(2)).nprocs == 2
+
+
+def test_a_trajectory_s_repr_is_its_shape_not_its_values():
+    """A Trajectory in a notebook printed its arrays (some 700 lines for two magnets of a run,
+    trial3's note): its repr is its frames, magnets and time span."""
+    import numpy as np
+
+    from pylmp_lattice.trajectory import Trajectory
+
+    zeros = np.zeros((401, 21))
+    traj = Trajectory(np.linspace(0.0, 40.0, 401), np.arange(21.0), zeros, zeros, zeros)
+    assert repr(traj) == "Trajectory(frames=401, magnets=21, t=0..40 ms)"
+    assert repr(Trajectory(np.zeros(0), np.arange(3.0), *(np.zeros((0, 3)),) * 3)) == "Trajectory(frames=0, magnets=3)"
