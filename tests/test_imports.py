@@ -147,3 +147,11 @@ def test_the_gpu_engine_s_workers_have_cupy_imported_once_by_their_fork_server(t
     importers = imported.read_text().split() if imported.exists() else []
     assert {has for has, _ in workers} == {engine == "gpu"}
     assert len(importers) == (engine == "gpu") and not {int(p) for p in importers} & {pid for _, pid in workers}
+
+
+def test_measures_all_names_every_measure_it_loads_on_first_use():
+    """measures.__all__ left out the friction calibration (fit_friction, rig_motion and their
+    results), loaded on first use like the others: every lazily loaded name is in __all__."""
+    from pylmp_lattice import measures
+
+    assert {name for names in measures._LAZY.values() for name in names} <= set(measures.__all__)

@@ -82,4 +82,5 @@ __all__ = [
     "phase_portrait", "propagation_velocity", "slowest_linear_speed", "steady_oscillation", "steady_onset_times",
     "trailing_plateau", "trailing_plateaus", "transition_zone",
     "WakeState", "centroid_speed", "lead_pulse", "staggered_amplitude", "wake_state",
+    "FrictionFit", "RigMotion", "fit_friction", "rig_motion",
 ]
