@@ -1680,3 +1680,22 @@ def test_the_sweep_api_names_a_mistaken_argument(tmp_path):
         load_results(tmp_path / "none")
     with pytest.raises(UsageError, match=r"^table: got NoneType; expected a sweep's table"):
         replica_stats(None)
+
+
+def _members(summaries: list) -> list[dict]:
+    return [{"id": f"m{k}", "index": k, "params": {"replica": k}, "chain": k, "case": {}, "summary": s}
+            for k, s in enumerate(summaries)]
+
+
+def test_a_batch_member_without_a_summary_is_not_done(tmp_path):
+    """A batch's member whose summary is not a table (null) has no outcome; the others stand
+    (mutation: every row of a batch counted done survived)."""
+    from pylmp_lattice.sweep.store import read_batch, write_batch
+
+    folder = tmp_path / "batches" / "m0"
+    folder.mkdir(parents=True)
+    write_batch(folder, {"status": "done", "batch": "batches/m0"}, _members([{"v": 1.5}, None, {"v": 2.5, "w": 1}]))
+    found = read_batch(folder / "members.json")
+    assert sorted(found) == ["m0", "m2"]
+    assert found["m0"]["summary"] == {"v": 1.5} and found["m2"]["summary"] == {"v": 2.5, "w": 1}
+    assert Outcomes(tmp_path).get("m1") is None and Outcomes(tmp_path).get("m2")["record"]["index"] == 2

@@ -125,8 +125,9 @@ class Outcomes:
             self._batched = {}
             for name in sorted(names if self.batches is None else names & set(self.batches)):
                 batch = read_batch_columns(folder / name / BATCH_FILE)
-                if batch is not None:
-                    self._batched |= zip(batch.ids(), zip(repeat(batch), batch.done))
+                if batch is not None:  # each done member's id with its own place (not the ids in order)
+                    ids = batch.ids() if isinstance(batch.done, range) else [batch.ids()[k] for k in batch.done]
+                    self._batched |= zip(ids, zip(repeat(batch), batch.done))
             self._folders = listing(self.root / MEMBERS)  # one listing, not a look per member
 
 
