@@ -1699,3 +1699,17 @@ def test_a_batch_member_without_a_summary_is_not_done(tmp_path):
     assert sorted(found) == ["m0", "m2"]
     assert found["m0"]["summary"] == {"v": 1.5} and found["m2"]["summary"] == {"v": 2.5, "w": 1}
     assert Outcomes(tmp_path).get("m1") is None and Outcomes(tmp_path).get("m2")["record"]["index"] == 2
+
+
+@pytest.mark.parametrize("status", ["interrupted", "failed", "running"])
+def test_a_batch_whose_record_is_not_done_holds_no_outcome(tmp_path, status):
+    """members.json counts only where its record says "done" (members.arrow beside it or not):
+    a batch file of another state leaves its members to run again (mutation: the record's
+    status unread survived)."""
+    from pylmp_lattice.sweep.store import read_batch, write_batch
+
+    (tmp_path / "batches" / "m0").mkdir(parents=True)
+    write_batch(tmp_path / "batches" / "m0", {"status": status, "batch": "batches/m0"}, _members([{"v": 1.5}] * 2))
+    assert (tmp_path / "batches" / "m0" / "members.arrow").is_file()
+    assert read_batch(tmp_path / "batches" / "m0" / "members.json") == {}
+    assert Outcomes(tmp_path).get("m0") is None and Outcomes(tmp_path).to_keep() == 0
