@@ -1713,3 +1713,39 @@ def test_a_batch_whose_record_is_not_done_holds_no_outcome(tmp_path, status):
     assert (tmp_path / "batches" / "m0" / "members.arrow").is_file()
     assert read_batch(tmp_path / "batches" / "m0" / "members.json") == {}
     assert Outcomes(tmp_path).get("m0") is None and Outcomes(tmp_path).to_keep() == 0
+
+
+def _serial():
+    """An executor that runs each task at once, in this thread (its slots: as the caller says)."""
+    from concurrent.futures import Executor, Future
+
+    class Serial(Executor):
+        def submit(self, fn, *args, **kwargs):
+            future = Future()
+            future.set_result(fn(*args, **kwargs))
+            return future
+    return Serial()
+
+
+@pytest.mark.lammps
+def test_members_a_lost_worker_finished_are_read_back_done(tmp_path):
+    """A worker lost after its task wrote every outcome (it died before it reported them): the
+    members are read back from the disk, "done" in the table with their batch's folder and
+    measures, not "interrupted" (mutation: `_from_disk` ignoring what the disk holds survived)."""
+    from concurrent.futures import Executor, Future
+
+    class LostAfterWriting(Executor):
+        def submit(self, fn, *args, **kwargs):
+            fn(*args, **kwargs)  # the task runs to its end: its outcomes are on disk
+            future = Future()
+            future.set_exception(RuntimeError("the worker died before it reported"))
+            return future
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    out = tmp_path / "out"
+    table = run_sweep(sweep, out, executor=LostAfterWriting(), slots=1, progress=False)
+    [path] = list(out.glob("batches/*/members.json"))
+    assert list(table["status"]) == ["done"] * 3
+    assert list(table["folder"]) == [f"batches/{path.parent.name}"] * 3
+    kept = run_sweep(sweep, out, executor=_serial(), slots=1, progress=False)  # resumed: all kept, as read back
+    pd.testing.assert_frame_equal(_comparable(table), _comparable(kept))
