@@ -1749,3 +1749,22 @@ def test_members_a_lost_worker_finished_are_read_back_done(tmp_path):
     assert list(table["folder"]) == [f"batches/{path.parent.name}"] * 3
     kept = run_sweep(sweep, out, executor=_serial(), slots=1, progress=False)  # resumed: all kept, as read back
     pd.testing.assert_frame_equal(_comparable(table), _comparable(kept))
+
+
+@pytest.mark.lammps
+def test_a_resume_puts_the_rows_of_a_batch_after_the_first_at_their_own_members(tmp_path):
+    """Four replicas in two tasks of two (two slots): the first batch's members.json lost, a
+    resume runs those two again and keeps the second batch's, whose rows must be its own
+    members' (places 2 and 3 of the point), bit for bit those of the first run (mutation: the
+    kept rows put at places 0, 1 survived: every kept batch so far was the point's first)."""
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=4), particles=12, duration=10.0))
+    out = tmp_path / "out"
+    first = run_sweep(sweep, out, executor=_serial(), slots=2, progress=False)
+    folders = list(dict.fromkeys(first["folder"]))
+    if len(folders) != 2 or not all(f.startswith("batches/") for f in folders):
+        pytest.skip(f"not two batches: {folders}")
+    assert list(first["folder"]) == [folders[0]] * 2 + [folders[1]] * 2
+    (out / folders[0] / "members.json").unlink()
+    again = run_sweep(sweep, out, executor=_serial(), slots=2, progress=False)
+    assert list(again["id"]) == list(first["id"]) and list(again["folder"])[2:] == [folders[1]] * 2  # (0, 1: run alone)
+    pd.testing.assert_frame_equal(_comparable(again).drop(columns="folder"), _comparable(first).drop(columns="folder"))
