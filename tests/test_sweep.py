@@ -1768,3 +1768,35 @@ def test_a_resume_puts_the_rows_of_a_batch_after_the_first_at_their_own_members(
     again = run_sweep(sweep, out, executor=_serial(), slots=2, progress=False)
     assert list(again["id"]) == list(first["id"]) and list(again["folder"])[2:] == [folders[1]] * 2  # (0, 1: run alone)
     pd.testing.assert_frame_equal(_comparable(again).drop(columns="folder"), _comparable(first).drop(columns="folder"))
+
+
+@pytest.mark.lammps
+def test_a_task_run_again_keeps_its_member_done_alone_and_runs_each_other_member_s_own_case(tmp_path):
+    """Dask runs a task again (its worker retired) after one of its members was done alone: that
+    member is kept (its folder untouched) and the others run, each with its own case, all done
+    (mutation: the members left paired with the cases of the task's first members survived)."""
+    from pylmp_lattice.sweep.batch import Rows, Task, run_task
+
+    sweep = load_sweep(write_sweep(tmp_path, THERMAL.format(replicas=3), particles=12, duration=10.0))
+    out = tmp_path / "out"
+    out.mkdir()
+    (first,), rest = list(sweep.iter_runs())  # the point's first member, then its other replicas
+    ids = [first.id, *rest.ids]
+    [alone] = run_task(Task(str(out), (first,), sweep.runner))
+    assert alone["id"] == ids[0] and alone["record"]["status"] == "done"
+    status = out / "members" / ids[0] / STATUS
+    before = status.read_bytes(), status.stat().st_mtime_ns
+    results = run_task(Task(str(out), (first, rest), sweep.runner))
+    done = {}
+    for result in results:
+        if isinstance(result, Rows):
+            done |= dict(zip(result.columns["id"], result.columns["status"]))
+        elif isinstance(result, dict):
+            done[result["id"]] = result["record"]["status"]
+    assert done == dict.fromkeys(ids, "done")
+    assert (status.read_bytes(), status.stat().st_mtime_ns) == before  # kept, not run again
+    for m in rest:  # each member's outcome is its own case's (its seed)
+        assert Outcomes(out).get(m.id)["record"]["params"]["chain.seed"] == m.params["chain.seed"]
+    (tmp_path / "alone").mkdir()
+    [last] = run_task(Task(str(tmp_path / "alone"), (rest.take([1]),), sweep.runner))  # the last member alone
+    assert _measures(Outcomes(out).get(ids[2])["summary"]) == _measures(last["summary"])
