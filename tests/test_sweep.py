@@ -1800,3 +1800,29 @@ def test_a_task_run_again_keeps_its_member_done_alone_and_runs_each_other_member
     (tmp_path / "alone").mkdir()
     [last] = run_task(Task(str(tmp_path / "alone"), (rest.take([1]),), sweep.runner))  # the last member alone
     assert _measures(Outcomes(out).get(ids[2])["summary"]) == _measures(last["summary"])
+
+
+def test_a_member_stopped_by_a_signal_is_interrupted_on_disk(tmp_path, monkeypatch):
+    """A member whose run a stop signal ends: its status.json says "interrupted" (with its end),
+    not "running" forever (mutation: `_stopped` without its write survived)."""
+    import threading
+
+    from pylmp_lattice import run_folder
+    from pylmp_lattice.errors import Interrupted
+    from pylmp_lattice.sweep import member, signals
+    from pylmp_lattice.sweep.spec import member_cases
+    from pylmp_lattice.sweep.store import read_status
+
+    def stopped(*args, **kwargs):
+        raise Interrupted(signal.SIGINT)
+
+    monkeypatch.setattr(run_folder, "run_case", stopped)
+    monkeypatch.setattr(signals, "STOP", threading.Event())  # this process's stop flag, for this test only
+    sweep = load_sweep(write_sweep(tmp_path, SIX))
+    m = next(iter(sweep.iter_runs()))[0]
+    [case] = member_cases([m])
+    result = member.run_member(tmp_path, m, case, "embedded", "2025-01-01T00:00:00.000+00:00")
+    record = read_status(tmp_path / "members" / m.id)
+    assert result["record"]["status"] == record["status"] == "interrupted"
+    assert record["id"] == m.id and "ended" in record
+    assert Outcomes(tmp_path).get(m.id) is None  # run again on resume
