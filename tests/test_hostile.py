@@ -713,3 +713,16 @@ def test_a_sweep_base_may_be_outside_its_folder(tmp_path, capsys, no_forkserver)
     sweep_file = write_sweep(scratch, velocities=[1.0], base="../" + "long-name/" * 8 + "case.toml")
     rc, err = cli(capsys, "sweep", sweep_file, "-o", scratch / "sw2", "--quiet")
     assert rc == 2 and f"base: file not found: {tmp_path}/{'long-name/' * 8}case.toml" in err, err
+
+
+def test_a_member_folder_whose_run_was_interrupted_holds_no_outcome(tmp_path):
+    """A member alone recorded "interrupted" (a stop, a lost worker: `execute._settle`) has no
+    outcome, whatever its folder holds (here a summary.json): a resumed sweep runs it again
+    (mutation: "interrupted" counted among the finished records, which kept the member and its
+    row "interrupted" for good, survived the fast tests)."""
+    folder = store.member_folder(tmp_path, "m")
+    folder.mkdir(parents=True)
+    store.write_status(folder, {"id": "m", "status": "interrupted", "error": None})
+    (folder / layout.SUMMARY).write_text('{"status": "interrupted"}\n')
+    assert store.outcome(tmp_path, "m") is None and store.Outcomes(tmp_path).get("m") is None
+    assert store.Outcomes(tmp_path).to_keep() == 0
