@@ -726,3 +726,16 @@ def test_a_member_folder_whose_run_was_interrupted_holds_no_outcome(tmp_path):
     (folder / layout.SUMMARY).write_text('{"status": "interrupted"}\n')
     assert store.outcome(tmp_path, "m") is None and store.Outcomes(tmp_path).get("m") is None
     assert store.Outcomes(tmp_path).to_keep() == 0
+
+
+def test_a_member_folder_holding_another_member_s_failed_record_holds_no_outcome(tmp_path):
+    """A member folder whose status.json is another member's (a folder copied or renamed by
+    hand) is not this member's outcome, "failed" ones included (a "done" one is also refused by
+    its case.toml's identity): the member runs again (mutation: the record's id unread survived)."""
+    folder = store.member_folder(tmp_path, "a")
+    folder.mkdir(parents=True)
+    store.write_status(folder, {"id": "b", "status": "failed", "error": "ConfigError: b's own"})
+    assert store.outcome(tmp_path, "a") is None and store.Outcomes(tmp_path).get("a") is None
+    assert store.Outcomes(tmp_path).to_keep() == 0
+    store.write_status(folder, {"id": "a", "status": "failed", "error": "ConfigError: a's own"})
+    assert store.outcome(tmp_path, "a")["record"]["error"] == "ConfigError: a's own"
