@@ -739,3 +739,32 @@ def test_a_member_folder_holding_another_member_s_failed_record_holds_no_outcome
     assert store.Outcomes(tmp_path).to_keep() == 0
     store.write_status(folder, {"id": "a", "status": "failed", "error": "ConfigError: a's own"})
     assert store.outcome(tmp_path, "a")["record"]["error"] == "ConfigError: a's own"
+
+
+def test_a_conversion_that_does_not_verify_keeps_the_dumps_and_writes_no_h5md(tmp_path, interrupted, monkeypatch):
+    """The H5MD file written with a frame fewer than the dump holds (as a writer that stopped
+    early would): the conversion is refused, traj.bin stays byte for byte, and neither traj.h5md
+    nor its partial file is left (mutation: the check of the frames and the last frame skipped,
+    which deleted the dump, survived)."""
+    import dataclasses
+
+    from pylmp_lattice.errors import LatticeError
+    from pylmp_lattice.formats import h5md
+    from pylmp_lattice.run_folder import RunFolder
+
+    folder = tmp_path / "run"
+    shutil.copytree(interrupted, folder)
+    dump = (folder / layout.TRAJ_BIN).read_bytes()
+    real = h5md.write_file
+
+    def short(path, header, sources, *args, **kwargs):
+        cut = {group: dataclasses.replace(d, frames=d.frames - 1) for group, d in sources.items()}
+        return real(path, header, cut, *args, **kwargs)
+
+    monkeypatch.setattr(h5md, "write_file", short)
+    with pytest.raises(LatticeError, match=r"the H5MD conversion of traj\.bin did not verify; kept it"):
+        RunFolder(folder).convert()
+    assert (folder / layout.TRAJ_BIN).read_bytes() == dump
+    assert not (folder / layout.H5MD).exists() and not (folder / (layout.H5MD + ".part")).exists()
+    monkeypatch.setattr(h5md, "write_file", real)
+    assert RunFolder(folder).convert() and not (folder / layout.TRAJ_BIN).exists()  # whole: converted
