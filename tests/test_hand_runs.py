@@ -320,3 +320,16 @@ def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path)
     assert main(["summarize", str(folder)]) == 0
     files = json.loads((folder / layout.SUMMARY).read_text())["files"]
     assert files == {"folder": str(folder), "trajectory": layout.H5MD, "figure": layout.FIGURE}
+
+
+def test_a_hand_run_s_records_keep_the_deck_s_hash_so_an_edit_is_still_said(tmp_path):
+    """`pylmp-lattice lmp` records the run "running", then how it ended, without the deck's hash:
+    each record keeps the one the writer recorded, so a deck edited before the hand run is
+    still said ("deck_edited") after it (mutation: `record` forgetting the earlier hash survived)."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    written = marker.read(folder)[marker.DECK_HASH]
+    edit(folder, "run ", "run             50")
+    with marker.hand_run(folder):  # (LAMMPS not run: its end is "interrupted")
+        assert marker.read(folder)["state"] == "running"
+    assert marker.read(folder)["state"] == "interrupted" and marker.read(folder)[marker.DECK_HASH] == written
+    assert RunFolder(folder).deck_changes() == {"deck_edited": True}
