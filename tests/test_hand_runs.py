@@ -333,3 +333,14 @@ def test_a_hand_run_s_records_keep_the_deck_s_hash_so_an_edit_is_still_said(tmp_
         assert marker.read(folder)["state"] == "running"
     assert marker.read(folder)["state"] == "interrupted" and marker.read(folder)[marker.DECK_HASH] == written
     assert RunFolder(folder).deck_changes() == {"deck_edited": True}
+
+
+def test_an_interrupted_run_s_summary_says_the_time_its_runner_recorded(tmp_path):
+    """A run recorded "interrupted" at time_ms by its runner (LAMMPS's soft stop): summary.json's
+    "stopped" says that time, not the last frame's (here none was written). Mutation: the
+    recorded time ignored survived."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    marker.record(folder, marker.INTERRUPTED, time_ms=0.37)
+    summary = RunFolder(folder).summarize(figure=False)
+    assert summary["status"] == "interrupted"
+    assert summary["stopped"] == {"reason": "interrupted", "time_ms": 0.37}
