@@ -189,3 +189,41 @@ def test_a_frame_written_with_its_ids_beside_the_data_equals_the_whole_frame(tmp
     assert (tmp_path / "ids.bin").read_bytes() == (tmp_path / "whole.bin").read_bytes()
     frame = open_dump(tmp_path / "ids.bin").read()
     np.testing.assert_array_equal(frame.data[0], whole)
+
+
+def _chunked_frame(step: int, time: float, values: np.ndarray, chunks: int) -> bytes:
+    """One frame of a binary dump (columns "id x vx fx") as LAMMPS writes it on `chunks` ranks:
+    the atoms' rows in `chunks` consecutive chunks (see `bindump`)."""
+    names = b"id x vx fx"
+    head = (np.array([-10], "<i8").tobytes() + b"DUMPCUSTOM" + np.array([1, 2], "<i4").tobytes()
+            + np.array([step, len(values)], "<i8").tobytes() + np.zeros(7, "<i4").tobytes()
+            + np.zeros(6, "<f8").tobytes() + np.array([4, 2], "<i4").tobytes() + b"si" + b"\x01"
+            + np.array([time], "<f8").tobytes() + np.array([len(names)], "<i4").tobytes() + names
+            + np.array([chunks], "<i4").tobytes())
+    parts = np.array_split(np.ascontiguousarray(values, "<f8"), chunks)
+    return head + b"".join(np.array([part.size], "<i4").tobytes() + part.tobytes() for part in parts)
+
+
+def _chunked_dump(frames: int = 3, atoms: int = 5) -> tuple[bytes, np.ndarray]:
+    rng = np.random.default_rng(7)
+    data = np.concatenate([np.broadcast_to(np.arange(1.0, atoms + 1)[None, :, None], (frames, atoms, 1)),
+                           rng.normal(size=(frames, atoms, 3))], axis=2)
+    return b"".join(_chunked_frame(10 * k, 0.5 * k, data[k], 2) for k in range(frames)), data
+
+
+def test_a_dump_written_by_several_ranks_reads_back_every_frame(tmp_path):
+    """Frames of two chunks each (two ranks), walked one by one: all 3 come back bit for bit,
+    whole or from a frame on (mutation: the walk dropping its last block, here every frame,
+    survived: only slow MPI tests wrote such dumps)."""
+    from pylmp_lattice.formats.bindump import write_frame
+
+    raw, data = _chunked_dump()
+    write_frame(tmp_path / "one.bin", 10, 0.5, "id x vx fx", data[1])  # the layout, as one rank writes it
+    assert (tmp_path / "one.bin").read_bytes() == _chunked_frame(10, 0.5, data[1], 1)
+    (tmp_path / "traj.bin").write_bytes(raw)
+    dump = open_dump(tmp_path / "traj.bin")
+    assert (dump.frames, dump.atoms, dump.columns, dump.frame_dtype) == (3, 5, ("id", "x", "vx", "fx"), None)
+    frames = dump.read()
+    assert frames.step.tolist() == [0, 10, 20] and frames.time.tolist() == [0.0, 0.5, 1.0]
+    assert frames.data.tobytes() == data.tobytes()
+    assert dump.read(1).data.tobytes() == data[1:].tobytes()
