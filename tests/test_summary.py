@@ -319,3 +319,21 @@ def test_v0_and_f0_of_a_disordered_chain_are_those_of_its_mean_gap_and_mass():
     assert summary["linear_wave_speed_V0_m_per_s"] == pytest.approx(r * np.sqrt(k / m), abs=5e-7)
     assert summary["linear_frequency_f0_Hz"] == pytest.approx(1e3 * np.sqrt(k / m) / np.pi, abs=5e-5)
     assert abs(gaps[0] / r - 1) > 0.03  # a draw where one gap would not do
+
+
+@pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity"])
+def test_a_summary_or_record_holding_a_non_finite_token_is_none_of_ours(tmp_path, token):
+    """The package writes its JSON strict (`dumps`: null for NaN): summary.json, status.json or
+    members.json holding NaN or an infinity was never written by it and does not count (a done
+    member with it runs again). Mutation: `loads_object` parsing those tokens survived."""
+    from pylmp_lattice.run_folder import RunFolder
+    from pylmp_lattice.serialize import loads_object
+    from pylmp_lattice.sweep.store import read_batch, read_json
+
+    text = f'{{"status": "done", "front_speed": {token}}}\n'
+    assert loads_object(text) is None and loads_object(text.replace(token, "null")) == {"status": "done", "front_speed": None}
+    (tmp_path / "summary.json").write_text(text)
+    member = f'{{"id": "a", "index": 0, "params": {{}}, "chain": 0, "summary": {{"v": {token}}}}}'
+    (tmp_path / "members.json").write_text(f'{{"status": "done", "members": [{member}]}}')
+    assert RunFolder(tmp_path).summary is None and read_json(tmp_path / "summary.json") is None
+    assert read_batch(tmp_path / "members.json") == {}
