@@ -238,3 +238,20 @@ def test_a_dump_written_by_several_ranks_drops_a_last_frame_cut_in_its_data(tmp_
     dump = open_dump(tmp_path / "traj.bin")
     assert dump.frames == 2
     assert dump.read().data.tobytes() == data[:2].tobytes()
+
+
+def test_a_dump_whose_later_frame_has_another_layout_is_refused(tmp_path):
+    """One-chunk frames are read as records of frame 0's layout: a later frame of another atom
+    count (a dump appended to by another run) is a DumpFormatError naming it, never its bytes
+    read as values (mutation: the records' layout check skipped survived)."""
+    from pylmp_lattice.errors import DumpFormatError
+    from pylmp_lattice.formats.bindump import write_frame
+
+    for k, atoms in enumerate((4, 8)):
+        data = np.column_stack([np.arange(1.0, atoms + 1), np.full((atoms, 3), 0.25 * k)])
+        write_frame(tmp_path / f"{k}.bin", k, 0.5 * k, "id x vx fx", data)
+    (tmp_path / "traj.bin").write_bytes((tmp_path / "0.bin").read_bytes() + (tmp_path / "1.bin").read_bytes())
+    dump = open_dump(tmp_path / "traj.bin")
+    assert dump.frames == 2 and dump.atoms == 4
+    with pytest.raises(DumpFormatError, match=r"traj\.bin: frame 1 differs in layout from frame 0"):
+        dump.read()
