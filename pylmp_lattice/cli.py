@@ -591,14 +591,14 @@ def _program(args) -> int:
     # launcher (`mpiexec -n 2 pylmp-lattice lmp -in in.lattice`) each rank is such a process: rank
     # 0 keeps the folder's record and says how the run ended, the others only run (they would
     # find the folder claimed).
-    if (launched_rank() or 0) > 0:
-        try:
+    rank = launched_rank() or 0
+    try:
+        with marker.hand_run(folder, keeps_record=rank == 0):
             run_embedded(folder, cmdargs=rest)
-        except Interrupted as err:
+    except Interrupted as err:
+        if rank > 0:
             return err.exit_code
-        return 0
-    with marker.hand_run(folder):
-        run_embedded(folder, cmdargs=rest)
+        raise
     return 0
 
 

@@ -39,6 +39,7 @@ from .formats.dump import error_line, find_contact
 from .engine import ONE_INSTANCE, new_lammps
 from .errors import ContactError, DumpFormatError, Interrupted, RunError
 from .formats.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
+from .ranks import launched_size
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -133,10 +134,16 @@ class _Engine:
         and leave the others waiting for it in an exchange for ever: fix lattice/chain ends them
         all at one step (`_request_stop`). Without that fix (or before the deck has made it), such
         a rank ends at once by `signum`, its files as a killed lmp leaves them."""
-        with self.lock:
-            self.stopped = signum
+        self.stopped = signum
+        if not self.lock.acquire(blocking=False):  # the worker makes (or closes) the instance: it stops
+            if launched_size() > 1:  # the instance once made; one of several MPI ranks, though, may wait
+                _die(signum)  # in MPI for a rank that is gone, and then never answers (nothing to keep yet)
+            return
+        try:
             if self.lmp is not None:
                 self._stop_now()
+        finally:
+            self.lock.release()
 
     def _stop_now(self) -> None:
         """`stop` of the instance (under the lock)."""

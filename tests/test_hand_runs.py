@@ -344,3 +344,33 @@ def test_an_interrupted_run_s_summary_says_the_time_its_runner_recorded(tmp_path
     summary = RunFolder(folder).summarize(figure=False)
     assert summary["status"] == "interrupted"
     assert summary["stopped"] == {"reason": "interrupted", "time_ms": 0.37}
+
+
+@lammps
+def test_a_link_planted_in_a_folder_run_on_mpi_ranks_is_refused_by_every_rank(tmp_path):
+    """A link at log.lammps, hand run on 2 ranks: rank 0 refused it, and rank 1, which neither
+    claims nor records, went on into MPI and waited there for ever for rank 0 (killed after 10
+    minutes, unstoppable by SIGTERM). Every rank now refuses the links: the job ends at once with
+    2, nothing written through the link."""
+    folder = deck(tmp_path, make_case(particles=40, duration=20.0))
+    outside = tmp_path / "outside.log"
+    (folder / layout.LOG).symlink_to(outside)
+    with by_hand_on_ranks(folder, 2) as job:
+        out, err = ended(job, 60)
+    assert job.returncode == 2 and "log.lammps: is a symbolic link" in err, err
+    assert not outside.exists() and marker.read(folder)["state"] == "written"
+
+
+@lammps
+def test_a_rank_waiting_in_mpi_for_a_rank_that_left_stops_at_ctrl_c(tmp_path):
+    """Rank 0 refuses a folder another run holds (its lock held here), and rank 1 waits in MPI
+    for it: Ctrl-C then blocked rank 1's signal handler behind the instance being made, and the
+    job ran on until killed. A rank of several now ends by the signal at once when its instance
+    is still being made (nothing of it to keep): the job ends within seconds."""
+    folder = deck(tmp_path, make_case(particles=40, duration=20.0))
+    with marker.claimed(folder), by_hand_on_ranks(folder, 2) as job:
+        time.sleep(3)  # rank 0 refused; rank 1 in MPI's start
+        assert job.poll() is None, "the job ended before Ctrl-C: nothing waited"
+        os.killpg(job.pid, signal.SIGINT)
+        out, err = ended(job, 20)
+    assert job.returncode != 0 and "still being written" in err, err
