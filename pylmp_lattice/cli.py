@@ -65,9 +65,8 @@ def _outcome(args) -> int:
     from .ranks import refuse_launched
 
     try:
-        command = args.command_parser.prog.rsplit(" ", 1)[-1]
-        if command not in ("lmp", "binary2txt"):  # (the programs: a hand run's ranks are one run)
-            refuse_launched(f"`pylmp-lattice {command}`")
+        if args.func is not _program:  # (the programs: a hand run's ranks are one run)
+            refuse_launched(f"`{args.command_parser.prog}`")
         return args.func(args)
     except (ConfigError, DumpFormatError) as err:  # bad input: a case, an argument or a file
         print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr)
@@ -583,21 +582,31 @@ def _program(args) -> int:
             raise UsageError("-in", f"got {given[at + 1]!r}: LAMMPS splits its folder's path at spaces (and reads $, "
                                     f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})") from None
         rest += ([] if dirs else ["-var", DIR_VARIABLE, named]) + ([] if logs else ["-log", str(folder / LOG)])
-    from .ranks import launched_rank
+    from .ranks import abort_job, launched
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines
     # after `run` still write the engine's front record (lmp, killed, wrote none). Under an MPI
     # launcher (`mpiexec -n 2 pylmp-lattice lmp -in in.lattice`) each rank is such a process: rank
     # 0 keeps the folder's record and says how the run ended, the others only run (they would
-    # find the folder claimed).
-    rank = launched_rank() or 0
-    try:
-        with marker.hand_run(folder, keeps_record=rank == 0):
+    # find the folder claimed); where rank 0 cannot start (the folder held, a planted link), it
+    # ends the job, whose other ranks would wait for it in MPI for ever.
+    rank, ranks = launched()
+    if rank > 0:
+        try:
             run_embedded(folder, cmdargs=rest)
-    except Interrupted as err:
-        if rank > 0:
+        except Interrupted as err:
             return err.exit_code
+        return 0
+    started = False
+    try:
+        with marker.hand_run(folder):
+            started = True
+            run_embedded(folder, cmdargs=rest)
+    except Exception as err:
+        if ranks > 1 and not started:
+            print(f"pylmp-lattice: error: {_one_line(err)}", file=sys.stderr, flush=True)
+            abort_job(EXIT_BAD_INPUT if isinstance(err, ConfigError) else 1)
         raise
     return 0
 

@@ -1,5 +1,5 @@
 """MPI ranks: whether more of them will make a run faster (the warnings behind `--np`), and this
-process's rank where an MPI launcher started it (`launched_rank`).
+process's rank and its job's size where an MPI launcher started it (`launched`), and ending such a job (`abort_job`).
 
 The chain engine (fix lattice/chain) splits one chain into a slab of magnets per rank and, at
 every step, exchanges only the positions across the slab edges and one global flag. A rank's
@@ -55,38 +55,51 @@ def rank_warnings(magnets: int, nprocs: int, cores: int | None = None) -> list[s
     return warnings
 
 
-# What MPI launchers set in each rank's environment: MPICH's hydra and Intel MPI, Open MPI, PMIx,
-# MVAPICH, SLURM's srun (the first found counts).
-RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK", "MV2_COMM_WORLD_RANK", "SLURM_PROCID")
+# What MPI launchers set in each rank's environment, its rank and its job's size: MPICH's hydra
+# and Intel MPI, Open MPI, MVAPICH (the first pair found counts). Not srun's SLURM_PROCID and
+# SLURM_NTASKS: srun without PMI starts processes MPI never joins (and an allocation's every
+# process, a sweep's Dask workers among them, sees SLURM_NTASKS).
+LAUNCHER_VARIABLES = (("PMI_RANK", "PMI_SIZE"), ("OMPI_COMM_WORLD_RANK", "OMPI_COMM_WORLD_SIZE"),
+                      ("MV2_COMM_WORLD_RANK", "MV2_COMM_WORLD_SIZE"))
 
 
-# ... and the size of its job: MPICH's hydra and Intel MPI, Open MPI, MVAPICH (not SLURM_NTASKS,
-# which a whole allocation's processes see, outside srun too: a sweep's Dask workers among them).
-SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE")
-
-
-def launched_size() -> int:
-    """The number of ranks of the MPI job a launcher started this process in; 1 outside one."""
-    sizes = [os.environ.get(name, "") for name in SIZE_VARIABLES]
-    return max([int(s) for s in sizes if s.isdigit()] + [1])
+def launched() -> tuple[int, int]:
+    """(rank, size) of the MPI job a launcher (`mpiexec`) started this process in, from the
+    variables launchers set, before MPI itself starts; (0, 1) outside such a job."""
+    for rank, size in LAUNCHER_VARIABLES:
+        r, n = os.environ.get(rank, ""), os.environ.get(size, "")
+        if r.isdigit() and n.isdigit() and int(n) >= 1:
+            return int(r), int(n)
+    return 0, 1
 
 
 def refuse_launched(command: str) -> None:
     """UsageError where this process is one of several ranks an MPI launcher started: `command`
     runs in one process, and its copies would each run all of it and race for its folder (one
     refused, the other waiting for it in MPI for ever). Only a hand run (`lmp`) runs on ranks."""
-    n = launched_size()
+    n = launched()[1]
     if n > 1:
         raise UsageError("mpiexec", f"got {n} ranks; {command} runs in one process (its copies would each run "
                                     f"all of it): to run a case on {n} ranks use `pylmp-lattice run CASE --runner lmp "
                                     f"--np {n}`, or in a run folder `mpiexec -n {n} pylmp-lattice lmp -in in.lattice`")
 
 
-def launched_rank() -> int | None:
-    """This process's rank in the MPI job a launcher started it in (`mpiexec`, `srun`), from the
-    variables launchers set, before MPI itself starts; None outside such a job."""
-    for name in RANK_VARIABLES:
-        value = os.environ.get(name, "")
-        if value.isdigit():
-            return int(value)
-    return None
+def abort_job(code: int) -> None:
+    """End every rank of this process's MPI job (MPI_Abort through the wheel's MPICH), where one
+    of several ranks cannot go on before LAMMPS starts: the others would wait for it in MPI for
+    ever. Nothing outside such a job."""
+    if launched()[1] <= 1:
+        return
+    import ctypes
+
+    from .engine import load_mpi
+
+    mpi = ctypes.CDLL(load_mpi(), mode=ctypes.RTLD_GLOBAL)
+    initialized = ctypes.c_int(0)
+    mpi.MPI_Initialized(ctypes.byref(initialized))
+    if not initialized.value:
+        mpi.MPI_Init(None, None)
+    mpi.MPI_Abort(ctypes.c_int(MPICH_COMM_WORLD), ctypes.c_int(code))
+
+
+MPICH_COMM_WORLD = 0x44000000  # MPI_COMM_WORLD's handle in MPICH's ABI (mpi.h), the wheel's MPI

@@ -39,7 +39,7 @@ from .formats.dump import error_line, find_contact
 from .engine import ONE_INSTANCE, new_lammps
 from .errors import ContactError, DumpFormatError, Interrupted, RunError
 from .formats.layout import DECK, DIR_VARIABLE, LOG, TRAJ_BIN, deck_dir
-from .ranks import launched_size
+from .ranks import launched
 from .units import from_engine
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -135,10 +135,11 @@ class _Engine:
         all at one step (`_request_stop`). Without that fix (or before the deck has made it), such
         a rank ends at once by `signum`, its files as a killed lmp leaves them."""
         self.stopped = signum
-        if not self.lock.acquire(blocking=False):  # the worker makes (or closes) the instance: it stops
-            if launched_size() > 1:  # the instance once made; one of several MPI ranks, though, may wait
-                _die(signum)  # in MPI for a rank that is gone, and then never answers (nothing to keep yet)
-            return
+        several = launched()[1] > 1
+        # One of several MPI ranks may be making its instance, waiting in MPI for a rank that is
+        # gone: it ends at once (nothing of it to keep). Any other waits for the instance, then stops it.
+        if not self.lock.acquire(blocking=not several):
+            _die(signum)
         try:
             if self.lmp is not None:
                 self._stop_now()

@@ -297,7 +297,8 @@ def test_other_commands_under_an_mpi_launcher_are_refused_before_they_write(tmp_
     case = make_case(particles=5, duration=1.0)
     deck(tmp_path, case)
     capsys.readouterr()
-    monkeypatch.setenv("PMI_SIZE", "2")  # what MPICH's mpiexec (Hydra) tells each rank
+    monkeypatch.setenv("PMI_RANK", "0")  # what MPICH's mpiexec (Hydra) tells each rank
+    monkeypatch.setenv("PMI_SIZE", "2")
     assert main(["run", str(tmp_path / "d.toml"), "-o", str(tmp_path / "r")]) == 2
     assert main(["deck", str(tmp_path / "d.toml"), "-o", str(tmp_path / "e")]) == 2
     assert not (tmp_path / "r").exists() and not (tmp_path / "e").exists()
@@ -347,11 +348,11 @@ def test_an_interrupted_run_s_summary_says_the_time_its_runner_recorded(tmp_path
 
 
 @lammps
-def test_a_link_planted_in_a_folder_run_on_mpi_ranks_is_refused_by_every_rank(tmp_path):
+def test_a_link_planted_in_a_folder_run_on_mpi_ranks_ends_the_job(tmp_path):
     """A link at log.lammps, hand run on 2 ranks: rank 0 refused it, and rank 1, which neither
     claims nor records, went on into MPI and waited there for ever for rank 0 (killed after 10
-    minutes, unstoppable by SIGTERM). Every rank now refuses the links: the job ends at once with
-    2, nothing written through the link."""
+    minutes, unstoppable by SIGTERM). Rank 0 now ends the job (MPI_Abort): it ends at once with
+    2 and rank 0's one line, nothing written through the link."""
     folder = deck(tmp_path, make_case(particles=40, duration=20.0))
     outside = tmp_path / "outside.log"
     (folder / layout.LOG).symlink_to(outside)
@@ -362,15 +363,32 @@ def test_a_link_planted_in_a_folder_run_on_mpi_ranks_is_refused_by_every_rank(tm
 
 
 @lammps
-def test_a_rank_waiting_in_mpi_for_a_rank_that_left_stops_at_ctrl_c(tmp_path):
-    """Rank 0 refuses a folder another run holds (its lock held here), and rank 1 waits in MPI
-    for it: Ctrl-C then blocked rank 1's signal handler behind the instance being made, and the
-    job ran on until killed. A rank of several now ends by the signal at once when its instance
-    is still being made (nothing of it to keep): the job ends within seconds."""
+def test_a_folder_held_by_another_run_ends_an_mpi_hand_run_at_once(tmp_path):
+    """Rank 0 refuses a folder another run holds (its lock held here), and rank 1 waited in MPI
+    for it until killed (Ctrl-C too was lost: its handler waited behind the instance being made).
+    Rank 0 now ends the job: exit 2 within seconds, its one line said, the folder untouched."""
     folder = deck(tmp_path, make_case(particles=40, duration=20.0))
     with marker.claimed(folder), by_hand_on_ranks(folder, 2) as job:
-        time.sleep(3)  # rank 0 refused; rank 1 in MPI's start
+        out, err = ended(job, 30)
+    assert job.returncode == 2 and "still being written" in err, err
+    assert marker.read(folder)["state"] == "written" and not (folder / layout.LOG).exists()
+
+
+@lammps
+def test_a_rank_waiting_in_mpi_stops_at_ctrl_c(tmp_path):
+    """A rank of several whose instance is still being made (MPI waiting for a rank that has not
+    come: here rank 1 of a job whose rank 0 sleeps before it starts) ends by the signal at once:
+    its handler waited behind the instance, and Ctrl-C was lost."""
+    folder = deck(tmp_path, make_case(particles=40, duration=20.0))
+    job = subprocess.Popen([str(MPIEXEC), "-n", "2", sys.executable, "-c",
+                            "import os, sys, time\n"
+                            "if os.environ.get('PMI_RANK') == '0': time.sleep(60)\n"
+                            "from pylmp_lattice.cli import main\n"
+                            "sys.exit(main(['lmp', '-in', 'in.lattice', '-screen', 'none']))"],
+                           cwd=folder, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    with job:
+        time.sleep(3)  # rank 1 in MPI's start, waiting for rank 0
         assert job.poll() is None, "the job ended before Ctrl-C: nothing waited"
         os.killpg(job.pid, signal.SIGINT)
         out, err = ended(job, 20)
-    assert job.returncode != 0 and "still being written" in err, err
+    assert job.returncode != 0

@@ -31,17 +31,21 @@ def test_usable_cores_counts_this_process_affinity():
     assert 1 <= ranks.usable_cores() <= (os.cpu_count() or 1)
 
 
-def test_launched_rank_reads_the_launchers_variables(monkeypatch):
-    """A rank's number where mpiexec (MPICH's PMI_RANK, Open MPI's OMPI_COMM_WORLD_RANK, ...) or
-    srun (SLURM_PROCID) started the process, the first variable found counting; None outside."""
-    for name in ranks.RANK_VARIABLES:
-        monkeypatch.delenv(name, raising=False)
-    assert ranks.launched_rank() is None
+def test_launched_reads_a_launcher_s_rank_and_size_together(monkeypatch):
+    """(rank, size) where mpiexec started the process (MPICH's PMI_RANK and PMI_SIZE, Open MPI's
+    OMPI_COMM_WORLD_RANK and _SIZE, ...), the first whole pair counting; (0, 1) outside one, and
+    for srun's SLURM_PROCID alone (srun without PMI starts processes MPI never joins)."""
+    for pair in ranks.LAUNCHER_VARIABLES:
+        for name in pair:
+            monkeypatch.delenv(name, raising=False)
     monkeypatch.setenv("SLURM_PROCID", "3")
-    assert ranks.launched_rank() == 3
+    assert ranks.launched() == (0, 1)
     monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
-    assert ranks.launched_rank() == 1
+    assert ranks.launched() == (0, 1)  # no size: not a pair
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "4")
+    assert ranks.launched() == (1, 4)
     monkeypatch.setenv("PMI_RANK", "0")
-    assert ranks.launched_rank() == 0
-    monkeypatch.setenv("PMI_RANK", "")  # set but empty: not a rank
-    assert ranks.launched_rank() == 1
+    monkeypatch.setenv("PMI_SIZE", "2")
+    assert ranks.launched() == (0, 2)
+    monkeypatch.setenv("PMI_SIZE", "")  # set but empty: the next pair
+    assert ranks.launched() == (1, 4)

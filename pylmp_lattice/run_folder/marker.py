@@ -175,18 +175,12 @@ def log_state(text: str) -> str | None:
 
 
 @contextmanager
-def hand_run(folder: Path, keeps_record: bool = True):
+def hand_run(folder: Path):
     """`pylmp-lattice lmp -in in.lattice` in a run folder: the folder is claimed and recorded
     "running" by this process while LAMMPS (in this process) runs, and its end recorded from
     the log, or "interrupted" at the time LAMMPS's soft stop ended it (`Interrupted`), so that
     `status` knows at once that it ended, however it ended. A link at any run file's name is
-    refused before LAMMPS starts, as the road's claim refuses it. Not `keeps_record`: an MPI
-    rank other than 0 of the hand run, which neither claims nor records (rank 0 does) but
-    refuses the links as rank 0 does: its LAMMPS would wait for ever for a rank 0 that left."""
-    if not keeps_record:
-        files.refuse_links(folder, layout.RUN_FILES)
-        yield
-        return
+    refused before LAMMPS starts, as the road's claim refuses it."""
     with claimed(folder):
         files.refuse_links(folder, layout.RUN_FILES)  # LAMMPS opens its files by name: never through a link
         record(folder, RUNNING, runner=HAND_RUNNER)
