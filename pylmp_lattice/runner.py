@@ -95,7 +95,8 @@ class _Engine:
     The instance is created, run and closed in that thread: created in the main thread and run
     in another, the same run took 15-20 times longer (benchmarked, 1000 steps of the main case).
     The main thread only asks for the step and for a soft stop, under a lock, so it never
-    touches a closed instance.
+    touches a closed instance (one of several MPI ranks whose instance is still being made
+    ends at a stop instead: `stop`).
     """
 
     def __init__(self, args: list[str], deck: str):

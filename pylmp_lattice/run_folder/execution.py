@@ -140,8 +140,8 @@ def simulate(case: Case | str | Path, folder: str | Path, runner: str | Engine =
 
 
 def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
-    refuse_launched("a run of pylmp_lattice")  # (a Python script under mpiexec; the command refuses it first)
-    if isinstance(runner, str):
+    if isinstance(runner, str):  # LAMMPS, which under an MPI launcher would join its job (a Python script
+        refuse_launched("a run of pylmp_lattice")  # under mpiexec; the command refuses it first); a kernel engine would not
         return Lammps(runner, nprocs, echo)
     if not callable(getattr(runner, "check", None)):
         raise UsageError("runner", f"got {type(runner).__name__}; choose one of {', '.join(RUNNERS)}, or an Engine")

@@ -38,7 +38,7 @@ from . import disk
 from .batch import Note, Task
 from .blocks import GPU_MAX_ATOMS, _Blocks  # noqa: F401 - GPU_MAX_ATOMS: read here by tests
 from .estimate import _estimate
-from .folder import check_folder, claim, lock, refuse_other
+from .folder import check_folder, claim, lock, refuse_other, refuse_running
 from .member import one_line, unstarted
 from .pool import GRACE, Pool, executor_pool
 from .progress import _Progress
@@ -95,9 +95,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
                     "and each worker holds its own engine in memory)", workers, cores)
     held = refuse_other(root, sweep, overwrite)  # before the estimate is said (and again, under the lock, by `claim`)
-    if root.is_dir():  # likewise a sweep running there (its lock is taken below)
-        with lock(root):
-            pass
+    refuse_running(root)  # likewise a sweep running there (its lock is taken below)
     # the members left to run (--yes or not): all where DIR holds no sweep, or another one (--overwrite keeps its
     # members' folders, which are not this sweep's); else those not kept (`to_keep`, which may count such folders
     # left from an earlier --overwrite too, so that it may exceed total)

@@ -21,10 +21,22 @@ def lock(root: Path):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError as err:
-            raise UsageError("-o", f"another sweep is running in {root}; wait for it or choose another folder") from err
+            raise UsageError("-o", _RUNNING.format(root=root)) from err
         yield
     finally:
         os.close(fd)
+
+
+_RUNNING = "another sweep is running in {root}; wait for it or choose another folder"
+
+
+def refuse_running(root: Path) -> None:
+    """`lock`'s refusal, without taking the lock: a look that never makes a coordinator's own
+    `lock` fail (`file_lock.is_held`)."""
+    from ..file_lock import is_held
+
+    if is_held(root):
+        raise UsageError("-o", _RUNNING.format(root=root))
 
 
 def check_folder(root: str | Path) -> None:
