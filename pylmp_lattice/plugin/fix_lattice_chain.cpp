@@ -238,7 +238,7 @@ FixLatticeChain::FixLatticeChain(LAMMPS *lmp, int narg, char **arg) :
 
 FixLatticeChain::~FixLatticeChain()
 {
-  live--;
+  if (--live == 0) stop_asked.store(0);    // a stop not taken before the last run ended stops no later one
   atom->delete_callback(id, Atom::GROW);
   memory->destroy(xs);
   memory->destroy(vs);
