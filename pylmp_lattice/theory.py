@@ -98,6 +98,7 @@ import numpy as np
 from .exact import jump, weak_shock
 from .forcelaw import SampledLaw
 from .measures import linear_frequency, linear_wave_speed
+from .measures._common import require_positive
 from .serialize import jsonable
 
 _CONVEXITY_SAMPLES = 65  # grid on [r1, r0] where c must grow under compression
@@ -282,8 +283,4 @@ def _check(law, mass: float, r0: float, **speeds):
     if not all(callable(getattr(law, name, None)) for name in ("force", "stiffness", "domain")):
         raise TypeError(f"law: got {type(law).__name__}; expected a force law (`forcelaw`), e.g. a case's "
                         "`case.force` or forcelaw.PowerLaw(K=413.8, b=3.917, q=3.0)")
-    for name, value in {"mass": mass, "r0": r0, **speeds}.items():
-        if np.ndim(value) != 0 or np.asarray(value).dtype.kind not in "iuf":
-            raise TypeError(f"{name}: got {value!r} ({type(value).__name__}); expected a number")
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: got {value}; expected > 0")
+    require_positive(mass=mass, r0=r0, **speeds)

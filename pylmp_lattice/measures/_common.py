@@ -37,15 +37,16 @@ def check_noise(noise, columns: int):
 
 
 def require_positive(**values):
-    """ValueError naming the first value that is not > 0; TypeError for one that is no single
-    real number (a str, None, a bool or an array of several values)."""
+    """ValueError naming the first value that is not > 0 (or not finite); TypeError for one that
+    is no single real number (a str, None, a bool or an array of several values). The rule of
+    every physical parameter of the measures and of `theory`."""
     for name, value in values.items():
         if np.ndim(value) != 0:
             raise TypeError(f"{name}: got an array of shape {np.shape(value)}; expected one number")
         if isinstance(value, (bool, np.bool_)) or not (isinstance(value, numbers.Real) or (
                 isinstance(value, np.ndarray) and value.dtype.kind in "iuf")):
             raise TypeError(f"{name}: got {value!r} ({type(value).__name__}); expected a number")
-        if not value > 0:
+        if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value}; expected > 0")
 
 
