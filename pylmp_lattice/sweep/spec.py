@@ -55,6 +55,7 @@ from typing import Any
 from ..case import (Case, FieldKindError, brief, case_from_dict, case_id, case_to_dict, identity_hash, normalised,
                     read_toml)
 from ..case.chain import CHUNK, check_seed
+from ..case.checks import _is_number
 from ..case.toml import plain
 from ..case.identity import SeededHashes, seeded_hashes
 from ..engine import RUNNERS
@@ -628,10 +629,6 @@ def _numbers(indices: list[int], shown: int = 5) -> str:
     """'3, 7, 9' or '3, 7, 9, 12, 15, ... 40' for a long list."""
     head = ", ".join(map(str, indices[:shown]))
     return head if len(indices) <= shown else f"{head}, ... {indices[-1]}"
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _is_int(value) -> bool:
