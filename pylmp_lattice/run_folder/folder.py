@@ -291,11 +291,11 @@ class RunFolder:
             if "error" in stopped:
                 log.warning("%s: the run failed: %s", self.path, stopped["error"])
         summary.update(self.deck_changes())
-        if case.friction is not None and (self.path / layout.LOG).is_file():
+        if case.friction is not None and layout.LOG in ran:
             with suppress(KeyError, IndexError, LatticeError):
                 summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6)
         files = {"folder": str(self.path)}
-        if (self.path / layout.LOG).is_file():  # a deck run from elsewhere logs where it ran
+        if layout.LOG in ran:  # a deck run from elsewhere logs where it ran
             files["log"] = layout.LOG
         for name in (layout.H5MD, layout.TRAJ_BIN, layout.DUMP):
             if (self.path / name).exists():
