@@ -283,6 +283,12 @@ def variants(tmp: Path, count: int, reference: Path | None = None) -> None:
     rows = {"as benchmarked": ({}, {}), "no front record": ({"record": False}, {}),
             "no friction": ({"friction": None}, {}), "neither": ({"record": False, "friction": None}, {}),
             # (untimed yet: early, in case the stage runs out of time)
+            # a chain's atoms over a block's threads (the long chains' kernel, bit for bit: x, v,
+            # the record), not a chain a thread: fewer registers a thread (12.5 % occupancy at 255)
+            # and the due rows sampled side by side, against ghosts through shared memory, each
+            # bond's force computed on both sides and a barrier a step
+            **{f"a block per chain, a thread per {s} free atom{'s' if s > 1 else ''}":
+               ({}, {"local_size": lambda _n: 0, "LONG_SEGMENT": s}) for s in (1, 2, 4)},
             "each due row copied whole into registers (ROW_COPY)": ({}, {"ROW_COPY": True}),
             "marks and x in shared memory, masked, rows copied": ({}, {"SHARED_ARRAYS": 2, "SAMPLING": "masked",
                                                                        "ROW_COPY": True}),

@@ -468,6 +468,21 @@ def test_the_long_chains_segments_change_no_bit_of_x_v_and_the_record(tmp_path, 
     assert list(np.argmin(np.diff(x, axis=1), axis=1)) == [4, 47, 62]
 
 
+@pytest.mark.parametrize("segment", [1, 2, 4])
+def test_the_paper_s_chains_through_the_long_chains_kernel_change_no_bit(tmp_path, monkeypatch, emulated_gpu, segment):
+    """bench_gpu.py --variants' "a block per chain" rows: the 21-magnet thermal replicas with
+    friction, a block each (19, 10 and 5 threads), give the host's x, v, record, end steps and
+    statuses bit for bit, the work within 1e-14 (summed by thread), so that the rows time the
+    same members' same numbers."""
+    monkeypatch.setattr(gpu, "local_size", lambda _n: 0)
+    monkeypatch.setattr(gpu, "LONG_SEGMENT", segment)
+    cases = members(count=4, friction=FRICTION)
+    got = run_both(cases, tmp_path, monkeypatch)
+    assert assert_same_outputs(got) or same_but_work(got)
+    assert emulated_gpu.launches == [("pl_run_long_chains_gpu", 4, {1: 19, 2: 10, 4: 5}[segment])]
+    assert got["gpu"]["out"][2] is not None and not got["gpu"]["out"][5].any()
+
+
 def test_a_long_chain_whose_drive_ends_ends_in_every_thread_at_the_host_s_step(emulated_gpu):
     """The measured drive stops where its data end (8 ms, impactor.after = "stop"): a batch run
     50 steps past it (the road refuses such a case; the kernel's end without a barrier) ends
