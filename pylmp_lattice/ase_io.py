@@ -18,6 +18,7 @@ import numpy as np
 
 from .case import Case, case_from_dict
 from .errors import ConfigError, UsageError
+from .formats.files import refuse_link, replacing
 from .formats.layout import as_path
 from .trajectory import Trajectory
 
@@ -51,14 +52,34 @@ def to_atoms(traj: Trajectory, masses, every: int = 1) -> list:
     return frames
 
 
-def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1) -> Path:
-    """Write frames for ASE's GUI or OVITO: `.extxyz` (extended XYZ) or `.traj` (ASE trajectory)."""
+def write_trajectory(path: str | Path, traj: Trajectory, masses, every: int = 1, overwrite: bool = False) -> Path:
+    """Write frames for ASE's GUI or OVITO: `.extxyz` (extended XYZ) or `.traj` (ASE trajectory).
+
+    An existing file is replaced only with overwrite=True; the frames go through a temporary
+    file renamed over `path` (never written through a link, an interrupted write keeps the old)."""
     from ase.io import write
 
-    path = as_path(path, "path", "the file to write, as in write_trajectory(path, traj, masses)")
+    path = check_destination(path, overwrite)
+    frames = to_atoms(traj, masses, every)
+    with replacing(path) as part:
+        write(part, frames, format=FORMATS[path.suffix])
+    return path
+
+
+def check_destination(path: str | Path, overwrite: bool, name: str = "path") -> Path:
+    """`path` as the file `write_trajectory` may write; else UsageError naming `name` (the CLI's
+    "--output"): a known ending, in an existing folder, no link or folder, not there unless
+    overwrite."""
+    path = as_path(path, name, "the file to write, as in write_trajectory(path, traj, masses)")
     if path.suffix not in FORMATS:
-        raise UsageError("export", f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
-    write(path, to_atoms(traj, masses, every), format=FORMATS[path.suffix])
+        raise UsageError(name, f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
+    if not path.parent.is_dir():
+        raise UsageError(name, f"{path.parent} is not a folder; expected an existing folder")
+    refuse_link(path)
+    if path.is_dir():
+        raise UsageError(name, f"{path} is a folder; expected a file name")
+    if path.exists() and not overwrite:
+        raise UsageError(name, f"{path} exists; pass --overwrite (overwrite=True) to replace it, or choose another file")
     return path
 
 

@@ -388,27 +388,17 @@ def _summarize(args) -> int:
 
 
 def _export(args) -> int:
-    from .ase_io import FORMATS, write_trajectory
-    from .formats.files import refuse_link, replacing
+    from .ase_io import check_destination, write_trajectory
     from .preflight import check_writable
     from .run_folder import RunFolder
 
-    out = args.output
     if args.every < 1:
         raise UsageError("--every", f"got {args.every}; expected >= 1")
-    if out.suffix not in FORMATS:  # here, before the temporary file's name would stand in the message
-        raise UsageError("--output", f"got {out.name!r}; expected a file ending in {' or '.join(FORMATS)}")
-    if not out.parent.is_dir():
-        raise UsageError("--output", f"{out.parent} is not a folder; expected an existing folder")
-    refuse_link(out)
-    if out.is_dir() or (out.exists() and not args.overwrite):
-        raise UsageError("--output", f"{out} is a folder; expected a file name" if out.is_dir() else
-                          f"{out} exists; pass --overwrite to replace it, or choose another -o")
+    out = check_destination(args.output, args.overwrite, "--output")  # before reading the trajectory
     check_writable(out.parent, "--output")
     run = RunFolder(args.folder)
     traj = run.trajectory()
-    with replacing(out) as part:  # a failed or interrupted export leaves any old file whole
-        write_trajectory(part, traj, run.case.chain.masses(), every=args.every)
+    write_trajectory(out, traj, run.case.chain.masses(), every=args.every, overwrite=args.overwrite)
     _out(f"wrote {out} ({-(-len(traj.t) // args.every)} frames, {run.case.chain.particles} atoms)")
     return 0
 

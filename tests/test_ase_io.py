@@ -101,3 +101,30 @@ def test_mistaken_arguments_are_named_and_none_masses_are_not_nan(tmp_path):
         case_from_atoms(None, force={}, impactor={}, run={})
     assert list(tmp_path.iterdir()) == []
     assert to_atoms(traj, 1.084)[1].get_masses().tolist() == [1.084] * 3
+
+
+def test_write_trajectory_replaces_a_file_only_with_overwrite_and_never_writes_through_a_link(tmp_path):
+    """write_trajectory replaced an existing file without a word, and wrote through a link
+    planted at its path into the file the link named; now an existing file stays unless
+    overwrite=True, a link is refused, and the frames go through a renamed temporary file."""
+    from pylmp_lattice.formats.files import LinkError
+    from pylmp_lattice.trajectory import Trajectory
+
+    traj = Trajectory(np.array([0.0, 0.1]), np.array([0.0, 12.0, 24.0]), np.zeros((2, 3)), np.zeros((2, 3)),
+                      np.zeros((2, 3)))
+    mine = tmp_path / "mine.extxyz"
+    mine.write_text("notes\n")
+    with pytest.raises(UsageError) as err:
+        write_trajectory(mine, traj, 1.084)
+    assert str(err.value) == f"path: {mine} exists; pass --overwrite (overwrite=True) to replace it, or choose another file"
+    assert mine.read_text() == "notes\n"
+    assert write_trajectory(mine, traj, 1.084, overwrite=True) == mine
+    assert len(read(mine, index=":")) == 2
+    target = tmp_path / "target.txt"
+    target.write_text("kept\n")
+    (tmp_path / "link.extxyz").symlink_to(target)
+    for overwrite in (False, True):
+        with pytest.raises(LinkError, match=r"link\.extxyz: is a symbolic link \(to .*target\.txt\)"):
+            write_trajectory(tmp_path / "link.extxyz", traj, 1.084, overwrite=overwrite)
+    assert target.read_text() == "kept\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.extxyz", "mine.extxyz", "target.txt"]

@@ -208,7 +208,8 @@ def test_export_replaces_a_file_only_with_overwrite(tmp_path, monkeypatch, capsy
     capsys.readouterr()
     assert main(["export", "r", "-o", "notes.extxyz"]) == 2
     err = capsys.readouterr().err
-    assert err == "pylmp-lattice: error: --output: notes.extxyz exists; pass --overwrite to replace it, or choose another -o\n"
+    assert err == ("pylmp-lattice: error: --output: notes.extxyz exists; pass --overwrite (overwrite=True) to replace it, "
+                   "or choose another file\n")
     assert Path("notes.extxyz").read_text() == "notes\n"
     assert main(["export", "r", "-o", "notes.extxyz", "--overwrite"]) == 0
     assert Path("notes.extxyz").read_text().startswith("12\n")  # extxyz: the atom count, then a frame
