@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import Case, case_from_dict
-from .errors import ConfigError, UsageError
+from .errors import ConfigError, UsageError, require_bool
 from .formats.files import refuse_link, replacing
 from .formats.layout import as_path
 from .trajectory import Trajectory
@@ -71,6 +71,7 @@ def check_destination(path: str | Path, overwrite: bool, name: str = "path") -> 
     "--output"): a known ending, in an existing folder, no link or folder, not there unless
     overwrite."""
     path = as_path(path, name, "the file to write, as in write_trajectory(path, traj, masses)")
+    require_bool(overwrite=overwrite)
     if path.suffix not in FORMATS:
         raise UsageError(name, f"got {path.name!r}; expected a file ending in {' or '.join(FORMATS)}")
     if not path.parent.is_dir():

@@ -1,9 +1,11 @@
 """The package's exceptions: bad input (a case field; a flag, folder or argument), a failed engine
-run, a stop signal."""
+run, a stop signal; and the short form of a value in their messages and the check of a
+function's switches, which every layer shares."""
 
 from __future__ import annotations
 
 import shlex
+import sys
 from pathlib import Path
 
 
@@ -24,6 +26,22 @@ class UsageError(ConfigError):
     message names it, e.g. "--np: got 0; expected an integer >= 1". A ConfigError, so that both
     are bad input (the command line's exit 2) while a ConfigError raised as such names a field
     of a case or sweep file."""
+
+
+def brief(value, limit: int = 40) -> str:
+    """repr(value) cut to `limit` characters: one short line for any input."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def require_bool(**flags) -> None:
+    """UsageError naming the first of a function's switches (overwrite, yes, ...) that is not
+    True or False: "no" or 1 would count as true. A numpy bool is one (numpy is not imported
+    here: such a value exists only once numpy is loaded)."""
+    numpy = sys.modules.get("numpy")
+    for name, value in flags.items():
+        if not (isinstance(value, bool) or (numpy is not None and isinstance(value, numpy.bool_))):
+            raise UsageError(name, f"got {brief(value)}; expected True or False")
 
 
 class DumpFormatError(LatticeError, ValueError):

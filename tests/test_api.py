@@ -93,3 +93,44 @@ def test_a_trajectory_s_repr_is_its_shape_not_its_values():
     traj = Trajectory(np.linspace(0.0, 40.0, 401), np.arange(21.0), zeros, zeros, zeros)
     assert repr(traj) == "Trajectory(frames=401, magnets=21, t=0..40 ms)"
     assert repr(Trajectory(np.zeros(0), np.arange(3.0), *(np.zeros((0, 3)),) * 3)) == "Trajectory(frames=0, magnets=3)"
+
+
+def test_a_switch_that_is_no_bool_is_named_not_taken_for_true(tmp_path, monkeypatch):
+    """overwrite="no" counted as true: RunFolder.create replaced the run in its folder. Every
+    switch of the public functions (overwrite, yes, echo, progress, figure, retry_failed) is
+    True or False (a numpy bool too), else one line naming it, before anything is written."""
+    import numpy as np
+
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import load_sweep, run_sweep
+    from pylmp_lattice.trajectory import Trajectory
+
+    monkeypatch.chdir(tmp_path)
+    case = pl.case_from_dict({"chain": {"particles": 5, "mass": 1.0, "r0": 12.0, "far_end": "fixed"},
+                              "force": {"law": "power"}, "impactor": {"profile": "constant", "velocity": 1.0},
+                              "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1}})
+    pl.RunFolder.create(case, "r")
+    written = {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()}
+    with pytest.raises(UsageError) as err:
+        pl.RunFolder.create(case, "r", overwrite="no")
+    assert str(err.value) == "overwrite: got 'no'; expected True or False"
+    assert {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()} == written
+    for call, message in ((lambda: pl.run(case, "x", overwrite=1), "overwrite: got 1; expected True or False"),
+                          (lambda: pl.run(case, "x", yes="yes"), "yes: got 'yes'; expected True or False"),
+                          (lambda: pl.execute(case, "x", echo=None), "echo: got None; expected True or False"),
+                          (lambda: pl.simulate(case, "x", progress="off"), "progress: got 'off'; expected True or False"),
+                          (lambda: pl.run(case, "x", figure="no"), "figure: got 'no'; expected True or False")):
+        with pytest.raises(UsageError) as err:
+            call()
+        assert str(err.value) == message
+    traj = Trajectory(np.array([0.0, 0.1]), np.array([0.0, 12.0, 24.0]), *(np.zeros((2, 3)),) * 3)
+    with pytest.raises(UsageError) as err:
+        pl.write_trajectory("f.extxyz", traj, 1.0, overwrite="no")
+    assert str(err.value) == "overwrite: got 'no'; expected True or False"
+    (tmp_path / "base.toml").write_text(__import__("tomli_w").dumps(pl.case_to_dict(case)))
+    (tmp_path / "sweep.toml").write_text('base = "base.toml"\n[grid]\n"impactor.velocity" = [0.5, 0.6]\n')
+    with pytest.raises(UsageError) as err:
+        run_sweep(load_sweep("sweep.toml"), "s", retry_failed="no")
+    assert str(err.value) == "retry_failed: got 'no'; expected True or False"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["base.toml", "r", "sweep.toml"]
+    assert pl.RunFolder.create(case, "r", overwrite=np.True_).path.name == "r"  # replaced: a numpy bool is one

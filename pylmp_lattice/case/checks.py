@@ -1,5 +1,6 @@
-"""What every section of a case checks its values with: the name rule, LAMMPS's limits, the
-short forms of values in messages, a choice among names and a whole number of steps."""
+"""What every section of a case checks its values with: the name rule, LAMMPS's limits, a
+choice among names and a whole number of steps (the short form of a value in messages,
+`brief`, is the errors module's)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import re
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 
 # A case name names its run folder and appears in deck comments: an identifier, never a path
 # or text that could end a comment line.
@@ -22,12 +23,6 @@ def check_name(value) -> str:
     if not (isinstance(value, str) and NAME.fullmatch(value) and value not in (".", "..")):
         raise ConfigError("name", f"got {brief(value)}; {NAME_RULE}")
     return value
-
-
-def brief(value, limit: int = 40) -> str:
-    """repr(value) cut to `limit` characters: one short line for any input."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def _choice(field: str, value, choices) -> str:

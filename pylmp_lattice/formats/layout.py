@@ -15,7 +15,7 @@ import os
 import re
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import UsageError, brief
 
 # ---- written before the run (deck.render, write.write_folder)
 DECK = "in.lattice"
@@ -105,8 +105,7 @@ def as_path(value, name: str = "folder", what: str = "the path of the run's fold
     """`value` as a Path: UsageError naming `name` and saying `what` it takes where it is no path
     (None, a number, a case), one rule for every path a function of the package is given."""
     if not isinstance(value, (str, os.PathLike)):
-        text = repr(value)
-        raise UsageError(name, f"got {text if len(text) <= 40 else text[:37] + '...'}; expected a str or Path: {what}")
+        raise UsageError(name, f"got {brief(value)}; expected a str or Path: {what}")
     return Path(value)
 
 

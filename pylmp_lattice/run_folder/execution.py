@@ -34,7 +34,7 @@ from .. import deck, preflight
 from .. import runner as lammps_runner
 from ..case import Case, as_case
 from ..engine import RUNNERS
-from ..errors import ContactError, Interrupted, RunError, UsageError
+from ..errors import ContactError, Interrupted, RunError, UsageError, require_bool
 from ..ranks import refuse_launched
 from ..formats import layout
 from ..formats.files import DiskFull, disk_full
@@ -73,6 +73,7 @@ class Lammps:
     echo: bool = False
 
     def __post_init__(self):
+        require_bool(echo=self.echo)
         if self.runner not in RUNNERS:
             raise UsageError("runner", f"got {self.runner!r}; choose one of {', '.join(RUNNERS)}")
         if isinstance(self.nprocs, bool) or not isinstance(self.nprocs, numbers.Integral):
@@ -127,6 +128,7 @@ def run_case(case: Case | str | Path, folder: str | Path, runner: str | Engine =
     summary.json is written after the run ended: a folder with it holds a finished run, or one
     stopped by a contact (measured up to the contact, as its "stopped" entry says; the
     ContactError is raised after it is written)."""
+    require_bool(figure=figure)  # before the run, not after it
     start = time.perf_counter()
     with _road([as_case(case)], folder, _engine(runner, nprocs, echo), overwrite, progress, yes,
                contact_ends=True) as claimed:
@@ -156,6 +158,7 @@ def _road(cases: list[Case], folder: str | Path, engine: Engine, overwrite: bool
     converted; the claimed folder is yielded with its lock still held (no other process
     overwrites or converts it until the caller has read it). With `contact_ends`, a run
     stopped by a contact is yielded too (to be measured), and its ContactError raised after."""
+    require_bool(overwrite=overwrite, progress=progress, yes=yes)
     folder = layout.as_path(folder)
     engine.check(folder)
     if len(cases) == 1:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import deck
 from ..case import Case
+from ..errors import require_bool
 from ..formats import layout
 from ..formats.files import atomic_write
 from . import marker
@@ -31,6 +32,7 @@ def write_folder(case: Case | Sequence[Case], path: str | Path, overwrite: bool 
     always stay. Refused: the working directory, a parent of it, runs/ itself, a folder
     holding files a run would write but no run, and one still being written (see `claim`).
     """
+    require_bool(overwrite=overwrite)
     cases = [case] if isinstance(case, Case) else list(case)
     files = deck.render_folder(cases)  # first: a case the deck refuses (see Case._extremes) leaves the folder as it was
     with ExitStack() as held:

@@ -30,7 +30,7 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from pathlib import Path
 
-from ..errors import ConfigError, Interrupted, UsageError
+from ..errors import ConfigError, Interrupted, UsageError, require_bool
 from ..formats.files import DiskFull, remove_tree
 from ..formats.layout import deck_dir
 from ..run_folder import marker
@@ -79,6 +79,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     if _from_worker_import():
         raise RuntimeError("run_sweep was called while a sweep worker imported the main script again (as Python's "
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
+    require_bool(retry_failed=retry_failed, progress=progress, overwrite=overwrite, yes=yes)
     check_folder(root)
     sweep = _with_engine(sweep, engine)
     # every member's folder is in it: refused now, not each member as it runs (a kernel engine's batches need no deck
