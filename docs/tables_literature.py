@@ -76,7 +76,8 @@ def hugoniot_fits() -> str:
 
 
 def hugoniot_points() -> str:
-    """U_s, the mean state's jump conditions and the wake energy per run (docs/literature/hugoniot.json)."""
+    """U_s, the mean state's jump conditions and the wake energy per run, in each row's units
+    (docs/literature/hugoniot.json)."""
     data = read_json("literature/hugoniot.json")
     rows = []
     for p in data["points"]:
@@ -84,14 +85,14 @@ def hugoniot_points() -> str:
         c0, s, up, us = t["c0_m_per_s"], t["s_weak_shock"], p["u_p_m_per_s"], p["U_s_m_per_s"]
         lead = p.get("lead_soliton_speed_m_per_s")
         d = p["rankine_hugoniot_D_m_per_s"]
-        rows.append([p["chain"], f"{up:g}", fixed(us, 4) + (f" (lead soliton {fixed(lead, 4)})" if lead else ""),
+        rows.append([p["chain"], p["units"], f"{up:g}", fixed(us, 4) + (f" (lead soliton {fixed(lead, 4)})" if lead else ""),
                      fixed(c0 + s * up, 4), fixed(c0 + 4 / 3 * s * up, 4), fixed(d, 4),
                      fixed(p["rankine_hugoniot_u_p_m_per_s"], 4), fixed((us - c0) / (d - c0), 2),
                      fixed(p["first_peak_over_u_p"], 3), f"{p['wake_oscillation_energy_mJ']:.3e}",
                      f"{p['energy_jump_mJ']:.3e}", fixed(p["wake_oscillation_energy_mJ"] / p["energy_jump_mJ"], 3)])
-    return table(["chain", "u_p (m/s)", "U_s (m/s)", "c0 + s u_p", "c0 + (4/3) s u_p", "R-H D of the mean state",
-                  "R-H u_p", "(U_s - c0)/(D - c0)", "first peak / u_p", "wake oscillation energy (mJ)",
-                  "energy jump (mJ)", "ratio"], rows)
+    return table(["chain", "units", "u_p", "U_s", "c0 + s u_p", "c0 + (4/3) s u_p", "R-H D of the mean state",
+                  "R-H u_p", "(U_s - c0)/(D - c0)", "first peak / u_p", "wake oscillation energy",
+                  "energy jump", "ratio"], rows)
 
 
 

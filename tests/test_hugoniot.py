@@ -71,3 +71,24 @@ def test_magnet_chain_weak_shock_limit(tmp_path):
     assert rows[0.1]["U_s_m_per_s"] == pytest.approx(ws.c0 + ws.s * 0.1, rel=5e-3)
     assert rows[0.5]["U_s_m_per_s"] > 1.05 * (ws.c0 + ws.s * 0.5)
     assert rows[0.5]["U_s_m_per_s"] == pytest.approx(ws.c0 + 4 / 3 * ws.s * 0.5, rel=1e-2)
+
+
+def test_each_point_names_its_units_the_model_chains_reduced():
+    """The Toda, LJ and Morse points sat in columns named *_m_per_s with nothing saying they are
+    in the models' reduced units: each row's `units` says it (the magnets' are the columns'),
+    and it is the table's second column."""
+    from pylmp_lattice.studies.literature.hugoniot import units
+    from pylmp_lattice.trajectory import Trajectory
+
+    case = chain_case("toda", "t", {"profile": "constant", "velocity": 1.0}, 10.0, particles=40)
+    n, t = case.chain.particles, np.linspace(0.0, 10.0, 11)
+    x0 = 10.0 * np.arange(n)
+    traj = Trajectory(t, x0, np.tile(-0.1 * np.arange(n), (t.size, 1)), np.ones((t.size, n)), np.zeros((t.size, n)))
+    summary = {"particles_reached_by_front": 30, "shock_velocity_plateau_m_per_s": {"mean": 13.0, "converged": True},
+               "first_peak_velocity_over_V_I": 1.9}
+    row = measure("toda", 1.0, case, summary, traj)
+    assert list(row)[:3] == ["chain", "units", "u_p_m_per_s"]
+    assert row["units"] == "reduced, m = A = B = 1"
+    assert row["mean_gap_mm"] == pytest.approx(9.9, abs=1e-12)  # gaps 10 - 0.1 mm, in the models' length unit
+    assert [units(c) for c in ("magnet", "lj", "morse")] == ["m/s, mm, N, mJ", "reduced, m = epsilon = sigma = 1",
+                                                              "reduced, m = D = 1, alpha r_e = 6"]

@@ -17,11 +17,14 @@ u_p = V_I. Per run:
   against the energy jump condition: the work per particle minus the mean flow's kinetic and
   the mean state's potential energy (`exact.wake_energy`).
 The Toda front is also compared with its exact lead soliton, r0 sinh(k)/k, cosh k = 1 + u_p.
+Each point's `units` says what its columns (named in m/s, mm, N, mJ) hold: the model chains'
+are their reduced units (`units`).
 Quick: the magnet and Toda chains at two u_p each, shorter runs.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +45,8 @@ RUNS = {
 }
 # The model chains' reduced units (their user units are mm, g, N, so a speed is numerically in m/s).
 REDUCED = {"toda": "m = A = B = 1", "lj": r"m = $\epsilon$ = $\sigma$ = 1", "morse": r"m = D = 1, $\alpha r_e$ = 6"}
+# The units of a points row whose chain is not in REDUCED: the ones its columns are named in.
+NAMED_UNITS = "m/s, mm, N, mJ"
 QUICK = {"magnet": ((0.1, 1.0), 300.0), "toda": ((0.5, 1.0), 50.0)}
 
 
@@ -56,7 +61,8 @@ def measure(chain: str, u_p: float, case, summary: dict, traj) -> dict:
     rh = jump(law, r0, mass, state.mean_gap, state.mean_force)
     vp = summary["shock_velocity_plateau_m_per_s"]
     row = {
-        "chain": chain, "u_p_m_per_s": u_p, "U_s_m_per_s": vp["mean"], "U_s_converged": vp["converged"],
+        "chain": chain, "units": units(chain),
+        "u_p_m_per_s": u_p, "U_s_m_per_s": vp["mean"], "U_s_converged": vp["converged"],
         "first_peak_over_u_p": summary["first_peak_velocity_over_V_I"],
         "particles_reached": reached, "wake_gaps": [state.first_gap, state.last_gap],
         "mean_gap_mm": state.mean_gap, "mean_force_N": state.mean_force, "mean_velocity_m_per_s": state.mean_velocity,
@@ -67,6 +73,15 @@ def measure(chain: str, u_p: float, case, summary: dict, traj) -> dict:
     if chain == "toda":
         row["lead_soliton_speed_m_per_s"] = float(r0 * toda_lead_soliton(u_p)[1])
     return row
+
+
+def units(chain: str) -> str:
+    """The units of a chain's points row: the magnets' are the columns' (`NAMED_UNITS`); a model
+    chain's are its reduced units ("reduced, m = A = B = 1"), whose scales (1 mm, 1 g, 1 ms)
+    make its numbers the same as in the columns' units."""
+    if chain not in REDUCED:
+        return NAMED_UNITS
+    return "reduced, " + re.sub(r"[$\\]", "", REDUCED[chain])  # the figure's TeX as plain text
 
 
 def run(out: Path, quick: bool = False) -> StudyResult:
