@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -259,3 +260,29 @@ def test_an_estimate_of_100_to_119_s_is_written_in_seconds():
 
     assert [_duration(s) for s in (3.16, 64.0, 99.4, 99.6, 112.7, 119.4, 121.0)] == [
         "3.2 s", "64 s", "99 s", "100 s", "113 s", "119 s", "2.02 min"]
+
+
+def test_a_sweep_on_a_dask_scheduler_is_not_estimated_on_this_machine_s_cores(cache, tmp_path, monkeypatch, caplog):
+    """With --scheduler the estimate said "on 2 workers" (this machine's cores), a wall time for
+    workers it cannot count: it says the sweep's own time plus the work the scheduler's workers
+    share. The 12-member example: 3.0 s its own, 3 tasks and 12 batched members its workers'."""
+    import logging
+
+    from pylmp_lattice.sweep import execute, load_sweep
+    from pylmp_lattice.sweep.estimate import _estimate
+
+    write_cache(CACHED)
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+    work = 3 * (0.1 + 1.3e-6 * 4800) + 12 * (4.7e-9 * 21 * 4800 + 2.3e-4)
+    said = f"about 3 s plus {work:.2g} s shared by the Dask scheduler's workers (batched), if all are like the first"
+    assert _estimate(example, 12, None) == said
+
+    def no_cluster(*args):
+        raise RuntimeError("no cluster in this test")
+
+    monkeypatch.setattr(execute, "executor_pool", no_cluster)
+    monkeypatch.setattr(execute.os, "cpu_count", lambda: 2)
+    with caplog.at_level(logging.INFO, logger=execute.__name__), pytest.raises(RuntimeError, match="no cluster"):
+        execute.run_sweep(example, tmp_path / "s", scheduler="tcp://127.0.0.1:8786", progress=False)
+    assert re.search(rf"s: 12 members \({re.escape(said)}; about [\d.]+ [kMG]?B on disk\)", caplog.text), caplog.text
+    assert "on 2 workers" not in caplog.text

@@ -6,7 +6,7 @@ from . import batch
 from .spec import Sweep
 
 
-def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> str:
+def _estimate(sweep: Sweep, total: int, workers: int | None, stats: bool = False) -> str:
     """The sweep's time, command to exit, from the first member's case, preflight's model and
     this machine's overheads (`overhead`, measured once, at the contention now): its start-up
     and end (with the replica statistics and figure if `stats`: the CLI draws them), then in
@@ -19,6 +19,8 @@ def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> st
     overheads are measured (LAMMPS commands in child processes) only for engine "lammps": a
     kernel engine's sweep runs none, and a machine without LAMMPS (a GPU machine's image) failed
     the measurement, uncached, on every sweep (1-3 s).
+    workers None: a Dask scheduler's, whose number is not known here; the time its workers
+    share is then said apart from the rest.
     """
     from ..overhead import COORDINATOR_SECONDS, batched_seconds, contention, engine_seconds, gpu_seconds, overheads
     from ..preflight.estimate import SECONDS_PER_ATOM_FRAME, _duration, atom_frames
@@ -39,6 +41,11 @@ def _estimate(sweep: Sweep, total: int, workers: int, stats: bool = False) -> st
         each = engine_seconds(n, steps) + SECONDS_PER_ATOM_FRAME[case.output.format] * atom_frames(case)
         work, kind = total * (each + costs.member_s), "each run alone"
     stats = stats and sweep.replicas > 1
-    seconds = contention() * ((costs.replica_s if stats else costs.sweep_s) + work / workers + serial) + device
-    return (f"about {_duration(seconds)} on {workers} worker{'s' if workers > 1 else ''} ({kind}"
-            f"{', the replica statistics and figure included' if stats else ''}), if all are like the first")
+    load = contention()
+    fixed = load * ((costs.replica_s if stats else costs.sweep_s) + serial) + device
+    if workers is None:
+        said = f"{_duration(fixed)} plus {_duration(load * work)} shared by the Dask scheduler's workers"
+    else:
+        said = f"{_duration(fixed + load * work / workers)} on {workers} worker{'s' if workers > 1 else ''}"
+    return (f"about {said} ({kind}{', the replica statistics and figure included' if stats else ''}), "
+            "if all are like the first")

@@ -106,7 +106,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     todo = max(0, total - Outcomes(root).to_keep(retry_failed, ids)) if ours else total
     disk_need = disk.check(sweep, root, todo, slots_now)
     kept = f", {total - todo} kept from before" if todo < total else ""
-    log.info("%s: %d members%s (%s; %s)", root.name, total, kept, _estimate(sweep, todo, slots_now, bool(stats)),
+    counted = None if scheduler else slots_now  # a Dask scheduler's workers are not counted here
+    log.info("%s: %d members%s (%s; %s)", root.name, total, kept, _estimate(sweep, todo, counted, bool(stats)),
              disk_need)
     if total > MANY_MEMBERS and not yes:
         raise UsageError("--yes", f"the sweep has {total} members (over {MANY_MEMBERS}); pass --yes (yes=True) "
