@@ -308,19 +308,48 @@ def test_other_commands_under_an_mpi_launcher_are_refused_before_they_write(tmp_
 
 
 @lammps
-def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path):
-    """`lmp -in D/in.lattice -var dir D` from another folder logs there: summarize warns that D has
-    no log.lammps, and its summary's "files" named one all the same. Now it names the files D
-    holds: the trajectory and figure, no log."""
+def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path, caplog):
+    """`lmp -in D/in.lattice -var dir D` from another folder logs there: D read as "written" (a
+    deck never run) and its summary said so; its "files" named a log all the same. Now D is
+    "running" while its dumps are fresh, then "unlogged", and the summary says that status, names
+    the files D holds (the trajectory and figure, no log) and the warning what to do."""
     folder = deck(tmp_path, make_case(particles=8, duration=2.0))
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     assert subprocess.run([str(LMP), "-in", str(folder / layout.DECK), "-var", "dir", str(folder), "-screen", "none"],
                           cwd=elsewhere).returncode == 0
     assert (elsewhere / layout.LOG).is_file() and not (folder / layout.LOG).exists()
+    assert RunFolder(folder).status == "running"  # its dumps changed within marker.QUIET: a writer we cannot see?
+    age(folder, marker.SETTLED + 1)
+    assert RunFolder(folder).status == "unlogged"
     assert main(["summarize", str(folder)]) == 0
-    files = json.loads((folder / layout.SUMMARY).read_text())["files"]
-    assert files == {"folder": str(folder), "trajectory": layout.H5MD, "figure": layout.FIGURE}
+    summary = json.loads((folder / layout.SUMMARY).read_text())
+    assert summary["status"] == "unlogged" and "stopped" not in summary
+    assert summary["files"] == {"folder": str(folder), "trajectory": layout.H5MD, "figure": layout.FIGURE}
+    assert (f"{folder}: no log.lammps (LAMMPS writes it where it runs: `lmp -in` from another folder without -log "
+            f"left it there): the run's end and its friction work are not known; move that log.lammps into {folder} "
+            "and summarize again") in caplog.text
+
+
+def test_outputs_without_a_log_are_a_run_not_a_deck_never_run(tmp_path, monkeypatch):
+    """A deck's dumps with no log.lammps beside them and run.json "written" (run by hand from
+    another folder, its log there): "written" said the deck never ran, and its dumps could be
+    converted while a LAMMPS /proc cannot see still wrote them. Now it is "running" while they
+    change, "unlogged" after marker.QUIET, and settled only after marker.SETTLED, as a hand run
+    "interrupted" by inference; a text dump counts as a binary one does."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    monkeypatch.setattr(marker, "_open_for_writing", lambda path: False)
+    assert RunFolder(folder).status == "written"
+    for dump in (layout.TRAJ_BIN, layout.DUMP):
+        (folder / dump).write_bytes(b"frames")
+        assert RunFolder(folder).status == "running"
+        then = time.time() - marker.QUIET - 1
+        os.utime(folder / dump, (then, then))
+        assert RunFolder(folder).status == "unlogged" and not marker.settled(folder)
+        then = time.time() - marker.SETTLED - 1
+        os.utime(folder / dump, (then, then))
+        assert marker.settled(folder)
+        (folder / dump).unlink()
 
 
 def test_a_hand_run_s_records_keep_the_deck_s_hash_so_an_edit_is_still_said(tmp_path):

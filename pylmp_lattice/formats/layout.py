@@ -60,6 +60,8 @@ RUN_FILES = (DECK, DATA, TABLE, SECOND_TABLE, IMPACTOR, OLD_IMPACTOR, FRONT_LEVE
 # and their files, binary (output.format = "h5md", until converted) and text.
 BINARY_GROUPS = {"chain": TRAJ_BIN, "fine": FINE_BIN}
 TEXT_GROUPS = {"chain": DUMP, "fine": FINE_DUMP}
+# What a run leaves besides its log: its trajectory in any form, and its front record.
+OUTPUTS = (FRONT_BIN, H5MD, *TEXT_GROUPS.values(), *BINARY_GROUPS.values())
 
 # ---- columns
 DUMP_COLUMNS = "id type mass x y z vx vy vz fx fy fz"  # text dumps

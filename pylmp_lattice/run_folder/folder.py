@@ -93,8 +93,8 @@ class RunFolder:
 
     @property
     def status(self) -> str:
-        """How the run stands: "running", "done", "interrupted", "contact", "failed" or
-        "written" (see `marker.status`)."""
+        """How the run stands: "running", "done", "interrupted", "contact", "failed",
+        "unlogged" or "written" (see `marker.status`)."""
         folder = self._folder()
         if not any((folder / name).exists() for name in (layout.CASE, layout.REPLICAS, layout.MARKER)):
             raise UsageError("folder", f"got {str(folder)!r}; expected a run folder (it has no {layout.CASE})")
@@ -270,15 +270,15 @@ class RunFolder:
             raise UsageError(str(self.path), "still being written by LAMMPS; " + (
                 f"its {wait[0]} changed {max(0, int(wait[1]))} s ago; if no LAMMPS writes it any more, summarize "
                 f"again in {math.ceil(wait[2])} s" if wait else "summarize it when the run ends"))
-        ran = [name for name in (layout.LOG, layout.FRONT_BIN, layout.H5MD, layout.DUMP, *layout.BINARY_GROUPS.values())
-               if (self.path / name).is_file()]
-        if status == WRITTEN and not ran:  # nothing to measure (it read as a run with no front)
+        ran = [name for name in (layout.LOG, *layout.OUTPUTS) if (self.path / name).is_file()]
+        if status == WRITTEN:  # no log and no output: nothing to measure (it read as a run with no front)
             raise UsageError(str(self.path), f"holds no {layout.LOG} and no output: a deck never run, or run with its "
                                               f"log elsewhere or none; run it with: (cd {shlex.quote(str(self.path))} "
                                               f"&& pylmp-lattice lmp -in {layout.DECK})")
         if layout.LOG not in ran:
-            log.warning("%s: no %s (a deck run elsewhere logs where it runs: lmp -log PATH/%s): the run's end and its "
-                        "friction work are not known", self.path, layout.LOG, layout.LOG)
+            log.warning("%s: no %s (LAMMPS writes it where it runs: `lmp -in` from another folder without -log left it "
+                        "there): the run's end and its friction work are not known; move that %s into %s and "
+                        "summarize again", self.path, layout.LOG, layout.LOG, self.path)
         earlier = self.summary if self._current(layout.SUMMARY) else None
         if any(name in ran for name in layout.BINARY_GROUPS.values()):
             self.convert()  # a hand-run's dumps become traj.h5md first, so the summary names the file that stays

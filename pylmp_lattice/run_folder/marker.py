@@ -30,6 +30,9 @@ CLAIM_WAIT = 0.5
 WRITTEN, RUNNING, DONE, INTERRUPTED, CONTACT, FAILED = (
     "written", "running", "done", "interrupted", "contact", "failed")
 OLD_DONE = "finished"  # "done" in run.json of version 0.1.0 and before
+# Read, never recorded: a deck that ran (its outputs are there) with no log.lammps in its folder and
+# no runner of this package (`lmp -in` from another folder without -log logs there): its end is not known.
+UNLOGGED = "unlogged"
 # run.json's hash of the deck as written (`deck_hash`), and a batch's number of chains: kept by
 # every later record of the folder.
 DECK_HASH = "deck_sha256"
@@ -145,8 +148,8 @@ def status(folder: Path) -> str:
     """"running" while a runner of this package holds the folder's lock or a process writes its
     log (`being_written`); else how the run ended: "done", "contact", "failed" (the log has
     an ERROR line), "interrupted" (its log has no end and no process writes it: killed, Ctrl-C,
-    a time limit), or "written" for a deck never run. A lock this thread holds is no other
-    runner's (`file_lock`)."""
+    a time limit), "unlogged" (outputs but no log, and no process writes them), or "written"
+    for a deck never run. A lock this thread holds is no other runner's (`file_lock`)."""
     if locked(folder):
         return RUNNING
     data = read(folder) or {}
@@ -155,7 +158,11 @@ def status(folder: Path) -> str:
         return DONE if state == OLD_DONE else state
     text = log_text(folder)
     if text is None:
-        return WRITTEN if state == WRITTEN else INTERRUPTED  # a runner that died before LAMMPS wrote
+        if state == RUNNING:
+            return INTERRUPTED  # a runner that died before LAMMPS wrote
+        if not any((folder / name).exists() for name in layout.OUTPUTS):
+            return WRITTEN
+        return RUNNING if being_written(folder) else UNLOGGED  # run by hand, its log elsewhere or none
     if log_state(text) is None:
         if being_written(folder, quiet=0.0 if writer_gone(data) else QUIET):  # its runner's end is known at once
             return RUNNING
@@ -208,7 +215,7 @@ def being_written(folder: Path, quiet: float = QUIET) -> bool:
 def settled(folder: Path, state: str | None = None) -> bool:
     """Whether the folder's files may be destroyed (its dumps converted, the folder overwritten):
     not while it is "running"; for a run "interrupted" by inference (a hand run's log without an
-    end, no writer seen), only once its log and dumps stayed unchanged for SETTLED seconds; a
+    end, no writer seen) or "unlogged", only once its log and dumps stayed unchanged for SETTLED seconds; a
     runner of this package records its own end, which stands. `state`: its `status`, if known
     (each look scans /proc)."""
     state = status(folder) if state is None else state
@@ -216,7 +223,7 @@ def settled(folder: Path, state: str | None = None) -> bool:
         return False
     data = read(folder) or {}
     inferred = data.get("state", WRITTEN) in (WRITTEN, RUNNING) and not writer_gone(data)
-    return not (state == INTERRUPTED and inferred and _changed_within(folder, SETTLED))
+    return not (state in (INTERRUPTED, UNLOGGED) and inferred and _changed_within(folder, SETTLED))
 
 
 def quiet_wait(folder: Path) -> tuple[str, float, float] | None:
@@ -234,7 +241,7 @@ def quiet_wait(folder: Path) -> tuple[str, float, float] | None:
 def _newest(folder: Path) -> tuple[str, float] | None:
     """The log's or a dump's name that changed last, and its age in seconds; None without them."""
     ages = []
-    for name in (layout.LOG, *layout.BINARY_GROUPS.values()):
+    for name in (layout.LOG, *layout.BINARY_GROUPS.values(), *layout.TEXT_GROUPS.values()):
         with suppress(FileNotFoundError):
             ages.append((time.time() - (folder / name).stat().st_mtime, name))
     return min(ages)[::-1] if ages else None
