@@ -554,6 +554,10 @@ def _program(args) -> int:
         given = ["-h"]
     at = next((i for i, (a, b) in enumerate(zip(given, given[1:])) if a in ("-in", "-i") and Path(b).name == DECK), None)
     folder = Path(given[at + 1]).parent if at is not None else None
+    if args.program == "binary2txt":  # each file checked, each text written safely
+        from .tools import binary2txt
+
+        return binary2txt(given)
     if not (args.program == "lmp" and folder is not None and marker.is_run(folder)):
         return run_program(args.program, given)
     rest = given[:at] + given[at + 2:]

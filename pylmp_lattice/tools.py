@@ -8,12 +8,13 @@ keeps it inside its package folder).
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import os
 import subprocess
 from pathlib import Path
 
-from .errors import RunError
+from .errors import RunError, UsageError
 
 PROGRAMS = ("lmp", "binary2txt")
 
@@ -46,3 +47,64 @@ def run_program(name: str, args: list[str]) -> int:
     # it dies with this process: a hand run's end is this process's (`marker.hand_run`)
     code = subprocess.call([str(program(name)), *args], env=environment(), preexec_fn=die_with_parent)
     return 128 - code if code < 0 else code  # killed by a signal (-N): the shell's 128 + N
+
+
+def binary2txt(args: list[str]) -> int:
+    """The wheel's `binary2txt` on each file of `args`, each checked first and written safely:
+    FILE must be a binary dump (`bindump.open_dump`; a missing file, a folder or another file is
+    refused, naming it: the wheel's program took a text file for a dump and wrote nonsense, and
+    ran for ever on a folder), and FILE.txt is written through a temporary file renamed over it
+    (`files.replacing`: never through a link, whole or not at all). A last frame cut short (a
+    stopped run) is left out with a warning, as the package's readers leave it (the wheel's
+    program wrote it out, filled up with the frame before's numbers). Every file is checked
+    before any is converted; returns the exit code, 0."""
+    import sys
+
+    from .formats.bindump import complete_bytes
+    from .formats.files import refuse_link
+
+    if not args:
+        raise UsageError("FILE", "got none; expected one or more LAMMPS binary dumps, e.g. "
+                                 "pylmp-lattice binary2txt traj.bin (writes traj.bin.txt)")
+    checked = []
+    for arg in args:
+        path = Path(arg)
+        if not path.is_file():
+            raise UsageError("FILE", f"got {arg!r}: {'a folder' if path.is_dir() else 'no such file'}; expected a "
+                                     "LAMMPS binary dump (dump custom, e.g. a run folder's traj.bin)")
+        checked.append((path, complete_bytes(path)))
+        refuse_link(f"{arg}.txt")
+    for path, size in checked:
+        said = _binary2txt(path, size)
+        sys.stdout.write(said)
+        sys.stdout.flush()
+    return 0
+
+
+def _binary2txt(path: Path, size: int) -> str:
+    """FILE.txt of one checked binary dump whose complete frames take `size` bytes; what the
+    program said (`FILE: step step ...`)."""
+    from .formats.files import replacing
+    from .runner import die_with_parent
+
+    with replacing(f"{path}.txt") as tmp:
+        # the program writes NAME.txt for NAME: the temporary file is NAME.txt for a NAME beside
+        # it, made here (O_EXCL: never an existing file or link) as a link to FILE, or a copy of
+        # its complete frames where the last is cut short
+        source = tmp.with_name(tmp.name.removesuffix(".txt"))
+        try:
+            if size == path.stat().st_size:
+                os.symlink(path.resolve(), source)
+            else:
+                fd = os.open(source, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+                with open(fd, "wb") as out, path.open("rb") as f:
+                    while (left := size - out.tell()) > 0 and (block := f.read(min(left, 1 << 24))):
+                        out.write(block)
+            done = subprocess.run([str(program("binary2txt")), source.name], cwd=source.parent, env=environment(),
+                                  stdout=subprocess.PIPE, text=True, preexec_fn=die_with_parent)
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(source)
+        if done.returncode:
+            raise RunError(f"binary2txt: {path}: exit code {done.returncode}: {done.stdout.strip()[-200:]}")
+    return str(path) + done.stdout.removeprefix(source.name)

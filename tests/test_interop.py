@@ -273,6 +273,78 @@ def test_a_hand_run_that_could_not_record_its_end_is_refused_before_lammps(tmp_p
         assert err.rstrip().endswith("run it from inside: (cd 'a b' && pylmp-lattice lmp -in in.lattice)")
 
 
+def _binary_dump(path: Path, frames: int = 3, atoms: int = 4) -> np.ndarray:
+    """A binary dump of `frames` frames of x, vx, fx as one LAMMPS rank writes them; its values
+    (frames, atoms, 3)."""
+    from pylmp_lattice.formats.bindump import write_frame
+
+    values = np.arange(frames * atoms * 3, dtype=float).reshape(frames, atoms, 3) * 0.125 + 0.5
+    parts = []
+    for k in range(frames):
+        write_frame(path, 10 * k, 0.001 * k, "id x vx fx", values[k], ids=True)
+        parts.append(path.read_bytes())
+    path.write_bytes(b"".join(parts))
+    return values
+
+
+def _text_frames(path: Path, atoms: int = 4) -> list[np.ndarray]:
+    """binary2txt's text: each frame's rows (id x vx fx)."""
+    blocks = path.read_text().split("ITEM: ATOMS id x vx fx\n")[1:]
+    return [np.array([[float(w) for w in line.split()] for line in b.splitlines()[:atoms]]) for b in blocks]
+
+
+@pytest.mark.parametrize("given, said", [
+    ([], "FILE: got none; expected one or more LAMMPS binary dumps"),
+    (["absent.bin"], "FILE: got 'absent.bin': no such file; expected a LAMMPS binary dump"),
+    (["folder"], "FILE: got 'folder': a folder; expected a LAMMPS binary dump"),  # it ran for ever
+    (["notes.txt"], "notes.txt: not a LAMMPS dump custom binary file at byte 0"),  # it wrote nonsense, exit 0
+    (["good.bin", "notes.txt"], "notes.txt: not a LAMMPS dump custom binary file"),  # checked before any is written
+])
+def test_binary2txt_refuses_what_is_no_binary_dump_in_one_line(tmp_path, given, said):
+    """`pylmp-lattice binary2txt` with no file, a missing one, a folder or a file of another kind:
+    one line naming it, exit 2, no FILE.txt written (the wheel's program exited 1 or 0, wrote a
+    text of nonsense for a text file, and looped for ever on a folder)."""
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "notes.txt").write_text("# t [ms], u [mm]\n0 0\n")
+    _binary_dump(tmp_path / "good.bin")
+    done = subprocess.run([CLI, "binary2txt", *given], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stderr.startswith(f"pylmp-lattice: error: {said}"), done.stderr
+    assert len(done.stderr.splitlines()) == 1 and done.stdout == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "good.bin", "notes.txt"]
+
+
+def test_binary2txt_never_writes_through_a_link(tmp_path):
+    """A link planted at FILE.txt: refused, one line naming it, exit 2; what it points at is
+    untouched (the wheel's program wrote the text into it)."""
+    _binary_dump(tmp_path / "traj.bin")
+    (tmp_path / "precious").write_text("keep me")
+    (tmp_path / "traj.bin.txt").symlink_to(tmp_path / "precious")
+    done = subprocess.run([CLI, "binary2txt", "traj.bin"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stderr.startswith("pylmp-lattice: error: traj.bin.txt: is a symbolic link")
+    assert (tmp_path / "precious").read_text() == "keep me" and (tmp_path / "traj.bin.txt").is_symlink()
+
+
+def test_binary2txt_writes_every_complete_frame_and_leaves_out_one_cut_short(tmp_path):
+    """Each frame's numbers as the dump holds them; a last frame cut short (a stopped run) is left
+    out with a warning, as the package's readers leave it (the wheel's program wrote it out,
+    filled up with the frame before's numbers), and nothing but FILE.txt is left beside FILE."""
+    values = _binary_dump(tmp_path / "traj.bin", frames=3)
+    whole = (tmp_path / "traj.bin").read_bytes()
+    (tmp_path / "cut.bin").write_bytes(whole[:len(whole) - 20])  # frame 3's last values missing
+    done = subprocess.run([CLI, "binary2txt", "traj.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["traj.bin: 0 10 20", "cut.bin: 0 10"]
+    assert "cut.bin: dropped a truncated last frame (kept 2 frames)" in done.stderr
+    for name, count in (("traj.bin.txt", 3), ("cut.bin.txt", 2)):
+        frames = _text_frames(tmp_path / name)
+        assert len(frames) == count
+        for k, rows in enumerate(frames):
+            assert_array_equal(rows[:, 0], [1, 2, 3, 4])
+            assert_allclose(rows[:, 1:], values[k], rtol=1e-5)  # the program's %g
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.bin", "cut.bin.txt", "traj.bin", "traj.bin.txt"]
+
+
 def test_unknown_program_is_refused():
     from pylmp_lattice.tools import run_program
 
