@@ -136,6 +136,43 @@ def test_fine_group_of_a_run_without_output_fine_is_refused_in_one_line(tmp_path
 
 
 @lammps
+@pytest.mark.parametrize("damage, said", [
+    ("text", "HDF5 cannot open it (Unable to synchronously open file (file signature not found)); expected an H5MD "
+             "file as a run writes it (traj.h5md), whole"),
+    ("cut", "HDF5 cannot open it (Unable to synchronously open file (truncated file: eof = 2000"),
+    ("other", "Unable to synchronously open object (object 'particles' doesn't exist); expected a run's H5MD file: "
+              "particles/trajectory with position, velocity, force, time and mass"),
+])
+def test_a_damaged_h5md_file_is_refused_in_one_line_naming_it(tmp_path, capsys, damage, said):
+    """traj.h5md cut short, of text, or another program's HDF5 file: read_group says which file and
+    what it expects (DumpFormatError), and `export` of its folder exits 2 with that line (trial:
+    h5py's message naming no file, exit 1, and for the HDF5 file without the layout a KeyError's
+    traceback)."""
+    import h5py
+
+    from pylmp_lattice.cli import main
+    from pylmp_lattice.errors import DumpFormatError
+    from pylmp_lattice.formats import h5md
+
+    folder = tmp_path / "run"
+    RunFolder.create(make_case(particles=5, duration=1.0), folder)
+    target = folder / "traj.h5md"
+    if damage == "text":
+        target.write_text("not HDF5\n")
+    else:
+        with h5py.File(target, "w") as h5:
+            h5.create_dataset("other/values", data=np.arange(1000.0))
+        if damage == "cut":
+            target.write_bytes(target.read_bytes()[:2000])
+    with pytest.raises(DumpFormatError) as err:
+        h5md.read_group(target)
+    assert str(err.value).startswith(f"{target}: {said}")
+    assert main(["export", str(folder), "-o", str(tmp_path / "frames.extxyz")]) == 2
+    out = capsys.readouterr().err
+    assert out.startswith(f"pylmp-lattice: error: {target}: {said}") and len(out.splitlines()) == 1, out
+    assert not (tmp_path / "frames.extxyz").exists()
+
+
 def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
     # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 outgrows the table
     case = make_case(particles=10, duration=60.0, table={"r_max": 13.0},

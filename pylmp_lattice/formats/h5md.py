@@ -53,7 +53,7 @@ from . import psf
 from .bindump import BinaryDump
 from .dump import read_log
 from .files import atomic_write
-from ..errors import LatticeError, UsageError
+from ..errors import DumpFormatError, LatticeError, UsageError
 from .layout import TOPOLOGY
 from ..trajectory import Trajectory
 from ..units import H5MD_UNITS, from_engine, to_engine, to_h5md
@@ -187,17 +187,21 @@ def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:
 
 def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajectory:
     """The trajectory of a group in user units; `particles` (0-based indices into the group,
-    increasing) reads only those columns."""
-    import h5py
-
-    with h5py.File(path, "r") as h5:
-        held = [name for name, key in GROUPS.items() if key in h5["particles"]]
-        if group not in held:
-            raise UsageError("group", f"got {group!r}; {path} holds {', '.join(held) or 'no group'}")
-        g = h5["particles"][GROUPS[group]]
-        cols = slice(None) if particles is None else list(particles)
-        x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)
-        t, m = _si(g["position"]["time"], g["position"]["time"][:]), _si(g["mass"], g["mass"][cols])
+    increasing) reads only those columns. DumpFormatError naming the file where it is no H5MD
+    file of this layout (damaged, cut short, another program's)."""
+    with _open(path) as h5:
+        try:
+            held = [name for name, key in GROUPS.items() if key in h5["particles"]]
+            if group not in held:
+                raise UsageError("group", f"got {group!r}; {path} holds {', '.join(held) or 'no group'}")
+            g = h5["particles"][GROUPS[group]]
+            cols = slice(None) if particles is None else list(particles)
+            x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)
+            t, m = _si(g["position"]["time"], g["position"]["time"][:]), _si(g["mass"], g["mass"][cols])
+        except KeyError as err:  # h5py's: a group, dataset or attribute missing
+            raise DumpFormatError(f"{path}: {err.args[0] if err.args else err}; expected a run's H5MD file: "
+                                  f"particles/{GROUPS[group]} with {', '.join(n for n, _, _ in _FIELDS)}, "
+                                  "time and mass, each with its unit") from None
     x = from_engine(x, "length")
     return Trajectory(t=from_engine(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_engine(v, "velocity"),
                       a=from_engine(f / m, "acceleration"))
@@ -206,10 +210,8 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
 def read_observables(path: str | Path) -> dict[str, np.ndarray]:
     """The observables of an H5MD file in user units (energies mJ, min_gap mm, dt ms), and
     their frames' time "t" (ms)."""
-    import h5py
-
     quantity = {name: q for name, (_, q) in OBSERVABLES.items()} | {"dt": "time"}
-    with h5py.File(path, "r") as h5:
+    with _open(path) as h5:
         if "observables" not in h5:
             raise LatticeError(f"{path}: no observables (an older file: its thermo is in the run's log)")
         obs = h5["observables"]
@@ -217,6 +219,21 @@ def read_observables(path: str | Path) -> dict[str, np.ndarray]:
         first = next(iter(obs.values()))
         out["t"] = from_engine(_si(first["time"], first["time"][:]), "time")
     return out
+
+
+def _open(path: str | Path):
+    """An H5MD file, open for reading; DumpFormatError naming it where HDF5 cannot open it (cut
+    short, or no HDF5 file): h5py's message alone named no file (a missing one stays a
+    FileNotFoundError)."""
+    import h5py
+
+    try:
+        return h5py.File(path, "r")
+    except FileNotFoundError:
+        raise
+    except OSError as err:
+        raise DumpFormatError(f"{path}: HDF5 cannot open it ({err}); expected an H5MD file as a run writes it "
+                              "(traj.h5md), whole") from None
 
 
 def _si(dataset, values: np.ndarray) -> np.ndarray:
