@@ -211,6 +211,16 @@ def test_legends_of_a_long_run_cover_no_trace():
 
 @pytest.mark.lammps
 @pytest.mark.slow
+def test_friction_rig_legends_cover_no_trace(quick_studies):
+    """Fig. S4's rig traces (`analysis/friction_calibration.py`, study s4) run from edge to edge:
+    a legend in the upper right hid the last turning points of every panel (trial: 707 points
+    under the quick version's first panel's legend); it sits in headroom above the data."""
+    for ax in panels(quick_studies("s4").figure):
+        assert covered(ax) == 0, ax.get_title()
+
+
+@pytest.mark.lammps
+@pytest.mark.slow
 def test_hugoniot_labels_the_model_chains_reduced_units(quick_studies):
     """The Toda chain (m = A = B = 1) is in reduced units: its panels said m/s and mJ (issue 27
     item 13); the magnets' stay in m/s."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from ... import measures
 from ...case import case_from_dict
-from ...plots import pyplot, style_figure
+from ...plots import legend_above_data, pyplot, style_figure
 from ...run_folder import RunFolder, simulate
 from ..output import StudyResult
 from ..scaffold import FRICTION, MASS, PAPER_FORCE, PAPER_LAW
@@ -72,8 +72,8 @@ def run(out: Path, quick: bool = False) -> StudyResult:
         ax.plot(traj.t, x, lw=0.8, label="middle magnet")
         ax.axhline(r1 / 2, color="k", ls=":", lw=0.8, label="$r_1/2$")
         ax.set(title=f"$r_1$ = {r1:g} mm", xlabel="t (ms)", ylabel="position from the left magnet (mm)")
-        ax.legend(fontsize="x-small", loc="upper right")
-    fit, fit_rows = _calibrate(separations, traces, axes.flat)
+    # the legend's entries side by side where a panel is the figure's width (quick), else one a row
+    fit, fit_rows = _calibrate(separations, traces, axes.flat, ncol=2 if axes.shape[1] == 1 else 1)
     # the paper's panels (c-h) run from the widest to the narrowest rig (quick: the first two letters)
     style_figure(fig, f"Fig. S4: the friction rig, $\\mu$ = {FRICTION['mu']:g}, p = {FRICTION['p']:g}, {duration:g} ms",
                  quick=quick, letters="cdefgh")
@@ -97,8 +97,9 @@ def run(out: Path, quick: bool = False) -> StudyResult:
     return StudyResult(NAME, numbers, tables=tables, figure=fig, quick=quick)
 
 
-def _calibrate(separations, traces, axes):
-    """mu and p fitted to the traces with NOISE added; the fitted model drawn on `axes`."""
+def _calibrate(separations, traces, axes, ncol: int):
+    """mu and p fitted to the traces with NOISE added; the fitted model drawn on `axes`, each
+    legend in `ncol` columns."""
     rng = np.random.default_rng(NOISE_SEED)
     noisy = [x + rng.normal(0.0, NOISE * np.ptp(x), x.size) for _, x in traces]
     times = [t for t, _ in traces]
@@ -109,7 +110,7 @@ def _calibrate(separations, traces, axes):
         model = measures.rig_motion(t, r1, fit.mu, fit.p, PAPER_LAW, MASS, FRICTION["g"], RELEASE_GAP)
         ax.plot(t, y, ",", color="0.6", label=f"with {NOISE:.0%} noise")
         ax.plot(t, model.x, "--", lw=0.8, label=f"fit: $\\mu$ = {fit.mu:.4f}, p = {fit.p:.5f}")
-        ax.legend(fontsize="x-small", loc="upper right")
+        legend_above_data(ax, ncol)  # the traces run from edge to edge: a legend inside hid turning points
         rows.append({"r1_mm": r1, "fitted_rest_position_mm": rest, "fitted_rest_position_error_mm": err,
                      "run_final_position_mm": float(x[-1]), "model_rest_time_ms": model.rest_time})
     return fit, rows
