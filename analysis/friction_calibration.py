@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pylmp_lattice.errors import ConfigError
 from pylmp_lattice.serialize import dumps
 from pylmp_lattice.studies import run_study
 
@@ -18,7 +19,10 @@ def main(argv=None):
     parser.add_argument("-o", "--output", type=Path, default=Path("runs/friction_calibration"))
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
-    result = run_study("s4", args.output, quick=args.quick)
+    try:
+        result = run_study("s4", args.output, quick=args.quick)
+    except ConfigError as err:  # bad input (the output folder): one line and exit 2, as the command line has it
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
     print(dumps(result.numbers["rig"]))
     print(f"figure: {args.output / 's4.png'}")
 

@@ -508,16 +508,10 @@ class _StudyNames:
 
 
 def _study(args) -> int:
-    from .preflight import check_writable
-    from .formats.layout import check_place
-    from .run_folder import marker
     from .studies import run_study
 
-    check_place(_folder(args.output), "study")  # as a run's: never the working directory, a parent of it or runs/
-    if marker.is_run(args.output):  # its figures and tables would sit among the run's files
-        raise UsageError("output", f"{args.output} holds a run of this package; choose a new folder for the study (-o)")
-    check_writable(args.output, "output")
-    result = run_study(args.name, args.output, quick=args.quick)
+    # (run_study checks the folder: never a link, the working directory, a parent of it, runs/ or a run's folder)
+    result = run_study(args.name, _folder(args.output), quick=args.quick)
     _out(f"study {result.name}: wrote {args.output}/{result.name}.json")
     return 0
 

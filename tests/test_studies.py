@@ -68,6 +68,36 @@ def test_an_output_folder_that_is_no_path_is_named():
         run_study("s4", None)
 
 
+@pytest.mark.parametrize("given", ["link", "file"])
+def test_a_study_output_that_is_a_link_or_a_file_is_refused_in_python_and_by_the_analysis_script(tmp_path, given):
+    """The output folder a link (its writes would land where it points) or a file: run_study
+    refuses it as `pylmp-lattice study` does, and analysis/friction_calibration.py says so in
+    one line, exit 2 (trial: the script wrote the study through the link into the folder it
+    named, and for a file died with a traceback, exit 1)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "out"
+    if given == "link":
+        out.symlink_to(elsewhere)
+        said = f"output: got {str(out)!r}: a symbolic link (to {str(elsewhere)!r}); give the folder itself"
+    else:
+        out.write_text("mine")
+        said = f"output: got {str(out)!r}: a file, not a folder"
+    with pytest.raises(UsageError, match="^" + said.replace("(", r"\(").replace(")", r"\)")):
+        run_study("s4", out, quick=True)
+    script = Path(__file__).resolve().parents[1] / "analysis" / "friction_calibration.py"
+    done = subprocess.run([sys.executable, str(script), "-o", str(out), "--quick"], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    assert done.stderr == f"friction_calibration.py: error: {said}" + done.stderr.split(said, 1)[1], done.stderr
+    assert len(done.stderr.splitlines()) == 1
+    assert list(elsewhere.iterdir()) == [] and (out.is_symlink() or out.read_text() == "mine")
+
+
 def test_layout_studies_import_the_scaffold_and_measures_never_each_other():
     """Every study name resolves to a module under studies/paper, studies/literature or studies/ensembles with a
     `run`; no study imports another study (shared pieces live in the scaffold or measures);

@@ -72,6 +72,7 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
     if name not in STUDIES:
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
     out = as_path(out, "out", "the folder for the study's files")
+    check_output(out)
     for each in STUDIES if name == "all" else (name,):  # before any run: none of its writes may follow a link
         refuse_planted_links(out, each)
     log.info("study %s: %s -> %s", name, STUDIES[name], out)
@@ -80,6 +81,22 @@ def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = F
     result = importlib.import_module(study_module(name)).run(out, quick)
     write_study(result, out)
     return result
+
+
+def check_output(out: Path) -> None:
+    """UsageError naming `output` unless `out` may take a study's files: a folder that is no
+    symbolic link (its writes would land wherever it points), not the working directory, a
+    parent of it or runs/ (`layout.check_place`), no run folder of this package (the study's
+    files would sit among the run's), and one this user can write in."""
+    from ..errors import UsageError
+    from ..formats.layout import check_place
+    from ..preflight import check_writable
+    from ..run_folder import marker
+
+    check_place(out, "study")
+    if marker.is_run(out):
+        raise UsageError("output", f"{out} holds a run of this package; choose a new folder for the study (-o)")
+    check_writable(out, "output")
 
 
 def refuse_planted_links(out: Path, name: str) -> None:
