@@ -188,10 +188,11 @@ def shock_figure(profiles, magnets, drive_velocity: float, front: measures.Front
     # fixed margins: a constrained layout would cost more than drawing the panels
     axes = fig.subplots(2, 2, gridspec_kw={"left": 0.07, "right": 0.93, "bottom": 0.07, "top": 0.92,
                                            "wspace": 0.4, "hspace": 0.3})
-    if profiles is None:
-        for ax in (axes[0, 0], axes[1, 1]):
+    if profiles is None:  # the panels' axes as they would be, no ticks: they would number nothing
+        for ax, ylabel in ((axes[0, 0], "v (m/s)"), (axes[1, 1], "peak velocity (m/s)")):
             ax.text(0.5, 0.5, missing, ha="center", va="center",
                     transform=ax.transAxes)
+            ax.set(xlabel="t (ms)", ylabel=ylabel, xticks=[], yticks=[])
     else:
         velocity_profiles(profiles.t, profiles.v, magnets, axes[0, 0])
         oscillation_peaks(profiles.t, profiles.v, magnets, drive_velocity, axes[1, 1])

@@ -154,6 +154,21 @@ def test_run_figure(tmp_path, case_factory, drive):
 
 
 @pytest.mark.lammps
+def test_run_figure_without_a_trajectory_labels_its_empty_panels(tmp_path, case_factory):
+    """output.format = "none": panels (a) and (d) say that no trajectory was written, under their
+    axis labels and without ticks (trial: bare 0-1 axes, no label: numbers of nothing)."""
+    from pylmp_lattice.run_folder import execute
+
+    case = case_factory(particles=30, duration=60.0, impactor=DRIVES["constant"][0], output={"format": "none"})
+    execute(case, tmp_path)
+    a, b, c, d = check_figure(RunFolder(tmp_path).figure(), letters="abcd")
+    for ax, ylabel in ((a, "v (m/s)"), (d, "peak velocity (m/s)")):
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ("t (ms)", ylabel)
+        assert len(ax.get_xticks()) == 0 and len(ax.get_yticks()) == 0
+        assert [t.get_text() for t in ax.texts] == ["no trajectory written\n(output.format = 'none')"]
+
+
+@pytest.mark.lammps
 @pytest.mark.slow
 def test_quick_figures_name_only_what_they_draw(quick_studies):
     """s5 (d, e) and fig3 (d, e): a magnet's entry only with its extrema or frequencies drawn
