@@ -88,6 +88,7 @@ def case_from_atoms(atoms, force: dict, impactor: dict, run: dict, friction: dic
                     table: dict | None = None, name: str = "atoms") -> Case:
     """A case whose chain is `atoms`: x positions (mm) in chain order, masses (g) and, when
     any is nonzero, x velocities (m/s), so a run can start from a frame of another (`to_atoms`).
+    The case keeps the gaps between the positions, not the positions: its magnet 1 starts at x = 0.
 
     The other sections are given as in a TOML case (user units), e.g.
     force = {"law": "power", "K": 413.8, "b": 3.917, "q": 3}. Atom 1 is the impactor (its
