@@ -1,7 +1,7 @@
 """Figures of a run, in the layout of the paper's Fig. 3: functions of arrays, Axes returned.
 
-matplotlib is imported lazily and with the non-interactive Agg backend, so plotting works on
-machines without a screen. `shock_figure` builds its Figure without pyplot (a third less to
+matplotlib is imported lazily and with the non-interactive Agg backend where no backend was
+chosen (`pyplot`), so plotting works on machines without a screen and shows in notebooks. `shock_figure` builds its Figure without pyplot (a third less to
 import, and nothing for pyplot to keep): save it, or show it in a notebook as it is.
 """
 
@@ -13,10 +13,17 @@ from . import measures
 
 
 def pyplot():
-    """matplotlib's pyplot with the Agg backend, imported on first use (it costs a command 0.4 s)."""
+    """matplotlib's pyplot, imported on first use (it costs a command 0.4 s), with the Agg
+    backend (no screen needed) unless one was chosen already: through pyplot, or by the
+    environment (MPLBACKEND, which Jupyter's kernel sets to its inline backend). Forcing Agg
+    always, a panel drawn in a notebook left it showing no figure."""
+    import os
+    import sys
+
     import matplotlib
 
-    matplotlib.use("Agg")
+    if "matplotlib.pyplot" not in sys.modules and not os.environ.get("MPLBACKEND"):
+        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

@@ -48,3 +48,29 @@ def test_shock_figure_is_labelled():
         assert np.all(ticks == np.round(ticks))
     pulse = shock_figure(traj, list(n + 1), 2.0, front, v0=1.6, title="pulse")
     assert not any(str(line.get_label()).startswith("2 $V_I$") for line in pulse.axes[2].lines)
+
+
+@pytest.mark.parametrize("setting, expected", [
+    ("MPLBACKEND=pdf", "pdf"),  # the environment names one (Jupyter's kernel sets MPLBACKEND to its inline backend)
+    ("switch", "svg"),  # the script chose one through pyplot before
+    ("", "agg"),  # none chosen: Agg, which needs no screen
+])
+def test_a_panel_drawn_without_axes_keeps_the_callers_backend(setting, expected):
+    """plots.velocity_profiles(t, v, magnets) with no `ax` draws through pyplot: it forced the
+    Agg backend every time, so in a notebook (or a script that had chosen its backend) no figure
+    showed after it. A backend already chosen is kept; Agg only where none was."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    if setting.startswith("MPLBACKEND="):
+        env["MPLBACKEND"] = setting.split("=", 1)[1]
+    code = ("import numpy as np, matplotlib\n"
+            + ("import matplotlib.pyplot as plt; plt.switch_backend('svg')\n" if setting == "switch" else "")
+            + "from pylmp_lattice.plots import velocity_profiles\n"
+            "velocity_profiles(np.arange(3.0), np.ones((3, 1)), [2])\n"
+            "print(matplotlib.get_backend().lower())\n")
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == expected
