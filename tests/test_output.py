@@ -270,11 +270,17 @@ def test_a_dump_written_by_several_ranks_drops_a_last_frame_cut_in_its_data(tmp_
     """A multi-rank dump whose last frame is cut inside its last chunk's values (a stopped run):
     2 whole frames counted and read, bit for bit (mutation: a chunk's short values not noticed
     while counting, the cut frame counted whole, survived)."""
+    from pylmp_lattice.formats.bindump import complete_bytes
+
     raw, data = _chunked_dump()
     (tmp_path / "traj.bin").write_bytes(raw[:-20])
     dump = open_dump(tmp_path / "traj.bin")
     assert dump.frames == 2
     assert dump.read().data.tobytes() == data[:2].tobytes()
+    # what binary2txt is given of it: the two whole frames' bytes
+    assert complete_bytes(tmp_path / "traj.bin") == len(raw) - len(_chunked_frame(20, 1.0, data[2], 2))
+    (tmp_path / "whole.bin").write_bytes(raw)
+    assert complete_bytes(tmp_path / "whole.bin") == len(raw)
 
 
 def test_a_dump_whose_later_frame_has_another_layout_is_refused(tmp_path):
