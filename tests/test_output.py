@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -281,6 +282,34 @@ def test_a_dump_written_by_several_ranks_drops_a_last_frame_cut_in_its_data(tmp_
     assert complete_bytes(tmp_path / "traj.bin") == len(raw) - len(_chunked_frame(20, 1.0, data[2], 2))
     (tmp_path / "whole.bin").write_bytes(raw)
     assert complete_bytes(tmp_path / "whole.bin") == len(raw)
+
+
+@pytest.mark.parametrize("args, field, got, low", [
+    ((5,), "start", "5", 0), ((-1,), "start", "-1", 0), ((1.5,), "start", "1.5", 0),
+    ((2, 1), "stop", "1", 2), ((0, 4), "stop", "4", 0), ((0, -1), "stop", "-1", 0),
+])
+def test_a_frame_index_out_of_range_is_named_with_the_range(tmp_path, args, field, got, low):
+    """BinaryDump.read(start, stop) of a 3-frame dump: an index outside 0 .. 3 (or a stop before
+    the start) is a UsageError naming it and the range (trial: a start past the end or a stop
+    below it read 0 frames silently, a negative start failed in numpy as "[Errno 22] Invalid
+    argument"); the range's ends read as Python's slices do."""
+    raw, data = _chunked_dump()
+    for name, content in (("chunks.bin", raw), ("one.bin", None)):
+        if content is None:  # one chunk a frame: read as records
+            from pylmp_lattice.formats.bindump import write_frame
+
+            parts = []
+            for k in range(3):
+                write_frame(tmp_path / name, 10 * k, 0.5 * k, "id x vx fx", data[k])
+                parts.append((tmp_path / name).read_bytes())
+            content = b"".join(parts)
+        (tmp_path / name).write_bytes(content)
+        dump = open_dump(tmp_path / name)
+        with pytest.raises(UsageError, match=rf"^{field}: got {re.escape(got)}; expected an integer frame index in "
+                                             rf"{low} \.\. 3 \({name} holds 3 frames\)$"):
+            dump.read(*args)
+        assert dump.read(3).step.tolist() == [] and dump.read(1, 3).step.tolist() == [10, 20]
+        assert dump.read(2).data.tobytes() == data[2:].tobytes()
 
 
 def test_a_dump_whose_later_frame_has_another_layout_is_refused(tmp_path):

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DumpFormatError
+from ..errors import DumpFormatError, UsageError
 from ..trajectory import Trajectory
 from ..units import from_engine
 
@@ -62,8 +62,12 @@ class BinaryDump:
             raise DumpFormatError(f"{self.path}: no column {name!r}; it has {' '.join(self.columns)}") from None
 
     def blocks(self, start: int = 0, stop: int | None = None) -> Iterator[Frames]:
-        """Frames [start, stop) in blocks of about 32 MB."""
-        stop = self.frames if stop is None else min(stop, self.frames)
+        """Frames [start, stop) in blocks of about 32 MB: 0 <= start <= stop <= frames (stop None:
+        to the last), else UsageError naming `start` or `stop` and the range (a start past the end
+        read nothing, a negative one failed in numpy as "Invalid argument")."""
+        _check_frame("start", start, 0, self)
+        _check_frame("stop", self.frames if stop is None else stop, start, self)
+        stop = self.frames if stop is None else stop
         per_block = max(1, _BLOCK_BYTES // max(1, 8 * self.atoms * len(self.columns)))
         if self.frame_dtype is None:
             yield from _walk(self, start, stop, per_block)
@@ -83,6 +87,13 @@ class BinaryDump:
         if len(parts) == 1:  # (a batch's front record: one frame of megabytes, not copied again)
             return parts[0]
         return Frames(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("step", "time", "data")))
+
+
+def _check_frame(name: str, index, low: int, dump: BinaryDump) -> None:
+    """UsageError naming `name` unless `index` is an integer frame index in low .. dump.frames."""
+    if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not low <= index <= dump.frames:
+        raise UsageError(name, f"got {index!r}; expected an integer frame index in {low} .. {dump.frames} "
+                               f"({dump.path.name} holds {dump.frames} frames)")
 
 
 def open_dump(path: str | Path) -> BinaryDump:
