@@ -12,7 +12,8 @@ few particles:
         mass (N,)                 kg
         position/value (F, N, 3)  nm; position/step (F,); position/time (F,) ps
         velocity/value (F, N, 3)  m/s; step and time are position's
-        force/value (F, N, 3)     N: the total force, friction included
+        force/value (F, N, 3)     N: the total force, friction included (magnet 1, whose motion the
+                                  drive imposes: the chain's push and friction, not m a)
     particles/trajectory_fine/    the same for the output.fine magnets, every output.fine_interval
     observables/                  one value per frame of particles/trajectory (its step, time)
         kinetic_energy, potential_energy, total_energy   J (the log's thermo rows)
@@ -187,7 +188,8 @@ def frame_count(path: str | Path, group: str) -> tuple[int, np.ndarray | None]:
 
 def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajectory:
     """The trajectory of a group in user units; `particles` (0-based indices into the group,
-    increasing) reads only those columns. DumpFormatError naming the file where it is no H5MD
+    increasing) reads only those columns. Accelerations are force / mass, also magnet 1's,
+    whose motion the drive imposes (`RunFolder.trajectory` gives its drive's acceleration). DumpFormatError naming the file where it is no H5MD
     file of this layout (damaged, cut short, another program's)."""
     with _open(path) as h5:
         try:
