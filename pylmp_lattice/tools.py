@@ -76,8 +76,9 @@ def binary2txt(args: list[str]) -> int:
         refuse_link(f"{arg}.txt")
     for path, size in checked:
         said = _binary2txt(path, size)
-        sys.stdout.write(said)
-        sys.stdout.flush()
+        if sys.stdout is not None:  # (started with stdout closed: the text files are the result)
+            sys.stdout.write(said)
+            sys.stdout.flush()
     return 0
 
 

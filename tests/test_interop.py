@@ -345,6 +345,16 @@ def test_binary2txt_writes_every_complete_frame_and_leaves_out_one_cut_short(tmp
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.bin", "cut.bin.txt", "traj.bin", "traj.bin.txt"]
 
 
+def test_binary2txt_with_stdout_closed_still_writes_the_text(tmp_path):
+    """Started with stdout closed (`>&-`): FILE.txt written, exit 0, nothing on stderr (no
+    AttributeError on a None sys.stdout)."""
+    _binary_dump(tmp_path / "traj.bin", frames=2)
+    done = subprocess.run(["sh", "-c", f"'{CLI}' binary2txt traj.bin >&-"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert len(_text_frames(tmp_path / "traj.bin.txt")) == 2
+
+
 def test_unknown_program_is_refused():
     from pylmp_lattice.tools import run_program
 
