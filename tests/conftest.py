@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import subprocess
+import time
 import sys
 
 import pytest
@@ -24,8 +25,8 @@ SHM = "/dev/shm"
 def _no_mpich_segment_of_a_killed_process(_mpich_segments_before):
     """A process that MPICH started and that was killed (the tests that kill runs, ranks and
     workers) leaves its 1 MB segment in /dev/shm, in memory until reboot (a full CI run left
-    25-30): after each test, those that appeared since the session began and whose process is
-    gone are removed (a process that dies after its test ends, at the next test's end).
+    25-30): after each test, those that appeared since the session began, whose process is
+    gone and that are over SEGMENT_AGE old are removed (at a later test's end).
     Processes that exit finalize MPI and leave none (`engine._finalize_mpi_at_exit`,
     tests/test_mpi_exit.py)."""
     yield
@@ -35,9 +36,22 @@ def _no_mpich_segment_of_a_killed_process(_mpich_segments_before):
             # an mpiexec job's segment is named by a hash, not a pid: its ranks' until they have
             # all mapped it (one removed then, by another test session on the machine, hung a
             # CI run's 2-rank job), left by a job whose ranks were killed first
-            if not _alive(pid) if pid <= _PID_MAX else not _mapped(name):
+            if (not _alive(pid) if pid <= _PID_MAX else not _mapped(name)) and _older(name, SEGMENT_AGE):
                 with contextlib.suppress(OSError):
                     os.unlink(os.path.join(SHM, name))
+
+
+# A segment younger than this is left for a later test's end: another test session on the machine
+# (tests/test_mpi_exit.py) may be about to look for the one its process left at exit (removed
+# first by this clean-up, it failed that session's check)
+SEGMENT_AGE = 60.0
+
+
+def _older(name: str, seconds: float) -> bool:
+    """Whether /dev/shm/`name` last changed over `seconds` ago (made, or written by its process)."""
+    with contextlib.suppress(OSError):
+        return time.time() - os.stat(os.path.join(SHM, name)).st_ctime > seconds
+    return False
 
 
 @pytest.fixture(scope="session")
