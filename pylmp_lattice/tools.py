@@ -56,7 +56,8 @@ def binary2txt(args: list[str]) -> int:
     ran for ever on a folder), and FILE.txt is written through a temporary file renamed over it
     (`files.replacing`: never through a link, whole or not at all). A last frame cut short (a
     stopped run) is left out with a warning, as the package's readers leave it (the wheel's
-    program wrote it out, filled up with the frame before's numbers). Every file is checked
+    program wrote it out, filled up with the frame before's numbers); the frames are walked one
+    by one to find it (`bindump.complete_bytes`: their atom counts may differ). Every file is checked
     before any is converted; returns the exit code, 0."""
     import sys
 

@@ -335,7 +335,7 @@ def test_binary2txt_writes_every_complete_frame_and_leaves_out_one_cut_short(tmp
                           timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines() == ["traj.bin: 0 10 20", "cut.bin: 0 10"]
-    assert "cut.bin: dropped a truncated last frame (kept 2 frames)" in done.stderr
+    assert f"cut.bin: dropped a truncated last frame at byte {2 * len(whole) // 3}" in done.stderr
     for name, count in (("traj.bin.txt", 3), ("cut.bin.txt", 2)):
         frames = _text_frames(tmp_path / name)
         assert len(frames) == count
@@ -343,6 +343,51 @@ def test_binary2txt_writes_every_complete_frame_and_leaves_out_one_cut_short(tmp
             assert_array_equal(rows[:, 0], [1, 2, 3, 4])
             assert_allclose(rows[:, 1:], values[k], rtol=1e-5)  # the program's %g
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.bin", "cut.bin.txt", "traj.bin", "traj.bin.txt"]
+
+
+def _wheel_text(path: Path, tmp_path: Path) -> bytes:
+    """The wheel's own binary2txt's text of the dump `path` (run on a copy of it, elsewhere)."""
+    from pylmp_lattice.tools import environment, program
+
+    own = tmp_path / "wheel"
+    own.mkdir(exist_ok=True)
+    (own / path.name).write_bytes(path.read_bytes())
+    subprocess.run([str(program("binary2txt")), path.name], cwd=own, env=environment(), check=True,
+                   capture_output=True, timeout=60)
+    return (own / f"{path.name}.txt").read_bytes()
+
+
+def _growing_dump(path: Path) -> tuple[bytes, ...]:
+    """A one-rank binary dump whose frames hold 2, 3 and 4 atoms (`dump_modify thresh`, atoms
+    lost or added): frame k's rows id, x = 1.5 id + k; each frame's bytes."""
+    from pylmp_lattice.formats.bindump import write_frame
+
+    parts = []
+    for k, n in enumerate((2, 3, 4)):
+        write_frame(path, 10 * k, 0.5 * k, "id x", np.arange(1.0, n + 1)[:, None] * 1.5 + k, ids=True)
+        parts.append(path.read_bytes())
+    path.write_bytes(b"".join(parts))
+    return tuple(parts)
+
+
+def test_binary2txt_of_frames_of_changing_atom_counts_is_the_wheels_text(tmp_path):
+    """Frames of 2, 3 and 4 atoms (one rank): passed whole, the text the wheel's program writes
+    byte for byte, no warning (trial: every frame was taken for frame 0's size, the dump "cut
+    short" at 3 x 185 bytes, and the last frame written as `0 0` rows with a false warning);
+    cut inside its last frame, the two whole frames' text."""
+    frames = _growing_dump(tmp_path / "grow.bin")
+    (tmp_path / "cut.bin").write_bytes(b"".join(frames)[:-8])
+    (tmp_path / "two.bin").write_bytes(b"".join(frames[:2]))
+    done = subprocess.run([CLI, "binary2txt", "grow.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["grow.bin: 0 10 20", "cut.bin: 0 10"]
+    assert done.stderr == f"pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte " \
+                          f"{len(frames[0]) + len(frames[1])}\n"
+    text = (tmp_path / "grow.bin.txt").read_bytes()
+    assert text == _wheel_text(tmp_path / "grow.bin", tmp_path)
+    assert text.endswith(b"ITEM: ATOMS id x\n1 3.5\n2 5\n3 6.5\n4 8\n")
+    assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
 
 
 def test_binary2txt_with_stdout_closed_still_writes_the_text(tmp_path):

@@ -121,16 +121,16 @@ def open_dump(path: str | Path) -> BinaryDump:
 
 
 def complete_bytes(path: str | Path) -> int:
-    """How many bytes of a binary dump its complete frames take: its size, less a last frame
-    cut short (a stopped run; `open_dump` warns of it). DumpFormatError for a file that is no
-    binary dump this module reads."""
-    dump = open_dump(path)
-    if dump.frame_dtype is not None:
-        return dump.frames * dump.frame_dtype.itemsize
-    with dump.path.open("rb") as f:  # several chunks a frame (or none): walked to its last complete frame
-        for _ in range(dump.frames):
-            _read_frame(f, dump.path, data=False)
-        return f.tell()
+    """How many bytes of a binary dump its whole frames take, walked frame by frame (a frame's
+    size is its own: atom counts may change between frames, `dump_modify thresh` or atoms lost):
+    its size, less a last frame cut short (a stopped run; a warning says so). DumpFormatError
+    for a file that is no binary dump this module reads."""
+    path = Path(path)
+    end = 0
+    with path.open("rb") as f:
+        while _read_frame(f, path, data=False) is not None:
+            end = f.tell()
+    return end
 
 
 _ROWS = 8192  # write_frame's block of rows (512 kB of 8 columns)
