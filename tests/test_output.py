@@ -284,6 +284,19 @@ def test_a_dump_written_by_several_ranks_drops_a_last_frame_cut_in_its_data(tmp_
     assert complete_bytes(tmp_path / "whole.bin") == len(raw)
 
 
+def test_complete_bytes_takes_the_whole_file_where_frames_end_in_bytes_of_no_frame(tmp_path, caplog):
+    """Two whole frames, then 128 zero bytes (a tail a crash left zeroed): no frame header there
+    (0 columns), so binary2txt is given the whole file, as it was before, with a warning naming
+    the frame and byte (not a cut at the last whole frame: the walk did not end inside one)."""
+    from pylmp_lattice.formats.bindump import complete_bytes
+
+    raw, _ = _chunked_dump(frames=2)
+    (tmp_path / "traj.bin").write_bytes(raw + bytes(128))
+    assert complete_bytes(tmp_path / "traj.bin") == len(raw) + 128
+    assert caplog.messages == [f"{tmp_path / 'traj.bin'}: frame 2 at byte {len(raw)} not parsed here (0 columns; "
+                               "expected >= 1): the whole file is converted, a last frame cut short not left out"]
+
+
 @pytest.mark.parametrize("args, field, got, low", [
     ((5,), "start", "5", 0), ((-1,), "start", "-1", 0), ((1.5,), "start", "1.5", 0),
     ((2, 1), "stop", "1", 2), ((0, 4), "stop", "4", 0), ((0, -1), "stop", "-1", 0),

