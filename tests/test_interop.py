@@ -314,6 +314,42 @@ def test_binary2txt_refuses_what_is_no_binary_dump_in_one_line(tmp_path, given, 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "good.bin", "notes.txt"]
 
 
+def test_binary2txt_refuses_a_folder_at_file_txt_before_converting_anything(tmp_path):
+    """A folder where FILE.txt goes: one line naming it, exit 2, nothing converted, the folder
+    untouched (trial: the dump converted, then exit 1 naming the temporary file, whose rename
+    onto the folder failed)."""
+    _binary_dump(tmp_path / "traj.bin")
+    (tmp_path / "other.bin").write_bytes((tmp_path / "traj.bin").read_bytes())
+    (tmp_path / "traj.bin.txt").mkdir()
+    done = subprocess.run([CLI, "binary2txt", "other.bin", "traj.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == "pylmp-lattice: error: traj.bin.txt: a folder; expected a file or nothing there, for " \
+                          "traj.bin's text\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.bin", "traj.bin", "traj.bin.txt"]
+    assert list((tmp_path / "traj.bin.txt").iterdir()) == []
+
+
+def test_binary2txt_refuses_a_file_of_no_whole_frame_and_converts_an_empty_one(tmp_path):
+    """A text of 3 bytes ("hi"), or a dump cut inside its first frame: no whole frame, refused
+    in one line, exit 2 (trial: an empty FILE.txt and exit 0, with the warning that a last frame
+    was dropped). An empty file (a run stopped before its first frame) converts as the wheel's
+    program converts it: an empty text, exit 0."""
+    (tmp_path / "hi.txt").write_text("hi\n")
+    (tmp_path / "first.bin").write_bytes(b"".join(_growing_dump(tmp_path / "grow.bin"))[:100])
+    for name, size in (("hi.txt", 3), ("first.bin", 100)):
+        done = subprocess.run([CLI, "binary2txt", name], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+        assert (done.returncode, done.stdout) == (2, "")
+        assert done.stderr == f"pylmp-lattice: error: {name}: not a LAMMPS binary dump (dump atom or custom): its " \
+                              f"{size} bytes end inside its first frame; expected one or more whole frames, or an " \
+                              "empty file\n"
+        assert not (tmp_path / f"{name}.txt").exists()
+    (tmp_path / "empty.bin").write_bytes(b"")
+    done = subprocess.run([CLI, "binary2txt", "empty.bin"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert (done.returncode, done.stdout, done.stderr) == (0, "empty.bin:\n", "")
+    assert (tmp_path / "empty.bin.txt").read_bytes() == b"" == _wheel_text(tmp_path / "empty.bin", tmp_path)
+
+
 def test_binary2txt_never_writes_through_a_link(tmp_path):
     """A link planted at FILE.txt: refused, one line naming it, exit 2; what it points at is
     untouched (the wheel's program wrote the text into it)."""

@@ -138,8 +138,10 @@ def complete_bytes(path: str | Path) -> int:
     its end; less a last frame cut short (a stopped run; a warning says so); its size, with a
     warning, where the walk meets a frame it cannot parse after a first one it could, or a first
     frame of a LAMMPS format name or revision not parsed here (DUMPGRID, a newer revision): the
-    program is given it whole, as the package gave it before. DumpFormatError naming the file
-    for one whose first frame is no LAMMPS binary dump frame."""
+    program is given it whole, as the package gave it before. An empty file (a run stopped
+    before its first frame) is 0 bytes, as the program reads it (an empty text). DumpFormatError
+    naming the file for one whose first frame is no LAMMPS binary dump frame, or is cut short
+    (no whole frame: a file of a few bytes is no dump)."""
     path = Path(path)
     end = frames = 0
     with path.open("rb") as f:
@@ -150,6 +152,10 @@ def complete_bytes(path: str | Path) -> int:
                     _skip(f, 8 * _count(f, "values in a chunk"))
                 end, frames = f.tell(), frames + 1
         except EOFError:
+            if frames == 0:
+                raise DumpFormatError(f"{path}: not a LAMMPS binary dump (dump atom or custom): its {size} bytes end "
+                                      "inside its first frame; expected one or more whole frames, or an empty "
+                                      "file") from None
             logger.warning("%s: dropped a truncated last frame at byte %d", path, end)
         except _NotAFrame as err:
             if frames == 0 and not err.lammps:
