@@ -174,6 +174,32 @@ def test_a_damaged_h5md_file_is_refused_in_one_line_naming_it(tmp_path, capsys, 
     assert not (tmp_path / "frames.extxyz").exists()
 
 
+@pytest.mark.parametrize("content, said", [
+    ("step", "Unable to synchronously open object (object 'value' doesn't exist)"),
+    ("none", "observables/ holds none"),
+])
+def test_observables_of_an_h5md_file_of_another_layout_are_refused_in_one_line(tmp_path, content, said):
+    """read_observables of an HDF5 file whose observables lack the run's layout (kinetic_energy
+    with a step only; no observable at all): DumpFormatError naming the file, what is missing
+    and what a run's file holds there, as read_group says it (trial: a KeyError traceback, and
+    a StopIteration one for the empty group)."""
+    import h5py
+
+    from pylmp_lattice.errors import DumpFormatError
+    from pylmp_lattice.formats import h5md
+
+    target = tmp_path / "traj.h5md"
+    with h5py.File(target, "w") as h5:
+        h5.create_group("observables")
+        if content == "step":
+            h5.create_dataset("observables/kinetic_energy/step", data=np.arange(3))
+    with pytest.raises(DumpFormatError) as err:
+        h5md.read_observables(target)
+    assert str(err.value) == (f"{target}: {said}; expected a run's H5MD file: observables/ with some of "
+                              "kinetic_energy, potential_energy, total_energy, friction_work, min_gap, dt, each a "
+                              "value and a time with their unit")
+
+
 def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
     # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 outgrows the table
     case = make_case(particles=10, duration=60.0, table={"r_max": 13.0},

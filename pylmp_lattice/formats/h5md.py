@@ -191,19 +191,16 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
     increasing) reads only those columns. Accelerations are force / mass, also magnet 1's,
     whose motion the drive imposes (`RunFolder.trajectory` gives its drive's acceleration). DumpFormatError naming the file where it is no H5MD
     file of this layout (damaged, cut short, another program's)."""
-    with _open(path) as h5:
-        try:
-            held = [name for name, key in GROUPS.items() if key in h5["particles"]]
-            if group not in held:
-                raise UsageError("group", f"got {group!r}; {path} holds {', '.join(held) or 'no group'}")
-            g = h5["particles"][GROUPS[group]]
-            cols = slice(None) if particles is None else list(particles)
-            x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)
-            t, m = _si(g["position"]["time"], g["position"]["time"][:]), _si(g["mass"], g["mass"][cols])
-        except KeyError as err:  # h5py's: a group, dataset or attribute missing
-            raise DumpFormatError(f"{path}: {err.args[0] if err.args else err}; expected a run's H5MD file: "
-                                  f"particles/{GROUPS[group]} with {', '.join(n for n, _, _ in _FIELDS)}, "
-                                  "time and mass, each with its unit") from None
+    layout = (f"particles/{GROUPS.get(group, group)} with {', '.join(n for n, _, _ in _FIELDS)}, time and mass, "
+              "each with its unit")
+    with _open(path, layout) as h5:
+        held = [name for name, key in GROUPS.items() if key in h5["particles"]]
+        if group not in held:
+            raise UsageError("group", f"got {group!r}; {path} holds {', '.join(held) or 'no group'}")
+        g = h5["particles"][GROUPS[group]]
+        cols = slice(None) if particles is None else list(particles)
+        x, v, f = (_si(g[name]["value"], g[name]["value"][:, cols, 0]) for name, _, _ in _FIELDS)
+        t, m = _si(g["position"]["time"], g["position"]["time"][:]), _si(g["mass"], g["mass"][cols])
     x = from_engine(x, "length")
     return Trajectory(t=from_engine(t, "time"), x0=x[0].copy(), u=x - x[0], v=from_engine(v, "velocity"),
                       a=from_engine(f / m, "acceleration"))
@@ -211,31 +208,44 @@ def read_group(path: str | Path, group: str = "chain", particles=None) -> Trajec
 
 def read_observables(path: str | Path) -> dict[str, np.ndarray]:
     """The observables of an H5MD file in user units (energies mJ, min_gap mm, dt ms), and
-    their frames' time "t" (ms)."""
+    their frames' time "t" (ms). DumpFormatError naming the file where it is no H5MD file of
+    this layout (damaged, cut short, another program's)."""
     quantity = {name: q for name, (_, q) in OBSERVABLES.items()} | {"dt": "time"}
-    with _open(path) as h5:
+    layout = f"observables/ with some of {', '.join(quantity)}, each a value and a time with their unit"
+    with _open(path, layout) as h5:
         if "observables" not in h5:
             raise LatticeError(f"{path}: no observables (an older file: its thermo is in the run's log)")
         obs = h5["observables"]
+        if not len(obs):
+            raise KeyError("observables/ holds none")  # (said as a group missing is: `_open`)
         out = {name: from_engine(_si(obs[name]["value"], obs[name]["value"][:]), quantity[name]) for name in obs}
         first = next(iter(obs.values()))
         out["t"] = from_engine(_si(first["time"], first["time"][:]), "time")
     return out
 
 
-def _open(path: str | Path):
-    """An H5MD file, open for reading; DumpFormatError naming it where HDF5 cannot open it (cut
-    short, or no HDF5 file): h5py's message alone named no file (a missing one stays a
-    FileNotFoundError)."""
+@contextlib.contextmanager
+def _open(path: str | Path, layout: str):
+    """An H5MD file, open for reading, for a block that reads `layout` of it (what a run's file
+    holds there, said in errors). DumpFormatError naming the file where HDF5 cannot open it (cut
+    short, or no HDF5 file: h5py's message alone named no file; a missing one stays a
+    FileNotFoundError), and where the block meets h5py's KeyError (a group, dataset or
+    attribute missing: the file is not of this layout) or a unit not named here."""
     import h5py
 
     try:
-        return h5py.File(path, "r")
+        h5 = h5py.File(path, "r")
     except FileNotFoundError:
         raise
     except OSError as err:
         raise DumpFormatError(f"{path}: HDF5 cannot open it ({err}); expected an H5MD file as a run writes it "
                               "(traj.h5md), whole") from None
+    with h5:
+        try:
+            yield h5
+        except KeyError as err:
+            raise DumpFormatError(f"{path}: {err.args[0] if err.args else err}; expected a run's H5MD file: "
+                                  f"{layout}") from None
 
 
 def _si(dataset, values: np.ndarray) -> np.ndarray:
