@@ -136,7 +136,6 @@ def test_fine_group_of_a_run_without_output_fine_is_refused_in_one_line(tmp_path
         h5md.read_group(tmp_path / "traj.h5md", "fine")
 
 
-@lammps
 @pytest.mark.parametrize("damage, said", [
     ("text", "HDF5 cannot open it (Unable to synchronously open file (file signature not found)); expected an H5MD "
              "file as a run writes it (traj.h5md), whole"),
@@ -200,6 +199,7 @@ def test_observables_of_an_h5md_file_of_another_layout_are_refused_in_one_line(t
                               "value and a time with their unit")
 
 
+@lammps
 def test_lammps_error_keeps_every_frame_written_before_it(tmp_path):
     # a short pulse: once the impactor stops, the chain runs away from it and gap 1-2 outgrows the table
     case = make_case(particles=10, duration=60.0, table={"r_max": 13.0},
