@@ -144,7 +144,7 @@ def test_a_writer_proc_cannot_see_keeps_the_run_whole(tmp_path, monkeypatch):
 
     case = make_case(particles=10, duration=1.0)
     folder = deck(tmp_path, case)
-    monkeypatch.setattr(marker, "_open_for_writing", lambda path: False)
+    monkeypatch.setattr(marker, "_open_for_writing", lambda *paths: False)
     (folder / layout.LOG).write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
     (folder / layout.TRAJ_BIN).write_bytes(b"frames")
     assert RunFolder(folder).status == "running"
@@ -162,7 +162,7 @@ def test_without_proc_a_quiet_log_is_no_longer_written(tmp_path, monkeypatch):
     """Where /proc cannot tell who holds the log, a log without an end that changed in the last
     marker.QUIET seconds is "running", an older one "interrupted"."""
     folder = deck(tmp_path, make_case(particles=10, duration=1.0))
-    monkeypatch.setattr(marker, "_open_for_writing", lambda path: None)
+    monkeypatch.setattr(marker, "_open_for_writing", lambda *paths: None)
     log = folder / layout.LOG
     log.write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
     assert RunFolder(folder).status == "running"
@@ -338,7 +338,7 @@ def test_outputs_without_a_log_are_a_run_not_a_deck_never_run(tmp_path, monkeypa
     change, "unlogged" after marker.QUIET, and settled only after marker.SETTLED, as a hand run
     "interrupted" by inference; a text dump counts as a binary one does."""
     folder = deck(tmp_path, make_case(particles=10, duration=1.0))
-    monkeypatch.setattr(marker, "_open_for_writing", lambda path: False)
+    monkeypatch.setattr(marker, "_open_for_writing", lambda *paths: False)
     assert RunFolder(folder).status == "written"
     for dump in (layout.TRAJ_BIN, layout.DUMP):
         (folder / dump).write_bytes(b"frames")
@@ -350,6 +350,66 @@ def test_outputs_without_a_log_are_a_run_not_a_deck_never_run(tmp_path, monkeypa
         os.utime(folder / dump, (then, then))
         assert marker.settled(folder)
         (folder / dump).unlink()
+
+
+def test_a_dump_held_open_by_a_lammps_run_from_elsewhere_is_still_being_written(tmp_path, capsys):
+    """`lmp -in D/in.lattice` from another folder without -log holds D's traj.bin open, its
+    frames more than marker.QUIET apart: /proc was asked only about D/log.lammps, which is not
+    there, so D read "unlogged" while LAMMPS wrote it (summarize measured partial data), the
+    refusal of --overwrite said "a LAMMPS this machine cannot see", and `pylmp-lattice lmp -in
+    D/in.lattice` ran over its dumps. Now a dump held open for writing is "running": summarize,
+    --overwrite and a hand run are refused as for a folder still written, nothing touched; once
+    no process holds it, it is "unlogged", and the hand run waits for marker.SETTLED as
+    --overwrite does, saying how long."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    capsys.readouterr()
+    with open(folder / layout.TRAJ_BIN, "ab") as writer:  # the LAMMPS (here this process) that writes it
+        writer.write(b"frames")
+        writer.flush()
+        then = time.time() - marker.QUIET - 1  # its last frame written before marker.QUIET
+        os.utime(folder / layout.TRAJ_BIN, (then, then))
+        assert RunFolder(folder).status == "running"
+        assert main(["summarize", str(folder)]) == 2
+        assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 2
+        assert main(["lmp", "-in", str(folder / layout.DECK)]) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            f"pylmp-lattice: error: {folder}: still being written by LAMMPS; summarize it when the run ends",
+            f"pylmp-lattice: error: output: {folder} holds a run that is still being written; wait for it or stop it",
+            f"pylmp-lattice: error: -in: {folder} holds a run that is still being written; wait for it or stop it"]
+    assert (folder / layout.TRAJ_BIN).read_bytes() == b"frames" and marker.read(folder)["state"] == "written"
+    assert not (folder / layout.SUMMARY).exists() and not (folder / layout.LOG).exists()
+    then = time.time() - marker.QUIET - 1.5
+    os.utime(folder / layout.TRAJ_BIN, (then, then))
+    assert RunFolder(folder).status == "unlogged"
+    assert main(["lmp", "-in", str(folder / layout.DECK)]) == 2
+    assert main(["deck", str(tmp_path / "d.toml"), "-o", str(folder), "--overwrite"]) == 2
+    why = (f"{folder} holds a run whose {layout.TRAJ_BIN} changed 31 s ago, with no writer seen; a LAMMPS this "
+           f"machine cannot see (another user's, or another machine's on a shared folder) may still write it until "
+           f"it stays unchanged for 600 s: wait 569 s, ")
+    assert capsys.readouterr().err.splitlines() == [
+        f"pylmp-lattice: error: -in: {why}or remove its log and dumps yourself if no LAMMPS writes them",
+        f"pylmp-lattice: error: output: {why}or remove the folder yourself"]
+    assert (folder / layout.TRAJ_BIN).read_bytes() == b"frames" and marker.read(folder)["state"] == "written"
+
+
+def test_proc_is_asked_about_the_files_there_only(tmp_path, monkeypatch):
+    """With no log.lammps, `status` scanned all of /proc for it (8 ms, against 0.08 ms), a file
+    that cannot be open. Now /proc is asked once, about the log if there is one, else the
+    outputs the folder holds; a folder with neither is not looked for."""
+    folder = deck(tmp_path, make_case(particles=10, duration=1.0))
+    asked = []
+    monkeypatch.setattr(marker, "_open_for_writing", lambda *paths: asked.append(paths) and False)
+    then = time.time() - marker.QUIET - 1
+    assert RunFolder(folder).status == "written" and marker.quiet_wait(folder) is None and asked == []
+    for name in (layout.DUMP, layout.FRONT_BIN):
+        (folder / name).write_bytes(b"out")
+        os.utime(folder / name, (then, then))
+    assert RunFolder(folder).status == "unlogged"
+    assert asked == [(folder / layout.FRONT_BIN, folder / layout.DUMP)]
+    (folder / layout.LOG).write_text("LAMMPS (22 Jul 2025)\nStep Time\n0 0\n")
+    os.utime(folder / layout.LOG, (then, then))
+    asked.clear()
+    assert RunFolder(folder).status == "interrupted" and asked == [(folder / layout.LOG,)]
 
 
 def test_a_hand_run_s_records_keep_the_deck_s_hash_so_an_edit_is_still_said(tmp_path):

@@ -68,13 +68,7 @@ def _holds_run(path: Path, overwrite: bool) -> bool:
         if not overwrite:
             raise UsageError("output", f"{path} already holds a run; pass --overwrite (overwrite=True) to "
                                         "replace it, or choose another --name or -o")
-        state = marker.status(path)
-        if state == marker.RUNNING:
-            raise UsageError("output", f"{path} holds a run that is still being written; wait for it or stop it")
-        if not marker.settled(path, state):
-            raise UsageError("output", f"{path} holds a run that stopped less than {marker.SETTLED:.0f} s ago, which a "
-                                        "LAMMPS this machine cannot see may still write; wait, or remove the folder "
-                                        "yourself")
+        marker.refuse_unsettled(path, "output", "or remove the folder yourself")
         odd = [name for name in layout.RUN_FILES if (path / name).exists() and not (path / name).is_symlink()
                and not (path / name).is_file()]
         if odd:  # checked before anything is removed: an overwrite never stops half-way

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import socket
 import time
@@ -42,9 +43,9 @@ HAND_RUNNER = "pylmp-lattice lmp"  # run.json's runner of a hand run (`hand_run`
 # as no longer written (`being_written`): /proc can show a writer, never that none exists (one of
 # another user, or on another machine writing a shared folder).
 QUIET = 30.0
-# Seconds they must stay unchanged before anything destroys files of such an "interrupted" run
-# (converting its dumps, --overwrite: `settled`): a writer /proc cannot see may write a frame
-# only every few minutes.
+# Seconds they must stay unchanged before anything destroys files of such an "interrupted" run, or
+# an "unlogged" one (converting its dumps, --overwrite, a hand run: `settled`): a writer /proc
+# cannot see may write a frame only every few minutes.
 SETTLED = 600.0
 
 
@@ -126,14 +127,17 @@ def claimed(folder: Path):
         try:
             stack.enter_context(exclusive(folder / layout.LOCK, timeout=CLAIM_WAIT))
         except Held as err:
-            raise UsageError("output", f"{folder} holds a run that is still being written; wait for it or "
-                                        "stop it") from err
+            raise _still_written(folder, "output") from err
         yield
 
 
 def locked(folder: Path) -> bool:
     """Whether another runner or writer of this package (a process, or another thread) holds the folder's lock."""
     return is_held(folder / layout.LOCK)
+
+
+def _still_written(folder: Path, field: str) -> UsageError:
+    return UsageError(field, f"{folder} holds a run that is still being written; wait for it or stop it")
 
 
 def log_text(folder: Path) -> str | None:
@@ -146,7 +150,7 @@ def log_text(folder: Path) -> str | None:
 
 def status(folder: Path) -> str:
     """"running" while a runner of this package holds the folder's lock or a process writes its
-    log (`being_written`); else how the run ended: "done", "contact", "failed" (the log has
+    log, or without one its outputs (`being_written`); else how the run ended: "done", "contact", "failed" (the log has
     an ERROR line), "interrupted" (its log has no end and no process writes it: killed, Ctrl-C,
     a time limit), "unlogged" (outputs but no log, and no process writes them), or "written"
     for a deck never run. A lock this thread holds is no other runner's (`file_lock`)."""
@@ -187,9 +191,11 @@ def hand_run(folder: Path):
     "running" by this process while LAMMPS (in this process) runs, and its end recorded from
     the log, or "interrupted" at the time LAMMPS's soft stop ended it (`Interrupted`), so that
     `status` knows at once that it ended, however it ended. A link at any run file's name is
-    refused before LAMMPS starts, as the road's claim refuses it."""
+    refused before LAMMPS starts, as the road's claim refuses it, and so is a folder another
+    LAMMPS may still write (`refuse_unsettled`: LAMMPS would truncate its log and dumps)."""
     with claimed(folder):
         files.refuse_links(folder, layout.RUN_FILES)  # LAMMPS opens its files by name: never through a link
+        refuse_unsettled(folder, "-in", "or remove its log and dumps yourself if no LAMMPS writes them")
         record(folder, RUNNING, runner=HAND_RUNNER)
         try:
             yield
@@ -204,12 +210,41 @@ def hand_run(folder: Path):
 
 
 def being_written(folder: Path, quiet: float = QUIET) -> bool:
-    """Whether a process may still write the run in `folder` (its log has not ended): a process
-    of this machine holds the log open for writing (Linux's /proc/*/fd, as `lsof` does: at once,
-    where a file's age is not, LAMMPS flushing its log at each thermo row only), or the log or a
-    dump changed in the last QUIET seconds (what /proc cannot see: a process of another user,
-    LAMMPS on another machine writing a shared folder, a system without /proc)."""
-    return bool(_open_for_writing(folder / layout.LOG)) or (quiet > 0 and _changed_within(folder, quiet))
+    """Whether a process may still write the run in `folder` (its log has not ended, or it has
+    none): a process of this machine holds the log open for writing, or without a log one of
+    the outputs there (`_writer_seen`), or the log or a dump changed in the last QUIET seconds
+    (what /proc cannot see: a process of another user, LAMMPS on another machine writing a
+    shared folder, a system without /proc)."""
+    return _writer_seen(folder) or (quiet > 0 and _changed_within(folder, quiet))
+
+
+def _writer_seen(folder: Path) -> bool:
+    """Whether /proc shows a process of this machine holding the run's log open for writing (as
+    `lsof` does: at once, where a file's age is not, LAMMPS flushing its log at each thermo row
+    only); without a log, one of the outputs the folder holds (a LAMMPS run from another folder
+    without -log logs there, but holds these dumps open). One look at /proc, none for a folder
+    with neither (a file that does not exist has no writer)."""
+    log = folder / layout.LOG
+    paths = [log] if log.exists() else [folder / name for name in layout.OUTPUTS if (folder / name).exists()]
+    return bool(paths) and bool(_open_for_writing(*paths))
+
+
+def refuse_unsettled(folder: Path, field: str, remedy: str) -> str:
+    """UsageError naming `field` while the run in `folder` may still be written, so that nothing
+    replaces its files (`--overwrite`, a hand run): "running" (`status`), or "interrupted" or
+    "unlogged" by inference and not yet `settled`, which says the file that changed last, its
+    age and how long to wait, then `remedy` (the caller's other way out). Else its status."""
+    state = status(folder)
+    if state == RUNNING:
+        raise _still_written(folder, field)
+    newest = None if settled(folder, state) else _newest(folder)
+    if newest is not None:  # (None: its files went meanwhile, nothing left to write over)
+        name, age = newest
+        raise UsageError(field, f"{folder} holds a run whose {name} changed {max(0, int(age))} s ago, with no writer "
+                                f"seen; a LAMMPS this machine cannot see (another user's, or another machine's on a "
+                                f"shared folder) may still write it until it stays unchanged for {SETTLED:.0f} s: "
+                                f"wait {math.ceil(SETTLED - age)} s, {remedy}")
+    return state
 
 
 def settled(folder: Path, state: str | None = None) -> bool:
@@ -228,9 +263,10 @@ def settled(folder: Path, state: str | None = None) -> bool:
 
 def quiet_wait(folder: Path) -> tuple[str, float, float] | None:
     """When a run is "running" by its files' ages alone (no runner of this package holds it, no
-    process of this machine writes its log): the file that changed last, its age and the seconds
-    until `being_written` stops counting it; None otherwise (no time can be said)."""
-    if locked(folder) or _open_for_writing(folder / layout.LOG) or writer_gone(read(folder)):
+    process of this machine writes its log or, without one, its outputs: `_writer_seen`): the
+    file that changed last, its age and the seconds until `being_written` stops counting it;
+    None otherwise (no time can be said)."""
+    if locked(folder) or _writer_seen(folder) or writer_gone(read(folder)):
         return None
     newest = _newest(folder)
     if newest is None or newest[1] >= QUIET:
@@ -252,10 +288,11 @@ def _changed_within(folder: Path, seconds: float) -> bool:
     return newest is not None and newest[1] < seconds
 
 
-def _open_for_writing(path: Path) -> bool | None:
-    """Whether a process holds `path` open for writing, by /proc; None if /proc cannot tell."""
+def _open_for_writing(*paths: Path) -> bool | None:
+    """Whether a process holds one of `paths` open for writing, by /proc (one look for all);
+    None if /proc cannot tell."""
     try:
-        real = os.path.realpath(path)
+        real = {os.path.realpath(path) for path in paths}
         os.listdir("/proc/self/fd")
     except OSError:
         return None
@@ -267,7 +304,7 @@ def _open_for_writing(path: Path) -> bool | None:
         for name in names:
             with suppress(OSError):
                 # the link's text, no stat: a file on a hung network mount must not block the look
-                if os.readlink(fds / name) == real and _writes(fds.parent / "fdinfo" / name):
+                if os.readlink(fds / name) in real and _writes(fds.parent / "fdinfo" / name):
                     return True
     return False
 
