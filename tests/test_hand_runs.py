@@ -312,7 +312,9 @@ def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path,
     """`lmp -in D/in.lattice -var dir D` from another folder logs there: D read as "written" (a
     deck never run) and its summary said so; its "files" named a log all the same. Now D is
     "running" while its dumps are fresh, then "unlogged", and the summary says that status, names
-    the files D holds (the trajectory and figure, no log) and the warning what to do."""
+    the files D holds (the trajectory and figure, no log) and the warning what to do. Its end is
+    not known: the summary had no "stopped" entry and the figure no note, as if it had finished
+    (a killed one too); they say its last frame, as an interrupted run's do."""
     folder = deck(tmp_path, make_case(particles=8, duration=2.0))
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
@@ -324,7 +326,9 @@ def test_a_deck_run_with_its_log_elsewhere_names_no_log_in_its_summary(tmp_path,
     assert RunFolder(folder).status == "unlogged"
     assert main(["summarize", str(folder)]) == 0
     summary = json.loads((folder / layout.SUMMARY).read_text())
-    assert summary["status"] == "unlogged" and "stopped" not in summary
+    assert summary["status"] == "unlogged" and summary["stopped"] == {"reason": "unlogged", "time_ms": 2.0}
+    assert RunFolder(folder).figure()._suptitle.get_text() == (
+        "test: $V_I$ = 2 m/s, N = 8; stopped at 2 of 2 ms (unlogged)")
     assert summary["files"] == {"folder": str(folder), "trajectory": layout.H5MD, "figure": layout.FIGURE}
     assert (f"{folder}: no log.lammps (LAMMPS writes it where it runs: `lmp -in` from another folder without -log "
             f"left it there): the run's end and its friction work are not known; move that log.lammps into {folder} "

@@ -40,7 +40,7 @@ from ..formats.files import atomic_write, refuse_link, refuse_links, replacing
 from . import marker
 from .cases import read_cases
 from .convert import convert_dumps
-from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING, WRITTEN
+from .marker import CONTACT, FAILED, INTERRUPTED, RUNNING, UNLOGGED, WRITTEN
 from .write import write_folder
 
 log = logging.getLogger(__name__)
@@ -256,7 +256,7 @@ class RunFolder:
         """Write summary.json (strict JSON: an undefined measure is null), then the figure; return
         the summary. Works for any run folder LAMMPS no longer writes: finished, run by hand,
         stopped by a contact, failed or interrupted (measured up to where it stopped; `stopped`
-        says where). A folder still being written is refused (UsageError): its numbers would be
+        says where), or unlogged (its end not known: `stopped` says its last frame). A folder still being written is refused (UsageError): its numbers would be
         partial. A deck edited since it was written is said so (`deck_changes`). What an earlier
         summary of the same run holds and this one does not redo stays: its wall time, and its
         figure when not drawn again. A figure that fails is a warning: the summary is already
@@ -356,17 +356,18 @@ class RunFolder:
         return changes
 
     def _stopped(self, status: str) -> dict | None:
-        """Where a run that did not finish stopped: a contact (pair, time, gap) or the last time
-        it wrote (an interrupt, or an error: its message, from run.json or the log's ERROR line)."""
+        """Where a run that did not finish, or whose end is not known, stopped: a contact (pair,
+        time, gap) or the last time it wrote (an interrupt; an error, with its message from
+        run.json or the log's ERROR line; a run "unlogged", whose log would say whether it ended
+        there)."""
         if status == CONTACT:
             c = self.contact()
             return {"reason": "contact", "magnets": list(c.magnets), "time_ms": c.time_ms, "gap_mm": c.gap_mm}
-        if status in (INTERRUPTED, FAILED):
+        if status in (INTERRUPTED, FAILED, UNLOGGED):
             record = marker.read(self.path) or {}
             error = record.get("error") or (error_line(marker.log_text(self.path) or "")
                                             if status == FAILED else None)
-            return {"reason": "interrupted" if status != FAILED else "failed",
-                    "time_ms": record.get("time_ms", self._last_time()),
+            return {"reason": status, "time_ms": record.get("time_ms", self._last_time()),
                     **({"error": error} if error else {})}
         return None
 
@@ -378,7 +379,7 @@ class RunFolder:
 
     def figure(self):
         """Fig. 3(a-d) of the run, titled with the case, V_I, N and where a run that did not
-        finish stopped: profiles from the fine output if any, else a few magnets the front
+        finish, or whose end is not known, stopped (`_stopped`): profiles from the fine output if any, else a few magnets the front
         reached; panels (a, d) empty without a trajectory."""
         from ..plots import shock_figure
         from ..case_measures import linear_constants
@@ -391,7 +392,7 @@ class RunFolder:
         vi, v0 = case.impactor.peak_velocity(), linear_constants(case)[0]
         title = f"{case.name}: $V_I$ = {vi:g} m/s, N = {case.chain.particles}"
         stopped = self._stopped(self.status) or {}
-        if stopped.get("time_ms") is not None:  # a run that ended early says so: its panels end there
+        if stopped.get("time_ms") is not None:  # a run that ended early (or may have) says so: its panels end there
             title += f"; stopped at {stopped['time_ms']:.5g} of {case.run.duration:g} ms ({stopped['reason']})"
         # the first peaks saturate at 2 V_I under a steady drive without friction only
         steady = case.impactor.profile in ("constant", "ramp") and case.friction is None
