@@ -65,14 +65,17 @@ def hugoniot_chains() -> str:
 
 
 def hugoniot_fits() -> str:
-    """Each chain's c0 and weak-shock s beside the fitted U_s(u_p) lines (docs/literature/hugoniot.json)."""
+    """Each chain's c0 and weak-shock s beside the fitted U_s(u_p) lines, in the units of the
+    chain's points (the model chains' reduced units; docs/literature/hugoniot.json)."""
+    data = read_json("literature/hugoniot.json")
+    units = {p["chain"]: p["units"] for p in data["points"]}
     rows = []
-    for chain, t in read_json("literature/hugoniot.json")["theory_and_fits"].items():
+    for chain, t in data["theory_and_fits"].items():
         a, h = t["fit_all"], t["fit_lower_half"]
-        rows.append([chain, fixed(t["c0_m_per_s"], 4), fixed(t["s_weak_shock"], 4), fixed(t["s_kdv_leading_edge"], 4),
-                     f"{fixed(a['c0_m_per_s'], 4)} + {fixed(a['s'], 4)} u_p",
+        rows.append([chain, units[chain], fixed(t["c0_m_per_s"], 4), fixed(t["s_weak_shock"], 4),
+                     fixed(t["s_kdv_leading_edge"], 4), f"{fixed(a['c0_m_per_s'], 4)} + {fixed(a['s'], 4)} u_p",
                      f"{fixed(h['c0_m_per_s'], 4)} + {fixed(h['s'], 4)} u_p (u_p <= {h['u_p_max_m_per_s']:g})"])
-    return table(["chain", "c0 (m/s)", "s (weak shock)", "4s/3", "fit, all u_p", "fit, lower half"], rows)
+    return table(["chain", "units", "c0", "s (weak shock)", "4s/3", "fit, all u_p", "fit, lower half"], rows)
 
 
 def hugoniot_points() -> str:

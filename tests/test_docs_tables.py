@@ -111,3 +111,19 @@ def test_the_script_checks_and_rewrites(tmp_path, monkeypatch, capsys):
     assert tables.main([]) == 0 and tables.main(["--check"]) == 0
     assert (docs / "reproduction.md").read_text() == (DOCS / "reproduction.md").read_text()
     assert (tmp_path / "README.md").read_text() == (DOCS / "../README.md").read_text()
+
+
+def test_the_hugoniot_tables_say_each_chain_s_units():
+    """The fits table headed the Toda, LJ and Morse rows' c0 "(m/s)" while their numbers are in
+    the models' reduced units (the points table says so in a units column): each fits row says
+    its chain's units, as its points do, and no header says m/s."""
+    import json
+
+    lit = (DOCS / "literature.md").read_text()
+    block = lit[lit.index("<!-- table hugoniot-fits"):lit.index("<!-- end table hugoniot-fits")].splitlines()
+    assert block[1] == "| chain | units | c0 | s (weak shock) | 4s/3 | fit, all u_p | fit, lower half |"
+    shown = {row.split(" | ")[0][2:]: row.split(" | ")[1] for row in block[3:]}
+    points = json.loads((DOCS / "literature" / "hugoniot.json").read_text())["points"]
+    assert shown == {p["chain"]: p["units"] for p in points} == {
+        "magnet": "m/s, mm, N, mJ", "toda": "reduced, m = A = B = 1", "lj": "reduced, m = epsilon = sigma = 1",
+        "morse": "reduced, m = D = 1, alpha r_e = 6"}
