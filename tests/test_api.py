@@ -134,3 +134,47 @@ def test_a_switch_that_is_no_bool_is_named_not_taken_for_true(tmp_path, monkeypa
     assert str(err.value) == "retry_failed: got 'no'; expected True or False"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["base.toml", "r", "sweep.toml"]
     assert pl.RunFolder.create(case, "r", overwrite=np.True_).path.name == "r"  # replaced: a numpy bool is one
+
+
+@pytest.mark.lammps
+def test_every_switch_is_checked_before_its_work(tmp_path, monkeypatch):
+    """Switches require_bool did not see: RunFolder.summarize(figure="no") (and summarize_folder)
+    drew shock.png, run_study(quick="no") ran the small study, `echo` with an Engine as the
+    runner was never looked at, and pl.estimate(measure="no") measured LAMMPS's start-up. Each
+    is now one line naming it, before anything is read, run or written."""
+    from pylmp_lattice import overhead
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.run_folder.folder import summarize_folder
+    from pylmp_lattice.studies import run_study
+    from pylmp_lattice.studies.literature import toda
+
+    monkeypatch.chdir(tmp_path)
+    case = pl.case_from_dict({"chain": {"particles": 5, "mass": 1.0, "r0": 12.0, "far_end": "fixed"},
+                              "force": {"law": "power"}, "impactor": {"profile": "constant", "velocity": 1.0},
+                              "run": {"duration": 1.0, "dt": 0.01, "output_interval": 0.1}})
+    pl.run(case, "r", figure=False)
+    before = {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()}
+    ran = []
+
+    class Engine:
+        nprocs = 1
+
+        def check(self, path):
+            ran.append(path)
+
+        def __call__(self, path, on_step=None):
+            ran.append(path)
+
+    monkeypatch.setattr(toda, "run", lambda out, quick: ran.append(quick))
+    monkeypatch.setattr(overhead, "overheads", lambda measure: ran.append(measure))
+    for call, message in ((lambda: pl.RunFolder("r").summarize(figure="no"), "figure: got 'no'; expected True or False"),
+                          (lambda: summarize_folder("r", figure=0), "figure: got 0; expected True or False"),
+                          (lambda: run_study("toda", "st", quick="no"), "quick: got 'no'; expected True or False"),
+                          (lambda: pl.execute(case, "e", runner=Engine(), echo="no"), "echo: got 'no'; expected True or False"),
+                          (lambda: pl.estimate(case, measure="no"), "measure: got 'no'; expected True or False")):
+        with pytest.raises(UsageError) as err:
+            call()
+        assert str(err.value) == message
+    assert ran == []
+    assert {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()} == before  # no shock.png, no new summary
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..case import Case, as_case
 from ..deck import atom_types, per_atom_masses, records_front, uses_chain_engine
+from ..errors import require_bool
 from ..exact import weak_shock
 from .. import overhead
 from ..formats.layout import DATA, DUMP, FINE_BIN, FINE_DUMP, FRONT_BIN, H5MD, SECOND_TABLE, TABLE, TRAJ_BIN
@@ -245,6 +246,7 @@ def estimate(case: Case | str | os.PathLike, nprocs: int = 1, measure: bool = Fa
     time is the command's, start to exit, with this machine's start-up (`overhead`: measured
     now, once, if `measure` and not cached). `pl.estimate`; `check` refuses a run that does
     not fit this machine. `case`: a Case or the path of its TOML file (read as `load_case` reads it)."""
+    require_bool(measure=measure)  # "no" would measure
     case = as_case(case)
     n, steps, fmt = case.chain.particles, case.run.steps(), case.output.format
     files = file_bytes(case)

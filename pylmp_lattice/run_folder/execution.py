@@ -147,6 +147,7 @@ def _engine(runner: str | Engine, nprocs: int, echo: bool) -> Engine:
         return Lammps(runner, nprocs, echo)
     if not callable(getattr(runner, "check", None)):
         raise UsageError("runner", f"got {type(runner).__name__}; choose one of {', '.join(RUNNERS)}, or an Engine")
+    require_bool(echo=echo)  # (an Engine shows no LAMMPS screen; `Lammps` checks its own)
     return runner
 
 

@@ -29,7 +29,7 @@ from .. import measures
 from ..formats.bindump import open_dump, read_trajectory
 from ..case import Case
 from ..formats.dump import Contact, error_line, find_contact, read_dump, read_log, trajectory_from_dump
-from ..errors import LatticeError, UsageError
+from ..errors import LatticeError, UsageError, require_bool
 from ..case_measures import case_front, read_front_record, set_impactor_acceleration
 from ..numbering import number
 from ..serialize import dumps, loads_object
@@ -263,6 +263,7 @@ class RunFolder:
         written."""
         from ..summary import summary_of
 
+        require_bool(figure=figure)  # before anything is read or written: "no" would draw it
         refuse_links(self.path, layout.RUN_FILES)  # what it reads and writes: never through a link
         case, status = self.case, self.status
         if status == RUNNING:

@@ -69,6 +69,9 @@ def study_module(name: str) -> str:
 
 def run_study(name: str, out: str | Path = Path("runs/studies"), quick: bool = False) -> StudyResult:
     """Run study `name`, write its files into `out`, and return its results."""
+    from ..errors import require_bool
+
+    require_bool(quick=quick)  # "no" would run the small version
     if name not in STUDIES:
         raise ValueError(f"study: got {name!r}; choose one of {', '.join(STUDIES)}")
     out = as_path(out, "out", "the folder for the study's files")
