@@ -55,15 +55,19 @@ def test_shock_figure_is_labelled():
     ("switch", "svg"),  # the script chose one through pyplot before
     ("", "agg"),  # none chosen: Agg, which needs no screen
 ])
-def test_a_panel_drawn_without_axes_keeps_the_callers_backend(setting, expected):
+def test_a_panel_drawn_without_axes_keeps_the_callers_backend(setting, expected, tmp_path):
     """plots.velocity_profiles(t, v, magnets) with no `ax` draws through pyplot: it forced the
     Agg backend every time, so in a notebook (or a script that had chosen its backend) no figure
-    showed after it. A backend already chosen is kept; Agg only where none was."""
+    showed after it. A backend already chosen is kept; Agg only where none was. A matplotlibrc
+    naming the ps backend stands in for matplotlib's own choice, which is Agg by itself on a
+    machine without a screen: "agg" can come only from `plots.pyplot`, and each other backend
+    only from the caller's choice."""
     import os
     import subprocess
     import sys
 
-    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    (tmp_path / "matplotlibrc").write_text("backend: ps\n")
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"} | {"MATPLOTLIBRC": str(tmp_path / "matplotlibrc")}
     if setting.startswith("MPLBACKEND="):
         env["MPLBACKEND"] = setting.split("=", 1)[1]
     code = ("import numpy as np, matplotlib\n"
