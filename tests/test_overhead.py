@@ -284,5 +284,83 @@ def test_a_sweep_on_a_dask_scheduler_is_not_estimated_on_this_machine_s_cores(ca
     monkeypatch.setattr(execute.os, "cpu_count", lambda: 2)
     with caplog.at_level(logging.INFO, logger=execute.__name__), pytest.raises(RuntimeError, match="no cluster"):
         execute.run_sweep(example, tmp_path / "s", scheduler="tcp://127.0.0.1:8786", progress=False)
-    assert re.search(rf"s: 12 members \({re.escape(said)}; about [\d.]+ [kMG]?B on disk\)", caplog.text), caplog.text
+    # its disk neither: from one batch of a point's 4 replicas (2.56 MB) to 4 (10 MB), not 2 for the 2 cores (5.05 MB)
+    assert f"s: 12 members ({said}; about 2.56 MB to 10 MB on disk, as the Dask scheduler's workers run a point's " \
+           "4 replicas in 1 to 4 batches)" in caplog.text, caplog.text
     assert "on 2 workers" not in caplog.text
+
+
+def test_an_executor_s_sweep_is_estimated_on_the_slots_its_pool_has(cache, tmp_path, monkeypatch, caplog):
+    """run_sweep(executor=...) without `slots` runs on 1 slot (`slots or 1`), but its estimate
+    took this machine's cores: "about 3.2 s on 2 workers ... about 5.05 MB on disk" (2 batches
+    of a point) where slots=1 said "3.3 s on 1 worker ... 2.56 MB". The pool's count
+    (`pool.pool_slots`) now makes both, with slots or without; slots=2 is 2 workers."""
+    import logging
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice.sweep import execute, load_sweep
+
+    write_cache(CACHED)
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+
+    def no_pool(*args):
+        raise RuntimeError("no pool in this test")
+
+    monkeypatch.setattr(execute, "executor_pool", no_pool)
+    monkeypatch.setattr(execute.os, "cpu_count", lambda: 2)
+    said = []
+    for slots in (None, 1, 2):
+        caplog.clear()
+        with ThreadPoolExecutor(1) as pool, caplog.at_level(logging.INFO, logger=execute.__name__), \
+                pytest.raises(RuntimeError, match="no pool"):
+            execute.run_sweep(example, tmp_path / "s", executor=pool, slots=slots, progress=False)
+        said.append(re.search(r"s: 12 members \((.*)\)$", caplog.text, re.M)[1])
+    one = "about 3.3 s on 1 worker (batched), if all are like the first; about 2.56 MB on disk"
+    assert said == [one, one, "about 3.2 s on 2 workers (batched), if all are like the first; about 5.05 MB on disk"]
+
+
+def test_a_sweep_on_a_dask_scheduler_is_refused_only_what_one_batch_a_point_cannot_fit(tmp_path, monkeypatch):
+    """On a Dask scheduler the disk was sized for this machine's cores (2 batches of a point's 4
+    replicas here: 5.05 MB). Its workers are not counted before it is reached: the check now
+    says 1 to 4 batches (2.56 to 10 MB), adds the free space where the most does not fit, and
+    refuses only what the least cannot fit, saying "at least"."""
+    from pylmp_lattice import preflight
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import disk, load_sweep
+
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+    batches = "as the Dask scheduler's workers run a point's 4 replicas in 1 to 4 batches"
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 1e12)
+    assert disk.check(example, tmp_path, 12, None) == f"about 2.56 MB to 10 MB on disk, {batches}"
+    assert disk.check(example, tmp_path, 12, 2) == "about 5.05 MB on disk"
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 5e6)
+    assert disk.check(example, tmp_path, 12, None) == f"about 2.56 MB to 10 MB on disk, {batches} ({tmp_path} has 5 MB free)"
+    monkeypatch.setattr(preflight, "free_disk", lambda folder: 2e6)
+    with pytest.raises(UsageError) as err:
+        disk.check(example, tmp_path, 12, None)
+    assert str(err.value) == (f"-o: the sweep needs at least about 2.56 MB on disk (12 members to run, about 213 kB "
+                              f"each) and {tmp_path} has 2 MB free; free space or sweep fewer members")
+
+
+def test_a_sweep_s_slots_count_an_executor_s_workers_only(tmp_path):
+    """`slots` was taken as given (-1 made a pool of no worker and 0 one of 1, 2 without an executor sized
+    the estimate for 2 workers that were never made), and an executor with --workers was refused
+    only after DIR was claimed. Each is one line now, before anything is written."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from pylmp_lattice.errors import UsageError
+    from pylmp_lattice.sweep import load_sweep, run_sweep
+
+    example = load_sweep(ROOT / "inputs" / "sweep_thermal_experiment.toml")
+    with ThreadPoolExecutor(1) as pool:
+        for kwargs, message in (
+                ({"executor": pool, "slots": 0}, "slots: got 0; expected an integer >= 1"),
+                ({"executor": pool, "slots": "2"}, "slots: got '2'; expected an integer >= 1"),
+                ({"slots": 2}, "slots: got 2; it counts the workers of an executor: give executor= too, or leave it "
+                               "out (--workers for a local pool)"),
+                ({"executor": pool, "workers": 2}, "--workers: an executor has its own workers; leave out --workers "
+                                                   "and --scheduler")):
+            with pytest.raises(UsageError) as err:
+                run_sweep(example, tmp_path / "s", progress=False, **kwargs)
+            assert str(err.value) == message
+    assert list(tmp_path.iterdir()) == []

@@ -40,7 +40,7 @@ from .blocks import GPU_MAX_ATOMS, _Blocks  # noqa: F401 - GPU_MAX_ATOMS: read h
 from .estimate import _estimate
 from .folder import check_folder, claim, lock, refuse_other, refuse_running
 from .member import one_line, unstarted
-from .pool import GRACE, Pool, executor_pool
+from .pool import GRACE, Pool, executor_pool, pool_slots
 from .progress import _Progress
 from .signals import _StopSignals
 from .spec import Member, Replicas, Sweep
@@ -64,7 +64,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
 
     workers: local processes (default: one per core); scheduler: a Dask scheduler address
     (tcp://HOST:PORT), whose workers must see `root` on a shared file system; or executor: any
-    `concurrent.futures.Executor` with `slots` workers (e.g. a batch system's), used as given.
+    `concurrent.futures.Executor` with `slots` workers (default 1; e.g. a batch system's), used
+    as given; the estimate of time and disk counts the workers the pool will have (`pool_slots`).
     Members that failed before are skipped unless `retry_failed`. A folder that holds a
     different sweep is refused unless `overwrite` (see `folder.claim`); a sweep of over
     MANY_MEMBERS members needs `yes`. engine: "lammps", "cpu" or "gpu" for the batched members
@@ -88,9 +89,7 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
         deck_dir(Path(root))
     root = Path(root).resolve()
     total = sweep.count()
-    if workers is not None and not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
-        raise UsageError("--workers", f"got {workers!r}; expected an integer >= 1")
-    slots_now = slots or workers or os.cpu_count() or 1
+    counted = pool_slots(workers, scheduler, executor, slots)  # as the pool will have them; None: a Dask scheduler's
     cores = os.cpu_count() or 1
     if workers is not None and executor is None and workers > cores:
         log.warning("--workers %d is more than this machine's %d cores: the members share them (each runs slower, "
@@ -104,9 +103,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     # (where DIR holds other sweeps' outcomes too, only this sweep's members count: each one's id made)
     ids = _ids(sweep) if ours and held.get("others") else None
     todo = max(0, total - Outcomes(root).to_keep(retry_failed, ids)) if ours else total
-    disk_need = disk.check(sweep, root, todo, slots_now)
+    disk_need = disk.check(sweep, root, todo, counted)
     kept = f", {total - todo} kept from before" if todo < total else ""
-    counted = None if scheduler else slots_now  # a Dask scheduler's workers are not counted here
     log.info("%s: %d members%s (%s; %s)", root.name, total, kept, _estimate(sweep, todo, counted, bool(stats)),
              disk_need)
     if total > MANY_MEMBERS and not yes:

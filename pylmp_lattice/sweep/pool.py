@@ -95,6 +95,29 @@ def _process_pool(executor) -> bool:
     return process is not None and isinstance(executor, process.ProcessPoolExecutor)
 
 
+def pool_slots(workers: int | None, scheduler: str | None, executor: Executor | None, slots: int | None) -> int | None:
+    """The worker slots of the pool `executor_pool` makes of these, known before it is made (the
+    sweep's estimate of time and disk uses them): an executor's `slots` (1 if not given), a local
+    pool's `workers` (one per core if not given); None on a Dask scheduler, whose workers are
+    counted only once it is reached. UsageError for a count that is no integer >= 1, or a
+    combination that leaves one unused (`slots` counts an executor's workers only)."""
+    for name, value in (("--workers", workers), ("slots", slots)):
+        if value is not None and not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+            raise UsageError(name, f"got {value!r}; expected an integer >= 1")
+    if executor is not None:
+        if workers is not None or scheduler is not None:
+            raise UsageError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
+        return slots or 1
+    if slots is not None:
+        raise UsageError("slots", f"got {slots}; it counts the workers of an executor: give executor= too, or leave "
+                                  "it out (--workers for a local pool)")
+    if scheduler is not None:
+        if workers is not None:
+            raise UsageError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
+        return None
+    return workers or os.cpu_count() or 1
+
+
 @contextlib.contextmanager
 def executor_pool(workers: int | None, scheduler: str | None, runner: str, executor: Executor | None,
                   slots: int | None, engine: str | None = None, warm=None):
@@ -104,16 +127,13 @@ def executor_pool(workers: int | None, scheduler: str | None, runner: str, execu
 
     A process holds one LAMMPS (and MPI) instance at a time, so the embedded runner needs one
     task at a time per process: pool processes are, Dask workers must be (one thread each)."""
+    count = pool_slots(workers, scheduler, executor, slots)
     if executor is not None:
-        if workers is not None or scheduler is not None:
-            raise UsageError("--workers", "an executor has its own workers; leave out --workers and --scheduler")
-        yield Pool(executor, slots or 1)
+        yield Pool(executor, count)
         return
     if scheduler is None:
-        yield from _local_pool(workers or os.cpu_count() or 1, engine, warm)
+        yield from _local_pool(count, engine, warm)
         return
-    if workers is not None:
-        raise UsageError("--workers", "the Dask cluster has its own workers; leave --workers out with --scheduler")
     from distributed import Client
     from distributed.comm.addressing import parse_address, parse_host_port
     from distributed.comm.registry import backends
