@@ -132,6 +132,9 @@ def test_a_switch_that_is_no_bool_is_named_not_taken_for_true(tmp_path, monkeypa
     with pytest.raises(UsageError) as err:
         run_sweep(load_sweep("sweep.toml"), "s", retry_failed="no")
     assert str(err.value) == "retry_failed: got 'no'; expected True or False"
+    with pytest.raises(UsageError) as err:  # a bool or a ReplicaDrawing
+        run_sweep(load_sweep("sweep.toml"), "s", stats="no")
+    assert str(err.value) == "stats: got 'no'; expected True or False"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["base.toml", "r", "sweep.toml"]
     assert pl.RunFolder.create(case, "r", overwrite=np.True_).path.name == "r"  # replaced: a numpy bool is one
 

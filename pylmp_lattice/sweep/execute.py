@@ -80,7 +80,8 @@ def run_sweep(sweep: Sweep, root: str | Path, workers: int | None = None, schedu
     if _from_worker_import():
         raise RuntimeError("run_sweep was called while a sweep worker imported the main script again (as Python's "
                            "multiprocessing does); put the script's code under `if __name__ == \"__main__\":`")
-    require_bool(retry_failed=retry_failed, progress=progress, overwrite=overwrite, yes=yes)
+    require_bool(retry_failed=retry_failed, progress=progress, overwrite=overwrite, yes=yes,
+                 **({} if isinstance(stats, ReplicaDrawing) else {"stats": stats}))
     check_folder(root)
     sweep = _with_engine(sweep, engine)
     # every member's folder is in it: refused now, not each member as it runs (a kernel engine's batches need no deck
