@@ -101,6 +101,21 @@ def test_fit_reports_the_error_of_noisy_samples():
     assert fit.law.force(12.0) == pytest.approx(PowerLaw().force(12.0), rel=0.01)
 
 
+def test_fit_reports_the_largest_error_whatever_its_sign():
+    """Exact samples of the paper's law but one, doubled (F twice the law's at r = 20 mm): the
+    law fitted in log space runs below it, so its largest relative error there is negative,
+    close to 1/2 - 1 = -0.5; max_relative_error is its size, as numpy finds it from the fit."""
+    r = np.linspace(1.0, 60.0, 40)
+    F = PowerLaw().force(r)
+    F[np.argmin(np.abs(r - 20.0))] *= 2.0
+    fit = fit_power_law(r, F)
+    rel = fit.law.force(r) / F - 1
+    assert rel[np.argmax(np.abs(rel))] < -0.4  # the outlier's error: the largest, and negative
+    assert fit.max_relative_error == pytest.approx(float(np.max(np.abs(rel))), rel=1e-12)
+    assert fit.rms_relative_error == pytest.approx(float(np.sqrt(np.mean(rel**2))), rel=1e-12)
+    assert fit.max_relative_error > 0.4
+
+
 @pytest.mark.parametrize(
     "make, field",
     [
@@ -113,6 +128,10 @@ def test_fit_reports_the_error_of_noisy_samples():
         (lambda: LennardJones(epsilon=-1.0, sigma=1.0), "force.epsilon"),
         (lambda: Morse(D=1.0, alpha=1.0, r_e=0.0), "force.r_e"),
         (lambda: FPUT(k=1.0, a=1.0, beta=float("nan")), "force.beta"),
+        (lambda: PowerLaw(K=float("inf")), "force.K"),  # inf > 0: refused as not finite
+        (lambda: Toda(A=1.0, B=float("inf"), a=1.0), "force.B"),
+        (lambda: SampledLaw((0.0, 1.0, 2.0), (3.0, 2.0, 1.0)), "force.r"),  # 3 samples: a not-a-knot cubic needs 4
+        (lambda: fit_power_law([1.0, 2.0, 3.0, 4.0], [1.0, 0.0, 1.0, 1.0]), "force.F"),  # log F of 0
     ],
 )
 def test_invalid_laws_name_the_field(make, field):
