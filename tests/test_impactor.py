@@ -102,3 +102,99 @@ def test_the_experiment_s_drive_given_as_samples_is_measured_as_the_half_sine(tm
                        ("shock_velocity_plateau_m_per_s", "mean")):
         assert other[key][field] == pytest.approx(one[key][field], rel=1e-4), key
     assert other["particles_reached_by_front"] == one["particles_reached_by_front"]
+
+
+# A measured motion on the camera's clock: samples from t0 = 5 ms, the impactor 3 mm along
+# the rod at the first; u - u0 = POLY(t - t0), a cubic, which the not-a-knot spline through the
+# samples (of u, or of v = its derivative, a quadratic) reproduces to round-off.
+T0, U0, SPAN = 5.0, 3.0, 10.0  # ms, mm, ms
+
+
+def _poly(tau):
+    """u (mm), v (m/s) and a (m/s^2 = 1e3 mm/ms^2) of the cubic at times tau (ms) from the start."""
+    return (0.5 * tau + 0.02 * tau**2 - 0.001 * tau**3, 0.5 + 0.04 * tau - 0.003 * tau**2,
+            1e3 * (0.04 - 0.006 * tau))
+
+
+def _camera_clock(column: str):
+    t = T0 + np.linspace(0.0, SPAN, 21)
+    u, v, _ = _poly(t - T0)
+    return tuple(t), tuple(U0 + u if column == "u" else v)
+
+
+@pytest.mark.parametrize("column", ["u", "v"])
+def test_a_measured_motion_on_the_camera_s_clock_starts_when_and_where_its_samples_do(column):
+    """Samples from t0 = 5 ms at u0 = 3 mm: the drive starts at t = 0 from where it is
+    (displacement 0), follows the cubic they sample (to 1e-11 mm, 1e-11 m/s, 1e-8 m/s^2:
+    round-off of a spline through values of order 10), lasts t_last - t0 = 10 ms, and then
+    holds the impactor still (v = a = 0, u where it stopped), though it ended moving at
+    0.6 m/s. Its peak is the cubic's, 0.5 + 0.04^2/(4 0.003) = 0.63333 m/s (to the 2.5e-4 ms
+    grid's 1e-10), so it is a push, not a pulse."""
+    from pylmp_lattice.impactor import Measured
+
+    imp = Measured(*_camera_clock(column), column=column)
+    assert imp.duration() == pytest.approx(SPAN, rel=1e-15)
+    tau = np.linspace(0.0, SPAN, 401)
+    u, v, a = _poly(tau)
+    np.testing.assert_allclose(imp.displacement_at(tau), u, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(imp.velocity_at(tau), v, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(imp.acceleration_at(tau), a, rtol=0, atol=1e-8)
+    after = np.array([SPAN + 1e-6, SPAN + 1.0, 3 * SPAN])
+    u_end = _poly(SPAN)[0]
+    np.testing.assert_allclose(imp.displacement_at(after), u_end, rtol=0, atol=1e-11)
+    assert np.all(imp.velocity_at(after) == 0.0) and np.all(imp.acceleration_at(after) == 0.0)
+    assert imp.peak_velocity() == pytest.approx(0.5 + 0.04**2 / (4 * 0.003), rel=1e-9)
+    assert not imp.is_pulse()
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("engine", ["chain", "stock"])
+def test_lammps_plays_a_measured_motion_on_the_camera_s_clock(tmp_path, engine):
+    """The same samples (u, from t0 = 5 ms) played by fix lattice/impactor for 15 ms, 5 ms past
+    their end: magnet 1 follows the cubic from its own start, then stays where it stopped
+    (hold), to 1e-9 mm and 1e-9 m/s (the spline in SI and the H5MD file's doubles: measured
+    1.1e-14 m/s and 2.7e-15 mm): the plugin, as the profile, counts time from the first sample
+    and displacement from where it starts."""
+    t, values = _camera_clock("u")
+    case = make_case(particles=10, velocity=1.0, duration=15.0,
+                     impactor={"profile": "measured", "t": list(t), "values": list(values), "column": "u"},
+                     run={"engine": engine})
+    traj = simulate(case, tmp_path)
+    u, v, _ = _poly(np.minimum(traj.t, SPAN))
+    v = np.where(traj.t <= SPAN, v, 0.0)
+    assert traj.t[-1] == pytest.approx(15.0)
+    assert np.max(np.abs(traj.u[:, 0] - u)) < 1e-9
+    assert np.max(np.abs(traj.v[:, 0] - v)) < 1e-9
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: Constant(0.0), "impactor.velocity"),
+    (lambda: Constant(float("inf")), "impactor.velocity"),
+    (lambda: Constant(float("nan")), "impactor.velocity"),
+    (lambda: Ramp(1.0, 0.0), "impactor.ramp_time"),
+    (lambda: SinePulse(1.0, 0.0), "impactor.duration"),
+    (lambda: SinePulse(1.0, -2.0), "impactor.duration"),
+], ids=["zero", "inf", "nan", "ramp_time", "duration", "negative_duration"])
+def test_a_drive_without_a_forward_speed_or_a_time_is_refused(make, field):
+    """Profiles built directly (the Python API, not through a case file whose loader checks
+    numbers first): each checks its own fields."""
+    from pylmp_lattice.errors import ConfigError
+
+    with pytest.raises(ConfigError) as info:
+        make()
+    assert info.value.field == field
+
+
+@pytest.mark.parametrize("t, values, field", [
+    ((0.0, 1.0, 2.0), (0.0, 1.0, 2.0), "impactor.t"),  # 3 samples: a not-a-knot cubic needs 4
+    ((0.0, 1.0, 1.0, 2.0), (0.0, 1.0, 1.5, 2.0), "impactor.t"),  # two samples at one time
+    ((0.0, 1.0, 2.0, 3.0), (2.0, 2.0, 2.0, 2.0), "impactor.values"),  # never moves
+    ((0.0, 1.0, 2.0, 3.0), (0.0, -1.0, -2.0, -3.0), "impactor.values"),  # moves backward only
+], ids=["three", "same_time", "still", "backward"])
+def test_a_measured_motion_that_cannot_drive_is_refused(t, values, field):
+    from pylmp_lattice.errors import ConfigError
+    from pylmp_lattice.impactor import Measured
+
+    with pytest.raises(ConfigError) as info:
+        Measured(t, values)
+    assert info.value.field == field
