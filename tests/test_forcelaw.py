@@ -175,6 +175,68 @@ def test_power_laws_of_other_exponents_run_like_an_independent_integrator(tmp_pa
     assert np.max(np.abs(traj.v - v_ref)) < 1e-3 * 1.0
 
 
+def _linear_chain_exact(t, n, k, m, V):
+    """Velocities (m/s) and displacements (mm) of an n-magnet chain of linear springs k (N/mm),
+    masses m (g), magnet 1 driven at V (m/s) from rest, magnet n held: the drive's static share
+    u_i = V t (1 - i/(n-1)) plus the normal modes of the free magnets (sin(j pi i/(n-1)),
+    omega_j^2 = (k/m) lambda_j) that start them at rest; user units, so k/m is in 1/ms^2."""
+    i = np.arange(1, n - 1)
+    share = 1 - i / (n - 1)
+    L = 2 * np.eye(n - 2) - np.eye(n - 2, k=1) - np.eye(n - 2, k=-1)
+    lam, phi = np.linalg.eigh(L)
+    omega = np.sqrt(k / m * lam)
+    b = phi.T @ (-V * share)  # w'(0) = -V (1 - i/(n-1)) in modal coordinates
+    v = V * share + (np.cos(np.outer(t, omega)) * b) @ phi.T
+    u = V * np.outer(t, share) + (np.sin(np.outer(t, omega)) * b / omega) @ phi.T
+    return v, u
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("engine", ["chain", "stock"])
+def test_a_chain_of_linear_springs_runs_like_its_normal_modes(tmp_path, engine):
+    """12 magnets of 1.084 g on springs F = k (r_free - r), k = 0.1 N/mm, r_free = 30 mm (the
+    chain engine's analytic law, k converted N/mm -> N/m and r_free mm -> m; the stock engine's
+    table), driven at 0.5 m/s for 40 ms (the wave, 3.6 m/s, crosses the chain and comes back):
+    every free magnet's velocity and displacement against the exact solution of the linear
+    equations, within 1e-3 V_I and 1e-3 mm (Verlet's error at dt = 0.01 ms, omega_max dt = 0.012:
+    measured 1.2e-6 m/s and 4.2e-6 mm). A k off by 1e3 is far outside. (r_free does not enter:
+    a linear chain's motion depends on differences of F alone; with friction it does, below.)"""
+    k, r_free, m, n, V = 0.1, 30.0, 1.084, 12, 0.5
+    case = make_case(particles=n, velocity=V, duration=40.0, force={"law": "linear", "k": k, "r_free": r_free},
+                     run={"engine": engine})
+    traj = simulate(case, tmp_path)
+    v, u = _linear_chain_exact(traj.t, n, k, m, V)
+    assert np.max(np.abs(v[:, -1])) > 0.2 * V  # the wave has reached the far end
+    assert np.max(np.abs(traj.v[:, 1:-1] - v)) < 1e-3 * V
+    assert np.max(np.abs(traj.u[:, 1:-1] - u)) < 1e-3
+
+
+@pytest.mark.lammps
+@pytest.mark.parametrize("engine", ["chain", "stock"])
+def test_a_chain_of_linear_springs_with_friction_runs_like_the_stick_slip_integrator(tmp_path, engine):
+    """The chain above with Coulomb friction, mu = 0.285, p = 0.012: the springs' preload
+    F = k (r_free - r0) = 1.8 N makes the normal load p (F_(n-1) + F_n) four times m g, so the
+    friction limit depends on r_free itself (the analytic law's r_free, converted mm -> m), not
+    only on differences of F. Against tests/reference.py's stick-slip DOP853 (rtol 1e-12) on
+    the same equations with the law written here: within 1e-3 V_I, as the paper's chain
+    (tests/test_friction.py; measured 1.6e-6 m/s); and the friction work, 1.3706 mJ, within
+    1e-5 (measured 1e-7)."""
+    from pylmp_lattice.formats.dump import read_log
+
+    from reference import integrate_chain_friction
+
+    k, r_free, m, n, V = 0.1, 30.0, 1.084, 12, 0.5
+    case = make_case(particles=n, velocity=V, duration=40.0, force={"law": "linear", "k": k, "r_free": r_free},
+                     friction={"mu": 0.285, "p": 0.012}, run={"engine": engine})
+    traj = simulate(case, tmp_path)
+    ref = integrate_chain_friction(lambda r: k * (r_free - r), m, 12.0, n, lambda t: V * t,
+                                   lambda t: np.full_like(np.asarray(t, float), V), traj.t, mu=0.285, p=0.012)
+    assert np.any(ref.v[:, 1:-1] == 0.0) and np.max(np.abs(ref.v[:, -2])) > 0.1 * V  # sticks; the wave crosses
+    assert np.max(np.abs(traj.v - ref.v)) < 1e-3 * V
+    dissipated = read_log(tmp_path / "log.lammps").runs[-1]["f_friction"][-1] * 1e3  # J -> mJ
+    assert dissipated == pytest.approx(ref.w_friction[-1], rel=1e-5)
+
+
 def test_friction_reads_the_table_for_the_other_laws():
     """The friction fix (stock engine) and the chain fix have analytic power and linear laws
     only; the others go through the table."""
