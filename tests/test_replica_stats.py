@@ -366,3 +366,68 @@ def test_a_point_without_values_on_an_axis_of_text_is_named_as_text():
     stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
     ax = plot_replica_stats(stats, "force.law", f"{VP}.mean")
     assert ax.get_title().endswith("\ndotted: no value at toda")
+
+
+def _members(values, converged=None, status=None, **point):
+    """Rows of one parameter point (`point`: its swept columns), one per value of V_P."""
+    status = status or ["done"] * len(values)
+    converged = [True] * len(values) if converged is None else converged
+    return [{"id": f"{point}-{r}", **point, "replica": r, "chain.seed": r, "status": s, "error": None, "folder": "x",
+             "wall_time_s": 0.1, f"{VP}.mean": v, f"{VP}.converged": c, "front_speed_m_per_s.value": v}
+            for r, (v, c, s) in enumerate(zip(values, converged, status))]
+
+
+def test_mean_and_standard_error_are_numpy_s_of_the_values_used():
+    """Skewed values (the median, 4.1, is 0.44 below the mean, 4.54): mean, ddof = 1 standard
+    error and count as numpy gives them for the values the rules keep; a done member without
+    a value (its front never crossed the window: NaN, and its plateau not converged) is not a
+    value, and counts against the coverage as one run."""
+    values = np.array([3.9, 4.0, 4.1, 4.2, 6.5])
+    rows = _members([*values, np.nan], converged=[True] * 5 + [False], **{"impactor.velocity": 2.0})
+    stats = replica_stats(pd.DataFrame(rows))
+    for measure in (f"{VP}.mean", "front_speed_m_per_s.value"):
+        assert stats[f"{measure}.count"].tolist() == [5], measure
+        assert stats[f"{measure}.mean"][0] == pytest.approx(np.mean(values), rel=1e-14)
+        assert stats[f"{measure}.sem"][0] == pytest.approx(np.std(values, ddof=1) / np.sqrt(5), rel=1e-12)
+        assert stats[f"{measure}.coverage"][0] == pytest.approx(5 / 6, rel=1e-14)
+    assert np.mean(values) - np.median(values) == pytest.approx(0.44, abs=1e-12)
+
+
+def test_interrupted_members_are_not_members_run():
+    """A sweep stopped by a signal leaves members "interrupted" (unstarted, redone on resume):
+    they are neither done (n) nor failed, and the coverage counts the members run only: 3
+    done (2 converged) and 1 failed of 6 is 2 of 4, not 2 of 6, nor 2 of 5 ("interrupted" is
+    not "done", nor "failed")."""
+    rows = _members([4.0, 4.1, 9.9, np.nan, np.nan, np.nan], converged=[True, True, False, False, False, False],
+                    status=["done", "done", "done", "failed", "interrupted", "interrupted"], **{"impactor.velocity": 2.0})
+    stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
+    assert stats["n"].tolist() == [3] and stats["failed"].tolist() == [1]
+    assert stats[f"{VP}.mean.count"].tolist() == [2]
+    assert stats[f"{VP}.mean.coverage"][0] == pytest.approx(0.5, rel=1e-14)
+    assert stats[f"{VP}.mean.mean"][0] == pytest.approx(4.05, rel=1e-14)
+
+
+@pytest.mark.parametrize("used, run, low", [(9, 10, False), (18, 20, False), (8, 10, True), (17, 20, True)])
+def test_a_coverage_of_exactly_90_percent_is_not_marked(used, run, low):
+    """COVERAGE_LIMIT: marked are statistics over *fewer* than 90 % of the members run; 9 of 10
+    and 18 of 20 are at the limit and stand, 8 of 10 and 17 of 20 are below it."""
+    rows = _members([4.0 + 0.01 * r for r in range(run)], converged=[r < used for r in range(run)],
+                    **{"impactor.velocity": 2.0})
+    stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
+    assert stats[f"{VP}.mean.count"][0] == used
+    assert stats[f"{VP}.mean.low_coverage"].tolist() == [low]
+
+
+def test_points_of_sections_swept_whole_keep_their_empty_fields():
+    """A sweep over the force law as a whole section: the power law's points have no force.A
+    and the Toda law's no force.K (NaN in the table). Each point is still a point of its own,
+    with its own members' mean (they were dropped, as pandas groupby drops keys with NaN)."""
+    rows = []
+    for law, K, A, vp in (("power", 413.8, np.nan, 4.0), ("toda", np.nan, 1.0, 2.0)):
+        for vi in (1.0, 2.0):
+            rows += _members([vp * vi + 0.01 * r for r in range(3)],
+                             **{"force.law": law, "force.K": K, "force.A": A, "impactor.velocity": vi})
+    stats = replica_stats(pd.DataFrame(rows), [f"{VP}.mean"])
+    assert stats["force.law"].tolist() == ["power", "power", "toda", "toda"]
+    assert stats["n"].tolist() == [3, 3, 3, 3]
+    np.testing.assert_allclose(stats[f"{VP}.mean.mean"], [4.01, 8.01, 2.01, 4.01], rtol=1e-14)
