@@ -126,6 +126,22 @@ def test_one_two_and_three_ranks_give_bit_identical_trajectories_and_front_recor
         assert np.array_equal(fronts[n], fronts[1]), n
 
 
+@pytest.mark.slow  # an lmp run under mpiexec
+@pytest.mark.lammps
+def test_two_ranks_reach_across_gaps_near_the_end_of_the_table(tmp_path):
+    """Gaps of 12 mm with the table ending at 12.5 mm: every separation of the run is up to 96 %
+    of the longest the deck allows, so each rank's ghosts must reach that far across its slab
+    edge (comm_modify cutoff 1.05 r_max); on 2 ranks the run gives the bits of one rank's. A
+    cutoff under 0.96 r_max stops it: 'atom 12 (neighbour of atom 11) is not on this rank'."""
+    case = make_case(particles=21, velocity=2.0, duration=20.0, table={"r_max": 12.5})
+    one = simulate(case, tmp_path / "np1")
+    two = simulate(case, tmp_path / "np2", runner="lmp", nprocs=2)
+    assert "2 by 1 by 1 MPI processor grid" in (tmp_path / "np2" / "log.lammps").read_text()
+    assert np.max(one.gaps()) > 0.96 * 12.5 and np.max(np.abs(one.v)) > 2.0
+    for name in ("u", "v", "a"):
+        assert np.array_equal(getattr(one, name), getattr(two, name)), name
+
+
 def test_engine_field_is_validated_and_round_trips():
     data = case_to_dict(make_case())
     assert data["run"]["engine"] == "chain"
