@@ -8,11 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tomli_w
 
 from pylmp_lattice.case import case_from_dict, case_to_dict, load_case
 from pylmp_lattice.errors import ConfigError, UsageError
+from pylmp_lattice.forcelaw import PowerLaw
 
 from conftest import OTHER_LAWS, make_case, make_law_case
 
@@ -38,6 +40,17 @@ INPUTS = Path(__file__).parent.parent / "inputs"
         ("run", {"output_interval": 0.015}, "run.output_interval", "whole multiple of run.dt"),
         # checked before LAMMPS runs, in mm (LAMMPS would stop with "Bond length > table outer cutoff" in m)
         ("table", {"r_max": 10.0}, "table.r_max", "got 10 mm; expected > 12 mm, the widest initial gap"),
+        # a table that ends at the widest gap: the first stretch of that gap leaves it
+        ("table", {"r_max": 12.0}, "table.r_max", "got 12 mm; expected > 12 mm, the widest initial gap"),
+        ("table", {"points": 99}, "table.points", "expected an integer in [100, 1e7]"),
+        ("chain", {"magnet_length": 2e6}, "chain.magnet_length", "expected a number in [0, 1e6]"),
+        ("chain", {"velocity": [0.0] * 29 + [0.1]}, "chain.velocity", "for the held last magnet; expected 0"),
+        ("output", {"fine": [2, 2]}, "output.fine", "expected distinct magnet numbers"),
+        ("output", {"fine": [31]}, "output.fine", "expected magnet numbers in [1, 30]"),
+        ("output", {"fine": [2], "fine_interval": 0.0}, "output.fine_interval", "expected > 0"),
+        ("friction", {"mu": -0.1}, "friction.mu", "expected >= 0"),
+        ("friction", {"p": -0.012}, "friction.p", "expected >= 0"),
+        ("second_neighbour", {"law": "power", "sign": 0}, "second_neighbour.sign", "expected -1 (attractive) or 1"),
     ],
 )
 def test_bad_input_names_the_field(section, values, field, expected):
@@ -52,6 +65,68 @@ def test_stability_limit_of_the_paper_law():
     k_max = 3 * 413.8 / 3.917**4
     assert make_case().stability_limit() == pytest.approx(math.sqrt(1.084 / k_max), rel=1e-9)
     assert make_case().stability_limit() == pytest.approx(0.4534, abs=1e-4)
+
+
+def test_bounds_that_are_allowed_at_their_ends():
+    """The closed ends of the documented ranges: magnet N (the held one) may be output finely;
+    the table may start at the smallest gap ([law's start, smallest gap]); friction may be
+    off term by term (mu = p = g = 0: a sweep over mu starts at 0); a table of 100 points;
+    a magnet length of 1e6 mm."""
+    case = make_case(output={"fine": [1, 30]}, table={"r_min": 12.0, "points": 100}, chain={"magnet_length": 1e6},
+                     friction={"mu": 0.0, "p": 0.0, "g": 0.0})
+    assert case.output.fine == (1, 30) and case.table_range()[0] == 12.0
+    assert (case.friction.mu, case.friction.p, case.friction.g) == (0.0, 0.0, 0.0)
+
+
+def test_the_table_defaults_to_the_law_s_start_and_three_times_the_widest_gap():
+    """[r_min, r_max] = [0, 3 x 12 mm] for the paper's law and gaps; [first sample, 3 x the
+    widest gap] for a sampled law; gaps up to 15 mm: r_max 45 mm."""
+    assert make_case().table_range() == (0.0, 36.0)
+    r = np.linspace(2.0, 60.0, 59)
+    sampled = make_case(force={"law": "sampled", "r": list(r), "F": list(PowerLaw().force(r))},
+                        chain={"r0": [12.0] * 28 + [15.0]})
+    assert sampled.table_range() == (2.0, 45.0)
+
+
+def test_a_table_that_starts_before_a_sampled_law_does_is_refused():
+    """A law known from 2 mm on: a table from 1 mm would extrapolate the spline below its
+    samples, refused naming table.r_min with the law's range."""
+    r = np.linspace(2.0, 60.0, 59)
+    with pytest.raises(ConfigError, match=r"^table\.r_min: got 1\.0 mm; expected in \[2\.0, 12\.0\] mm"):
+        make_case(force={"law": "sampled", "r": list(r), "F": list(PowerLaw().force(r))}, table={"r_min": 1.0})
+
+
+def test_a_time_step_at_the_stability_limit_is_refused():
+    """Velocity Verlet is stable for omega_max dt < 2 only: at omega_max dt = 2 the stiffest mode
+    grows linearly. Springs k = 1 N/mm and masses 1 g have dt_max = sqrt(m/k) = 1 ms exactly
+    (sqrt(g / (N/mm)) = 1 ms): dt = 1 ms is refused, 0.5 ms taken."""
+    spring = {"law": "linear", "k": 1.0, "r_free": 30.0}
+    ok = make_case(force=spring, chain={"mass": 1.0}, dt=0.5, interval=1.0, duration=10.0)
+    assert ok.stability_limit() == 1.0
+    with pytest.raises(ConfigError, match=r"^run\.dt: got 1\.0 ms; expected < 1 ms \(stability limit"):
+        make_case(force=spring, chain={"mass": 1.0}, dt=1.0, interval=1.0, duration=10.0)
+
+
+def test_the_stability_limit_counts_the_second_neighbours_stiffness():
+    """Gershgorin: omega^2 <= 4 (k_max + k2_max) / m, so dt < sqrt(m / (k_max + k2_max)). The
+    paper's law at contact, k_max = 3 K / b^4, and the second neighbours of Sec. S2 (K2 = 206.2
+    N mm^3, b2 = 10.267 mm, attractive) at the smallest second separation, twice the table's
+    start (0 mm): k2_max = 3 K2 / b2^4."""
+    second = {"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}
+    case = make_case(second_neighbour=second, run={"engine": "stock"})
+    k_max, k2_max = 3 * 413.8 / 3.917**4, 3 * 206.2 / 10.267**4
+    assert case.stability_limit() == pytest.approx(math.sqrt(1.084 / (k_max + k2_max)), rel=1e-12)
+    assert case.stability_limit() < make_case().stability_limit() * (1 - 1e-3)
+
+
+def test_a_run_of_exactly_the_largest_step_count_is_taken():
+    """LAMMPS takes `run N` up to 2^31 - 1 steps: that many is a run, one more is not."""
+    from pylmp_lattice.case import RunSettings
+
+    top = 2**31 - 1
+    assert RunSettings(duration=float(top), dt=1.0, output_interval=1.0).steps() == top
+    with pytest.raises(ConfigError, match=r"^run\.duration: got 2147483648\.0 ms; expected at most 2147483647 steps"):
+        RunSettings(duration=float(top + 1), dt=1.0, output_interval=1.0)
 
 
 def test_toml_round_trip_and_override(tmp_path):
