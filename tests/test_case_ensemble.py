@@ -129,13 +129,30 @@ def test_round_trip_through_case_to_dict():
         ({"defect_index": 30, "defect_r0": 2.0}, "chain.defect_index", "expected an integer in [1, 29]"),
         ({"defect_mass": 2.0}, "chain.defect_index", "missing; required with chain.defect_mass"),
         ({"defect_index": 3}, "chain.defect_index", "without chain.defect_mass"),
+        ({"defect_index": 3, "defect_mass": 0.0}, "chain.defect_mass", "got 0.0 g; expected > 0"),  # a massless magnet
+        ({"defect_index": 3, "defect_r0": 0.0}, "chain.defect_r0", "got 0.0 mm; expected > 0"),  # magnets in contact
+        ({"particles": 3, "thermal_velocity": 0.1, "seed": 1}, "chain.thermal_velocity", "needs at least 2 free magnets"),
+        # an RMS speed that crosses the 12 mm gap in exactly one step of 0.0625 ms
+        ({"thermal_velocity": 192.0, "seed": 1}, "chain.thermal_velocity", "expected >= 0 and < 192 m/s"),
     ],
 )
 def test_bad_ensemble_fields_name_the_field(values, field, expected):
     with pytest.raises(ConfigError) as info:
-        make_case(chain=values)
+        make_case(chain=values, dt=0.0625, interval=0.125, duration=10.0)
     assert info.value.field == field
     assert expected in str(info.value)
+
+
+def test_ensemble_fields_of_zero_are_the_plain_chain():
+    """A sweep over disorder or temperature starts at 0 (`chain.mass_disorder = [0.0, 0.1]`):
+    zero widths are taken, and give the nominal masses and gaps and a chain at rest; an RMS
+    speed just under a gap per step (191 m/s x 0.0625 ms = 11.94 mm < 12 mm) is taken too."""
+    zero = make_case(chain={"thermal_velocity": 0.0, "mass_disorder": 0.0, "r0_disorder": 0.0, "seed": 1})
+    np.testing.assert_array_equal(zero.chain.masses(), np.full(30, 1.084))
+    np.testing.assert_array_equal(zero.chain.gaps(), np.full(29, 12.0))
+    assert not np.any(zero.chain.velocities())
+    fast = make_case(chain={"thermal_velocity": 191.0, "seed": 1}, dt=0.0625, interval=0.125, duration=10.0)
+    assert fast.chain.thermal_velocity == 191.0
 
 
 @pytest.mark.lammps
