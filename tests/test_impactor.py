@@ -198,3 +198,20 @@ def test_a_measured_motion_that_cannot_drive_is_refused(t, values, field):
     with pytest.raises(ConfigError) as info:
         Measured(t, values)
     assert info.value.field == field
+
+
+@pytest.mark.lammps
+def test_a_measured_motion_that_stops_the_run_may_last_exactly_as_long_as_its_data(tmp_path):
+    """after = 'stop': a run as long as the samples' span (10 ms) is taken, and LAMMPS plays it
+    to its last step with the impactor at the cubic's end (to 1e-9 mm, as above); one step
+    longer is refused before any deck exists, naming run.duration."""
+    from pylmp_lattice.errors import ConfigError
+
+    t, values = _camera_clock("u")
+    drive = {"profile": "measured", "t": list(t), "values": list(values), "column": "u", "after": "stop"}
+    case = make_case(particles=10, duration=SPAN, impactor=drive)
+    traj = simulate(case, tmp_path)
+    assert traj.t[-1] == pytest.approx(SPAN, abs=1e-12)
+    assert abs(traj.u[-1, 0] - _poly(SPAN)[0]) < 1e-9
+    with pytest.raises(ConfigError, match=r"^run\.duration: got 10\.01 ms; the measured impactor data end at 10\.0 ms"):
+        make_case(particles=10, duration=SPAN + 0.01, impactor=drive)
