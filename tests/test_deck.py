@@ -233,6 +233,42 @@ def test_lammps_reads_the_data_file_and_timestep_back_bit_for_bit(tmp_path):
     assert not np.any(x[:, 1:]) and not np.any(v[:, 1:])
 
 
+# ---------------------------------------------------------------- a batch of chains
+
+def test_a_batch_s_levels_file_gives_each_chain_its_own_deck_s_levels():
+    """Three thermal chains under a half-sine pulse, each its own noise: the batch's levels file
+    has, row by row and column by column (start front drop pulse_drop pulse_floor), the numbers
+    each chain's own deck passes fix lattice/front; pulse_drop is the fraction 0.1 and the
+    floor 3 sigma > 0, not to be swapped."""
+    from pylmp_lattice.formats.layout import FRONT_LEVELS
+
+    cases = [make_case(particles=21, duration=30.0, impactor={"profile": "sine", "velocity": 2.0, "duration": 10.0},
+                       chain={"thermal_velocity": 0.02 * (1 + s), "seed": s}, output={"format": "none"})
+             for s in range(3)]
+    files = deck.render_replicas(cases, front=True)
+    rows = np.loadtxt(files[FRONT_LEVELS].splitlines(), comments="#")
+    assert rows.shape == (3, 5) and len(set(rows[:, 4])) == 3  # each chain its own floor
+    for r, case in enumerate(cases):
+        own = deck._FRONT_FIX.search(deck.render(case)[DECK]).groups()
+        assert own[4] is not None  # a noisy chain's deck has a floor
+        np.testing.assert_array_equal(rows[r], [float(x) for x in own])
+    np.testing.assert_array_equal(rows[:, 3], 0.1)
+    assert np.all(rows[:, 4] > 0) and np.all(rows[:, 4] < rows[:, 1])
+
+
+def test_a_batch_guards_its_chains_with_the_narrowest_table_range():
+    """Chains with gaps of 12 mm and one with a 13 mm gap: their own tables end at 3 x the
+    widest gap, 36 and 39 mm. In one batch (the exact law: no table file) the chain fix guards
+    every chain with the narrowest, 0.036 m, in either order: no chain runs past its own range."""
+    plain = make_case(particles=21)
+    wide = make_case(particles=21, chain={"r0": [12.0] * 19 + [13.0]})
+    assert (plain.table_range(), wide.table_range()) == ((0.0, 36.0), (0.0, 39.0))
+    for cases in ([plain, wide], [wide, plain]):
+        text = deck.render_replicas(cases)[DECK]
+        lo, hi = re.search(r"range (\S+) (\S+) length 21", text).groups()
+        assert (float(lo), float(hi)) == (0.0, pytest.approx(0.036, rel=1e-15))
+
+
 # ---------------------------------------------------------------- no string becomes a command
 
 def _strings() -> list[str]:
