@@ -68,3 +68,19 @@ def test_second_neighbours_match_independent_integrator(tmp_path):
     v_nearest = integrate_chain(power_force(), 1.084, 12.0, 30, *drive, traj.t)
     assert np.max(np.abs(traj.v - v_ref)) < 1e-3 * 2.0
     assert np.max(np.abs(v_ref - v_nearest)) > 0.5 * 2.0
+
+
+def test_second_neighbours_with_a_short_nearest_table(tmp_path):
+    """The second-neighbour table spans twice the nearest one's range: with the nearest table
+    ending at 20 mm (gaps of 12 mm), pairs start 24 mm apart, beyond it, inside the second
+    table's [0, 40] mm; LAMMPS follows the independent integrator as above (< 1e-3 V_I; measured
+    1e-4 V_I)."""
+    second = {"law": "power", "K": 206.2, "b": 10.267, "q": 3.0, "sign": -1}
+    case = make_case(particles=21, velocity=2.0, duration=40.0, second_neighbour=second, table={"r_max": 20.0})
+    assert case.second_table_range() == (0.0, 40.0)
+    traj = simulate(case, tmp_path)
+    law = PowerLaw(206.2, 10.267, 3.0)
+    drive = (lambda t: 2.0 * t, lambda t: np.full_like(t, 2.0))
+    v_ref = integrate_chain(power_force(), 1.084, 12.0, 21, *drive, traj.t, force2=lambda d: -law.force(d))
+    assert np.max(np.abs(v_ref[:, 10])) > 2.0  # the front has passed magnet 11 (of 21)
+    assert np.max(np.abs(traj.v - v_ref)) < 1e-3 * 2.0
