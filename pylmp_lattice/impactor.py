@@ -223,9 +223,10 @@ PROFILES = {cls.profile: cls for cls in (Constant, Rest, Ramp, SinePulse, Measur
 
 
 def _check_drive(velocity: float, **times: float):
-    """A drive's peak velocity (m/s) and its times (ms, by field name), each > 0."""
+    """A drive's peak velocity (m/s) and its times (ms, by field name), each finite and > 0 (an
+    infinite pulse duration made the displacement inf * 0 = NaN, and reached the deck as 'inf')."""
     if not (np.isfinite(velocity) and velocity > 0):
         raise ConfigError("impactor.velocity", f"got {velocity} m/s; expected > 0")
     for name, t in times.items():
-        if not t > 0:
-            raise ConfigError(f"impactor.{name}", f"got {t} ms; expected > 0")
+        if not (np.isfinite(t) and t > 0):
+            raise ConfigError(f"impactor.{name}", f"got {t} ms; expected a finite time > 0")

@@ -174,10 +174,14 @@ def test_lammps_plays_a_measured_motion_on_the_camera_s_clock(tmp_path, engine):
     (lambda: Ramp(1.0, 0.0), "impactor.ramp_time"),
     (lambda: SinePulse(1.0, 0.0), "impactor.duration"),
     (lambda: SinePulse(1.0, -2.0), "impactor.duration"),
-], ids=["zero", "inf", "nan", "ramp_time", "duration", "negative_duration"])
+    (lambda: SinePulse(1.0, float("inf")), "impactor.duration"),
+    (lambda: Ramp(1.0, float("inf")), "impactor.ramp_time"),
+], ids=["zero", "inf", "nan", "ramp_time", "duration", "negative_duration", "infinite_duration", "infinite_ramp"])
 def test_a_drive_without_a_forward_speed_or_a_time_is_refused(make, field):
     """Profiles built directly (the Python API, not through a case file whose loader checks
-    numbers first): each checks its own fields."""
+    numbers first): each checks its own fields. An infinite pulse duration was taken: its
+    displacement was inf * 0 = NaN, and a case built with it wrote 'impactor ramp 2.0 inf' or
+    'variable T_s equal inf' into its deck."""
     from pylmp_lattice.errors import ConfigError
 
     with pytest.raises(ConfigError) as info:
