@@ -37,27 +37,27 @@ struct Batch {
   int *status;
 };
 
-/* one thread's storage for W lanes of chains of n atoms: per atom lanes (aligned for any W), the
-   record's rows per lane, and what ends up per lane */
+/* one thread's storage for W lanes of chains of n atoms: per atom lanes and the record's rows as
+   lanes (aligned for any W), and what ends up per lane */
 struct LaneStore {
   static constexpr int ARRAYS = 9;    // x v f dtfm mass weight mark gate dtm
   int n, per_array;
-  std::vector<double> lanes, rec, x_end, v_end;
-  std::vector<unsigned char> phase;
+  std::vector<double> lanes, rec_lanes, x_end, v_end;
   std::vector<int> index;
   LaneStore(const ChainSetup &S, int W)
       : n(S.n), per_array(S.n * W), lanes((ARRAYS * S.n + step_scratch(S.block)) * W + 8),
-        rec(S.record ? static_cast<size_t>(S.n) * W * front::NCOL : 0), x_end(S.n * W), v_end(S.n * W),
-        phase(S.record ? S.n * W : 0), index(S.n)
+        rec_lanes(S.record ? static_cast<size_t>(S.n) * W * front::NCOL + 8 : 0), x_end(S.n * W), v_end(S.n * W),
+        index(S.n)
   {
     for (int i = 0; i < n; i++) index[i] = i;
   }
   /* the k-th per-atom array (ARRAYS is the scratch), on a 64-byte boundary */
-  double *array(int k)
+  double *array(int k) { return aligned(lanes.data()) + static_cast<size_t>(k) * per_array; }
+  /* the record: n rows of NCOL lanes, on a 64-byte boundary */
+  double *rec() { return aligned(rec_lanes.data()); }
+  static double *aligned(double *base)
   {
-    double *base = lanes.data();
-    base += (8 - reinterpret_cast<uintptr_t>(base) / sizeof(double) % 8) % 8;
-    return base + static_cast<size_t>(k) * per_array;
+    return base + (8 - reinterpret_cast<uintptr_t>(base) / sizeof(double) % 8) % 8;
   }
 };
 
@@ -89,10 +89,10 @@ template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &s
   d.scratch = reinterpret_cast<R *>(st.array(LaneStore::ARRAYS));
   d.x_end = st.x_end.data(), d.v_end = st.v_end.data();
   if (S.record) {
-    for (double &r : st.rec) r = quiet_nan();
+    R *rec = reinterpret_cast<R *>(st.rec());
+    for (size_t k = 0; k < static_cast<size_t>(n) * front::NCOL; k++) rec[k] = L::splat(quiet_nan());
     for (int i = 0; i < n; i++) mark[i] = L::splat(quiet_nan());
-    for (unsigned char &p : st.phase) p = front::WAITING;
-    d.rec = st.rec.data(), d.mark = mark, d.gate = reinterpret_cast<R *>(st.array(7)), d.phase = st.phase.data();
+    d.rec = rec, d.mark = mark, d.gate = reinterpret_cast<R *>(st.array(7));    // the gates keep the phases
   }
   run(S, d);
   for (int l = 0; l < W && c0 + l < B.chains; l++) {
@@ -105,7 +105,7 @@ template <class R, class Run> inline void run_lanes(const Batch &B, LaneStore &s
     if (S.record)
       for (int i = 0; i < n; i++)
         for (int k = 0; k < front::NOUT; k++)
-          B.front_out[(at + i) * front::NOUT + k] = st.rec[(static_cast<size_t>(l) * n + i) * front::NCOL + k];
+          B.front_out[(at + i) * front::NOUT + k] = L::get(d.rec[static_cast<size_t>(i) * front::NCOL + k], l);
   }
 }
 

@@ -79,9 +79,22 @@ PL_HD inline front::Levels levels_row(const double *L)
   return levels;
 }
 
+/* W chains' levels as lanes (one chain: its own) */
+template <class R> PL_HD inline front::LevelsT<R> lane_levels(const front::Levels *levels)
+{
+  front::LevelsT<R> lanes;
+  for (int l = 0; l < Lanes<R>::W; l++) {
+    Lanes<R>::set(lanes.start, l, levels[l].start), Lanes<R>::set(lanes.front, l, levels[l].front);
+    Lanes<R>::set(lanes.drop, l, levels[l].drop), Lanes<R>::set(lanes.pulse_drop, l, levels[l].pulse_drop);
+    Lanes<R>::set(lanes.pulse_floor, l, levels[l].pulse_floor);
+  }
+  return lanes;
+}
+
 /* one chain's arrays (n each, the record n NCOL) and its outcome; with lanes (R a vector of W
-   doubles, device.h) W chains side by side: x[i] holds atom i of every lane's chain, the record
-   and phases are per lane (lane l's rows from rec + l n NCOL, phase + l n) */
+   doubles, device.h) W chains side by side: x[i] holds atom i of every lane's chain, and so does
+   the record (rec[i NCOL + k]: column k of atom i's row in every lane), whose phases the gates
+   keep (one chain: in phase) */
 template <class R> struct ChainDataT {
   static constexpr int W = Lanes<R>::W;
   R *x, *v, *f;                   // x, v in: initial; out: final (lanes: see x_end)
@@ -90,9 +103,9 @@ template <class R> struct ChainDataT {
   const int *index;               // atom i's mass slot: i (each atom its own), or 1 for all (the GPU's
                                   // batches of one mass)
   front::Levels levels[W];
-  double *rec;                    // the front record (rec: n rows of NCOL per lane)
+  R *rec;                         // the front record: n rows of NCOL
   R *mark, *gate;                 // marks, start gates
-  unsigned char *phase;
+  unsigned char *phase;           // one chain (W = 1): each row's front::Phase
   R *scratch;                     // scratch: step_scratch(block)
   double *x_end, *v_end;          // lanes: each lane's x, v at its end (W rows of n), or null
   bool alive[W];                  // in: the lanes to run (a lane past the last chain: false)
@@ -127,6 +140,12 @@ template <class R> struct ArrayGates {
   PL_HD void wait(int i, int l, double start) { Lanes<R>::set(g[i], l, start); }
   PL_HD void activate(int i, int l) { Lanes<R>::set(g[i], l, -infinity()); }
   PL_HD void finish(int i, int l) { Lanes<R>::set(g[i], l, quiet_nan()); }
+  /* atom i's lanes `started` become active, then those `finished` finished */
+  PL_HD void update(int i, MaskOf<R> started, MaskOf<R> finished)
+  {
+    g[i] = started ? Lanes<R>::splat(-infinity()) : g[i];
+    g[i] = finished ? Lanes<R>::splat(quiet_nan()) : g[i];
+  }
   PL_HD ArrayGates view() const { return *this; }
 };
 /* BitGates: one chain of at most 64 atoms (a GPU thread), its gates as two bit masks and the start
@@ -210,6 +229,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
   ChainDataT<R> *c;
   front::Sample sample;
   int active[W];                  // per lane: atoms of the chain between their start and both peaks
+  front::LevelsT<R> levels;       // with lanes: each lane's chain's (ChainDataT::levels)
   /* listed (one chain, W = 1, a GPU thread): the rows due at this step, sampled by flush() */
   struct Due {
     int i;
@@ -224,13 +244,28 @@ template <class R, class Runs, class Gates> struct ChainFront {
   {
     unsigned char &phase = c->phase[l * n + i];
     const unsigned char was = phase;
-    double *r = c->rec + ((long long) l * n + i) * front::NCOL;
+    double *r = c->rec + (long long) i * front::NCOL;
     sample_cold(r, phase, vi, fi, m, v_prev, c->levels[l], sample);
     if (was == front::WAITING && phase != front::WAITING) gate.activate(i, l), active[l]++;
     if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, l), active[l]--;
   }
   /* the lanes where atom i's row is due (front::due) */
   PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
+  /* with lanes: the rows of atom i due in the lanes `go` (each lane's row() at once) */
+  PL_HD void lanes(int i, MaskOf<R> go, const R &v_prev)
+  {
+    R alive = R();
+    for (int l = 0; l < W; l++) L::set(alive, l, c->alive[l] ? 1.0 : 0.0);
+    go = go && alive != 0.0;
+    if (!L::any(go)) return;
+    R *r = c->rec + (long long) i * front::NCOL;
+    const MaskOf<R> starting = go && gate[i] != -infinity();
+    const MaskOf<R> finished = front::advance_lanes<R>(r, go, starting, v[i], starting ? v_prev : r[front::V_PREV],
+                                                       f[i] / mass[slot[i]], levels, sample);
+    if (!L::any(starting || finished)) return;
+    gate.update(i, starting, finished);
+    for (int l = 0; l < W; l++) active[l] += L::on(starting, l) - L::on(finished, l);
+  }
   /* atom i's row in every running lane where it is due (listed: at the next flush) */
   PL_HD void rows(int i, const R &v_prev)
   {
@@ -243,10 +278,10 @@ template <class R, class Runs, class Gates> struct ChainFront {
       if (!c->alive[0]) return;
       due_mask |= 1ull << i;
       if (gate[i] != -infinity()) c->rec[(long long) i * front::NCOL + front::V_PREV] = v_prev;    // it starts now
+    } else if constexpr (W > 1) {
+      lanes(i, m, v_prev);
     } else {
-      for (int l = 0; l < W; l++)
-        if (L::on(m, l) && c->alive[l])
-          row(l, i, L::get(v[i], l), L::get(f[i], l), L::get(mass[slot[i]], l), L::get(v_prev, l));
+      if (c->alive[0]) row(0, i, v[i], f[i], mass[slot[i]], v_prev);
     }
   }
   /* listed, masked: the rows due since the last flush */
@@ -325,7 +360,7 @@ PL_HD inline void end_lane(const ChainSetup &S, ChainDataT<R> &c, const R &work_
   if (FRONT)
     PL_UNROLL
     for (int i = team.owns_first() ? 0 : 1; i < (team.owns_last() ? n : n - 1); i++)
-      c.rec[((long long) l * n + i) * front::NCOL + front::V_ABS_MAX] = L::get(c.mark[i], l);
+      L::set(c.rec[(long long) i * front::NCOL + front::V_ABS_MAX], l, L::get(c.mark[i], l));
 }
 
 /* the running lanes whose gaps went bad end (a contact or out of range); true if none runs on */
@@ -396,7 +431,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c, cons
   using Hook = ChainFront<R, Runs, Gates>;
   typename Hook::Due due_now[SAMPLING == Sampling::listed ? 64 : 1];    // BitGates' most atoms
   Hook hook{n, runs, v, f, c.mass, c.index, GatesFor<SAMPLING, R>::of(c), &c, front::Sample{0.0, 0.0, true}, {},
-            due_now};
+            lane_levels<R>(c.levels), due_now};
   const int own_first = team.owns_first() ? 0 : 1, own_last = team.owns_last() ? n - 1 : n - 2;
   if (FRONT) {
     PL_UNROLL

@@ -92,7 +92,8 @@ template <> struct Lanes<double> {
 };
 
 #if !defined(__CUDACC__) && !defined(__CUDACC_RTC__)
-/* the host engine's lane types and their fabs, copysign and isnan, bit for bit std's per lane */
+/* the host engine's lane types and their fabs, copysign, isnan and fmax, bit for bit std's per lane (fmax:
+   in value; the sign of a zero it returns may differ, which no comparison sees) */
 typedef double Lanes2 __attribute__((vector_size(16)));
 typedef double Lanes4 __attribute__((vector_size(32)));
 
@@ -131,6 +132,11 @@ template <class R, class I = typename LaneBits<R>::I> inline R copysign(R a, R b
 template <class R, class I = typename LaneBits<R>::I> inline I isnan(R a)
 {
   return a != a;
+}
+/* std::fmax per lane: the other value where one is a NaN */
+template <class R, class I = typename LaneBits<R>::I> inline R fmax(R a, R b)
+{
+  return isnan(a) ? b : isnan(b) ? a : a > b ? a : b;
 }
 #endif
 

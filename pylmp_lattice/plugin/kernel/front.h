@@ -40,10 +40,12 @@ enum Column {
 };
 enum Phase : unsigned char { WAITING, ACTIVE, FINISHED };
 
-struct Levels {
-  double start, front, drop, pulse_drop;    // velocity levels; relative fall of a pulse
-  double pulse_floor = 0.0;                 // least absolute fall of a pulse (the chain's noise)
+/* per chain, or with lanes (R: device.h) per lane */
+template <class R> struct LevelsT {
+  R start, front, drop, pulse_drop;    // velocity levels; relative fall of a pulse
+  R pulse_floor = R();                 // least absolute fall of a pulse (the chain's noise)
 };
+typedef LevelsT<double> Levels;
 struct Sample {
   double t, t_prev;    // this sample's time and the previous one's
   bool first;          // no earlier sample
@@ -71,100 +73,120 @@ PL_HD inline bool due(unsigned char phase, double v, const Levels &L)
 namespace detail {
 constexpr int MAXIMUM = 6;    // columns in a maximum block
 
-// A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
-PL_HD inline void set_maximum(double *m, double y, double t, double y_prev, double t_prev)
+/* Each rule below works on the lanes in a mask `go` (a bool for one chain, device.h's MaskOf
+   with lanes: W chains side by side, each lane's row a lane of R). A lane's operations are the
+   same as one chain's, a branch being a select, so each lane has the bits of its chain alone;
+   a block of selects runs only where some lane takes it, which with one chain is the branch. */
+template <class R> PL_HD inline R pick(MaskOf<R> m, R a, R b)
 {
-  m[0] = y, m[1] = t, m[2] = y_prev, m[3] = t_prev, m[4] = m[5] = quiet_nan();
+  return m ? a : b;
+}
+
+// A new maximum y at time t, the previous sample (y_prev, t_prev) its left neighbour.
+template <class R> PL_HD inline void set_maximum(R *m, MaskOf<R> go, R y, R t, R y_prev, R t_prev)
+{
+  const R nan = Lanes<R>::splat(quiet_nan());
+  m[0] = pick(go, y, m[0]), m[1] = pick(go, t, m[1]), m[2] = pick(go, y_prev, m[2]);
+  m[3] = pick(go, t_prev, m[3]), m[4] = pick(go, nan, m[4]), m[5] = pick(go, nan, m[5]);
 }
 
 // The sample after a maximum is its right neighbour.
-PL_HD inline void fill_right(double *m, double y, double t, double t_prev)
+template <class R> PL_HD inline void fill_right(R *m, MaskOf<R> go, R y, R t, R t_prev)
 {
-  if (m[1] == t_prev && isnan(m[4])) {
-    m[4] = y;
-    m[5] = t;
-  }
+  const MaskOf<R> right = go && m[1] == t_prev && isnan(m[4]);
+  if (Lanes<R>::any(right)) m[4] = pick(right, y, m[4]), m[5] = pick(right, t, m[5]);
 }
 
 // First time v reaches level, between samples (t0, v0) below it and (t1, v1).
-PL_HD inline double crossing(double level, double t0, double v0, double t1, double v1)
+template <class R> PL_HD inline R crossing(R level, R t0, R v0, R t1, R v1)
 {
   return t0 + (level - v0) / (v1 - v0) * (t1 - t0);
 }
 
 // Vertex of the parabola through (tm, ym), (t, y), (tp, yp) where it is concave, else (t, y).
-PL_HD inline void refine(const double *m, double &t_out, double &y_out)
+template <class R> PL_HD inline void refine(const R *m, MaskOf<R> go, R &t_out, R &y_out)
 {
-  const double y = m[0], t = m[1], ym = m[2], tm = m[3], yp = m[4], tp = m[5];
-  t_out = t;
-  y_out = y;
-  if (isnan(ym) || isnan(yp)) return;
-  const double h1 = t - tm, h2 = tp - t;
-  const double c = ((ym - y) / h1 + (yp - y) / h2) / (h1 + h2);
-  if (!(c < 0.0)) return;
-  const double b = (yp - y) / h2 - c * h2;
-  t_out = t - b / (2.0 * c);
-  y_out = y - b * b / (4.0 * c);
+  const R y = m[0], t = m[1], ym = m[2], tm = m[3], yp = m[4], tp = m[5];
+  const R h1 = t - tm, h2 = tp - t;
+  const R c = ((ym - y) / h1 + (yp - y) / h2) / (h1 + h2);
+  const MaskOf<R> vertex = !(isnan(ym) || isnan(yp)) && c < 0.0;
+  const R b = (yp - y) / h2 - c * h2;
+  t_out = pick(go, pick(vertex, t - b / (2.0 * c), t), t_out);
+  y_out = pick(go, pick(vertex, y - b * b / (4.0 * c), y), y_out);
 }
 }    // namespace detail
 
-/* cold part: the row r of an atom that starts now or is active, with its velocity v and
-   acceleration a at this sample and its velocity v_prev at the previous one (the row keeps it
-   for active atoms; a waiting atom's comes from the hot state of whoever samples). Moves the
-   atom from WAITING to ACTIVE and from ACTIVE to FINISHED. */
-PL_HD inline void advance(double *r, unsigned char &phase, double v, double v_prev, double a, const Levels &L,
-                    const Sample &s)
+/* cold part: the rows r of atoms that start now (`starting`) or are active (the other lanes of
+   `go`), with their velocity v and acceleration a at this sample and their velocity v_prev at
+   the previous one (the row keeps it for active atoms; a waiting atom's comes from the hot
+   state of whoever samples); the lanes outside `go` are left as they are. Returns the lanes
+   whose atom has both peaks now: they move from ACTIVE to FINISHED (those starting, from
+   WAITING to ACTIVE). */
+template <class R>
+PL_HD inline MaskOf<R> advance_lanes(R *r, MaskOf<R> go, MaskOf<R> starting, R v, R v_prev, R a,
+                                     const LevelsT<R> &L, const Sample &s)
 {
   using namespace detail;
-  const double t = s.t, t_prev = s.t_prev;
-  if (phase == WAITING) {
-    r[T_START] = s.first ? t : crossing(L.start, t_prev, v_prev, t, v);
-    r[TS_START] = t;
-    phase = ACTIVE;
+  using Ln = Lanes<R>;
+  const R t = Ln::splat(s.t), t_prev = Ln::splat(s.t_prev), one = Ln::splat(1.0);
+  if (Ln::any(starting)) {
+    r[T_START] = pick(starting, s.first ? t : crossing(L.start, t_prev, v_prev, t, v), r[T_START]);
+    r[TS_START] = pick(starting, t, r[TS_START]);
   }
-  bool arrived_now = false;
-  if (isnan(r[T_ARRIVAL]) && v >= L.front) {
-    r[T_ARRIVAL] = s.first ? t : crossing(L.front, t_prev, v_prev, t, v);
-    arrived_now = true;
-  }
+  const MaskOf<R> arrived_now = go && isnan(r[T_ARRIVAL]) && v >= L.front;
+  if (Ln::any(arrived_now))
+    r[T_ARRIVAL] = pick(arrived_now, s.first ? t : crossing(L.front, t_prev, v_prev, t, v), r[T_ARRIVAL]);
 
   // which maxima move to this sample; the others get it as their right neighbour if their
   // maximum was the previous sample (a moved maximum's block is rewritten whole)
-  const bool started_now = t == r[TS_START];
-  const bool arun_open = r[DONE] != 1.0, pulse_open = r[PULSE_DONE] != 1.0;
-  const bool best_open = arun_open && !isnan(r[T_ARRIVAL]);
-  const bool arun_new = arun_open && (started_now || a > r[ARUN_A]);
-  const bool pulse_new = pulse_open && (started_now || v > r[PULSE_V]);
-  const bool best_new = best_open && (arrived_now || v > r[BEST_V]);
-  if (!best_new) fill_right(&r[BEST_V], v, t, t_prev);
-  if (!pulse_new) fill_right(&r[PULSE_V], v, t, t_prev);
-  if (!arun_new) fill_right(&r[ARUN_A], a, t, t_prev);
+  const MaskOf<R> started_now = t == r[TS_START];
+  const MaskOf<R> arun_open = r[DONE] != 1.0, pulse_open = r[PULSE_DONE] != 1.0;
+  const MaskOf<R> best_open = arun_open && !isnan(r[T_ARRIVAL]);
+  const MaskOf<R> arun_new = go && arun_open && (started_now || a > r[ARUN_A]);
+  const MaskOf<R> pulse_new = go && pulse_open && (started_now || v > r[PULSE_V]);
+  const MaskOf<R> best_new = go && best_open && (arrived_now || v > r[BEST_V]);
+  fill_right(&r[BEST_V], go && !best_new, v, t, t_prev);
+  fill_right(&r[PULSE_V], go && !pulse_new, v, t, t_prev);
+  fill_right(&r[ARUN_A], go && !arun_new, a, t, t_prev);
 
-  const double v_before = s.first ? quiet_nan() : v_prev;
-  if (arun_new) set_maximum(&r[ARUN_A], a, t, started_now ? quiet_nan() : r[A_PREV], t_prev);
+  const R v_before = s.first ? Ln::splat(quiet_nan()) : v_prev;
+  if (Ln::any(arun_new))
+    set_maximum(&r[ARUN_A], arun_new, a, t, pick(started_now, Ln::splat(quiet_nan()), r[A_PREV]), t_prev);
 
-  if (pulse_new) {
-    set_maximum(&r[PULSE_V], v, t, v_before, t_prev);
-  } else if (pulse_open && v <= r[PULSE_V] - fmax(L.pulse_drop * fabs(r[PULSE_V]), L.pulse_floor)) {
-    r[PULSE_DONE] = 1.0;
-    double v_max;
-    refine(&r[PULSE_V], r[T_PULSE], v_max);
+  const MaskOf<R> pulse_ends =
+      go && !pulse_new && pulse_open && v <= r[PULSE_V] - fmax(L.pulse_drop * fabs(r[PULSE_V]), L.pulse_floor);
+  if (Ln::any(pulse_new)) set_maximum(&r[PULSE_V], pulse_new, v, t, v_before, t_prev);
+  if (Ln::any(pulse_ends)) {
+    r[PULSE_DONE] = pick(pulse_ends, one, r[PULSE_DONE]);
+    R v_max = R();
+    refine(&r[PULSE_V], pulse_ends, r[T_PULSE], v_max);
   }
 
-  if (best_new) {
-    set_maximum(&r[BEST_V], v, t, v_before, t_prev);
-    for (int k = 0; k < MAXIMUM; k++) r[ASNAP_A + k] = r[ARUN_A + k];
-  } else if (best_open && v <= r[BEST_V] - L.drop) {
-    r[DONE] = 1.0;
-    refine(&r[BEST_V], r[T_PEAK], r[V_PEAK]);
-    const bool inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
-    double t_acc;
-    if (inside) refine(&r[ASNAP_A], t_acc, r[A_PEAK]);
-    else r[A_PEAK] = r[ASNAP_A];
+  const MaskOf<R> best_ends = go && !best_new && best_open && v <= r[BEST_V] - L.drop;
+  if (Ln::any(best_new)) {
+    set_maximum(&r[BEST_V], best_new, v, t, v_before, t_prev);
+    for (int k = 0; k < MAXIMUM; k++) r[ASNAP_A + k] = pick(best_new, r[ARUN_A + k], r[ASNAP_A + k]);
   }
-  r[V_PREV] = v;
-  r[A_PREV] = a;
-  if (r[DONE] == 1.0 && r[PULSE_DONE] == 1.0) phase = FINISHED;
+  if (Ln::any(best_ends)) {
+    r[DONE] = pick(best_ends, one, r[DONE]);
+    refine(&r[BEST_V], best_ends, r[T_PEAK], r[V_PEAK]);
+    const MaskOf<R> inside = r[ASNAP_T] > r[TS_START] && r[ASNAP_T] < r[BEST_T];
+    R t_acc = R();
+    refine(&r[ASNAP_A], best_ends && inside, t_acc, r[A_PEAK]);
+    r[A_PEAK] = pick(best_ends && !inside, r[ASNAP_A], r[A_PEAK]);
+  }
+  r[V_PREV] = pick(go, v, r[V_PREV]);
+  r[A_PREV] = pick(go, a, r[A_PREV]);
+  return go && r[DONE] == 1.0 && r[PULSE_DONE] == 1.0;
+}
+
+/* advance_lanes for one chain's atom that is due (front::due), its phase moved on */
+PL_HD inline void advance(double *r, unsigned char &phase, double v, double v_prev, double a, const Levels &L,
+                          const Sample &s)
+{
+  const bool starting = phase == WAITING;
+  if (starting) phase = ACTIVE;
+  if (advance_lanes<double>(r, true, starting, v, v_prev, a, L, s)) phase = FINISHED;
 }
 
 /* The one per-atom sampling routine past the hot part (mark_max): the row r of an atom that is
