@@ -55,11 +55,12 @@ def ptr(a: np.ndarray):
     return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
 
-def _load() -> tuple[ctypes.CDLL, Layout]:
+def _load(path=None) -> tuple[ctypes.CDLL, Layout]:
+    """The library at `path` (the installed one if None), typed, and its layout."""
     from ..plugin import ENGINE, library_file
 
     try:
-        lib = ctypes.CDLL(str(library_file(ENGINE)))
+        lib = ctypes.CDLL(str(path or library_file(ENGINE)))
     except RunError as err:
         raise Unsupported(f"the host engine is not built: {err}") from None
     if lib.pl_engine_abi() != ABI:
