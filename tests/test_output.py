@@ -352,17 +352,30 @@ def test_a_frame_index_out_of_range_is_named_with_the_range(tmp_path, args, fiel
 
 
 def test_a_dump_whose_later_frame_has_another_layout_is_refused(tmp_path):
-    """One-chunk frames are read as records of frame 0's layout: a later frame of another atom
-    count (a dump appended to by another run) is a DumpFormatError naming it, never its bytes
-    read as values (mutation: the records' layout check skipped survived)."""
+    """A later frame of another atom count (a dump appended to by another run) is a
+    DumpFormatError naming it, never its bytes read as values: where the frames are counted one
+    by one (here the package's own frames, each with its unit style), when the file is opened;
+    where they are counted from the file's size (frames alike: LAMMPS's, the unit style in none),
+    as each is read (mutation: the records' layout check skipped survived)."""
     from pylmp_lattice.errors import DumpFormatError
-    from pylmp_lattice.formats.bindump import write_frame
+    from pylmp_lattice.formats.bindump import _frame_dtype, _Frame, write_frame
 
     for k, atoms in enumerate((4, 8)):
         data = np.column_stack([np.arange(1.0, atoms + 1), np.full((atoms, 3), 0.25 * k)])
         write_frame(tmp_path / f"{k}.bin", k, 0.5 * k, "id x vx fx", data)
     (tmp_path / "traj.bin").write_bytes((tmp_path / "0.bin").read_bytes() + (tmp_path / "1.bin").read_bytes())
-    dump = open_dump(tmp_path / "traj.bin")
-    assert dump.frames == 2 and dump.atoms == 4
-    with pytest.raises(DumpFormatError, match=r"traj\.bin: frame 1 differs in layout from frame 0"):
+    with pytest.raises(DumpFormatError, match=r"traj\.bin: frame 1 holds 8 atoms of id x vx fx; frame 0 4 of"):
+        open_dump(tmp_path / "traj.bin")
+    names = b"id x vx fx"
+    rec = np.zeros(3, _frame_dtype(_Frame(tuple(names.decode().split()), 4, 0, 0.0, 1, 0, len(names), None)))
+    rec["magic_len"], rec["magic"], rec["endian"], rec["revision"], rec["ncol"] = -10, b"DUMPCUSTOM", 1, 2, 4
+    rec["atoms"], rec["time_flag"], rec["names_len"], rec["names"], rec["chunks"], rec["n"] = 4, 1, len(names), names, 1, 16
+    rec["step"], rec["time"] = [0, 1, 2], [0.0, 0.5, 1.0]
+    rec["data"][:, :, 0] = np.arange(1.0, 5.0)
+    rec["atoms"][2] = 2  # (its size as if of 4)
+    rec.tofile(tmp_path / "alike.bin")
+    dump = open_dump(tmp_path / "alike.bin")
+    assert dump.frames == 3 and dump.atoms == 4 and dump.frame_dtype is not None
+    assert list(dump.read(0, 2).step) == [0, 1]
+    with pytest.raises(DumpFormatError, match=r"alike\.bin: frame 2 differs in layout from frame 0"):
         dump.read()

@@ -108,7 +108,11 @@ def _check_frame(name: str, index, low: int, dump: BinaryDump) -> None:
 
 def open_dump(path: str | Path) -> BinaryDump:
     """The layout of a binary dump and its number of complete frames; 0 frames (and no columns)
-    for a file without one, as a run leaves it when stopped before its first frame."""
+    for a file without one, as a run leaves it when stopped before its first frame. Frames alike
+    are counted from the file's size; others one by one: several ranks' chunks, the unit style
+    in the first frame alone (`dump_modify units yes`), or a size that is no whole number of
+    frames (a last frame cut short, or frames of another atom count: `dump_modify thresh`, atoms
+    lost, which the readers' arrays cannot hold: DumpFormatError naming the frame)."""
     path = Path(path)
     try:
         size = path.stat().st_size
@@ -116,18 +120,40 @@ def open_dump(path: str | Path) -> BinaryDump:
             first = _read_frame(f, path, data=False)
             if first is None:
                 return BinaryDump(path, (), 0, 0, None)
-            if first.chunks > 1:  # several ranks: count the frames one by one
-                frames = 1
-                while _read_frame(f, path, data=False) is not None:
-                    frames += 1
-                return BinaryDump(path, first.columns, first.atoms, frames, None)
+            second = f.tell()
+            dtype = _frame_dtype(first)
+            frames, rest = divmod(size, dtype.itemsize)
+            if first.chunks == 1 and first.unit_len == 0 and (not rest or _cut_alike(f, first, size - rest)):
+                if rest:
+                    logger.warning("%s: dropped a truncated last frame at byte %d", path, size - rest)
+                return BinaryDump(path, first.columns, first.atoms, frames, dtype)
+            f.seek(second)
+            frames = 1
+            while (frame := _read_frame(f, path, data=False)) is not None:
+                if frame.atoms != first.atoms or frame.columns != first.columns:
+                    raise DumpFormatError(f"{path}: frame {frames} holds {frame.atoms} atoms of "
+                                          f"{' '.join(frame.columns)}; frame 0 {first.atoms} of "
+                                          f"{' '.join(first.columns)}: frames of changing atoms (dump_modify "
+                                          "thresh, atoms lost) are read only by `pylmp-lattice binary2txt`")
+                frames += 1
     except FileNotFoundError as err:
         raise FileNotFoundError(f"{path}: dump file not found") from err
-    dtype = _frame_dtype(first)
-    frames = size // dtype.itemsize
-    if size % dtype.itemsize:
-        logger.warning("%s: dropped a truncated last frame (kept %d frames)", path, frames)
-    return BinaryDump(path, first.columns, first.atoms, frames, dtype)
+    return BinaryDump(path, first.columns, first.atoms, frames, None)
+
+
+def _cut_alike(f, first: _Frame, offset: int) -> bool:
+    """Whether the bytes from `offset` to the end are a frame laid out like `first` cut short (a
+    stopped run's last frame), so that the frames before it are alike too (each is checked as it
+    is read: `_check_records`)."""
+    f.seek(offset)
+    try:
+        head = _read_head(f)
+    except EOFError:  # cut inside its header
+        return True
+    except _NotAFrame:
+        return False
+    return head.atoms == first.atoms and head.chunks == 1 and head.unit_len == 0 and head.names == " ".join(
+        first.columns).encode("ascii")
 
 
 def complete_bytes(path: str | Path) -> int:
@@ -369,7 +395,7 @@ def _read_frame(f, path: Path, data: bool = True) -> _Frame | None:
 
 
 def _walk(dump: BinaryDump, start: int, stop: int, per_block: int) -> Iterator[Frames]:
-    """Frames of several chunks (runs on several ranks), parsed one by one."""
+    """Frames not all alike (`open_dump`), parsed one by one."""
     block = []
     with dump.path.open("rb") as f:
         for index in range(stop):
