@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_sweep import LOOP, ROOT, loop_states, run_loop, write_sweep  # noqa: E402
+from bench_sweep import LOOP, ROOT, loop_states, package, run_loop, write_sweep  # noqa: E402
 
 
 def main() -> None:
@@ -78,7 +78,8 @@ def main() -> None:
                 assert error < 1e-9, f"engine and loop differ by {error} m/s"
                 rows.append((friction, members, engine, loop_wall, error, load))
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; {os.cpu_count()} cores; {args.workers} threads / loop "
-          f"processes; {args.particles} magnets, 4800 steps, thermal {args.thermal} m/s")
+          f"processes; {args.particles} magnets, 4800 steps, thermal {args.thermal} m/s; pylmp_lattice from "
+          f"{package(child=False)}")
     print("| friction | members | engine (s) | per member (ms) | C loop (s) | engine / loop | atom-steps/s | "
           "engine without the record (s) | its / loop | kernel alone (s) | its / loop | its CPU / loop's | "
           "max |v engine - v loop| (m/s) | load before |")

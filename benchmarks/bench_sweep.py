@@ -128,6 +128,19 @@ def run_sweep_command(path: Path, out: Path, workers: int, engine: str = "lammps
             "coordinator": float(own[-1]) if own else float("nan")}
 
 
+def package(child: bool = True) -> str:
+    """Where the measured pylmp_lattice comes from: the one a command started here imports
+    (child; its folder first on its path, as the sweep's `python -c`), else this process's;
+    the installed copy unless PYTHONPATH, or the folder, names a tree."""
+    if not child:
+        import pylmp_lattice
+
+        return str(Path(pylmp_lattice.__file__).resolve().parent)
+    return subprocess.run([sys.executable, "-c", "import pathlib, pylmp_lattice; "
+                           "print(pathlib.Path(pylmp_lattice.__file__).resolve().parent)"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+
+
 def loop_states(sweep_path: Path):
     """Initial positions (m), velocities (m/s), masses (kg) of every member, and the first case."""
     from pylmp_lattice.sweep import load_sweep
@@ -240,7 +253,8 @@ def main() -> None:
                 rows.append((variant, members, sweep, loop_wall, loop_cpu, error, load_before, os.getloadavg()[0]))
 
     print(f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC; machine: {os.cpu_count()} cores; members of the 21-magnet experiment "
-          f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers, engine {args.engine}")
+          f"(4800 steps, thermal {args.thermal} m/s), {args.workers} workers, engine {args.engine}; pylmp_lattice from "
+          f"{package()}")
     print("| variant | members | sweep wall (s) | per member (ms) | start-up (s) | first result (s) | table written (s) "
           "| members batched | engine, per worker (s) | C loop wall (s) | engine / loop | sweep / loop, wall | sweep CPU (s) "
           "| C loop CPU (s) | sweep / loop, CPU | coordinator CPU (s), per member (ms) | loop vs engine, member 0 (m/s) "
