@@ -222,35 +222,3 @@ def test_the_record_the_engine_holds_is_the_one_it_wrote(tmp_path):
         assert getattr(got.front.peaks, f.name).tobytes() == getattr(want.front.peaks, f.name).tobytes()
     assert got.max_speed.tobytes() == want.max_speed.tobytes() and got.end_time == want.end_time
 
-
-@pytest.mark.slow  # compiles the library (about 10-20 s)
-def test_the_sse2_lanes_give_the_avx2_lanes_bits(tmp_path, monkeypatch):
-    """The library built with PL_LANES_SSE2 (2 chains a thread side by side, as on a CPU without
-    AVX2) against the installed one on this machine (4 on AVX2): x, v, the front record, work,
-    end step and status bit for bit, 23 thermal members with friction (lanes past the last chain
-    in both) and under mass disorder, whose rows start and finish at different steps per lane."""
-    import shutil
-    import subprocess
-
-    from pylmp_lattice.engines import cpu, library
-    from pylmp_lattice.engines.arrays import prepare
-
-    compiler = shutil.which("g++")
-    if compiler is None:
-        pytest.skip("no g++")
-    source = Path(cpu.__file__).resolve().parent.parent / "plugin"  # (an installed package ships them too)
-    built = tmp_path / "engine_sse2.so"
-    subprocess.run([compiler, "-O1", "-std=c++17", "-fPIC", "-shared", "-fopenmp", "-ffp-contract=off", "-Wno-psabi",
-                    "-DPL_LANES_SSE2", "-I", str(source), str(source / "engine_cpu.cpp"), "-o", str(built)], check=True)
-    cases = [make_case(particles=21, duration=30.0, output={"format": "none"}, friction=FRICTION,
-                       chain={"thermal_velocity": 0.02, "seed": s, "mass_disorder": 0.02 * (s % 2),
-                              "disorder": "uniform"})
-             for s in range(23)]
-    a = prepare(cases, "cpu")
-    want = cpu.run_arrays(a, 2)
-    monkeypatch.setattr(library, "_LOADED", [library._load(built)])
-    assert layout().lanes == 2
-    got = cpu.run_arrays(a, 2)
-    assert np.isfinite(want[2][:, 1]).any()  # arrivals recorded
-    for name, mine, avx2 in zip(("x", "v", "front", "work", "end_step", "status"), got, want):
-        assert np.array_equal(mine, avx2, equal_nan=True), name

@@ -235,7 +235,7 @@ def test_an_unknown_engine_in_a_sweep_file_names_the_field(tmp_path, capsys):
 
 
 @pytest.mark.lammps
-@pytest.mark.slow  # 7 s
+@pytest.mark.slow  # 3 s
 def test_ctrl_c_stops_a_cpu_sweep_within_2_s(tmp_path):
     """SIGINT to the command's process group while the kernel runs (in C, in chunks): exit 130
     within 2 s, members "done" or "interrupted" (resume: test_a_cpu_sweep_resumes_only_what_is_missing)."""

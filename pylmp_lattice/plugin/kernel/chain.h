@@ -187,7 +187,7 @@ template <class R> struct GatesFor<Sampling::per_run, R> {
 
 /* With PL_ROW_COPY (the GPU's short chains alone, engines/gpu.py's ROW_COPY), sample_cold reads the
    row whole into an array indexed by constants (registers) before it samples, and writes it back
-   whole after: front::advance's loads, each behind a branch on the one before, then wait on one
+   whole after: front::advance's loads, many behind a branch on an earlier one, then wait on one
    another (local memory, often beyond L1) where the copy issues all of them at once. The same
    arithmetic on the same values: the same bits. */
 #ifndef PL_ROW_COPY
@@ -239,15 +239,15 @@ template <class R, class Runs, class Gates> struct ChainFront {
   int due_count = 0;              // state, its gates, stays in registers)
   unsigned long long due_mask = 0;    // masked: the atoms due (BitGates' most atoms: 64)
 
-  /* lane l's row of atom i, with its v, f and m at this sample and v_prev at the last one */
-  PL_HD PL_HOST_COLD void row(int l, int i, double vi, double fi, double m, double v_prev)    // host: a call keeps the lanes' code small
+  /* one chain (W = 1): atom i's row, with its v, f and m at this sample and v_prev at the last one */
+  PL_HD void row(int i, double vi, double fi, double m, double v_prev)
   {
-    unsigned char &phase = c->phase[l * n + i];
+    unsigned char &phase = c->phase[i];
     const unsigned char was = phase;
     double *r = c->rec + (long long) i * front::NCOL;
-    sample_cold(r, phase, vi, fi, m, v_prev, c->levels[l], sample);
-    if (was == front::WAITING && phase != front::WAITING) gate.activate(i, l), active[l]++;
-    if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, l), active[l]--;
+    sample_cold(r, phase, vi, fi, m, v_prev, c->levels[0], sample);
+    if (was == front::WAITING && phase != front::WAITING) gate.activate(i, 0), active[0]++;
+    if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, 0), active[0]--;
   }
   /* the lanes where atom i's row is due (front::due) */
   PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
@@ -281,7 +281,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
     } else if constexpr (W > 1) {
       lanes(i, m, v_prev);
     } else {
-      if (c->alive[0]) row(0, i, v[i], f[i], mass[slot[i]], v_prev);
+      if (c->alive[0]) row(i, v[i], f[i], mass[slot[i]], v_prev);
     }
   }
   /* listed, masked: the rows due since the last flush */
@@ -290,7 +290,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
     if constexpr (SAMPLING == Sampling::listed) {
       for (int k = 0; k < due_count; k++) {
         const Due d = due_now[k];
-        row(0, d.i, d.v, d.f, d.m, d.v_prev);
+        row(d.i, d.v, d.f, d.m, d.v_prev);
       }
       due_count = 0;
     } else if constexpr (SAMPLING == Sampling::masked) {
@@ -298,7 +298,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
       PL_UNROLL
       for (int i = 0; i < Runs::n; i++)
         if (due_mask >> i & 1)
-          row(0, i, v[i], f[i], mass[slot[i]], c->rec[(long long) i * front::NCOL + front::V_PREV]);
+          row(i, v[i], f[i], mass[slot[i]], c->rec[(long long) i * front::NCOL + front::V_PREV]);
       due_mask = 0;
     }
   }
@@ -492,8 +492,8 @@ template <class F> PL_HD inline void dispatch_chain(const ChainSetup &S, F &&f)
 }
 
 /* Run one chain, or with lanes W chains (the running lanes: c.alive): c.x, c.v hold the initial
-   state (c.x[0] the impactor's position at t = 0), the record its NaN rows, marks and WAITING
-   phases; on return each lane's final state (with lanes in x_end, v_end), record (the rows'
+   state (c.x[0] the impactor's position at t = 0), the record its NaN rows and marks (one chain:
+   its WAITING phases; lanes keep theirs in the start gates, which run_chain sets); on return each lane's final state (with lanes in x_end, v_end), record (the rows'
    largest |v| refreshed), friction work, last step and status. */
 template <class R> PL_HD inline void run_chain(const ChainSetup &S, ChainDataT<R> &c)
 {

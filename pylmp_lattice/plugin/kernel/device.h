@@ -12,7 +12,6 @@
 #define PL_SIMD_STEP
 #define PL_RESTRICT __restrict__
 #define PL_COLD __noinline__
-#define PL_HOST_COLD
 #define PL_UNROLL _Pragma("unroll")
 #else
 #define PL_HD
@@ -21,8 +20,6 @@
   _Pragma("omp simd reduction(min : r_min) reduction(max : r_max) reduction(+ : r_sum) reduction(+ : starting)")
 #define PL_RESTRICT __restrict
 #define PL_COLD __attribute__((noinline))
-// a call on the host only: the lanes' code stays small there; a GPU thread keeps its arrays out of calls
-#define PL_HOST_COLD PL_COLD
 #define PL_UNROLL
 #endif
 

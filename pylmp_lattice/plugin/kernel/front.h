@@ -11,7 +11,8 @@ Why a hot and a cold part
    or behind it with both peaks found) need only their largest |v| so far and, while they wait
    for the start level, their previous velocity. So every step touches, per atom, only
      mark: the largest |v| so far (NaN before the first sample), one max instruction;
-     phase: WAITING (no sample at or above the start level yet), ACTIVE or FINISHED (a byte);
+     phase: WAITING (no sample at or above the start level yet), ACTIVE or FINISHED (a byte, or
+       with lanes the atom's start gate: chain.h);
    and the row only for active atoms (and at its start). The row's V_ABS_MAX column is the
    output copy of |mark|, refreshed whenever something may read the record (see the fix). */
 
@@ -76,7 +77,8 @@ constexpr int MAXIMUM = 6;    // columns in a maximum block
 /* Each rule below works on the lanes in a mask `go` (a bool for one chain, device.h's MaskOf
    with lanes: W chains side by side, each lane's row a lane of R). A lane's operations are the
    same as one chain's, a branch being a select, so each lane has the bits of its chain alone;
-   a block of selects runs only where some lane takes it, which with one chain is the branch. */
+   a block of selects runs only where some lane takes it (with one chain: where it does), but
+   refine computes its vertex in every lane it is given and keeps it only where it exists. */
 template <class R> PL_HD inline R pick(MaskOf<R> m, R a, R b)
 {
   return m ? a : b;
