@@ -21,6 +21,7 @@ from pathlib import Path
 
 from .engine import RUNNERS
 from .errors import ConfigError, ContactError, DumpFormatError, Interrupted, LatticeError, UsageError
+from .log_lines import log_to_stderr
 
 EXIT_RUN_ERROR = 1
 EXIT_BAD_INPUT = 2
@@ -37,9 +38,7 @@ def main(argv: list[str] | None = None) -> int:
         command = args.command_parser.prog.rsplit(" ", 1)[-1]
         before = given[:given.index(command)] if command in given else given
         (parser if set(extra) & set(before) else args.command_parser).error(f"unrecognized arguments: {' '.join(extra)}")
-    for level in (logging.INFO, logging.WARNING):
-        logging.addLevelName(level, logging.getLevelName(level).lower())
-    logging.basicConfig(level=logging.INFO, format="pylmp-lattice: %(levelname)s: %(message)s")
+    log_to_stderr(logging.INFO)
     # --quiet: warnings and errors only (no progress, no "converting ..." or "drawing ..." lines)
     root, level = logging.getLogger(), logging.getLogger().level
     if getattr(args, "quiet", False):

@@ -96,6 +96,7 @@ def _far_end_quiet(cases, points: list[list[int]], front: measures.Front, max_sp
     """`far_end_quiet` of each case of a long lattice (with max_speed), by row: whether its last
     free magnet stayed below the noise level (a warning where it did not)."""
     out = {}
+    loud: list[tuple[int, float]] = []  # (magnet, speed) of each case whose last free magnet moved
     for rows_ in points:  # (a point's cases share their far end)
         case = cases[rows_[0]]
         if case.chain.far_end != "long" or max_speed is None:
@@ -106,8 +107,13 @@ def _far_end_quiet(cases, points: list[list[int]], front: measures.Front, max_sp
             last = float(max_speed[r, last_free])
             out[r] = bool(last <= measures.levels.level(QUIET_FRACTION, vi, float(noises[r])))
             if not out[r]:
-                log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection",
-                            number(last_free), last)
+                loud.append((number(last_free), last))
+    if len(cases) == 1 and loud:
+        log.warning("long lattice too short: magnet %d moved at %.3g m/s; results may include a reflection", *loud[0])
+    elif loud:  # a batch: one line for all (far_end_quiet in each member's row)
+        log.warning("long lattice too short in %d of %d chains: magnet %s moved at up to %.3g m/s; their results may "
+                    "include a reflection (far_end_quiet false in their rows)", len(loud), len(cases),
+                    "/".join(map(str, sorted({m for m, _ in loud}))), max(s for _, s in loud))
     return out
 
 

@@ -27,8 +27,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pylmp_lattice"
 
 # (layer, the modules in it: a name covers its submodules), lowest first
 LAYERS = [
-    ("base", ["errors", "lazy", "units", "numbering", "serialize", "columnar", "trajectory", "file_lock", "version",
-              "exact", "mdanalysis"]),
+    ("base", ["errors", "log_lines", "lazy", "units", "numbering", "serialize", "columnar", "trajectory", "file_lock",
+              "version", "exact", "mdanalysis"]),
     ("formats", ["formats", "measures"]),
     ("models", ["forcelaw", "impactor", "table", "ranks", "theory"]),
     ("case", ["case"]),

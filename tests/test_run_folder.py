@@ -115,13 +115,13 @@ def _import_graph() -> dict[str, set[str]]:
 
 # Modules the run path calls for values, as often as it needs one: the case and the laws it is
 # made of, pure functions of values (units, the deck's text, preflight's size estimates, the summary's dict,
-# the measures, the figure, the progress bar's callback) and the formats of single files (binary and text
-# dumps, H5MD and its PSF topology, the front record, run.json and the lock). They call only
-# each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
+# the measures, the figure, the progress bar's callback, the log lines' form) and the formats of
+# single files (binary and text dumps, H5MD and its PSF topology, the front record, run.json and
+# the lock). They call only each other, never a stage (asserted below), as numpy or h5py would. Every other module is a
 # stage of the run and is entered once: a new module on the path is a stage until listed here.
-HELPERS = {"case", "lazy", "forcelaw", "impactor", "exact", "units", "errors", "serialize", "columnar", "trajectory",
-           "ranks", "numbering", "table", "deck", "case_measures", "summary", "plots", "progress", "measures",
-           "formats", "run_folder", "run_folder.marker", "run_folder.cases",
+HELPERS = {"case", "lazy", "forcelaw", "impactor", "exact", "units", "errors", "log_lines", "serialize", "columnar",
+           "trajectory", "ranks", "numbering", "table", "deck", "case_measures", "summary", "plots", "progress",
+           "measures", "formats", "run_folder", "run_folder.marker", "run_folder.cases",
            "file_lock", "preflight.estimate", "overhead"}
 
 

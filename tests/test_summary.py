@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 
 import numpy as np
@@ -304,6 +305,29 @@ def test_a_long_lattice_s_far_end_is_quiet_below_the_noise_level(caplog, thermal
     caplog.clear()
     assert quiet(1.05 * limit) is False
     assert f"magnet {n - 1} moved" in caplog.text and "long lattice too short" in caplog.text
+
+
+def test_a_batch_s_loud_far_ends_are_one_warning_line(caplog):
+    """A batch of long lattices (a sweep's) warns once for all its chains whose far end moved,
+    with their count, the magnet and the largest speed, where each chain had its own line (a
+    trial: 11 bare lines for 300 replicas); far_end_quiet is each member's."""
+    from pylmp_lattice.summary import summaries
+
+    case = make_case(duration=50.0, chain={"particles": None, "far_end": "long"})
+    n, last_free = case.chain.particles, min(case.held()) - 1
+    t = np.arange(0.0, 50.0, 0.1)
+    v = 1.0 + np.tanh((t[:, None] - 3.0 * np.arange(n)) / 0.25)
+    one = measures.front(t, v, np.gradient(v, t, axis=0), 2.0, case.chain.gaps(), slowest_linear_speed=1.6)
+    front = measures.stack_fronts([one, one, one])
+    max_speed = np.zeros((3, n))
+    max_speed[:, last_free] = [1e-3, 3e-3, 5e-3]  # the limit: 2e-3 m/s
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="pylmp_lattice"):
+        rows = summaries([case] * 3, front, max_speed)
+    assert [r["far_end_quiet"] for r in rows] == [True, False, False]
+    assert [r.getMessage() for r in caplog.records] == [
+        f"long lattice too short in 2 of 3 chains: magnet {n - 1} moved at up to 0.005 m/s; their results may "
+        "include a reflection (far_end_quiet false in their rows)"]
 
 
 def test_v0_and_f0_of_a_disordered_chain_are_those_of_its_mean_gap_and_mass():

@@ -11,7 +11,7 @@ record (with friction, the fix also reports each chain's friction work). The bat
 members.json then records every member's outcome with the summary a run alone would write
 (`store.write_table`: no file per member).
 If the batch fails (a contact, an engine error), its members run alone, so that each gets its
-own outcome. Anything else (trajectories kept, one member) runs alone with `run_case`.
+own outcome. Anything else (trajectories kept; with LAMMPS, one member) runs alone with `run_case`.
 
 The engine of a batch is LAMMPS, or with engine = "cpu" or "gpu" the chain kernel
 (`engines.road.KernelEngine`) on the same road into the same folder; members it cannot run
@@ -141,7 +141,10 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
         started = now()  # before the look at STOP: a member never starts after a stop signal
         if signals.stop_asked():
             break
-        if len(group) > 1:
+        # a kernel engine runs a member a batch can hold in a batch of its own (a grid's point with
+        # one replica, a task's last member, a tabulated law's replica with its own table range),
+        # LAMMPS in a member folder: an instance of its own costs it as much
+        if len(group) > 1 or (task.engine != "lammps" and batchable(group[0][1])):
             done = _run_batch(root, group, task.runner, started, task.engine, task.threads, notes=notes)
             if isinstance(done, list):
                 rows += done
@@ -149,8 +152,8 @@ def _run_members(root: Path, task: Task, members: tuple[Member, ...]) -> list[di
                 results |= done
         else:
             if task.engine != "lammps":
-                notes[_fallback(task.engine, "a member that runs alone (trajectories kept, or not batched with "
-                                             "others)")] = None
+                notes[_fallback(task.engine, "a member a batch cannot hold (trajectories kept, no front record, "
+                                             "or a setup of LAMMPS's own engine)")] = None
             results[group[0][0].id] = run_member(root, *group[0], task.runner, started)
     batched = {i for r in rows for i in r.columns["id"]}
     return [*rows, *(results.get(m.id) or unstarted(m) for m in members if m.id not in batched), *map(Note, notes)]

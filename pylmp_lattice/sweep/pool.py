@@ -8,6 +8,7 @@ imports) while the command still loads the sweep.
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing
 import os
 import signal
@@ -272,7 +273,10 @@ def _pool_worker_init(alive, stop, gpu: bool = False, warm=None) -> None:
     sent (`_send_whole`); it exits at once when the coordinator is gone. `gpu` (a GPU sweep's
     worker): its CUDA context is made, and the one-step batch `warm` run, beside its first task
     (`engines.gpu.warm_up`)."""
+    from ..log_lines import log_to_stderr
     from . import signals
+
+    log_to_stderr(logging.WARNING)  # what a member's run says, as the command says it (Python printed it bare)
 
     def on_signal(signum, frame):
         if signals.STOP.is_set():  # stopping already (Ctrl-C reaches this worker and its coordinator both)
