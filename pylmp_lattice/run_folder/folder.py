@@ -294,7 +294,7 @@ class RunFolder:
         summary.update(self.deck_changes())
         if case.friction is not None and layout.LOG in ran:
             with suppress(KeyError, IndexError, LatticeError):
-                summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6)
+                summary["friction_dissipated_energy_mJ"] = round(self.friction_work(), 6) + 0.0  # (as a batch's)
         files = {"folder": str(self.path)}
         if layout.LOG in ran:  # a deck run from elsewhere logs where it ran
             files["log"] = layout.LOG

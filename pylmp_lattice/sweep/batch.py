@@ -345,7 +345,8 @@ def _summaries(cases: list[Case], batch: Path, draws, points: list[str], rows=No
         if len(works) != len(cases):
             raise ValueError(f"{layout.CHAIN_WORK}: {len(works)} chains' work for {len(cases)} chains")
         logged = (" ".join(["%.8g"] * len(works)) % tuple(map(float, works))).split()
-        work = rounds(from_engine(np.array(list(map(float, logged))), "energy"), 6)
+        # (+ 0.0: no -0.0 where the work rounds to zero, as a sum of kicks' tiny rounding errors can with mu = 0)
+        work = [w + 0.0 for w in rounds(from_engine(np.array(list(map(float, logged))), "energy"), 6)]
         if "cols" in out:
             out["cols"]["friction_dissipated_energy_mJ"] = columns(work, same)
         else:
