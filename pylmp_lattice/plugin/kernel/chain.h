@@ -228,7 +228,6 @@ template <class R, class Runs, class Gates> struct ChainFront {
   Gates gate;
   ChainDataT<R> *c;
   front::Sample sample;
-  int active[W];                  // per lane: atoms of the chain between their start and both peaks
   front::LevelsT<R> levels;       // with lanes: each lane's chain's (ChainDataT::levels)
   /* listed (one chain, W = 1, a GPU thread): the rows due at this step, sampled by flush() */
   struct Due {
@@ -246,8 +245,8 @@ template <class R, class Runs, class Gates> struct ChainFront {
     const unsigned char was = phase;
     double *r = c->rec + (long long) i * front::NCOL;
     sample_cold(r, phase, vi, fi, m, v_prev, c->levels[0], sample);
-    if (was == front::WAITING && phase != front::WAITING) gate.activate(i, 0), active[0]++;
-    if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, 0), active[0]--;
+    if (was == front::WAITING && phase != front::WAITING) gate.activate(i, 0);
+    if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, 0);
   }
   /* the lanes where atom i's row is due (front::due) */
   PL_HD MaskOf<R> due(int i) const { return v[i] >= gate[i] || gate[i] == -infinity(); }
@@ -262,9 +261,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
     const MaskOf<R> starting = go && gate[i] != -infinity();
     const MaskOf<R> finished = front::advance_lanes<R>(r, go, starting, v[i], starting ? v_prev : r[front::V_PREV],
                                                        f[i] / mass[slot[i]], levels, sample);
-    if (!L::any(starting || finished)) return;
-    gate.update(i, starting, finished);
-    for (int l = 0; l < W; l++) active[l] += L::on(starting, l) - L::on(finished, l);
+    if (L::any(starting || finished)) gate.update(i, starting, finished);
   }
   /* atom i's row in every running lane where it is due (listed: at the next flush) */
   PL_HD void rows(int i, const R &v_prev)
@@ -304,11 +301,11 @@ template <class R, class Runs, class Gates> struct ChainFront {
   }
   /* PER_ATOM: atom i just kicked, its velocity before the step v_before */
   PL_HD void sample_atom(int i, const R &v_before) { rows(i, v_before); }
+  /* starting: the lanes where an atom of run b reached its gate at this step, which an active
+     atom's gate (-infinity) does at every step (step.h) */
   PL_HD void sample_block(int b, const R *v_before, MaskOf<R> starting)
   {
-    bool any_active = false;
-    for (int l = 0; l < W; l++) any_active = any_active || active[l] > 0;
-    if (!any_active && !L::any(starting)) return;
+    if (!L::any(starting)) return;
     const Run run = runs[b];
     PL_UNROLL
     for (int i = run.first; i <= run.last; i++) rows(i, v_before[i - run.first]);
@@ -430,7 +427,7 @@ PL_HD void run_chain(const LawT law, const ChainSetup &S, ChainDataT<R> &c, cons
   using Gates = typename GatesFor<SAMPLING, R>::type;
   using Hook = ChainFront<R, Runs, Gates>;
   typename Hook::Due due_now[SAMPLING == Sampling::listed ? 64 : 1];    // BitGates' most atoms
-  Hook hook{n, runs, v, f, c.mass, c.index, GatesFor<SAMPLING, R>::of(c), &c, front::Sample{0.0, 0.0, true}, {},
+  Hook hook{n, runs, v, f, c.mass, c.index, GatesFor<SAMPLING, R>::of(c), &c, front::Sample{0.0, 0.0, true},
             lane_levels<R>(c.levels), due_now};
   const int own_first = team.owns_first() ? 0 : 1, own_last = team.owns_last() ? n - 1 : n - 2;
   if (FRONT) {
