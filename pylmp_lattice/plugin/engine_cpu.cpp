@@ -147,7 +147,7 @@ void run_lanes_sse2(const Batch &B, LaneStore &st, int c0)
 }
 /* the chains a thread runs side by side on this machine, and its run of them: 4 in an AVX2 vector,
    else 2 (SSE2, or the machine's own vectors elsewhere); built with PL_LANES_SSE2, 2 on any
-   machine (tests/test_kernel_cpu.py checks the SSE2 lanes on an AVX2 machine) */
+   machine (tests/test_kernel_lanes.py checks the SSE2 lanes on an AVX2 machine) */
 int lanes(void (**run)(const Batch &, LaneStore &, int) = nullptr)
 {
 #if defined(__x86_64__) && !defined(PL_LANES_SSE2)

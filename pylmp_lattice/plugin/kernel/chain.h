@@ -228,7 +228,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
   Gates gate;
   ChainDataT<R> *c;
   front::Sample sample;
-  front::LevelsT<R> levels;       // with lanes: each lane's chain's (ChainDataT::levels)
+  front::LevelsT<R> levels;       // the chain's (ChainDataT::levels), with lanes each lane's
   /* listed (one chain, W = 1, a GPU thread): the rows due at this step, sampled by flush() */
   struct Due {
     int i;
@@ -244,7 +244,7 @@ template <class R, class Runs, class Gates> struct ChainFront {
     unsigned char &phase = c->phase[i];
     const unsigned char was = phase;
     double *r = c->rec + (long long) i * front::NCOL;
-    sample_cold(r, phase, vi, fi, m, v_prev, c->levels[0], sample);
+    sample_cold(r, phase, vi, fi, m, v_prev, levels, sample);
     if (was == front::WAITING && phase != front::WAITING) gate.activate(i, 0);
     if (was != front::FINISHED && phase == front::FINISHED) gate.finish(i, 0);
   }
