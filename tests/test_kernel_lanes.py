@@ -19,8 +19,7 @@ from pylmp_lattice.engines.arrays import prepare
 from pylmp_lattice.engines.library import layout
 
 from conftest import make_case
-
-FRICTION = {"mu": 0.285, "p": 0.012}
+from test_kernel_cpu import FRICTION
 
 
 @pytest.mark.slow  # compiles the library (about 10-20 s)
@@ -65,9 +64,9 @@ def test_the_sse2_lanes_give_the_avx2_lanes_bits(tmp_path, monkeypatch):
 def test_a_chain_that_ends_keeps_its_record_while_its_lanes_run_on():
     """Chains that meet in a contact at different steps, side by side in lanes with chains that
     run on to the end: each one's x, v, record, work, end step and status are those of the same
-    chain run alone (its own call, its lanes
-    copies of it, which end with it), byte for byte: an ended lane's rows are not touched by its
-    neighbours' later steps (a mutation that sampled ended lanes survived the other tests)."""
+    chain run alone (its own call, its lanes copies of it, which end with it), byte for byte: an
+    ended lane's rows are not touched by its neighbours' later steps (a mutation that sampled
+    ended lanes survived the other tests)."""
     # every other chain with a gap of 0.3 mm at magnet 8: a contact at 27-36 ms of the 60
     cases = [make_case(particles=21, duration=60.0, output={"format": "none"},
                        chain={"thermal_velocity": 0.02, "seed": s, **({"defect_index": 8, "defect_r0": 0.3} if s % 2 else {})})
